@@ -1,0 +1,12 @@
+//! Puts `memory.x` where the linker finds it and rebuilds when it changes.
+//! The linker scripts themselves (`link.x`, `defmt.x`) are selected in `.cargo/config.toml`.
+
+use std::{env, fs, path::PathBuf};
+
+fn main() {
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    fs::copy("memory.x", out.join("memory.x")).expect("memory.x at the crate root");
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed=build.rs");
+}

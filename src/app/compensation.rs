@@ -1,0 +1,39 @@
+//! The seam to ipmc-core: every call into the physics/filter crate goes through here, so the
+//! tasks read as data flow and the core API is named in one place.
+
+use ipmc_core::{Calibration, Compensator, DesignConfig, DesignError, Inverse, design_inverse};
+
+use super::config::SAMPLE_RATE_HZ;
+
+/// The calibration compiled into this firmware (the core's default preset).
+/// TODO: a calibration file written by the host tool, selected at build time.
+pub fn calibration() -> Calibration {
+    Calibration::default()
+}
+
+fn design_config() -> DesignConfig<f32> {
+    DesignConfig { fs_hz: SAMPLE_RATE_HZ as f32, ..DesignConfig::default() }
+}
+
+/// Slow: runs in the retune task only.
+pub fn design(calibration: &Calibration, rh_pct: f32) -> Result<Inverse<f32>, DesignError> {
+    design_inverse(calibration, rh_pct, &design_config())
+}
+
+/// The per-sample path state.
+pub struct SamplePathFilter(Compensator);
+
+impl SamplePathFilter {
+    pub fn new(design: &Inverse<f32>) -> Self {
+        Self(Compensator::new(design))
+    }
+    /// In place: current [A] → base displacement estimate [m].
+    #[inline(always)]
+    pub fn process(&mut self, block: &mut [f32]) {
+        self.0.process_block(block)
+    }
+    /// Glitch-free crossfade to a new design.
+    pub fn switch_to(&mut self, design: &Inverse<f32>) {
+        self.0.switch_to(design)
+    }
+}

@@ -1,0 +1,37 @@
+//! Build-time settings of the application (the board decides pins, not these numbers).
+
+/// Current sampling rate. The board's trigger timer and the filter design both use it.
+pub const SAMPLE_RATE_HZ: u32 = 2_000;
+
+/// Samples per processed block: one DMA half-buffer. 32 samples at 2 kHz = 16 ms latency,
+/// long enough that per-block overhead is small next to the per-sample filter cost.
+pub const BLOCK_LEN: usize = 32;
+
+/// A retune is requested when RH moved by more than this from the RH of the active (or
+/// already requested) design, in percent RH.
+pub const RETUNE_THRESHOLD_PCT: f32 = 0.25;
+
+/// Humidity polling period (the HTS221 runs at its 1 Hz output data rate).
+pub const HUMIDITY_PERIOD_MS: u64 = 1_000;
+
+/// RH range in which the default calibration's polynomials were fitted (paper: 38–80 %).
+/// Readings outside are clamped and flagged. TODO(core): take this from the Calibration's
+/// declared range once ipmc-core exposes it.
+pub const RH_CALIBRATED_MIN_PCT: f32 = 38.0;
+pub const RH_CALIBRATED_MAX_PCT: f32 = 80.0;
+
+/// RH used for the first design if no humidity reading arrives in time at start-up.
+pub const RH_FALLBACK_PCT: f32 = 50.0;
+
+/// Transimpedance front end: 470 kΩ feedback then a ×2 stage.
+pub const TIA_GAIN_V_PER_A: f32 = 940_000.0;
+/// ADC reference (VDDA on the B-L475E-IOT01A) and the TIA output bias (mid-supply).
+pub const ADC_VREF_V: f32 = 3.3;
+pub const TIA_BIAS_V: f32 = ADC_VREF_V / 2.0;
+/// 12-bit conversions.
+pub const ADC_FULL_SCALE_CODE: u16 = 4095;
+/// Codes this close to either rail count as clipped (the TIA output saturates before the rail).
+pub const ADC_CLIP_MARGIN_CODES: u16 = 8;
+
+/// Defmt status lines: one per this many blocks (about once a second at the defaults).
+pub const LOG_EVERY_BLOCKS: u32 = SAMPLE_RATE_HZ / BLOCK_LEN as u32;

@@ -1,0 +1,28 @@
+//! ADC code → short-circuit current, and clipping detection, for the TIA front end in
+#![allow(dead_code)] // each board uses a subset: codes on hardware, amperes in replay
+//! `config`. Boards that deliver amperes directly (replay) still use `is_clipped_amps`, so a
+//! saturated recording is flagged the same way a saturated ADC is.
+
+use super::config::{ADC_CLIP_MARGIN_CODES, ADC_FULL_SCALE_CODE, ADC_VREF_V, TIA_BIAS_V, TIA_GAIN_V_PER_A};
+
+const VOLTS_PER_CODE: f32 = ADC_VREF_V / ADC_FULL_SCALE_CODE as f32;
+
+/// Current in amperes for one ADC code.
+#[inline(always)]
+pub fn code_to_amps(code: u16) -> f32 {
+    (code as f32 * VOLTS_PER_CODE - TIA_BIAS_V) / TIA_GAIN_V_PER_A
+}
+
+#[inline(always)]
+pub fn is_clipped_code(code: u16) -> bool {
+    code <= ADC_CLIP_MARGIN_CODES || code >= ADC_FULL_SCALE_CODE - ADC_CLIP_MARGIN_CODES
+}
+
+/// Largest current the front end can represent without clipping, either sign.
+pub const CLIP_LIMIT_AMPS: f32 =
+    (TIA_BIAS_V - ADC_CLIP_MARGIN_CODES as f32 * VOLTS_PER_CODE) / TIA_GAIN_V_PER_A;
+
+#[inline(always)]
+pub fn is_clipped_amps(amps: f32) -> bool {
+    amps.abs() >= CLIP_LIMIT_AMPS
+}

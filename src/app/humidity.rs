@@ -1,0 +1,68 @@
+//! Humidity: polls the board's sensor about once a second, keeps the last good value on
+//! failure, clamps to the calibrated range and asks for a retune when RH moved enough.
+
+use embassy_time::{Duration, Instant, Ticker, with_timeout};
+
+use crate::board::Humidity;
+
+use super::{
+    config::{HUMIDITY_PERIOD_MS, RETUNE_THRESHOLD_PCT, RH_CALIBRATED_MAX_PCT, RH_CALIBRATED_MIN_PCT, RH_FALLBACK_PCT},
+    flags,
+    handoff::{self, LATEST_RH_PCT, RETUNE_REQUEST},
+    ports::HumiditySource,
+};
+
+/// A reading that takes longer than this counts as no response.
+const READ_TIMEOUT: Duration = Duration::from_millis(HUMIDITY_PERIOD_MS / 2);
+
+/// Clamps to the calibrated range; the bool says whether it had to.
+fn clamp_to_calibration(rh_pct: f32) -> (f32, bool) {
+    let clamped = rh_pct.clamp(RH_CALIBRATED_MIN_PCT, RH_CALIBRATED_MAX_PCT);
+    (clamped, clamped != rh_pct)
+}
+
+#[embassy_executor::task]
+pub async fn humidity_task(mut sensor: Humidity) {
+    let mut ticker = Ticker::every(Duration::from_millis(HUMIDITY_PERIOD_MS));
+    // RH of the design that is active or already requested; NaN until the first request.
+    let mut design_rh = f32::NAN;
+    let mut failures: u32 = 0;
+    let started = Instant::now();
+    loop {
+        let reading = match with_timeout(READ_TIMEOUT, sensor.read_rh_pct()).await {
+            Ok(r) => r,
+            Err(_) => Err(super::ports::HumidityError::NoResponse),
+        };
+        match reading {
+            Ok(raw) => {
+                let (rh, clamped) = clamp_to_calibration(raw);
+                if failures > 0 {
+                    defmt::info!("humidity back after {} failed readings", failures);
+                }
+                failures = 0;
+                LATEST_RH_PCT.store(rh);
+                handoff::set_condition(flags::RH_STALE, false);
+                handoff::set_condition(flags::RH_CLAMPED, clamped);
+                if design_rh.is_nan() || (rh - design_rh).abs() > RETUNE_THRESHOLD_PCT {
+                    design_rh = rh;
+                    RETUNE_REQUEST.signal(rh);
+                }
+            }
+            Err(e) => {
+                failures += 1;
+                handoff::set_condition(flags::RH_STALE, true);
+                if failures == 1 {
+                    defmt::warn!("humidity reading failed ({}), keeping the last good value", e);
+                }
+                // No reading at all yet: start with the fallback so sampling is not held up
+                // for long by a dead sensor.
+                if design_rh.is_nan() && started.elapsed() >= Duration::from_millis(2 * HUMIDITY_PERIOD_MS) {
+                    design_rh = RH_FALLBACK_PCT;
+                    LATEST_RH_PCT.store(RH_FALLBACK_PCT);
+                    RETUNE_REQUEST.signal(RH_FALLBACK_PCT);
+                }
+            }
+        }
+        ticker.next().await;
+    }
+}

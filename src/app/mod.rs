@@ -1,0 +1,14 @@
+//! Application: identical for every board. Sources come in through `ports`, the compensation
+//! comes from ipmc-core through `compensation`, results leave through `report`.
+
+pub mod compensation;
+pub mod config;
+pub mod current_conversion;
+pub mod flags;
+pub mod handoff;
+pub mod humidity;
+pub mod ports;
+pub mod report;
+pub mod retune;
+pub mod sample_path;
+pub mod stream_frame;

@@ -1,0 +1,40 @@
+//! What the application needs from a board. Each board module implements these for its
+//! concrete `Samples`, `Humidity` and `Stream` types.
+
+use super::config::BLOCK_LEN;
+
+/// Outcome of one block read.
+pub enum SampleBlock {
+    /// `BLOCK_LEN` current samples in amperes were written; `flags` are `app::flags` bits.
+    Ready { flags: u16 },
+    /// The source has no more data (replay finished). Real hardware never returns this.
+    #[allow(dead_code)]
+    End,
+}
+
+/// Current samples, taken at `config::SAMPLE_RATE_HZ` by hardware, independent of task timing.
+pub trait CurrentSource {
+    /// Starts acquisition; called once, when the first filter design is ready.
+    fn start(&mut self);
+    /// Waits for the next block and writes it, in amperes.
+    async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock;
+}
+
+/// Why a humidity reading failed.
+#[derive(Clone, Copy, Debug, defmt::Format)]
+pub enum HumidityError {
+    /// The sensor did not answer (bus error, NACK, replayed outage).
+    NoResponse,
+    /// The sensor answered with no new data or an impossible value.
+    Implausible,
+}
+
+/// Relative humidity in percent.
+pub trait HumiditySource {
+    async fn read_rh_pct(&mut self) -> Result<f32, HumidityError>;
+}
+
+/// Byte sink for the framed binary stream (USART1 on every board).
+pub trait StreamSink {
+    async fn write_all(&mut self, bytes: &[u8]);
+}

@@ -1,0 +1,53 @@
+//! The per-sample path: current block → compensation → report queue. Runs at the highest
+//! priority; after start-up it never waits for anything but the next block of samples.
+
+use crate::board::Samples;
+
+use super::{
+    compensation::SamplePathFilter,
+    config::BLOCK_LEN,
+    flags,
+    handoff::{self, ACTIVE_DESIGN_RH_PCT, DESIGN_READY, EstimateBlock, LATEST_RH_PCT, REPORT_QUEUE, ReportItem},
+    ports::{CurrentSource, SampleBlock},
+};
+
+#[embassy_executor::task]
+pub async fn sample_task(mut samples: Samples) {
+    // Start-up only: sampling begins once the first design exists, so every reported
+    // estimate comes from a real filter.
+    let first = DESIGN_READY.wait().await;
+    let mut filter = SamplePathFilter::new(&first);
+    ACTIVE_DESIGN_RH_PCT.store(first.rh_pct);
+    defmt::info!("sampling starts, design for {} %RH", first.rh_pct);
+
+    samples.start();
+    let mut first_sample: u32 = 0;
+    let mut blocks: u32 = 0;
+    let mut dropped_since_last = false;
+    loop {
+        let mut block = EstimateBlock { first_sample, rh_pct: 0.0, flags: 0, base_est_m: [0.0; BLOCK_LEN] };
+        let source_flags = match samples.read_block(&mut block.base_est_m).await {
+            SampleBlock::Ready { flags } => flags,
+            SampleBlock::End => break,
+        };
+        block.flags = source_flags | handoff::conditions();
+
+        if let Some(design) = DESIGN_READY.try_take() {
+            filter.switch_to(&design);
+            ACTIVE_DESIGN_RH_PCT.store(design.rh_pct);
+            block.flags |= flags::RETUNED;
+        }
+        filter.process(&mut block.base_est_m);
+
+        block.rh_pct = LATEST_RH_PCT.load();
+        if dropped_since_last {
+            block.flags |= flags::REPORT_DROPPED;
+        }
+        dropped_since_last = REPORT_QUEUE.try_send(ReportItem::Block(block)).is_err();
+
+        first_sample = first_sample.wrapping_add(BLOCK_LEN as u32);
+        blocks += 1;
+    }
+    // End of a replay: waiting is fine now, nothing is sampled any more.
+    REPORT_QUEUE.send(ReportItem::End { blocks }).await;
+}

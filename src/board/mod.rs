@@ -1,0 +1,25 @@
+//! Board layer selection. Each board module provides the same items:
+//!
+//! - `NAME`, `pac` (the register-access crate for its chip);
+//! - `init() -> Board` with concrete `Samples`, `Humidity` and `Stream` types implementing the
+//!   ports in `crate::app::ports`;
+//! - `start_sample_executor` / `start_io_executor` (interrupt choice and priority) and the
+//!   matching interrupt handlers;
+//! - `finish()`: what happens when the sample source says the input has ended.
+
+#[cfg(feature = "board-b-l475e")]
+mod b_l475e_iot01a;
+#[cfg(feature = "board-b-l475e")]
+pub use b_l475e_iot01a::*;
+
+#[cfg(feature = "qemu")]
+mod qemu;
+#[cfg(feature = "qemu")]
+pub use qemu::*;
+
+/// The three sources/sinks a board hands to the application.
+pub struct Board {
+    pub samples: Samples,
+    pub humidity: Humidity,
+    pub stream: Stream,
+}

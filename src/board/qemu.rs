@@ -1,0 +1,236 @@
+//! Board layer for `qemu-system-arm -M b-l475e-iot01a` (QEMU ≥ 9).
+//!
+//! QEMU emulates RCC, GPIO, USART, SysTick, NVIC, flash and SRAM of this board but no timer,
+//! DMA, ADC, I2C, PWR or FLASH interface. Hence, unlike the hardware board:
+//! - no `embassy_stm32::init` (it waits forever on PWR and FLASH bits) and no embassy-stm32
+//!   time driver (its timers never tick): time comes from SysTick;
+//! - current and humidity are REPLAYED from a file read over semihosting, block by block,
+//!   paced by SysTick at the real sample rate;
+//! - USART1 is driven with 32-bit register accesses (QEMU's USART ignores narrower ones);
+//! - defmt goes out over semihosting (decode with `defmt-print -e <ELF>`), a panic exits QEMU
+//!   with a failure status, and the end of the replay exits it with success.
+//!
+//! Replay file (written by `cargo xtask qemu`), little endian:
+//!   8 bytes magic "IPMCRPL1", u32 sample rate [Hz], u32 sample count,
+//!   then per sample: f32 current [A], f32 RH [%] (NaN RH = humidity sensor silent then).
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m_rt::exception;
+use embassy_executor::{InterruptExecutor, SendSpawner};
+use embassy_time::{Duration, Ticker};
+use semihosting::{fs::File, io::Read};
+use systick_timer::SystickDriver;
+
+use defmt_semihosting as _;
+pub use stm32_metapac as pac;
+use pac::{Interrupt, interrupt};
+
+use super::Board;
+use crate::app::{
+    config::{BLOCK_LEN, SAMPLE_RATE_HZ},
+    current_conversion, flags,
+    handoff::AtomicF32,
+    ports::{CurrentSource, HumidityError, HumiditySource, SampleBlock, StreamSink},
+};
+
+pub const NAME: &str = "qemu b-l475e-iot01a (replay)";
+
+/// QEMU's RCC model leaves SYSCLK on the 4 MHz MSI after reset, and nothing here changes it.
+const SYSCLK_HZ: u64 = 4_000_000;
+/// Replay file name, relative to QEMU's working directory.
+const REPLAY_PATH: &core::ffi::CStr = c"ipmc-replay.bin";
+const REPLAY_MAGIC: &[u8; 8] = b"IPMCRPL1";
+const BYTES_PER_SAMPLE: usize = 8;
+/// USART1 baud rate: QEMU ignores it, set for a realistic register image.
+const STREAM_BAUD: u32 = 921_600;
+
+// SysTick at embassy-time's tick rate (1 kHz for this board): an interrupt per tick.
+embassy_time_driver::time_driver_impl!(static TIME: SystickDriver<8> = SystickDriver::new_default(SYSCLK_HZ));
+
+#[exception]
+fn SysTick() {
+    TIME.systick_interrupt();
+}
+
+/// Executors: interrupts of peripherals this board does not use; lower number = more urgent.
+const SAMPLE_IRQ: Interrupt = Interrupt::UART4;
+const IO_IRQ: Interrupt = Interrupt::UART5;
+const SAMPLE_PRIORITY: u8 = 1 << 4;
+const IO_PRIORITY: u8 = 2 << 4;
+
+#[interrupt]
+fn UART4() {
+    // SAFETY: the executor was started before this interrupt was unmasked.
+    unsafe { crate::SAMPLE_EXECUTOR.on_interrupt() }
+}
+
+#[interrupt]
+fn UART5() {
+    // SAFETY: as above.
+    unsafe { crate::IO_EXECUTOR.on_interrupt() }
+}
+
+fn start_executor(executor: &'static InterruptExecutor, irq: Interrupt, priority: u8) -> SendSpawner {
+    // SAFETY: the priority is set once, before the executor unmasks the interrupt.
+    unsafe { cortex_m::Peripherals::steal().NVIC.set_priority(irq, priority) };
+    executor.start(irq)
+}
+
+pub fn start_sample_executor(executor: &'static InterruptExecutor) -> SendSpawner {
+    start_executor(executor, SAMPLE_IRQ, SAMPLE_PRIORITY)
+}
+
+pub fn start_io_executor(executor: &'static InterruptExecutor) -> SendSpawner {
+    start_executor(executor, IO_IRQ, IO_PRIORITY)
+}
+
+/// RH [%] of the sample last delivered by the replay; what the "sensor" reads.
+static REPLAY_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
+static SAMPLES_LEFT: AtomicU32 = AtomicU32::new(0);
+
+pub fn init() -> Board {
+    let mut core = cortex_m::Peripherals::take().expect("init runs once");
+    TIME.start(&mut core.SYST);
+
+    let mut replay = File::open(REPLAY_PATH).unwrap_or_else(|_| {
+        defmt::error!("cannot open the replay file {=str} (run through `cargo xtask qemu`)", "ipmc-replay.bin");
+        exit(2)
+    });
+    let mut header = [0u8; 16];
+    if replay.read_exact(&mut header).is_err() || &header[..8] != REPLAY_MAGIC {
+        defmt::error!("replay file has no IPMCRPL1 header");
+        exit(2);
+    }
+    let fs_hz = u32::from_le_bytes(header[8..12].try_into().unwrap());
+    let count = u32::from_le_bytes(header[12..16].try_into().unwrap());
+    if fs_hz != SAMPLE_RATE_HZ {
+        defmt::error!("replay is sampled at {} Hz, this firmware at {} Hz", fs_hz, SAMPLE_RATE_HZ);
+        exit(2);
+    }
+    SAMPLES_LEFT.store(count, Ordering::Relaxed);
+    defmt::info!("replay: {} samples at {} Hz", count, fs_hz);
+
+    // The humidity "sensor" must answer before sampling starts (the first design needs RH):
+    // peek at the first sample's RH.
+    let mut first = [0u8; BYTES_PER_SAMPLE];
+    if count > 0 && replay.read_exact(&mut first).is_ok() {
+        REPLAY_RH_PCT.store(f32::from_le_bytes(first[4..8].try_into().unwrap()));
+    }
+    let samples = Samples { replay, pending_first: (count > 0).then_some(first), ticker: None };
+
+    pac::RCC.apb2enr().modify(|w| w.set_usart1en(true));
+    pac::USART1.brr().write(|w| w.set_brr((SYSCLK_HZ as u32 / STREAM_BAUD) as u16));
+    pac::USART1.cr1().write(|w| {
+        w.set_ue(true);
+        w.set_te(true);
+    });
+
+    Board { samples, humidity: Humidity, stream: Stream }
+}
+
+/// Replayed current: `BLOCK_LEN` samples per block period, like the hardware DMA half-buffer.
+pub struct Samples {
+    replay: File,
+    /// The first sample, already read by `init` to learn the starting RH.
+    pending_first: Option<[u8; BYTES_PER_SAMPLE]>,
+    ticker: Option<Ticker>,
+}
+
+impl CurrentSource for Samples {
+    fn start(&mut self) {
+        let period_us = 1_000_000 * BLOCK_LEN as u64 / SAMPLE_RATE_HZ as u64;
+        self.ticker = Some(Ticker::every(Duration::from_micros(period_us)));
+    }
+
+    async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
+        if let Some(t) = self.ticker.as_mut() {
+            t.next().await;
+        }
+        let left = SAMPLES_LEFT.load(Ordering::Relaxed) as usize;
+        // A partial last block is not processed: the estimate count is a whole number of blocks.
+        if left < BLOCK_LEN {
+            return SampleBlock::End;
+        }
+        let mut raw = [0u8; BLOCK_LEN * BYTES_PER_SAMPLE];
+        let unread = match self.pending_first.take() {
+            Some(first) => {
+                raw[..BYTES_PER_SAMPLE].copy_from_slice(&first);
+                &mut raw[BYTES_PER_SAMPLE..]
+            }
+            None => &mut raw[..],
+        };
+        if self.replay.read_exact(unread).is_err() {
+            defmt::error!("replay file shorter than its header says");
+            return SampleBlock::End;
+        }
+        SAMPLES_LEFT.store((left - BLOCK_LEN) as u32, Ordering::Relaxed);
+
+        let mut block_flags = 0;
+        let mut rh = f32::NAN;
+        for (a, s) in amps.iter_mut().zip(raw.chunks_exact(BYTES_PER_SAMPLE)) {
+            let current = f32::from_le_bytes(s[0..4].try_into().unwrap());
+            rh = f32::from_le_bytes(s[4..8].try_into().unwrap());
+            *a = if current.is_finite() {
+                current
+            } else {
+                block_flags |= flags::BAD_SAMPLE;
+                0.0
+            };
+            if current_conversion::is_clipped_amps(*a) {
+                block_flags |= flags::CLIPPED;
+            }
+        }
+        REPLAY_RH_PCT.store(rh);
+        SampleBlock::Ready { flags: block_flags }
+    }
+}
+
+/// Replayed humidity sensor: reads the RH column at the current replay position.
+pub struct Humidity;
+
+impl HumiditySource for Humidity {
+    async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
+        let rh = REPLAY_RH_PCT.load();
+        if rh.is_nan() {
+            Err(HumidityError::NoResponse)
+        } else if !(0.0..=100.0).contains(&rh) {
+            Err(HumidityError::Implausible)
+        } else {
+            Ok(rh)
+        }
+    }
+}
+
+/// USART1, 32-bit register writes; QEMU sends the bytes to its first serial chardev.
+pub struct Stream;
+
+impl StreamSink for Stream {
+    async fn write_all(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            while !pac::USART1.isr().read().txe() {}
+            pac::USART1.tdr().write(|w| w.set_dr(b as u16));
+        }
+    }
+}
+
+/// End of the replay: leave QEMU with a status the caller checks.
+pub fn finish(all_reported: bool) -> ! {
+    exit(if all_reported { 0 } else { 3 })
+}
+
+fn exit(code: i32) -> ! {
+    semihosting::process::exit(code)
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    exit(101)
+}
+
+#[exception]
+unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    defmt::error!("hard fault");
+    exit(102)
+}

@@ -1,0 +1,48 @@
+//! IPMC humidity-compensated base-motion sensing firmware.
+//!
+//! Data flows one way: board sources (ADC current, humidity) → `app` (ipmc-core compensation)
+//! → reports (defmt logs + framed binary stream). Everything board-specific is in `board`;
+//! `app` is the same code for every board.
+//!
+//! Three priority levels, highest first:
+//! - sample executor (interrupt): per-block compensation, never waits on anything slower;
+//! - I/O executor (interrupt): humidity polling and the report stream;
+//! - thread mode: filter retunes (`design_inverse` is slow and may take many blocks).
+
+#![no_std]
+#![no_main]
+
+#[cfg(all(feature = "board-b-l475e", feature = "qemu"))]
+compile_error!("select exactly one board feature: `board-b-l475e` (default) or `qemu`");
+#[cfg(not(any(feature = "board-b-l475e", feature = "qemu")))]
+compile_error!("select a board feature: `board-b-l475e` (default) or `qemu`");
+
+mod app;
+mod board;
+mod drivers;
+
+use embassy_executor::{Executor, InterruptExecutor};
+use static_cell::StaticCell;
+
+/// Runs the sample path; its interrupt handler lives in the board module (the IRQ is a board choice).
+pub(crate) static SAMPLE_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
+/// Runs humidity polling and reporting.
+pub(crate) static IO_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
+static RETUNE_EXECUTOR: StaticCell<Executor> = StaticCell::new();
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let board = board::init();
+    defmt::info!("ipmc firmware on {}", board::NAME);
+
+    let sample_spawner = board::start_sample_executor(&SAMPLE_EXECUTOR);
+    sample_spawner.spawn(app::sample_path::sample_task(board.samples).expect("sample task spawns once"));
+
+    let io_spawner = board::start_io_executor(&IO_EXECUTOR);
+    io_spawner.spawn(app::humidity::humidity_task(board.humidity).expect("humidity task spawns once"));
+    io_spawner.spawn(app::report::report_task(board.stream).expect("report task spawns once"));
+
+    RETUNE_EXECUTOR.init(Executor::new()).run(|spawner| {
+        spawner.spawn(app::retune::retune_task().expect("retune task spawns once"));
+    })
+}
