@@ -1,0 +1,58 @@
+//! Building the firmware variants.
+
+use std::{path::PathBuf, process::Command};
+
+use crate::{Result, install, repo_root};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Variant {
+    /// B-L475E-IOT01A hardware (default features).
+    Hardware,
+    /// QEMU replay board layer.
+    Qemu,
+}
+
+impl Variant {
+    pub const ALL: [Variant; 2] = [Variant::Hardware, Variant::Qemu];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Hardware => "board-b-l475e",
+            Variant::Qemu => "qemu",
+        }
+    }
+
+    /// Each variant gets its own target directory so switching does not rebuild the other.
+    fn target_dir(self) -> PathBuf {
+        match self {
+            Variant::Hardware => repo_root().join("target"),
+            Variant::Qemu => repo_root().join("target/qemu"),
+        }
+    }
+
+    pub fn elf(self) -> PathBuf {
+        self.target_dir().join("thumbv7em-none-eabihf/release/ipmc-firmware")
+    }
+}
+
+pub fn cargo() -> Command {
+    Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
+}
+
+/// `cargo build --release` of one variant; returns the ELF path.
+pub fn build(variant: Variant) -> Result<PathBuf> {
+    install::ensure_cargo_tool("flip-link", "flip-link")?;
+    let mut cmd = cargo();
+    cmd.current_dir(repo_root()).args(["build", "--release", "--bin", "ipmc-firmware"]);
+    cmd.arg("--target-dir").arg(variant.target_dir());
+    if variant == Variant::Qemu {
+        cmd.args(["--no-default-features", "--features", "qemu"]);
+    }
+    println!("==> building firmware ({})", variant.name());
+    crate::run(&mut cmd)?;
+    Ok(variant.elf())
+}
+
+pub fn build_all() -> Result<Vec<PathBuf>> {
+    Variant::ALL.iter().map(|&v| build(v)).collect()
+}

@@ -1,0 +1,185 @@
+//! `cargo xtask qemu`: replays a recording through the QEMU build of the firmware and writes
+//! its estimates as EST.csv (`t_s,base_est_m,rh_pct,flags`).
+
+use std::{
+    fs,
+    io::Write as _,
+    path::{Path, PathBuf},
+    process::{Command, Stdio},
+    time::{Duration, Instant},
+};
+
+use crate::{
+    Result, describe,
+    firmware::{self, Variant},
+    install, recording,
+    replay::{self, Sample},
+    repo_root,
+    stream::{self, Block},
+};
+
+/// The firmware's sample rate (src/app/config.rs SAMPLE_RATE_HZ).
+pub const FIRMWARE_FS_HZ: u32 = 2_000;
+
+/// What came back from one QEMU run.
+pub struct Replayed {
+    pub blocks: Vec<Block>,
+    /// Decoded defmt log lines.
+    pub log: String,
+}
+
+impl Replayed {
+    pub fn estimates(&self) -> usize {
+        self.blocks.iter().map(|b| b.base_est_m.len()).sum()
+    }
+    pub fn blocks_with(&self, flag: u16) -> usize {
+        self.blocks.iter().filter(|b| b.flags & flag != 0).count()
+    }
+}
+
+/// Flag bits of the stream (src/app/flags.rs).
+pub mod flags {
+    pub const CLIPPED: u16 = 1 << 0;
+    pub const RH_STALE: u16 = 1 << 1;
+    pub const RETUNED: u16 = 1 << 3;
+    pub const BAD_SAMPLE: u16 = 1 << 7;
+}
+
+/// Runs `elf` in QEMU on `samples` inside `work` (created), and decodes what comes back.
+pub fn run_replay(elf: &Path, samples: &[Sample], work: &Path) -> Result<Replayed> {
+    install::ensure_qemu()?;
+    install::ensure_cargo_tool("defmt-print", "defmt-print")?;
+    fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
+    fs::write(work.join(replay::FILE_NAME), replay::encode(FIRMWARE_FS_HZ, samples))
+        .map_err(|e| format!("writing the replay file: {e}"))?;
+    let stream_path = work.join("stream.bin");
+    let defmt_path = work.join("defmt.bin");
+    let _ = fs::remove_file(&stream_path);
+
+    let mut cmd = Command::new("qemu-system-arm");
+    cmd.current_dir(work)
+        .args(["-M", install::QEMU_MACHINE, "-display", "none", "-monitor", "none"])
+        // Deterministic: time advances with instructions, and idle time is skipped.
+        .args(["-icount", "shift=0,align=off,sleep=off"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .arg("-serial")
+        .arg(format!("file:{}", stream_path.display()))
+        .arg("-kernel")
+        .arg(elf)
+        .stdout(fs::File::create(&defmt_path).map_err(|e| format!("{}: {e}", defmt_path.display()))?)
+        .stdin(Stdio::null());
+    let what = describe(&cmd);
+    let mut child = cmd.spawn().map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    // Generous: virtual time runs faster than real time under -icount with sleep=off.
+    let limit = Duration::from_secs(60 + 4 * samples.len() as u64 / FIRMWARE_FS_HZ as u64);
+    let started = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+            break s;
+        }
+        if started.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!("QEMU did not exit within {limit:?}: {what}"));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+
+    let log = decode_defmt(elf, &defmt_path)?;
+    if !status.success() {
+        return Err(format!("firmware under QEMU exited with {status}; its log:\n{log}"));
+    }
+    let bytes = fs::read(&stream_path).map_err(|e| format!("{}: {e}", stream_path.display()))?;
+    let blocks = stream::decode_all(&bytes)?;
+    Ok(Replayed { blocks, log })
+}
+
+fn decode_defmt(elf: &Path, raw: &Path) -> Result<String> {
+    let out = Command::new("defmt-print")
+        .arg("-e")
+        .arg(elf)
+        .stdin(fs::File::open(raw).map_err(|e| e.to_string())?)
+        .output()
+        .map_err(|e| format!("cannot run defmt-print: {e}"))?;
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
+}
+
+fn bundled_recording() -> Option<PathBuf> {
+    let mut csvs: Vec<PathBuf> = fs::read_dir(repo_root().join("data"))
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
+        .filter(|p| recording::read(p).is_ok())
+        .collect();
+    csvs.sort();
+    csvs.into_iter().next()
+}
+
+pub fn command(args: &[String]) -> Result<()> {
+    let mut input = None;
+    let mut out = None;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--input" => input = Some(PathBuf::from(it.next().ok_or("--input needs a file")?)),
+            "--out" => out = Some(PathBuf::from(it.next().ok_or("--out needs a file")?)),
+            other => return Err(format!("qemu: unknown argument `{other}`")),
+        }
+    }
+    let input = match input {
+        Some(p) => p,
+        None => bundled_recording().ok_or(
+            "no --input given and no bundled time-series recording under data/ yet; \
+             run `cargo xtask qemu --input REC.csv`",
+        )?,
+    };
+    let out = out.unwrap_or_else(|| repo_root().join("target/qemu-run/EST.csv"));
+
+    let rec = recording::read(&input)?;
+    if (rec.fs_hz - FIRMWARE_FS_HZ as f64).abs() > 1e-6 * FIRMWARE_FS_HZ as f64 {
+        return Err(format!("{} is sampled at {} Hz; the firmware runs at {FIRMWARE_FS_HZ} Hz", input.display(), rec.fs_hz));
+    }
+    let samples: Vec<Sample> = rec
+        .current_a
+        .iter()
+        .zip(&rec.rh_pct)
+        .map(|(&i, &rh)| Sample { current_a: i as f32, rh_pct: rh as f32 })
+        .collect();
+
+    let elf = firmware::build(Variant::Qemu)?;
+    println!("==> replaying {} ({} samples) in QEMU", input.display(), samples.len());
+    let replayed = run_replay(&elf, &samples, &repo_root().join("target/qemu-run"))?;
+    print!("{}", replayed.log);
+
+    write_est_csv(&out, &rec.t_s, &replayed.blocks)?;
+    println!(
+        "{} estimates ({} samples replayed, {} retunes, {} blocks with stale RH, {} clipped) -> {}",
+        replayed.estimates(),
+        samples.len(),
+        replayed.blocks_with(flags::RETUNED),
+        replayed.blocks_with(flags::RH_STALE),
+        replayed.blocks_with(flags::CLIPPED),
+        out.display()
+    );
+    Ok(())
+}
+
+pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {
+    if let Some(dir) = path.parent() {
+        fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    }
+    let mut f = std::io::BufWriter::new(fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?);
+    let mut w = || -> std::io::Result<()> {
+        writeln!(f, "# fs_hz={FIRMWARE_FS_HZ}")?;
+        writeln!(f, "t_s,base_est_m,rh_pct,flags")?;
+        for b in blocks {
+            for (k, v) in b.base_est_m.iter().enumerate() {
+                let i = b.first_sample as usize + k;
+                let t = t_s.get(i).copied().unwrap_or(i as f64 / FIRMWARE_FS_HZ as f64);
+                writeln!(f, "{t},{v:e},{},{}", b.rh_pct, b.flags)?;
+            }
+        }
+        f.flush()
+    };
+    w().map_err(|e| format!("{}: {e}", path.display()))
+}

@@ -1,0 +1,154 @@
+//! `cargo xtask test`: every test of the repository, one step after another. A failed step
+//! does not stop the others; the summary names each failed step and the exit code is non-zero.
+
+use std::{f32::consts::PI, path::Path};
+
+use crate::{
+    Result,
+    firmware::{self, Variant, cargo},
+    qemu::{self, FIRMWARE_FS_HZ, Replayed, flags},
+    replay::{Sample, expected_estimates},
+    repo_root, run, size,
+};
+
+fn cargo_test(manifest: &str) -> Result<()> {
+    let manifest = repo_root().join(manifest);
+    if !manifest.exists() {
+        return Err(format!("{} does not exist", manifest.display()));
+    }
+    run(cargo().current_dir(repo_root()).args(["test", "--target", "host-tuple", "--manifest-path"]).arg(manifest))
+}
+
+fn size_within_budget() -> Result<()> {
+    for v in Variant::ALL {
+        let bytes = std::fs::read(v.elf()).map_err(|e| format!("{} (build step failed?): {e}", v.elf().display()))?;
+        let fp = size::footprint(&bytes)?;
+        println!("{}: flash {} B, RAM {} B", v.name(), fp.flash, fp.ram);
+        if fp.flash > size::FLASH_BUDGET || fp.ram > size::RAM_BUDGET {
+            return Err(format!("{} over budget: {fp:?}", v.name()));
+        }
+    }
+    Ok(())
+}
+
+/// A small synthetic replay: 30 Hz sine current, RH from `rh(t)`.
+fn synthetic(seconds: f32, rh: impl Fn(f32) -> f32) -> Vec<Sample> {
+    let n = (seconds * FIRMWARE_FS_HZ as f32) as usize;
+    (0..n)
+        .map(|i| {
+            let t = i as f32 / FIRMWARE_FS_HZ as f32;
+            Sample { current_a: 2e-7 * (2.0 * PI * 30.0 * t).sin(), rh_pct: rh(t) }
+        })
+        .collect()
+}
+
+fn replay(name: &str, samples: &[Sample]) -> Result<Replayed> {
+    let work = repo_root().join("target/qemu-test").join(name);
+    qemu::run_replay(&Variant::Qemu.elf(), samples, &work)
+}
+
+fn check_count(r: &Replayed, samples: usize) -> Result<()> {
+    let want = expected_estimates(samples);
+    if r.estimates() != want {
+        return Err(format!("{} estimates for {samples} samples, expected {want}\n{}", r.estimates(), r.log));
+    }
+    let mut next = 0u32;
+    for b in &r.blocks {
+        if b.first_sample != next {
+            return Err(format!("block starts at sample {}, expected {next}", b.first_sample));
+        }
+        next += b.base_est_m.len() as u32;
+        if b.base_est_m.iter().any(|v| !v.is_finite()) {
+            return Err(format!("non-finite estimate in the block at sample {}", b.first_sample));
+        }
+    }
+    Ok(())
+}
+
+/// Whole run: every sample comes back as one finite estimate, and a humidity step retunes.
+fn qemu_replay_counts_and_retunes() -> Result<()> {
+    let samples = synthetic(3.0, |t| if t < 1.2 { 45.0 } else { 60.0 });
+    let r = replay("step", &samples)?;
+    check_count(&r, samples.len())?;
+    if r.blocks_with(flags::RETUNED) == 0 {
+        return Err(format!("RH stepped 45 → 60 % but no block is flagged RETUNED\n{}", r.log));
+    }
+    println!("{} estimates, {} retune(s)", r.estimates(), r.blocks_with(flags::RETUNED));
+    Ok(())
+}
+
+/// Faults through the replayed sources: the firmware keeps running, flags, and recovers.
+fn qemu_replay_faults() -> Result<()> {
+    let mut samples = synthetic(5.0, |t| if (1.0..3.0).contains(&t) { f32::NAN } else { 50.0 });
+    let fs = FIRMWARE_FS_HZ as usize;
+    for s in &mut samples[fs / 2..fs / 2 + 64] {
+        s.current_a = 1e-3; // far beyond the TIA range
+    }
+    for s in &mut samples[3 * fs..3 * fs + 8] {
+        s.current_a = f32::NAN;
+    }
+    let r = replay("faults", &samples)?;
+    check_count(&r, samples.len())?;
+    let stale = r.blocks_with(flags::RH_STALE);
+    let last = r.blocks.last().ok_or("no blocks")?;
+    if stale == 0 {
+        return Err(format!("humidity source dead for 2 s but no block flagged RH_STALE\n{}", r.log));
+    }
+    if last.flags & flags::RH_STALE != 0 {
+        return Err("humidity came back but the last block is still RH_STALE".into());
+    }
+    if r.blocks_with(flags::CLIPPED) == 0 || r.blocks_with(flags::BAD_SAMPLE) == 0 {
+        return Err("saturated or NaN current not flagged (CLIPPED / BAD_SAMPLE)".into());
+    }
+    println!("{stale} blocks with stale RH, recovered; clipping and bad samples flagged");
+    Ok(())
+}
+
+fn qemu_replay_bundled() -> Result<()> {
+    let dir = repo_root().join("data");
+    let Some(path) = std::fs::read_dir(&dir).ok().and_then(|d| {
+        d.filter_map(|e| e.ok().map(|e| e.path()))
+            .find(|p| p.extension().is_some_and(|x| x == "csv") && crate::recording::read(p).is_ok())
+    }) else {
+        println!("no bundled recording under data/ yet: skipped");
+        return Ok(());
+    };
+    let rec = crate::recording::read(Path::new(&path))?;
+    let samples: Vec<Sample> =
+        rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
+    let r = replay("bundled", &samples)?;
+    check_count(&r, samples.len())
+}
+
+pub fn command() -> Result<()> {
+    type Step = (&'static str, fn() -> Result<()>);
+    let steps: &[Step] = &[
+        ("core tests", || cargo_test("core/Cargo.toml")),
+        ("host-tests", || cargo_test("host-tests/Cargo.toml")),
+        ("tool tests", || cargo_test("tool/Cargo.toml")),
+        ("xtask tests", || cargo_test("xtask/Cargo.toml")),
+        ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
+        ("firmware build (qemu)", || firmware::build(Variant::Qemu).map(|_| ())),
+        ("firmware size budget", size_within_budget),
+        ("qemu replay: estimate count and retune", qemu_replay_counts_and_retunes),
+        ("qemu replay: fault injection", qemu_replay_faults),
+        ("qemu replay: bundled recording", qemu_replay_bundled),
+    ];
+    let mut failed = Vec::new();
+    for (i, (name, step)) in steps.iter().enumerate() {
+        println!("\n==> [{}/{}] {name}", i + 1, steps.len());
+        match step() {
+            Ok(()) => println!("--> ok: {name}"),
+            Err(e) => {
+                eprintln!("--> FAILED: {name}: {e}");
+                failed.push(*name);
+            }
+        }
+    }
+    println!("\nxtask test summary:");
+    for (name, _) in steps {
+        println!("  {} {name}", if failed.contains(name) { "FAILED" } else { "ok    " });
+    }
+    println!("{} passed, {} failed", steps.len() - failed.len(), failed.len());
+    if failed.is_empty() { Ok(()) } else { Err(format!("failed steps: {}", failed.join(", "))) }
+}
