@@ -1,0 +1,412 @@
+//! From the rational model to a stable, causal, band-limited inverse as second-order sections.
+//!
+//! G(s) = R(s) / H_r(s) with three changes that make it realizable:
+//! - **Regularization below the band.** H has a double zero at DC, so 1/H has a double pole there.
+//!   R(s) = s³(s² + d₄s + d₃)/D(s), D a 5th-order Butterworth at `hp_hz`: a high-pass of order 3
+//!   whose two extra zeros cancel D's two highest coefficients, so that 1 − R falls as (ω_c/ω)³ in
+//!   band instead of ω_c/ω (a plain order-3 high-pass would need its corner 30× lower).
+//! - **Non-minimum-phase zeros.** H_r's right-half-plane zeros (the physical one near +2000 s⁻¹ and
+//!   the approximation's far ones) become poles of 1/H_r; they are reflected into the left
+//!   half-plane, which leaves an all-pass error. A small FIR P(z) fitted by least squares over the
+//!   band, with a fixed delay τ, absorbs it ("preview" of τ seconds); it also absorbs the residual
+//!   discretization error.
+//! - **Roll-off above the band** is free: H_r grows faster than s² above the band, so 1/H_r is
+//!   strictly proper by three orders.
+//!
+//! Poles and zeros are mapped by z = e^{sT} (matched pole-zero), which preserves the resonance
+//! frequencies exactly where bilinear would warp them by 2 % at 150 Hz.
+
+use crate::lstsq::lstsq;
+use crate::model::jw;
+use crate::rational::{IonicOrder, MAX_ROOTS, RationalModel, Roots};
+use crate::roots::poly_roots;
+use crate::{C, Calibration, Params, Real};
+
+/// Most second-order sections an inverse can have (10 at fs ≤ 2 kHz; pure-delay sections are
+/// added at higher rates).
+pub const MAX_SECTIONS: usize = 20;
+/// FIR taps of the preview/all-pass correction P(z).
+pub const FIR_TAPS: usize = 5;
+/// Frequencies of the least-squares grid.
+const GRID: usize = 40;
+
+/// One biquad: y = (b0 + b1 z⁻¹ + b2 z⁻²)/(1 + a1 z⁻¹ + a2 z⁻²)·x, with a[0] = 1.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Sos<T> {
+    pub b: [T; 3],
+    pub a: [T; 3],
+}
+
+impl<T: Real> Sos<T> {
+    pub fn identity() -> Self {
+        Sos { b: [T::one(), T::zero(), T::zero()], a: [T::one(), T::zero(), T::zero()] }
+    }
+    pub fn response(&self, zinv: C<T>) -> C<T> {
+        let z2 = zinv * zinv;
+        (zinv * self.b[1] + z2 * self.b[2] + self.b[0]) / (zinv * self.a[1] + z2 * self.a[2] + self.a[0])
+    }
+    /// Jury's conditions for a monic quadratic denominator.
+    pub fn is_stable(&self) -> bool {
+        let (a1, a2) = (self.a[1], self.a[2]);
+        a2.abs() < T::one() && a1.abs() < T::one() + a2
+    }
+}
+
+/// What to design for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DesignConfig<T> {
+    /// Sample rate [Hz], 1–10 kHz.
+    pub fs_hz: T,
+    /// Band where the compensation must be accurate [Hz].
+    pub band_lo_hz: T,
+    pub band_hi_hz: T,
+    /// Largest delay the preview may use [s].
+    pub max_delay_s: T,
+    /// Corner of the regularizing high-pass [Hz].
+    pub hp_hz: T,
+    pub ionic: IonicOrder,
+}
+
+impl<T: Real> Default for DesignConfig<T> {
+    fn default() -> Self {
+        DesignConfig {
+            fs_hz: T::lit(2000.0),
+            band_lo_hz: T::lit(10.0),
+            band_hi_hz: T::lit(150.0),
+            max_delay_s: T::lit(0.002),
+            hp_hz: T::lit(1.0),
+            ionic: IonicOrder::Five,
+        }
+    }
+}
+
+/// Why no inverse could be designed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DesignError {
+    /// A parameter at this humidity is not positive and finite, or the zero search failed.
+    Model,
+    /// The sample rate is outside 1–10 kHz or the band does not fit below Nyquist.
+    Config,
+    /// The least-squares correction was singular or a section came out unstable.
+    Numerics,
+}
+
+impl core::fmt::Display for DesignError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            DesignError::Model => "the model has no valid rational approximation at these parameters",
+            DesignError::Config => "sample rate must be 1–10 kHz with the band below Nyquist",
+            DesignError::Numerics => "the inverse design failed numerically",
+        })
+    }
+}
+
+/// The inverse: `gain` × cascade of `sections` maps current [A] to base displacement [m],
+/// delayed by `delay_s`.
+#[derive(Clone, Copy, Debug)]
+pub struct Inverse<T> {
+    pub sections: [Sos<T>; MAX_SECTIONS],
+    pub n_sections: usize,
+    pub gain: T,
+    pub delay_s: T,
+    pub rh_pct: T,
+    pub fs_hz: T,
+}
+
+impl<T: Real> Inverse<T> {
+    pub fn sections(&self) -> &[Sos<T>] {
+        &self.sections[..self.n_sections]
+    }
+    /// G(e^{jωT}) at `freq_hz`.
+    pub fn response(&self, freq_hz: T) -> C<T> {
+        let w = T::lit(2.0) * T::PI() * freq_hz / self.fs_hz;
+        let zinv = C::new(w.cos(), -w.sin());
+        self.sections().iter().fold(C::new(self.gain, T::zero()), |acc, s| acc * s.response(zinv))
+    }
+    pub fn is_stable(&self) -> bool {
+        self.sections().iter().all(|s| s.is_stable())
+    }
+    /// Narrows (or widens) the coefficients: the device runs f32 sections designed in any precision.
+    pub fn cast<U: Real>(&self) -> Inverse<U> {
+        let mut sections = [Sos::<U>::identity(); MAX_SECTIONS];
+        for (d, s) in sections.iter_mut().zip(self.sections()) {
+            d.b = s.b.map(|v| U::lit(v.to_f64()));
+            d.a = s.a.map(|v| U::lit(v.to_f64()));
+        }
+        Inverse {
+            sections,
+            n_sections: self.n_sections,
+            gain: U::lit(self.gain.to_f64()),
+            delay_s: U::lit(self.delay_s.to_f64()),
+            rh_pct: U::lit(self.rh_pct.to_f64()),
+            fs_hz: U::lit(self.fs_hz.to_f64()),
+        }
+    }
+}
+
+/// Designs the inverse at `rh_pct` (laws evaluated as given: clamping is the caller's policy).
+pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfig<T>) -> Result<Inverse<T>, DesignError> {
+    let p: Params<T> = calib.params_at(rh_pct);
+    design_inverse_for(&p, rh_pct, cfg)
+}
+
+/// The same for explicit parameters (overrides, perturbations).
+pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<T>) -> Result<Inverse<T>, DesignError> {
+    let fs = cfg.fs_hz;
+    if !(fs >= T::lit(1000.0) && fs <= T::lit(10000.0))
+        || !(cfg.band_lo_hz > cfg.hp_hz && cfg.band_hi_hz > cfg.band_lo_hz && cfg.band_hi_hz < fs * T::lit(0.45))
+    {
+        return Err(DesignError::Config);
+    }
+    let model = RationalModel::new(p, cfg.ionic).ok_or(DesignError::Model)?;
+    let t = fs.recip();
+
+    // Continuous poles and zeros of G = R/H_r.
+    let mut g_zeros: Roots<T> = Roots::new();
+    let mut g_poles: Roots<T> = Roots::new();
+    for &pole in model.poles.as_slice() {
+        g_zeros.push(pole);
+    }
+    let mut dc_dropped = 0;
+    for &z in model.zeros.as_slice() {
+        if z.norm_sqr() == T::zero() && dc_dropped < 2 {
+            dc_dropped += 1; // cancelled by R's s³
+            continue;
+        }
+        // reflect non-minimum-phase zeros
+        g_poles.push(if z.re > T::zero() { C::new(-z.re, z.im) } else { z });
+    }
+    let wc = T::lit(2.0) * T::PI() * cfg.hp_hz;
+    for k in 0..5 {
+        let a = T::PI() * T::lit((2 * k + 6) as f64 / 10.0);
+        g_poles.push(C::new(a.cos(), a.sin()) * wc);
+    }
+    // s² + d₄s + d₃ with the 5th-order Butterworth's coefficients 1 + √5 and 3 + √5.
+    let d4 = T::lit(3.236_067_977_499_79) * wc;
+    let d3 = T::lit(5.236_067_977_499_79) * wc * wc;
+    let disc = (C::new(d4 * d4 - T::lit(4.0) * d3, T::zero())).sqrt();
+    g_zeros.push((-disc - d4) * T::lit(0.5));
+    g_zeros.push((disc - d4) * T::lit(0.5));
+    g_zeros.push(C::new(T::zero(), T::zero()));
+    if g_zeros.n + FIR_TAPS > MAX_ROOTS + FIR_TAPS {
+        return Err(DesignError::Numerics);
+    }
+
+    // Matched pole-zero mapping.
+    let mut zd: Roots<T> = Roots::new();
+    let mut pd: Roots<T> = Roots::new();
+    for &z in g_zeros.as_slice() {
+        zd.push((z * t).exp());
+    }
+    for &p in g_poles.as_slice() {
+        pd.push((p * t).exp());
+    }
+
+    // Preview FIR by least squares over the band: H_r·G₀·P·e^{jωτ} ≈ 1.
+    let d_total = (cfg.max_delay_s * fs + T::lit(1e-6)).floor().to_f64() as usize;
+    let d_pure = d_total.saturating_sub(FIR_TAPS - 1);
+    let d_fir = d_total - d_pure; // delay the FIR itself must realize
+    let tau = T::lit(d_total as f64) * t;
+    let mut a = [[T::zero(); FIR_TAPS]; 2 * GRID];
+    let mut b = [T::zero(); 2 * GRID];
+    let two_pi = T::lit(2.0) * T::PI();
+    for i in 0..GRID {
+        let f = cfg.band_lo_hz + (cfg.band_hi_hz - cfg.band_lo_hz) * T::lit(i as f64 / (GRID - 1) as f64);
+        let w = two_pi * f * t; // rad/sample
+        let zinv = C::new(w.cos(), -w.sin());
+        let g0 = monic_response(&zd, &pd, zinv);
+        // the pure-delay sections are part of G; the remaining phase target is d_fir samples
+        let base = model.eval(jw(f)) * g0 * C::new((w * T::lit(d_fir as f64)).cos(), (w * T::lit(d_fir as f64)).sin());
+        let mut zk = C::new(T::one(), T::zero());
+        for k in 0..FIR_TAPS {
+            let v = base * zk;
+            a[2 * i][k] = v.re;
+            a[2 * i + 1][k] = v.im;
+            zk = zk * zinv;
+        }
+        b[2 * i] = T::one();
+        b[2 * i + 1] = T::zero();
+    }
+    let c = lstsq(&mut a, &mut b, 2 * GRID).ok_or(DesignError::Numerics)?;
+    if c[0] == T::zero() || !c.iter().all(|v| v.is_finite()) {
+        return Err(DesignError::Numerics);
+    }
+    // P(z) = c0·Π(1 − rᵢz⁻¹): rᵢ roots of c0 z⁴ + c1 z³ + … + c4.
+    let mut asc = [T::zero(); FIR_TAPS];
+    for k in 0..FIR_TAPS {
+        asc[k] = c[FIR_TAPS - 1 - k];
+    }
+    let mut fir_roots = [C::new(T::zero(), T::zero()); FIR_TAPS - 1];
+    if !poly_roots(&asc, &mut fir_roots) {
+        return Err(DesignError::Numerics);
+    }
+    let mut all_zeros = [C::new(T::zero(), T::zero()); MAX_ROOTS + FIR_TAPS];
+    let nz = zd.n + FIR_TAPS - 1;
+    all_zeros[..zd.n].copy_from_slice(zd.as_slice());
+    all_zeros[zd.n..nz].copy_from_slice(&fir_roots);
+
+    let mut inv = Inverse {
+        sections: [Sos::identity(); MAX_SECTIONS],
+        n_sections: 0,
+        gain: c[0],
+        delay_s: tau,
+        rh_pct,
+        fs_hz: fs,
+    };
+    pair_into_sections(&mut inv, &mut all_zeros[..nz], pd.as_slice())?;
+    for _ in 0..d_pure / 2 {
+        push_section(&mut inv, Sos { b: [T::zero(), T::zero(), T::one()], a: [T::one(), T::zero(), T::zero()] })?;
+    }
+    if d_pure % 2 == 1 {
+        push_section(&mut inv, Sos { b: [T::zero(), T::one(), T::zero()], a: [T::one(), T::zero(), T::zero()] })?;
+    }
+    // Unit gain per section at mid-band keeps every intermediate signal at the scale of the input.
+    let f_mid = (cfg.band_lo_hz * cfg.band_hi_hz).sqrt();
+    let w = two_pi * f_mid * t;
+    let zinv = C::new(w.cos(), -w.sin());
+    for s in inv.sections[..inv.n_sections].iter_mut() {
+        let m = s.response(zinv).norm();
+        if !(m > T::zero() && m.is_finite()) {
+            return Err(DesignError::Numerics);
+        }
+        for v in s.b.iter_mut() {
+            *v /= m;
+        }
+        inv.gain *= m;
+    }
+    if !inv.is_stable() || !inv.gain.is_finite() {
+        return Err(DesignError::Numerics);
+    }
+    Ok(inv)
+}
+
+fn monic_response<T: Real>(zeros: &Roots<T>, poles: &Roots<T>, zinv: C<T>) -> C<T> {
+    let one = C::new(T::one(), T::zero());
+    let mut v = one;
+    for i in 0..zeros.n.max(poles.n) {
+        if i < zeros.n {
+            v = v * (one - zeros.r[i] * zinv);
+        }
+        if i < poles.n {
+            v = v / (one - poles.r[i] * zinv);
+        }
+    }
+    v
+}
+
+fn push_section<T: Real>(inv: &mut Inverse<T>, s: Sos<T>) -> Result<(), DesignError> {
+    if inv.n_sections >= MAX_SECTIONS {
+        return Err(DesignError::Numerics);
+    }
+    inv.sections[inv.n_sections] = s;
+    inv.n_sections += 1;
+    Ok(())
+}
+
+/// Groups roots (closed under conjugation) into real quadratic factors: conjugate pairs first,
+/// then real roots two by two (sorted, so neighbours pair), a lone real root as a linear factor.
+fn quadratics<T: Real>(roots: &[C<T>], out: &mut [[T; 3]; MAX_SECTIONS + 4]) -> usize {
+    let mut used = [false; MAX_ROOTS + FIR_TAPS];
+    let mut n = 0;
+    let tol = T::epsilon().sqrt();
+    for i in 0..roots.len() {
+        if used[i] || roots[i].im.abs() <= tol * roots[i].norm() {
+            continue;
+        }
+        used[i] = true;
+        let r = roots[i];
+        // its conjugate partner
+        if let Some(j) = (0..roots.len()).filter(|&j| !used[j]).min_by(|&x, &y| {
+            let dx = (roots[x] - r.conj()).norm();
+            let dy = (roots[y] - r.conj()).norm();
+            dx.partial_cmp(&dy).unwrap_or(core::cmp::Ordering::Equal)
+        }) {
+            used[j] = true;
+        }
+        out[n] = [T::one(), -T::lit(2.0) * r.re, r.norm_sqr()];
+        n += 1;
+    }
+    // remaining real roots, sorted descending
+    let mut reals = [T::zero(); MAX_ROOTS + FIR_TAPS];
+    let mut nr = 0;
+    for i in 0..roots.len() {
+        if !used[i] {
+            reals[nr] = roots[i].re;
+            nr += 1;
+        }
+    }
+    let reals = &mut reals[..nr];
+    reals.sort_unstable_by(|a, b| b.partial_cmp(a).unwrap_or(core::cmp::Ordering::Equal));
+    let mut k = 0;
+    while k + 1 < nr {
+        out[n] = [T::one(), -(reals[k] + reals[k + 1]), reals[k] * reals[k + 1]];
+        n += 1;
+        k += 2;
+    }
+    if k < nr {
+        out[n] = [T::one(), -reals[k], T::zero()];
+        n += 1;
+    }
+    n
+}
+
+/// Pairs pole quadratics (most resonant first) with the nearest zero quadratics.
+fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: &[C<T>]) -> Result<(), DesignError> {
+    let mut zq = [[T::zero(); 3]; MAX_SECTIONS + 4];
+    let mut pq = [[T::zero(); 3]; MAX_SECTIONS + 4];
+    let nzq = quadratics(zeros, &mut zq);
+    let npq = quadratics(poles, &mut pq);
+    // order poles by radius √a2 (or |a1| for linear factors), largest first
+    let radius = |q: &[T; 3]| if q[2] != T::zero() { q[2].abs().sqrt() } else { q[1].abs() };
+    let mut order = [0usize; MAX_SECTIONS + 4];
+    for (i, o) in order.iter_mut().enumerate().take(npq) {
+        *o = i;
+    }
+    order[..npq].sort_unstable_by(|&x, &y| radius(&pq[y]).partial_cmp(&radius(&pq[x])).unwrap_or(core::cmp::Ordering::Equal));
+    let mut zused = [false; MAX_SECTIONS + 4];
+    for &pi in order.iter().take(npq) {
+        let pqi = pq[pi];
+        // the zero quadratic whose coefficients are closest (a proxy for root proximity)
+        let mut best = None;
+        let mut best_d = T::infinity();
+        for (j, z) in zq.iter().enumerate().take(nzq) {
+            if zused[j] {
+                continue;
+            }
+            let d = (z[1] - pqi[1]).abs() + (z[2] - pqi[2]).abs();
+            if d < best_d {
+                best_d = d;
+                best = Some(j);
+            }
+        }
+        let b = match best {
+            Some(j) => {
+                zused[j] = true;
+                zq[j]
+            }
+            None => [T::one(), T::zero(), T::zero()],
+        };
+        push_section(inv, Sos { b, a: pqi })?;
+    }
+    for j in 0..nzq {
+        if !zused[j] {
+            push_section(inv, Sos { b: zq[j], a: [T::one(), T::zero(), T::zero()] })?;
+        }
+    }
+    Ok(())
+}
+
+/// RMS and worst |H(jω)·G(e^{jωT})·e^{jωτ} − 1| over `n` evenly spaced frequencies in the band,
+/// with the exact H of `p`: the figure of merit of an inverse.
+pub fn compensation_error<T: Real>(p: &Params<T>, inv: &Inverse<T>, lo_hz: T, hi_hz: T, n: usize) -> (T, T) {
+    let mut sum = T::zero();
+    let mut worst = T::zero();
+    for i in 0..n {
+        let f = lo_hz + (hi_hz - lo_hz) * T::lit(i as f64 / (n - 1) as f64);
+        let w = T::lit(2.0) * T::PI() * f * inv.delay_s;
+        let e = (crate::model::current_response(p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) - T::one()).norm();
+        sum += e * e;
+        worst = worst.max(e);
+    }
+    ((sum / T::lit(n as f64)).sqrt(), worst)
+}

@@ -1,0 +1,31 @@
+//! Physics and filter core of ipmc-sense.
+//!
+//! One source of truth for the firmware (f32), the host tests and the host tool (f64): every
+//! function is generic over [`Real`], so the device and the host run the same code.
+//!
+//! Data flows one way through the modules:
+//! [`calibration`] (humidity laws → [`Params`]) → [`model`] (exact H(s)) →
+//! [`rational`] (physics-structured rational approximation) → [`design`] (discretized,
+//! band-limited, causal inverse as second-order sections) → [`filter`] (the per-sample cascade
+//! and glitch-free retuning).
+#![cfg_attr(not(feature = "std"), no_std)]
+
+pub mod calibration;
+pub mod design;
+pub mod filter;
+pub mod lstsq;
+pub mod model;
+pub mod rational;
+pub mod real;
+pub mod roots;
+pub mod universal;
+
+pub use calibration::{Calibration, Law, LawKind, ParamName, Params, ValidationError};
+pub use design::{DesignConfig, DesignError, Inverse, Sos, compensation_error, design_inverse, MAX_SECTIONS};
+pub use filter::{Cascade, Compensator};
+pub use model::{current_response, tip_response};
+pub use rational::RationalModel;
+pub use real::Real;
+
+/// Complex numbers over the crate's real type.
+pub type C<T> = num_complex::Complex<T>;
