@@ -1,1 +1,38 @@
-fn main() {}
+//! `ipmc`: the host tool of ipmc-sense.
+
+mod calibration_source;
+mod commands;
+mod overrides;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "ipmc", version, about = "Humidity-compensated IPMC sensing: model, inverse design, accuracy")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Evaluate the exact model (tip response and current) at given frequencies; CSV to stdout.
+    Model(commands::model::Args),
+    /// Design the inverse filter the firmware computes at one humidity; JSON file.
+    Design(commands::design::Args),
+    /// Accuracy table over humidity: rational approximation, compensated inverse, and the
+    /// paper's humidity-independent (45 %) inverse as the baseline.
+    Accuracy(commands::accuracy::Args),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Model(a) => commands::model::run(a),
+        Command::Design(a) => commands::design::run(a),
+        Command::Accuracy(a) => commands::accuracy::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
