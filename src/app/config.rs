@@ -14,12 +14,6 @@ pub const RETUNE_THRESHOLD_PCT: f32 = 0.25;
 /// Humidity polling period (the HTS221 runs at its 1 Hz output data rate).
 pub const HUMIDITY_PERIOD_MS: u64 = 1_000;
 
-/// RH range in which the default calibration's polynomials were fitted (paper: 38–80 %).
-/// Readings outside are clamped and flagged. TODO(core): take this from the Calibration's
-/// declared range once ipmc-core exposes it.
-pub const RH_CALIBRATED_MIN_PCT: f32 = 38.0;
-pub const RH_CALIBRATED_MAX_PCT: f32 = 80.0;
-
 /// RH used for the first design if no humidity reading arrives in time at start-up.
 pub const RH_FALLBACK_PCT: f32 = 50.0;
 

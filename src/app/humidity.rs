@@ -6,7 +6,7 @@ use embassy_time::{Duration, Instant, Ticker, with_timeout};
 use crate::board::Humidity;
 
 use super::{
-    config::{HUMIDITY_PERIOD_MS, RETUNE_THRESHOLD_PCT, RH_CALIBRATED_MAX_PCT, RH_CALIBRATED_MIN_PCT, RH_FALLBACK_PCT},
+    config::{HUMIDITY_PERIOD_MS, RETUNE_THRESHOLD_PCT, RH_FALLBACK_PCT},
     flags,
     handoff::{self, LATEST_RH_PCT, RETUNE_REQUEST},
     ports::HumiditySource,
@@ -15,10 +15,9 @@ use super::{
 /// A reading that takes longer than this counts as no response.
 const READ_TIMEOUT: Duration = Duration::from_millis(HUMIDITY_PERIOD_MS / 2);
 
-/// Clamps to the calibrated range; the bool says whether it had to.
+/// Clamps to the calibration's declared range; the bool says whether it had to.
 fn clamp_to_calibration(rh_pct: f32) -> (f32, bool) {
-    let clamped = rh_pct.clamp(RH_CALIBRATED_MIN_PCT, RH_CALIBRATED_MAX_PCT);
-    (clamped, clamped != rh_pct)
+    super::compensation::calibration().clamp_rh(rh_pct)
 }
 
 #[embassy_executor::task]
