@@ -22,6 +22,10 @@ enum Command {
     /// Accuracy table over humidity: rational approximation, compensated inverse, and the
     /// paper's humidity-independent (45 %) inverse as the baseline.
     Accuracy(commands::accuracy::Args),
+    /// Synthetic time-series recording: multisine base motion, humidity ramp, model current.
+    SimulateSweep(commands::simulate::Args),
+    /// Run the firmware's f32 compensation chain over a time-series recording on the host.
+    Compensate(commands::compensate::Args),
 }
 
 fn main() {
@@ -30,6 +34,8 @@ fn main() {
         Command::Model(a) => commands::model::run(a),
         Command::Design(a) => commands::design::run(a),
         Command::Accuracy(a) => commands::accuracy::run(a),
+        Command::SimulateSweep(a) => commands::simulate::run(a),
+        Command::Compensate(a) => commands::compensate::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -1,6 +1,8 @@
 pub mod accuracy;
+pub mod compensate;
 pub mod design;
 pub mod model;
+pub mod simulate;
 
 use anyhow::{Context, Result};
 use std::path::Path;
