@@ -1,0 +1,195 @@
+//! Job: glitch-free retuning of the running f32 compensator (`Compensator::switch_to`).
+//!
+//! Scenario (as the firmware meets it): a steady 40 Hz base sine u(t) = U·sin ωt; the current the
+//! sensor delivers is synthesized from the exact model, i(t) = U·|H(jω)|·sin(ωt + ∠H(jω)), with H
+//! taken at the humidity the sensor is at. The compensator designed at RH A runs until it has
+//! settled; then, at one sample, the humidity becomes B: the current switches to the RH-B current
+//! for the same base motion, and the compensator is switched (`switch_to`) to the design at B.
+//! The output is compared with the true base motion delayed by the design's `delay_s`.
+//!
+//! Requirement (issue 2, point 5): during and after the switch the deviation never exceeds twice
+//! the larger of the two filters' steady-state errors. Those steady-state errors are measured
+//! here, each filter running alone on its own humidity's current.
+
+use ipmc_core::model::{current_response, jw};
+use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, Params, Real, design_inverse};
+
+const FS: f64 = 2000.0;
+const F0: f64 = 40.0;
+const U: f64 = 1e-3; // 1 mm base amplitude
+const BLOCK: usize = 32; // firmware-like block size
+const SETTLE: usize = 40_000; // 20 s: the slowest pole (1 Hz high-pass) decays e^-40 over it
+const AFTER: usize = 40_000;
+
+fn design(rh: f64) -> Inverse<f32> {
+    let c = Calibration::default_preset();
+    let cfg = DesignConfig::<f32> { fs_hz: FS as f32, ..DesignConfig::default() };
+    design_inverse(&c, rh as f32, &cfg).unwrap_or_else(|e| panic!("design at {rh} %: {e}"))
+}
+
+/// Current sample n for base motion U·sin(ω n T) at humidity rh (exact model, f64).
+struct Source {
+    gain: f64,
+    phase: f64,
+}
+impl Source {
+    fn new(rh: f64) -> Self {
+        let p: Params<f64> = Calibration::default_preset().params_at(rh);
+        let h = current_response(&p, jw(F0));
+        Source { gain: h.norm(), phase: h.arg() }
+    }
+    fn at<T: Real>(&self, n: usize) -> T {
+        let w = 2.0 * std::f64::consts::PI * F0 / FS;
+        // the ADC delivers f32 samples in either case
+        T::lit((U * self.gain * (w * n as f64 + self.phase).sin()) as f32 as f64)
+    }
+}
+
+/// The true base motion delayed by τ.
+fn truth(n: usize, delay_s: f64) -> f64 {
+    let t = n as f64 / FS - delay_s;
+    U * (2.0 * std::f64::consts::PI * F0 * t).sin()
+}
+
+/// Runs `comp` over samples [from, to) with `src`; returns max |y − u(t − τ)| over [measure_from, to).
+fn run<T: Real>(comp: &mut Compensator<T>, src: &Source, from: usize, to: usize, delay_s: f64, measure_from: usize) -> f64 {
+    let mut worst = 0.0f64;
+    let mut n = from;
+    let mut buf = [T::zero(); BLOCK];
+    while n < to {
+        let len = BLOCK.min(to - n);
+        for (k, v) in buf[..len].iter_mut().enumerate() {
+            *v = src.at(n + k);
+        }
+        comp.process_block(&mut buf[..len]);
+        for (k, &y) in buf[..len].iter().enumerate() {
+            let m = n + k;
+            if m >= measure_from {
+                assert!(y.is_finite(), "non-finite output at sample {m}");
+                worst = worst.max((y.to_f64() - truth(m, delay_s)).abs());
+            }
+        }
+        n += len;
+    }
+    worst
+}
+
+/// Steady-state error of the design at `rh` on its own humidity's current (last 2 s of 22 s).
+fn steady_error<T: Real>(rh: f64) -> f64 {
+    let inv = design(rh).cast::<T>();
+    let mut comp = Compensator::new(&inv);
+    run(&mut comp, &Source::new(rh), 0, SETTLE + 4000, inv.delay_s.to_f64(), SETTLE)
+}
+
+/// Returns (max deviation from the switch on, steady error A, steady error B, max deviation in the
+/// last 2 s).
+fn switch_case<T: Real>(rh_a: f64, rh_b: f64) -> (f64, f64, f64, f64) {
+    let (ea, eb) = (steady_error::<T>(rh_a), steady_error::<T>(rh_b));
+    let (inv_a, inv_b) = (design(rh_a).cast::<T>(), design(rh_b).cast::<T>());
+    assert_eq!(inv_a.delay_s, inv_b.delay_s, "a retune must not change the latency");
+    let delay = inv_a.delay_s.to_f64();
+    // Steady errors above the issue's 3 % compensation limit would make the bound meaningless.
+    assert!(ea <= 0.03 * U && eb <= 0.03 * U, "steady errors A {:.3} %, B {:.3} % of U exceed 3 %: the filters as run do not compensate", ea / U * 100.0, eb / U * 100.0);
+    let mut comp = Compensator::new(&inv_a);
+    run(&mut comp, &Source::new(rh_a), 0, SETTLE, delay, SETTLE);
+    comp.switch_to(&inv_b);
+    assert!(comp.is_fading());
+    let src_b = Source::new(rh_b);
+    let during = run(&mut comp, &src_b, SETTLE, SETTLE + AFTER, delay, SETTLE);
+    assert!(!comp.is_fading(), "the crossfade never completed");
+    let tail = run(&mut comp, &src_b, SETTLE + AFTER, SETTLE + AFTER + 4000, delay, SETTLE + AFTER);
+    (during.max(tail), ea, eb, tail)
+}
+
+fn check<T: Real>(rh_a: f64, rh_b: f64) {
+    let (ea, eb) = (steady_error::<T>(rh_a), steady_error::<T>(rh_b));
+    println!(
+        "steady errors ({}) at {F0} Hz: RH {rh_a} % {:.3} % of U, RH {rh_b} % {:.3} % of U",
+        std::any::type_name::<T>(),
+        ea / U * 100.0,
+        eb / U * 100.0
+    );
+    let (dev, ea, eb, tail) = switch_case::<T>(rh_a, rh_b);
+    let bound = 2.0 * ea.max(eb);
+    println!(
+        "retune ({}) {rh_a} % → {rh_b} % at {F0} Hz: steady errors A {:.3} % B {:.3} % of U; max deviation during/after the switch {:.3} % (bound {:.3} %); last 2 s {:.3} %",
+        std::any::type_name::<T>(),
+        ea / U * 100.0,
+        eb / U * 100.0,
+        dev / U * 100.0,
+        bound / U * 100.0,
+        tail / U * 100.0,
+    );
+    assert!(tail <= eb * 1.05 + 1e-12, "after the switch the output does not return to B's steady error: {tail} vs {eb}");
+    assert!(dev <= bound, "switch {rh_a} → {rh_b} %: deviation {:.4} % of U exceeds twice the steady error {:.4} %", dev / U * 100.0, bound / U * 100.0);
+}
+
+// The firmware's filters: f32 coefficients run in f32.
+
+#[test]
+fn small_step_retune_is_glitch_free() {
+    check::<f32>(55.0, 55.25);
+}
+
+#[test]
+fn small_step_retune_is_glitch_free_at_the_edges() {
+    check::<f32>(20.0, 20.25);
+    check::<f32>(89.75, 90.0);
+}
+
+#[test]
+fn large_step_retune_is_glitch_free() {
+    check::<f32>(40.0, 80.0);
+}
+
+/// Control: switching to an identical design during the steady sine leaves the output exactly as it
+/// was (state transfer between equal cascades is exact), so the measure can pass.
+#[test]
+fn switching_to_the_same_design_is_exact() {
+    let inv = design(55.0);
+    let src = Source::new(55.0);
+    let (mut a, mut b) = (Compensator::new(&inv), Compensator::new(&inv));
+    let mut n = 0;
+    let (mut ba, mut bb) = ([0f32; BLOCK], [0f32; BLOCK]);
+    while n < SETTLE + 8000 {
+        if n == SETTLE {
+            b.switch_to(&inv);
+        }
+        for k in 0..BLOCK {
+            ba[k] = src.at(n + k);
+            bb[k] = ba[k];
+        }
+        a.process_block(&mut ba);
+        b.process_block(&mut bb);
+        assert_eq!(ba, bb, "outputs differ at block {n}");
+        n += BLOCK;
+    }
+}
+
+// The same f32-designed coefficients run in f64 arithmetic: isolates the switching logic
+// (crossfade, state transfer) from the f32 arithmetic of the cascade.
+
+#[test]
+fn small_step_retune_switching_logic_f64_arithmetic() {
+    check::<f64>(55.0, 55.25);
+    check::<f64>(20.0, 20.25);
+    check::<f64>(89.75, 90.0);
+}
+
+#[test]
+fn large_step_retune_switching_logic_f64_arithmetic() {
+    check::<f64>(40.0, 80.0);
+}
+
+/// The measure can fail: NOT switching the compensator when the humidity jumps 40 → 80 % leaves
+/// the output far outside the bound (this is the humidity-independent error the product removes).
+#[test]
+fn not_retuning_violates_the_bound() {
+    let (ea, eb) = (steady_error::<f64>(40.0), steady_error::<f64>(80.0));
+    let inv_a = design(40.0).cast::<f64>();
+    let mut comp = Compensator::new(&inv_a);
+    run(&mut comp, &Source::new(40.0), 0, SETTLE, inv_a.delay_s, SETTLE);
+    let dev = run(&mut comp, &Source::new(80.0), SETTLE, 2 * SETTLE, inv_a.delay_s, SETTLE + SETTLE / 2);
+    println!("no retune 40 → 80 % (f64 arithmetic): steady deviation {:.1} % of U vs twice the tuned steady errors {:.3} %", dev / U * 100.0, 2.0 * ea.max(eb) / U * 100.0);
+    assert!(dev > 10.0 * ea.max(eb));
+}
