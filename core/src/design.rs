@@ -350,30 +350,50 @@ fn quadratics<T: Real>(roots: &[C<T>], out: &mut [[T; 3]; MAX_SECTIONS + 4]) -> 
     n
 }
 
-/// Pairs pole quadratics (most resonant first) with the nearest zero quadratics.
+/// The continuous-time frequency scale |sT| = |ln z| of a quadratic (or linear) factor's
+/// fastest root: a key that moves smoothly with humidity, so that sections keep their place.
+fn quad_key<T: Real>(q: &[T; 3]) -> T {
+    let ln_abs = |z: C<T>| {
+        let r = z.norm().max(T::lit(1e-30));
+        (r.ln() * r.ln() + z.arg() * z.arg()).sqrt()
+    };
+    if q[2] == T::zero() {
+        return ln_abs(C::new(-q[1], T::zero()));
+    }
+    let [r1, r2] = crate::roots::quadratic(C::new(T::one(), T::zero()), C::new(q[1], T::zero()), C::new(q[2], T::zero()));
+    ln_abs(r1).max(ln_abs(r2))
+}
+
+/// Pairs pole quadratics, slowest first, with the zero quadratic of nearest frequency scale.
+/// The order is a function of the factors' frequencies, not of their damping, so a small
+/// humidity step leaves every section in its place: what makes state transfer on a retune valid.
 fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: &[C<T>]) -> Result<(), DesignError> {
     let mut zq = [[T::zero(); 3]; MAX_SECTIONS + 4];
     let mut pq = [[T::zero(); 3]; MAX_SECTIONS + 4];
     let nzq = quadratics(zeros, &mut zq);
     let npq = quadratics(poles, &mut pq);
-    // order poles by radius √a2 (or |a1| for linear factors), largest first
-    let radius = |q: &[T; 3]| if q[2] != T::zero() { q[2].abs().sqrt() } else { q[1].abs() };
+    let mut pkey = [T::zero(); MAX_SECTIONS + 4];
+    let mut zkey = [T::zero(); MAX_SECTIONS + 4];
+    for i in 0..npq {
+        pkey[i] = quad_key(&pq[i]);
+    }
+    for j in 0..nzq {
+        zkey[j] = quad_key(&zq[j]);
+    }
     let mut order = [0usize; MAX_SECTIONS + 4];
     for (i, o) in order.iter_mut().enumerate().take(npq) {
         *o = i;
     }
-    order[..npq].sort_unstable_by(|&x, &y| radius(&pq[y]).partial_cmp(&radius(&pq[x])).unwrap_or(core::cmp::Ordering::Equal));
+    order[..npq].sort_unstable_by(|&x, &y| pkey[x].partial_cmp(&pkey[y]).unwrap_or(core::cmp::Ordering::Equal));
     let mut zused = [false; MAX_SECTIONS + 4];
     for &pi in order.iter().take(npq) {
-        let pqi = pq[pi];
-        // the zero quadratic whose coefficients are closest (a proxy for root proximity)
         let mut best = None;
         let mut best_d = T::infinity();
-        for (j, z) in zq.iter().enumerate().take(nzq) {
+        for j in 0..nzq {
             if zused[j] {
                 continue;
             }
-            let d = (z[1] - pqi[1]).abs() + (z[2] - pqi[2]).abs();
+            let d = (zkey[j] - pkey[pi]).abs();
             if d < best_d {
                 best_d = d;
                 best = Some(j);
@@ -386,7 +406,7 @@ fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: 
             }
             None => [T::one(), T::zero(), T::zero()],
         };
-        push_section(inv, Sos { b, a: pqi })?;
+        push_section(inv, Sos { b, a: pq[pi] })?;
     }
     for j in 0..nzq {
         if !zused[j] {
