@@ -31,24 +31,72 @@ pub const FIR_TAPS: usize = 5;
 const GRID: usize = 40;
 
 /// One biquad: y = (b0 + b1 z⁻¹ + b2 z⁻²)/(1 + a1 z⁻¹ + a2 z⁻²)·x, with a[0] = 1.
+///
+/// `b`/`a` are the interchange form (JSON, plots, stability checks). The filter runs the same
+/// section in delta-operator form, δ⁻¹ = z⁻¹/(1 − z⁻¹):
+/// y = (β0 + β1 δ⁻¹ + β2 δ⁻²)/(1 + α1 δ⁻¹ + α2 δ⁻²)·x, with β0 = b0, β1 = 2b0 + b1,
+/// β2 = b0 + b1 + b2, α1 = 2 + a1, α2 = 1 + a1 + a2. For poles within 1e-3 of z = 1 (the
+/// regularizing high-pass) α1 and α2 are ~1e-3 and ~1e-5: computed from the roots as
+/// Σ(1 − zᵢ) and Π(1 − zᵢ) they keep full relative precision, where 1 + a1 + a2 in f32 would
+/// lose half of it.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Sos<T> {
     pub b: [T; 3],
     pub a: [T; 3],
+    pub beta: [T; 3],
+    pub alpha: [T; 2],
+}
+
+/// A monic quadratic factor (1 − z₁z⁻¹)(1 − z₂z⁻¹), in both forms (see [`Sos`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Quad<T> {
+    /// [1, −(z₁ + z₂), z₁z₂]
+    poly: [T; 3],
+    /// [(1 − z₁) + (1 − z₂), (1 − z₁)(1 − z₂)]
+    delta: [T; 2],
+}
+
+impl<T: Real> Quad<T> {
+    /// z⁻⁰: both roots at z = 0.
+    fn one() -> Self {
+        Quad { poly: [T::one(), T::zero(), T::zero()], delta: [T::lit(2.0), T::one()] }
+    }
+    fn from_roots(z1: C<T>, z2: C<T>) -> Self {
+        let (u1, u2) = (C::new(T::one(), T::zero()) - z1, C::new(T::one(), T::zero()) - z2);
+        Quad { poly: [T::one(), -(z1 + z2).re, (z1 * z2).re], delta: [(u1 + u2).re, (u1 * u2).re] }
+    }
 }
 
 impl<T: Real> Sos<T> {
     pub fn identity() -> Self {
-        Sos { b: [T::one(), T::zero(), T::zero()], a: [T::one(), T::zero(), T::zero()] }
+        Sos::from_ba([T::one(), T::zero(), T::zero()], [T::one(), T::zero(), T::zero()])
+    }
+    /// From the interchange form; exact for the small-integer sections (delays) it is used for.
+    pub fn from_ba(b: [T; 3], a: [T; 3]) -> Self {
+        let beta = [b[0], T::lit(2.0) * b[0] + b[1], b[0] + b[1] + b[2]];
+        let alpha = [T::lit(2.0) + a[1], T::one() + a[1] + a[2]];
+        Sos { b, a, beta, alpha }
+    }
+    fn from_quads(num: Quad<T>, den: Quad<T>) -> Self {
+        Sos { b: num.poly, a: den.poly, beta: [T::one(), num.delta[0], num.delta[1]], alpha: den.delta }
+    }
+    fn scale(&mut self, k: T) {
+        for v in self.b.iter_mut().chain(self.beta.iter_mut()) {
+            *v *= k;
+        }
     }
     pub fn response(&self, zinv: C<T>) -> C<T> {
         let z2 = zinv * zinv;
         (zinv * self.b[1] + z2 * self.b[2] + self.b[0]) / (zinv * self.a[1] + z2 * self.a[2] + self.a[0])
     }
-    /// Jury's conditions for a monic quadratic denominator.
+    /// Jury's conditions on the denominator, written in α so that poles near z = 1 are judged
+    /// with α's precision.
     pub fn is_stable(&self) -> bool {
-        let (a1, a2) = (self.a[1], self.a[2]);
-        a2.abs() < T::one() && a1.abs() < T::one() + a2
+        let [a1d, a2d] = self.alpha;
+        // z² + a1 z + a2 = (1+δ)² + … ⇒ a1 = α1 − 2, a2 = 1 − α1 + α2; Jury: |a2| < 1, |a1| < 1 + a2,
+        // i.e. α2 > 0 (1 + a1 + a2 > 0), 4 − 2α1 + α2 > 0 (1 − a1 + a2 > 0), 0 < α1 − α2 < 2 (|a2| < 1).
+        let two = T::lit(2.0);
+        a2d > T::zero() && T::lit(4.0) - two * a1d + a2d > T::zero() && a1d - a2d > T::zero() && a1d - a2d < two
     }
 }
 
@@ -132,6 +180,8 @@ impl<T: Real> Inverse<T> {
         for (d, s) in sections.iter_mut().zip(self.sections()) {
             d.b = s.b.map(|v| U::lit(v.to_f64()));
             d.a = s.a.map(|v| U::lit(v.to_f64()));
+            d.beta = s.beta.map(|v| U::lit(v.to_f64()));
+            d.alpha = s.alpha.map(|v| U::lit(v.to_f64()));
         }
         Inverse {
             sections,
@@ -255,10 +305,10 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     };
     pair_into_sections(&mut inv, &mut all_zeros[..nz], pd.as_slice())?;
     for _ in 0..d_pure / 2 {
-        push_section(&mut inv, Sos { b: [T::zero(), T::zero(), T::one()], a: [T::one(), T::zero(), T::zero()] })?;
+        push_section(&mut inv, Sos::from_ba([T::zero(), T::zero(), T::one()], [T::one(), T::zero(), T::zero()]))?;
     }
     if d_pure % 2 == 1 {
-        push_section(&mut inv, Sos { b: [T::zero(), T::one(), T::zero()], a: [T::one(), T::zero(), T::zero()] })?;
+        push_section(&mut inv, Sos::from_ba([T::zero(), T::one(), T::zero()], [T::one(), T::zero(), T::zero()]))?;
     }
     // Unit gain per section at mid-band keeps every intermediate signal at the scale of the input.
     let f_mid = (cfg.band_lo_hz * cfg.band_hi_hz).sqrt();
@@ -269,9 +319,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
         if !(m > T::zero() && m.is_finite()) {
             return Err(DesignError::Numerics);
         }
-        for v in s.b.iter_mut() {
-            *v /= m;
-        }
+        s.scale(m.recip());
         inv.gain *= m;
     }
     if !inv.is_stable() || !inv.gain.is_finite() {
@@ -304,18 +352,18 @@ fn push_section<T: Real>(inv: &mut Inverse<T>, s: Sos<T>) -> Result<(), DesignEr
 }
 
 /// Groups roots (closed under conjugation) into real quadratic factors: conjugate pairs first,
-/// then real roots two by two (sorted, so neighbours pair), a lone real root as a linear factor.
-fn quadratics<T: Real>(roots: &[C<T>], out: &mut [[T; 3]; MAX_SECTIONS + 4]) -> usize {
+/// then real roots two by two (sorted, so neighbours pair), a lone real root with a root at z = 0.
+fn quadratics<T: Real>(roots: &[C<T>], out: &mut [Quad<T>; MAX_SECTIONS + 4]) -> usize {
     let mut used = [false; MAX_ROOTS + FIR_TAPS];
     let mut n = 0;
     let tol = T::epsilon().sqrt();
+    let zero = C::new(T::zero(), T::zero());
     for i in 0..roots.len() {
         if used[i] || roots[i].im.abs() <= tol * roots[i].norm() {
             continue;
         }
         used[i] = true;
         let r = roots[i];
-        // its conjugate partner
         if let Some(j) = (0..roots.len()).filter(|&j| !used[j]).min_by(|&x, &y| {
             let dx = (roots[x] - r.conj()).norm();
             let dy = (roots[y] - r.conj()).norm();
@@ -323,10 +371,9 @@ fn quadratics<T: Real>(roots: &[C<T>], out: &mut [[T; 3]; MAX_SECTIONS + 4]) -> 
         }) {
             used[j] = true;
         }
-        out[n] = [T::one(), -T::lit(2.0) * r.re, r.norm_sqr()];
+        out[n] = Quad::from_roots(r, r.conj());
         n += 1;
     }
-    // remaining real roots, sorted descending
     let mut reals = [T::zero(); MAX_ROOTS + FIR_TAPS];
     let mut nr = 0;
     for i in 0..roots.len() {
@@ -339,12 +386,12 @@ fn quadratics<T: Real>(roots: &[C<T>], out: &mut [[T; 3]; MAX_SECTIONS + 4]) -> 
     reals.sort_unstable_by(|a, b| b.partial_cmp(a).unwrap_or(core::cmp::Ordering::Equal));
     let mut k = 0;
     while k + 1 < nr {
-        out[n] = [T::one(), -(reals[k] + reals[k + 1]), reals[k] * reals[k + 1]];
+        out[n] = Quad::from_roots(C::new(reals[k], T::zero()), C::new(reals[k + 1], T::zero()));
         n += 1;
         k += 2;
     }
     if k < nr {
-        out[n] = [T::one(), -reals[k], T::zero()];
+        out[n] = Quad::from_roots(C::new(reals[k], T::zero()), zero);
         n += 1;
     }
     n
@@ -352,7 +399,8 @@ fn quadratics<T: Real>(roots: &[C<T>], out: &mut [[T; 3]; MAX_SECTIONS + 4]) -> 
 
 /// The continuous-time frequency scale |sT| = |ln z| of a quadratic (or linear) factor's
 /// fastest root: a key that moves smoothly with humidity, so that sections keep their place.
-fn quad_key<T: Real>(q: &[T; 3]) -> T {
+fn quad_key<T: Real>(q: &Quad<T>) -> T {
+    let q = &q.poly;
     let ln_abs = |z: C<T>| {
         let r = z.norm().max(T::lit(1e-30));
         (r.ln() * r.ln() + z.arg() * z.arg()).sqrt()
@@ -364,12 +412,15 @@ fn quad_key<T: Real>(q: &[T; 3]) -> T {
     ln_abs(r1).max(ln_abs(r2))
 }
 
-/// Pairs pole quadratics, slowest first, with the zero quadratic of nearest frequency scale.
-/// The order is a function of the factors' frequencies, not of their damping, so a small
-/// humidity step leaves every section in its place: what makes state transfer on a retune valid.
+/// Pairs each pole quadratic, slowest first, with the unused zero quadratic of nearest frequency
+/// scale (the slow poles near z = 1 get the zeros near z = 1 that tame them), then orders the
+/// sections fastest first, so that the slow sections come last and their rounding is not
+/// amplified by other sections' low-frequency gain. Order and pairing follow the factors'
+/// frequencies, not their damping, so a small humidity step leaves every section in its place:
+/// what makes state transfer on a retune valid.
 fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: &[C<T>]) -> Result<(), DesignError> {
-    let mut zq = [[T::zero(); 3]; MAX_SECTIONS + 4];
-    let mut pq = [[T::zero(); 3]; MAX_SECTIONS + 4];
+    let mut zq = [Quad::one(); MAX_SECTIONS + 4];
+    let mut pq = [Quad::one(); MAX_SECTIONS + 4];
     let nzq = quadratics(zeros, &mut zq);
     let npq = quadratics(poles, &mut pq);
     let mut pkey = [T::zero(); MAX_SECTIONS + 4];
@@ -386,8 +437,8 @@ fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: 
     }
     order[..npq].sort_unstable_by(|&x, &y| pkey[x].partial_cmp(&pkey[y]).unwrap_or(core::cmp::Ordering::Equal));
     let mut zused = [false; MAX_SECTIONS + 4];
+    let mut partner = [None; MAX_SECTIONS + 4];
     for &pi in order.iter().take(npq) {
-        let mut best = None;
         let mut best_d = T::infinity();
         for j in 0..nzq {
             if zused[j] {
@@ -396,22 +447,22 @@ fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: 
             let d = (zkey[j] - pkey[pi]).abs();
             if d < best_d {
                 best_d = d;
-                best = Some(j);
+                partner[pi] = Some(j);
             }
         }
-        let b = match best {
-            Some(j) => {
-                zused[j] = true;
-                zq[j]
-            }
-            None => [T::one(), T::zero(), T::zero()],
-        };
-        push_section(inv, Sos { b, a: pq[pi] })?;
+        if let Some(j) = partner[pi] {
+            zused[j] = true;
+        }
     }
+    // Zero-only sections (more zero than pole quadratics) are FIR: they go first.
     for j in 0..nzq {
         if !zused[j] {
-            push_section(inv, Sos { b: zq[j], a: [T::one(), T::zero(), T::zero()] })?;
+            push_section(inv, Sos::from_quads(zq[j], Quad::one()))?;
         }
+    }
+    for &pi in order[..npq].iter().rev() {
+        let num = partner[pi].map(|j| zq[j]).unwrap_or(Quad::one());
+        push_section(inv, Sos::from_quads(num, pq[pi]))?;
     }
     Ok(())
 }

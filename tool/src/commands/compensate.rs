@@ -44,6 +44,7 @@ pub struct Args {
 }
 
 /// A time-series recording (recording-format.md §2), the columns the compensation uses.
+#[derive(Debug)]
 pub struct TimeSeries {
     pub fs_hz: f64,
     pub t_s: Vec<f64>,
