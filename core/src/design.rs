@@ -85,9 +85,11 @@ impl<T: Real> Sos<T> {
             *v *= k;
         }
     }
+    /// The response of the delta form, the one the filter runs: δ⁻¹ = z⁻¹/(1 − z⁻¹).
     pub fn response(&self, zinv: C<T>) -> C<T> {
-        let z2 = zinv * zinv;
-        (zinv * self.b[1] + z2 * self.b[2] + self.b[0]) / (zinv * self.a[1] + z2 * self.a[2] + self.a[0])
+        let d = zinv / (C::new(T::one(), T::zero()) - zinv);
+        let d2 = d * d;
+        (d * self.beta[1] + d2 * self.beta[2] + self.beta[0]) / (d * self.alpha[0] + d2 * self.alpha[1] + T::one())
     }
     /// Jury's conditions on the denominator, written in α so that poles near z = 1 are judged
     /// with α's precision.
@@ -155,6 +157,9 @@ impl core::fmt::Display for DesignError {
 pub struct Inverse<T> {
     pub sections: [Sos<T>; MAX_SECTIONS],
     pub n_sections: usize,
+    /// The last `n_fixed` sections depend on the configuration only (the regularizing high-pass
+    /// over the double integration): identical at every humidity, never retuned.
+    pub n_fixed: usize,
     pub gain: T,
     pub delay_s: T,
     pub rh_pct: T,
@@ -164,6 +169,14 @@ pub struct Inverse<T> {
 impl<T: Real> Inverse<T> {
     pub fn sections(&self) -> &[Sos<T>] {
         &self.sections[..self.n_sections]
+    }
+    /// The humidity-dependent head of the cascade (the overall gain applies to it).
+    pub fn head(&self) -> &[Sos<T>] {
+        &self.sections[..self.n_sections - self.n_fixed]
+    }
+    /// The configuration-only tail.
+    pub fn tail(&self) -> &[Sos<T>] {
+        &self.sections[self.n_sections - self.n_fixed..self.n_sections]
     }
     /// G(e^{jωT}) at `freq_hz`.
     pub fn response(&self, freq_hz: T) -> C<T> {
@@ -186,6 +199,7 @@ impl<T: Real> Inverse<T> {
         Inverse {
             sections,
             n_sections: self.n_sections,
+            n_fixed: self.n_fixed,
             gain: U::lit(self.gain.to_f64()),
             delay_s: U::lit(self.delay_s.to_f64()),
             rh_pct: U::lit(self.rh_pct.to_f64()),
@@ -226,31 +240,34 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
         // reflect non-minimum-phase zeros
         g_poles.push(if z.re > T::zero() { C::new(-z.re, z.im) } else { z });
     }
+    // The regularizing high-pass over the double integration, R(s)/s² = s(s² + d₄s + d₃)/D(s): it
+    // depends on the configuration only, so its sections (the slow ones, with the inverse's whole
+    // memory) are the same at every humidity and a retune never touches them.
     let wc = T::lit(2.0) * T::PI() * cfg.hp_hz;
+    let mut hp_poles: Roots<T> = Roots::new();
+    let mut hp_zeros: Roots<T> = Roots::new();
     for k in 0..5 {
         let a = T::PI() * T::lit((2 * k + 6) as f64 / 10.0);
-        g_poles.push(C::new(a.cos(), a.sin()) * wc);
+        hp_poles.push(C::new(a.cos(), a.sin()) * wc);
     }
     // s² + d₄s + d₃ with the 5th-order Butterworth's coefficients 1 + √5 and 3 + √5.
     let d4 = T::lit(3.236_067_977_499_79) * wc;
     let d3 = T::lit(5.236_067_977_499_79) * wc * wc;
     let disc = (C::new(d4 * d4 - T::lit(4.0) * d3, T::zero())).sqrt();
-    g_zeros.push((-disc - d4) * T::lit(0.5));
-    g_zeros.push((disc - d4) * T::lit(0.5));
-    g_zeros.push(C::new(T::zero(), T::zero()));
-    if g_zeros.n + FIR_TAPS > MAX_ROOTS + FIR_TAPS {
-        return Err(DesignError::Numerics);
-    }
+    hp_zeros.push((-disc - d4) * T::lit(0.5));
+    hp_zeros.push((disc - d4) * T::lit(0.5));
+    hp_zeros.push(C::new(T::zero(), T::zero()));
 
     // Matched pole-zero mapping.
-    let mut zd: Roots<T> = Roots::new();
-    let mut pd: Roots<T> = Roots::new();
-    for &z in g_zeros.as_slice() {
-        zd.push((z * t).exp());
-    }
-    for &p in g_poles.as_slice() {
-        pd.push((p * t).exp());
-    }
+    let map = |roots: &Roots<T>| {
+        let mut out: Roots<T> = Roots::new();
+        for &r in roots.as_slice() {
+            out.push((r * t).exp());
+        }
+        out
+    };
+    let (zd, pd) = (map(&g_zeros), map(&g_poles));
+    let (hzd, hpd) = (map(&hp_zeros), map(&hp_poles));
 
     // Preview FIR by least squares over the band: H_r·G₀·P·e^{jωτ} ≈ 1.
     let d_total = (cfg.max_delay_s * fs + T::lit(1e-6)).floor().to_f64() as usize;
@@ -264,7 +281,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
         let f = cfg.band_lo_hz + (cfg.band_hi_hz - cfg.band_lo_hz) * T::lit(i as f64 / (GRID - 1) as f64);
         let w = two_pi * f * t; // rad/sample
         let zinv = C::new(w.cos(), -w.sin());
-        let g0 = monic_response(&zd, &pd, zinv);
+        let g0 = monic_response(&zd, &pd, zinv) * monic_response(&hzd, &hpd, zinv);
         // the pure-delay sections are part of G; the remaining phase target is d_fir samples
         let base = model.eval(jw(f)) * g0 * C::new((w * T::lit(d_fir as f64)).cos(), (w * T::lit(d_fir as f64)).sin());
         let mut zk = C::new(T::one(), T::zero());
@@ -298,6 +315,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     let mut inv = Inverse {
         sections: [Sos::identity(); MAX_SECTIONS],
         n_sections: 0,
+        n_fixed: 0,
         gain: c[0],
         delay_s: tau,
         rh_pct,
@@ -310,6 +328,11 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     if d_pure % 2 == 1 {
         push_section(&mut inv, Sos::from_ba([T::zero(), T::one(), T::zero()], [T::one(), T::zero(), T::zero()]))?;
     }
+    let n_head = inv.n_sections;
+    let mut hz = [C::new(T::zero(), T::zero()); 3];
+    hz.copy_from_slice(hzd.as_slice());
+    pair_into_sections(&mut inv, &mut hz, hpd.as_slice())?;
+    inv.n_fixed = inv.n_sections - n_head;
     // Unit gain per section at mid-band keeps every intermediate signal at the scale of the input.
     let f_mid = (cfg.band_lo_hz * cfg.band_hi_hz).sqrt();
     let w = two_pi * f_mid * t;

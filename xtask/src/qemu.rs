@@ -170,7 +170,7 @@ pub fn command(args: &[String]) -> Result<()> {
 /// 2 kHz. The estimate for sample n corresponds to the true base at sample n − 4.
 const FIRMWARE_DELAY_SAMPLES: usize = 4;
 /// Filter settling skipped before scoring [s] (as `ipmc compensate`).
-const SETTLE_S: f64 = 0.5;
+const SETTLE_S: f64 = 5.0;
 /// High-pass corner of the in-band figure [Hz] (as `ipmc compensate`).
 const INBAND_HP_HZ: f64 = 5.0;
 

@@ -7,7 +7,7 @@
 //!
 //! When the recording carries the true `base_m`, the error of the estimate against the true
 //! base delayed by the design's delay is printed (rms error / rms base, in %), skipping the
-//! first 0.5 s of each burst (filter settling).
+//! first 5 s of each burst (the settling of the inverse's 1 Hz regularizing high-pass).
 
 use crate::commands::write_atomically;
 use anyhow::{Context, Result, anyhow, bail};
@@ -22,7 +22,7 @@ pub const BLOCK_LEN: usize = 32;
 /// (src/app/config.rs RETUNE_THRESHOLD_PCT).
 pub const RETUNE_THRESHOLD_PCT: f32 = 0.25;
 /// Filter settling skipped at the start of each burst when scoring [s].
-pub const SETTLE_S: f64 = 0.5;
+pub const SETTLE_S: f64 = 5.0;
 
 /// Flag bits, the firmware's (src/app/flags.rs).
 pub mod flags {
