@@ -3,7 +3,7 @@
 //! - `qemu [--input REC.csv] [--out EST.csv]`  replay a recording through the QEMU firmware
 //! - `build`                                   build both firmware variants (release)
 //! - `size`                                    flash/RAM of the release builds vs the budget
-//! - `test`                                    every test of the repository (CI runs this)
+//! - `test [STEP…]`                             every test of the repository (CI runs this), or the steps named
 //! - `flash ELF`                               cargo runner: `probe-rs run` with probe-rs.toml
 
 mod firmware;
@@ -25,7 +25,7 @@ pub fn repo_root() -> PathBuf {
 
 pub type Result<T> = std::result::Result<T, String>;
 
-const USAGE: &str = "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | build | size | test | flash ELF>";
+const USAGE: &str = "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | build | size | test [STEP…] | flash ELF>";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -37,7 +37,7 @@ fn main() -> ExitCode {
         "qemu" => qemu::command(rest),
         "build" => firmware::build_all().map(|_| ()),
         "size" => size::command(),
-        "test" => test_all::command(),
+        "test" => test_all::command(rest),
         "flash" => flash::command(rest),
         "help" | "--help" | "-h" => {
             println!("{USAGE}");

@@ -120,7 +120,107 @@ fn qemu_replay_bundled() -> Result<()> {
     check_count(&r, samples.len())
 }
 
-pub fn command() -> Result<()> {
+/// Relative rms difference allowed between the firmware's estimates under QEMU and the host's
+/// `ipmc compensate --schedule` on the same input (issue 4).
+const EQUIVALENCE_TOL: f64 = 1e-6;
+
+/// The `base_est_m` column of an EST.csv, in row order.
+fn read_base_est(path: &Path) -> Result<Vec<f64>> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut col = None;
+    let mut out = vec![];
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let Some(c) = col else {
+            col = Some(fields.iter().position(|f| *f == "base_est_m").ok_or_else(|| format!("{}: no base_est_m column", path.display()))?);
+            continue;
+        };
+        out.push(
+            fields.get(c).and_then(|f| f.parse::<f64>().ok()).ok_or_else(|| format!("{}:{}: bad base_est_m", path.display(), i + 1))?,
+        );
+    }
+    Ok(out)
+}
+
+/// Runs `cargo ipmc <args>` at the repository root.
+pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
+    let mut cmd = cargo();
+    cmd.current_dir(repo_root()).args(["ipmc"]).args(args);
+    let what = crate::describe(&cmd);
+    let o = cmd.output().map_err(|e| format!("cannot run {what}: {e}"))?;
+    if !o.status.success() {
+        return Err(format!("{what} failed:\n{}", String::from_utf8_lossy(&o.stderr)));
+    }
+    Ok(String::from_utf8_lossy(&o.stdout).into_owned())
+}
+
+/// Host ↔ QEMU equivalence: the firmware on a 10 s recording with a humidity ramp 40 → 50 %
+/// (so it retunes several times at moments its own tasks choose), then the host's f32 chain on
+/// the same input replaying the firmware's retune schedule (`ipmc compensate --schedule`).
+fn qemu_host_equivalence() -> Result<()> {
+    let work = repo_root().join("target/qemu-test/equivalence");
+    std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;
+    let rec_path = work.join("ramp-40-50.csv");
+    ipmc(&[
+        "simulate-sweep".as_ref(),
+        "--seconds".as_ref(),
+        "10".as_ref(),
+        "--rh-from".as_ref(),
+        "40".as_ref(),
+        "--rh-to".as_ref(),
+        "50".as_ref(),
+        "--out".as_ref(),
+        rec_path.as_os_str(),
+    ])?;
+    let rec = crate::recording::read(&rec_path)?;
+    let samples: Vec<Sample> =
+        rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
+    let r = replay("equivalence", &samples)?;
+    check_count(&r, samples.len())?;
+    let retunes = r.blocks_with(flags::RETUNED);
+    if retunes == 0 {
+        return Err(format!("RH ramps 40 → 50 % but the firmware never retuned\n{}", r.log));
+    }
+    let fw_path = work.join("EST-qemu.csv");
+    qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks)?;
+    let host_path = work.join("EST-host.csv");
+    ipmc(&[
+        "compensate".as_ref(),
+        rec_path.as_os_str(),
+        "--out".as_ref(),
+        host_path.as_os_str(),
+        "--schedule".as_ref(),
+        fw_path.as_os_str(),
+    ])?;
+    let fw = read_base_est(&fw_path)?;
+    let host = read_base_est(&host_path)?;
+    if fw.len() != host.len() {
+        return Err(format!("{} firmware estimates, {} host estimates", fw.len(), host.len()));
+    }
+    let (mut sd, mut sf, mut worst) = (0.0f64, 0.0f64, 0.0f64);
+    for (a, b) in fw.iter().zip(&host) {
+        sd += (a - b) * (a - b);
+        sf += a * a;
+        worst = worst.max((a - b).abs());
+    }
+    let rel = (sd / sf).sqrt();
+    println!(
+        "host vs QEMU over {} estimates, {retunes} retunes: relative rms difference {rel:.3e} (max abs {worst:.3e} m, rms {:.3e} m), bound {EQUIVALENCE_TOL:e}",
+        fw.len(),
+        (sf / fw.len() as f64).sqrt()
+    );
+    if !(rel <= EQUIVALENCE_TOL) {
+        return Err(format!("relative rms difference {rel:.3e} > {EQUIVALENCE_TOL:e} ({} vs {})", fw_path.display(), host_path.display()));
+    }
+    Ok(())
+}
+
+/// `filter`: when given, only the steps whose name contains one of these strings run.
+pub fn command(filter: &[String]) -> Result<()> {
     type Step = (&'static str, fn() -> Result<()>);
     let steps: &[Step] = &[
         ("core tests", || cargo_test("core/Cargo.toml")),
@@ -133,7 +233,13 @@ pub fn command() -> Result<()> {
         ("qemu replay: estimate count and retune", qemu_replay_counts_and_retunes),
         ("qemu replay: fault injection", qemu_replay_faults),
         ("qemu replay: bundled recording", qemu_replay_bundled),
+        ("qemu replay: host ↔ QEMU equivalence (RH ramp 40 → 50 %)", qemu_host_equivalence),
     ];
+    let selected: Vec<&Step> = steps.iter().filter(|(n, _)| filter.is_empty() || filter.iter().any(|f| n.contains(f.as_str()))).collect();
+    if selected.is_empty() {
+        return Err(format!("no test step matches {filter:?}"));
+    }
+    let steps = selected;
     let mut failed = Vec::new();
     for (i, (name, step)) in steps.iter().enumerate() {
         println!("\n==> [{}/{}] {name}", i + 1, steps.len());
@@ -146,7 +252,7 @@ pub fn command() -> Result<()> {
         }
     }
     println!("\nxtask test summary:");
-    for (name, _) in steps {
+    for (name, _) in &steps {
         println!("  {} {name}", if failed.contains(name) { "FAILED" } else { "ok    " });
     }
     println!("{} passed, {} failed", steps.len() - failed.len(), failed.len());

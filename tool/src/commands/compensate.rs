@@ -39,8 +39,115 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// One design at this RH [%], never retuned (the humidity-independent baseline).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "schedule")]
     fixed_rh: Option<f64>,
+    /// The firmware's own estimates (its EST.csv: `t_s,base_est_m,rh_pct,flags`): replay its
+    /// retune schedule exactly instead of the host's 0.25 % policy. The first design is made at
+    /// the first block's `rh_pct`; at every block flagged RETUNED the compensator switches to a
+    /// design made at that block's `rh_pct` before processing it (src/app/sample_path.rs).
+    #[arg(long)]
+    schedule: Option<PathBuf>,
+}
+
+/// One firmware block of the retune schedule: where it starts, the RH it reports, its flags.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScheduledBlock {
+    pub first_sample: usize,
+    pub rh_pct: f32,
+    pub flags: u16,
+}
+
+/// Reads the retune schedule from a firmware EST.csv: rows are samples in order from sample 0
+/// (as `cargo xtask qemu` writes them), every [`BLOCK_LEN`] rows one block with one `rh_pct` and
+/// one `flags`. `rh_pct` is parsed as f32 directly (the firmware prints the shortest f32 that
+/// round-trips), so the design RH is bit-exact.
+pub fn read_schedule(path: &Path) -> Result<Vec<ScheduledBlock>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    parse_schedule(&text, &path.display().to_string())
+}
+
+pub fn parse_schedule(text: &str, name: &str) -> Result<Vec<ScheduledBlock>> {
+    let mut cols: Option<(usize, usize)> = None;
+    let mut out: Vec<ScheduledBlock> = vec![];
+    let mut row = 0usize;
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let Some((crh, cfl)) = cols else {
+            let find = |w: &str| fields.iter().position(|f| *f == w).ok_or_else(|| anyhow!("{name}:{}: no `{w}` column", i + 1));
+            cols = Some((find("rh_pct")?, find("flags")?));
+            continue;
+        };
+        let rh: f32 = fields
+            .get(crh)
+            .and_then(|f| f.parse().ok())
+            .ok_or_else(|| anyhow!("{name}:{}: `rh_pct` is not a number", i + 1))?;
+        let fl: u16 = fields
+            .get(cfl)
+            .and_then(|f| f.parse().ok())
+            .ok_or_else(|| anyhow!("{name}:{}: `flags` is not a u16", i + 1))?;
+        if row % BLOCK_LEN == 0 {
+            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, flags: fl });
+        } else {
+            let b = out.last().expect("a block was started");
+            if b.flags != fl || b.rh_pct.to_bits() != rh.to_bits() {
+                bail!("{name}:{}: rh_pct/flags change inside the block starting at sample {}", i + 1, b.first_sample);
+            }
+        }
+        row += 1;
+    }
+    if out.is_empty() {
+        bail!("{name}: no estimates");
+    }
+    Ok(out)
+}
+
+/// Replays the firmware's schedule over `ts`: one compensator, designed at the first block's
+/// RH, switched at each RETUNED block to a design at that block's RH, blocks of [`BLOCK_LEN`]
+/// exactly as the firmware processes them. Samples past the schedule are not processed.
+pub fn compensate_scheduled(ts: &TimeSeries, schedule: &[ScheduledBlock]) -> Result<Estimates> {
+    let calib = Calibration::default_preset();
+    let cfg = DesignConfig::<f32> { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() };
+    let design = |rh: f32| -> Result<Inverse<f32>> {
+        design_inverse::<f32>(&calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
+    };
+    let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
+    let mut est = Estimates {
+        base_est_m: Vec::with_capacity(n),
+        delay_samples: Vec::with_capacity(n),
+        burst_start: Vec::with_capacity(n),
+        rh_pct: Vec::with_capacity(n),
+        flags: Vec::with_capacity(n),
+        retunes: 0,
+    };
+    let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
+    for (k, b) in schedule.iter().enumerate() {
+        if b.first_sample != k * BLOCK_LEN {
+            bail!("schedule block {k} starts at sample {}, expected {}", b.first_sample, k * BLOCK_LEN);
+        }
+        let pos = b.first_sample;
+        if pos + BLOCK_LEN > ts.t_s.len() {
+            break;
+        }
+        if b.flags & flags::RETUNED != 0 {
+            comp.switch_to(&design(b.rh_pct)?);
+            est.retunes += 1;
+        }
+        let mut block: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
+        comp.process_block(&mut block);
+        let d = (comp.delay_s() as f64 * ts.fs_hz).round() as usize;
+        for v in block {
+            est.base_est_m.push(v);
+            est.delay_samples.push(d);
+            est.burst_start.push(0);
+            est.rh_pct.push(b.rh_pct);
+            est.flags.push(b.flags);
+        }
+    }
+    Ok(est)
 }
 
 /// A time-series recording (recording-format.md §2), the columns the compensation uses.
@@ -282,21 +389,27 @@ pub fn relative_error(est: &[f32], delay: &[usize], burst_start: &[usize], base:
 
 pub fn run(a: Args) -> Result<()> {
     let ts = read_time_series(&a.input)?;
-    let est = compensate(&ts, a.fixed_rh)?;
+    let est = match &a.schedule {
+        Some(p) => compensate_scheduled(&ts, &read_schedule(p)?)?,
+        None => compensate(&ts, a.fixed_rh)?,
+    };
     let mut s = String::with_capacity(ts.t_s.len() * 40);
     writeln!(s, "# fs_hz={}", ts.fs_hz)?;
-    match a.fixed_rh {
-        Some(r) => writeln!(s, "# mode=fixed rh_pct={r}")?,
-        None => writeln!(s, "# mode=compensated")?,
+    match (&a.schedule, a.fixed_rh) {
+        (Some(p), _) => writeln!(s, "# mode=scheduled schedule={}", p.display())?,
+        (None, Some(r)) => writeln!(s, "# mode=fixed rh_pct={r}")?,
+        (None, None) => writeln!(s, "# mode=compensated")?,
     }
     writeln!(s, "t_s,base_est_m,rh_pct,flags")?;
-    for i in 0..ts.t_s.len() {
-        writeln!(s, "{},{:.6e},{},{}", ts.t_s[i], est.base_est_m[i], est.rh_pct[i], est.flags[i])?;
+    // `{:e}`: the shortest text that reads back as the same f32 (exact comparisons with the firmware).
+    for i in 0..est.base_est_m.len() {
+        writeln!(s, "{},{:e},{},{}", ts.t_s[i], est.base_est_m[i], est.rh_pct[i], est.flags[i])?;
     }
     write_atomically(&a.out, s.as_bytes())?;
-    let mode = match a.fixed_rh {
-        Some(r) => format!("fixed design at {r} % RH"),
-        None => format!("compensated, {} retunes", est.retunes),
+    let mode = match (&a.schedule, a.fixed_rh) {
+        (Some(p), _) => format!("firmware schedule of {}, {} retunes", p.display(), est.retunes),
+        (None, Some(r)) => format!("fixed design at {r} % RH"),
+        (None, None) => format!("compensated, {} retunes", est.retunes),
     };
     println!("{} estimates ({mode}) -> {}", est.base_est_m.len(), a.out.display());
     if let Some(base) = &ts.base_m {
@@ -327,6 +440,20 @@ mod tests {
         assert!(e.contains("r.csv:3") && e.contains("column 2") && e.contains("current_a"), "{e}");
         let e = parse_time_series("t_s,current_a\n0,1\n", "r.csv").unwrap_err().to_string();
         assert!(e.contains("r.csv:1") && e.contains("rh_pct"), "{e}");
+    }
+
+    #[test]
+    fn schedule_reads_blocks_and_rejects_mixed_rows() {
+        let mut csv = String::from("# fs_hz=2000\nt_s,base_est_m,rh_pct,flags\n");
+        for i in 0..2 * BLOCK_LEN {
+            let (rh, fl) = if i < BLOCK_LEN { ("40.1", 0) } else { ("40.35", 8) };
+            csv += &format!("{},1e-6,{rh},{fl}\n", i as f64 / 2000.0);
+        }
+        let s = parse_schedule(&csv, "e.csv").unwrap();
+        assert_eq!(s.len(), 2);
+        assert_eq!(s[1], ScheduledBlock { first_sample: BLOCK_LEN, rh_pct: 40.35, flags: flags::RETUNED });
+        let bad = csv.replacen("40.1,0\n", "40.1,8\n", 1);
+        assert!(parse_schedule(&bad, "e.csv").unwrap_err().to_string().contains("inside the block"));
     }
 
     #[test]
