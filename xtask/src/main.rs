@@ -1,11 +1,13 @@
 //! `cargo xtask <command>`: host-side commands around the firmware.
 //!
 //! - `qemu [--input REC.csv] [--out EST.csv]`  replay a recording through the QEMU firmware
+//! - `bench [--json]`                         instruction counts of the compute path under QEMU -icount
 //! - `build`                                   build both firmware variants (release)
 //! - `size`                                    flash/RAM of the release builds vs the budget
 //! - `test [STEP…]`                             every test of the repository (CI runs this), or the steps named
 //! - `flash ELF`                               cargo runner: `probe-rs run` with probe-rs.toml
 
+mod bench;
 mod firmware;
 mod flash;
 mod install;
@@ -25,7 +27,7 @@ pub fn repo_root() -> PathBuf {
 
 pub type Result<T> = std::result::Result<T, String>;
 
-const USAGE: &str = "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | build | size | test [STEP…] | flash ELF>";
+const USAGE: &str = "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | bench [--json] | build | size | test [STEP…] | flash ELF>";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -35,6 +37,7 @@ fn main() -> ExitCode {
     };
     let result = match command.as_str() {
         "qemu" => qemu::command(rest),
+        "bench" => bench::command(rest),
         "build" => firmware::build_all().map(|_| ()),
         "size" => size::command(),
         "test" => test_all::command(rest),

@@ -48,7 +48,7 @@ pub fn run(a: Args) -> Result<()> {
     let sections: Vec<_> = inv
         .sections()
         .iter()
-        .map(|s| json!({"b": s.b, "a": s.a}))
+        .map(|s| json!({"b": s.b, "a": s.a, "delta": {"beta": s.beta, "alpha": s.alpha}}))
         .collect();
     let doc = json!({
         "fs_hz": a.fs,
@@ -56,6 +56,9 @@ pub fn run(a: Args) -> Result<()> {
         "delay_s": inv.delay_s,
         "gain": inv.gain,
         "sections": sections,
+        // The firmware runs each section in delta-operator form (core/src/filter.rs); `b`/`a` are the
+        // same sections in z⁻¹ form. The last `fixed_sections` never change with humidity.
+        "fixed_sections": inv.n_fixed,
         "error": {
             "band_hz": [lo, hi],
             "compensation_rms": rms,

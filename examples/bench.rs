@@ -1,0 +1,240 @@
+//! Instruction-count benchmark of the firmware's compute path, run by `cargo xtask bench` in
+//! `qemu-system-arm -M b-l475e-iot01a -icount shift=0` (build: `--features qemu`).
+//!
+//! Method: SysTick clocked from the core clock, reload 2^24 − 1, free running; a measured region
+//! is the difference of two reads of its current-value register (SYST_CVR). Under `-icount`
+//! QEMU's virtual clock advances a fixed 2^shift ns per instruction, so one SysTick tick is a
+//! fixed number of instructions (at shift = 0 and QEMU's 4 MHz MSI SYSCLK, 250). That number
+//! is measured, not assumed: two asm loops of `nop`s whose instruction counts are known exactly
+//! are timed and their difference gives instructions per tick. DWT CYCCNT is not emulated.
+//!
+//! Output (semihosting stdout), one `key value` per line, read by xtask/src/bench.rs.
+//!
+//! The per-sample path is the firmware's: ADC code → amperes with the clip check
+//! (src/app/current_conversion.rs, the same file) and `Compensator::process_block` per block of
+//! `BLOCK_LEN` (src/app/config.rs, the same file). The reference is the `biquad` crate's DF2T
+//! section (`DirectForm2Transposed::run`), run stage by stage over the same blocks with the same
+//! section coefficients.
+
+#![no_std]
+#![no_main]
+
+#[path = "../src/app/config.rs"]
+#[allow(dead_code)]
+mod config;
+#[path = "../src/app/current_conversion.rs"]
+#[allow(dead_code)]
+mod current_conversion;
+
+use core::hint::black_box;
+
+use biquad::{Biquad, Coefficients, DirectForm2Transposed};
+use cortex_m::peripheral::{SYST, syst::SystClkSource};
+use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
+use semihosting::println;
+// The device vector table cortex-m-rt links against.
+use stm32_metapac as _;
+
+use config::{BLOCK_LEN, SAMPLE_RATE_HZ};
+
+const RELOAD: u32 = 0x00FF_FFFF;
+/// Blocks per measured run (2000 blocks = 32 s of samples at 2 kHz).
+const BLOCKS: u32 = 2_000;
+
+#[inline(always)]
+fn now() -> u32 {
+    SYST::get_current()
+}
+
+/// Ticks elapsed from `start` (SysTick counts down, 24 bits).
+#[inline(always)]
+fn since(start: u32) -> u32 {
+    start.wrapping_sub(now()) & RELOAD
+}
+
+/// `k` iterations of 1000 `nop`s plus `subs` and `bne`: exactly 1002·k instructions.
+#[inline(never)]
+fn nops(k: u32) {
+    if k == 0 {
+        return;
+    }
+    // SAFETY: a register-only loop.
+    unsafe {
+        core::arch::asm!(
+            "2:",
+            ".rept 1000",
+            "nop",
+            ".endr",
+            "subs {k}, {k}, #1",
+            "bne 2b",
+            k = inout(reg) k => _,
+            options(nomem, nostack),
+        );
+    }
+}
+
+fn ticks_of_nops(k: u32) -> u32 {
+    let t = now();
+    nops(k);
+    since(t)
+}
+
+/// A 40 Hz tone around mid-scale as the ADC would deliver it.
+fn codes() -> [u16; 2048] {
+    let mut c = [0u16; 2048];
+    let mut phase = 0.0f32;
+    for v in c.iter_mut() {
+        // Parabolic sine approximation: no libm needed for a test signal.
+        let x = phase - 0.5;
+        let s = 8.0 * x * (1.0 - 2.0 * if x < 0.0 { -x } else { x });
+        *v = (2048.0 + 300.0 * s) as u16;
+        phase += 40.0 / SAMPLE_RATE_HZ as f32;
+        if phase >= 1.0 {
+            phase -= 1.0;
+        }
+    }
+    c
+}
+
+/// One block of the firmware's per-sample path: conversion and clip check, then the compensator.
+#[inline(never)]
+fn sample_block(comp: &mut Compensator<f32>, codes: &[u16; 2048], at: usize) -> bool {
+    let mut amps = [0.0f32; BLOCK_LEN];
+    let mut clipped = false;
+    for (k, a) in amps.iter_mut().enumerate() {
+        let code = codes[(at + k) & 2047];
+        clipped |= current_conversion::is_clipped_code(code);
+        *a = current_conversion::code_to_amps(code);
+    }
+    comp.process_block(&mut amps);
+    black_box(&amps);
+    clipped
+}
+
+/// Stage by stage with the biquad crate's DF2T `run`, per sample within each stage.
+#[inline(never)]
+fn biquad_block(sections: &mut [DirectForm2Transposed<f32, f32>], block: &mut [f32; BLOCK_LEN]) {
+    for s in sections.iter_mut() {
+        for v in block.iter_mut() {
+            *v = s.run(*v);
+        }
+    }
+}
+
+fn design(rh: f32) -> Inverse<f32> {
+    let cfg = DesignConfig { fs_hz: SAMPLE_RATE_HZ as f32, ..DesignConfig::default() };
+    match design_inverse(&Calibration::default(), rh, &cfg) {
+        Ok(d) => d,
+        Err(_) => {
+            println!("error design failed at {} %RH", rh);
+            semihosting::process::exit(1)
+        }
+    }
+}
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let mut core = cortex_m::Peripherals::take().unwrap();
+    core.SYST.set_clock_source(SystClkSource::Core);
+    core.SYST.set_reload(RELOAD);
+    core.SYST.clear_current();
+    core.SYST.enable_counter();
+
+    // Calibration: instructions per SysTick tick from two nop loops of known length.
+    let (k1, k2) = (1_000u32, 21_000u32);
+    let (t1, t2) = (ticks_of_nops(k1), ticks_of_nops(k2));
+    let ipt = 1002.0 * (k2 - k1) as f64 / (t2 - t1) as f64;
+    let overhead = ticks_of_nops(0);
+    println!("calibration_ticks {} {} {} {}", k1, t1, k2, t2);
+    println!("instructions_per_tick {}", ipt);
+    println!("empty_region_ticks {}", overhead);
+    let instr = |ticks: u32| ticks as f64 * ipt;
+
+    // One retune: a design at a new RH (the first design below is the start-up one).
+    let d45 = design(45.0);
+    let t = now();
+    let d60 = black_box(design(black_box(60.0)));
+    println!("instructions_per_retune {}", instr(since(t)));
+    let t = now();
+    let _ = black_box(design(black_box(75.5)));
+    println!("instructions_per_retune_75 {}", instr(since(t)));
+
+    let codes = codes();
+    let mut comp = Compensator::new(&d45);
+    let mut at = 0usize;
+    // Settle, then the steady state.
+    for _ in 0..100 {
+        sample_block(&mut comp, &codes, at);
+        at += BLOCK_LEN;
+    }
+    let t = now();
+    for _ in 0..BLOCKS {
+        black_box(sample_block(&mut comp, &codes, at));
+        at += BLOCK_LEN;
+    }
+    let steady = instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64);
+
+    // A retune in the sample path: the switch, then warm-up and crossfade until it completes.
+    let t = now();
+    comp.switch_to(&d60);
+    let switch = instr(since(t));
+    let mut blocks = 0u32;
+    let t = now();
+    while comp.is_fading() {
+        black_box(sample_block(&mut comp, &codes, at));
+        at += BLOCK_LEN;
+        blocks += 1;
+    }
+    let during = instr(since(t)) / (blocks as f64 * BLOCK_LEN as f64);
+
+    let sections = d45.n_sections;
+    println!("block_len {}", BLOCK_LEN);
+    println!("sample_rate_hz {}", SAMPLE_RATE_HZ);
+    println!("sections {}", sections);
+    println!("head_sections {}", sections - d45.n_fixed);
+    println!("instructions_per_sample {}", steady);
+    println!("instructions_per_switch_to {}", switch);
+    println!("retune_blocks {}", blocks);
+    println!("instructions_per_sample_during_retune {}", during);
+
+    // Reference: the biquad crate's DF2T, same sections (gain in the first), same blocks.
+    let mut bq: [DirectForm2Transposed<f32, f32>; ipmc_core::MAX_SECTIONS] =
+        [DirectForm2Transposed::new(Coefficients { a1: 0.0, a2: 0.0, b0: 1.0, b1: 0.0, b2: 0.0 }); ipmc_core::MAX_SECTIONS];
+    for (i, (q, s)) in bq.iter_mut().zip(d45.sections()).enumerate() {
+        let g = if i == 0 { d45.gain } else { 1.0 };
+        *q = DirectForm2Transposed::new(Coefficients { a1: s.a[1], a2: s.a[2], b0: g * s.b[0], b1: g * s.b[1], b2: g * s.b[2] });
+    }
+    let bq = &mut bq[..sections];
+    let mut block = [0.0f32; BLOCK_LEN];
+    let t = now();
+    for _ in 0..BLOCKS {
+        for (k, v) in block.iter_mut().enumerate() {
+            *v = current_conversion::code_to_amps(codes[(at + k) & 2047]);
+        }
+        biquad_block(bq, &mut block);
+        black_box(&block);
+        at += BLOCK_LEN;
+    }
+    let bq_total = instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64);
+    // The conversion loop alone, to take it out of the reference's per-section figure.
+    let t = now();
+    for _ in 0..BLOCKS {
+        for (k, v) in block.iter_mut().enumerate() {
+            *v = current_conversion::code_to_amps(codes[(at + k) & 2047]);
+        }
+        black_box(&block);
+        at += BLOCK_LEN;
+    }
+    let conv = instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64);
+    println!("conversion_per_sample {}", conv);
+    println!("biquad_df2t_per_sample {}", bq_total);
+    println!("biquad_df2t_per_section {}", (bq_total - conv) / sections as f64);
+    println!("done");
+    semihosting::process::exit(0)
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    println!("panic {}", info);
+    semihosting::process::exit(101)
+}

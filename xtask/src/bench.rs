@@ -1,0 +1,105 @@
+//! `cargo xtask bench [--json]`: deterministic instruction counts of the firmware's compute path
+//! under `qemu-system-arm -M b-l475e-iot01a -icount shift=0` (examples/bench.rs: SysTick on the
+//! core clock, SYST_CVR read around each region, ticks → instructions calibrated with loops of
+//! `nop`s of known length in the same run).
+
+use std::{
+    collections::BTreeMap,
+    process::{Command, Stdio},
+};
+
+use crate::{Result, describe, firmware::cargo, install, repo_root};
+
+/// Issue 4 targets.
+const TARGET_PER_SECTION: f64 = 12.0;
+const STRETCH_PER_SECTION: f64 = 7.4;
+const TARGET_RETUNE: f64 = 500_000.0;
+const STRETCH_RETUNE: f64 = 100_000.0;
+/// The design's fixed preview [ms] (core DesignConfig::max_delay_s at 2 kHz: 4 samples).
+const DESIGN_DELAY_MS: f64 = 2.0;
+
+fn build() -> Result<std::path::PathBuf> {
+    install::ensure_cargo_tool("flip-link", "flip-link")?;
+    let target_dir = repo_root().join("target/qemu");
+    let mut cmd = cargo();
+    cmd.current_dir(repo_root())
+        .args(["build", "--release", "--example", "bench", "--no-default-features", "--features", "qemu"])
+        .arg("--target-dir")
+        .arg(&target_dir);
+    println!("==> building the benchmark (examples/bench.rs, qemu board)");
+    crate::run(&mut cmd)?;
+    Ok(target_dir.join("thumbv7em-none-eabihf/release/examples/bench"))
+}
+
+/// Runs the benchmark and returns its `key value` lines.
+pub fn measure() -> Result<BTreeMap<String, f64>> {
+    install::ensure_qemu()?;
+    let elf = build()?;
+    let mut cmd = Command::new("qemu-system-arm");
+    cmd.args(["-M", install::QEMU_MACHINE, "-icount", "shift=0", "-display", "none", "-monitor", "none", "-serial", "null"])
+        .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
+        .arg(&elf)
+        .stdin(Stdio::null());
+    let what = describe(&cmd);
+    let out = cmd.output().map_err(|e| format!("cannot start {what}: {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() || !text.lines().any(|l| l.trim() == "done") {
+        return Err(format!("{what} failed ({}):\n{text}{}", out.status, String::from_utf8_lossy(&out.stderr)));
+    }
+    let mut m = BTreeMap::new();
+    for line in text.lines() {
+        let mut it = line.split_whitespace();
+        if let (Some(k), Some(v), None) = (it.next(), it.next(), it.next()) {
+            if let Ok(v) = v.parse::<f64>() {
+                m.insert(k.to_string(), v);
+            }
+        }
+    }
+    Ok(m)
+}
+
+pub fn command(args: &[String]) -> Result<()> {
+    let mut json = false;
+    for a in args {
+        match a.as_str() {
+            "--json" => json = true,
+            other => return Err(format!("bench: unknown argument `{other}` (usage: cargo xtask bench [--json])")),
+        }
+    }
+    let m = measure()?;
+    let get = |k: &str| m.get(k).copied().ok_or_else(|| format!("the benchmark printed no `{k}`"));
+    let ipt = get("instructions_per_tick")?;
+    let ips = get("instructions_per_sample")?;
+    let sections = get("sections")?;
+    let retune = get("instructions_per_retune")?;
+    let bq = get("biquad_df2t_per_section")?;
+    let block = get("block_len")?;
+    let fs = get("sample_rate_hz")?;
+    let conv = get("conversion_per_sample")?;
+    let during = get("instructions_per_sample_during_retune")?;
+    let per_section = ips / sections;
+    let verdict = |ok: bool| if ok { "met" } else { "MISSED" };
+
+    println!("QEMU -icount shift=0, SysTick on the core clock: {ipt:.3} instructions per tick (calibrated with nop loops)");
+    println!("block {block} samples at {fs} Hz: {:.1} ms per block; latency {:.1} ms (block) + {DESIGN_DELAY_MS} ms (design preview)", 1e3 * block / fs, 1e3 * block / fs);
+    println!("per-sample compute path (conversion + Compensator::process_block per block, {sections} sections):");
+    println!("  {ips:.1} instructions per sample, {per_section:.2} per section per sample (target ≤ {TARGET_PER_SECTION}: {}; stretch {STRETCH_PER_SECTION})", verdict(per_section <= TARGET_PER_SECTION));
+    println!("  of which ADC code → A conversion {conv:.1} per sample");
+    println!(
+        "  during a retune (warm-up + crossfade, {} blocks, two heads run): {during:.1} per sample; the switch_to call itself {:.0}",
+        get("retune_blocks")?,
+        get("instructions_per_switch_to")?
+    );
+    println!(
+        "retune (design_inverse at a new RH, 45 → 60 %): {retune:.0} instructions (target ≤ {TARGET_RETUNE}: {}; stretch {STRETCH_RETUNE}); at 75.5 %: {:.0}",
+        verdict(retune <= TARGET_RETUNE),
+        get("instructions_per_retune_75")?
+    );
+    println!("reference, biquad crate DF2T run() stage by stage over the same blocks: {bq:.2} instructions per section per sample");
+    if json {
+        println!(
+            "{{\"instructions_per_sample\":{ips:.2},\"sections\":{sections},\"instructions_per_retune\":{retune:.0},\"biquad_df2t_per_section\":{bq:.2}}}"
+        );
+    }
+    Ok(())
+}
