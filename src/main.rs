@@ -33,7 +33,7 @@ static RETUNE_EXECUTOR: StaticCell<Executor> = StaticCell::new();
 #[cortex_m_rt::entry]
 fn main() -> ! {
     let board = board::init();
-    defmt::info!("ipmc firmware on {}", board::NAME);
+    defmt::info!("ipmc firmware on {}, calibration: {}", board::NAME, app::calibration::CALIBRATION_SOURCE);
 
     let sample_spawner = board::start_sample_executor(&SAMPLE_EXECUTOR);
     sample_spawner.spawn(app::sample_path::sample_task(board.samples).expect("sample task spawns once"));

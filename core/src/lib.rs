@@ -18,6 +18,7 @@ pub mod model;
 pub mod rational;
 pub mod real;
 pub mod roots;
+pub mod stream;
 pub mod universal;
 
 pub use calibration::{Calibration, Law, LawKind, ParamName, Params, ValidationError};

@@ -5,10 +5,9 @@ use ipmc_core::{Calibration, Compensator, DesignConfig, DesignError, Inverse, de
 
 use super::config::SAMPLE_RATE_HZ;
 
-/// The calibration compiled into this firmware (the core's default preset).
-/// TODO: a calibration file written by the host tool, selected at build time.
+/// The calibration compiled into this firmware (see `calibration`: chosen at build time).
 pub fn calibration() -> Calibration {
-    Calibration::default()
+    super::calibration::CALIBRATION
 }
 
 fn design_config() -> DesignConfig<f32> {

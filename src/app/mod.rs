@@ -1,6 +1,7 @@
 //! Application: identical for every board. Sources come in through `ports`, the compensation
 //! comes from ipmc-core through `compensation`, results leave through `report`.
 
+pub mod calibration;
 pub mod compensation;
 pub mod config;
 pub mod current_conversion;
@@ -11,4 +12,3 @@ pub mod ports;
 pub mod report;
 pub mod retune;
 pub mod sample_path;
-pub mod stream_frame;

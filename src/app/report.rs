@@ -1,14 +1,19 @@
 //! Reporting: every block goes out as a stream frame; a defmt status line goes out about
 //! once a second. At the end of a replay, tells the board to finish.
 
+use ipmc_core::stream::{self, Header};
+
 use crate::board::{self, Stream};
 
 use super::{
-    config::LOG_EVERY_BLOCKS,
+    config::{BLOCK_LEN, LOG_EVERY_BLOCKS},
     handoff::{REPORT_QUEUE, ReportItem},
     ports::StreamSink,
-    stream_frame::{self, MAX_FRAME_LEN},
 };
+
+/// The wire format (documented in ipmc-core's `stream` module) carries at most 255 estimates.
+const _: () = assert!(BLOCK_LEN <= stream::MAX_ESTIMATES);
+const MAX_FRAME_LEN: usize = stream::max_frame_len(BLOCK_LEN);
 
 #[embassy_executor::task]
 pub async fn report_task(mut stream: Stream) {
@@ -17,8 +22,12 @@ pub async fn report_task(mut stream: Stream) {
     loop {
         match REPORT_QUEUE.receive().await {
             ReportItem::Block(block) => {
-                let n = stream_frame::encode(&block, &mut frame);
-                stream.write_all(&frame[..n]).await;
+                let header = Header { first_sample: block.first_sample, rh_pct: block.rh_pct, flags: block.flags };
+                match stream::encode(&header, &block.base_est_m, &mut frame) {
+                    Ok(n) => stream.write_all(frame.get(..n).unwrap_or(&[])).await,
+                    // Cannot happen with the buffer sized above; losing a frame beats stopping.
+                    Err(_) => defmt::error!("stream frame not encoded (buffer too small)"),
+                }
                 if reported % LOG_EVERY_BLOCKS == 0 {
                     defmt::info!(
                         "sample {}: base {} m, RH {} %, flags {=u16:#x}",

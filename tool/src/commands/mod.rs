@@ -1,4 +1,5 @@
 pub mod accuracy;
+pub mod calib_export;
 pub mod compensate;
 pub mod design;
 pub mod model;

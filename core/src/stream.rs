@@ -1,0 +1,333 @@
+//! Wire format of the firmware's binary stream, encoder and decoder in one place, so the
+//! firmware (encodes), `cargo xtask qemu` and `cargo ipmc monitor` (decode) cannot drift apart.
+//! No heap: the encoder writes into a caller's buffer, the decoder works in place.
+//!
+//! One frame per block of estimates:
+//!
+//! ```text
+//! payload, little endian:
+//!   u8   version (= FRAME_VERSION)
+//!   u32  index of the block's first sample since acquisition start
+//!   f32  RH [%] used for the block
+//!   u16  flags (firmware src/app/flags.rs)
+//!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
+//!   f32  × n  base displacement estimates [m], one per sample at the firmware's sample rate
+//!   u16  CRC-16/IBM-3740 (poly 0x1021, init 0xFFFF) of all bytes above
+//! frame = COBS(payload) followed by one 0x00 delimiter
+//! ```
+//!
+//! COBS leaves no 0x00 inside a frame, so a reader that starts mid-stream or loses bytes
+//! resynchronises at the next delimiter; the CRC catches what COBS cannot (flipped bits).
+
+use core::fmt;
+
+use crc::{CRC_16_IBM_3740, Crc};
+
+/// Bumped whenever the payload layout changes; decoders refuse other versions.
+pub const FRAME_VERSION: u8 = 1;
+/// version + first sample + RH + flags + count.
+pub const HEADER_LEN: usize = 1 + 4 + 4 + 2 + 1;
+const CRC_LEN: usize = 2;
+/// The count is one byte.
+pub const MAX_ESTIMATES: usize = u8::MAX as usize;
+
+const CRC16: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
+
+/// Payload bytes of a frame carrying `n` estimates.
+pub const fn payload_len(n: usize) -> usize {
+    HEADER_LEN + 4 * n + CRC_LEN
+}
+
+/// Encoded frame length for `n` estimates in the worst case, delimiter included: the size
+/// of an encoder's output buffer.
+pub const fn max_frame_len(n: usize) -> usize {
+    cobs::max_encoding_length(payload_len(n)) + 1
+}
+
+/// Largest encoded frame any valid stream can contain, delimiter included: the size of a
+/// decoder's buffer that accepts every frame size.
+pub const MAX_FRAME_LEN: usize = max_frame_len(MAX_ESTIMATES);
+
+/// Everything in a frame except the estimates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Header {
+    /// Index of the block's first sample since acquisition start (wraps at 2³²).
+    pub first_sample: u32,
+    pub rh_pct: f32,
+    pub flags: u16,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EncodeError {
+    /// More than [`MAX_ESTIMATES`] estimates.
+    TooManyEstimates(usize),
+    /// The output buffer is shorter than [`max_frame_len`] of the estimate count.
+    BufferTooSmall,
+}
+
+/// Encodes one frame into `out`; returns its length including the 0x00 delimiter.
+pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usize, EncodeError> {
+    let count = u8::try_from(estimates.len()).map_err(|_| EncodeError::TooManyEstimates(estimates.len()))?;
+    if out.len() < max_frame_len(estimates.len()) {
+        return Err(EncodeError::BufferTooSmall);
+    }
+    let (body, _) = out.split_at_mut(out.len() - 1);
+    // Streamed straight into the output (no payload copy): the CRC and COBS see the same bytes.
+    let mut encoder = cobs::CobsEncoder::new(body);
+    let mut digest = CRC16.digest();
+    let mut put = |bytes: &[u8]| -> Result<(), EncodeError> {
+        digest.update(bytes);
+        encoder.push(bytes).map_err(|_| EncodeError::BufferTooSmall)
+    };
+    put(&[FRAME_VERSION])?;
+    put(&header.first_sample.to_le_bytes())?;
+    put(&header.rh_pct.to_le_bytes())?;
+    put(&header.flags.to_le_bytes())?;
+    put(&[count])?;
+    for v in estimates {
+        put(&v.to_le_bytes())?;
+    }
+    let crc = digest.finalize();
+    encoder.push(&crc.to_le_bytes()).map_err(|_| EncodeError::BufferTooSmall)?;
+    let n = encoder.finalize();
+    // The length check above leaves room for the delimiter after the worst-case encoding.
+    *out.get_mut(n).ok_or(EncodeError::BufferTooSmall)? = 0;
+    Ok(n + 1)
+}
+
+/// Why a frame was rejected. Every case means "skip this frame"; the stream goes on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DecodeError {
+    /// Not valid COBS (typically a frame whose start was lost).
+    Cobs,
+    /// Fewer bytes than a header and a CRC.
+    TooShort(usize),
+    /// The CRC does not match: some byte changed on the way.
+    Crc,
+    /// A frame of another format version.
+    Version(u8),
+    /// The count byte disagrees with the frame's length.
+    Length { count: u8, payload_len: usize },
+    /// More bytes than any frame has before a delimiter (the [`Deframer`] buffer overflowed).
+    TooLong,
+}
+
+impl fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DecodeError::Cobs => write!(f, "not a valid COBS frame"),
+            DecodeError::TooShort(n) => write!(f, "frame of {n} bytes is too short"),
+            DecodeError::Crc => write!(f, "CRC mismatch"),
+            DecodeError::Version(v) => write!(f, "frame version {v} (expected {FRAME_VERSION})"),
+            DecodeError::Length { count, payload_len } => {
+                write!(f, "frame says {count} estimates but its payload has {payload_len} bytes")
+            }
+            DecodeError::TooLong => write!(f, "no delimiter within {MAX_FRAME_LEN} bytes"),
+        }
+    }
+}
+
+/// A decoded frame, borrowing the estimates from the decoder's buffer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame<'a> {
+    pub header: Header,
+    /// The estimates' bytes, 4 per estimate (read with [`Frame::estimates`]).
+    estimate_bytes: &'a [[u8; 4]],
+}
+
+impl<'a> Frame<'a> {
+    /// Base displacement estimates [m], in sample order.
+    pub fn estimates(&self) -> impl ExactSizeIterator<Item = f32> + 'a {
+        self.estimate_bytes.iter().map(|b| f32::from_le_bytes(*b))
+    }
+    pub fn len(&self) -> usize {
+        self.estimate_bytes.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.estimate_bytes.is_empty()
+    }
+}
+
+/// Decodes one frame: the bytes between two delimiters (without them), decoded in place.
+pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
+    let n = cobs::decode_in_place(encoded).map_err(|_| DecodeError::Cobs)?;
+    let payload = encoded.get(..n).ok_or(DecodeError::Cobs)?;
+    let (body, crc) = payload.split_last_chunk::<CRC_LEN>().ok_or(DecodeError::TooShort(n))?;
+    if body.len() < HEADER_LEN {
+        return Err(DecodeError::TooShort(n));
+    }
+    if CRC16.checksum(body) != u16::from_le_bytes(*crc) {
+        return Err(DecodeError::Crc);
+    }
+    let (&[version], rest) = body.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
+    if version != FRAME_VERSION {
+        return Err(DecodeError::Version(version));
+    }
+    let (first_sample, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (rh_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (flags, rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
+    let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
+    let (estimate_bytes, tail) = rest.as_chunks::<4>();
+    if estimate_bytes.len() != count as usize || !tail.is_empty() {
+        return Err(DecodeError::Length { count, payload_len: n });
+    }
+    Ok(Frame {
+        header: Header {
+            first_sample: u32::from_le_bytes(*first_sample),
+            rh_pct: f32::from_le_bytes(*rh_pct),
+            flags: u16::from_le_bytes(*flags),
+        },
+        estimate_bytes,
+    })
+}
+
+/// Splits a byte stream at the 0x00 delimiters and decodes each frame, one byte at a time,
+/// in a fixed buffer of `N` bytes (use [`MAX_FRAME_LEN`] to accept every valid frame).
+/// Bytes before the first delimiter of a stream joined mid-frame come out as one failed frame.
+pub struct Deframer<const N: usize> {
+    buf: [u8; N],
+    len: usize,
+    overflowed: bool,
+}
+
+impl<const N: usize> Default for Deframer<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Deframer<N> {
+    pub const fn new() -> Self {
+        Self { buf: [0; N], len: 0, overflowed: false }
+    }
+
+    /// Feeds one byte; at a delimiter that ends a non-empty frame, returns that frame decoded
+    /// (or why it was rejected). Empty frames (repeated delimiters) are ignored.
+    pub fn push(&mut self, byte: u8) -> Option<Result<Frame<'_>, DecodeError>> {
+        if byte != 0 {
+            match self.buf.get_mut(self.len) {
+                Some(slot) => {
+                    *slot = byte;
+                    self.len += 1;
+                }
+                None => self.overflowed = true,
+            }
+            return None;
+        }
+        let len = core::mem::replace(&mut self.len, 0);
+        if core::mem::replace(&mut self.overflowed, false) {
+            return Some(Err(DecodeError::TooLong));
+        }
+        if len == 0 {
+            return None;
+        }
+        Some(self.buf.get_mut(..len).map_or(Err(DecodeError::TooLong), decode))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const H: Header = Header { first_sample: 64, rh_pct: 46.5, flags: 0b1001 };
+
+    fn frame(header: &Header, est: &[f32]) -> ([u8; MAX_FRAME_LEN], usize) {
+        let mut out = [0u8; MAX_FRAME_LEN];
+        let n = encode(header, est, &mut out).unwrap();
+        (out, n)
+    }
+
+    #[test]
+    fn round_trip_of_every_length() {
+        for n in 0..=MAX_ESTIMATES {
+            let est: [f32; MAX_ESTIMATES] = core::array::from_fn(|k| (k as f32 - 100.0) * 1e-4);
+            let (mut out, len) = frame(&H, &est[..n]);
+            assert!(len <= max_frame_len(n));
+            assert_eq!(out[len - 1], 0);
+            assert!(!out[..len - 1].contains(&0));
+            // The streaming encoder gives the one-shot encoder's bytes (what v1 sent).
+            let encoded = out;
+            let mut payload = out;
+            let p = cobs::decode_in_place(&mut payload[..len - 1]).unwrap();
+            let mut again = [0u8; MAX_FRAME_LEN];
+            assert_eq!(cobs::encode(&payload[..p], &mut again), len - 1);
+            assert_eq!(again[..len - 1], encoded[..len - 1]);
+            let f = decode(&mut out[..len - 1]).unwrap();
+            assert_eq!(f.header, H);
+            assert_eq!(f.len(), n);
+            assert!(f.estimates().eq(est[..n].iter().copied()));
+        }
+    }
+
+    /// The layout documented above, byte for byte, before COBS.
+    #[test]
+    fn payload_layout() {
+        let (mut out, len) = frame(&H, &[1.0, -2.0]);
+        let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+        let p = &out[..n];
+        assert_eq!(n, payload_len(2));
+        assert_eq!(p[0], FRAME_VERSION);
+        assert_eq!(p[1..5], 64u32.to_le_bytes());
+        assert_eq!(p[5..9], 46.5f32.to_le_bytes());
+        assert_eq!(p[9..11], 9u16.to_le_bytes());
+        assert_eq!(p[11], 2);
+        assert_eq!(p[12..16], 1.0f32.to_le_bytes());
+        assert_eq!(p[16..20], (-2.0f32).to_le_bytes());
+        assert_eq!(p[20..22], CRC16.checksum(&p[..20]).to_le_bytes());
+    }
+
+    #[test]
+    fn refuses_bad_frames() {
+        let (out, len) = frame(&H, &[1.0, 2.0, 3.0]);
+        // Every single-bit flip of the frame body is rejected, never accepted or panicking.
+        for i in 0..len - 1 {
+            for bit in 0..8 {
+                let mut bad = out;
+                bad[i] ^= 1 << bit;
+                assert!(decode(&mut bad[..len - 1]).is_err(), "flip of bit {bit} in byte {i} accepted");
+            }
+        }
+        assert_eq!(encode(&H, &[0.0; 256], &mut [0u8; 2048]), Err(EncodeError::TooManyEstimates(256)));
+        assert_eq!(encode(&H, &[0.0; 4], &mut [0u8; 20]), Err(EncodeError::BufferTooSmall));
+        assert_eq!(decode(&mut [3, 1, 2]), Err(DecodeError::TooShort(2)));
+        assert!(decode(&mut []).is_err());
+    }
+
+    #[test]
+    fn deframer_skips_garbage_and_resyncs() {
+        let mut stream = [0u8; 4 * MAX_FRAME_LEN];
+        let mut w = 0;
+        let mut put = |bytes: &[u8]| {
+            stream[w..w + bytes.len()].copy_from_slice(bytes);
+            w += bytes.len();
+        };
+        put(&[7, 7, 0xFF, 0, 0]); // garbage, then a repeated delimiter
+        let (f, n) = frame(&H, &[1.0]);
+        put(&f[..n]);
+        let (mut f, n) = frame(&Header { first_sample: 65, ..H }, &[2.0]);
+        f[3] ^= 0x40; // corrupted on the wire
+        put(&f[..n]);
+        let (f, n) = frame(&Header { first_sample: 66, ..H }, &[3.0]);
+        put(&f[..n]);
+        put(&[0x55; MAX_FRAME_LEN + 3]); // no delimiter for too long
+        put(&[0]);
+        let (f, n) = frame(&Header { first_sample: 67, ..H }, &[4.0]);
+        put(&f[..n]);
+
+        let mut d = Deframer::<MAX_FRAME_LEN>::new();
+        let (mut good, mut bad) = ([0u32; 8], 0);
+        let mut n_good = 0;
+        for &b in &stream[..w] {
+            match d.push(b) {
+                Some(Ok(frame)) => {
+                    good[n_good] = frame.header.first_sample;
+                    n_good += 1;
+                }
+                Some(Err(_)) => bad += 1,
+                None => {}
+            }
+        }
+        assert_eq!(&good[..n_good], &[64, 66, 67]);
+        assert_eq!(bad, 3); // the garbage, the corrupted frame, the over-long run
+    }
+}
