@@ -13,6 +13,7 @@
 pub mod calibration;
 pub mod design;
 pub mod filter;
+pub mod humidity;
 pub mod lstsq;
 pub mod model;
 pub mod rational;

@@ -1,6 +1,7 @@
 //! Application: identical for every board. Sources come in through `ports`, the compensation
 //! comes from ipmc-core through `compensation`, results leave through `report`.
 
+pub mod analog_humidity;
 pub mod calibration;
 pub mod compensation;
 pub mod config;

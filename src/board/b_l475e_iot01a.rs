@@ -6,7 +6,8 @@
 //! | TIA output                | Arduino A0 = PC5 (ADC1_IN14)            |
 //! | sample trigger            | TIM6 TRGO (update) → ADC1 EXTSEL 13     |
 //! | ADC ring buffer           | DMA1 channel 1                          |
-//! | HTS221 humidity           | I2C2: PB10 SCL, PB11 SDA; DMA1 ch4/ch5  |
+//! | HTS221 humidity (default) | I2C2: PB10 SCL, PB11 SDA; DMA1 ch4/ch5  |
+//! | HIH-4030 humidity (feature `humidity-hih4030`) | Arduino A1 = PC4 (ADC2_IN13), one conversion per reading |
 //! | binary stream             | USART1 TX PB6 (ST-LINK VCP); DMA2 ch6   |
 //! | sample / I/O executors    | UART4 / UART5 interrupts (unused UARTs) |
 //! | time driver               | TIM2 (embassy-stm32 `time-driver-tim2`) |
@@ -16,7 +17,7 @@ use embassy_stm32::{
     Config, bind_interrupts,
     adc::{Adc, AdcChannel, CONTINUOUS, RingBufferedAdc, SampleTime},
     dma,
-    i2c::{self, I2c},
+    i2c,
     interrupt::{InterruptExt, Priority},
     mode::Async,
     peripherals::{ADC1, DMA1_CH1, DMA1_CH4, DMA1_CH5, DMA2_CH6, I2C2, TIM6},
@@ -36,7 +37,12 @@ use crate::app::{
     current_conversion, flags,
     ports::{CurrentSource, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
+#[cfg(not(feature = "humidity-hih4030"))]
 use crate::drivers::hts221::{self, Hts221};
+#[cfg(not(feature = "humidity-hih4030"))]
+use embassy_stm32::i2c::I2c;
+#[cfg(feature = "humidity-hih4030")]
+use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
 
 pub const NAME: &str = "B-L475E-IOT01A";
 
@@ -44,6 +50,7 @@ pub const NAME: &str = "B-L475E-IOT01A";
 const ADC_EXTSEL_TIM6_TRGO: u8 = 13;
 const ADC_EXTEN_RISING: u8 = 0b01;
 const STREAM_BAUD: u32 = 921_600;
+#[cfg(not(feature = "humidity-hih4030"))]
 const I2C_HZ: u32 = 100_000;
 
 bind_interrupts!(struct Irqs {
@@ -124,9 +131,16 @@ pub fn init() -> Board {
     trigger.set_frequency(Hertz(SAMPLE_RATE_HZ), RoundTo::Slower);
     trigger.regs_basic().cr2().modify(|w| w.set_mms(pac::timer::vals::Mms::UPDATE));
 
-    let mut i2c_config = i2c::Config::default();
-    i2c_config.frequency = Hertz(I2C_HZ);
-    let i2c = I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config);
+    #[cfg(not(feature = "humidity-hih4030"))]
+    let humidity = {
+        let mut i2c_config = i2c::Config::default();
+        i2c_config.frequency = Hertz(I2C_HZ);
+        let i2c = I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config);
+        Humidity { state: SensorState::Absent(Some(i2c)) }
+    };
+    // ADC1 belongs to the timer-triggered current ring buffer; the humidity gets ADC2.
+    #[cfg(feature = "humidity-hih4030")]
+    let humidity = Humidity { adc: Adc::new(p.ADC2), pin: p.PC4.degrade_adc() };
 
     let mut uart_config = usart::Config::default();
     uart_config.baudrate = STREAM_BAUD;
@@ -134,7 +148,7 @@ pub fn init() -> Board {
 
     Board {
         samples: Samples { adc, trigger, codes: [0; BLOCK_LEN] },
-        humidity: Humidity { state: SensorState::Absent(Some(i2c)) },
+        humidity,
         stream: Stream(uart),
     }
 }
@@ -168,8 +182,10 @@ impl CurrentSource for Samples {
     }
 }
 
+#[cfg(not(feature = "humidity-hih4030"))]
 type Bus = I2c<'static, Async, i2c::Master>;
 
+#[cfg(not(feature = "humidity-hih4030"))]
 enum SensorState {
     /// Not (yet) set up; the bus is kept to retry.
     Absent(Option<Bus>),
@@ -177,10 +193,12 @@ enum SensorState {
 }
 
 /// On-board HTS221; set up on first use and again after it failed to set up.
+#[cfg(not(feature = "humidity-hih4030"))]
 pub struct Humidity {
     state: SensorState,
 }
 
+#[cfg(not(feature = "humidity-hih4030"))]
 impl HumiditySource for Humidity {
     async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
         if let SensorState::Absent(bus) = &mut self.state {
@@ -201,6 +219,23 @@ impl HumiditySource for Humidity {
             }
             hts221::Error::Bus => HumidityError::NoResponse,
         })
+    }
+}
+
+/// HIH-4030 on A1: one slow conversion per reading (high source impedance of the divider).
+#[cfg(feature = "humidity-hih4030")]
+pub struct Humidity {
+    adc: Adc<'static, ADC2>,
+    pin: AnyAdcChannel<'static, ADC2>,
+}
+
+#[cfg(feature = "humidity-hih4030")]
+impl HumiditySource for Humidity {
+    async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
+        // 640.5 cycles (8 µs at 80 MHz) lets the ADC's sampling capacitor charge through the
+        // divider's 67 kΩ; blocking that long once a second costs the I/O executor nothing.
+        let code = self.adc.blocking_read(&mut self.pin, SampleTime::CYCLES640_5);
+        crate::app::analog_humidity::rh_pct_from_code(code)
     }
 }
 

@@ -1,8 +1,9 @@
-//! ST HTS221 relative-humidity sensor (on the B-L475E-IOT01A at I2C address 0x5F).
-//! Uses the sensor's two-point factory calibration (registers 0x30..0x3F): RH is linear in
-//! the raw output between the points (H0_T0_OUT, H0_rH) and (H1_T0_OUT, H1_rH).
+//! ST HTS221 relative-humidity sensor (on the B-L475E-IOT01A at I2C address 0x5F): the bus
+//! traffic. The two-point factory calibration it reads (registers 0x30..0x3F) is applied by
+//! `ipmc_core::humidity::Hts221Calibration`, tested on the host.
 
 use embedded_hal_async::i2c::I2c;
+use ipmc_core::humidity::Hts221Calibration;
 
 pub const ADDRESS: u8 = 0x5F;
 
@@ -29,41 +30,9 @@ pub enum Error {
     NoNewData,
 }
 
-/// The humidity half of the factory calibration.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HumidityCalibration {
-    pub h0_rh_pct: f32,
-    pub h1_rh_pct: f32,
-    pub h0_t0_out: i16,
-    pub h1_t0_out: i16,
-}
-
-impl HumidityCalibration {
-    /// From the 16 calibration registers 0x30..=0x3F (datasheet DocID026384, table 16).
-    pub fn from_registers(r: &[u8; 16]) -> Result<Self, Error> {
-        let cal = Self {
-            h0_rh_pct: r[0x0] as f32 / 2.0,
-            h1_rh_pct: r[0x1] as f32 / 2.0,
-            h0_t0_out: i16::from_le_bytes([r[0x6], r[0x7]]),
-            h1_t0_out: i16::from_le_bytes([r[0xA], r[0xB]]),
-        };
-        if cal.h1_t0_out == cal.h0_t0_out {
-            return Err(Error::BadCalibration);
-        }
-        Ok(cal)
-    }
-
-    /// RH [%] for a raw HUMIDITY_OUT value, limited to 0..100 as the datasheet prescribes.
-    pub fn rh_pct(&self, raw: i16) -> f32 {
-        let slope = (self.h1_rh_pct - self.h0_rh_pct) / (self.h1_t0_out as f32 - self.h0_t0_out as f32);
-        let rh = self.h0_rh_pct + (raw as f32 - self.h0_t0_out as f32) * slope;
-        rh.clamp(0.0, 100.0)
-    }
-}
-
 pub struct Hts221<I2C> {
     i2c: I2C,
-    calibration: HumidityCalibration,
+    calibration: Hts221Calibration,
 }
 
 impl<I2C: I2c> Hts221<I2C> {
@@ -75,7 +44,7 @@ impl<I2C: I2c> Hts221<I2C> {
         }
     }
 
-    async fn setup(i2c: &mut I2C) -> Result<HumidityCalibration, Error> {
+    async fn setup(i2c: &mut I2C) -> Result<Hts221Calibration, Error> {
         let mut id = [0u8];
         i2c.write_read(ADDRESS, &[WHO_AM_I], &mut id).await.map_err(|_| Error::Bus)?;
         if id[0] != WHO_AM_I_VALUE {
@@ -83,7 +52,7 @@ impl<I2C: I2c> Hts221<I2C> {
         }
         let mut regs = [0u8; 16];
         i2c.write_read(ADDRESS, &[CALIB_START | AUTO_INCREMENT], &mut regs).await.map_err(|_| Error::Bus)?;
-        let calibration = HumidityCalibration::from_registers(&regs)?;
+        let calibration = Hts221Calibration::from_registers(&regs).ok_or(Error::BadCalibration)?;
         i2c.write(ADDRESS, &[CTRL_REG1, CTRL_REG1_PD_BDU_1HZ]).await.map_err(|_| Error::Bus)?;
         Ok(calibration)
     }
