@@ -26,6 +26,8 @@ enum Command {
     SimulateSweep(commands::simulate::Args),
     /// Run the firmware's f32 compensation chain over a time-series recording on the host.
     Compensate(commands::compensate::Args),
+    /// Plot estimates against the true base motion and the fixed-RH estimate (SVG and PNG).
+    Plot(commands::plot::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
     CalibExport(commands::calib_export::Args),
 }
@@ -38,6 +40,7 @@ fn main() {
         Command::Accuracy(a) => commands::accuracy::run(a),
         Command::SimulateSweep(a) => commands::simulate::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
+        Command::Plot(a) => commands::plot::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
     };
     if let Err(e) = result {

@@ -162,7 +162,7 @@ pub fn command(args: &[String]) -> Result<()> {
         replayed.blocks_with(flags::CLIPPED),
         out.display()
     );
-    report_accuracy(&input, &replayed.blocks, rec.fs_hz)?;
+    report_accuracy(&input, &out, &replayed.blocks, rec.fs_hz)?;
     Ok(())
 }
 
@@ -176,7 +176,7 @@ const INBAND_HP_HZ: f64 = 5.0;
 
 /// If the input recording carries the true `base_m`, prints the firmware's error against it
 /// and, for comparison, the host's humidity-independent baseline (`ipmc compensate --fixed-rh 45`).
-fn report_accuracy(input: &Path, blocks: &[Block], fs_hz: f64) -> Result<()> {
+fn report_accuracy(input: &Path, est_csv: &Path, blocks: &[Block], fs_hz: f64) -> Result<()> {
     let Some(base) = read_base_m(input)? else {
         return Ok(());
     };
@@ -224,6 +224,29 @@ fn report_accuracy(input: &Path, blocks: &[Block], fs_hz: f64) -> Result<()> {
         Some(fig) => println!("  fixed 45 % design (host f32): {fig}"),
         None => println!("  fixed 45 % design (host f32): no figure in the output of {what}:\n{text}"),
     }
+    plot(input, est_csv, &fixed_out)
+}
+
+/// SVG and PNG of the firmware's estimate, the true base and the fixed-45 % estimate
+/// (`cargo ipmc plot`); prints their paths.
+fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
+    let prefix = est_csv.with_extension("");
+    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cmd.current_dir(repo_root())
+        .args(["ipmc", "plot"])
+        .arg(input)
+        .arg("--est")
+        .arg(est_csv)
+        .arg("--fixed")
+        .arg(fixed_csv)
+        .arg("--out")
+        .arg(&prefix);
+    let what = describe(&cmd);
+    let o = cmd.output().map_err(|e| format!("cannot run {what}: {e}"))?;
+    if !o.status.success() {
+        return Err(format!("{what} failed:\n{}", String::from_utf8_lossy(&o.stderr)));
+    }
+    print!("{}", String::from_utf8_lossy(&o.stdout));
     Ok(())
 }
 
