@@ -9,7 +9,7 @@
 //!   u8   version (= FRAME_VERSION)
 //!   u32  index of the block's first sample since acquisition start
 //!   f32  RH [%] used for the block
-//!   u16  flags (firmware src/app/flags.rs)
+//!   u16  flags (bits: [`flags`])
 //!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
 //!   f32  × n  base displacement estimates [m], one per sample at the firmware's sample rate
 //!   u16  CRC-16/IBM-3740 (poly 0x1021, init 0xFFFF) of all bytes above
@@ -22,6 +22,39 @@
 use core::fmt;
 
 use crc::{CRC_16_IBM_3740, Crc};
+
+/// Status bits of a frame's `flags`, raised by the firmware (`src/app/flags.rs` re-exports
+/// them). The bit positions are part of the wire format: append, never renumber.
+pub mod flags {
+    /// At least one current sample of the block was at or near an ADC rail.
+    pub const CLIPPED: u16 = 1 << 0;
+    /// The last humidity reading failed or was implausible; RH is the last good value.
+    pub const RH_STALE: u16 = 1 << 1;
+    /// RH was outside the calibration's range and was clamped to it.
+    pub const RH_CLAMPED: u16 = 1 << 2;
+    /// A new filter design took effect at the start of this block.
+    pub const RETUNED: u16 = 1 << 3;
+    /// Samples were lost before this block (ADC/DMA overrun or replay gap).
+    pub const SAMPLES_LOST: u16 = 1 << 4;
+    /// Earlier blocks were not reported (the report queue was full).
+    pub const REPORT_DROPPED: u16 = 1 << 5;
+    /// The last requested retune failed; the previous design stays active.
+    pub const DESIGN_FAILED: u16 = 1 << 6;
+    /// A replayed sample was not a finite number; it was replaced by 0 A.
+    pub const BAD_SAMPLE: u16 = 1 << 7;
+
+    /// Every bit with its name, lowest first (for host displays).
+    pub const NAMES: [(u16, &str); 8] = [
+        (CLIPPED, "CLIPPED"),
+        (RH_STALE, "RH_STALE"),
+        (RH_CLAMPED, "RH_CLAMPED"),
+        (RETUNED, "RETUNED"),
+        (SAMPLES_LOST, "SAMPLES_LOST"),
+        (REPORT_DROPPED, "REPORT_DROPPED"),
+        (DESIGN_FAILED, "DESIGN_FAILED"),
+        (BAD_SAMPLE, "BAD_SAMPLE"),
+    ];
+}
 
 /// Bumped whenever the payload layout changes; decoders refuse other versions.
 pub const FRAME_VERSION: u8 = 1;

@@ -30,6 +30,8 @@ enum Command {
     Plot(commands::plot::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
     CalibExport(commands::calib_export::Args),
+    /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
+    Monitor(commands::monitor::Args),
 }
 
 fn main() {
@@ -42,6 +44,7 @@ fn main() {
         Command::Compensate(a) => commands::compensate::run(a),
         Command::Plot(a) => commands::plot::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
+        Command::Monitor(a) => commands::monitor::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

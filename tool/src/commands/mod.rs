@@ -3,6 +3,7 @@ pub mod calib_export;
 pub mod compensate;
 pub mod design;
 pub mod model;
+pub mod monitor;
 pub mod plot;
 pub mod simulate;
 

@@ -1,0 +1,294 @@
+//! `ipmc monitor`: reads the firmware's binary stream (a serial port, a captured file or stdin),
+//! decodes it with ipmc-core's `stream` codec (the one the firmware encodes with), prints a line
+//! per second of stream time and optionally writes the estimates as a recording-format CSV.
+//! A frame that does not decode (garbage, joined mid-frame, flipped bits) is skipped and
+//! counted; the stream goes on at the next delimiter.
+
+use anyhow::{Context, Result};
+use ipmc_core::stream::{DecodeError, Deframer, Frame, MAX_FRAME_LEN, flags};
+use std::{
+    fs::File,
+    io::{BufWriter, ErrorKind, Read, Write},
+    path::PathBuf,
+    time::Duration,
+};
+
+/// The firmware's USART1 rate (src/board/b_l475e_iot01a.rs).
+const DEFAULT_BAUD: u32 = 921_600;
+/// The firmware's sample rate (src/app/config.rs); frames carry sample indices, not times.
+const DEFAULT_FS_HZ: u32 = 2_000;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Serial port (e.g. /dev/ttyACM0, COM3), a captured stream file, or `-` for stdin.
+    port: String,
+    /// Write every estimate to this CSV (`t_s,base_est_m,rh_pct,flags`, `# fs_hz=` metadata).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Serial baud rate (ignored for files and stdin).
+    #[arg(long, default_value_t = DEFAULT_BAUD)]
+    baud: u32,
+    /// The firmware's sample rate [Hz], to turn sample indices into seconds.
+    #[arg(long, default_value_t = DEFAULT_FS_HZ)]
+    fs_hz: u32,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let mut input = open(&a.port, a.baud)?;
+    let mut csv = match &a.out {
+        Some(path) => {
+            let f = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+            let mut w = BufWriter::new(f);
+            writeln!(w, "# fs_hz={}", a.fs_hz)?;
+            writeln!(w, "t_s,base_est_m,rh_pct,flags")?;
+            Some(w)
+        }
+        None => None,
+    };
+    let mut monitor = Monitor::new(a.fs_hz);
+    let mut buf = [0u8; 4096];
+    let mut stdout = std::io::stdout().lock();
+    loop {
+        let n = match input.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            // A serial port with nothing to say times out; keep listening.
+            Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::Interrupted | ErrorKind::WouldBlock) => continue,
+            Err(e) => return Err(e).context(format!("reading {}", a.port)),
+        };
+        let mut io_result = Ok(());
+        monitor.feed(buf.get(..n).unwrap_or(&[]), |event| {
+            if io_result.is_err() {
+                return;
+            }
+            io_result = match event {
+                Event::Sample(s) => csv.as_mut().map_or(Ok(()), |w| {
+                    writeln!(w, "{},{:e},{},{}", s.t_s, s.base_est_m, s.rh_pct, s.flags)
+                }),
+                Event::Status(line) => writeln!(stdout, "{line}"),
+            };
+        });
+        io_result.context("writing output")?;
+    }
+    if let Some(w) = csv.as_mut() {
+        w.flush().context("writing the CSV")?;
+    }
+    eprintln!("{}", monitor.summary());
+    Ok(())
+}
+
+fn open(port: &str, baud: u32) -> Result<Box<dyn Read>> {
+    if port == "-" {
+        return Ok(Box::new(std::io::stdin().lock()));
+    }
+    if !is_serial_device(port) {
+        let f = File::open(port).with_context(|| format!("cannot open {port}"))?;
+        return Ok(Box::new(f));
+    }
+    let p = serialport::new(port, baud)
+        .timeout(Duration::from_millis(200))
+        .open()
+        .with_context(|| format!("cannot open serial port {port} at {baud} Bd"))?;
+    Ok(Box::new(p))
+}
+
+/// Regular files and pipes are read as captured streams; character devices (and names that
+/// are not files at all, such as COM3) go through the serial port driver.
+fn is_serial_device(port: &str) -> bool {
+    match std::fs::metadata(port) {
+        #[cfg(unix)]
+        Ok(m) => std::os::unix::fs::FileTypeExt::is_char_device(&m.file_type()),
+        #[cfg(not(unix))]
+        Ok(_) => false,
+        Err(_) => true,
+    }
+}
+
+/// One estimate, as a CSV row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub t_s: f64,
+    pub base_est_m: f32,
+    pub rh_pct: f32,
+    pub flags: u16,
+}
+
+pub enum Event {
+    Sample(Sample),
+    /// The once-a-second display line.
+    Status(String),
+}
+
+/// Stream bytes → samples and status lines; independent of where the bytes come from.
+pub struct Monitor {
+    deframer: Box<Deframer<MAX_FRAME_LEN>>,
+    fs_hz: f64,
+    pub frames: u64,
+    pub bad_frames: u64,
+    last_error: Option<DecodeError>,
+    /// 2³² per wrap of the firmware's u32 sample index (every 24.8 days at 2 kHz).
+    index_offset: u64,
+    last_first_sample: Option<u32>,
+    /// Next whole second of stream time at which a status line is due.
+    next_status_s: f64,
+}
+
+impl Monitor {
+    pub fn new(fs_hz: u32) -> Self {
+        Self {
+            deframer: Box::new(Deframer::new()),
+            fs_hz: fs_hz.max(1) as f64,
+            frames: 0,
+            bad_frames: 0,
+            last_error: None,
+            index_offset: 0,
+            last_first_sample: None,
+            next_status_s: f64::NEG_INFINITY,
+        }
+    }
+
+    pub fn feed(&mut self, bytes: &[u8], mut emit: impl FnMut(Event)) {
+        for &b in bytes {
+            match self.deframer.push(b) {
+                Some(Ok(frame)) => {
+                    let frame = OwnedFrame::from(&frame);
+                    self.frames += 1;
+                    self.on_frame(&frame, &mut emit);
+                }
+                Some(Err(e)) => {
+                    self.bad_frames += 1;
+                    self.last_error = Some(e);
+                }
+                None => {}
+            }
+        }
+    }
+
+    fn on_frame(&mut self, f: &OwnedFrame, emit: &mut impl FnMut(Event)) {
+        let first = f.first_sample;
+        // A big step backwards is the u32 index wrapping, not a reordering (frames arrive in order).
+        if self.last_first_sample.is_some_and(|last| first < last && last - first > u32::MAX / 2) {
+            self.index_offset += 1 << 32;
+        }
+        self.last_first_sample = Some(first);
+        let base_index = self.index_offset + first as u64;
+        for (k, &v) in f.estimates.iter().enumerate() {
+            let t_s = (base_index + k as u64) as f64 / self.fs_hz;
+            let s = Sample { t_s, base_est_m: v, rh_pct: f.rh_pct, flags: f.flags };
+            emit(Event::Sample(s));
+            if t_s >= self.next_status_s {
+                self.next_status_s = t_s.floor() + 1.0;
+                emit(Event::Status(self.status_line(&s)));
+            }
+        }
+    }
+
+    fn status_line(&self, s: &Sample) -> String {
+        format!(
+            "t {:10.3} s  base {:+.4e} m  RH {:6.2} %  flags {:#06x}{}  (frames {}, bad {})",
+            s.t_s,
+            s.base_est_m,
+            s.rh_pct,
+            s.flags,
+            flag_names(s.flags),
+            self.frames,
+            self.bad_frames
+        )
+    }
+
+    pub fn summary(&self) -> String {
+        let last = self.last_error.map(|e| format!(" (last: {e})")).unwrap_or_default();
+        format!("{} frames decoded, {} skipped{last}", self.frames, self.bad_frames)
+    }
+}
+
+/// A frame copied out of the deframer's buffer, so the deframer can take the next byte.
+struct OwnedFrame {
+    first_sample: u32,
+    rh_pct: f32,
+    flags: u16,
+    estimates: Vec<f32>,
+}
+
+impl From<&Frame<'_>> for OwnedFrame {
+    fn from(f: &Frame<'_>) -> Self {
+        Self { first_sample: f.header.first_sample, rh_pct: f.header.rh_pct, flags: f.header.flags, estimates: f.estimates().collect() }
+    }
+}
+
+fn flag_names(bits: u16) -> String {
+    flags::NAMES.iter().filter(|(b, _)| bits & b != 0).map(|(_, n)| format!(" {n}")).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_core::stream::{Header, encode, max_frame_len};
+
+    fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
+        let mut out = vec![0; max_frame_len(est.len())];
+        let n = encode(&Header { first_sample: first, rh_pct: rh, flags }, est, &mut out).unwrap();
+        out.truncate(n);
+        out
+    }
+
+    fn run_bytes(bytes: &[u8], chunk: usize) -> (Monitor, Vec<Sample>, Vec<String>) {
+        let mut m = Monitor::new(2_000);
+        let (mut samples, mut lines) = (vec![], vec![]);
+        for c in bytes.chunks(chunk) {
+            m.feed(c, |e| match e {
+                Event::Sample(s) => samples.push(s),
+                Event::Status(l) => lines.push(l),
+            });
+        }
+        (m, samples, lines)
+    }
+
+    #[test]
+    fn decodes_skips_garbage_and_bad_crc_and_counts() {
+        let block: Vec<f32> = (0..32).map(|k| k as f32 * 1e-6).collect();
+        let mut bytes = vec![0x13, 0x37, 0xFF, 0x42]; // joined mid-frame: garbage before the first delimiter
+        bytes.push(0);
+        for i in 0..200u32 {
+            let mut f = frame(i * 32, 45.0 + i as f32 * 0.01, if i == 3 { flags::RETUNED } else { 0 }, &block);
+            if i == 100 {
+                let mid = f.len() / 2;
+                f[mid] ^= 0x01; // corrupted on the wire: CRC (or COBS) rejects it
+            }
+            bytes.extend(f);
+        }
+        bytes.extend([0xAA; 5000]); // line noise longer than any frame
+        bytes.push(0);
+        bytes.extend(frame(200 * 32, 47.0, 0, &block));
+
+        for chunk in [1, 7, 4096] {
+            let (m, samples, lines) = run_bytes(&bytes, chunk);
+            assert_eq!(m.frames, 200, "chunk {chunk}");
+            assert_eq!(m.bad_frames, 3, "chunk {chunk}"); // garbage, corrupted frame, noise
+            assert_eq!(samples.len(), 200 * 32);
+            assert!(samples.iter().all(|s| s.base_est_m.is_finite()));
+            // The corrupted frame is missing: its 32 sample times are absent, the others in order.
+            assert!(samples.iter().all(|s| !(3200..3232).contains(&((s.t_s * 2000.0).round() as u64))));
+            assert_eq!(samples[3 * 32].flags, flags::RETUNED);
+            assert_eq!(samples.last().unwrap().t_s, (201 * 32 - 1) as f64 / 2000.0);
+            // 201 blocks of 16 ms = 3.2 s of stream: lines at 0, 1, 2 and 3 s.
+            assert_eq!(lines.len(), 4, "{lines:?}");
+            assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
+            assert!(lines.iter().any(|l| l.contains("bad 2")));
+        }
+    }
+
+    #[test]
+    fn sample_index_wrap_keeps_time_increasing() {
+        let mut bytes = frame(u32::MAX - 31, 45.0, 0, &[0.0; 32]);
+        bytes.extend(frame(0, 45.0, 0, &[0.0; 32]));
+        let (_, samples, _) = run_bytes(&bytes, 64);
+        assert!(samples.windows(2).all(|w| w[1].t_s > w[0].t_s));
+    }
+
+    #[test]
+    fn flag_names_list_set_bits() {
+        assert_eq!(flag_names(flags::CLIPPED | flags::RETUNED), " CLIPPED RETUNED");
+        assert_eq!(flag_names(0), "");
+    }
+}
