@@ -26,8 +26,6 @@ enum Command {
     SimulateSweep(commands::simulate::Args),
     /// Run the firmware's f32 compensation chain over a time-series recording on the host.
     Compensate(commands::compensate::Args),
-    /// Plot estimates against the true base motion and the fixed-RH estimate (SVG and PNG).
-    Plot(commands::plot::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
@@ -42,7 +40,6 @@ fn main() {
         Command::Accuracy(a) => commands::accuracy::run(a),
         Command::SimulateSweep(a) => commands::simulate::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
-        Command::Plot(a) => commands::plot::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
     };

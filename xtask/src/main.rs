@@ -11,6 +11,7 @@ mod bench;
 mod firmware;
 mod flash;
 mod install;
+mod plot;
 mod qemu;
 mod recording;
 mod replay;

@@ -227,26 +227,13 @@ fn report_accuracy(input: &Path, est_csv: &Path, blocks: &[Block], fs_hz: f64) -
     plot(input, est_csv, &fixed_out)
 }
 
-/// SVG and PNG of the firmware's estimate, the true base and the fixed-45 % estimate
-/// (`cargo ipmc plot`); prints their paths.
+/// SVG and PNG of the firmware's estimate, the true base and the fixed-45 % estimate; prints
+/// their paths.
 fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
-    let prefix = est_csv.with_extension("");
-    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-    cmd.current_dir(repo_root())
-        .args(["ipmc", "plot"])
-        .arg(input)
-        .arg("--est")
-        .arg(est_csv)
-        .arg("--fixed")
-        .arg(fixed_csv)
-        .arg("--out")
-        .arg(&prefix);
-    let what = describe(&cmd);
-    let o = cmd.output().map_err(|e| format!("cannot run {what}: {e}"))?;
-    if !o.status.success() {
-        return Err(format!("{what} failed:\n{}", String::from_utf8_lossy(&o.stderr)));
-    }
-    print!("{}", String::from_utf8_lossy(&o.stdout));
+    let rec = recording::read(input)?;
+    let base = read_base_m(input)?.ok_or("no base_m")?;
+    let (svg, png) = crate::plot::plot(&base, rec.fs_hz, est_csv, Some(fixed_csv), &est_csv.with_extension(""), 2.0, FIRMWARE_DELAY_SAMPLES)?;
+    println!("plot: {}\nplot: {}", svg.display(), png.display());
     Ok(())
 }
 

@@ -4,7 +4,6 @@ pub mod compensate;
 pub mod design;
 pub mod model;
 pub mod monitor;
-pub mod plot;
 pub mod simulate;
 
 use anyhow::{Context, Result};

@@ -1,42 +1,19 @@
-//! `ipmc plot`: the compensated estimate against the true base motion and the humidity-independent
+//! Plot of `cargo xtask qemu`: the compensated estimate against the true base motion and the humidity-independent
 //! (fixed-RH) estimate, as SVG and PNG: a window of a few seconds on top, the error over the whole
 //! recording below (rms error / rms true base over 0.25 s windows, log scale).
 //!
 //! Text needs a TrueType font (plotters' ab_glyph backend, no system font library): DejaVu Sans
-//! from the usual Debian paths (package `fonts-dejavu-core`), or `--font FILE.ttf`.
+//! from the usual Debian paths (package `fonts-dejavu-core`).
+//!
+//! Here in xtask and not in the `ipmc` tool: plotters turns on num-traits' `std` feature, and in
+//! the tool that would switch the core's f32 math (sin, exp, ln, ...) from the `libm` crate the
+//! firmware uses to the host's libm, which breaks the bit-exact host ↔ QEMU equivalence
+//! (measured 1.3e-5 relative rms instead of 0).
 
-use crate::commands::compensate::{SETTLE_S, read_time_series};
-use anyhow::{Context, Result, anyhow, bail};
+use crate::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
-
-#[derive(clap::Args)]
-pub struct Args {
-    /// Time-series recording with the true `base_m`.
-    input: PathBuf,
-    /// Compensated estimates (EST.csv: t_s,base_est_m,...), e.g. the firmware's.
-    #[arg(long)]
-    est: PathBuf,
-    /// Estimates of the humidity-independent design (`ipmc compensate --fixed-rh 45`).
-    #[arg(long)]
-    fixed: Option<PathBuf>,
-    /// Output prefix: writes PREFIX.svg and PREFIX.png.
-    #[arg(long)]
-    out: PathBuf,
-    /// Start of the detail window [s] (default: 2 s before the end of the estimates).
-    #[arg(long)]
-    from: Option<f64>,
-    /// Length of the detail window [s].
-    #[arg(long, default_value_t = 2.0)]
-    seconds: f64,
-    /// Samples the estimate lags the true base by (the design's 2 ms preview at 2 kHz).
-    #[arg(long, default_value_t = 4)]
-    delay: usize,
-    /// TrueType font for the labels.
-    #[arg(long)]
-    font: Option<PathBuf>,
-}
 
 const FONT_PATHS: [&str; 3] = [
     "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
@@ -44,21 +21,21 @@ const FONT_PATHS: [&str; 3] = [
     "/usr/share/fonts/dejavu/DejaVuSans.ttf",
 ];
 
-fn register_font(explicit: Option<&Path>) -> Result<()> {
-    let path = match explicit {
-        Some(p) => p.to_path_buf(),
-        None => FONT_PATHS.iter().map(PathBuf::from).find(|p| p.exists()).ok_or_else(|| {
-            anyhow!("no TrueType font for the plot labels: install `fonts-dejavu-core` (apt-get install fonts-dejavu-core) or pass --font FILE.ttf")
-        })?,
-    };
-    let bytes: &'static [u8] = Box::leak(std::fs::read(&path).with_context(|| format!("cannot read {}", path.display()))?.into_boxed_slice());
-    plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).map_err(|_| anyhow!("{}: not a TrueType font", path.display()))?;
+/// Skipped from the scores and the error plot: the 1 Hz high-pass settling [s].
+const SETTLE_S: f64 = 5.0;
+
+fn register_font() -> Result<()> {
+    let path = FONT_PATHS.iter().map(PathBuf::from).find(|p| p.exists()).ok_or(
+        "no TrueType font for the plot labels: install `fonts-dejavu-core` (apt-get install fonts-dejavu-core)",
+    )?;
+    let bytes: &'static [u8] = Box::leak(std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?.into_boxed_slice());
+    plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).map_err(|_| format!("{}: not a TrueType font", path.display()))?;
     Ok(())
 }
 
 /// `base_est_m` of an EST.csv, by row (sample index).
 fn read_est(path: &Path) -> Result<Vec<f64>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut col = None;
     let mut out = vec![];
     for (i, line) in text.lines().enumerate() {
@@ -68,10 +45,10 @@ fn read_est(path: &Path) -> Result<Vec<f64>> {
         }
         let f: Vec<&str> = line.split(',').map(str::trim).collect();
         let Some(c) = col else {
-            col = Some(f.iter().position(|x| *x == "base_est_m").ok_or_else(|| anyhow!("{}: no base_est_m column", path.display()))?);
+            col = Some(f.iter().position(|x| *x == "base_est_m").ok_or_else(|| format!("{}: no base_est_m column", path.display()))?);
             continue;
         };
-        out.push(f.get(c).and_then(|v| v.parse().ok()).ok_or_else(|| anyhow!("{}:{}: bad base_est_m", path.display(), i + 1))?);
+        out.push(f.get(c).and_then(|v| v.parse().ok()).ok_or_else(|| format!("{}:{}: bad base_est_m", path.display(), i + 1))?);
     }
     Ok(out)
 }
@@ -106,7 +83,7 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fs: f64, truth: &[f64]
 where
     DB::ErrorType: 'static,
 {
-    root.fill(&WHITE).map_err(|e| anyhow!("{e:?}"))?;
+    root.fill(&WHITE).map_err(|e| format!("{e:?}"))?;
     let (top, bottom) = root.split_vertically((root.dim_in_pixel().1 as f64 * 0.55) as u32);
     let t = |i: usize| i as f64 / fs;
     let span = |v: &[f64]| v[w0..w1].iter().fold(0.0f64, |m, x| m.max(x.abs()));
@@ -118,28 +95,28 @@ where
         .x_label_area_size(36)
         .y_label_area_size(64)
         .build_cartesian_2d(t(w0)..t(w1), -ylim..ylim)
-        .map_err(|e| anyhow!("{e:?}"))?;
-    chart.configure_mesh().x_desc("t [s]").y_desc("base [µm]").draw().map_err(|e| anyhow!("{e:?}"))?;
+        .map_err(|e| format!("{e:?}"))?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("base [µm]").draw().map_err(|e| format!("{e:?}"))?;
     let line = |v: &[f64]| (w0..w1).map(|i| (t(i), v[i] * 1e6)).collect::<Vec<_>>();
     // Back to front: the baseline (largest), the truth, then the compensated estimate on top.
     for s in series.iter().rev().filter(|s| !s.primary) {
         let c = s.color;
         chart
             .draw_series(LineSeries::new(line(&s.est), c.mix(0.6).stroke_width(1)))
-            .map_err(|e| anyhow!("{e:?}"))?
+            .map_err(|e| format!("{e:?}"))?
             .label(s.name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
     }
     chart
         .draw_series(LineSeries::new(line(truth), BLACK.stroke_width(3)))
-        .map_err(|e| anyhow!("{e:?}"))?
+        .map_err(|e| format!("{e:?}"))?
         .label("true base (delayed 2 ms)")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(3)));
     for s in series.iter().filter(|s| s.primary) {
         let c = s.color;
         chart
             .draw_series(LineSeries::new(line(&s.est), c.stroke_width(1)))
-            .map_err(|e| anyhow!("{e:?}"))?
+            .map_err(|e| format!("{e:?}"))?
             .label(s.name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
     }
@@ -149,7 +126,7 @@ where
         .border_style(BLACK)
         .position(SeriesLabelPosition::UpperRight)
         .draw()
-        .map_err(|e| anyhow!("{e:?}"))?;
+        .map_err(|e| format!("{e:?}"))?;
 
     let settle = (SETTLE_S * fs).round() as usize;
     let win = (0.25 * fs).round() as usize;
@@ -157,7 +134,7 @@ where
     let all = errs.iter().flatten().map(|p| p.1).filter(|v| *v > 0.0);
     let (lo, hi) = all.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
     if !lo.is_finite() {
-        bail!("no error to plot after the first {SETTLE_S} s");
+        return Err(format!("no error to plot after the first {SETTLE_S} s"));
     }
     let tmax = truth.len() as f64 / fs;
     let mut chart = ChartBuilder::on(&bottom)
@@ -166,14 +143,14 @@ where
         .x_label_area_size(36)
         .y_label_area_size(64)
         .build_cartesian_2d(0.0..tmax, (lo / 2.0..hi * 2.0).log_scale())
-        .map_err(|e| anyhow!("{e:?}"))?;
-    chart.configure_mesh().x_desc("t [s]").y_desc("error [%]").draw().map_err(|e| anyhow!("{e:?}"))?;
+        .map_err(|e| format!("{e:?}"))?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("error [%]").draw().map_err(|e| format!("{e:?}"))?;
     for (s, e) in series.iter().zip(errs) {
         let c = s.color;
         let mean = if e.is_empty() { 0.0 } else { e.iter().map(|p| p.1).sum::<f64>() / e.len() as f64 };
         chart
             .draw_series(LineSeries::new(e, c.stroke_width(2)))
-            .map_err(|e| anyhow!("{e:?}"))?
+            .map_err(|e| format!("{e:?}"))?
             .label(format!("{} (mean {mean:.1} %)", s.name))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
     }
@@ -183,46 +160,51 @@ where
         .border_style(BLACK)
         .position(SeriesLabelPosition::LowerRight)
         .draw()
-        .map_err(|e| anyhow!("{e:?}"))?;
-    root.present().map_err(|e| anyhow!("{e:?}"))?;
+        .map_err(|e| format!("{e:?}"))?;
+    root.present().map_err(|e| format!("{e:?}"))?;
     Ok(())
 }
 
-pub fn run(a: Args) -> Result<()> {
-    let ts = read_time_series(&a.input)?;
-    let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("{}: no base_m column to compare with", a.input.display()))?;
-    let fs = ts.fs_hz;
-    let est = read_est(&a.est)?;
+/// RGB8 → PNG with the `png` crate (plotters' own encoder would pull in `image`).
+fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
+    let f = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(f), w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut wr = enc.write_header().map_err(|e| format!("{}: {e}", path.display()))?;
+    wr.write_image_data(rgb).map_err(|e| format!("{}: {e}", path.display()))?;
+    wr.finish().map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(())
+}
+
+/// Writes `prefix`.svg and `prefix`.png: `est_csv` (and `fixed_csv`) against the recording's
+/// `base_m` (`base_m`, sampled at `fs`), the detail window being the last `seconds` of the run.
+pub fn plot(base: &[f64], fs: f64, est_csv: &Path, fixed_csv: Option<&Path>, prefix: &Path, seconds: f64, delay: usize) -> Result<(PathBuf, PathBuf)> {
+    let est = read_est(est_csv)?;
     let n = est.len().min(base.len());
-    if n <= a.delay + 2 {
-        bail!("too few estimates to plot");
+    if n <= delay + 2 {
+        return Err("too few estimates to plot".into());
     }
     // truth[i] = base[i − delay]: what the estimate at sample i should equal.
-    let truth: Vec<f64> = (0..n).map(|i| if i >= a.delay { base[i - a.delay] } else { 0.0 }).collect();
-    let mut series = vec![Series { name: "compensated (this estimate)".into(), color: RGBColor(0, 110, 220), est: est[..n].to_vec(), primary: true }];
-    if let Some(f) = &a.fixed {
+    let truth: Vec<f64> = (0..n).map(|i| if i >= delay { base[i - delay] } else { 0.0 }).collect();
+    let mut series = vec![Series { name: "compensated (firmware in QEMU)".into(), color: RGBColor(0, 110, 220), est: est[..n].to_vec(), primary: true }];
+    if let Some(f) = fixed_csv {
         let mut v = read_est(f)?;
         v.resize(n, f64::NAN);
         series.push(Series { name: "fixed 45 % design".into(), color: RGBColor(220, 60, 30), est: v, primary: false });
     }
-    let w1 = match a.from {
-        Some(s) => ((s + a.seconds) * fs).round() as usize,
-        None => n,
-    }
-    .min(n);
-    let w0 = w1.saturating_sub((a.seconds * fs).round() as usize).max(a.delay);
-    if w1 <= w0 + 1 {
-        bail!("empty plot window");
-    }
-    register_font(a.font.as_deref())?;
-    let svg = a.out.with_extension("svg");
-    let png = a.out.with_extension("png");
+    let w1 = n;
+    let w0 = w1.saturating_sub((seconds * fs).round() as usize).max(delay);
+    register_font()?;
+    let svg = prefix.with_extension("svg");
+    let png = prefix.with_extension("png");
     if let Some(d) = svg.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d)?;
+        std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
     }
     draw(SVGBackend::new(&svg, (1200, 800)).into_drawing_area(), fs, &truth, &series, w0, w1)?;
-    draw(BitMapBackend::new(&png, (1200, 800)).into_drawing_area(), fs, &truth, &series, w0, w1)?;
-    println!("plot: {}", svg.display());
-    println!("plot: {}", png.display());
-    Ok(())
+    let (w, h) = (1200u32, 800u32);
+    let mut rgb = vec![0u8; (w * h * 3) as usize];
+    draw(BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(), fs, &truth, &series, w0, w1)?;
+    write_png(&png, w, h, &rgb)?;
+    Ok((svg, png))
 }
