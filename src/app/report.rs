@@ -28,7 +28,7 @@ pub async fn report_task(mut stream: Stream) {
                     // Cannot happen with the buffer sized above; losing a frame beats stopping.
                     Err(_) => defmt::error!("stream frame not encoded (buffer too small)"),
                 }
-                if reported % LOG_EVERY_BLOCKS == 0 {
+                if reported.is_multiple_of(LOG_EVERY_BLOCKS) {
                     defmt::info!(
                         "sample {}: base {} m, RH {} %, flags {=u16:#x}",
                         block.first_sample,
