@@ -63,6 +63,21 @@ const QEMU_ADVICE: &str = "QEMU >= 9 with the b-l475e-iot01a machine is needed. 
 bookworm-backports suite to your apt sources, then `apt-get update && apt-get install -t bookworm-backports \
 qemu-system-arm`; on Debian trixie or newer: `apt-get install qemu-system-arm`.";
 
+/// A Debian package, installed (as root, non-interactively) when `present()` says it is missing.
+pub fn ensure_apt_package(package: &str, present: impl Fn() -> bool) -> Result<()> {
+    if present() {
+        return Ok(());
+    }
+    if !is_root() || !on_path("apt-get") {
+        return Err(format!("install the Debian package `{package}` (apt-get install {package})"));
+    }
+    println!("==> installing {package}");
+    let apt = |args: &[&str]| run(Command::new("apt-get").args(args).env("DEBIAN_FRONTEND", "noninteractive"));
+    apt(&["update", "-q"])?;
+    apt(&["install", "-y", "-q", package])?;
+    if present() { Ok(()) } else { Err(format!("{package} installed but still not found")) }
+}
+
 /// qemu-system-arm with the b-l475e-iot01a machine (QEMU ≥ 9).
 pub fn ensure_qemu() -> Result<()> {
     if qemu_has_machine() {

@@ -25,9 +25,9 @@ const FONT_PATHS: [&str; 3] = [
 const SETTLE_S: f64 = 5.0;
 
 fn register_font() -> Result<()> {
-    let path = FONT_PATHS.iter().map(PathBuf::from).find(|p| p.exists()).ok_or(
-        "no TrueType font for the plot labels: install `fonts-dejavu-core` (apt-get install fonts-dejavu-core)",
-    )?;
+    let find = || FONT_PATHS.iter().map(PathBuf::from).find(|p| p.exists());
+    crate::install::ensure_apt_package("fonts-dejavu-core", || find().is_some())?;
+    let path = find().ok_or("no TrueType font for the plot labels (fonts-dejavu-core)")?;
     let bytes: &'static [u8] = Box::leak(std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?.into_boxed_slice());
     plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).map_err(|_| format!("{}: not a TrueType font", path.display()))?;
     Ok(())
