@@ -69,6 +69,11 @@ pub fn run(a: Args) -> Result<()> {
             };
         });
         io_result.context("writing output")?;
+        // A live session ends with Ctrl-C, which runs no destructor: keep the CSV on disk
+        // up to the last chunk read.
+        if let Some(w) = csv.as_mut() {
+            w.flush().context("writing the CSV")?;
+        }
     }
     if let Some(w) = csv.as_mut() {
         w.flush().context("writing the CSV")?;
