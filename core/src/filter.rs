@@ -19,6 +19,22 @@ use crate::Real;
 /// by 1.4×: a fade modulates the small difference of the two heads, and the tail's double
 /// integration weights the resulting sidebands by 1/f².
 pub const FADE_S: f64 = 0.5;
+/// Samples per block on the device and in the host's replica of it. Part of the algorithm, not
+/// a detail of either side: warm-up and fade are counted per block, so host and device agree bit
+/// for bit only with the same block length.
+pub const BLOCK_LEN: usize = 32;
+
+/// A retune is due when the humidity moved by more than this [% RH] from the RH of the active
+/// (or already requested) design: about a tenth of the compensation error a 1 % RH mismatch
+/// causes (≈ 3 %, `ipmc accuracy`), at ~1 retune per second during a fast 0.25 %/s drift.
+pub const RETUNE_THRESHOLD_PCT: f32 = 0.25;
+
+/// Whether a reading at `rh_pct` calls for a new design, given the RH of the last one (NaN:
+/// none yet).
+pub fn needs_retune(design_rh_pct: f32, rh_pct: f32) -> bool {
+    design_rh_pct.is_nan() || (rh_pct - design_rh_pct).abs() > RETUNE_THRESHOLD_PCT
+}
+
 /// Longest run processed at once during a crossfade (stack scratch).
 const CHUNK: usize = 64;
 

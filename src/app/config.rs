@@ -5,11 +5,7 @@ pub const SAMPLE_RATE_HZ: u32 = 2_000;
 
 /// Samples per processed block: one DMA half-buffer. 32 samples at 2 kHz = 16 ms latency,
 /// long enough that per-block overhead is small next to the per-sample filter cost.
-pub const BLOCK_LEN: usize = 32;
-
-/// A retune is requested when RH moved by more than this from the RH of the active (or
-/// already requested) design, in percent RH.
-pub const RETUNE_THRESHOLD_PCT: f32 = 0.25;
+pub use ipmc_core::filter::BLOCK_LEN;
 
 /// Humidity polling period (the HTS221 runs at its 1 Hz output data rate).
 pub const HUMIDITY_PERIOD_MS: u64 = 1_000;

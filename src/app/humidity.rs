@@ -6,7 +6,7 @@ use embassy_time::{Duration, Instant, Ticker, with_timeout};
 use crate::board::Humidity;
 
 use super::{
-    config::{HUMIDITY_PERIOD_MS, RETUNE_THRESHOLD_PCT, RH_FALLBACK_PCT},
+    config::{HUMIDITY_PERIOD_MS, RH_FALLBACK_PCT},
     flags,
     handoff::{self, LATEST_RH_PCT, RETUNE_REQUEST},
     ports::HumiditySource,
@@ -42,7 +42,7 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 LATEST_RH_PCT.store(rh);
                 handoff::set_condition(flags::RH_STALE, false);
                 handoff::set_condition(flags::RH_CLAMPED, clamped);
-                if design_rh.is_nan() || (rh - design_rh).abs() > RETUNE_THRESHOLD_PCT {
+                if ipmc_core::filter::needs_retune(design_rh, rh) {
                     design_rh = rh;
                     RETUNE_REQUEST.signal(rh);
                 }

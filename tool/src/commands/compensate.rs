@@ -16,11 +16,7 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Samples per block, as in the firmware (src/app/config.rs BLOCK_LEN).
-pub const BLOCK_LEN: usize = 32;
-/// Retune when the block's RH is further than this from the active design's [%]
-/// (src/app/config.rs RETUNE_THRESHOLD_PCT).
-pub const RETUNE_THRESHOLD_PCT: f32 = 0.25;
+pub use ipmc_core::filter::BLOCK_LEN;
 /// Filter settling skipped at the start of each burst when scoring [s].
 pub const SETTLE_S: f64 = 5.0;
 
@@ -301,7 +297,7 @@ pub fn compensate(ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
             let mut fl = if clamped { flags::RH_CLAMPED } else { 0 };
             match comp.as_mut() {
                 None => comp = Some(Compensator::new(&design(rh)?)),
-                Some(c) if fixed.is_none() && (rh - c.rh_pct()).abs() > RETUNE_THRESHOLD_PCT => {
+                Some(c) if fixed.is_none() && ipmc_core::filter::needs_retune(c.rh_pct(), rh) => {
                     c.switch_to(&design(rh)?);
                     est.retunes += 1;
                     fl |= flags::RETUNED;
