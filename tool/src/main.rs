@@ -30,6 +30,8 @@ enum Command {
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
     Monitor(commands::monitor::Args),
+    /// Score an estimate against the true base motion of its recording (as `compensate` scores).
+    Score(commands::score::Args),
 }
 
 fn main() {
@@ -42,6 +44,7 @@ fn main() {
         Command::Compensate(a) => commands::compensate::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
+        Command::Score(a) => commands::score::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -162,68 +162,44 @@ pub fn command(args: &[String]) -> Result<()> {
         replayed.blocks_with(flags::CLIPPED),
         out.display()
     );
-    report_accuracy(&input, &out, &replayed.blocks, rec.fs_hz)?;
+    report_accuracy(&input, &out)?;
     Ok(())
 }
 
 /// Samples the firmware's estimates lag the true base by: its design's 2 ms preview at
 /// 2 kHz. The estimate for sample n corresponds to the true base at sample n − 4.
 const FIRMWARE_DELAY_SAMPLES: usize = 4;
-/// Filter settling skipped before scoring [s] (as `ipmc compensate`).
-const SETTLE_S: f64 = 5.0;
-/// High-pass corner of the in-band figure [Hz] (as `ipmc compensate`).
-const INBAND_HP_HZ: f64 = 5.0;
 
-/// If the input recording carries the true `base_m`, prints the firmware's error against it
-/// and, for comparison, the host's humidity-independent baseline (`ipmc compensate --fixed-rh 45`).
-fn report_accuracy(input: &Path, est_csv: &Path, blocks: &[Block], fs_hz: f64) -> Result<()> {
-    let Some(base) = read_base_m(input)? else {
-        return Ok(());
-    };
-    let mut est = vec![f64::NAN; base.len()];
-    for b in blocks {
-        for (k, v) in b.base_est_m.iter().enumerate() {
-            if let Some(slot) = est.get_mut(b.first_sample as usize + k) {
-                *slot = *v as f64;
-            }
-        }
-    }
-    let settle = (SETTLE_S * fs_hz).round() as usize;
-    let (mut err, mut truth) = (vec![], vec![]);
-    for n in settle.max(FIRMWARE_DELAY_SAMPLES)..base.len() {
-        if est[n].is_finite() {
-            let t = base[n - FIRMWARE_DELAY_SAMPLES];
-            err.push(est[n] - t);
-            truth.push(t);
-        }
-    }
-    let sb: f64 = truth.iter().map(|t| t * t).sum();
-    if sb <= 0.0 {
-        println!("accuracy: no estimates after the first {SETTLE_S} s to score");
-        return Ok(());
-    }
-    let broad = (err.iter().map(|e| e * e).sum::<f64>() / sb).sqrt();
-    highpass_zero_phase(&mut err, INBAND_HP_HZ, fs_hz);
-    let inband = (err.iter().map(|e| e * e).sum::<f64>() / sb).sqrt();
-    println!(
-        "accuracy vs true base (delayed {FIRMWARE_DELAY_SAMPLES} samples, first {SETTLE_S} s skipped):\n  \
-         firmware (compensated):      in-band (>{INBAND_HP_HZ} Hz) {:.3} % rms, broadband {:.3} % rms",
-        inband * 100.0,
-        broad * 100.0
-    );
-    let fixed_out = repo_root().join("target/qemu-run/EST-fixed45.csv");
+/// Runs `cargo ipmc ARGS…` and returns the figure it prints after "skipped): " (the scoring
+/// lives in the tool, so the firmware and the host are scored by the same code).
+fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<String> {
     let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-    cmd.current_dir(repo_root()).args(["ipmc", "compensate"]).arg(input).arg("--out").arg(&fixed_out).args(["--fixed-rh", "45"]);
+    cmd.current_dir(repo_root()).arg("ipmc").args(args);
     let what = describe(&cmd);
     let o = cmd.output().map_err(|e| format!("cannot run {what}: {e}"))?;
     if !o.status.success() {
         return Err(format!("{what} failed:\n{}", String::from_utf8_lossy(&o.stderr)));
     }
     let text = String::from_utf8_lossy(&o.stdout);
-    match text.lines().find_map(|l| l.split_once("skipped): ").map(|(_, r)| r.to_string())) {
-        Some(fig) => println!("  fixed 45 % design (host f32): {fig}"),
-        None => println!("  fixed 45 % design (host f32): no figure in the output of {what}:\n{text}"),
+    Ok(text
+        .lines()
+        .find_map(|l| l.split_once("skipped): ").map(|(_, r)| r.to_string()))
+        .unwrap_or_else(|| format!("no figure in the output of {what}: {text}")))
+}
+
+/// If the input recording carries the true `base_m`, prints the firmware's error against it
+/// and, for comparison, the host's humidity-independent baseline (`ipmc compensate --fixed-rh 45`).
+fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
+    if read_base_m(input)?.is_none() {
+        return Ok(());
     }
+    let firmware = ipmc_figure(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str()])?;
+    let fixed_out = repo_root().join("target/qemu-run/EST-fixed45.csv");
+    let fixed = ipmc_figure(&["compensate".as_ref(), input.as_os_str(), "--out".as_ref(), fixed_out.as_os_str(), "--fixed-rh".as_ref(), "45".as_ref()])?;
+    println!(
+        "accuracy vs true base (delayed {FIRMWARE_DELAY_SAMPLES} samples, first 5 s of settling skipped; `cargo ipmc score`):\n  \
+         firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}"
+    );
     plot(input, est_csv, &fixed_out)
 }
 
@@ -266,24 +242,6 @@ fn read_base_m(path: &Path) -> Result<Option<Vec<f64>>> {
     Ok(col.map(|_| out))
 }
 
-/// Zero-phase high-pass: a 2nd-order Butterworth biquad run forward and backward.
-fn highpass_zero_phase(x: &mut [f64], fc_hz: f64, fs_hz: f64) {
-    let w0 = 2.0 * std::f64::consts::PI * fc_hz / fs_hz;
-    let alpha = w0.sin() / (2.0 * std::f64::consts::FRAC_1_SQRT_2);
-    let (a0, c) = (1.0 + alpha, w0.cos());
-    let (b0, b1, b2) = ((1.0 + c) / 2.0 / a0, -(1.0 + c) / a0, (1.0 + c) / 2.0 / a0);
-    let (a1, a2) = (-2.0 * c / a0, (1.0 - alpha) / a0);
-    let pass = |x: &mut dyn Iterator<Item = &mut f64>| {
-        let (mut x1, mut x2, mut y1, mut y2) = (0.0, 0.0, 0.0, 0.0);
-        for v in x {
-            let y = b0 * *v + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2;
-            (x2, x1, y2, y1) = (x1, *v, y1, y);
-            *v = y;
-        }
-    };
-    pass(&mut x.iter_mut());
-    pass(&mut x.iter_mut().rev());
-}
 
 pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {
     if let Some(dir) = path.parent() {

@@ -246,7 +246,7 @@ pub struct Estimates {
 }
 
 /// Index ranges of the uniformly sampled bursts (a gap in `t_s` starts a new one).
-fn bursts(t_s: &[f64], fs_hz: f64) -> Vec<(usize, usize)> {
+pub fn bursts(t_s: &[f64], fs_hz: f64) -> Vec<(usize, usize)> {
     let mut out = vec![];
     let mut start = 0;
     for i in 1..t_s.len() {

@@ -4,6 +4,7 @@ pub mod compensate;
 pub mod design;
 pub mod model;
 pub mod monitor;
+pub mod score;
 pub mod simulate;
 
 use anyhow::{Context, Result};
