@@ -33,25 +33,6 @@ fn register_font() -> Result<()> {
     Ok(())
 }
 
-/// `base_est_m` of an EST.csv, by row (sample index).
-fn read_est(path: &Path) -> Result<Vec<f64>> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut col = None;
-    let mut out = vec![];
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        let Some(c) = col else {
-            col = Some(f.iter().position(|x| *x == "base_est_m").ok_or_else(|| format!("{}: no base_est_m column", path.display()))?);
-            continue;
-        };
-        out.push(f.get(c).and_then(|v| v.parse().ok()).ok_or_else(|| format!("{}:{}: bad base_est_m", path.display(), i + 1))?);
-    }
-    Ok(out)
-}
 
 /// (t, rms(est − truth)/rms(truth) in %) per window of `win` samples, from `start`.
 fn windowed_error(est: &[f64], truth: &[f64], start: usize, win: usize, fs: f64) -> Vec<(f64, f64)> {
@@ -180,7 +161,7 @@ fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
 /// Writes `prefix`.svg and `prefix`.png: `est_csv` (and `fixed_csv`) against the recording's
 /// `base_m` (`base_m`, sampled at `fs`), the detail window being the last `seconds` of the run.
 pub fn plot(base: &[f64], fs: f64, est_csv: &Path, fixed_csv: Option<&Path>, prefix: &Path, seconds: f64, delay: usize) -> Result<(PathBuf, PathBuf)> {
-    let est = read_est(est_csv)?;
+    let est = crate::recording::require_column(est_csv, "base_est_m")?;
     let n = est.len().min(base.len());
     if n <= delay + 2 {
         return Err("too few estimates to plot".into());
@@ -189,7 +170,7 @@ pub fn plot(base: &[f64], fs: f64, est_csv: &Path, fixed_csv: Option<&Path>, pre
     let truth: Vec<f64> = (0..n).map(|i| if i >= delay { base[i - delay] } else { 0.0 }).collect();
     let mut series = vec![Series { name: "compensated (firmware in QEMU)".into(), color: RGBColor(0, 110, 220), est: est[..n].to_vec(), primary: true }];
     if let Some(f) = fixed_csv {
-        let mut v = read_est(f)?;
+        let mut v = crate::recording::require_column(f, "base_est_m")?;
         v.resize(n, f64::NAN);
         series.push(Series { name: "fixed 45 % design".into(), color: RGBColor(220, 60, 30), est: v, primary: false });
     }

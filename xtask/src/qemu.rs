@@ -190,7 +190,7 @@ fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<String> {
 /// If the input recording carries the true `base_m`, prints the firmware's error against it
 /// and, for comparison, the host's humidity-independent baseline (`ipmc compensate --fixed-rh 45`).
 fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
-    if read_base_m(input)?.is_none() {
+    if recording::read_column(input, "base_m")?.is_none() {
         return Ok(());
     }
     let firmware = ipmc_figure(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str()])?;
@@ -207,40 +207,12 @@ fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
 /// their paths.
 fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
     let rec = recording::read(input)?;
-    let base = read_base_m(input)?.ok_or("no base_m")?;
+    let base = recording::read_column(input, "base_m")?.ok_or("no base_m")?;
     let (svg, png) = crate::plot::plot(&base, rec.fs_hz, est_csv, Some(fixed_csv), &est_csv.with_extension(""), 2.0, FIRMWARE_DELAY_SAMPLES)?;
     println!("plot: {}\nplot: {}", svg.display(), png.display());
     Ok(())
 }
 
-/// The `base_m` column of a time-series recording, if it has one (rows already validated by
-/// [`recording::read`] for the other columns).
-fn read_base_m(path: &Path) -> Result<Option<Vec<f64>>> {
-    let text = fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut col = None;
-    let mut out = vec![];
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let Some(c) = col else {
-            match fields.iter().position(|f| *f == "base_m") {
-                Some(c) => col = Some(c),
-                None => return Ok(None),
-            }
-            continue;
-        };
-        let v = fields
-            .get(c)
-            .and_then(|f| f.parse::<f64>().ok())
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("{}:{}: column {} (`base_m`): not a finite number", path.display(), i + 1, c + 1))?;
-        out.push(v);
-    }
-    Ok(col.map(|_| out))
-}
 
 
 pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {

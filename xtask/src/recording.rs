@@ -101,3 +101,38 @@ mod tests {
         assert!(e.contains("f.csv:2"), "{e}");
     }
 }
+
+/// One column of a CSV in the interchange conventions (`#` comments, header names the columns),
+/// by name; `None` if the header has no such column. A row whose field is not a finite number is
+/// an error naming file, line and column.
+pub fn read_column(path: &Path, name: &str) -> Result<Option<Vec<f64>>> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut col = None;
+    let mut out = vec![];
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let Some(c) = col else {
+            match fields.iter().position(|f| *f == name) {
+                Some(c) => col = Some(c),
+                None => return Ok(None),
+            }
+            continue;
+        };
+        let v = fields
+            .get(c)
+            .and_then(|f| f.parse::<f64>().ok())
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("{}:{}: column {} (`{name}`): not a finite number", path.display(), i + 1, c + 1))?;
+        out.push(v);
+    }
+    Ok(Some(out))
+}
+
+/// A column that must be there.
+pub fn require_column(path: &Path, name: &str) -> Result<Vec<f64>> {
+    read_column(path, name)?.ok_or_else(|| format!("{}: no {name} column", path.display()))
+}

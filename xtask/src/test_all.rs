@@ -124,27 +124,6 @@ fn qemu_replay_bundled() -> Result<()> {
 /// `ipmc compensate --schedule` on the same input (issue 4).
 const EQUIVALENCE_TOL: f64 = 1e-6;
 
-/// The `base_est_m` column of an EST.csv, in row order.
-fn read_base_est(path: &Path) -> Result<Vec<f64>> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut col = None;
-    let mut out = vec![];
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let Some(c) = col else {
-            col = Some(fields.iter().position(|f| *f == "base_est_m").ok_or_else(|| format!("{}: no base_est_m column", path.display()))?);
-            continue;
-        };
-        out.push(
-            fields.get(c).and_then(|f| f.parse::<f64>().ok()).ok_or_else(|| format!("{}:{}: bad base_est_m", path.display(), i + 1))?,
-        );
-    }
-    Ok(out)
-}
 
 /// Runs `cargo ipmc <args>` at the repository root.
 pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
@@ -196,8 +175,8 @@ fn qemu_host_equivalence() -> Result<()> {
         "--schedule".as_ref(),
         fw_path.as_os_str(),
     ])?;
-    let fw = read_base_est(&fw_path)?;
-    let host = read_base_est(&host_path)?;
+    let fw = crate::recording::require_column(&fw_path, "base_est_m")?;
+    let host = crate::recording::require_column(&host_path, "base_est_m")?;
     if fw.len() != host.len() {
         return Err(format!("{} firmware estimates, {} host estimates", fw.len(), host.len()));
     }
