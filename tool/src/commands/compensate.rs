@@ -106,19 +106,9 @@ pub fn parse_schedule(text: &str, name: &str) -> Result<Vec<ScheduledBlock>> {
 /// exactly as the firmware processes them. Samples past the schedule are not processed.
 pub fn compensate_scheduled(ts: &TimeSeries, schedule: &[ScheduledBlock]) -> Result<Estimates> {
     let calib = Calibration::default_preset();
-    let cfg = DesignConfig::<f32> { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() };
-    let design = |rh: f32| -> Result<Inverse<f32>> {
-        design_inverse::<f32>(&calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
-    };
+    let design = designer(&calib, ts.fs_hz);
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
-    let mut est = Estimates {
-        base_est_m: Vec::with_capacity(n),
-        delay_samples: Vec::with_capacity(n),
-        burst_start: Vec::with_capacity(n),
-        rh_pct: Vec::with_capacity(n),
-        flags: Vec::with_capacity(n),
-        retunes: 0,
-    };
+    let mut est = Estimates::with_capacity(n);
     let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
     for (k, b) in schedule.iter().enumerate() {
         if b.first_sample != k * BLOCK_LEN {
@@ -245,6 +235,25 @@ pub struct Estimates {
     pub retunes: usize,
 }
 
+impl Estimates {
+    fn with_capacity(n: usize) -> Self {
+        Estimates {
+            base_est_m: Vec::with_capacity(n),
+            delay_samples: Vec::with_capacity(n),
+            burst_start: Vec::with_capacity(n),
+            rh_pct: Vec::with_capacity(n),
+            flags: Vec::with_capacity(n),
+            retunes: 0,
+        }
+    }
+}
+
+/// The firmware's design chain (f32, default configuration at the recording's rate).
+fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
+    let cfg = DesignConfig::<f32> { fs_hz: fs_hz as f32, ..DesignConfig::default() };
+    move |rh| design_inverse::<f32>(calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
+}
+
 /// Index ranges of the uniformly sampled bursts (a gap in `t_s` starts a new one).
 pub fn bursts(t_s: &[f64], fs_hz: f64) -> Vec<(usize, usize)> {
     let mut out = vec![];
@@ -264,19 +273,9 @@ pub fn bursts(t_s: &[f64], fs_hz: f64) -> Vec<(usize, usize)> {
 /// block's RH (or `fixed_rh`), retuned per block when the RH moved more than the threshold.
 pub fn compensate(ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
     let calib = Calibration::default_preset();
-    let cfg = DesignConfig::<f32> { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() };
-    let design = |rh: f32| -> Result<Inverse<f32>> {
-        design_inverse::<f32>(&calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
-    };
+    let design = designer(&calib, ts.fs_hz);
     let n = ts.t_s.len();
-    let mut est = Estimates {
-        base_est_m: Vec::with_capacity(n),
-        delay_samples: Vec::with_capacity(n),
-        burst_start: Vec::with_capacity(n),
-        rh_pct: Vec::with_capacity(n),
-        flags: Vec::with_capacity(n),
-        retunes: 0,
-    };
+    let mut est = Estimates::with_capacity(n);
     let fixed = match fixed_rh {
         Some(r) => {
             let (r, clamped) = calib.clamp_rh(r as f32);
