@@ -12,6 +12,7 @@
 
 pub mod calibration;
 pub mod design;
+pub mod extension;
 pub mod filter;
 pub mod humidity;
 pub mod lstsq;
