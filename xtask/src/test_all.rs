@@ -205,6 +205,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("core tests", || cargo_test("core/Cargo.toml")),
         ("host-tests", || cargo_test("host-tests/Cargo.toml")),
         ("tool tests", || cargo_test("tool/Cargo.toml")),
+        ("fit tests", || cargo_test("fit/Cargo.toml")),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
         ("firmware build (qemu)", || firmware::build(Variant::Qemu).map(|_| ())),

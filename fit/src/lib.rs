@@ -1,0 +1,13 @@
+//! Identification of IPMC model parameters from measured frequency responses.
+//!
+//! - [`lsq`]: bounded, weighted nonlinear least squares (Levenberg–Marquardt) with standard
+//!   errors and correlations: generic, knows nothing of IPMCs.
+//! - [`response`]: residuals of a measured tip/current response against the core's exact model
+//!   (`ipmc_core::model`), with any subset of the model's parameters fitted by their `--set` names.
+//! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
+//!
+//! The physics is never written here: every model value comes from `ipmc_core`.
+
+pub mod lsq;
+pub mod noise;
+pub mod response;
