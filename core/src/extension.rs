@@ -7,7 +7,8 @@
 //!   form; only its two coefficients grow: the mass/damping impedance per length
 //!   μ(s) = (m + m_air)·s + Ca + c_st·√s (air moving with the beam and Stokes-type boundary-layer
 //!   damping, which grows like √ω) and the complex modulus
-//!   E*(s) = Y + Cs·s + ΔY·sτ/(1 + sτ) + iηY (a standard-linear-solid relaxation branch and a
+//!   E*(s) = Y + Cs·s + Σ ΔYₖ·sτₖ/(1 + sτₖ) + iηY (relaxation branches of a generalized standard
+//!   linear solid and a
 //!   constant loss factor, alternatives to the paper's pure Kelvin–Voigt law). Since the
 //!   mechanical ratios depend on s only through q = (pL)⁴ = L⁴·s·μ/(4I·E*), the closed forms of
 //!   [`crate::model`] still apply with this q.
@@ -34,10 +35,10 @@ pub struct Extension<T> {
     pub added_mass: T,
     /// Stokes-type damping: force per length c_st·√s·(velocity) [N·s^½/m²].
     pub stokes: T,
-    /// Modulus of a standard-linear-solid relaxation branch ΔY [Pa] ...
-    pub relax_modulus: T,
-    /// ... and its relaxation time τ [s].
-    pub relax_time: T,
+    /// Moduli ΔY [Pa] of up to two relaxation branches (a generalized standard linear solid) ...
+    pub relax_modulus: [T; 2],
+    /// ... and their relaxation times τ [s].
+    pub relax_time: [T; 2],
     /// Constant (hysteretic) loss factor η: E* gains iηY at positive frequencies.
     pub loss_factor: T,
     /// Rotational compliance of the clamp c_θ [rad/(N·m)].
@@ -65,7 +66,10 @@ impl<T: Real> Extension<T> {
         self.clamp_compliance != T::zero() || self.tip_mass != T::zero() || self.tip_inertia != T::zero()
     }
     fn has_distributed_terms(&self) -> bool {
-        self.added_mass != T::zero() || self.stokes != T::zero() || self.relax_modulus != T::zero() || self.loss_factor != T::zero()
+        self.added_mass != T::zero()
+            || self.stokes != T::zero()
+            || self.relax_modulus.iter().any(|m| *m != T::zero())
+            || self.loss_factor != T::zero()
     }
 
     /// Mass/damping impedance per length μ(s) of the extended eq. 1.
@@ -76,9 +80,11 @@ impl<T: Real> Extension<T> {
     /// Complex modulus E*(s) of the extended eq. 1.
     pub fn modulus(&self, p: &Params<T>, s: C<T>) -> C<T> {
         let mut e = s * p.cs + p.y;
-        if self.relax_modulus != T::zero() {
-            let st = s * self.relax_time;
-            e += st / (st + T::one()) * self.relax_modulus;
+        for (&dy, &tau) in self.relax_modulus.iter().zip(&self.relax_time) {
+            if dy != T::zero() {
+                let st = s * tau;
+                e += st / (st + T::one()) * dy;
+            }
         }
         if self.loss_factor != T::zero() {
             // iηY for ω > 0 (and its conjugate below, so the time response stays real).
