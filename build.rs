@@ -14,7 +14,7 @@ use std::{
     process::ExitCode,
 };
 
-use ipmc_core::{Calibration, Law};
+use ipmc_core::{Calibration, Law, calibration_file};
 
 const CALIB_VAR: &str = "IPMC_CALIB";
 
@@ -56,19 +56,12 @@ fn load_calibration() -> Result<(Calibration, String), String> {
     println!("cargo:rerun-if-changed={}", path.display());
     let shown = path.display().to_string();
     let text = fs::read_to_string(&path).map_err(|e| format!("{CALIB_VAR}={shown}: cannot read: {e}"))?;
-    let calibration: Calibration = toml::from_str(&text).map_err(|e| {
-        let at = e.span().map(|s| line_col(&text, s.start)).map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default();
-        format!("{CALIB_VAR}={shown}{at}: not a calibration file: {}", e.message())
+    // The tool's reader (`--calib`): syntax errors come as `line:column: what`.
+    let calibration = calibration_file::parse(&text).map_err(|e| match e {
+        calibration_file::FileError::Syntax { .. } => format!("{CALIB_VAR}={shown}:{e}"),
+        _ => format!("{CALIB_VAR}={shown}: {e}"),
     })?;
-    calibration.validate().map_err(|e| format!("{CALIB_VAR}={shown}: calibration is not usable: {e}"))?;
     Ok((calibration, shown))
-}
-
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = text.get(..offset).unwrap_or(text);
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
-    (line, col)
 }
 
 /// A Rust constant expression equal to `c`. The destructuring names every field, so a field

@@ -22,6 +22,7 @@ pub enum LawKind {
 /// A humidity law: coefficients in ascending powers of RH in percent.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Law {
     pub kind: LawKind,
     pub coeffs: [f64; MAX_LAW_COEFFS],
@@ -198,6 +199,8 @@ impl<T: Real> Params<T> {
 /// Constants, humidity laws and the declared humidity range of one IPMC sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+// A misspelt field would otherwise be ignored silently and its default never noticed.
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Calibration {
     /// Faraday constant F [C/mol]
     pub faraday: f64,
@@ -233,6 +236,9 @@ pub enum ValidationError {
     NonPhysical { param: ParamName, rh_pct: f64, value: f64 },
     /// The declared range is empty or outside 0–100 %.
     BadRange { rh_min: f64, rh_max: f64 },
+    /// A physical constant that is not a model parameter (Faraday's, the gas constant) is
+    /// non-positive or non-finite.
+    BadConstant { name: &'static str, value: f64 },
 }
 
 impl core::fmt::Display for ValidationError {
@@ -250,6 +256,9 @@ impl core::fmt::Display for ValidationError {
                 f,
                 "declared RH range {rh_min}–{rh_max} % is empty or outside 0–100 %"
             ),
+            ValidationError::BadConstant { name, value } => {
+                write!(f, "constant {name} is {value:e}: it must be positive and finite")
+            }
         }
     }
 }
@@ -419,8 +428,10 @@ impl Calibration {
                 return Err(ValidationError::NonPhysical { param, rh_pct: lo, value });
             }
         }
-        if !(self.faraday.is_finite() && self.faraday > 0.0 && self.r_gas.is_finite() && self.r_gas > 0.0) {
-            return Err(ValidationError::NonPhysical { param: ParamName::T, rh_pct: lo, value: self.r_gas });
+        for (name, value) in [("faraday", self.faraday), ("r_gas", self.r_gas)] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ValidationError::BadConstant { name, value });
+            }
         }
         let steps = num_traits::Float::ceil((hi - lo) * 10.0) as usize;
         for param in [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::KappaE, ParamName::D, ParamName::H, ParamName::M] {

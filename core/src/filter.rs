@@ -35,6 +35,12 @@ pub fn needs_retune(design_rh_pct: f32, rh_pct: f32) -> bool {
     design_rh_pct.is_nan() || (rh_pct - design_rh_pct).abs() > RETUNE_THRESHOLD_PCT
 }
 
+/// Largest input the compensator takes as a measurement [A]: three decades above any IPMC
+/// strip's short-circuit current and the firmware front end's 1.76 µA rail. Anything larger (a
+/// corrupted word, a wrong unit) is replaced like a NaN: measured, a finite 1e20 A sample kept
+/// the state at 1e24 for over 20 s (host-tests/tests/fault_recovery.rs), a replaced one for 4.6 s.
+pub const INPUT_LIMIT_A: f64 = 1e-3;
+
 /// Longest run processed at once during a crossfade (stack scratch).
 const CHUNK: usize = 64;
 
@@ -99,6 +105,11 @@ impl<T: Real> Cascade<T> {
         }
     }
 
+    /// Largest |state value| (NaN if any is NaN).
+    pub fn state_max_abs(&self) -> T {
+        self.state[..self.n].iter().flatten().fold(T::zero(), |m, v| if v.is_nan() || m.is_nan() { T::nan() } else { m.max(v.abs()) })
+    }
+
     /// Whether any state value is non-finite.
     pub fn is_poisoned(&self) -> bool {
         self.state[..self.n].iter().flatten().any(|v| !v.is_finite())
@@ -136,7 +147,7 @@ pub struct Compensator<T = f32> {
     /// RH of the most recently requested design.
     rh_pct: T,
     delay_s: T,
-    /// Samples replaced because they were not finite, since construction.
+    /// Samples replaced because they were not finite or beyond [`INPUT_LIMIT_A`], since construction.
     pub bad_samples: u32,
 }
 
@@ -179,6 +190,13 @@ impl<T: Real> Compensator<T> {
     pub fn delay_s(&self) -> T {
         self.delay_s
     }
+    /// Largest |state value| of the running sections (active head, incoming head, tail): what
+    /// long runs and fault tests watch for growth and poisoning.
+    pub fn state_max_abs(&self) -> T {
+        let next = self.next.as_ref().map_or(T::zero(), Cascade::state_max_abs);
+        let (a, t) = (self.active.state_max_abs(), self.tail.state_max_abs());
+        if a.is_nan() || t.is_nan() || next.is_nan() { T::nan() } else { a.max(t).max(next) }
+    }
     /// Whether a retune is under way (warming up or fading).
     pub fn is_fading(&self) -> bool {
         self.transition != Transition::Idle
@@ -207,11 +225,13 @@ impl<T: Real> Compensator<T> {
         }
     }
 
-    /// In place: current [A] → base displacement [m]. Non-finite samples are replaced by zero
-    /// (and counted) so they never reach the filter state.
+    /// In place: current [A] → base displacement [m]. Samples that are not finite or beyond
+    /// [`INPUT_LIMIT_A`] are replaced by zero (and counted) so they never reach the filter state.
     pub fn process_block(&mut self, block: &mut [T]) {
+        let limit = T::lit(INPUT_LIMIT_A);
         for v in block.iter_mut() {
-            if !v.is_finite() {
+            // Written so that NaN fails the comparison too.
+            if !(v.abs() <= limit) {
                 *v = T::zero();
                 self.bad_samples = self.bad_samples.wrapping_add(1);
             }

@@ -11,6 +11,8 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 
 pub mod calibration;
+#[cfg(feature = "toml")]
+pub mod calibration_file;
 pub mod design;
 pub mod extension;
 pub mod filter;

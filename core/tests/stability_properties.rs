@@ -66,6 +66,14 @@ fn poles_lhp<T: Real>(rh: f64, factors: &[f64; N_PARAMS], ionic: IonicOrder) -> 
     Ok(())
 }
 
+/// A runner with a fixed seed: the counted figures are reproducible.
+fn fixed_runner(cases: u32) -> TestRunner {
+    TestRunner::new_with_rng(
+        Config { cases, failure_persistence: None, ..Config::default() },
+        TestRng::deterministic_rng(RngAlgorithm::ChaCha),
+    )
+}
+
 fn factors() -> impl Strategy<Value = [f64; N_PARAMS]> {
     proptest::array::uniform12(0.5f64..=1.5)
 }
@@ -105,10 +113,7 @@ proptest! {
 /// each precision. Must be zero.
 #[test]
 fn failure_count_over_fixed_cases_is_zero() {
-    let mut runner = TestRunner::new_with_rng(
-        Config { cases: 256, failure_persistence: None, ..Config::default() },
-        TestRng::deterministic_rng(RngAlgorithm::ChaCha),
-    );
+    let mut runner = fixed_runner(256);
     let fails64 = std::cell::RefCell::new(Vec::new());
     let fails32 = std::cell::RefCell::new(Vec::new());
     let n = std::cell::Cell::new(0usize);
@@ -168,4 +173,77 @@ fn extreme_corners_are_stable() {
         }
     }
     assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+}
+
+/// Temperature [°C] → the model's T [K].
+fn kelvin(t_c: f64) -> f64 {
+    t_c + 273.15
+}
+
+/// The default preset at `rh` and `t_c`, every other parameter scaled by its factor (the factor
+/// at `ParamName::T`'s position is ignored: T is set, not scaled).
+fn at_temperature<T: Real>(rh: f64, t_c: f64, factors: &[f64; N_PARAMS]) -> Params<T> {
+    let mut p = perturbed::<T>(rh, factors);
+    p.set(ParamName::T, T::lit(kelvin(t_c)));
+    p
+}
+
+fn design_at_temperature<T: Real>(rh: f64, t_c: f64, factors: &[f64; N_PARAMS]) -> Result<(), String> {
+    let p = at_temperature::<T>(rh, t_c, factors);
+    match design_inverse_for(&p, T::lit(rh), &DesignConfig::<T>::default()) {
+        Ok(inv) => sections_ok(&inv),
+        Err(e) => Err(format!("design error {e:?}")),
+    }
+}
+
+proptest! {
+    #![proptest_config(Config { cases: 128, failure_persistence: None, ..Config::default() })]
+
+    /// RH 0–100 %, T 0–50 °C and every other parameter ×[0.5, 1.5] together, in the firmware's f32.
+    #[test]
+    fn f32_design_is_stable_over_temperature_humidity_and_parameters(rh in 0.0f64..=100.0, t_c in 0.0f64..=50.0, f in factors()) {
+        let r = design_at_temperature::<f32>(rh, t_c, &f);
+        prop_assert!(r.is_ok(), "{} °C, {}: {}", t_c, describe(rh, &f), r.unwrap_err());
+    }
+}
+
+/// Deterministic count over 256 cases and the corners (T 0 and 50 °C with every other parameter
+/// at 0.5 or 1.5 together, RH 0 / 50 / 100 %), both precisions. Must be zero.
+#[test]
+fn temperature_failure_count_is_zero() {
+    let mut runner = fixed_runner(256);
+    let failures = std::cell::RefCell::new(Vec::new());
+    let n = std::cell::Cell::new(0usize);
+    let check = |rh: f64, t_c: f64, f: &[f64; N_PARAMS]| {
+        n.set(n.get() + 1);
+        for (name, r) in [("f64", design_at_temperature::<f64>(rh, t_c, f)), ("f32", design_at_temperature::<f32>(rh, t_c, f))] {
+            if let Err(e) = r {
+                failures.borrow_mut().push(format!("{name} {t_c:.1} °C {}: {e}", describe(rh, f)));
+            }
+        }
+    };
+    for rh in [0.0, 50.0, 100.0] {
+        for t_c in [0.0, 50.0] {
+            for k in [0.5, 1.5] {
+                check(rh, t_c, &[k; N_PARAMS]);
+            }
+        }
+    }
+    runner
+        .run(&(0.0f64..=100.0, 0.0f64..=50.0, factors()), |(rh, t_c, f)| {
+            check(rh, t_c, &f);
+            Ok(())
+        })
+        .unwrap();
+    let failures = failures.into_inner();
+    println!(
+        "perturbed designs (RH 0–100 %, T 0–50 °C, 11 parameters ×[0.5, 1.5], fs 2 kHz, f64 and f32): {} cases, {} failures",
+        n.get(),
+        failures.len()
+    );
+    for e in failures.iter().take(5) {
+        println!("  failure: {e}");
+    }
+    assert!(n.get() >= 256 + 12);
+    assert!(failures.is_empty(), "{} failures", failures.len());
 }

@@ -1,11 +1,12 @@
 //! Where a calibration comes from: a preset name or a TOML file written by the tool.
 
-use anyhow::{Context, Result, bail};
-use ipmc_core::Calibration;
+use anyhow::{Context, Result, anyhow, bail};
+use ipmc_core::{Calibration, calibration_file};
 use std::path::Path;
 
-/// `default`, `paper`, or a path to a TOML calibration. The result is validated; the error names
-/// the parameter and humidity that make it unusable.
+/// `default`, `paper`, or a path to a TOML calibration. The result is validated and designable
+/// over its range (`calibration_file::check`, as the firmware build requires); the error names
+/// the file, line and column, or the parameter and humidity that make it unusable.
 pub fn load(spec: Option<&str>) -> Result<Calibration> {
     let calib = match spec.unwrap_or("default") {
         "default" => Calibration::default_preset(),
@@ -15,27 +16,27 @@ pub fn load(spec: Option<&str>) -> Result<Calibration> {
             parse(Path::new(path), &text)?
         }
     };
-    if let Err(e) = calib.validate() {
-        bail!("calibration {} is not usable: {e}", spec.unwrap_or("default"));
-    }
+    calibration_file::check(&calib).map_err(|e| anyhow!("calibration {}: {e}", spec.unwrap_or("default")))?;
     Ok(calib)
 }
 
-pub fn parse(path: &Path, text: &str) -> Result<Calibration> {
-    toml::from_str(text).map_err(|e| {
-        let (line, col) = e
-            .span()
-            .map(|s| line_col(text, s.start))
-            .unwrap_or((0, 0));
-        anyhow::anyhow!("{}:{}:{}: {}", path.display(), line, col, e.message())
-    })
+/// `rh_pct` if it lies in the calibration's declared range; outside it the laws would be
+/// extrapolated, which is refused rather than done silently.
+pub fn declared_rh(calib: &Calibration, rh_pct: f64) -> Result<f64> {
+    match calib.clamp_rh(rh_pct) {
+        (_, false) => Ok(rh_pct),
+        _ => bail!(
+            "--rh {rh_pct} is outside the calibration's declared range {}–{} % (its laws are not extrapolated)",
+            calib.rh_min,
+            calib.rh_max
+        ),
+    }
 }
 
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
-    (line, col)
+/// Parses without the checks of [`load`] (a verbatim preset reads back); errors as
+/// `FILE:LINE:COLUMN: what was expected`.
+pub fn parse(path: &Path, text: &str) -> Result<Calibration> {
+    calibration_file::parse_unvalidated(text).map_err(|e| anyhow!("{}:{e}", path.display()))
 }
 
 #[cfg(test)]
@@ -57,5 +58,15 @@ mod tests {
     fn paper_preset_is_refused_naming_d() {
         let err = load(Some("paper")).unwrap_err().to_string();
         assert!(err.contains("parameter d") && err.contains("RH 38.0"), "{err}");
+        assert!(load(Some("default")).is_ok());
+    }
+
+    #[test]
+    fn declared_rh_refuses_extrapolation() {
+        let c = Calibration::default_preset();
+        assert_eq!(declared_rh(&c, 45.0).unwrap(), 45.0);
+        let err = declared_rh(&c, 95.0).unwrap_err().to_string();
+        assert!(err.contains("20–90 %"), "{err}");
+        assert!(declared_rh(&c, f64::NAN).is_err());
     }
 }

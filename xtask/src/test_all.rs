@@ -12,11 +12,15 @@ use crate::{
 };
 
 fn cargo_test(manifest: &str) -> Result<()> {
+    cargo_test_with(manifest, &[])
+}
+
+fn cargo_test_with(manifest: &str, extra: &[&str]) -> Result<()> {
     let manifest = repo_root().join(manifest);
     if !manifest.exists() {
         return Err(format!("{} does not exist", manifest.display()));
     }
-    run(cargo().current_dir(repo_root()).args(["test", "--target", "host-tuple", "--manifest-path"]).arg(manifest))
+    run(cargo().current_dir(repo_root()).args(["test", "--target", "host-tuple", "--manifest-path"]).arg(manifest).args(extra))
 }
 
 fn size_within_budget() -> Result<()> {
@@ -202,7 +206,8 @@ fn qemu_host_equivalence() -> Result<()> {
 pub fn command(filter: &[String]) -> Result<()> {
     type Step = (&'static str, fn() -> Result<()>);
     let steps: &[Step] = &[
-        ("core tests", || cargo_test("core/Cargo.toml")),
+        // `toml`: the calibration file reader and its fuzz test.
+        ("core tests", || cargo_test_with("core/Cargo.toml", &["--features", "toml"])),
         ("host-tests", || cargo_test("host-tests/Cargo.toml")),
         ("tool tests", || cargo_test("tool/Cargo.toml")),
         ("fit tests", || cargo_test("fit/Cargo.toml")),

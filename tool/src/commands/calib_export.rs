@@ -2,7 +2,7 @@
 //! for their strip and then bakes into the firmware (`IPMC_CALIB=FILE cargo build --release`)
 //! or passes to the tool (`--calib FILE`).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use ipmc_core::Calibration;
 use std::path::PathBuf;
 
@@ -41,7 +41,7 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 fn render(name: &str, calib: &Calibration) -> Result<String> {
-    let body = toml::to_string(calib).context("calibration does not serialize to TOML")?;
+    let body = ipmc_core::calibration_file::to_text(calib);
     Ok(format!(
         "# ipmc-sense calibration, exported from the `{name}` preset.\n\
          # SI units; a law's coeffs are in ascending powers of RH [%] (kind poly: value = sum,\n\

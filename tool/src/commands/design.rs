@@ -1,7 +1,7 @@
 //! `ipmc design`: the inverse the firmware computes at one humidity, as JSON.
 
 use crate::{calibration_source, overrides};
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 use ipmc_core::design::{compensation_error, design_inverse_for};
 use ipmc_core::rational::{IonicOrder, RationalModel, approximation_error};
 use ipmc_core::{DesignConfig, Params};
@@ -28,9 +28,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let calib = calibration_source::load(a.calib.as_deref())?;
-    if !(0.0..=100.0).contains(&a.rh) {
-        bail!("--rh {} is outside 0–100 %", a.rh);
-    }
+    calibration_source::declared_rh(&calib, a.rh)?;
     // Exactly what the device runs: the f32 design chain.
     let mut p32: Params<f32> = calib.params_at(a.rh as f32);
     overrides::apply(&mut p32, &a.set);

@@ -24,9 +24,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let calib = calibration_source::load(a.calib.as_deref())?;
-    if !(0.0..=100.0).contains(&a.rh) {
-        bail!("--rh {} is outside 0–100 %", a.rh);
-    }
+    calibration_source::declared_rh(&calib, a.rh)?;
     let mut p: Params<f64> = calib.params_at(a.rh);
     overrides::apply(&mut p, &a.set);
     let mut out = std::io::stdout().lock();

@@ -1,0 +1,157 @@
+//! Calibration files: the one reader of the TOML form of [`Calibration`], used by the firmware's
+//! build script (`IPMC_CALIB`) and the tool (`--calib`), so both accept and refuse the same files
+//! with the same messages.
+
+use std::fmt;
+
+use crate::calibration::{Calibration, ParamName, Params, ValidationError};
+use crate::design::{DesignConfig, DesignError, design_inverse};
+
+/// RH step [%] of the load-time design check over the declared range (both ends included).
+pub const DESIGN_CHECK_STEP_PCT: f64 = 5.0;
+
+/// Why a calibration file was refused. Displayed as `line:column: what`, or the parameter and RH
+/// that make the laws unusable; the caller puts the file name in front.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FileError {
+    /// Not TOML, or not the shape of a calibration: 1-based line and column of the offending text.
+    Syntax { line: usize, column: usize, message: String },
+    /// Well formed, but not physical somewhere on its declared range.
+    Invalid(ValidationError),
+    /// Positive and finite, but the firmware's inverse cannot be designed at this RH (magnitudes
+    /// far from any IPMC strip). `farthest` is the parameter most orders of magnitude away from
+    /// the default preset there, with its value: the likely culprit.
+    Undesignable { rh_pct: f64, error: DesignError, farthest: ParamName, value: f64 },
+}
+
+impl fmt::Display for FileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FileError::Syntax { line, column, message } => write!(f, "{line}:{column}: {}", message.trim_end()),
+            FileError::Invalid(e) => write!(f, "calibration is not usable: {e}"),
+            FileError::Undesignable { rh_pct, error, farthest, value } => write!(
+                f,
+                "calibration is not usable: no inverse at RH {rh_pct:.1} % ({error}); parameter {} = {value:e} {} \
+                 is the farthest from the default preset there",
+                farthest.as_str(),
+                farthest.unit()
+            ),
+        }
+    }
+}
+
+impl std::error::Error for FileError {}
+
+/// Parses and validates a calibration file's text, and checks that the firmware can design
+/// with it over its declared range.
+pub fn parse(text: &str) -> Result<Calibration, FileError> {
+    let calibration = parse_unvalidated(text)?;
+    check(&calibration)?;
+    Ok(calibration)
+}
+
+/// What loading requires of any calibration (file or preset): physical laws on the declared
+/// range, and the firmware's f32 inverse designable every [`DESIGN_CHECK_STEP_PCT`] % of it.
+pub fn check(c: &Calibration) -> Result<(), FileError> {
+    c.validate().map_err(FileError::Invalid)?;
+    let steps = num_traits::Float::ceil((c.rh_max - c.rh_min) / DESIGN_CHECK_STEP_PCT) as usize;
+    for i in 0..=steps {
+        let rh = (c.rh_min + i as f64 * DESIGN_CHECK_STEP_PCT).min(c.rh_max);
+        if let Err(error) = design_inverse(c, rh as f32, &DesignConfig::<f32>::default()) {
+            let (farthest, value) = farthest_from_default(&c.params_at(rh), rh);
+            return Err(FileError::Undesignable { rh_pct: rh, error, farthest, value });
+        }
+    }
+    Ok(())
+}
+
+/// The parameter whose ratio to the default preset's value at `rh` is largest in magnitude
+/// of its logarithm, and its value.
+fn farthest_from_default(p: &Params<f64>, rh: f64) -> (ParamName, f64) {
+    let reference: Params<f64> = Calibration::default_preset().params_at(rh);
+    let off = |n: ParamName| num_traits::Float::abs(num_traits::Float::ln(p.get(n) / reference.get(n)));
+    let worst = ParamName::ALL.iter().copied().fold(ParamName::Y, |w, n| if off(n) > off(w) { n } else { w });
+    (worst, p.get(worst))
+}
+
+/// Parses without validating (a verbatim preset that validation refuses still reads back).
+pub fn parse_unvalidated(text: &str) -> Result<Calibration, FileError> {
+    toml::from_str(text).map_err(|e| {
+        // toml reports a missing field with no span; the whole document is then what is wrong.
+        let (line, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
+        // toml's grammar errors come without a message; say what a calibration file looks like.
+        let message = match e.message().trim() {
+            "" => "not valid TOML here: expected `name = number` lines, `[y]`…`[m]` law tables and `coeffs = [numbers]`"
+                .to_string(),
+            m => m.to_string(),
+        };
+        FileError::Syntax { line, column, message }
+    })
+}
+
+/// The file's text for `c`.
+pub fn to_text(c: &Calibration) -> String {
+    // Every field is a number, a string or an array of numbers: serialization cannot fail.
+    toml::to_string(c).unwrap_or_default()
+}
+
+/// 1-based line and column (in characters) of byte `offset` of `text`.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let mut end = offset.min(text.len());
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    let before = &text[..end];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_and_positions() {
+        let c = Calibration::default_preset();
+        let text = to_text(&c);
+        assert_eq!(parse(&text), Ok(c));
+        let bad = text.replacen("t_k = 293.0", "t_k = \"warm\"", 1);
+        let line = bad.lines().position(|l| l.starts_with("t_k")).unwrap() + 1;
+        match parse(&bad) {
+            Err(FileError::Syntax { line: l, column, message }) => {
+                assert_eq!((l, column), (line, 7), "{message}");
+                assert!(message.contains("expected"), "{message}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(line_col("aé\nb", 2), (1, 2)); // inside a character: its start
+    }
+
+    #[test]
+    fn unknown_fields_are_refused() {
+        let text = to_text(&Calibration::default_preset()) + "rh_maximum = 95.0\n";
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(e.contains("rh_maximum"), "{e}");
+    }
+
+    #[test]
+    fn paper_preset_reads_back_but_is_refused_naming_d() {
+        let text = to_text(&Calibration::paper());
+        assert_eq!(parse_unvalidated(&text), Ok(Calibration::paper()));
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(e.contains("parameter d ") && e.contains("RH 38.0"), "{e}");
+    }
+
+    #[test]
+    fn absurd_magnitudes_are_refused_naming_rh_and_parameter() {
+        let mut c = Calibration::default_preset();
+        c.validate().unwrap();
+        c.set(ParamName::L, 6.6e22);
+        c.validate().unwrap(); // positive and finite: the laws alone do not catch it
+        let e = check(&c).unwrap_err();
+        assert!(matches!(e, FileError::Undesignable { farthest: ParamName::L, .. }), "{e}");
+        let shown = e.to_string();
+        assert!(shown.contains("RH 20.0 %") && shown.contains("parameter L = 6.6e22 m"), "{shown}");
+    }
+}
