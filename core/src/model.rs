@@ -83,28 +83,49 @@ fn series<T: Real>(q: C<T>) -> (C<T>, C<T>, C<T>) {
     (cc, phi, d1)
 }
 
+/// The mechanical functions of one q, in whichever form is exact there; both ratios are read
+/// from it, so a caller that needs both pays for the fourth root and the exponentials once.
+enum Mechanics<T> {
+    /// |z| < 1: the series in q.
+    Series { q: C<T>, cc: C<T>, phi: C<T>, d1: C<T> },
+    /// Otherwise: the scaled hyperbolic and circular functions of z.
+    Scaled { z: C<T>, s: Scaled<T> },
+}
+
+impl<T: Real> Mechanics<T> {
+    fn of(q: C<T>) -> Self {
+        if q.norm() < T::lit(SERIES_LIMIT) {
+            let (cc, phi, d1) = series(q);
+            Mechanics::Series { q, cc, phi, d1 }
+        } else {
+            let z = quarter_root(q);
+            Mechanics::Scaled { z, s: scaled(z) }
+        }
+    }
+    /// 2 cos z cosh z / D1
+    fn tip(&self) -> C<T> {
+        match self {
+            Mechanics::Series { cc, d1, .. } => *cc * T::lit(2.0) / *d1,
+            Mechanics::Scaled { s, .. } => s.c * s.ch * (T::lit(2.0) * s.e_xy) / s.d1,
+        }
+    }
+    /// z(cos z sinh z − cosh z sin z)/D1
+    fn slope(&self) -> C<T> {
+        match self {
+            Mechanics::Series { q, phi, d1, .. } => *q * *phi / *d1,
+            Mechanics::Scaled { z, s } => *z * (s.c * s.sh - s.ch * s.sn) * s.e_xy / s.d1,
+        }
+    }
+}
+
 /// Tip response W(L,s)/U(s) as a function of q: 2 cos z cosh z / D1.
 pub fn tip_of_q<T: Real>(q: C<T>) -> C<T> {
-    if q.norm() < T::lit(SERIES_LIMIT) {
-        let (cc, _, d1) = series(q);
-        cc * T::lit(2.0) / d1
-    } else {
-        let z = quarter_root(q);
-        let s = scaled(z);
-        s.c * s.ch * (T::lit(2.0) * s.e_xy) / s.d1
-    }
+    Mechanics::of(q).tip()
 }
 
 /// S(q) = z(cos z sinh z − cosh z sin z)/D1, so that N3/D1 = (2/L)·S(q).
 pub fn slope_of_q<T: Real>(q: C<T>) -> C<T> {
-    if q.norm() < T::lit(SERIES_LIMIT) {
-        let (_, phi, d1) = series(q);
-        q * phi / d1
-    } else {
-        let z = quarter_root(q);
-        let s = scaled(z);
-        z * (s.c * s.sh - s.ch * s.sn) * s.e_xy / s.d1
-    }
+    Mechanics::of(q).slope()
 }
 
 /// The ionic factor (βh coth βh − 1)/β², β² = (s + K)/d, of eq. 5.
@@ -143,7 +164,19 @@ pub fn tip_response<T: Real>(p: &Params<T>, s: C<T>) -> C<T> {
 
 /// H(s) = I(s)/U(s) of eq. 5 [A/m].
 pub fn current_response<T: Real>(p: &Params<T>, s: C<T>) -> C<T> {
-    let mech = slope_of_q(q_of(p, s)) * (T::lit(2.0) / p.l);
+    current_of_slope(p, s, slope_of_q(q_of(p, s)))
+}
+
+/// Tip response and current together at one s: the mechanics (most of the cost of either) is
+/// evaluated once. What a fit to both channels needs.
+pub fn responses<T: Real>(p: &Params<T>, s: C<T>) -> (C<T>, C<T>) {
+    let m = Mechanics::of(q_of(p, s));
+    (m.tip(), current_of_slope(p, s, m.slope()))
+}
+
+/// Eq. 5 from S(q).
+fn current_of_slope<T: Real>(p: &Params<T>, s: C<T>, slope: C<T>) -> C<T> {
+    let mech = slope * (T::lit(2.0) / p.l);
     s * ionic_factor(p, s) * mech * (p.b * p.y / p.alpha0)
 }
 
@@ -194,6 +227,16 @@ mod tests {
             let sl_e = z * (s.c * s.sh - s.ch * s.sn) * s.e_xy / s.d1;
             assert!((tip_s - tip_e).norm() < 1e-14 * tip_s.norm());
             assert!((sl_s - sl_e).norm() < 1e-13 * sl_s.norm(), "{q}: {sl_s} {sl_e}");
+        }
+    }
+
+    #[test]
+    fn responses_are_tip_and_current_bit_for_bit() {
+        for rh in [20.0, 50.0, 90.0] {
+            let p: Params<f64> = Calibration::default_preset().params_at(rh);
+            for f in [0.5, 10.0, 35.0, 220.0, 3000.0] {
+                assert_eq!(responses(&p, jw(f)), (tip_response(&p, jw(f)), current_response(&p, jw(f))), "{f} Hz");
+            }
         }
     }
 

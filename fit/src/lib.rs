@@ -5,9 +5,11 @@
 //! - [`response`]: residuals of a measured tip/current response against the core's exact model
 //!   (`ipmc_core::model`), with any subset of the model's parameters fitted by their `--set` names.
 //! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
+//! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
 //!
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
+pub mod identify;
 pub mod lsq;
 pub mod noise;
 pub mod response;

@@ -142,11 +142,25 @@ impl core::fmt::Display for FitError {
 
 impl std::error::Error for FitError {}
 
-/// Termination tolerances. The statistical uncertainty of any parameter worth reporting is far
-/// above 1e-8 relative, so iterating towards machine precision (the crate's default) buys nothing.
-const FTOL: f64 = 1e-10;
-const XTOL: f64 = 1e-9;
-const GTOL: f64 = 1e-10;
+/// When Levenberg–Marquardt stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tolerance {
+    /// Relative reduction of χ² below which it stops.
+    pub ftol: f64,
+    /// Relative step in the (transformed) parameters below which it stops.
+    pub xtol: f64,
+}
+
+impl Tolerance {
+    /// For a reported fit: the statistical uncertainty of any parameter worth reporting is far
+    /// above 1e-8 relative, so iterating towards machine precision (the crate's default) buys
+    /// nothing.
+    pub const REPORT: Tolerance = Tolerance { ftol: 1e-10, xtol: 1e-8 };
+    /// For a fit that only starts another one: it needs to land in the right basin, not on its
+    /// floor.
+    pub const START: Tolerance = Tolerance { ftol: 1e-6, xtol: 1e-4 };
+}
+
 /// Forward-difference step in u (relative step for `Positive` parameters).
 const DIFF_STEP: f64 = 1e-7;
 /// Singular values of J below this fraction of the largest are taken as zero: forward
@@ -162,6 +176,14 @@ pub fn fit<F>(params: &[Param], starts: &[Vec<f64>], n_residuals: usize, residua
 where
     F: Fn(&[f64], &mut [f64]),
 {
+    fit_with(Tolerance::REPORT, params, starts, n_residuals, residuals)
+}
+
+/// [`fit`] with chosen stopping tolerances.
+pub fn fit_with<F>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], n_residuals: usize, residuals: F) -> Result<Fit, FitError>
+where
+    F: Fn(&[f64], &mut [f64]),
+{
     let n = params.len();
     if n_residuals < n {
         return Err(FitError::TooFewResiduals { residuals: n_residuals, params: n });
@@ -174,7 +196,7 @@ where
             return Err(FitError::BadStart { start: k, reason: format!("{} = {v} is outside {:?}", p.name, p.bound) });
         }
     }
-    let lm = LevenbergMarquardt::new().with_ftol(FTOL).with_xtol(XTOL).with_gtol(GTOL);
+    let lm = LevenbergMarquardt::new().with_ftol(tol.ftol).with_xtol(tol.xtol).with_gtol(tol.ftol);
     let mut best: Option<(Problem<'_, F>, f64)> = None;
     let mut evaluations = 0;
     for start in starts {

@@ -2,90 +2,97 @@
 //!
 //! A measured response is the true one plus a relative error (gain calibration, shaker jitter)
 //! and an absolute floor (amplifier and ADC noise, the same in A or m whatever the signal). In
-//! ln(measured/model) the floor weighs 1/|G|: a point with a small response, such as the current
+//! measured/model − 1 the floor weighs 1/|G|: a point with a small response, such as the current
 //! at low frequency or low humidity (its double zero at s = 0, small diffusivity), is noisy.
-//! So per channel and per component (log gain, phase) the variance is modelled as
-//! σ² = a² + b²/|G|², with a and b ≥ 0 fitted to the squared residuals by least squares.
+//! So per channel the variance is modelled as σ² = a² + b²/|G|², with a and b ≥ 0 found by
+//! maximum likelihood from the residuals.
 
 use crate::response::{Channel, Point, Sigma};
 use ipmc_core::C;
 
-/// Variance model of one component: σ² = rel² + floor²/|G|².
+/// Noise of one channel: σ² = rel² + floor²/|G|², the same for ln gain and phase [rad] (a
+/// complex error that is equally likely in every direction, which both parts of the
+/// measurement share: the one FFT bin they come from).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct NoiseModel {
-    /// Relative part (dimensionless; radians for the phase).
+pub struct ChannelNoise {
+    /// Relative part (dimensionless).
     pub rel: f64,
     /// Absolute floor in the channel's unit (m/m or A/m).
     pub floor: f64,
 }
 
-impl NoiseModel {
+impl ChannelNoise {
     pub fn sigma(&self, gain: f64) -> f64 {
         (self.rel * self.rel + (self.floor / gain).powi(2)).sqrt()
     }
 }
 
-/// Noise of one channel.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct ChannelNoise {
-    pub ln_gain: NoiseModel,
-    pub phase: NoiseModel,
-}
-
 /// No σ below this: an exact (noise-free) data set must not give infinite weights.
 const SIGMA_FLOOR: f64 = 1e-9;
 
-/// Fits σ² = a² + b²·x (x = 1/|G|²) to squared residuals with a², b² ≥ 0.
-///
-/// A squared residual scatters by about its own variance, so the points where the floor
-/// dominates would swamp an unweighted fit: iteratively reweighted by 1/σ⁴.
-fn fit_variance(x: &[f64], r2: &[f64], dof_scale: f64) -> NoiseModel {
-    let mut weights = vec![1.0; x.len()];
-    let (mut a2, mut b2) = (0.0, 0.0);
-    for _ in 0..4 {
-        (a2, b2) = weighted_nonneg_line(x, r2, &weights);
-        for (w, &xi) in weights.iter_mut().zip(x) {
-            let v = a2 + b2 * xi;
-            *w = if v > 0.0 { 1.0 / (v * v) } else { 1.0 };
+/// Maximum-likelihood σ² = a² + b²·x (x = 1/|G|², a, b ≥ 0) from complex errors whose two
+/// parts each have variance σ², given as |e|². With t = b²/a² the best a² for a given t is
+/// closed-form, so the likelihood is profiled over t alone: a log grid spanning every ratio of
+/// floor to relative noise that the data's gains can tell apart, refined by golden section,
+/// against the two pure models. (Least squares on e² instead is swamped by the noisiest points
+/// and flips between the pure models when iteratively reweighted.)
+fn fit_variance(x: &[f64], e2: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    // −2·log-likelihood up to a constant for σ² = a²·(1 + t·x) with a² at its optimum.
+    let nll = |t: f64| {
+        let mut sum_ln_v = 0.0;
+        let mut s = 0.0;
+        for (&xi, &ei) in x.iter().zip(e2) {
+            let v = 1.0 + t * xi;
+            sum_ln_v += v.ln();
+            s += ei / v;
         }
+        let a2 = s / (2.0 * n);
+        (2.0 * sum_ln_v + 2.0 * n * a2.ln(), a2)
+    };
+    let only_floor = {
+        let b2 = x.iter().zip(e2).map(|(xi, ei)| ei / xi).sum::<f64>() / (2.0 * n);
+        (2.0 * x.iter().map(|xi| (b2 * xi).ln()).sum::<f64>(), (0.0, b2))
+    };
+    if !(e2.iter().any(|&e| e > 0.0)) {
+        return (0.0, 0.0);
     }
-    NoiseModel { rel: (a2 * dof_scale).sqrt(), floor: (b2 * dof_scale).sqrt() }
+    let mut xs: Vec<f64> = x.to_vec();
+    xs.sort_by(f64::total_cmp);
+    let (x_lo, x_hi) = (xs[0].max(f64::MIN_POSITIVE), xs[xs.len() - 1].max(f64::MIN_POSITIVE));
+    // t·x from 1e-3 at the largest x (floor negligible everywhere) to 1e3 at the smallest.
+    let (lt_lo, lt_hi) = ((1e-3 / x_hi).ln(), (1e3 / x_lo).ln());
+    const STEPS: usize = 80;
+    let lt = |k: usize| lt_lo + (lt_hi - lt_lo) * k as f64 / STEPS as f64;
+    let best_k = (0..=STEPS).min_by(|&a, &b| nll(lt(a).exp()).0.total_cmp(&nll(lt(b).exp()).0)).expect("non-empty grid");
+    let (mut lo, mut hi) = (lt(best_k.saturating_sub(1)), lt((best_k + 1).min(STEPS)));
+    const INV_PHI: f64 = 0.618_033_988_749_894_9;
+    for _ in 0..40 {
+        let (m1, m2) = (hi - (hi - lo) * INV_PHI, lo + (hi - lo) * INV_PHI);
+        if nll(m1.exp()).0 < nll(m2.exp()).0 { hi = m2 } else { lo = m1 }
+    }
+    let t = (0.5 * (lo + hi)).exp();
+    let mixed = nll(t);
+    let only_rel = nll(0.0);
+    let candidates = [(mixed.0, (mixed.1, mixed.1 * t)), (only_rel.0, (only_rel.1, 0.0)), only_floor];
+    candidates.into_iter().filter(|c| c.0.is_finite()).min_by(|a, b| a.0.total_cmp(&b.0)).map(|c| c.1).unwrap_or((0.0, 0.0))
 }
 
-/// Weighted least squares y ≈ a + b·x with a, b ≥ 0.
-fn weighted_nonneg_line(x: &[f64], y: &[f64], w: &[f64]) -> (f64, f64) {
-    let s = |f: &dyn Fn(usize) -> f64| (0..x.len()).map(|i| w[i] * f(i)).sum::<f64>();
-    let (sw, sx, sy) = (s(&|_| 1.0), s(&|i| x[i]), s(&|i| y[i]));
-    let (sxx, sxy) = (s(&|i| x[i] * x[i]), s(&|i| x[i] * y[i]));
-    let det = sw * sxx - sx * sx;
-    if det > 1e-12 * sw * sxx {
-        let (a, b) = ((sy * sxx - sx * sxy) / det, (sw * sxy - sx * sy) / det);
-        if a >= 0.0 && b >= 0.0 {
-            return (a, b);
-        }
-    }
-    // The non-negative solution lies on a face when the free one leaves the quadrant.
-    let only_a = sy / sw;
-    let only_b = if sxx > 0.0 { (sxy / sxx).max(0.0) } else { 0.0 };
-    let sse = |a: f64, b: f64| (0..x.len()).map(|i| w[i] * (y[i] - a - b * x[i]).powi(2)).sum::<f64>();
-    if sse(only_a, 0.0) <= sse(0.0, only_b) { (only_a, 0.0) } else { (0.0, only_b) }
-}
-
-/// Estimates the noise of `channel` from the unweighted log ratios of a fit with `n_fitted`
-/// parameters over all `points` (`None` when the channel has fewer than three points).
-pub fn estimate(points: &[Point], log_ratios: &[C<f64>], model_gains: &[f64], channel: Channel, n_fitted: usize) -> Option<ChannelNoise> {
+/// Estimates the noise of `channel` from the relative errors (measured/model − 1) of a fit with
+/// `n_fitted` parameters over all `points` (`None` when the channel has fewer than three points).
+pub fn estimate(points: &[Point], errors: &[C<f64>], model_gains: &[f64], channel: Channel, n_fitted: usize) -> Option<ChannelNoise> {
     let idx: Vec<usize> = (0..points.len()).filter(|&i| points[i].channel == channel).collect();
     if idx.len() < 3 {
         return None;
     }
     let x: Vec<f64> = idx.iter().map(|&i| model_gains[i].powi(-2)).collect();
-    let re2: Vec<f64> = idx.iter().map(|&i| log_ratios[i].re.powi(2)).collect();
-    let im2: Vec<f64> = idx.iter().map(|&i| log_ratios[i].im.powi(2)).collect();
+    let e2: Vec<f64> = idx.iter().map(|&i| errors[i].norm_sqr()).collect();
+    let (a2, b2) = fit_variance(&x, &e2);
     // Residuals of a fit are smaller than the noise by the parameters it absorbed; the fitted
     // parameters are shared by all 2·N residuals of the fit.
     let m = 2 * points.len();
     let dof_scale = m as f64 / (m.saturating_sub(n_fitted)).max(1) as f64;
-    Some(ChannelNoise { ln_gain: fit_variance(&x, &re2, dof_scale), phase: fit_variance(&x, &im2, dof_scale) })
+    Some(ChannelNoise { rel: (a2 * dof_scale).sqrt(), floor: (b2 * dof_scale).sqrt() })
 }
 
 /// σ of every point from its channel's noise and the model's gain there.
@@ -94,7 +101,10 @@ pub fn sigmas(points: &[Point], model_gains: &[f64], noise: &[(Channel, ChannelN
         .iter()
         .zip(model_gains)
         .map(|(pt, &g)| match noise.iter().find(|(c, _)| *c == pt.channel) {
-            Some((_, n)) => Sigma { ln_gain: n.ln_gain.sigma(g).max(SIGMA_FLOOR), phase: n.phase.sigma(g).max(SIGMA_FLOOR) },
+            Some((_, n)) => {
+                let s = n.sigma(g).max(SIGMA_FLOOR);
+                Sigma { ln_gain: s, phase: s }
+            }
             None => Sigma::UNIT,
         })
         .collect()
@@ -130,10 +140,8 @@ mod tests {
             })
             .collect();
         let est = estimate(&points, &ratios, &gains, Channel::Current, 0).unwrap();
-        for m in [est.ln_gain, est.phase] {
-            assert!((m.rel / rel - 1.0).abs() < 0.2, "{m:?}");
-            assert!((m.floor / floor - 1.0).abs() < 0.2, "{m:?}");
-        }
+        assert!((est.rel / rel - 1.0).abs() < 0.15, "{est:?}");
+        assert!((est.floor / floor - 1.0).abs() < 0.15, "{est:?}");
         assert!(estimate(&points[..2], &ratios[..2], &gains[..2], Channel::Current, 0).is_none());
         assert!(estimate(&points, &ratios, &gains, Channel::Tip, 0).is_none());
     }

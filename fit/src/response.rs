@@ -7,7 +7,7 @@
 //! needs no unwrapping.
 
 use crate::lsq::{Bound, Param};
-use ipmc_core::model::{current_response, jw, tip_response};
+use ipmc_core::model::{current_response, jw, responses, tip_response};
 use ipmc_core::{C, ParamName, Params};
 
 /// Which response a point measures.
@@ -47,6 +47,33 @@ impl Point {
     }
 }
 
+/// How a point's misfit becomes a residual.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Misfit {
+    /// ln(measured/model), split into log gain and phase: symmetric in over- and
+    /// under-estimating the gain and blind to phase wrapping, so the landscape far from the
+    /// optimum has no false walls. Biased where the noise is comparable to the signal.
+    LogRatio,
+    /// measured/model − 1: exactly the noise over the signal, Gaussian however weak the signal
+    /// (the log of a noise-dominated gain is not), so it is what a fit weighted by each point's
+    /// noise must use near the optimum.
+    Relative,
+    /// measured − model, in the channel's unit (σ too): weak points weigh little whatever
+    /// their noise, which makes it the safe first fit of a channel whose noise is not known yet
+    /// and may swamp its low-gain points (the current at low frequency).
+    Difference,
+}
+
+impl Misfit {
+    pub fn of(self, measured: C<f64>, model: C<f64>) -> C<f64> {
+        match self {
+            Misfit::LogRatio => log_ratio(measured, model),
+            Misfit::Relative => measured / model - 1.0,
+            Misfit::Difference => measured - model,
+        }
+    }
+}
+
 /// Noise of one point: standard deviations of ln(gain) and of the phase [rad].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sigma {
@@ -64,10 +91,11 @@ pub fn log_ratio(measured: C<f64>, model: C<f64>) -> C<f64> {
     (measured / model).ln()
 }
 
-/// Writes two weighted residuals per point (log gain, then phase) given the model's values.
-pub fn weighted_residuals(points: &[Point], sigmas: &[Sigma], model: impl Fn(&Point) -> C<f64>, out: &mut [f64]) {
-    for ((pt, s), r) in points.iter().zip(sigmas).zip(out.chunks_exact_mut(2)) {
-        let z = log_ratio(pt.value, model(pt));
+/// Writes two weighted residuals per point (real part: gain, imaginary part: phase) given the
+/// model's value at each point.
+pub fn weighted_residuals(points: &[Point], sigmas: &[Sigma], misfit: Misfit, model: &[C<f64>], out: &mut [f64]) {
+    for (((pt, s), m), r) in points.iter().zip(sigmas).zip(model).zip(out.chunks_exact_mut(2)) {
+        let z = misfit.of(pt.value, *m);
         r[0] = z.re / s.ln_gain;
         r[1] = z.im / s.phase;
     }
@@ -80,12 +108,55 @@ pub struct ResponseProblem<'a> {
     pub fitted: Vec<ParamName>,
     pub points: &'a [Point],
     pub sigmas: &'a [Sigma],
+    pub misfit: Misfit,
+    /// Points by frequency: where both channels were measured at one frequency the model
+    /// evaluates them together ([`responses`]), which costs little more than one of them.
+    by_freq: Vec<(f64, [Option<usize>; 2])>,
+}
+
+/// Groups point indices by frequency, tip first.
+fn group_by_frequency(points: &[Point]) -> Vec<(f64, [Option<usize>; 2])> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| points[a].freq_hz.total_cmp(&points[b].freq_hz));
+    let mut groups: Vec<(f64, [Option<usize>; 2])> = Vec::new();
+    for i in order {
+        let slot = match points[i].channel {
+            Channel::Tip => 0,
+            Channel::Current => 1,
+        };
+        match groups.last_mut() {
+            Some((f, g)) if *f == points[i].freq_hz && g[slot].is_none() => g[slot] = Some(i),
+            _ => {
+                let mut g = [None, None];
+                g[slot] = Some(i);
+                groups.push((points[i].freq_hz, g));
+            }
+        }
+    }
+    groups
+}
+
+/// The model at every point.
+pub fn model_values(p: &Params<f64>, points: &[Point]) -> Vec<C<f64>> {
+    let mut out = vec![C::new(0.0, 0.0); points.len()];
+    fill_model_values(p, points, &group_by_frequency(points), &mut out);
+    out
+}
+
+fn fill_model_values(p: &Params<f64>, points: &[Point], by_freq: &[(f64, [Option<usize>; 2])], out: &mut [C<f64>]) {
+    for &(f, [tip, current]) in by_freq {
+        match (tip, current) {
+            (Some(t), Some(c)) => (out[t], out[c]) = responses(p, jw(f)),
+            (Some(i), None) | (None, Some(i)) => out[i] = points[i].channel.model(p, f),
+            (None, None) => {}
+        }
+    }
 }
 
 impl<'a> ResponseProblem<'a> {
-    pub fn new(base: Params<f64>, fitted: &[ParamName], points: &'a [Point], sigmas: &'a [Sigma]) -> Self {
+    pub fn new(base: Params<f64>, fitted: &[ParamName], points: &'a [Point], sigmas: &'a [Sigma], misfit: Misfit) -> Self {
         assert_eq!(points.len(), sigmas.len(), "one σ per point");
-        ResponseProblem { base, fitted: fitted.to_vec(), points, sigmas }
+        ResponseProblem { base, fitted: fitted.to_vec(), points, sigmas, misfit, by_freq: group_by_frequency(points) }
     }
 
     /// Every model parameter is positive and the identified ones span decades across humidity
@@ -113,8 +184,9 @@ impl<'a> ResponseProblem<'a> {
     }
 
     pub fn residuals(&self, values: &[f64], out: &mut [f64]) {
-        let p = self.params(values);
-        weighted_residuals(self.points, self.sigmas, |pt| pt.channel.model(&p, pt.freq_hz), out);
+        let mut model = vec![C::new(0.0, 0.0); self.points.len()];
+        fill_model_values(&self.params(values), self.points, &self.by_freq, &mut model);
+        weighted_residuals(self.points, self.sigmas, self.misfit, &model, out);
     }
 
     /// χ² at `values` (for ranking starts).
@@ -124,10 +196,12 @@ impl<'a> ResponseProblem<'a> {
         r.iter().map(|x| x * x).sum()
     }
 
-    /// Unweighted ln(measured/model) per point at `values` (what noise estimation looks at).
-    pub fn log_ratios(&self, values: &[f64]) -> Vec<C<f64>> {
-        let p = self.params(values);
-        self.points.iter().map(|pt| log_ratio(pt.value, pt.channel.model(&p, pt.freq_hz))).collect()
+    /// Unweighted measured/model − 1 per point at `values` (what noise estimation looks at),
+    /// with the model's gain there.
+    pub fn relative_errors(&self, values: &[f64]) -> (Vec<C<f64>>, Vec<f64>) {
+        let mut model = vec![C::new(0.0, 0.0); self.points.len()];
+        fill_model_values(&self.params(values), self.points, &self.by_freq, &mut model);
+        self.points.iter().zip(&model).map(|(pt, &g)| (Misfit::Relative.of(pt.value, g), g.norm())).unzip()
     }
 }
 
@@ -150,7 +224,7 @@ mod tests {
             })
             .collect();
         let sigmas = vec![Sigma::UNIT; points.len()];
-        let problem = ResponseProblem::new(p, &[ParamName::Y, ParamName::D], &points, &sigmas);
+        let problem = ResponseProblem::new(p, &[ParamName::Y, ParamName::D], &points, &sigmas, Misfit::LogRatio);
         let mut r = vec![1.0; problem.n_residuals()];
         problem.residuals(&problem.start(), &mut r);
         assert!(r.iter().all(|x| x.abs() < 1e-9), "{r:?}");

@@ -1,0 +1,237 @@
+//! One humidity level's parameters from its frequency response, in the paper's order.
+//!
+//! 1. Y and Cs from the tip response with Ca = 0, started from the best of a coarse grid in Y
+//!    (the resonance moves as √Y; a start half a peak-width off would put the phase residuals on
+//!    the wrong side of ±180°, where the landscape has false minima).
+//! 2. Y, Cs and Ca together from there; the tip's noise is estimated from this fit's residual
+//!    scatter and the fit is repeated with those weights.
+//! 3. d from the current response with the mechanics held, κe measured (charging) or from the
+//!    base calibration; grid start over decades, then the current's noise, then refit.
+//! 4. Y, Cs, Ca and d together on both channels, every point weighted by its noise: the
+//!    estimates, standard errors and correlations reported come from this fit.
+//!
+//! When a level has no tip channel the mechanics are fitted on the current with d free.
+
+use crate::lsq::{self, Fit, FitError, Tolerance};
+use crate::noise::{self, ChannelNoise};
+use crate::response::{Channel, Misfit, Point, ResponseProblem, Sigma, model_values};
+use ipmc_core::{Calibration, ParamName, Params};
+
+/// A value and its standard error.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Estimate {
+    pub value: f64,
+    /// Standard error; `None` when the source gives none (κe taken from the base calibration).
+    pub se: Option<f64>,
+}
+
+/// One level's data.
+#[derive(Clone, Debug)]
+pub struct LevelData {
+    pub rh_pct: f64,
+    pub points: Vec<Point>,
+    /// κe from a charging recording at this level; otherwise the base calibration's.
+    pub kappa_e: Option<Estimate>,
+}
+
+/// One level's identified parameters.
+#[derive(Clone, Debug)]
+pub struct LevelFit {
+    pub rh_pct: f64,
+    /// Fitted parameters in [`FITTED`] order (d only when the level has current data).
+    pub fit: Fit,
+    pub fitted: Vec<ParamName>,
+    pub kappa_e: Estimate,
+    pub kappa_e_measured: bool,
+    /// The model's parameters at this level as fitted (for predictions and plots).
+    pub params: Params<f64>,
+    pub noise: Vec<(Channel, ChannelNoise)>,
+    pub tip_points: usize,
+    pub current_points: usize,
+}
+
+impl LevelFit {
+    /// The estimate of `p` if this level fitted it.
+    pub fn estimate(&self, p: ParamName) -> Option<Estimate> {
+        if p == ParamName::KappaE {
+            return Some(self.kappa_e);
+        }
+        let i = self.fit.index(p.as_str())?;
+        Some(Estimate { value: self.fit.estimates[i], se: Some(self.fit.std_errors[i]) })
+    }
+    /// Correlation of two fitted parameters' estimates.
+    pub fn correlation(&self, a: ParamName, b: ParamName) -> Option<f64> {
+        self.fit.correlation_of(a.as_str(), b.as_str())
+    }
+}
+
+/// The parameters a level's frequency response determines.
+pub const FITTED: [ParamName; 4] = [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::D];
+
+/// Why a level could not be identified.
+#[derive(Clone, Debug, PartialEq)]
+pub enum IdentifyError {
+    TooFewPoints { rh_pct: f64, points: usize, needed: usize },
+    Fit { rh_pct: f64, stage: &'static str, error: FitError },
+}
+
+impl core::fmt::Display for IdentifyError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            IdentifyError::TooFewPoints { rh_pct, points, needed } => write!(
+                f,
+                "level at RH {rh_pct:.1} %: {points} frequencies, at least {needed} needed to fit Y, Cs, Ca and d"
+            ),
+            IdentifyError::Fit { rh_pct, stage, error } => write!(f, "level at RH {rh_pct:.1} %, {stage}: {error}"),
+        }
+    }
+}
+
+impl std::error::Error for IdentifyError {}
+
+/// Y factors of the stage-1 start grid around the base calibration: ×0.25 … ×4, the resonance
+/// moving by 19 % between neighbours (less than the half-width of a peak with the paper's damping).
+const Y_GRID: [f64; 17] = {
+    let mut g = [0.0; 17];
+    let mut i = 0;
+    while i < 17 {
+        // 4^((i − 8)/8), written as a product because const fn has no powf
+        let mut v = 1.0;
+        let mut k = 0;
+        let steps = if i >= 8 { i - 8 } else { 8 - i };
+        while k < steps {
+            v *= 1.189_207_115_002_721; // 4^(1/8)
+            k += 1;
+        }
+        g[i] = if i >= 8 { v } else { 1.0 / v };
+        i += 1;
+    }
+    g
+};
+
+/// d factors of the stage-3 start grid: d spans two decades over humidity, so a sample may sit
+/// two decades away from the base calibration.
+const D_GRID: [f64; 9] = [1e-2, 3.16e-2, 0.1, 0.316, 1.0, 3.16, 10.0, 31.6, 100.0];
+
+fn fit_stage(
+    rh_pct: f64,
+    stage: &'static str,
+    tol: Tolerance,
+    problem: &ResponseProblem<'_>,
+    starts: &[Vec<f64>],
+) -> Result<Fit, IdentifyError> {
+    lsq::fit_with(tol, &problem.lsq_params(), starts, problem.n_residuals(), |v, out| problem.residuals(v, out))
+        .map_err(|error| IdentifyError::Fit { rh_pct, stage, error })
+}
+
+/// The `k` grid values of `problem`'s parameter `which` with the lowest χ², as full starts.
+fn best_of_grid(problem: &ResponseProblem<'_>, which: usize, factors: &[f64], k: usize) -> Vec<Vec<f64>> {
+    let start = problem.start();
+    let mut scored: Vec<(f64, Vec<f64>)> = factors
+        .iter()
+        .map(|f| {
+            let mut v = start.clone();
+            v[which] *= f;
+            (problem.chi2(&v), v)
+        })
+        .filter(|(c, _)| c.is_finite())
+        .collect();
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    scored.into_iter().take(k).map(|(_, v)| v).collect()
+}
+
+/// Identifies one level. `base` supplies the start values, κe when not measured, and every
+/// parameter that is not fitted (h, m, geometry, constants).
+pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit, IdentifyError> {
+    let rh = level.rh_pct;
+    let mut p0: Params<f64> = base.params_at(rh);
+    let kappa_e_measured = level.kappa_e.is_some();
+    let kappa_e = level.kappa_e.unwrap_or(Estimate { value: p0.kappa_e, se: None });
+    p0.kappa_e = kappa_e.value;
+
+    let tip: Vec<Point> = level.points.iter().copied().filter(|p| p.channel == Channel::Tip).collect();
+    let current: Vec<Point> = level.points.iter().copied().filter(|p| p.channel == Channel::Current).collect();
+    let has_current = !current.is_empty();
+    let fitted: Vec<ParamName> = if has_current { FITTED.to_vec() } else { FITTED[..3].to_vec() };
+    // Two residuals per point; at least one degree of freedom per fitted parameter to spare.
+    let needed = fitted.len();
+    if level.points.len() < needed {
+        return Err(IdentifyError::TooFewPoints { rh_pct: rh, points: level.points.len(), needed });
+    }
+
+    // Stages 1–2 on the channel that carries the mechanics alone (the tip), else on the current
+    // with d free because the current's level scales with √d.
+    let (mech_points, mech_channel) = if tip.len() >= 2 { (tip, Channel::Tip) } else { (current.clone(), Channel::Current) };
+    let mech_extra: &[ParamName] = if mech_channel == Channel::Current { &[ParamName::D] } else { &[] };
+    let unit = vec![Sigma::UNIT; mech_points.len()];
+
+    let mut p1 = p0;
+    p1.ca = 0.0;
+    let stage1_names: Vec<ParamName> = [ParamName::Y, ParamName::Cs].iter().chain(mech_extra).copied().collect();
+    let stage1 = ResponseProblem::new(p1, &stage1_names, &mech_points, &unit, Misfit::LogRatio);
+    let starts = best_of_grid(&stage1, 0, &Y_GRID, 1);
+    let f1 = fit_stage(rh, "Y and Cs with Ca = 0", Tolerance::START, &stage1, &starts)?;
+    let mut p2 = stage1.params(&f1.estimates);
+    p2.ca = p0.ca;
+
+    let stage2_names: Vec<ParamName> = [ParamName::Y, ParamName::Cs, ParamName::Ca].iter().chain(mech_extra).copied().collect();
+    let stage2 = ResponseProblem::new(p2, &stage2_names, &mech_points, &unit, Misfit::LogRatio);
+    let f2 = fit_stage(rh, "Y, Cs and Ca", Tolerance::START, &stage2, &[stage2.start()])?;
+    let mut p3 = stage2.params(&f2.estimates);
+    let mut noise = Vec::new();
+    let (errors, gains) = stage2.relative_errors(&f2.estimates);
+    noise.extend(noise::estimate(&mech_points, &errors, &gains, mech_channel, stage2_names.len()).map(|n| (mech_channel, n)));
+
+    // Stage 3: d from the current (only needed when the mechanics came from the tip): first
+    // by plain differences, which the noisy low-gain points cannot pull, then weighted by the
+    // noise that fit shows, twice (the second noise estimate sees a better fit).
+    if has_current && mech_channel == Channel::Tip {
+        let mut gains: Vec<f64> = current.iter().map(|p| p.value.norm()).collect();
+        gains.sort_by(f64::total_cmp);
+        let typical = gains[gains.len() / 2];
+        let scale = vec![Sigma { ln_gain: typical, phase: typical }; current.len()];
+        let stage3 = ResponseProblem::new(p3, &[ParamName::D], &current, &scale, Misfit::Difference);
+        let starts = best_of_grid(&stage3, 0, &D_GRID, 1);
+        let mut d = fit_stage(rh, "d", Tolerance::START, &stage3, &starts)?.estimates;
+        let mut current_noise = None;
+        for _ in 0..1 {
+            let (errors, gains) = stage3.relative_errors(&d);
+            let Some(n) = noise::estimate(&current, &errors, &gains, Channel::Current, 1) else { break };
+            current_noise = Some(n);
+            let sigmas = noise::sigmas(&current, &gains, &[(Channel::Current, n)]);
+            let weighted = ResponseProblem::new(p3, &[ParamName::D], &current, &sigmas, Misfit::Relative);
+            d = fit_stage(rh, "d weighted", Tolerance::START, &weighted, &[d])?.estimates;
+        }
+        p3 = stage3.params(&d);
+        noise.extend(current_noise.map(|n| (Channel::Current, n)));
+    }
+
+    // Stage 4: everything together, each point weighted by its own noise.
+    let gains: Vec<f64> = model_values(&p3, &level.points).iter().map(|g| g.norm()).collect();
+    let sigmas = noise::sigmas(&level.points, &gains, &noise);
+    let joint = ResponseProblem::new(p3, &fitted, &level.points, &sigmas, Misfit::Relative);
+    let fit = fit_stage(rh, "joint fit", Tolerance::REPORT, &joint, &[joint.start()])?;
+    let params = joint.params(&fit.estimates);
+    Ok(LevelFit {
+        rh_pct: rh,
+        fit,
+        fitted,
+        kappa_e,
+        kappa_e_measured,
+        params,
+        noise,
+        tip_points: level.points.iter().filter(|p| p.channel == Channel::Tip).count(),
+        current_points: level.points.iter().filter(|p| p.channel == Channel::Current).count(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn y_grid_is_geometric_around_one() {
+        assert!((Y_GRID[8] - 1.0).abs() < 1e-15);
+        assert!((Y_GRID[0] - 0.25).abs() < 1e-12 && (Y_GRID[16] - 4.0).abs() < 1e-12);
+    }
+}
