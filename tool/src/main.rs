@@ -2,6 +2,7 @@
 
 mod calibration_source;
 mod commands;
+mod input;
 mod overrides;
 
 use clap::{Parser, Subcommand};

@@ -161,7 +161,7 @@ fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
 /// Writes `prefix`.svg and `prefix`.png: `est_csv` (and `fixed_csv`) against the recording's
 /// `base_m` (`base_m`, sampled at `fs`), the detail window being the last `seconds` of the run.
 pub fn plot(base: &[f64], fs: f64, est_csv: &Path, fixed_csv: Option<&Path>, prefix: &Path, seconds: f64, delay: usize) -> Result<(PathBuf, PathBuf)> {
-    let est = crate::recording::require_column(est_csv, "base_est_m")?;
+    let est = crate::recording::estimates_m(est_csv)?;
     let n = est.len().min(base.len());
     if n <= delay + 2 {
         return Err("too few estimates to plot".into());
@@ -170,7 +170,7 @@ pub fn plot(base: &[f64], fs: f64, est_csv: &Path, fixed_csv: Option<&Path>, pre
     let truth: Vec<f64> = (0..n).map(|i| if i >= delay { base[i - delay] } else { 0.0 }).collect();
     let mut series = vec![Series { name: "compensated (firmware in QEMU)".into(), color: RGBColor(0, 110, 220), est: est[..n].to_vec(), primary: true }];
     if let Some(f) = fixed_csv {
-        let mut v = crate::recording::require_column(f, "base_est_m")?;
+        let mut v = crate::recording::estimates_m(f)?;
         v.resize(n, f64::NAN);
         series.push(Series { name: "fixed 45 % design".into(), color: RGBColor(220, 60, 30), est: v, primary: false });
     }

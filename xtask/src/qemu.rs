@@ -3,7 +3,6 @@
 
 use std::{
     fs,
-    io::Write as _,
     path::{Path, PathBuf},
     process::{Command, Stdio},
     time::{Duration, Instant},
@@ -110,7 +109,7 @@ fn bundled_recording() -> Option<PathBuf> {
         .ok()?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "csv"))
-        .filter(|p| recording::read(p).is_ok())
+        .filter(|p| recording::is_time_series(p))
         .collect();
     csvs.sort();
     csvs.into_iter().next()
@@ -136,7 +135,7 @@ pub fn command(args: &[String]) -> Result<()> {
     };
     let out = out.unwrap_or_else(|| repo_root().join("target/qemu-run/EST.csv"));
 
-    let rec = recording::read(&input)?;
+    let rec = recording::time_series(&input)?;
     if (rec.fs_hz - FIRMWARE_FS_HZ as f64).abs() > 1e-6 * FIRMWARE_FS_HZ as f64 {
         return Err(format!("{} is sampled at {} Hz; the firmware runs at {FIRMWARE_FS_HZ} Hz", input.display(), rec.fs_hz));
     }
@@ -190,7 +189,7 @@ fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<String> {
 /// If the input recording carries the true `base_m`, prints the firmware's error against it
 /// and, for comparison, the host's humidity-independent baseline (`ipmc compensate --fixed-rh 45`).
 fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
-    if recording::read_column(input, "base_m")?.is_none() {
+    if recording::time_series(input)?.base_m.is_none() {
         return Ok(());
     }
     let firmware = ipmc_figure(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str()])?;
@@ -206,8 +205,8 @@ fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
 /// SVG and PNG of the firmware's estimate, the true base and the fixed-45 % estimate; prints
 /// their paths.
 fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
-    let rec = recording::read(input)?;
-    let base = recording::read_column(input, "base_m")?.ok_or("no base_m")?;
+    let rec = recording::time_series(input)?;
+    let base = rec.base_m.ok_or("no base_m")?;
     let (svg, png) = crate::plot::plot(&base, rec.fs_hz, est_csv, Some(fixed_csv), &est_csv.with_extension(""), 2.0, FIRMWARE_DELAY_SAMPLES)?;
     println!("plot: {}\nplot: {}", svg.display(), png.display());
     Ok(())
@@ -215,22 +214,22 @@ fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
 
 
 
+/// The firmware's estimates as EST.csv (the format `ipmc compensate` writes, one writer).
 pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {
     if let Some(dir) = path.parent() {
         fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     }
-    let mut f = std::io::BufWriter::new(fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?);
-    let mut w = || -> std::io::Result<()> {
-        writeln!(f, "# fs_hz={FIRMWARE_FS_HZ}")?;
-        writeln!(f, "t_s,base_est_m,rh_pct,flags")?;
-        for b in blocks {
-            for (k, v) in b.base_est_m.iter().enumerate() {
-                let i = b.first_sample as usize + k;
-                let t = t_s.get(i).copied().unwrap_or(i as f64 / FIRMWARE_FS_HZ as f64);
-                writeln!(f, "{t},{v:e},{},{}", b.rh_pct, b.flags)?;
-            }
+    let mut est = ipmc_recording::Estimates { rh_pct: Some(vec![]), flags: Some(vec![]), ..Default::default() };
+    est.metadata.set("fs_hz", FIRMWARE_FS_HZ);
+    for b in blocks {
+        for (k, &v) in b.base_est_m.iter().enumerate() {
+            let i = b.first_sample as usize + k;
+            est.t_s.push(t_s.get(i).copied().unwrap_or(i as f64 / FIRMWARE_FS_HZ as f64));
+            est.base_est_m.push(v);
+            est.rh_pct.as_mut().expect("set above").push(b.rh_pct);
+            est.flags.as_mut().expect("set above").push(b.flags);
         }
-        f.flush()
-    };
-    w().map_err(|e| format!("{}: {e}", path.display()))
+    }
+    let text = est.to_csv().map_err(|e| e.to_string())?;
+    fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }

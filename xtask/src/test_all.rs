@@ -112,12 +112,12 @@ fn qemu_replay_bundled() -> Result<()> {
     let dir = repo_root().join("data");
     let Some(path) = std::fs::read_dir(&dir).ok().and_then(|d| {
         d.filter_map(|e| e.ok().map(|e| e.path()))
-            .find(|p| p.extension().is_some_and(|x| x == "csv") && crate::recording::read(p).is_ok())
+            .find(|p| p.extension().is_some_and(|x| x == "csv") && crate::recording::is_time_series(p))
     }) else {
         println!("no bundled recording under data/ yet: skipped");
         return Ok(());
     };
-    let rec = crate::recording::read(Path::new(&path))?;
+    let rec = crate::recording::time_series(Path::new(&path))?;
     let samples: Vec<Sample> =
         rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
     let r = replay("bundled", &samples)?;
@@ -159,7 +159,7 @@ fn qemu_host_equivalence() -> Result<()> {
         "--out".as_ref(),
         rec_path.as_os_str(),
     ])?;
-    let rec = crate::recording::read(&rec_path)?;
+    let rec = crate::recording::time_series(&rec_path)?;
     let samples: Vec<Sample> =
         rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
     let r = replay("equivalence", &samples)?;
@@ -179,8 +179,8 @@ fn qemu_host_equivalence() -> Result<()> {
         "--schedule".as_ref(),
         fw_path.as_os_str(),
     ])?;
-    let fw = crate::recording::require_column(&fw_path, "base_est_m")?;
-    let host = crate::recording::require_column(&host_path, "base_est_m")?;
+    let fw = crate::recording::estimates_m(&fw_path)?;
+    let host = crate::recording::estimates_m(&host_path)?;
     if fw.len() != host.len() {
         return Err(format!("{} firmware estimates, {} host estimates", fw.len(), host.len()));
     }
@@ -209,6 +209,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         // `toml`: the calibration file reader and its fuzz test.
         ("core tests", || cargo_test_with("core/Cargo.toml", &["--features", "toml"])),
         ("host-tests", || cargo_test("host-tests/Cargo.toml")),
+        ("recording tests", || cargo_test("recording/Cargo.toml")),
         ("tool tests", || cargo_test("tool/Cargo.toml")),
         ("fit tests", || cargo_test("fit/Cargo.toml")),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),

@@ -10,10 +10,10 @@
 //! first 5 s of each burst (the settling of the inverse's 1 Hz regularizing high-pass).
 
 use crate::commands::write_atomically;
-use anyhow::{Context, Result, anyhow, bail};
+use crate::input::checked;
+use anyhow::{Result, anyhow, bail};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
-use std::collections::HashMap;
-use std::fmt::Write as _;
+use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::{Path, PathBuf};
 
 pub use ipmc_core::filter::BLOCK_LEN;
@@ -55,45 +55,25 @@ pub struct ScheduledBlock {
 
 /// Reads the retune schedule from a firmware EST.csv: rows are samples in order from sample 0
 /// (as `cargo xtask qemu` writes them), every [`BLOCK_LEN`] rows one block with one `rh_pct` and
-/// one `flags`. `rh_pct` is parsed as f32 directly (the firmware prints the shortest f32 that
+/// one `flags`. `rh_pct` is read as f32 directly (the firmware prints the shortest f32 that
 /// round-trips), so the design RH is bit-exact.
 pub fn read_schedule(path: &Path) -> Result<Vec<ScheduledBlock>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    parse_schedule(&text, &path.display().to_string())
+    schedule_of(&checked(EstimateFile::read(path))?, &path.display().to_string())
 }
 
-pub fn parse_schedule(text: &str, name: &str) -> Result<Vec<ScheduledBlock>> {
-    let mut cols: Option<(usize, usize)> = None;
+pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>> {
+    let rh = est.rh_pct.as_ref().ok_or_else(|| anyhow!("{name}: no `rh_pct` column (the schedule needs the firmware's block RH)"))?;
+    let fl = est.flags.as_ref().ok_or_else(|| anyhow!("{name}: no `flags` column (the schedule needs the RETUNED flags)"))?;
     let mut out: Vec<ScheduledBlock> = vec![];
-    let mut row = 0usize;
-    for (i, raw) in text.lines().enumerate() {
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let Some((crh, cfl)) = cols else {
-            let find = |w: &str| fields.iter().position(|f| *f == w).ok_or_else(|| anyhow!("{name}:{}: no `{w}` column", i + 1));
-            cols = Some((find("rh_pct")?, find("flags")?));
-            continue;
-        };
-        let rh: f32 = fields
-            .get(crh)
-            .and_then(|f| f.parse().ok())
-            .ok_or_else(|| anyhow!("{name}:{}: `rh_pct` is not a number", i + 1))?;
-        let fl: u16 = fields
-            .get(cfl)
-            .and_then(|f| f.parse().ok())
-            .ok_or_else(|| anyhow!("{name}:{}: `flags` is not a u16", i + 1))?;
+    for (row, (&rh, &fl)) in rh.iter().zip(fl).enumerate() {
         if row % BLOCK_LEN == 0 {
             out.push(ScheduledBlock { first_sample: row, rh_pct: rh, flags: fl });
         } else {
             let b = out.last().expect("a block was started");
             if b.flags != fl || b.rh_pct.to_bits() != rh.to_bits() {
-                bail!("{name}:{}: rh_pct/flags change inside the block starting at sample {}", i + 1, b.first_sample);
+                bail!("{name}: estimate {row}: rh_pct/flags change inside the block starting at sample {}", b.first_sample);
             }
         }
-        row += 1;
     }
     if out.is_empty() {
         bail!("{name}: no estimates");
@@ -136,91 +116,8 @@ pub fn compensate_scheduled(ts: &TimeSeries, schedule: &[ScheduledBlock]) -> Res
     Ok(est)
 }
 
-/// A time-series recording (recording-format.md §2), the columns the compensation uses.
-#[derive(Debug)]
-pub struct TimeSeries {
-    pub fs_hz: f64,
-    pub t_s: Vec<f64>,
-    pub current_a: Vec<f64>,
-    pub rh_pct: Vec<f64>,
-    pub base_m: Option<Vec<f64>>,
-}
-
 pub fn read_time_series(path: &Path) -> Result<TimeSeries> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    parse_time_series(&text, &path.display().to_string())
-}
-
-pub fn parse_time_series(text: &str, name: &str) -> Result<TimeSeries> {
-    const KNOWN: [&str; 6] = ["t_s", "base_m", "tip_m", "current_a", "rh_pct", "temp_c"];
-    let mut meta: HashMap<String, String> = HashMap::new();
-    let mut header: Option<Vec<String>> = None;
-    let (mut ct, mut ci, mut crh, mut cb) = (0usize, 0usize, 0usize, None::<usize>);
-    let mut ts = TimeSeries { fs_hz: f64::NAN, t_s: vec![], current_a: vec![], rh_pct: vec![], base_m: None };
-    let mut base = Vec::new();
-    for (i, raw) in text.lines().enumerate() {
-        let line_no = i + 1;
-        let line = raw.trim();
-        if line.is_empty() {
-            continue;
-        }
-        if let Some(c) = line.strip_prefix('#') {
-            if let Some((k, v)) = c.trim().split_once('=') {
-                meta.insert(k.trim().to_string(), v.trim().to_string());
-            }
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let Some(names) = &header else {
-            let names: Vec<String> = fields.iter().map(|s| s.to_string()).collect();
-            let find = |want: &str| names.iter().position(|n| n == want);
-            let need = |want: &str| find(want).ok_or_else(|| anyhow!("{name}:{line_no}: missing required column `{want}`"));
-            ct = need("t_s")?;
-            ci = need("current_a")?;
-            crh = need("rh_pct")?;
-            cb = find("base_m");
-            for n in &names {
-                if !KNOWN.contains(&n.as_str()) {
-                    eprintln!("warning: {name}: unknown column `{n}` ignored");
-                }
-            }
-            header = Some(names);
-            continue;
-        };
-        if fields.len() != names.len() {
-            bail!("{name}:{line_no}: {} fields, the header has {}", fields.len(), names.len());
-        }
-        let get = |c: usize| -> Result<f64> {
-            fields[c].parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                anyhow!("{name}:{line_no}: column {} (`{}`): not a finite number: `{}`", c + 1, names[c], fields[c])
-            })
-        };
-        ts.t_s.push(get(ct)?);
-        ts.current_a.push(get(ci)?);
-        ts.rh_pct.push(get(crh)?);
-        if let Some(c) = cb {
-            base.push(get(c)?);
-        }
-    }
-    if header.is_none() {
-        bail!("{name}: no header line");
-    }
-    if ts.t_s.is_empty() {
-        bail!("{name}: no samples");
-    }
-    if cb.is_some() {
-        ts.base_m = Some(base);
-    }
-    ts.fs_hz = match meta.get("fs_hz") {
-        Some(v) => v
-            .parse::<f64>()
-            .ok()
-            .filter(|x| *x > 0.0 && x.is_finite())
-            .ok_or_else(|| anyhow!("{name}: metadata fs_hz=`{v}` is not a positive number"))?,
-        None if ts.t_s.len() >= 2 && ts.t_s[1] > ts.t_s[0] => 1.0 / (ts.t_s[1] - ts.t_s[0]),
-        None => bail!("{name}: no `# fs_hz=N` metadata and too few samples to infer it"),
-    };
-    Ok(ts)
+    checked(TimeSeries::read(path))
 }
 
 /// The estimates of one run.
@@ -254,21 +151,6 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
     move |rh| design_inverse::<f32>(calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
 }
 
-/// Index ranges of the uniformly sampled bursts (a gap in `t_s` starts a new one).
-pub fn bursts(t_s: &[f64], fs_hz: f64) -> Vec<(usize, usize)> {
-    let mut out = vec![];
-    let mut start = 0;
-    for i in 1..t_s.len() {
-        let dt = t_s[i] - t_s[i - 1];
-        if (dt * fs_hz - 1.0).abs() > 0.5 {
-            out.push((start, i));
-            start = i;
-        }
-    }
-    out.push((start, t_s.len()));
-    out
-}
-
 /// Runs the compensation over `ts`: a fresh compensator per burst, designed at the first
 /// block's RH (or `fixed_rh`), retuned per block when the RH moved more than the threshold.
 pub fn compensate(ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
@@ -286,7 +168,8 @@ pub fn compensate(ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
         }
         None => None,
     };
-    for (b0, b1) in bursts(&ts.t_s, ts.fs_hz) {
+    for burst in ts.bursts() {
+        let (b0, b1) = (burst.start, burst.end);
         let mut comp: Option<Compensator<f32>> = fixed.as_ref().map(Compensator::new);
         let mut pos = b0;
         while pos < b1 {
@@ -388,18 +271,23 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => compensate_scheduled(&ts, &read_schedule(p)?)?,
         None => compensate(&ts, a.fixed_rh)?,
     };
-    let mut s = String::with_capacity(ts.t_s.len() * 40);
-    writeln!(s, "# fs_hz={}", ts.fs_hz)?;
-    match (&a.schedule, a.fixed_rh) {
-        (Some(p), _) => writeln!(s, "# mode=scheduled schedule={}", p.display())?,
-        (None, Some(r)) => writeln!(s, "# mode=fixed rh_pct={r}")?,
-        (None, None) => writeln!(s, "# mode=compensated")?,
-    }
-    writeln!(s, "t_s,base_est_m,rh_pct,flags")?;
-    // `{:e}`: the shortest text that reads back as the same f32 (exact comparisons with the firmware).
-    for i in 0..est.base_est_m.len() {
-        writeln!(s, "{},{:e},{},{}", ts.t_s[i], est.base_est_m[i], est.rh_pct[i], est.flags[i])?;
-    }
+    let mut file = EstimateFile {
+        t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
+        base_est_m: est.base_est_m.clone(),
+        rh_pct: Some(est.rh_pct.clone()),
+        flags: Some(est.flags.clone()),
+        ..Default::default()
+    };
+    file.metadata.set("fs_hz", ts.fs_hz);
+    file.metadata.set(
+        "mode",
+        match (&a.schedule, a.fixed_rh) {
+            (Some(p), _) => format!("scheduled schedule={}", p.display()),
+            (None, Some(r)) => format!("fixed rh_pct={r}"),
+            (None, None) => "compensated".into(),
+        },
+    );
+    let s = file.to_csv()?;
     write_atomically(&a.out, s.as_bytes())?;
     let mode = match (&a.schedule, a.fixed_rh) {
         (Some(p), _) => format!("firmware schedule of {}, {} retunes", p.display(), est.retunes),
@@ -426,33 +314,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn reads_by_name_and_reports_line_and_column() {
-        let ts = parse_time_series("# fs_hz=2000\nrh_pct,current_a,t_s,base_m\n45,1e-7,0,1e-6\n46,2e-7,0.0005,0\n", "r.csv").unwrap();
-        assert_eq!(ts.fs_hz, 2000.0);
-        assert_eq!(ts.t_s, vec![0.0, 0.0005]);
-        assert_eq!(ts.base_m, Some(vec![1e-6, 0.0]));
-        let e = parse_time_series("t_s,current_a,rh_pct\n0,1,45\n0.1,x,45\n", "r.csv").unwrap_err().to_string();
-        assert!(e.contains("r.csv:3") && e.contains("column 2") && e.contains("current_a"), "{e}");
-        let e = parse_time_series("t_s,current_a\n0,1\n", "r.csv").unwrap_err().to_string();
-        assert!(e.contains("r.csv:1") && e.contains("rh_pct"), "{e}");
-    }
-
-    #[test]
     fn schedule_reads_blocks_and_rejects_mixed_rows() {
         let mut csv = String::from("# fs_hz=2000\nt_s,base_est_m,rh_pct,flags\n");
         for i in 0..2 * BLOCK_LEN {
             let (rh, fl) = if i < BLOCK_LEN { ("40.1", 0) } else { ("40.35", 8) };
             csv += &format!("{},1e-6,{rh},{fl}\n", i as f64 / 2000.0);
         }
-        let s = parse_schedule(&csv, "e.csv").unwrap();
+        let schedule = |csv: &str| schedule_of(&EstimateFile::parse("e.csv", csv).unwrap().0, "e.csv");
+        let s = schedule(&csv).unwrap();
         assert_eq!(s.len(), 2);
         assert_eq!(s[1], ScheduledBlock { first_sample: BLOCK_LEN, rh_pct: 40.35, flags: flags::RETUNED });
         let bad = csv.replacen("40.1,0\n", "40.1,8\n", 1);
-        assert!(parse_schedule(&bad, "e.csv").unwrap_err().to_string().contains("inside the block"));
-    }
-
-    #[test]
-    fn bursts_split_on_time_gaps() {
-        assert_eq!(bursts(&[0.0, 0.5, 1.0, 5.0, 5.5], 2.0), vec![(0, 3), (3, 5)]);
+        assert!(schedule(&bad).unwrap_err().to_string().contains("inside the block"));
+        assert!(schedule("t_s,base_est_m,flags\n0,1,0\n").unwrap_err().to_string().contains("`rh_pct`"));
     }
 }

@@ -1,0 +1,95 @@
+//! Estimate files (`t_s,base_est_m,rh_pct,flags`): what `ipmc compensate` and the firmware
+//! (through `cargo xtask qemu`) write and `ipmc score`, the plot and the equivalence test read.
+//! The f32 columns are parsed as f32 directly so values the firmware printed compare bit for bit.
+
+use crate::{Error, Format, Metadata, Rule, Table, Warning};
+use std::fmt::Write as _;
+
+const COLUMNS: [&str; 4] = ["t_s", "base_est_m", "rh_pct", "flags"];
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Estimates {
+    pub metadata: Metadata,
+    pub t_s: Vec<f64>,
+    pub base_est_m: Vec<f32>,
+    /// Per sample: the humidity the firmware reported for its block [%], if written.
+    pub rh_pct: Option<Vec<f32>>,
+    /// Per sample: the block's flag bits, if written.
+    pub flags: Option<Vec<u16>>,
+}
+
+impl Format for Estimates {
+    fn from_table(t: &Table) -> Result<(Self, Vec<Warning>), Error> {
+        let t_s = t.numbers(t.require("t_s")?, Rule::Finite)?;
+        let bc = t.require("base_est_m")?;
+        let base_est_m: Vec<f32> = t.parsed(bc, "a number")?;
+        // A NaN estimate is a firmware fault to report, not a row to skip.
+        if let Some(i) = base_est_m.iter().position(|v| !v.is_finite()) {
+            return Err(t.error_at(i, bc, format!("expected a finite number, found `{}`", t.field(i, bc))));
+        }
+        let rh_pct = t.find("rh_pct").map(|c| t.parsed::<f32>(c, "a number")).transpose()?;
+        let flags = t.find("flags").map(|c| t.parsed::<u16>(c, "an integer 0..=65535")).transpose()?;
+        Ok((Estimates { metadata: t.metadata.clone(), t_s, base_est_m, rh_pct, flags }, t.unknown_columns(&COLUMNS)))
+    }
+}
+
+impl Estimates {
+
+    /// The file as CSV; `{:e}` of an f32 is the shortest text that reads back as the same f32.
+    pub fn to_csv(&self) -> Result<String, Error> {
+        let n = self.t_s.len();
+        let bad = |len: usize| len != n;
+        if bad(self.base_est_m.len()) || self.rh_pct.as_ref().is_some_and(|v| bad(v.len())) || self.flags.as_ref().is_some_and(|v| bad(v.len())) {
+            return Err(Error::file("(writer)", "columns of different lengths"));
+        }
+        let mut s = String::with_capacity(n * 40 + 128);
+        self.metadata.write(&mut s, &[]);
+        s.push_str("t_s,base_est_m");
+        if self.rh_pct.is_some() {
+            s.push_str(",rh_pct");
+        }
+        if self.flags.is_some() {
+            s.push_str(",flags");
+        }
+        s.push('\n');
+        for i in 0..n {
+            let _ = write!(s, "{},{:e}", self.t_s[i], self.base_est_m[i]);
+            if let Some(v) = &self.rh_pct {
+                let _ = write!(s, ",{}", v[i]);
+            }
+            if let Some(v) = &self.flags {
+                let _ = write!(s, ",{}", v[i]);
+            }
+            s.push('\n');
+        }
+        Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn f32_columns_round_trip_bit_for_bit() {
+        let mut e = Estimates {
+            t_s: vec![0.0, 0.0005],
+            base_est_m: vec![1.0f32 / 3.0, -7.1e-38],
+            rh_pct: Some(vec![40.35, 40.1f32.next_up()]),
+            flags: Some(vec![0, 8]),
+            ..Default::default()
+        };
+        e.metadata.set("fs_hz", 2000);
+        let (back, w) = Estimates::parse("e.csv", &e.to_csv().unwrap()).unwrap();
+        assert!(w.is_empty());
+        assert_eq!(back, e);
+    }
+
+    #[test]
+    fn bad_flags_and_nan_are_named() {
+        let err = Estimates::parse("e.csv", "t_s,base_est_m,flags\n0,1e-6,70000\n").unwrap_err();
+        assert_eq!(err.to_string(), "e.csv:2:8: column 3 (`flags`): expected an integer 0..=65535, found `70000`");
+        let err = Estimates::parse("e.csv", "t_s,base_est_m\n0,NaN\n").unwrap_err();
+        assert!(err.to_string().starts_with("e.csv:2:3: column 2 (`base_est_m`)"), "{err}");
+    }
+}
