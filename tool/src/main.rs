@@ -4,6 +4,8 @@ mod calibration_source;
 mod commands;
 mod input;
 mod overrides;
+mod simulator;
+mod toml_file;
 
 use clap::{Parser, Subcommand};
 
@@ -24,7 +26,9 @@ enum Command {
     /// paper's humidity-independent (45 %) inverse as the baseline.
     Accuracy(commands::accuracy::Args),
     /// Synthetic time-series recording: multisine base motion, humidity ramp, model current.
-    SimulateSweep(commands::simulate::Args),
+    SimulateSweep(commands::simulate::SweepArgs),
+    /// Simulated recording (frequency response or time series) from a calibration and a session file.
+    Simulate(commands::simulate::Args),
     /// Run the firmware's f32 compensation chain over a time-series recording on the host.
     Compensate(commands::compensate::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
@@ -41,7 +45,8 @@ fn main() {
         Command::Model(a) => commands::model::run(a),
         Command::Design(a) => commands::design::run(a),
         Command::Accuracy(a) => commands::accuracy::run(a),
-        Command::SimulateSweep(a) => commands::simulate::run(a),
+        Command::SimulateSweep(a) => commands::simulate::run_sweep(a),
+        Command::Simulate(a) => commands::simulate::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),

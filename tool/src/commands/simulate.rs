@@ -1,31 +1,52 @@
-//! `ipmc simulate-sweep`: a synthetic time-series recording (recording-format.md §2) of one
-//! continuous burst during which the humidity ramps linearly, for replaying through the
-//! compensator (host or firmware) with the true base motion known.
+//! `ipmc simulate`: a recording in the interchange format from a calibration and a session file
+//! (data/sessions/*.toml): frequency response or time series, humidity levels in any order,
+//! noise, deterministic for a seed. The work is done by [`crate::simulator`].
 //!
-//! The base motion is a multisine: `tones` tones log-spaced over [`f_lo`, `f_hi`], equal
-//! amplitudes summing to `amplitude_m`, phases drawn from a small self-contained deterministic
-//! PRNG (SplitMix64) seeded by `--seed`, so the same arguments always give the same file.
-//!
-//! The current is the *quasi-static steady-state* response of the exact model:
-//!
-//! `i(t) = Σ_k |H(f_k; RH(t))| · A_k · sin(2π f_k t + φ_k + ∠H(f_k; RH(t)))`
-//!
-//! with `H = ipmc_core::model::current_response` at the default calibration evaluated at the
-//! instantaneous humidity. This is valid because the humidity changes over seconds (here
-//! 40 → 80 % over 20 s, i.e. 2 %/s) while the sensor's dynamics (lowest band frequency 12 Hz,
-//! damped modes and the ionic time constants) settle within tens of milliseconds: over one
-//! settling time H changes by a negligible amount, so the response is at every instant the
-//! steady state of the system frozen at the current humidity.
+//! `ipmc simulate-sweep`: the two-level humidity ramp of a time series with its own flags, made
+//! by the same simulator (it made the bundled data/sweep-40-80.csv, which it still reproduces
+//! byte for byte): one continuous burst during which the humidity ramps linearly, multisine
+//! base motion (`tones` log-spaced tones over [`f_lo`, `f_hi`], equal amplitudes summing to
+//! `amplitude_m`, random phases), the model's quasi-static current, numbers written compactly.
 
+use crate::calibration_source;
 use crate::commands::write_atomically;
-use anyhow::{Result, bail};
-use ipmc_core::model::{current_response, jw};
-use ipmc_core::{Calibration, Params};
-use std::fmt::Write as _;
+use crate::simulator::physics::ExactModel;
+use crate::simulator::session::{Frequencies, Humidity, Kind, Noise, Session, TimeSeriesPlan};
+use crate::simulator::{Recording, simulate};
+use anyhow::{Context, Result};
+use ipmc_core::Calibration;
+use ipmc_recording::Metadata;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
+    /// Session file (TOML): kind, humidity levels and their order, frequencies or multisine,
+    /// noise, seed. Examples: data/sessions/*.toml.
+    #[arg(long)]
+    session: PathBuf,
+    /// Calibration of the simulated sample: `default`, `paper`, or a TOML file.
+    #[arg(long)]
+    calib: Option<String>,
+    /// Output recording (CSV in the interchange format of the session's kind).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let calib = calibration_source::load(a.calib.as_deref())?;
+    let text = std::fs::read_to_string(&a.session).with_context(|| format!("cannot read session {}", a.session.display()))?;
+    let session = Session::parse(&a.session, &text)?;
+    let mut metadata = Metadata::default();
+    metadata.set("generator", format!("ipmc simulate session={} seed={}", a.session.display(), session.seed));
+    metadata.set("calib", a.calib.as_deref().unwrap_or("default"));
+    let rec = simulate(&calib, &session, &ExactModel, metadata)?;
+    write_atomically(&a.out, rec.to_csv()?.as_bytes())?;
+    eprintln!("wrote {} to {}", rec.summary(), a.out.display());
+    Ok(())
+}
+
+#[derive(clap::Args)]
+pub struct SweepArgs {
     /// Output recording (CSV, time-series format).
     #[arg(long)]
     out: PathBuf,
@@ -61,104 +82,69 @@ pub struct Args {
     amplitude_m: f64,
 }
 
-/// SplitMix64: tiny, deterministic, good enough for phases and test noise.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Standard normal (Box–Muller).
-    fn normal(&mut self) -> f64 {
-        let u1 = 1.0 - self.uniform(); // (0, 1]
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+/// The sweep as a session: one time-series ramp between two levels, current noise only.
+fn sweep_session(a: &SweepArgs) -> Session {
+    Session {
+        kind: Kind::TimeSeries,
+        seed: a.seed,
+        temp_c: None,
+        humidity: Humidity { levels_pct: vec![a.rh_from, a.rh_to], settle_s: 0.0, hydration_tau_s: 0.0, read_error_pct: 0.0, read_bias_pct: 0.0 },
+        frequencies: None::<Frequencies>,
+        time_series: Some(TimeSeriesPlan {
+            fs_hz: a.fs,
+            burst_s: a.seconds,
+            ramp: true,
+            tones: a.tones,
+            from_hz: a.f_lo,
+            to_hz: a.f_hi,
+            amplitude_m: a.amplitude_m,
+            record_tip: false,
+            compact: true,
+        }),
+        charging: None,
+        noise: Noise { current_a: a.noise_a, ..Noise::default() },
     }
 }
 
-pub fn run(a: Args) -> Result<()> {
-    if !(a.fs > 0.0 && a.fs.is_finite()) {
-        bail!("--fs must be a positive number, not {}", a.fs);
-    }
-    if !(a.seconds > 0.0 && a.seconds.is_finite()) {
-        bail!("--seconds must be a positive number, not {}", a.seconds);
-    }
-    if a.tones == 0 || !(a.f_lo > 0.0 && a.f_hi >= a.f_lo) {
-        bail!("need at least one tone and 0 < --f-lo <= --f-hi");
-    }
-    if a.f_hi >= a.fs / 2.0 {
-        bail!("--f-hi {} Hz is not below Nyquist ({} Hz)", a.f_hi, a.fs / 2.0);
-    }
-    if a.noise_a < 0.0 || !a.noise_a.is_finite() {
-        bail!("--noise-a must be >= 0");
-    }
-    let calib = Calibration::default_preset();
-    let n = (a.seconds * a.fs).round() as usize;
-    let mut rng = SplitMix64(a.seed);
-    let tones: Vec<(f64, f64, f64)> = (0..a.tones)
-        .map(|k| {
-            let f = if a.tones == 1 {
-                a.f_lo
-            } else {
-                a.f_lo * (a.f_hi / a.f_lo).powf(k as f64 / (a.tones - 1) as f64)
-            };
-            (f, a.amplitude_m / a.tones as f64, 2.0 * std::f64::consts::PI * rng.uniform())
-        })
-        .collect();
-
-    let mut s = String::with_capacity(n * 48 + 256);
-    writeln!(s, "# fs_hz={}", a.fs)?;
-    writeln!(
-        s,
-        "# generator=ipmc simulate-sweep seed={} rh_from={} rh_to={} seconds={} noise_a={}",
-        a.seed, a.rh_from, a.rh_to, a.seconds, a.noise_a
-    )?;
-    writeln!(
-        s,
-        "# tones_hz={}",
-        tones.iter().map(|t| format!("{:.3}", t.0)).collect::<Vec<_>>().join(";")
-    )?;
-    writeln!(s, "t_s,base_m,current_a,rh_pct")?;
-    let span = if n > 1 { (n - 1) as f64 } else { 1.0 };
-    for i in 0..n {
-        let t = i as f64 / a.fs;
-        let rh = a.rh_from + (a.rh_to - a.rh_from) * i as f64 / span;
-        let p: Params<f64> = calib.params_at(rh);
-        let (mut base, mut cur) = (0.0, 0.0);
-        for &(f, amp, ph) in &tones {
-            let w = 2.0 * std::f64::consts::PI * f * t + ph;
-            let h = current_response(&p, jw(f));
-            base += amp * w.sin();
-            cur += h.norm() * amp * (w + h.arg()).sin();
-        }
-        if a.noise_a > 0.0 {
-            cur += a.noise_a * rng.normal();
-        }
-        if !cur.is_finite() {
-            bail!("model gave a non-finite current at t = {t} s, RH {rh} %");
-        }
-        writeln!(s, "{t:.6},{base:.6e},{cur:.6e},{rh:.4}")?;
-    }
-    write_atomically(&a.out, s.as_bytes())?;
-    eprintln!(
-        "wrote {} samples ({} s at {} Hz, RH {} → {} %, {} tones {:.1}–{:.1} Hz) to {}",
-        n,
-        a.seconds,
-        a.fs,
-        a.rh_from,
-        a.rh_to,
-        tones.len(),
-        a.f_lo,
-        a.f_hi,
-        a.out.display()
+pub fn run_sweep(a: SweepArgs) -> Result<()> {
+    let session = sweep_session(&a);
+    session.validate().context("simulate-sweep")?;
+    let mut metadata = Metadata::default();
+    metadata.set(
+        "generator",
+        format!("ipmc simulate-sweep seed={} rh_from={} rh_to={} seconds={} noise_a={}", a.seed, a.rh_from, a.rh_to, a.seconds, a.noise_a),
     );
+    let rec = simulate(&Calibration::default_preset(), &session, &ExactModel, metadata)?;
+    write_atomically(&a.out, rec.to_csv()?.as_bytes())?;
+    if let Recording::TimeSeries(ts, _) = &rec {
+        eprintln!(
+            "wrote {} samples ({} s at {} Hz, RH {} → {} %, {} tones {:.1}–{:.1} Hz) to {}",
+            ts.len(),
+            a.seconds,
+            a.fs,
+            a.rh_from,
+            a.rh_to,
+            a.tones,
+            a.f_lo,
+            a.f_hi,
+            a.out.display()
+        );
+    }
     Ok(())
+}
+
+#[cfg(test)]
+pub mod tests_support {
+    use super::*;
+    use clap::Parser;
+
+    /// The session of `simulate-sweep --seconds 60` (how data/sweep-40-80.csv was made).
+    pub fn bundled_sweep_session() -> Session {
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            a: SweepArgs,
+        }
+        sweep_session(&Cli::parse_from(["ipmc", "--seconds", "60", "--out", "unused.csv"]).a)
+    }
 }

@@ -1,0 +1,287 @@
+//! The session file of `ipmc simulate` (TOML): what is measured, at which humidity levels in
+//! which order, how, and with how much noise. Example sessions: data/sessions/*.toml.
+
+use anyhow::{Result, bail};
+use serde::Deserialize;
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Kind {
+    FrequencyResponse,
+    TimeSeries,
+    Charging,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Session {
+    /// `frequency-response`, `time-series` or `charging`.
+    pub kind: Kind,
+    /// Seed of every random draw (noise, tone phases): same seed, same file.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Temperature [°C]; absent: the calibration's T, and no `temp_c` column.
+    pub temp_c: Option<f64>,
+    pub humidity: Humidity,
+    #[serde(default)]
+    pub frequencies: Option<Frequencies>,
+    #[serde(default)]
+    pub time_series: Option<TimeSeriesPlan>,
+    #[serde(default)]
+    pub charging: Option<ChargingPlan>,
+    #[serde(default)]
+    pub noise: Noise,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// The chamber's humidity program and the humidity sensor.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Humidity {
+    /// Chamber humidity levels [%] in the order visited; repeat a value to come back to it
+    /// (up/down sweeps show hysteresis).
+    pub levels_pct: Vec<f64>,
+    /// Wait after each change of level before measuring [s].
+    #[serde(default)]
+    pub settle_s: f64,
+    /// Time constant with which the sample's water content follows the chamber [s]; 0: at once.
+    #[serde(default)]
+    pub hydration_tau_s: f64,
+    /// Standard deviation of the humidity sensor's error, drawn per reading [%RH].
+    #[serde(default)]
+    pub read_error_pct: f64,
+    /// Constant offset of the humidity sensor [%RH].
+    #[serde(default)]
+    pub read_bias_pct: f64,
+}
+
+/// Excitation frequencies of a frequency-response session: `list_hz`, or `points` log-spaced
+/// from `from_hz` to `to_hz`; measured in ascending order at every level.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Frequencies {
+    pub list_hz: Option<Vec<f64>>,
+    pub from_hz: Option<f64>,
+    pub to_hz: Option<f64>,
+    pub points: Option<usize>,
+    /// Time spent on each frequency [s] (advances `time_s`).
+    #[serde(default = "default_dwell")]
+    pub dwell_s: f64,
+}
+
+fn default_dwell() -> f64 {
+    2.0
+}
+
+/// A time-series session: multisine base motion recorded in bursts, one per level, or in one
+/// continuous burst during which the humidity ramps from level to level (`ramp = true`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSeriesPlan {
+    pub fs_hz: f64,
+    /// Length of each burst (with `ramp`: of each leg between two levels) [s].
+    pub burst_s: f64,
+    #[serde(default)]
+    pub ramp: bool,
+    /// Multisine: `tones` equal tones log-spaced over [from_hz, to_hz], random phases.
+    pub tones: usize,
+    pub from_hz: f64,
+    pub to_hz: f64,
+    /// Sum of the tone amplitudes [m].
+    pub amplitude_m: f64,
+    /// Write the true tip motion (`tip_m`).
+    #[serde(default = "yes")]
+    pub record_tip: bool,
+    /// Write numbers compactly (7 digits) instead of exactly.
+    #[serde(default)]
+    pub compact: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// A charging session: a voltage step at each level, the current recorded.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChargingPlan {
+    pub voltage_v: f64,
+    pub fs_hz: f64,
+    pub duration_s: f64,
+    /// Leakage (electronic) resistance across the strip [Ω]: a steady current U/R after charging.
+    pub leakage_ohm: Option<f64>,
+}
+
+/// Measurement noise; every source is off unless set.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Noise {
+    /// Frequency response: relative error of the tip gain [%] and error of its phase [deg] (sd).
+    #[serde(default)]
+    pub tip_gain_pct: f64,
+    #[serde(default)]
+    pub tip_phase_deg: f64,
+    /// Frequency response: relative error of the current gain [%] and of its phase [deg] (sd).
+    #[serde(default)]
+    pub current_gain_pct: f64,
+    #[serde(default)]
+    pub current_phase_deg: f64,
+    /// Current front-end noise [A] (sd): per sample in time series and charging; in a
+    /// frequency response, of each measured current phasor, growing as sqrt(1 + corner/f)
+    /// below `current_corner_hz` (1/f noise) and divided by `base_amplitude_m`. Against a
+    /// current that shrinks at low frequency and low humidity this gives the real pattern:
+    /// the current is noisiest there.
+    #[serde(default)]
+    pub current_a: f64,
+    #[serde(default)]
+    pub current_corner_hz: f64,
+    /// Base excitation amplitude of a frequency response [m].
+    #[serde(default = "default_base_amplitude")]
+    pub base_amplitude_m: f64,
+    /// Time series: noise of the recorded tip motion [m] (sd per sample).
+    #[serde(default)]
+    pub tip_m: f64,
+}
+
+fn default_base_amplitude() -> f64 {
+    1e-3
+}
+
+impl Default for Noise {
+    fn default() -> Self {
+        Noise {
+            tip_gain_pct: 0.0,
+            tip_phase_deg: 0.0,
+            current_gain_pct: 0.0,
+            current_phase_deg: 0.0,
+            current_a: 0.0,
+            current_corner_hz: 0.0,
+            base_amplitude_m: default_base_amplitude(),
+            tip_m: 0.0,
+        }
+    }
+}
+
+impl Session {
+    pub fn parse(path: &std::path::Path, text: &str) -> Result<Session> {
+        let s: Session = crate::toml_file::parse(path, text)?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Rejects sessions that cannot be simulated, naming the key.
+    pub fn validate(&self) -> Result<()> {
+        let positive = |name: &str, v: f64| -> Result<()> {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{name} = {v}: expected a positive number");
+            }
+            Ok(())
+        };
+        let non_negative = |name: &str, v: f64| -> Result<()> {
+            if !(v.is_finite() && v >= 0.0) {
+                bail!("{name} = {v}: expected a number ≥ 0");
+            }
+            Ok(())
+        };
+        let h = &self.humidity;
+        if h.levels_pct.is_empty() {
+            bail!("humidity.levels_pct is empty: give at least one level");
+        }
+        if let Some(v) = h.levels_pct.iter().find(|v| !(v.is_finite() && (0.0..=100.0).contains(*v))) {
+            bail!("humidity.levels_pct has {v}: expected levels within 0–100 %");
+        }
+        non_negative("humidity.settle_s", h.settle_s)?;
+        non_negative("humidity.hydration_tau_s", h.hydration_tau_s)?;
+        non_negative("humidity.read_error_pct", h.read_error_pct)?;
+        if !h.read_bias_pct.is_finite() {
+            bail!("humidity.read_bias_pct must be finite");
+        }
+        if let Some(t) = self.temp_c
+            && !(t.is_finite() && t > -273.15)
+        {
+            bail!("temp_c = {t}: expected a temperature above absolute zero");
+        }
+        let n = &self.noise;
+        for (name, v) in [
+            ("noise.tip_gain_pct", n.tip_gain_pct),
+            ("noise.tip_phase_deg", n.tip_phase_deg),
+            ("noise.current_gain_pct", n.current_gain_pct),
+            ("noise.current_phase_deg", n.current_phase_deg),
+            ("noise.current_a", n.current_a),
+            ("noise.current_corner_hz", n.current_corner_hz),
+            ("noise.tip_m", n.tip_m),
+        ] {
+            non_negative(name, v)?;
+        }
+        positive("noise.base_amplitude_m", n.base_amplitude_m)?;
+        let sections = [("frequencies", self.frequencies.is_some()), ("time_series", self.time_series.is_some()), ("charging", self.charging.is_some())];
+        let wanted = match self.kind {
+            Kind::FrequencyResponse => "frequencies",
+            Kind::TimeSeries => "time_series",
+            Kind::Charging => "charging",
+        };
+        for (name, present) in sections {
+            if name == wanted && !present {
+                bail!("kind = {:?} needs a [{name}] table", self.kind);
+            }
+            if name != wanted && present {
+                bail!("[{name}] does not apply to kind = {:?}", self.kind);
+            }
+        }
+        if let Some(f) = &self.frequencies {
+            let list = f.frequencies_hz()?;
+            if let Some(v) = list.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+                bail!("frequencies: {v} Hz is not a positive frequency");
+            }
+            non_negative("frequencies.dwell_s", f.dwell_s)?;
+        }
+        if let Some(t) = &self.time_series {
+            positive("time_series.fs_hz", t.fs_hz)?;
+            positive("time_series.burst_s", t.burst_s)?;
+            positive("time_series.from_hz", t.from_hz)?;
+            positive("time_series.amplitude_m", t.amplitude_m)?;
+            if t.tones == 0 || t.to_hz < t.from_hz {
+                bail!("time_series: need tones ≥ 1 and from_hz ≤ to_hz");
+            }
+            if t.to_hz >= t.fs_hz / 2.0 {
+                bail!("time_series.to_hz = {} Hz is not below Nyquist ({} Hz)", t.to_hz, t.fs_hz / 2.0);
+            }
+        }
+        if let Some(c) = &self.charging {
+            positive("charging.fs_hz", c.fs_hz)?;
+            positive("charging.duration_s", c.duration_s)?;
+            if !(c.voltage_v.is_finite() && c.voltage_v != 0.0) {
+                bail!("charging.voltage_v = {}: expected a non-zero voltage", c.voltage_v);
+            }
+            if let Some(r) = c.leakage_ohm {
+                positive("charging.leakage_ohm", r)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Frequencies {
+    /// The frequencies measured at every level, ascending.
+    pub fn frequencies_hz(&self) -> Result<Vec<f64>> {
+        let mut f = match (&self.list_hz, self.from_hz, self.to_hz, self.points) {
+            (Some(list), None, None, None) => list.clone(),
+            (None, Some(lo), Some(hi), Some(n)) if n >= 1 && lo > 0.0 && hi >= lo => log_spaced(lo, hi, n),
+            (None, Some(_), Some(_), Some(_)) => bail!("frequencies: need points ≥ 1 and 0 < from_hz ≤ to_hz"),
+            _ => bail!("frequencies: give either list_hz, or from_hz, to_hz and points"),
+        };
+        if f.is_empty() {
+            bail!("frequencies.list_hz is empty");
+        }
+        f.sort_by(f64::total_cmp);
+        Ok(f)
+    }
+}
+
+/// `n` frequencies log-spaced from `lo` to `hi` inclusive (`lo` alone when n = 1).
+pub fn log_spaced(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|k| if n == 1 { lo } else { lo * (hi / lo).powf(k as f64 / (n - 1) as f64) }).collect()
+}

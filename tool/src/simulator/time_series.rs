@@ -1,0 +1,105 @@
+//! Time-series sessions: multisine base motion; the current (and tip) is the quasi-static
+//! steady-state response of the sample at its instantaneous humidity,
+//!
+//! `i(t) = Σ_k |H(f_k; RH(t))| · A_k · sin(2π f_k t + φ_k + ∠H(f_k; RH(t)))`,
+//!
+//! valid because the humidity changes over seconds while the sensor's dynamics (lowest band
+//! frequency ~10 Hz, damped modes, ionic time constants) settle within tens of milliseconds:
+//! over one settling time H changes by a negligible amount.
+//!
+//! Bursts: one per level, `burst_s` long, `settle_s` apart (a gap in `t_s`). Ramp: one
+//! continuous burst, the chamber humidity moving linearly from each level to the next over
+//! `burst_s` (`ipmc simulate-sweep` is the two-level ramp).
+
+use super::hydration::Hydration;
+use super::physics::Physics;
+use super::random::SplitMix64;
+use super::sample_at;
+use super::session::{Session, log_spaced};
+use anyhow::{Result, bail};
+use ipmc_core::model::jw;
+use ipmc_core::{C, Calibration};
+use ipmc_recording::{Metadata, TimeSeries};
+
+struct Tone {
+    freq_hz: f64,
+    amplitude_m: f64,
+    phase: f64,
+}
+
+pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, mut metadata: Metadata) -> Result<TimeSeries> {
+    let plan = session.time_series.as_ref().expect("validated: a time-series session has [time_series]");
+    let (h, n) = (&session.humidity, &session.noise);
+    let levels = &h.levels_pct;
+    let mut rng = SplitMix64(session.seed);
+    let tones: Vec<Tone> = log_spaced(plan.from_hz, plan.to_hz, plan.tones)
+        .into_iter()
+        .map(|freq_hz| Tone { freq_hz, amplitude_m: plan.amplitude_m / plan.tones as f64, phase: 2.0 * std::f64::consts::PI * rng.uniform() })
+        .collect();
+    metadata.set("tones_hz", tones.iter().map(|t| format!("{:.3}", t.freq_hz)).collect::<Vec<_>>().join(";"));
+
+    let per_burst = (plan.burst_s * plan.fs_hz).round() as usize;
+    let legs = if plan.ramp { levels.len().saturating_sub(1).max(1) } else { levels.len() };
+    let total = per_burst * legs;
+    let mut ts = TimeSeries {
+        metadata,
+        fs_hz: plan.fs_hz,
+        t_s: Vec::with_capacity(total),
+        current_a: Vec::with_capacity(total),
+        rh_pct: Vec::with_capacity(total),
+        base_m: Some(Vec::with_capacity(total)),
+        tip_m: plan.record_tip.then(|| Vec::with_capacity(total)),
+        temp_c: session.temp_c.map(|_| Vec::with_capacity(total)),
+    };
+    let mut hydration = Hydration::settled(levels[0], 0.0, h.hydration_tau_s);
+    // Responses per tone at the last humidity the sample was at: a constant level costs one
+    // model evaluation per tone, not one per sample.
+    let mut cached: Option<(u64, Vec<(C<f64>, C<f64>)>)> = None;
+    let mut burst_t0 = 0.0;
+    for leg in 0..legs {
+        if !plan.ramp && leg > 0 {
+            burst_t0 += plan.burst_s + h.settle_s;
+            hydration.set_chamber(levels[leg], burst_t0 - h.settle_s);
+        }
+        let last_leg = leg + 1 == legs;
+        for i in 0..per_burst {
+            let t = if plan.ramp { (leg * per_burst + i) as f64 / plan.fs_hz } else { burst_t0 + i as f64 / plan.fs_hz };
+            if plan.ramp && levels.len() > 1 {
+                // Each leg ends where the next starts; the last ends on the last level.
+                let span = if last_leg && per_burst > 1 { (per_burst - 1) as f64 } else if last_leg { 1.0 } else { per_burst as f64 };
+                let (from, to) = (levels[leg], levels[leg + 1]);
+                hydration.set_chamber(from + (to - from) * i as f64 / span, t);
+            }
+            let rh_sample = hydration.sample_at(t);
+            if cached.as_ref().is_none_or(|(bits, _)| *bits != rh_sample.to_bits()) {
+                let (params, temp_c) = sample_at(calib, session, rh_sample);
+                let responses = tones.iter().map(|tone| physics.response(&params, rh_sample, temp_c, jw(tone.freq_hz))).collect();
+                cached = Some((rh_sample.to_bits(), responses));
+            }
+            let responses = &cached.as_ref().expect("filled above").1;
+            let (mut base, mut tip, mut cur) = (0.0, 0.0, 0.0);
+            for (tone, (tr, cr)) in tones.iter().zip(responses) {
+                let w = 2.0 * std::f64::consts::PI * tone.freq_hz * t + tone.phase;
+                base += tone.amplitude_m * w.sin();
+                tip += tr.norm() * tone.amplitude_m * (w + tr.arg()).sin();
+                cur += cr.norm() * tone.amplitude_m * (w + cr.arg()).sin();
+            }
+            cur += rng.gauss(n.current_a);
+            tip += rng.gauss(n.tip_m);
+            if !(cur.is_finite() && tip.is_finite()) {
+                bail!("the physics gave a non-finite response at t = {t} s, RH {rh_sample} %");
+            }
+            ts.t_s.push(t);
+            ts.base_m.as_mut().expect("always recorded").push(base);
+            if let Some(v) = ts.tip_m.as_mut() {
+                v.push(tip);
+            }
+            ts.current_a.push(cur);
+            ts.rh_pct.push(hydration.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct));
+            if let (Some(v), Some(temp)) = (ts.temp_c.as_mut(), session.temp_c) {
+                v.push(temp);
+            }
+        }
+    }
+    Ok(ts)
+}
