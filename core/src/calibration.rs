@@ -433,7 +433,7 @@ impl Calibration {
                 return Err(ValidationError::BadConstant { name, value });
             }
         }
-        let steps = num_traits::Float::ceil((hi - lo) * 10.0) as usize;
+        let steps = Real::ceil((hi - lo) * 10.0) as usize;
         for param in [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::KappaE, ParamName::D, ParamName::H, ParamName::M] {
             let law = self.law(param).expect("humidity law");
             for i in 0..=steps {

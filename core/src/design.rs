@@ -20,7 +20,7 @@ use crate::lstsq::lstsq;
 use crate::model::jw;
 use crate::rational::{IonicOrder, MAX_ROOTS, RationalModel, Roots};
 use crate::roots::poly_roots;
-use crate::{C, Calibration, Params, Real};
+use crate::{C, Calibration, ComplexMath, Params, Real};
 
 /// Most second-order sections an inverse can have (10 at fs ≤ 2 kHz; pure-delay sections are
 /// added at higher rates).
@@ -253,7 +253,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     // s² + d₄s + d₃ with the 5th-order Butterworth's coefficients 1 + √5 and 3 + √5.
     let d4 = T::lit(3.236_067_977_499_79) * wc;
     let d3 = T::lit(5.236_067_977_499_79) * wc * wc;
-    let disc = (C::new(d4 * d4 - T::lit(4.0) * d3, T::zero())).sqrt();
+    let disc = (C::new(d4 * d4 - T::lit(4.0) * d3, T::zero())).csqrt();
     hp_zeros.push((-disc - d4) * T::lit(0.5));
     hp_zeros.push((disc - d4) * T::lit(0.5));
     hp_zeros.push(C::new(T::zero(), T::zero()));
@@ -262,7 +262,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     let map = |roots: &Roots<T>| {
         let mut out: Roots<T> = Roots::new();
         for &r in roots.as_slice() {
-            out.push((r * t).exp());
+            out.push((r * t).cexp());
         }
         out
     };
@@ -338,7 +338,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     let w = two_pi * f_mid * t;
     let zinv = C::new(w.cos(), -w.sin());
     for s in inv.sections[..inv.n_sections].iter_mut() {
-        let m = s.response(zinv).norm();
+        let m = s.response(zinv).cabs();
         if !(m > T::zero() && m.is_finite()) {
             return Err(DesignError::Numerics);
         }
@@ -382,14 +382,14 @@ fn quadratics<T: Real>(roots: &[C<T>], out: &mut [Quad<T>; MAX_SECTIONS + 4]) ->
     let tol = T::epsilon().sqrt();
     let zero = C::new(T::zero(), T::zero());
     for i in 0..roots.len() {
-        if used[i] || roots[i].im.abs() <= tol * roots[i].norm() {
+        if used[i] || roots[i].im.abs() <= tol * roots[i].cabs() {
             continue;
         }
         used[i] = true;
         let r = roots[i];
         if let Some(j) = (0..roots.len()).filter(|&j| !used[j]).min_by(|&x, &y| {
-            let dx = (roots[x] - r.conj()).norm();
-            let dy = (roots[y] - r.conj()).norm();
+            let dx = (roots[x] - r.conj()).cabs();
+            let dy = (roots[y] - r.conj()).cabs();
             dx.partial_cmp(&dy).unwrap_or(core::cmp::Ordering::Equal)
         }) {
             used[j] = true;
@@ -425,8 +425,8 @@ fn quadratics<T: Real>(roots: &[C<T>], out: &mut [Quad<T>; MAX_SECTIONS + 4]) ->
 fn quad_key<T: Real>(q: &Quad<T>) -> T {
     let q = &q.poly;
     let ln_abs = |z: C<T>| {
-        let r = z.norm().max(T::lit(1e-30));
-        (r.ln() * r.ln() + z.arg() * z.arg()).sqrt()
+        let r = z.cabs().max(T::lit(1e-30));
+        (r.ln() * r.ln() + z.carg() * z.carg()).sqrt()
     };
     if q[2] == T::zero() {
         return ln_abs(C::new(-q[1], T::zero()));
@@ -498,7 +498,7 @@ pub fn compensation_error<T: Real>(p: &Params<T>, inv: &Inverse<T>, lo_hz: T, hi
     for i in 0..n {
         let f = lo_hz + (hi_hz - lo_hz) * T::lit(i as f64 / (n - 1) as f64);
         let w = T::lit(2.0) * T::PI() * f * inv.delay_s;
-        let e = (crate::model::current_response(p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) - T::one()).norm();
+        let e = (crate::model::current_response(p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) - T::one()).cabs();
         sum += e * e;
         worst = worst.max(e);
     }

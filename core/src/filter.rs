@@ -158,8 +158,8 @@ pub const WARMUP_S: f64 = 0.5;
 impl<T: Real> Compensator<T> {
     pub fn new(inv: &Inverse<T>) -> Self {
         let fs = inv.fs_hz.to_f64();
-        let warmup = num_traits::Float::round(WARMUP_S * fs) as u32;
-        let fade = num_traits::Float::round(FADE_S * fs) as u32;
+        let warmup = Real::round(WARMUP_S * fs) as u32;
+        let fade = Real::round(FADE_S * fs) as u32;
         Compensator {
             active: Cascade::from_sections(inv.head(), inv.gain),
             tail: Cascade::from_sections(inv.tail(), T::one()),

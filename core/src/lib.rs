@@ -30,7 +30,7 @@ pub use design::{DesignConfig, DesignError, Inverse, Sos, compensation_error, de
 pub use filter::{Cascade, Compensator};
 pub use model::{current_response, tip_response};
 pub use rational::RationalModel;
-pub use real::Real;
+pub use real::{ComplexMath, Real};
 
 /// Complex numbers over the crate's real type.
 pub type C<T> = num_complex::Complex<T>;

@@ -15,7 +15,7 @@
 use crate::model::q_of;
 use crate::roots::{aberth, quadratic, symmetrize};
 use crate::universal::{HALF_ORDER_4, HALF_ORDER_5, HalfOrder, IONIC_OMEGA0, MODE_Q, MODE_R, TAIL_C1, ZERO_RHO};
-use crate::{C, Params, Real};
+use crate::{C, ComplexMath, Params, Real};
 
 /// Capacity of a root list: 16 zeros and 13 poles are the most the model produces.
 pub const MAX_ROOTS: usize = 20;
@@ -231,8 +231,8 @@ pub fn approximation_error<T: Real>(p: &Params<T>, model: &RationalModel<T>, f_l
         let f = f_lo * (f_hi / f_lo).powf(T::lit(i as f64 / (n - 1) as f64));
         let s = crate::model::jw(f);
         let r = model.eval(s) / crate::model::current_response(p, s);
-        worst_mag = worst_mag.max((r.norm() - T::one()).abs());
-        worst_ph = worst_ph.max(r.arg().abs().to_degrees());
+        worst_mag = worst_mag.max((r.cabs() - T::one()).abs());
+        worst_ph = worst_ph.max(r.carg().abs().to_degrees());
     }
     (worst_mag, worst_ph)
 }

@@ -8,7 +8,7 @@
 
 use ipmc_core::model::{current_response, jw};
 use ipmc_core::rational::IonicOrder;
-use ipmc_core::{C, Calibration, Params, RationalModel, Real};
+use ipmc_core::{C, Calibration, ComplexMath, Params, RationalModel, Real};
 
 const GRID: usize = 400;
 const F_LO: f64 = 5.0;
@@ -70,7 +70,7 @@ fn check_structure<T: Real>(m: &RationalModel<T>, what: &str) {
     assert!(m.is_stable(), "{what}: is_stable() disagrees");
     assert_eq!(m.order(), m.poles.n, "{what}: order() is not the pole count");
     // The physical structure is kept: a double zero at s = 0 (H has one).
-    let at_zero = m.zeros.as_slice().iter().filter(|z| z.norm() == T::zero()).count();
+    let at_zero = m.zeros.as_slice().iter().filter(|z| z.cabs() == T::zero()).count();
     assert_eq!(at_zero, 2, "{what}: zeros at the origin");
     // Strictly proper or not, H_r must not be improper by more than H's growth allows: check
     // that the relative degree matches the exact model's high-frequency slope is left to the

@@ -12,7 +12,7 @@
 //! not jump: an abrupt change of the input itself is a different, unphysical test.)
 
 use ipmc_core::model::{current_response, jw};
-use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, Params, Real, design_inverse};
+use ipmc_core::{Calibration, ComplexMath, Compensator, DesignConfig, Inverse, Params, Real, design_inverse};
 
 const FS: f64 = 2000.0;
 const F0: f64 = 40.0;
@@ -36,7 +36,7 @@ impl Source {
     fn new(rh: f64) -> Self {
         let p: Params<f64> = Calibration::default_preset().params_at(rh);
         let h = current_response(&p, jw(F0));
-        Source { gain: h.norm(), phase: h.arg() }
+        Source { gain: h.cabs(), phase: h.carg() }
     }
     fn at<T: Real>(&self, n: usize) -> T {
         let w = 2.0 * std::f64::consts::PI * F0 / FS;

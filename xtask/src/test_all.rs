@@ -143,7 +143,9 @@ pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
 
 /// Host ↔ QEMU equivalence: the firmware on a 10 s recording with a humidity ramp 40 → 50 %
 /// (so it retunes several times at moments its own tasks choose), then the host's f32 chain on
-/// the same input replaying the firmware's retune schedule (`ipmc compensate --schedule`).
+/// the same input replaying the firmware's retune schedule (`ipmc compensate --schedule`). The
+/// tool is built with num-traits' `std` feature (tool/Cargo.toml), so this also fails if the
+/// core's f32 math stops going through libm (core/src/real.rs).
 fn qemu_host_equivalence() -> Result<()> {
     let work = repo_root().join("target/qemu-test/equivalence");
     std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;

@@ -3,7 +3,7 @@
 use crate::{calibration_source, overrides};
 use anyhow::{Result, bail};
 use ipmc_core::model::{current_response, jw, tip_response};
-use ipmc_core::Params;
+use ipmc_core::{ComplexMath, Params};
 use std::io::Write;
 
 #[derive(clap::Args)]
@@ -35,7 +35,7 @@ pub fn run(a: Args) -> Result<()> {
         }
         let t = tip_response(&p, jw(f));
         let h = current_response(&p, jw(f));
-        writeln!(out, "{f},{:.9e},{:.6},{:.9e},{:.6}", t.norm(), t.arg().to_degrees(), h.norm(), h.arg().to_degrees())?;
+        writeln!(out, "{f},{:.9e},{:.6},{:.9e},{:.6}", t.cabs(), t.carg().to_degrees(), h.cabs(), h.carg().to_degrees())?;
     }
     Ok(())
 }
