@@ -26,7 +26,7 @@
 //!   the drive into the current channel (+g·s).
 
 use crate::model::{current_response, ionic_factor, q_of, slope_of_q, tip_of_q, tip_response};
-use crate::{C, Params, Real};
+use crate::{C, ComplexMath, Params, Real};
 
 /// Physics beyond eqs. 1–6. SI units; every field zero means "absent".
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -74,7 +74,7 @@ impl<T: Real> Extension<T> {
 
     /// Mass/damping impedance per length μ(s) of the extended eq. 1.
     pub fn impedance(&self, p: &Params<T>, s: C<T>) -> C<T> {
-        s * (p.m + self.added_mass) + p.ca + s.sqrt() * self.stokes
+        s * (p.m + self.added_mass) + p.ca + s.csqrt() * self.stokes
     }
 
     /// Complex modulus E*(s) of the extended eq. 1.
@@ -110,25 +110,25 @@ impl<T: Real> Extension<T> {
             g = g * rc_line(s * self.electrode_tau_distributed);
         }
         if self.skew_current != T::zero() {
-            g = g * (-s * self.skew_current).exp();
+            g = g * (-s * self.skew_current).cexp();
         }
         g
     }
 
     /// Factor of the tip channel's measurement chain.
     pub fn tip_chain(&self, s: C<T>) -> C<T> {
-        if self.skew_tip != T::zero() { (-s * self.skew_tip).exp() } else { C::new(T::one(), T::zero()) }
+        if self.skew_tip != T::zero() { (-s * self.skew_tip).cexp() } else { C::new(T::one(), T::zero()) }
     }
 }
 
 /// tanh(x)/x with x = √(sτ): current collected through a uniform RC line from a uniform source.
 fn rc_line<T: Real>(st: C<T>) -> C<T> {
-    let x = st.sqrt();
-    if x.norm() < T::lit(1e-3) {
+    let x = st.csqrt();
+    if x.cabs() < T::lit(1e-3) {
         return C::new(T::one(), T::zero()) - st / T::lit(3.0);
     }
     // tanh through e^(−2x), |e^(−2x)| ≤ 1 since Re x ≥ 0.
-    let e = (-x * T::lit(2.0)).exp();
+    let e = (-x * T::lit(2.0)).cexp();
     let one = C::new(T::one(), T::zero());
     (one - e) / (one + e) / x
 }
@@ -156,8 +156,8 @@ pub fn beam_solve<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> BeamResp
         return BeamResponse { tip: tip_of_q(q), tip_slope: slope_of_q(q) * (T::lit(2.0) / l), root_slope: zero };
     }
     // Λ = λL with λ⁴ = −s·μ/(E*·I) = −4p⁴: Λ⁴ = −4q. Any fourth root spans the same solutions.
-    let lam = (-q * T::lit(4.0)).sqrt().sqrt();
-    let (c, sn, ch, sh) = (lam.cos(), lam.sin(), lam.cosh(), lam.sinh());
+    let lam = (-q * T::lit(4.0)).csqrt().csqrt();
+    let (c, sn, ch, sh) = (lam.ccos(), lam.csin(), lam.ccosh(), lam.csinh());
     let one = C::new(T::one(), T::zero());
     let zero = C::new(T::zero(), T::zero());
     let (l1, l2, l3) = (lam, lam * lam, lam * lam * lam);
@@ -192,7 +192,7 @@ pub fn beam_solve<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> BeamResp
 /// Gaussian elimination with partial pivoting on a 4×4 complex system.
 fn solve4<T: Real>(mut a: [[C<T>; 4]; 4], mut b: [C<T>; 4]) -> [C<T>; 4] {
     for col in 0..4 {
-        let piv = (col..4).fold(col, |best, r| if a[r][col].norm() > a[best][col].norm() { r } else { best });
+        let piv = (col..4).fold(col, |best, r| if a[r][col].cabs() > a[best][col].cabs() { r } else { best });
         a.swap(col, piv);
         b.swap(col, piv);
         for r in (col + 1)..4 {
@@ -245,7 +245,7 @@ mod tests {
     }
 
     fn rel(a: C<f64>, b: C<f64>) -> f64 {
-        (a - b).norm() / b.norm()
+        (a - b).cabs() / b.cabs()
     }
 
     /// The 4×4 solve with vanishing end terms against the closed form (forced through the
@@ -271,7 +271,7 @@ mod tests {
         let mut best = (0.0, 0.0);
         let mut f = 10.0;
         while f < 60.0 {
-            let g = responses(p, x, jw(f)).0.norm();
+            let g = responses(p, x, jw(f)).0.cabs();
             if g > best.1 {
                 best = (f, g);
             }
@@ -295,7 +295,7 @@ mod tests {
         assert!(fc < f0 * 0.99 && fc > f0 * 0.8, "clamp: {fc} vs {f0}");
         // A compliant root carries part of the curvature: the root slope is no longer zero.
         let b = beam_solve(&p, &Extension { clamp_compliance: 0.1 * p.l / ei, ..Default::default() }, jw(20.0));
-        assert!(b.root_slope.norm() > 0.01 * b.tip_slope.norm());
+        assert!(b.root_slope.cabs() > 0.01 * b.tip_slope.cabs());
     }
 
     /// Added air mass is the same as heavier beam material in the mechanics.
@@ -319,7 +319,7 @@ mod tests {
         let s = jw(20.0);
         assert!(rel(x.current_chain(s), lumped.current_chain(s)) < 2e-3);
         let far = x.current_chain(jw(1e6));
-        let phase = far.arg().to_degrees();
+        let phase = far.carg().to_degrees();
         assert!((phase + 45.0).abs() < 1.0, "{phase}");
     }
 }

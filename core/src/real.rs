@@ -44,13 +44,15 @@ pub trait Real: Num + NumAssign + Copy + PartialOrd + Neg<Output = Self> + Float
     fn powf(self, e: Self) -> Self;
     fn sin(self) -> Self;
     fn cos(self) -> Self;
+    fn sinh(self) -> Self;
+    fn cosh(self) -> Self;
     fn atan2(self, x: Self) -> Self;
     fn hypot(self, other: Self) -> Self;
 }
 
 /// `$t` with its `libm` functions (`$sqrt` …: the f32 or the f64 names).
 macro_rules! real_via_libm {
-    ($t:ty, $sqrt:ident, $exp:ident, $ln:ident, $pow:ident, $sin:ident, $cos:ident, $atan2:ident, $hypot:ident, $floor:ident, $ceil:ident, $round:ident) => {
+    ($t:ty, $sqrt:ident, $exp:ident, $ln:ident, $pow:ident, $sin:ident, $cos:ident, $sinh:ident, $cosh:ident, $atan2:ident, $hypot:ident, $floor:ident, $ceil:ident, $round:ident) => {
         impl Real for $t {
             #[inline(always)]
             fn lit(x: f64) -> Self {
@@ -137,6 +139,14 @@ macro_rules! real_via_libm {
                 libm::$cos(self)
             }
             #[inline(always)]
+            fn sinh(self) -> Self {
+                libm::$sinh(self)
+            }
+            #[inline(always)]
+            fn cosh(self) -> Self {
+                libm::$cosh(self)
+            }
+            #[inline(always)]
             fn atan2(self, x: Self) -> Self {
                 libm::$atan2(self, x)
             }
@@ -148,8 +158,8 @@ macro_rules! real_via_libm {
     };
 }
 
-real_via_libm!(f32, sqrtf, expf, logf, powf, sinf, cosf, atan2f, hypotf, floorf, ceilf, roundf);
-real_via_libm!(f64, sqrt, exp, log, pow, sin, cos, atan2, hypot, floor, ceil, round);
+real_via_libm!(f32, sqrtf, expf, logf, powf, sinf, cosf, sinhf, coshf, atan2f, hypotf, floorf, ceilf, roundf);
+real_via_libm!(f64, sqrt, exp, log, pow, sin, cos, sinh, cosh, atan2, hypot, floor, ceil, round);
 
 /// The complex functions the core uses, on [`Real`], named as in C99's `<complex.h>`. num-complex's
 /// own (`norm`, `arg`, `exp`, `sqrt`) go through `Float`; the formulas here are theirs, so results
@@ -162,6 +172,10 @@ pub trait ComplexMath<T> {
     fn cexp(self) -> Self;
     /// The principal square root (Re ≥ 0).
     fn csqrt(self) -> Self;
+    fn ccos(self) -> Self;
+    fn csin(self) -> Self;
+    fn ccosh(self) -> Self;
+    fn csinh(self) -> Self;
 }
 
 impl<T: Real> ComplexMath<T> for C<T> {
@@ -197,5 +211,25 @@ impl<T: Real> ComplexMath<T> for C<T> {
         // √(r·e^(iθ)) = √r·e^(iθ/2)
         let (r, half_theta) = (self.cabs().sqrt(), self.carg() * half);
         C::new(r * half_theta.cos(), r * half_theta.sin())
+    }
+    #[inline]
+    fn ccos(self) -> Self {
+        // cos(a+ib) = cos a·cosh b − i·sin a·sinh b
+        C::new(self.re.cos() * self.im.cosh(), -self.re.sin() * self.im.sinh())
+    }
+    #[inline]
+    fn csin(self) -> Self {
+        // sin(a+ib) = sin a·cosh b + i·cos a·sinh b
+        C::new(self.re.sin() * self.im.cosh(), self.re.cos() * self.im.sinh())
+    }
+    #[inline]
+    fn ccosh(self) -> Self {
+        // cosh(a+ib) = cosh a·cos b + i·sinh a·sin b
+        C::new(self.re.cosh() * self.im.cos(), self.re.sinh() * self.im.sin())
+    }
+    #[inline]
+    fn csinh(self) -> Self {
+        // sinh(a+ib) = sinh a·cos b + i·cosh a·sin b
+        C::new(self.re.sinh() * self.im.cos(), self.re.cosh() * self.im.sin())
     }
 }
