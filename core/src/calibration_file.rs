@@ -6,6 +6,7 @@ use std::fmt;
 
 use crate::calibration::{Calibration, ParamName, Params, ValidationError};
 use crate::design::{DesignConfig, DesignError, design_inverse};
+use crate::real::Real;
 
 /// RH step [%] of the load-time design check over the declared range (both ends included).
 pub const DESIGN_CHECK_STEP_PCT: f64 = 5.0;
@@ -54,7 +55,7 @@ pub fn parse(text: &str) -> Result<Calibration, FileError> {
 /// range, and the firmware's f32 inverse designable every [`DESIGN_CHECK_STEP_PCT`] % of it.
 pub fn check(c: &Calibration) -> Result<(), FileError> {
     c.validate().map_err(FileError::Invalid)?;
-    let steps = num_traits::Float::ceil((c.rh_max - c.rh_min) / DESIGN_CHECK_STEP_PCT) as usize;
+    let steps = Real::ceil((c.rh_max - c.rh_min) / DESIGN_CHECK_STEP_PCT) as usize;
     for i in 0..=steps {
         let rh = (c.rh_min + i as f64 * DESIGN_CHECK_STEP_PCT).min(c.rh_max);
         if let Err(error) = design_inverse(c, rh as f32, &DesignConfig::<f32>::default()) {
@@ -69,7 +70,7 @@ pub fn check(c: &Calibration) -> Result<(), FileError> {
 /// of its logarithm, and its value.
 fn farthest_from_default(p: &Params<f64>, rh: f64) -> (ParamName, f64) {
     let reference: Params<f64> = Calibration::default_preset().params_at(rh);
-    let off = |n: ParamName| num_traits::Float::abs(num_traits::Float::ln(p.get(n) / reference.get(n)));
+    let off = |n: ParamName| Real::abs(Real::ln(p.get(n) / reference.get(n)));
     let worst = ParamName::ALL.iter().copied().fold(ParamName::Y, |w, n| if off(n) > off(w) { n } else { w });
     (worst, p.get(worst))
 }

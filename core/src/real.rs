@@ -26,6 +26,7 @@ pub trait Real: Num + NumAssign + Copy + PartialOrd + Neg<Output = Self> + Float
 
     fn epsilon() -> Self;
     fn infinity() -> Self;
+    fn nan() -> Self;
     fn is_finite(self) -> bool;
     fn is_nan(self) -> bool;
     fn is_sign_negative(self) -> bool;
@@ -69,6 +70,10 @@ macro_rules! real_via_libm {
             #[inline(always)]
             fn infinity() -> Self {
                 <$t>::INFINITY
+            }
+            #[inline(always)]
+            fn nan() -> Self {
+                <$t>::NAN
             }
             #[inline(always)]
             fn is_finite(self) -> bool {
