@@ -185,6 +185,27 @@ pub fn jw<T: Real>(freq_hz: T) -> C<T> {
     C::new(T::zero(), T::lit(2.0) * T::PI() * freq_hz)
 }
 
+/// Capacitance between the electrodes [F]: a plate capacitor of the effective dielectric
+/// constant, C = κe·b·L/(2h) (h is the half thickness).
+pub fn capacitance<T: Real>(p: &Params<T>) -> T {
+    p.kappa_e * p.b * p.l / (T::lit(2.0) * p.h)
+}
+
+/// κe from a measured capacitance: the inverse of [`capacitance`], κe = C·2h/(b·L).
+pub fn kappa_e_of_capacitance<T: Real>(p: &Params<T>, capacitance_f: T) -> T {
+    capacitance_f * T::lit(2.0) * p.h / (p.b * p.l)
+}
+
+/// Current [A] at `t_s` ≥ 0 after a constant voltage is applied at t = 0, in the simplest
+/// picture consistent with the model: the strip's bulk ionic resistance R = 2h/(σ·b·L), with
+/// the ionic conductivity σ = F²·d·C⁻/(R_gas·T), in series with [`capacitance`] C. The current
+/// (U/R)·e^(−t/RC) decays with RC = κe/σ = 1/K, the dielectric relaxation time whose rate K the
+/// ionic factor of eq. 5 carries; its integral is the stored charge C·U.
+pub fn step_charging_current<T: Real>(p: &Params<T>, voltage_v: T, t_s: T) -> T {
+    let rate = p.k_ionic();
+    voltage_v * capacitance(p) * rate * (-(rate * t_s)).exp()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -248,6 +269,23 @@ mod tests {
             let h = current_response(&p, jw(f));
             let t = tip_response(&p, jw(f));
             assert!(h.re.is_finite() && h.im.is_finite() && t.re.is_finite() && t.im.is_finite(), "{f}");
+        }
+    }
+
+    #[test]
+    fn step_charge_stores_c_times_u_and_gives_kappa_e_back() {
+        for rh in [20.0, 50.0, 90.0] {
+            let p: Params<f64> = Calibration::default_preset().params_at(rh);
+            let (c, u, tau) = (capacitance(&p), 0.1, 1.0 / p.k_ionic());
+            assert!((kappa_e_of_capacitance(&p, c) / p.kappa_e - 1.0).abs() < 1e-14);
+            // Trapezoid over 30 time constants: the charge that went in is C·U.
+            let n = 300_000;
+            let dt = 30.0 * tau / n as f64;
+            let q: f64 = (0..n).map(|k| 0.5 * dt * (step_charging_current(&p, u, k as f64 * dt) + step_charging_current(&p, u, (k + 1) as f64 * dt))).sum();
+            assert!((q / (c * u) - 1.0).abs() < 1e-6, "RH {rh}: {q} vs {}", c * u);
+            // Half the excess current is gone after τ·ln 2.
+            let half = step_charging_current(&p, u, tau * 2f64.ln()) / step_charging_current(&p, u, 0.0);
+            assert!((half - 0.5).abs() < 1e-12);
         }
     }
 }

@@ -27,7 +27,7 @@ enum Command {
     Accuracy(commands::accuracy::Args),
     /// Synthetic time-series recording: multisine base motion, humidity ramp, model current.
     SimulateSweep(commands::simulate::SweepArgs),
-    /// Simulated recording (frequency response or time series) from a calibration and a session file.
+    /// Simulated recording (frequency response, time series or charging) from a calibration and a session file.
     Simulate(commands::simulate::Args),
     /// Run the firmware's f32 compensation chain over a time-series recording on the host.
     Compensate(commands::compensate::Args),
@@ -37,6 +37,8 @@ enum Command {
     Monitor(commands::monitor::Args),
     /// Score an estimate against the true base motion of its recording (as `compensate` scores).
     Score(commands::score::Args),
+    /// Capacitance and effective dielectric constant κe from a constant-voltage charging recording.
+    Charging(commands::charging::Args),
 }
 
 fn main() {
@@ -51,6 +53,7 @@ fn main() {
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),
+        Command::Charging(a) => commands::charging::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

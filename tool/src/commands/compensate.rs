@@ -43,6 +43,10 @@ pub struct Args {
     /// design made at that block's `rh_pct` before processing it (src/app/sample_path.rs).
     #[arg(long)]
     schedule: Option<PathBuf>,
+    /// Calibration: `default`, `paper`, or a TOML file. To compare with a firmware, the one it
+    /// was built with (IPMC_CALIB; the default preset otherwise).
+    #[arg(long)]
+    calib: Option<String>,
 }
 
 /// One firmware block of the retune schedule: where it starts, the RH it reports, its flags.
@@ -84,9 +88,8 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
 /// Replays the firmware's schedule over `ts`: one compensator, designed at the first block's
 /// RH, switched at each RETUNED block to a design at that block's RH, blocks of [`BLOCK_LEN`]
 /// exactly as the firmware processes them. Samples past the schedule are not processed.
-pub fn compensate_scheduled(ts: &TimeSeries, schedule: &[ScheduledBlock]) -> Result<Estimates> {
-    let calib = Calibration::default_preset();
-    let design = designer(&calib, ts.fs_hz);
+pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock]) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz);
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
     let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
@@ -153,9 +156,8 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
 
 /// Runs the compensation over `ts`: a fresh compensator per burst, designed at the first
 /// block's RH (or `fixed_rh`), retuned per block when the RH moved more than the threshold.
-pub fn compensate(ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
-    let calib = Calibration::default_preset();
-    let design = designer(&calib, ts.fs_hz);
+pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz);
     let n = ts.t_s.len();
     let mut est = Estimates::with_capacity(n);
     let fixed = match fixed_rh {
@@ -266,10 +268,11 @@ pub fn relative_error(est: &[f32], delay: &[usize], burst_start: &[usize], base:
 }
 
 pub fn run(a: Args) -> Result<()> {
+    let calib = crate::calibration_source::load(a.calib.as_deref())?;
     let ts = read_time_series(&a.input)?;
     let est = match &a.schedule {
-        Some(p) => compensate_scheduled(&ts, &read_schedule(p)?)?,
-        None => compensate(&ts, a.fixed_rh)?,
+        Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?)?,
+        None => compensate(&calib, &ts, a.fixed_rh)?,
     };
     let mut file = EstimateFile {
         t_s: ts.t_s[..est.base_est_m.len()].to_vec(),

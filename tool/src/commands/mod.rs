@@ -1,5 +1,6 @@
 pub mod accuracy;
 pub mod calib_export;
+pub mod charging;
 pub mod compensate;
 pub mod design;
 pub mod model;

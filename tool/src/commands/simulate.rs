@@ -1,5 +1,5 @@
 //! `ipmc simulate`: a recording in the interchange format from a calibration and a session file
-//! (data/sessions/*.toml): frequency response or time series, humidity levels in any order,
+//! (data/sessions/*.toml): frequency response, time series or charging, humidity levels in any order,
 //! noise, deterministic for a seed. The work is done by [`crate::simulator`].
 //!
 //! `ipmc simulate-sweep`: the two-level humidity ramp of a time series with its own flags, made
@@ -14,7 +14,6 @@ use crate::simulator::physics::ExactModel;
 use crate::simulator::session::{Frequencies, Humidity, Kind, Noise, Session, TimeSeriesPlan};
 use crate::simulator::{Recording, simulate};
 use anyhow::{Context, Result};
-use ipmc_core::Calibration;
 use ipmc_recording::Metadata;
 use std::path::PathBuf;
 
@@ -40,8 +39,12 @@ pub fn run(a: Args) -> Result<()> {
     metadata.set("generator", format!("ipmc simulate session={} seed={}", a.session.display(), session.seed));
     metadata.set("calib", a.calib.as_deref().unwrap_or("default"));
     let rec = simulate(&calib, &session, &ExactModel, metadata)?;
-    write_atomically(&a.out, rec.to_csv()?.as_bytes())?;
-    eprintln!("wrote {} to {}", rec.summary(), a.out.display());
+    let files = rec.files(&a.out)?;
+    for (path, text) in &files {
+        write_atomically(path, text.as_bytes())?;
+    }
+    let names: Vec<String> = files.iter().map(|f| f.0.display().to_string()).collect();
+    eprintln!("wrote {} to {}", rec.summary(), names.join(", "));
     Ok(())
 }
 
@@ -80,6 +83,9 @@ pub struct SweepArgs {
     /// Sum of the tone amplitudes [m].
     #[arg(long, default_value_t = 20e-6)]
     amplitude_m: f64,
+    /// Calibration of the simulated sample: `default`, `paper`, or a TOML file.
+    #[arg(long)]
+    calib: Option<String>,
 }
 
 /// The sweep as a session: one time-series ramp between two levels, current noise only.
@@ -114,8 +120,13 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         "generator",
         format!("ipmc simulate-sweep seed={} rh_from={} rh_to={} seconds={} noise_a={}", a.seed, a.rh_from, a.rh_to, a.seconds, a.noise_a),
     );
-    let rec = simulate(&Calibration::default_preset(), &session, &ExactModel, metadata)?;
-    write_atomically(&a.out, rec.to_csv()?.as_bytes())?;
+    if let Some(c) = &a.calib {
+        metadata.set("calib", c);
+    }
+    let rec = simulate(&calibration_source::load(a.calib.as_deref())?, &session, &ExactModel, metadata)?;
+    for (path, text) in rec.files(&a.out)? {
+        write_atomically(&path, text.as_bytes())?;
+    }
     if let Recording::TimeSeries(ts, _) = &rec {
         eprintln!(
             "wrote {} samples ({} s at {} Hz, RH {} → {} %, {} tones {:.1}–{:.1} Hz) to {}",

@@ -2,6 +2,7 @@
 //! ([`session::Session`]) and a physics ([`physics::Physics`]: the seam where an effect the
 //! exact model lacks can be injected). Deterministic for a given seed.
 
+mod charging;
 mod frequency_response;
 pub mod hydration;
 pub mod physics;
@@ -11,7 +12,8 @@ mod time_series;
 
 use anyhow::Result;
 use ipmc_core::{Calibration, Params};
-use ipmc_recording::{FrequencyResponse, Metadata, NumberFormat, TimeSeries};
+use ipmc_recording::{Charging, FrequencyResponse, Metadata, NumberFormat, TimeSeries};
+use std::path::{Path, PathBuf};
 use physics::Physics;
 use session::{Kind, Session};
 
@@ -19,13 +21,28 @@ use session::{Kind, Session};
 pub enum Recording {
     FrequencyResponse(FrequencyResponse),
     TimeSeries(TimeSeries, NumberFormat),
+    /// One charging recording per level.
+    Charging(Vec<Charging>),
 }
 
 impl Recording {
-    pub fn to_csv(&self) -> Result<String> {
+    /// The file(s) to write for output path `out`: `out` itself, or for charging at several
+    /// levels one file per level, `STEM-<RH>pct.csv` beside it.
+    pub fn files(&self, out: &Path) -> Result<Vec<(PathBuf, String)>> {
         Ok(match self {
-            Recording::FrequencyResponse(fr) => fr.to_csv()?,
-            Recording::TimeSeries(ts, format) => ts.to_csv(*format)?,
+            Recording::FrequencyResponse(fr) => vec![(out.to_path_buf(), fr.to_csv()?)],
+            Recording::TimeSeries(ts, format) => vec![(out.to_path_buf(), ts.to_csv(*format)?)],
+            Recording::Charging(list) if list.len() == 1 => vec![(out.to_path_buf(), list[0].to_csv()?)],
+            Recording::Charging(list) => {
+                let stem = out.file_stem().map_or("charging".into(), |s| s.to_string_lossy().into_owned());
+                let mut files = Vec::with_capacity(list.len());
+                for (k, c) in list.iter().enumerate() {
+                    // The level index keeps revisited levels apart.
+                    let name = format!("{stem}-{k:02}-{}pct.csv", c.rh_pct.map_or("unknown".into(), |r| format!("{r:.0}")));
+                    files.push((out.with_file_name(name), c.to_csv()?));
+                }
+                files
+            }
         })
     }
 
@@ -36,6 +53,7 @@ impl Recording {
                 format!("{} frequency-response points at {} humidity levels", fr.points.len(), fr.levels().len())
             }
             Recording::TimeSeries(ts, _) => format!("{} samples in {} bursts at {} Hz", ts.len(), ts.bursts().len(), ts.fs_hz),
+            Recording::Charging(list) => format!("{} charging recording(s) of {} samples", list.len(), list.first().map_or(0, |c| c.t_s.len())),
         }
     }
 }
@@ -50,7 +68,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             let format = if plan.compact { NumberFormat::Compact } else { NumberFormat::Exact };
             Ok(Recording::TimeSeries(time_series::simulate(calib, session, physics, metadata)?, format))
         }
-        Kind::Charging => anyhow::bail!("charging sessions are not simulated yet"),
+        Kind::Charging => Ok(Recording::Charging(charging::simulate(calib, session, physics, metadata)?)),
     }
 }
 
@@ -85,7 +103,8 @@ mod tests {
     }
 
     fn csv(s: &Session) -> String {
-        simulate(&Calibration::default_preset(), s, &ExactModel, Metadata::default()).unwrap().to_csv().unwrap()
+        let rec = simulate(&Calibration::default_preset(), s, &ExactModel, Metadata::default()).unwrap();
+        rec.files(Path::new("x.csv")).unwrap().into_iter().map(|f| f.1).collect()
     }
 
     #[test]
@@ -219,7 +238,7 @@ mod tests {
         let session = crate::commands::simulate::tests_support::bundled_sweep_session();
         let mut metadata = Metadata::default();
         metadata.set("generator", "ipmc simulate-sweep seed=1 rh_from=40 rh_to=80 seconds=60 noise_a=0");
-        let made = simulate(&Calibration::default_preset(), &session, &ExactModel, metadata).unwrap().to_csv().unwrap();
+        let made = simulate(&Calibration::default_preset(), &session, &ExactModel, metadata).unwrap().files(Path::new("x.csv")).unwrap().remove(0).1;
         assert!(made == bundled, "data/sweep-40-80.csv differs from what simulate-sweep makes");
     }
 }

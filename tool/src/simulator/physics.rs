@@ -7,7 +7,7 @@
 //! typically wrapping [`ExactModel`] and modifying its answer — and pass it to
 //! [`super::simulate`]: the session handling, humidity path, noise and writing stay the same.
 
-use ipmc_core::model::responses;
+use ipmc_core::model::{responses, step_charging_current};
 use ipmc_core::{C, Params};
 
 pub trait Physics {
@@ -18,6 +18,13 @@ pub trait Physics {
     /// humidity inside the sample, which lags the chamber's when hydration is modelled), with
     /// `t_k` already set to the session's temperature `temp_c` when it gives one.
     fn response(&self, params: &Params<f64>, rh_pct: f64, temp_c: f64, s: C<f64>) -> (C<f64>, C<f64>);
+
+    /// Current [A] at `t_s` after the constant voltage `voltage_v` is applied at t = 0 (a
+    /// charging recording; leakage and noise are the simulator's). By default the core's
+    /// RC picture of the strip, `ipmc_core::model::step_charging_current`.
+    fn charging_current(&self, params: &Params<f64>, _rh_pct: f64, _temp_c: f64, voltage_v: f64, t_s: f64) -> f64 {
+        step_charging_current(params, voltage_v, t_s)
+    }
 }
 
 /// The core's exact model, nothing added.
