@@ -34,6 +34,27 @@ pub struct LevelData {
     pub kappa_e: Option<Estimate>,
 }
 
+impl LevelData {
+    /// The fit's points of one recorded level: both channels at every frequency that has them.
+    /// A zero gain has no logarithm and no phase; such points are left out and their lines
+    /// returned.
+    pub fn from_level(level: &ipmc_recording::Level, kappa_e: Option<Estimate>) -> (LevelData, Vec<usize>) {
+        let mut points = Vec::with_capacity(2 * level.points.len());
+        let mut left_out = Vec::new();
+        for p in &level.points {
+            for (channel, response) in [(Channel::Tip, p.tip), (Channel::Current, p.current)] {
+                let Some(r) = response else { continue };
+                if r.gain > 0.0 {
+                    points.push(Point::new(p.freq_hz, channel, r.gain, r.phase_deg));
+                } else {
+                    left_out.push(p.line);
+                }
+            }
+        }
+        (LevelData { rh_pct: level.rh_pct, points, kappa_e }, left_out)
+    }
+}
+
 /// One level's identified parameters.
 #[derive(Clone, Debug)]
 pub struct LevelFit {
@@ -182,9 +203,9 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
     let (errors, gains) = stage2.relative_errors(&f2.estimates);
     noise.extend(noise::estimate(&mech_points, &errors, &gains, mech_channel, stage2_names.len()).map(|n| (mech_channel, n)));
 
-    // Stage 3: d from the current (only needed when the mechanics came from the tip): first
-    // by plain differences, which the noisy low-gain points cannot pull, then weighted by the
-    // noise that fit shows, twice (the second noise estimate sees a better fit).
+    // Stage 3: d from the current (only needed when the mechanics came from the tip), by plain
+    // differences, which the noisy low-gain points cannot pull; the current's noise is
+    // estimated from that fit.
     if has_current && mech_channel == Channel::Tip {
         let mut gains: Vec<f64> = current.iter().map(|p| p.value.norm()).collect();
         gains.sort_by(f64::total_cmp);
@@ -192,18 +213,10 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
         let scale = vec![Sigma { ln_gain: typical, phase: typical }; current.len()];
         let stage3 = ResponseProblem::new(p3, &[ParamName::D], &current, &scale, Misfit::Difference);
         let starts = best_of_grid(&stage3, 0, &D_GRID, 1);
-        let mut d = fit_stage(rh, "d", Tolerance::START, &stage3, &starts)?.estimates;
-        let mut current_noise = None;
-        for _ in 0..1 {
-            let (errors, gains) = stage3.relative_errors(&d);
-            let Some(n) = noise::estimate(&current, &errors, &gains, Channel::Current, 1) else { break };
-            current_noise = Some(n);
-            let sigmas = noise::sigmas(&current, &gains, &[(Channel::Current, n)]);
-            let weighted = ResponseProblem::new(p3, &[ParamName::D], &current, &sigmas, Misfit::Relative);
-            d = fit_stage(rh, "d weighted", Tolerance::START, &weighted, &[d])?.estimates;
-        }
+        let d = fit_stage(rh, "d", Tolerance::START, &stage3, &starts)?.estimates;
+        let (errors, gains) = stage3.relative_errors(&d);
+        noise.extend(noise::estimate(&current, &errors, &gains, Channel::Current, 1).map(|n| (Channel::Current, n)));
         p3 = stage3.params(&d);
-        noise.extend(current_noise.map(|n| (Channel::Current, n)));
     }
 
     // Stage 4: everything together, each point weighted by its own noise.
@@ -222,6 +235,35 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
         noise,
         tip_points: level.points.iter().filter(|p| p.channel == Channel::Tip).count(),
         current_points: level.points.iter().filter(|p| p.channel == Channel::Current).count(),
+    })
+}
+
+/// Identifies every level, on as many threads as `threads` (levels are independent), calling
+/// `done` after each level. Results are in the order of `levels`.
+pub fn identify_levels(
+    base: &Calibration,
+    levels: &[LevelData],
+    threads: usize,
+    done: &(dyn Fn() + Sync),
+) -> Vec<Result<LevelFit, IdentifyError>> {
+    let threads = threads.clamp(1, levels.len().max(1));
+    let chunk = levels.len().div_ceil(threads).max(1);
+    std::thread::scope(|scope| {
+        let workers: Vec<_> = levels
+            .chunks(chunk)
+            .map(|part| {
+                scope.spawn(move || {
+                    part.iter()
+                        .map(|l| {
+                            let r = identify_level(base, l);
+                            done();
+                            r
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        workers.into_iter().flat_map(|w| w.join().expect("a level's fit panicked")).collect()
     })
 }
 

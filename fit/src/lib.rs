@@ -6,10 +6,12 @@
 //!   (`ipmc_core::model`), with any subset of the model's parameters fitted by their `--set` names.
 //! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
+//! - [`laws`]: humidity laws through the levels, and the calibration they make.
 //!
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
 pub mod identify;
+pub mod laws;
 pub mod lsq;
 pub mod noise;
 pub mod response;

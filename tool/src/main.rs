@@ -29,6 +29,9 @@ enum Command {
     SimulateSweep(commands::simulate::SweepArgs),
     /// Simulated recording (frequency response, time series or charging) from a calibration and a session file.
     Simulate(commands::simulate::Args),
+    /// Identify a sample's calibration from its frequency-response recording: per humidity
+    /// level Y, Cs, Ca and d with standard errors, then humidity laws (CALIB.toml, LEVELS.json).
+    Identify(commands::identify::Args),
     /// Run the firmware's f32 compensation chain over a time-series recording on the host.
     Compensate(commands::compensate::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
@@ -49,6 +52,7 @@ fn main() {
         Command::Accuracy(a) => commands::accuracy::run(a),
         Command::SimulateSweep(a) => commands::simulate::run_sweep(a),
         Command::Simulate(a) => commands::simulate::run(a),
+        Command::Identify(a) => commands::identify::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),

@@ -3,6 +3,7 @@ pub mod calib_export;
 pub mod charging;
 pub mod compensate;
 pub mod design;
+pub mod identify;
 pub mod model;
 pub mod monitor;
 pub mod score;

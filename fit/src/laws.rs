@@ -1,0 +1,217 @@
+//! Humidity laws through the identified levels, and the calibration they make.
+//!
+//! Y, Cs, Ca and κe: quadratic in RH (as the paper fits them); d: a polynomial in ln d (it spans
+//! decades, and a law in its logarithm stays positive), cubic when there are enough levels for
+//! the cubic to be overdetermined, which is the shape of the default law (ln d = a + c·RH³);
+//! h and m are not identified by a frequency response (only Y·I/m and similar ratios are), so
+//! their laws stay those of the base calibration, linear as the paper gives them. Each level
+//! weighs by 1/SE², so a level that did not determine a parameter does not pull its law.
+
+use crate::identify::{Estimate, LevelFit};
+use ipmc_core::calibration::MAX_LAW_COEFFS;
+use ipmc_core::{Calibration, Law, LawKind, ParamName, ValidationError};
+use nalgebra::{DMatrix, DVector};
+
+/// How one law was fitted.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LawFit {
+    pub param: &'static str,
+    /// `poly` or `log_poly` (as in the calibration file).
+    pub kind: &'static str,
+    pub degree: usize,
+    /// Levels the law went through.
+    pub levels: usize,
+    /// Σ((value − law)/SE)² over the levels: about levels − degree − 1 when the law's shape
+    /// holds and the SEs are honest. `None` when the values had no standard errors.
+    pub chi2: Option<f64>,
+    /// Why the kind differs from the usual one, if it does.
+    pub note: Option<String>,
+}
+
+/// Why no calibration could be made.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LawError {
+    NoLevels,
+    Singular { param: ParamName },
+    Invalid(ValidationError),
+}
+
+impl core::fmt::Display for LawError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            LawError::NoLevels => write!(f, "no humidity level was identified: no law can be fitted"),
+            LawError::Singular { param } => write!(f, "the law of {} cannot be fitted (levels at the same humidity?)", param.as_str()),
+            LawError::Invalid(e) => write!(f, "the fitted laws are not physical: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for LawError {}
+
+/// Weighted least-squares polynomial in RH, returned in ascending powers of RH itself (the
+/// calibration's form). Fitted in the centred, scaled variable u = (RH − c)/w so the normal
+/// matrix stays well conditioned, then expanded back.
+fn poly_fit(rh: &[f64], y: &[f64], w: &[f64], degree: usize) -> Option<[f64; MAX_LAW_COEFFS]> {
+    let n = rh.len();
+    let (lo, hi) = rh.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &r| (a.min(r), b.max(r)));
+    let c = 0.5 * (lo + hi);
+    let half = (0.5 * (hi - lo)).max(1.0);
+    let k = degree + 1;
+    let a = DMatrix::from_fn(n, k, |i, j| w[i].sqrt() * ((rh[i] - c) / half).powi(j as i32));
+    let b = DVector::from_fn(n, |i, _| w[i].sqrt() * y[i]);
+    let svd = a.svd(true, true);
+    let smax = svd.singular_values.max();
+    if svd.singular_values.iter().any(|&s| !(s > smax * 1e-12)) {
+        return None;
+    }
+    let coef_u = svd.solve(&b, 0.0).ok()?;
+    // Σ a_j ((RH − c)/half)^j  →  Σ b_m RH^m
+    let mut out = [0.0; MAX_LAW_COEFFS];
+    for j in 0..k {
+        let scale = coef_u[j] / half.powi(j as i32);
+        let mut binom = 1.0;
+        for m in 0..=j {
+            // C(j, m)·RH^m·(−c)^(j−m)
+            out[m] += scale * binom * (-c).powi((j - m) as i32);
+            binom = binom * (j - m) as f64 / (m + 1) as f64;
+        }
+    }
+    Some(out)
+}
+
+/// The law of one parameter through (RH, estimate) points.
+fn fit_law(param: ParamName, kind: LawKind, degree: usize, points: &[(f64, Estimate)]) -> Result<(Law, Option<f64>), LawError> {
+    let rh: Vec<f64> = points.iter().map(|p| p.0).collect();
+    let (y, se): (Vec<f64>, Vec<Option<f64>>) = points
+        .iter()
+        .map(|(_, e)| match kind {
+            LawKind::Poly => (e.value, e.se),
+            LawKind::LogPoly => (e.value.ln(), e.se.map(|s| s / e.value)),
+        })
+        .unzip();
+    let usable = |s: &Option<f64>| s.filter(|s| s.is_finite() && *s > 0.0);
+    let known: Vec<f64> = se.iter().filter_map(usable).collect();
+    let w: Vec<f64> = se
+        .iter()
+        .map(|s| match usable(s) {
+            Some(s) => 1.0 / (s * s),
+            // No standard error: as much weight as the worst-determined level that has one.
+            None => known.iter().copied().fold(f64::NAN, f64::max).powi(-2),
+        })
+        .map(|w| if w.is_finite() { w } else { 1.0 })
+        .collect();
+    let degree = degree.min(points.len().saturating_sub(1));
+    let coeffs = poly_fit(&rh, &y, &w, degree).ok_or(LawError::Singular { param })?;
+    let law = Law { kind, coeffs };
+    let chi2 = (known.len() == se.len()).then(|| {
+        rh.iter().zip(&y).zip(&w).map(|((&r, &v), &wi)| {
+            let poly = Law { kind: LawKind::Poly, coeffs };
+            (v - poly.eval(r)).powi(2) * wi
+        }).sum()
+    });
+    Ok((law, chi2))
+}
+
+fn law_slot(c: &mut Calibration, p: ParamName) -> &mut Law {
+    match p {
+        ParamName::Y => &mut c.y,
+        ParamName::Cs => &mut c.cs,
+        ParamName::Ca => &mut c.ca,
+        ParamName::KappaE => &mut c.kappa_e,
+        ParamName::D => &mut c.d,
+        ParamName::H => &mut c.h,
+        ParamName::M => &mut c.m,
+        _ => unreachable!("{} has no humidity law", p.as_str()),
+    }
+}
+
+fn kind_name(k: LawKind) -> &'static str {
+    match k {
+        LawKind::Poly => "poly",
+        LawKind::LogPoly => "log_poly",
+    }
+}
+
+/// The calibration whose laws go through `levels`, declared on `rh_range`, with every constant
+/// and the h and m laws of `base`. κe's law is refitted only from levels where it was measured.
+pub fn calibration_from_levels(base: &Calibration, levels: &[LevelFit], rh_range: (f64, f64)) -> Result<(Calibration, Vec<LawFit>), LawError> {
+    if levels.is_empty() {
+        return Err(LawError::NoLevels);
+    }
+    let mut calib = *base;
+    calib.rh_min = rh_range.0;
+    calib.rh_max = rh_range.1;
+    let mut report = Vec::new();
+    let d_degree = if levels.len() >= 6 { 3 } else { 2 };
+    let plan = [
+        (ParamName::Y, LawKind::Poly, 2),
+        (ParamName::Cs, LawKind::Poly, 2),
+        (ParamName::Ca, LawKind::Poly, 2),
+        (ParamName::KappaE, LawKind::Poly, 2),
+        (ParamName::D, LawKind::LogPoly, d_degree),
+    ];
+    for (param, kind, degree) in plan {
+        let points: Vec<(f64, Estimate)> = levels
+            .iter()
+            .filter(|l| param != ParamName::KappaE || l.kappa_e_measured)
+            .filter_map(|l| Some((l.rh_pct, l.estimate(param)?)))
+            .collect();
+        if points.is_empty() {
+            continue;
+        }
+        let (law, chi2) = fit_law(param, kind, degree, &points)?;
+        *law_slot(&mut calib, param) = law;
+        let mut note = None;
+        // A quadratic through noisy positive values can dip through zero inside the range;
+        // the same quadratic in the logarithm cannot.
+        if kind == LawKind::Poly && !positive_on(&law, rh_range) {
+            let (log_law, log_chi2) = fit_law(param, LawKind::LogPoly, degree, &points)?;
+            *law_slot(&mut calib, param) = log_law;
+            note = Some("a quadratic in RH is not positive over the range; fitted in ln instead".into());
+            report.push(LawFit { param: param.as_str(), kind: kind_name(LawKind::LogPoly), degree: degree.min(points.len() - 1), levels: points.len(), chi2: log_chi2, note });
+            continue;
+        }
+        report.push(LawFit { param: param.as_str(), kind: kind_name(kind), degree: degree.min(points.len() - 1), levels: points.len(), chi2, note });
+    }
+    calib.validate().map_err(LawError::Invalid)?;
+    Ok((calib, report))
+}
+
+/// Whether a law is positive and finite on the validation grid of the range.
+fn positive_on(law: &Law, (lo, hi): (f64, f64)) -> bool {
+    let steps = ((hi - lo) * 10.0).ceil().max(1.0) as usize;
+    (0..=steps).all(|i| {
+        let rh = if i == steps { hi } else { lo + i as f64 * 0.1 };
+        let v: f64 = law.eval(rh);
+        v.is_finite() && v > 0.0
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polynomial_comes_back_in_powers_of_rh() {
+        let truth = [3.0, -0.2, 0.004, 1e-5];
+        let rh: Vec<f64> = (0..10).map(|i| 38.0 + 4.7 * i as f64).collect();
+        let y: Vec<f64> = rh.iter().map(|&r| truth.iter().rev().fold(0.0, |a, c| a * r + c)).collect();
+        let c = poly_fit(&rh, &y, &vec![1.0; rh.len()], 3).unwrap();
+        for (k, t) in truth.iter().enumerate() {
+            assert!((c[k] - t).abs() < 1e-9 * t.abs().max(1.0), "{k}: {} vs {t}", c[k]);
+        }
+        assert!(c[4..].iter().all(|&x| x == 0.0));
+    }
+
+    #[test]
+    fn weights_follow_standard_errors() {
+        // A wild value with a huge SE must not move the law.
+        let pts: Vec<(f64, Estimate)> = [(40.0, 1.0, 0.01), (50.0, 1.0, 0.01), (60.0, 50.0, 1e6), (70.0, 1.0, 0.01)]
+            .iter()
+            .map(|&(r, v, s)| (r, Estimate { value: v, se: Some(s) }))
+            .collect();
+        let (law, _) = fit_law(ParamName::Y, LawKind::Poly, 2, &pts).unwrap();
+        let at: f64 = law.eval(60.0);
+        assert!((at - 1.0).abs() < 1e-3, "{at}");
+    }
+}

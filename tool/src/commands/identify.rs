@@ -1,0 +1,167 @@
+//! `ipmc identify`: a sample's calibration from its frequency-response recording.
+//!
+//! The rows are grouped into humidity levels (`ipmc_recording`); each level's Y, Cs, Ca and d are
+//! fitted to its tip and current responses (`ipmc_fit::identify`), κe comes from the charging
+//! recordings taken at that level (`ipmc charging`'s analysis) or else from the base
+//! calibration, and the humidity laws through the levels make the calibration
+//! (`ipmc_fit::laws`). Outputs: the calibration (TOML, what `--calib` and `IPMC_CALIB` read) and
+//! every level's estimates with standard errors and correlations (JSON).
+
+use crate::commands::write_atomically;
+use crate::{calibration_source, input::checked};
+use anyhow::{Context, Result, bail};
+use ipmc_core::ParamName;
+use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_levels};
+use ipmc_fit::laws::{LawFit, calibration_from_levels};
+use ipmc_core::calibration_file;
+use ipmc_recording::{Format as _, FrequencyResponse, Level};
+use serde_json::{Map, Value, json};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Frequency-response recording (CSV: rh_pct, freq_hz and the tip and/or current gain and
+    /// phase; see recording-format.md). Its rows are grouped into humidity levels.
+    recording: PathBuf,
+    /// Base calibration: start values of the fits, κe where not measured, and everything the
+    /// frequency response does not determine (h, m, length, width, α0, C⁻, T). `default`,
+    /// `paper`, or a TOML file.
+    #[arg(long)]
+    calib: Option<String>,
+    /// Where to write the identified calibration (TOML).
+    #[arg(long)]
+    out: PathBuf,
+    /// Where to write the per-level estimates (JSON: one object per level, each parameter with
+    /// its standard error `<name>_se`, the correlations, χ² and the estimated noise).
+    #[arg(long)]
+    levels: PathBuf,
+}
+
+/// One level as LEVELS.json shows it.
+fn level_json(level: &Level, fit: &LevelFit) -> Value {
+    let mut o = Map::new();
+    o.insert("rh_pct".into(), json!(fit.rh_pct));
+    o.insert("rh_range_pct".into(), json!([level.rh_range.0, level.rh_range.1]));
+    // The level's humidity is the mean of its readings; its standard error bounds how well the
+    // parameters can be placed on the humidity axis (not included in their own SEs).
+    let n = level.points.len() as f64;
+    let var = level.points.iter().map(|p| (p.rh_pct - level.rh_pct).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    o.insert("rh_se_pct".into(), json!((var / n).sqrt()));
+    o.insert("revisit_of".into(), json!(level.revisit_of));
+    for p in FITTED.iter().chain(&[ParamName::KappaE]) {
+        if let Some(e) = fit.estimate(*p) {
+            o.insert(p.as_str().into(), json!(e.value));
+            // JSON has no infinity: an undetermined parameter's SE is null.
+            o.insert(format!("{}_se", p.as_str()), json!(e.se.filter(|s| s.is_finite())));
+        }
+    }
+    o.insert("kappa_e_source".into(), json!(if fit.kappa_e_measured { "charging" } else { "base calibration" }));
+    let mut corr = Map::new();
+    for (i, a) in fit.fitted.iter().enumerate() {
+        for b in &fit.fitted[i + 1..] {
+            let c = fit.correlation(*a, *b).filter(|c| c.is_finite());
+            corr.insert(format!("{},{}", a.as_str(), b.as_str()), json!(c));
+        }
+    }
+    o.insert("correlation".into(), Value::Object(corr));
+    o.insert("chi2".into(), json!(fit.fit.chi2));
+    o.insert("dof".into(), json!(fit.fit.dof));
+    o.insert("tip_points".into(), json!(fit.tip_points));
+    o.insert("current_points".into(), json!(fit.current_points));
+    let noise: Map<String, Value> = fit
+        .noise
+        .iter()
+        .map(|(ch, n)| (format!("{ch:?}").to_lowercase(), json!({ "relative": n.rel, "floor": n.floor })))
+        .collect();
+    o.insert("noise".into(), Value::Object(noise));
+    Value::Object(o)
+}
+
+fn print_summary(fits: &[LevelFit], laws: &[LawFit]) {
+    println!("  RH %  Y [Pa]               Cs [Pa·s]            Ca [N·s/m²]          d [m²/s]             corr(Cs,Ca)  χ²/dof");
+    for f in fits {
+        let cell = |p: ParamName| match f.estimate(p) {
+            Some(Estimate { value, se: Some(se) }) if se.is_finite() => format!("{value:.4e} ±{:>5.1}%", 100.0 * se / value),
+            Some(Estimate { value, .. }) => format!("{value:.4e} ±    ?"),
+            None => "—".into(),
+        };
+        let corr = f.correlation(ParamName::Cs, ParamName::Ca).map_or("—".into(), |c| format!("{c:+.2}"));
+        println!(
+            "{:6.1}  {:<20} {:<20} {:<20} {:<20} {:>11}  {:.2}",
+            f.rh_pct,
+            cell(ParamName::Y),
+            cell(ParamName::Cs),
+            cell(ParamName::Ca),
+            cell(ParamName::D),
+            corr,
+            f.fit.reduced_chi2()
+        );
+    }
+    for l in laws {
+        let chi2 = l.chi2.map_or("".into(), |c| format!(", χ² {c:.1} on {} levels", l.levels));
+        println!("law {}: {} degree {}{chi2}{}", l.param, l.kind, l.degree, l.note.as_ref().map_or(String::new(), |n| format!(" ({n})")));
+    }
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let base = calibration_source::load(a.calib.as_deref())?;
+    let source = a.recording.display().to_string();
+    let recording = checked(FrequencyResponse::read(&a.recording))?;
+    let levels = recording.levels();
+    let data: Vec<LevelData> = levels
+        .iter()
+        .map(|l| {
+            let (data, left_out) = LevelData::from_level(l, None);
+            for line in left_out {
+                eprintln!("warning: {source}:{line}: a gain of 0 has no phase: left out of the fit");
+            }
+            data
+        })
+        .collect();
+
+    // A level takes a few milliseconds; the bar appears only if the whole run is slow.
+    let bar = indicatif::ProgressBar::hidden();
+    bar.set_length(data.len() as u64);
+    bar.set_style(indicatif::ProgressStyle::with_template("identifying {bar:30} {pos}/{len} levels, {eta} left").expect("valid template"));
+    let started = Instant::now();
+    let shown = std::sync::atomic::AtomicBool::new(false);
+    let tick = || {
+        bar.inc(1);
+        if started.elapsed() > Duration::from_secs(1) && !shown.swap(true, std::sync::atomic::Ordering::Relaxed) {
+            bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        }
+    };
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let results = identify_levels(&base, &data, threads, &tick);
+    bar.finish_and_clear();
+
+    let mut fits = Vec::with_capacity(results.len());
+    for (level, r) in levels.iter().zip(results) {
+        match r {
+            Ok(f) => fits.push((level, f)),
+            Err(e) => eprintln!("warning: {source}: {e}; level left out"),
+        }
+    }
+    if fits.is_empty() {
+        bail!("{source}: no humidity level could be identified");
+    }
+    let rh_range = fits.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (l, _)| (lo.min(l.rh_range.0), hi.max(l.rh_range.1)));
+    let level_fits: Vec<LevelFit> = fits.iter().map(|(_, f)| f.clone()).collect();
+    let (calib, laws) = calibration_from_levels(&base, &level_fits, rh_range).with_context(|| format!("{source}: calibration"))?;
+
+    let json = Value::Array(fits.iter().map(|(l, f)| level_json(l, f)).collect());
+    write_atomically(&a.levels, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    calibration_file::check(&calib).map_err(|e| anyhow::anyhow!("{source}: the identified calibration would not load: {e}"))?;
+    let toml = calibration_file::to_text(&calib);
+    let header = format!(
+        "# Identified by `ipmc identify` from {source} ({} levels, RH {:.1}–{:.1} %).\n",
+        fits.len(),
+        rh_range.0,
+        rh_range.1
+    );
+    write_atomically(&a.out, format!("{header}{toml}").as_bytes())?;
+    print_summary(&level_fits, &laws);
+    println!("wrote {} and {}", a.out.display(), a.levels.display());
+    Ok(())
+}
