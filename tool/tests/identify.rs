@@ -58,6 +58,10 @@ struct Identified {
 
 /// Simulates the sample over 10 Hz … `to_hz` and identifies it from the default preset.
 fn identify(name: &str, to_hz: f64, points: usize, seed: u64) -> Identified {
+    identify_with(name, to_hz, points, seed, &[])
+}
+
+fn identify_with(name: &str, to_hz: f64, points: usize, seed: u64, extra: &[&str]) -> Identified {
     let dir = work_dir(name);
     let truth = dir.join("sample.toml");
     std::fs::write(&truth, calibration_file::to_text(&sample())).unwrap();
@@ -66,7 +70,9 @@ fn identify(name: &str, to_hz: f64, points: usize, seed: u64) -> Identified {
     ipmc(&["simulate", "--calib", truth.to_str().unwrap(), "--session", s.to_str().unwrap(), "--out", recording.to_str().unwrap()]);
     let calib = dir.join("CALIB.toml");
     let levels = dir.join("LEVELS.json");
-    ipmc(&["identify", recording.to_str().unwrap(), "--out", calib.to_str().unwrap(), "--levels", levels.to_str().unwrap()]);
+    let mut args = vec!["identify", recording.to_str().unwrap(), "--out", calib.to_str().unwrap(), "--levels", levels.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    ipmc(&args);
     let json: Value = serde_json::from_str(&std::fs::read_to_string(&levels).unwrap()).unwrap();
     let levels = json.as_array().expect("LEVELS.json is an array").clone();
     assert_eq!(levels.len(), 10, "ten humidity levels");
@@ -194,4 +200,47 @@ fn written_calibration_loads_and_reproduces_the_recording() {
     // and the tool itself takes it as --calib
     let out = ipmc(&["model", "--calib", id.calib.to_str().unwrap(), "--rh", "50", "--freqs", "30,100"]);
     assert_eq!(out.lines().count(), 3, "{out}");
+}
+
+#[test]
+fn charging_recordings_give_kappa_e_at_their_levels() {
+    let dir = work_dir("charging");
+    let truth = dir.join("sample.toml");
+    std::fs::write(&truth, calibration_file::to_text(&sample())).unwrap();
+    let session = dir.join("charging.toml");
+    std::fs::write(
+        &session,
+        "kind = \"charging\"\nseed = 21\n\n[humidity]\nlevels_pct = [28, 60, 90]\nread_error_pct = 0.5\n\n\
+         [charging]\nvoltage_v = 0.1\nfs_hz = 10\nduration_s = 1500\nleakage_ohm = 1e6\n\n[noise]\ncurrent_a = 1e-9\n",
+    )
+    .unwrap();
+    let ch = dir.join("CH.csv");
+    ipmc(&["simulate", "--calib", truth.to_str().unwrap(), "--session", session.to_str().unwrap(), "--out", ch.to_str().unwrap()]);
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_str().unwrap().starts_with("CH-"))
+        .map(|p| p.to_str().unwrap().to_string())
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 3, "one charging recording per level: {files:?}");
+    let mut extra = vec![];
+    for f in &files {
+        extra.extend(["--charging", f.as_str()]);
+    }
+    let id = identify_with("charging", 400.0, 40, 14, &extra);
+    let mut measured = 0;
+    for l in &id.levels {
+        let rh = num(l, "rh_pct");
+        let near = [28.0, 60.0, 90.0].iter().any(|c| (c - rh).abs() < 3.0);
+        let source = l["kappa_e_source"].as_str().unwrap();
+        assert_eq!(source, if near { "charging" } else { "base calibration" }, "RH {rh}");
+        if near {
+            measured += 1;
+            let (v, t) = (num(l, "kappa_e"), sample().params_at::<f64>(rh).kappa_e);
+            println!("RH {rh:5.1} %: κe {v:.4e} measured, {t:.4e} true ({:+.2} %)", 100.0 * (v / t - 1.0));
+            assert!((v / t - 1.0).abs() < 0.05, "RH {rh}: κe {v:e}, true {t:e}");
+        }
+    }
+    assert_eq!(measured, 3);
 }

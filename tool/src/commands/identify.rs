@@ -7,14 +7,15 @@
 //! (`ipmc_fit::laws`). Outputs: the calibration (TOML, what `--calib` and `IPMC_CALIB` read) and
 //! every level's estimates with standard errors and correlations (JSON).
 
-use crate::commands::write_atomically;
+use crate::commands::{charging, write_atomically};
 use crate::{calibration_source, input::checked};
 use anyhow::{Context, Result, bail};
 use ipmc_core::ParamName;
 use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_levels};
 use ipmc_fit::laws::{LawFit, calibration_from_levels};
 use ipmc_core::calibration_file;
-use ipmc_recording::{Format as _, FrequencyResponse, Level};
+use ipmc_core::Calibration;
+use ipmc_recording::{Charging, Format as _, FrequencyResponse, LEVEL_SCATTER_PCT, Level};
 use serde_json::{Map, Value, json};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -24,6 +25,11 @@ pub struct Args {
     /// Frequency-response recording (CSV: rh_pct, freq_hz and the tip and/or current gain and
     /// phase; see recording-format.md). Its rows are grouped into humidity levels.
     recording: PathBuf,
+    /// Charging recording (t_s,current_a with `# voltage_v` and `# rh_pct`) taken at one of
+    /// the levels: κe there is measured (`ipmc charging`) instead of taken from the base
+    /// calibration. Repeat the option for several levels (several at one level are averaged).
+    #[arg(long = "charging")]
+    charging: Vec<PathBuf>,
     /// Base calibration: start values of the fits, κe where not measured, and everything the
     /// frequency response does not determine (h, m, length, width, α0, C⁻, T). `default`,
     /// `paper`, or a TOML file.
@@ -36,6 +42,35 @@ pub struct Args {
     /// its standard error `<name>_se`, the correlations, χ² and the estimated noise).
     #[arg(long)]
     levels: PathBuf,
+}
+
+/// κe of every charging recording, with the humidity it was taken at.
+fn charging_kappas(paths: &[PathBuf], base: &Calibration) -> Result<Vec<(f64, f64, PathBuf)>> {
+    paths
+        .iter()
+        .map(|path| {
+            let ch = checked(Charging::read(path))?;
+            let rh = ch.rh_pct.with_context(|| format!("{}: no `# rh_pct=N` metadata: identify needs each charging recording's humidity", path.display()))?;
+            let (figures, settled) = charging::analyse(&ch, base, rh).with_context(|| path.display().to_string())?;
+            if !settled {
+                eprintln!("warning: {}: the charging current has not settled by the end of the recording; κe may be too large", path.display());
+            }
+            Ok((rh, figures.kappa_e, path.clone()))
+        })
+        .collect()
+}
+
+/// κe at a level: the mean of the charging recordings within the humidity sensor's scatter of
+/// it, with the standard error of that mean when there are several.
+fn kappa_at(rh: f64, kappas: &[(f64, f64, PathBuf)]) -> Option<Estimate> {
+    let v: Vec<f64> = kappas.iter().filter(|k| (k.0 - rh).abs() <= LEVEL_SCATTER_PCT).map(|k| k.1).collect();
+    if v.is_empty() {
+        return None;
+    }
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let se = (v.len() > 1).then(|| (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt());
+    Some(Estimate { value: mean, se })
 }
 
 /// One level as LEVELS.json shows it.
@@ -109,10 +144,16 @@ pub fn run(a: Args) -> Result<()> {
     let source = a.recording.display().to_string();
     let recording = checked(FrequencyResponse::read(&a.recording))?;
     let levels = recording.levels();
+    let kappas = charging_kappas(&a.charging, &base)?;
+    for (rh, _, path) in &kappas {
+        if !levels.iter().any(|l| (l.rh_pct - rh).abs() <= LEVEL_SCATTER_PCT) {
+            eprintln!("warning: {}: taken at RH {rh} %, which matches no level of {source}; not used", path.display());
+        }
+    }
     let data: Vec<LevelData> = levels
         .iter()
         .map(|l| {
-            let (data, left_out) = LevelData::from_level(l, None);
+            let (data, left_out) = LevelData::from_level(l, kappa_at(l.rh_pct, &kappas));
             for line in left_out {
                 eprintln!("warning: {source}:{line}: a gain of 0 has no phase: left out of the fit");
             }
