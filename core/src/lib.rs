@@ -23,6 +23,7 @@ pub mod rational;
 pub mod real;
 pub mod roots;
 pub mod stream;
+pub mod stuck;
 pub mod universal;
 
 pub use calibration::{Calibration, Law, LawKind, ParamName, Params, ValidationError};

@@ -36,15 +36,21 @@ pub mod flags {
     pub const RETUNED: u16 = 1 << 3;
     /// Samples were lost before this block (ADC/DMA overrun or replay gap).
     pub const SAMPLES_LOST: u16 = 1 << 4;
-    /// Earlier blocks were not reported (the report queue was full).
+    /// Earlier blocks were not reported (the report queue was full, or the stream could not
+    /// take their frames in time).
     pub const REPORT_DROPPED: u16 = 1 << 5;
     /// The last requested retune failed; the previous design stays active.
     pub const DESIGN_FAILED: u16 = 1 << 6;
-    /// A replayed sample was not a finite number; it was replaced by 0 A.
+    /// A current sample was not a measurement (not finite, or beyond the compensator's input
+    /// limit); it was replaced by 0 A.
     pub const BAD_SAMPLE: u16 = 1 << 7;
+    /// The current input has repeated one value for a second or more (a hung ADC or DMA, an
+    /// amplifier stuck at a rail): the estimates are not of a live signal. Clears at the first
+    /// changing sample.
+    pub const STUCK: u16 = 1 << 8;
 
     /// Every bit with its name, lowest first (for host displays).
-    pub const NAMES: [(u16, &str); 8] = [
+    pub const NAMES: [(u16, &str); 9] = [
         (CLIPPED, "CLIPPED"),
         (RH_STALE, "RH_STALE"),
         (RH_CLAMPED, "RH_CLAMPED"),
@@ -53,6 +59,7 @@ pub mod flags {
         (REPORT_DROPPED, "REPORT_DROPPED"),
         (DESIGN_FAILED, "DESIGN_FAILED"),
         (BAD_SAMPLE, "BAD_SAMPLE"),
+        (STUCK, "STUCK"),
     ];
 }
 

@@ -26,10 +26,13 @@ impl SamplePathFilter {
     pub fn new(design: &Inverse<f32>) -> Self {
         Self(Compensator::new(design))
     }
-    /// In place: current [A] → base displacement estimate [m].
+    /// In place: current [A] → base displacement estimate [m]; true if a sample was not a
+    /// measurement and was replaced (the compensator counts them).
     #[inline(always)]
-    pub fn process(&mut self, block: &mut [f32]) {
-        self.0.process_block(block)
+    pub fn process(&mut self, block: &mut [f32]) -> bool {
+        let bad_before = self.0.bad_samples;
+        self.0.process_block(block);
+        self.0.bad_samples != bad_before
     }
     /// Glitch-free crossfade to a new design.
     pub fn switch_to(&mut self, design: &Inverse<f32>) {

@@ -7,6 +7,11 @@ pub const SAMPLE_RATE_HZ: u32 = 2_000;
 /// long enough that per-block overhead is small next to the per-sample filter cost.
 pub use ipmc_core::filter::BLOCK_LEN;
 
+/// Longest wait for the stream to take one frame [ms]. A frame of 32 estimates is 1.6 ms of
+/// USART time at 921 600 baud; ten times that means the transmitter is stalled, and the report
+/// queue (8 blocks, 128 ms) must not fill behind it.
+pub const STREAM_STALL_LIMIT_MS: u64 = 16;
+
 /// Humidity polling period (the HTS221 runs at its 1 Hz output data rate).
 pub const HUMIDITY_PERIOD_MS: u64 = 1_000;
 

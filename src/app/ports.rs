@@ -34,7 +34,15 @@ pub trait HumiditySource {
     async fn read_rh_pct(&mut self) -> Result<f32, HumidityError>;
 }
 
-/// Byte sink for the framed binary stream (USART1 on every board).
+/// The stream could not take a frame within [`config::STREAM_STALL_LIMIT_MS`]; it was dropped.
+///
+/// [`config::STREAM_STALL_LIMIT_MS`]: super::config::STREAM_STALL_LIMIT_MS
+#[derive(Clone, Copy, Debug, defmt::Format)]
+pub struct FrameDropped;
+
+/// Byte sink for the framed binary stream (USART1 on every board). Never waits longer than
+/// `config::STREAM_STALL_LIMIT_MS` for a frame: a stalled or absent receiver loses frames, it
+/// does not hold up the I/O executor (humidity polling shares it).
 pub trait StreamSink {
-    async fn write_all(&mut self, bytes: &[u8]);
+    async fn write_all(&mut self, bytes: &[u8]) -> Result<(), FrameDropped>;
 }

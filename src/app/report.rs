@@ -7,6 +7,7 @@ use crate::board::{self, Stream};
 
 use super::{
     config::{BLOCK_LEN, LOG_EVERY_BLOCKS},
+    flags::REPORT_DROPPED,
     handoff::{REPORT_QUEUE, ReportItem},
     ports::StreamSink,
 };
@@ -19,28 +20,45 @@ const MAX_FRAME_LEN: usize = stream::max_frame_len(BLOCK_LEN);
 pub async fn report_task(mut stream: Stream) {
     let mut frame = [0u8; MAX_FRAME_LEN];
     let mut reported: u32 = 0;
+    let mut frames_dropped: u32 = 0;
+    let mut dropped_since_last = false;
     loop {
         match REPORT_QUEUE.receive().await {
             ReportItem::Block(block) => {
-                let header = Header { first_sample: block.first_sample, rh_pct: block.rh_pct, flags: block.flags };
-                match stream::encode(&header, &block.base_est_m, &mut frame) {
-                    Ok(n) => stream.write_all(frame.get(..n).unwrap_or(&[])).await,
+                // The receiver learns of frames the stream lost from the next frame that arrives.
+                let flags = block.flags | if dropped_since_last { REPORT_DROPPED } else { 0 };
+                let header = Header { first_sample: block.first_sample, rh_pct: block.rh_pct, flags };
+                let sent = match stream::encode(&header, &block.base_est_m, &mut frame) {
+                    Ok(n) => stream.write_all(frame.get(..n).unwrap_or(&[])).await.is_ok(),
                     // Cannot happen with the buffer sized above; losing a frame beats stopping.
-                    Err(_) => defmt::error!("stream frame not encoded (buffer too small)"),
+                    Err(_) => {
+                        defmt::error!("stream frame not encoded (buffer too small)");
+                        false
+                    }
+                };
+                dropped_since_last = !sent;
+                if !sent {
+                    frames_dropped = frames_dropped.wrapping_add(1);
                 }
                 if reported.is_multiple_of(LOG_EVERY_BLOCKS) {
                     defmt::info!(
-                        "sample {}: base {} m, RH {} %, flags {=u16:#x}",
+                        "sample {}: base {} m, RH {} %, flags {=u16:#x}, {} frames dropped by the stream",
                         block.first_sample,
                         block.base_est_m[0],
                         block.rh_pct,
-                        block.flags
+                        flags,
+                        frames_dropped
                     );
                 }
                 reported += 1;
             }
             ReportItem::End { blocks } => {
-                defmt::info!("input ended: {} blocks processed, {} reported", blocks, reported);
+                defmt::info!(
+                    "input ended: {} blocks processed, {} reported, {} frames dropped by the stream",
+                    blocks,
+                    reported,
+                    frames_dropped
+                );
                 board::finish(blocks == reported);
             }
         }

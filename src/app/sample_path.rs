@@ -1,11 +1,13 @@
 //! The per-sample path: current block → compensation → report queue. Runs at the highest
 //! priority; after start-up it never waits for anything but the next block of samples.
 
+use ipmc_core::stuck::StuckDetector;
+
 use crate::board::Samples;
 
 use super::{
     compensation::SamplePathFilter,
-    config::BLOCK_LEN,
+    config::{BLOCK_LEN, SAMPLE_RATE_HZ},
     flags,
     handoff::{self, ACTIVE_DESIGN_RH_PCT, DESIGN_READY, EstimateBlock, LATEST_RH_PCT, REPORT_QUEUE, ReportItem},
     ports::{CurrentSource, SampleBlock},
@@ -24,6 +26,8 @@ pub async fn sample_task(mut samples: Samples) {
     let mut first_sample: u32 = 0;
     let mut blocks: u32 = 0;
     let mut dropped_since_last = false;
+    // One second of identical samples is no live front end (see ipmc_core::stuck).
+    let mut stuck = StuckDetector::new(SAMPLE_RATE_HZ);
     loop {
         let mut block = EstimateBlock { first_sample, rh_pct: 0.0, flags: 0, base_est_m: [0.0; BLOCK_LEN] };
         let source_flags = match samples.read_block(&mut block.base_est_m).await {
@@ -31,13 +35,18 @@ pub async fn sample_task(mut samples: Samples) {
             SampleBlock::End => break,
         };
         block.flags = source_flags | handoff::conditions();
+        if stuck.observe(&block.base_est_m) {
+            block.flags |= flags::STUCK;
+        }
 
         if let Some(design) = DESIGN_READY.try_take() {
             filter.switch_to(&design);
             ACTIVE_DESIGN_RH_PCT.store(design.rh_pct);
             block.flags |= flags::RETUNED;
         }
-        filter.process(&mut block.base_est_m);
+        if filter.process(&mut block.base_est_m) {
+            block.flags |= flags::BAD_SAMPLE;
+        }
 
         block.rh_pct = LATEST_RH_PCT.load();
         if dropped_since_last {

@@ -11,6 +11,7 @@
 //! | binary stream             | USART1 TX PB6 (ST-LINK VCP); DMA2 ch6   |
 //! | sample / I/O executors    | UART4 / UART5 interrupts (unused UARTs) |
 //! | time driver               | TIM2 (embassy-stm32 `time-driver-tim2`) |
+//! | watchdog                  | IWDG, fed by the sample path (below)    |
 
 use embassy_executor::{InterruptExecutor, SendSpawner};
 use embassy_stm32::{
@@ -20,11 +21,12 @@ use embassy_stm32::{
     i2c,
     interrupt::{InterruptExt, Priority},
     mode::Async,
-    peripherals::{ADC1, DMA1_CH1, DMA1_CH4, DMA1_CH5, DMA2_CH6, I2C2, TIM6},
+    peripherals::{ADC1, DMA1_CH1, DMA1_CH4, DMA1_CH5, DMA2_CH6, I2C2, IWDG, TIM6},
     rcc,
     time::Hertz,
     timer::low_level::{RoundTo, Timer},
     usart::{self, UartTx},
+    wdg::IndependentWatchdog,
 };
 pub use embassy_stm32::pac;
 use pac::{Interrupt, interrupt};
@@ -33,10 +35,11 @@ use {defmt_rtt as _, panic_probe as _};
 
 use super::Board;
 use crate::app::{
-    config::{BLOCK_LEN, SAMPLE_RATE_HZ},
+    config::{BLOCK_LEN, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
-    ports::{CurrentSource, HumidityError, HumiditySource, SampleBlock, StreamSink},
+    ports::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
+use embassy_time::{Duration, with_timeout};
 #[cfg(not(feature = "humidity-hih4030"))]
 use crate::drivers::hts221::{self, Hts221};
 #[cfg(not(feature = "humidity-hih4030"))]
@@ -50,6 +53,14 @@ pub const NAME: &str = "B-L475E-IOT01A";
 const ADC_EXTSEL_TIM6_TRGO: u8 = 13;
 const ADC_EXTEN_RISING: u8 = 0b01;
 const STREAM_BAUD: u32 = 921_600;
+/// Independent watchdog timeout. Started when sampling starts and fed once per block the sample
+/// path receives (every 16 ms), so it fires only if the sample path itself stops: a hung ADC or
+/// DMA, a stuck sample executor, a fault loop. 250 ms is 15 block periods, far above any
+/// legitimate gap (the sample executor outranks everything but the DMA and time interrupts, a
+/// block takes well under one period to compute), and short enough that at most a quarter
+/// second of sensing is lost before the reset. The retune and I/O tasks do not feed it: their
+/// failures are flagged (DESIGN_FAILED, RH_STALE, REPORT_DROPPED) while sensing goes on.
+const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 #[cfg(not(feature = "humidity-hih4030"))]
 const I2C_HZ: u32 = 100_000;
 
@@ -107,8 +118,38 @@ fn clocks() -> Config {
     config
 }
 
+/// Logs why the MCU last reset (RCC_CSR), then clears the flags for the next start.
+fn report_reset_cause() {
+    let csr = pac::RCC.csr().read();
+    let cause = if csr.iwdgrstf() {
+        "independent watchdog (the sample path had stopped)"
+    } else if csr.wwdgrstf() {
+        "window watchdog"
+    } else if csr.sftrstf() {
+        "software reset"
+    } else if csr.lpwrrstf() {
+        "low-power reset"
+    } else if csr.borrstf() {
+        "power-on / brown-out"
+    } else if csr.pinrstf() {
+        "reset pin"
+    } else {
+        "unknown"
+    };
+    if csr.iwdgrstf() {
+        defmt::warn!("reset cause: {}", cause);
+    } else {
+        defmt::info!("reset cause: {}", cause);
+    }
+    pac::RCC.csr().modify(|w| w.set_rmvf(true));
+}
+
 pub fn init() -> Board {
+    report_reset_cause();
     let p = embassy_stm32::init(clocks());
+    // A debugger halt must not count as a stalled sample path.
+    pac::DBGMCU.apb1fzr1().modify(|w| w.set_iwdg(true));
+    let watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
 
     // Current: ADC1 converts once per TIM6 update; DMA writes a circular buffer.
     let adc = Adc::new(p.ADC1);
@@ -147,7 +188,7 @@ pub fn init() -> Board {
     let uart = UartTx::new(p.USART1, p.PB6, p.DMA2_CH6, Irqs, uart_config).expect("USART1 config is valid");
 
     Board {
-        samples: Samples { adc, trigger, codes: [0; BLOCK_LEN] },
+        samples: Samples { adc, trigger, codes: [0; BLOCK_LEN], watchdog },
         humidity,
         stream: Stream(uart),
     }
@@ -157,12 +198,15 @@ pub struct Samples {
     adc: RingBufferedAdc<'static, ADC1>,
     trigger: Timer<'static, TIM6>,
     codes: [u16; BLOCK_LEN],
+    watchdog: IndependentWatchdog<'static, IWDG>,
 }
 
 impl CurrentSource for Samples {
     fn start(&mut self) {
         self.adc.start();
         self.trigger.start();
+        // From here on the sample path must deliver a block every 16 ms.
+        self.watchdog.unleash();
     }
 
     async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
@@ -172,6 +216,8 @@ impl CurrentSource for Samples {
         while self.adc.read(&mut self.codes).await.is_err() {
             block_flags |= flags::SAMPLES_LOST;
         }
+        // Fed by progress: a block arrived, so the previous one was processed.
+        self.watchdog.pet();
         for (a, &code) in amps.iter_mut().zip(self.codes.iter()) {
             if current_conversion::is_clipped_code(code) {
                 block_flags |= flags::CLIPPED;
@@ -242,9 +288,13 @@ impl HumiditySource for Humidity {
 pub struct Stream(UartTx<'static, Async>);
 
 impl StreamSink for Stream {
-    async fn write_all(&mut self, bytes: &[u8]) {
-        // A failed write loses one frame; the host resynchronises on the next delimiter.
-        let _ = self.0.write(bytes).await;
+    async fn write_all(&mut self, bytes: &[u8]) -> Result<(), FrameDropped> {
+        // A failed or stalled write loses one frame (a cut one ends at the next delimiter, where
+        // the host resynchronises). TX has no flow control: an absent receiver cannot stall it.
+        match with_timeout(Duration::from_millis(STREAM_STALL_LIMIT_MS), self.0.write(bytes)).await {
+            Ok(Ok(())) => Ok(()),
+            _ => Err(FrameDropped),
+        }
     }
 }
 

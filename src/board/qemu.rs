@@ -12,13 +12,14 @@
 //!
 //! Replay file (written by `cargo xtask qemu`), little endian:
 //!   8 bytes magic "IPMCRPL1", u32 sample rate [Hz], u32 sample count,
-//!   then per sample: f32 current [A], f32 RH [%] (NaN RH = humidity sensor silent then).
+//!   then per sample: f32 current [A], f32 RH [%] (NaN RH = humidity sensor silent then,
+//!   +inf = sensor too slow to answer in time, any other value outside 0–100 % = garbage).
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m_rt::exception;
 use embassy_executor::{InterruptExecutor, SendSpawner};
-use embassy_time::{Duration, Ticker};
+use embassy_time::{Duration, Instant, Ticker, Timer};
 use semihosting::{fs::File, io::Read};
 use systick_timer::SystickDriver;
 
@@ -28,10 +29,10 @@ use pac::{Interrupt, interrupt};
 
 use super::Board;
 use crate::app::{
-    config::{BLOCK_LEN, SAMPLE_RATE_HZ},
+    config::{BLOCK_LEN, HUMIDITY_PERIOD_MS, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
     handoff::AtomicF32,
-    ports::{CurrentSource, HumidityError, HumiditySource, SampleBlock, StreamSink},
+    ports::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
 
 pub const NAME: &str = "qemu b-l475e-iot01a (replay)";
@@ -192,6 +193,12 @@ pub struct Humidity;
 impl HumiditySource for Humidity {
     async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
         let rh = REPLAY_RH_PCT.load();
+        if rh == f32::INFINITY {
+            // A slow sensor: answers a whole polling period late (the humidity task's timeout
+            // is half a period), with a reading that is then stale.
+            Timer::after_millis(HUMIDITY_PERIOD_MS).await;
+            return Ok(50.0);
+        }
         if rh.is_nan() {
             Err(HumidityError::NoResponse)
         } else if !(0.0..=100.0).contains(&rh) {
@@ -206,11 +213,20 @@ impl HumiditySource for Humidity {
 pub struct Stream;
 
 impl StreamSink for Stream {
-    async fn write_all(&mut self, bytes: &[u8]) {
+    async fn write_all(&mut self, bytes: &[u8]) -> Result<(), FrameDropped> {
+        let deadline = Instant::now() + Duration::from_millis(STREAM_STALL_LIMIT_MS);
         for &b in bytes {
-            while !pac::USART1.isr().read().txe() {}
+            // Waits by timer, not by spinning, so a stalled transmitter does not starve the
+            // humidity task on this executor, and gives up on the frame at the deadline.
+            while !pac::USART1.isr().read().txe() {
+                if Instant::now() >= deadline {
+                    return Err(FrameDropped);
+                }
+                Timer::after_millis(1).await;
+            }
             pac::USART1.tdr().write(|w| w.set_dr(b as u16));
         }
+        Ok(())
     }
 }
 

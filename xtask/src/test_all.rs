@@ -108,6 +108,76 @@ fn qemu_replay_faults() -> Result<()> {
     Ok(())
 }
 
+/// More faults through the replayed sources: a humidity sensor that answers too late (slow),
+/// one that returns garbage, humidity beyond the calibration's range, and a current input stuck
+/// at one value for 1.5 s. Every sample still comes back as a finite estimate, each fault is
+/// flagged while it lasts and the flags clear after it.
+fn qemu_replay_sensor_faults() -> Result<()> {
+    let fs = FIRMWARE_FS_HZ as f32;
+    let mut samples = synthetic(12.0, |t| match t {
+        t if (1.5..4.0).contains(&t) => f32::INFINITY, // slow sensor
+        t if (5.0..7.0).contains(&t) => 250.0,         // garbage
+        t if (8.0..10.0).contains(&t) => 97.0,         // beyond the calibration's 20–90 %
+        _ => 50.0,
+    });
+    let stuck = (3.0 * fs) as usize..(4.5 * fs) as usize;
+    for s in &mut samples[stuck.clone()] {
+        s.current_a = 3.3e-7;
+    }
+    let r = replay("sensor-faults", &samples)?;
+    check_count(&r, samples.len())?;
+    // Blocks whose first sample lies in [from, to) s.
+    let flagged_in = |flag: u16, from: f32, to: f32| {
+        r.blocks.iter().filter(|b| (from * fs..to * fs).contains(&(b.first_sample as f32)) && b.flags & flag != 0).count()
+    };
+    let report = format!(
+        "RH_STALE while slow {} / while garbage {}, RH_CLAMPED beyond range {}, STUCK {}",
+        flagged_in(flags::RH_STALE, 2.5, 4.0),
+        flagged_in(flags::RH_STALE, 6.0, 7.0),
+        flagged_in(flags::RH_CLAMPED, 9.0, 10.0),
+        r.blocks_with(flags::STUCK)
+    );
+    println!("{report}");
+    let last = r.blocks.last().ok_or("no blocks")?;
+    if flagged_in(flags::RH_STALE, 2.5, 4.0) == 0 || flagged_in(flags::RH_STALE, 6.0, 7.0) == 0 {
+        return Err(format!("slow or garbage humidity not flagged RH_STALE: {report}\n{}", r.log));
+    }
+    if flagged_in(flags::RH_CLAMPED, 9.0, 10.0) == 0 {
+        return Err(format!("RH 97 % not flagged RH_CLAMPED: {report}"));
+    }
+    // One second of identical samples is the detector's threshold: 0.5 s of the 1.5 s flagged.
+    let stuck_blocks = r.blocks_with(flags::STUCK);
+    let expect = (0.5 * fs) as usize / 32;
+    if stuck_blocks + 2 < expect || stuck_blocks > expect + 2 {
+        return Err(format!("{stuck_blocks} blocks flagged STUCK, expected about {expect}: {report}"));
+    }
+    if last.flags & (flags::RH_STALE | flags::RH_CLAMPED | flags::STUCK) != 0 {
+        return Err(format!("faults over, but the last block is still flagged {:#x}", last.flags));
+    }
+    Ok(())
+}
+
+/// No receiver on the stream at all (QEMU's serial port goes nowhere): the firmware processes
+/// every block and ends normally; its sample path never waits for the UART.
+fn qemu_replay_no_receiver() -> Result<()> {
+    let samples = synthetic(3.0, |_| 50.0);
+    let work = repo_root().join("target/qemu-test/no-receiver");
+    let r = qemu::run_replay_to(&Variant::Qemu.elf(), &samples, &work, "null")?;
+    let want = expected_estimates(samples.len()) / 32;
+    let line = r.log.lines().find(|l| l.contains("input ended")).unwrap_or_default().to_string();
+    println!("{line}");
+    if !line.contains(&format!("{want} blocks processed, {want} reported")) {
+        return Err(format!("expected {want} blocks processed and reported:\n{}", r.log));
+    }
+    Ok(())
+}
+
+/// Opt-in (`cargo xtask test qemu-long`): one million samples (500 s of real time under QEMU)
+/// of a slow humidity ramp, bit-compared with the host's f32 chain like the equivalence step.
+fn qemu_long_run() -> Result<()> {
+    host_equivalence_on_ramp("long", 500, 40, 70)
+}
+
 fn qemu_replay_bundled() -> Result<()> {
     let dir = repo_root().join("data");
     let Some(path) = std::fs::read_dir(&dir).ok().and_then(|d| {
@@ -147,28 +217,39 @@ pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
 /// tool is built with num-traits' `std` feature (tool/Cargo.toml), so this also fails if the
 /// core's f32 math stops going through libm (core/src/real.rs).
 fn qemu_host_equivalence() -> Result<()> {
-    let work = repo_root().join("target/qemu-test/equivalence");
+    host_equivalence_on_ramp("equivalence", 10, 40, 50)
+}
+
+/// The same on `seconds` of a ramp `rh_from` → `rh_to` %, in target/qemu-test/`name`.
+fn host_equivalence_on_ramp(name: &str, seconds: u32, rh_from: u32, rh_to: u32) -> Result<()> {
+    let work = repo_root().join("target/qemu-test").join(name);
     std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;
-    let rec_path = work.join("ramp-40-50.csv");
+    let rec_path = work.join(format!("ramp-{rh_from}-{rh_to}.csv"));
+    let (seconds, rh_from_s, rh_to_s) = (seconds.to_string(), rh_from.to_string(), rh_to.to_string());
     ipmc(&[
         "simulate-sweep".as_ref(),
         "--seconds".as_ref(),
-        "10".as_ref(),
+        seconds.as_ref(),
         "--rh-from".as_ref(),
-        "40".as_ref(),
+        rh_from_s.as_ref(),
         "--rh-to".as_ref(),
-        "50".as_ref(),
+        rh_to_s.as_ref(),
         "--out".as_ref(),
         rec_path.as_os_str(),
     ])?;
     let rec = crate::recording::time_series(&rec_path)?;
     let samples: Vec<Sample> =
         rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
-    let r = replay("equivalence", &samples)?;
+    let started = std::time::Instant::now();
+    let r = replay(name, &samples)?;
+    println!("{} samples through the firmware under QEMU in {:.0} s", samples.len(), started.elapsed().as_secs_f64());
+    if r.blocks_with(flags::REPORT_DROPPED) > 0 {
+        return Err(format!("{} blocks flagged REPORT_DROPPED", r.blocks_with(flags::REPORT_DROPPED)));
+    }
     check_count(&r, samples.len())?;
     let retunes = r.blocks_with(flags::RETUNED);
     if retunes == 0 {
-        return Err(format!("RH ramps 40 → 50 % but the firmware never retuned\n{}", r.log));
+        return Err(format!("RH ramps {rh_from} → {rh_to} % but the firmware never retuned\n{}", r.log));
     }
     let fw_path = work.join("EST-qemu.csv");
     qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks)?;
@@ -204,6 +285,9 @@ fn qemu_host_equivalence() -> Result<()> {
     Ok(())
 }
 
+/// The long QEMU run takes over 8 minutes of real time: not part of the default suite.
+const OPT_IN_QEMU_LONG: &str = "qemu-long: 1 million samples through the firmware, bit-compared with the host (RH ramp 40 → 70 %)";
+
 /// `filter`: when given, only the steps whose name contains one of these strings run.
 pub fn command(filter: &[String]) -> Result<()> {
     type Step = (&'static str, fn() -> Result<()>);
@@ -222,8 +306,18 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("qemu replay: fault injection", qemu_replay_faults),
         ("qemu replay: bundled recording", qemu_replay_bundled),
         ("qemu replay: host ↔ QEMU equivalence (RH ramp 40 → 50 %)", qemu_host_equivalence),
+        ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
+        ("qemu replay: no stream receiver", qemu_replay_no_receiver),
+        (OPT_IN_QEMU_LONG, qemu_long_run),
     ];
-    let selected: Vec<&Step> = steps.iter().filter(|(n, _)| filter.is_empty() || filter.iter().any(|f| n.contains(f.as_str()))).collect();
+    // Opt-in steps run only when a filter names them.
+    let selected: Vec<&Step> = steps
+        .iter()
+        .filter(|(n, _)| match filter.is_empty() {
+            true => *n != OPT_IN_QEMU_LONG,
+            false => filter.iter().any(|f| n.contains(f.as_str())),
+        })
+        .collect();
     if selected.is_empty() {
         return Err(format!("no test step matches {filter:?}"));
     }

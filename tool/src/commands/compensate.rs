@@ -20,12 +20,8 @@ pub use ipmc_core::filter::BLOCK_LEN;
 /// Filter settling skipped at the start of each burst when scoring [s].
 pub const SETTLE_S: f64 = 5.0;
 
-/// Flag bits, the firmware's (src/app/flags.rs).
-pub mod flags {
-    pub const RH_CLAMPED: u16 = 1 << 2;
-    pub const RETUNED: u16 = 1 << 3;
-    pub const BAD_SAMPLE: u16 = 1 << 7;
-}
+/// Flag bits, the firmware's (defined with the wire format).
+pub use ipmc_core::stream::flags;
 
 #[derive(clap::Args)]
 pub struct Args {
