@@ -78,16 +78,21 @@ fn farthest_from_default(p: &Params<f64>, rh: f64) -> (ParamName, f64) {
 /// Parses without validating (a verbatim preset that validation refuses still reads back).
 pub fn parse_unvalidated(text: &str) -> Result<Calibration, FileError> {
     toml::from_str(text).map_err(|e| {
-        // toml reports a missing field with no span; the whole document is then what is wrong.
-        let (line, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
-        // toml's grammar errors come without a message; say what a calibration file looks like.
-        let message = match e.message().trim() {
-            "" => "not valid TOML here: expected `name = number` lines, `[y]`…`[m]` law tables and `coeffs = [numbers]`"
-                .to_string(),
-            m => m.to_string(),
-        };
-        FileError::Syntax { line, column, message }
+        syntax_error(text, &e, "`name = number` lines, `[y]`…`[m]` law tables and `coeffs = [numbers]`")
     })
+}
+
+/// A toml error on `text` as a located [`FileError::Syntax`] (the tool's other TOML files use it
+/// too). toml's grammar errors come without a message: they get "not valid TOML here: expected "
+/// and `shape`, what the file should look like.
+pub fn syntax_error(text: &str, e: &toml::de::Error, shape: &str) -> FileError {
+    // toml reports a missing field with no span; the whole document is then what is wrong.
+    let (line, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
+    let message = match e.message().trim() {
+        "" => format!("not valid TOML here: expected {shape}"),
+        m => m.to_string(),
+    };
+    FileError::Syntax { line, column, message }
 }
 
 /// The file's text for `c`.

@@ -4,6 +4,14 @@
 use anyhow::{Result, bail};
 use serde::Deserialize;
 
+/// Most samples a time-series or charging session may produce (50 M: 7 h at 2 kHz, about 2 GB
+/// of CSV): the simulator's memory and time are bounded by what the file says, not by a typo.
+pub const MAX_SAMPLES: f64 = 5e7;
+/// Most frequencies per level of a frequency-response session.
+pub const MAX_FREQUENCY_POINTS: usize = 100_000;
+/// Most tones of a multisine (each costs a sine per sample).
+pub const MAX_TONES: usize = 1_000;
+
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "kebab-case")]
 pub enum Kind {
@@ -167,8 +175,8 @@ impl Default for Noise {
 
 impl Session {
     pub fn parse(path: &std::path::Path, text: &str) -> Result<Session> {
-        let s: Session = crate::toml_file::parse(path, text)?;
-        s.validate()?;
+        let s: Session = crate::toml_file::parse(path, text, "`key = value` lines and [humidity], [noise] … tables")?;
+        s.validate().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         Ok(s)
     }
 
@@ -241,6 +249,13 @@ impl Session {
         if let Some(t) = &self.time_series {
             positive("time_series.fs_hz", t.fs_hz)?;
             positive("time_series.burst_s", t.burst_s)?;
+            let samples = h.levels_pct.len() as f64 * t.fs_hz * t.burst_s;
+            if samples > MAX_SAMPLES {
+                bail!("time_series: {samples:e} samples (levels × burst_s × fs_hz): expected at most {MAX_SAMPLES:e}");
+            }
+            if t.tones > MAX_TONES {
+                bail!("time_series.tones = {}: expected at most {MAX_TONES}", t.tones);
+            }
             positive("time_series.from_hz", t.from_hz)?;
             positive("time_series.amplitude_m", t.amplitude_m)?;
             if t.tones == 0 || t.to_hz < t.from_hz {
@@ -253,6 +268,9 @@ impl Session {
         if let Some(c) = &self.charging {
             positive("charging.fs_hz", c.fs_hz)?;
             positive("charging.duration_s", c.duration_s)?;
+            if c.fs_hz * c.duration_s > MAX_SAMPLES {
+                bail!("charging: {:e} samples (duration_s × fs_hz): expected at most {MAX_SAMPLES:e}", c.fs_hz * c.duration_s);
+            }
             if !(c.voltage_v.is_finite() && c.voltage_v != 0.0) {
                 bail!("charging.voltage_v = {}: expected a non-zero voltage", c.voltage_v);
             }
@@ -269,8 +287,12 @@ impl Frequencies {
     pub fn frequencies_hz(&self) -> Result<Vec<f64>> {
         let mut f = match (&self.list_hz, self.from_hz, self.to_hz, self.points) {
             (Some(list), None, None, None) => list.clone(),
-            (None, Some(lo), Some(hi), Some(n)) if n >= 1 && lo > 0.0 && hi >= lo => log_spaced(lo, hi, n),
-            (None, Some(_), Some(_), Some(_)) => bail!("frequencies: need points ≥ 1 and 0 < from_hz ≤ to_hz"),
+            (None, Some(lo), Some(hi), Some(n)) if (1..=MAX_FREQUENCY_POINTS).contains(&n) && lo > 0.0 && hi >= lo => {
+                log_spaced(lo, hi, n)
+            }
+            (None, Some(_), Some(_), Some(_)) => {
+                bail!("frequencies: need 1 ≤ points ≤ {MAX_FREQUENCY_POINTS} and 0 < from_hz ≤ to_hz")
+            }
             _ => bail!("frequencies: give either list_hz, or from_hz, to_hz and points"),
         };
         if f.is_empty() {
