@@ -8,6 +8,8 @@ pub mod hydration;
 pub mod physics;
 pub mod random;
 pub mod session;
+#[cfg(test)]
+mod session_fuzz;
 mod time_series;
 
 use anyhow::Result;
