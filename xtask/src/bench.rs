@@ -86,6 +86,10 @@ pub fn command(args: &[String]) -> Result<()> {
     println!("  {ips:.1} instructions per sample, {per_section:.2} per section per sample (target ≤ {TARGET_PER_SECTION}: {}; stretch {STRETCH_PER_SECTION})", verdict(per_section <= TARGET_PER_SECTION));
     println!("  of which ADC code → A conversion {conv:.1} per sample");
     println!(
+        "  the sections alone (one cascade, no input check, head/tail split or retune logic): {:.2} per section per sample",
+        get("cascade_per_section")?
+    );
+    println!(
         "  during a retune (warm-up + crossfade, {} blocks, two heads run): {during:.1} per sample; the switch_to call itself {:.0}",
         get("retune_blocks")?,
         get("instructions_per_switch_to")?
