@@ -62,12 +62,13 @@ fn fit_variance(x: &[f64], e2: &[f64]) -> (f64, f64) {
     let (x_lo, x_hi) = (xs[0].max(f64::MIN_POSITIVE), xs[xs.len() - 1].max(f64::MIN_POSITIVE));
     // t·x from 1e-3 at the largest x (floor negligible everywhere) to 1e3 at the smallest.
     let (lt_lo, lt_hi) = ((1e-3 / x_hi).ln(), (1e3 / x_lo).ln());
-    const STEPS: usize = 80;
+    // ln t steps of about 1 (the likelihood is smooth in ln t); golden section does the rest.
+    const STEPS: usize = 24;
     let lt = |k: usize| lt_lo + (lt_hi - lt_lo) * k as f64 / STEPS as f64;
     let best_k = (0..=STEPS).min_by(|&a, &b| nll(lt(a).exp()).0.total_cmp(&nll(lt(b).exp()).0)).expect("non-empty grid");
     let (mut lo, mut hi) = (lt(best_k.saturating_sub(1)), lt((best_k + 1).min(STEPS)));
     const INV_PHI: f64 = 0.618_033_988_749_894_9;
-    for _ in 0..40 {
+    for _ in 0..25 {
         let (m1, m2) = (hi - (hi - lo) * INV_PHI, lo + (hi - lo) * INV_PHI);
         if nll(m1.exp()).0 < nll(m2.exp()).0 { hi = m2 } else { lo = m1 }
     }
