@@ -117,7 +117,7 @@ fn print_summary(fits: &[LevelFit], laws: &[LawFit]) {
     println!("  RH %  Y [Pa]               Cs [Pa·s]            Ca [N·s/m²]          d [m²/s]             corr(Cs,Ca)  χ²/dof");
     for f in fits {
         let cell = |p: ParamName| match f.estimate(p) {
-            Some(Estimate { value, se: Some(se) }) if se.is_finite() => format!("{value:.4e} ±{:>5.1}%", 100.0 * se / value),
+            Some(Estimate { value, se: Some(se) }) if se.is_finite() => format!("{value:.4e} ±{:>6.2}%", 100.0 * se / value),
             Some(Estimate { value, .. }) => format!("{value:.4e} ±    ?"),
             None => "—".into(),
         };
