@@ -244,3 +244,61 @@ fn charging_recordings_give_kappa_e_at_their_levels() {
     }
     assert_eq!(measured, 3);
 }
+
+/// Runs identify expecting failure; returns stderr.
+fn ipmc_fails(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_ipmc")).args(args).output().expect("run ipmc");
+    assert!(!out.status.success(), "ipmc {args:?} should have failed");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+#[test]
+fn hand_written_edge_cases() {
+    let dir = work_dir("edge-cases");
+    let (calib, levels) = (dir.join("C.toml"), dir.join("L.json"));
+    let run = |rec: &Path| {
+        ipmc(&["identify", rec.to_str().unwrap(), "--out", calib.to_str().unwrap(), "--levels", levels.to_str().unwrap()]);
+        let json: Value = serde_json::from_str(&std::fs::read_to_string(&levels).unwrap()).unwrap();
+        json.as_array().unwrap().clone()
+    };
+
+    // Tip channel only: the mechanics are identified, d is not, and the calibration keeps the
+    // base's d law.
+    let full = identify("edge-source", 400.0, 40, 15);
+    let (mut rec, _) = FrequencyResponse::read(&full.recording).unwrap();
+    rec.points.iter_mut().for_each(|p| p.current = None);
+    let tip_only = dir.join("tip-only.csv");
+    std::fs::write(&tip_only, rec.to_csv().unwrap()).unwrap();
+    let out = run(&tip_only);
+    assert_eq!(out.len(), 10);
+    assert!(out.iter().all(|l| l.get("d").is_none() && l["current_points"] == 0), "{:?}", out[0]);
+    let c = calibration_file::parse(&std::fs::read_to_string(&calib).unwrap()).unwrap();
+    assert_eq!(c.d, Calibration::default_preset().d);
+    for l in &out {
+        let (v, _, t) = estimate(l, ParamName::Y);
+        assert!((v / t - 1.0).abs() < 0.01, "tip only: Y {v:e} vs {t:e}");
+    }
+
+    // A level measured at a single frequency (two points for four parameters) among good ones:
+    // it is left out with a warning, the others are identified.
+    let (mut rec, _) = FrequencyResponse::read(&full.recording).unwrap();
+    rec.points.drain(0..39);
+    let short = dir.join("short-level.csv");
+    std::fs::write(&short, rec.to_csv().unwrap()).unwrap();
+    assert_eq!(run(&short).len(), 9, "the one-frequency level is left out");
+
+    // A bad number: the error names the file, the line and the column.
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "rh_pct,freq_hz,tip_gain,tip_phase_deg\n50,20,1.1,-3\n50,abc,1.2,-5\n").unwrap();
+    let err = ipmc_fails(&["identify", bad.to_str().unwrap(), "--out", calib.to_str().unwrap(), "--levels", levels.to_str().unwrap()]);
+    assert!(err.contains("bad.csv:3:"), "{err}");
+
+    // A single level makes constant laws over its own humidity range.
+    let (mut rec, _) = FrequencyResponse::read(&full.recording).unwrap();
+    rec.points.truncate(40);
+    let one = dir.join("one-level.csv");
+    std::fs::write(&one, rec.to_csv().unwrap()).unwrap();
+    assert_eq!(run(&one).len(), 1);
+    let c = calibration_file::parse(&std::fs::read_to_string(&calib).unwrap()).unwrap();
+    assert!(c.y.coeffs[1..].iter().all(|&k| k == 0.0), "one level: a constant Y law, got {:?}", c.y.coeffs);
+}
