@@ -114,12 +114,12 @@ impl std::error::Error for IdentifyError {}
 /// moving by 19 % between neighbours (less than the half-width of a peak with the paper's damping).
 const Y_GRID: [f64; 17] = {
     let mut g = [0.0; 17];
-    let mut i = 0;
+    let mut i: usize = 0;
     while i < 17 {
         // 4^((i − 8)/8), written as a product because const fn has no powf
         let mut v = 1.0;
         let mut k = 0;
-        let steps = if i >= 8 { i - 8 } else { 8 - i };
+        let steps = i.abs_diff(8);
         while k < steps {
             v *= 1.189_207_115_002_721; // 4^(1/8)
             k += 1;

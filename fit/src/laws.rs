@@ -61,7 +61,8 @@ fn poly_fit(rh: &[f64], y: &[f64], w: &[f64], degree: usize) -> Option<[f64; MAX
     let b = DVector::from_fn(n, |i, _| w[i].sqrt() * y[i]);
     let svd = a.svd(true, true);
     let smax = svd.singular_values.max();
-    if svd.singular_values.iter().any(|&s| !(s > smax * 1e-12)) {
+    // (NaN singular values fail the comparison too)
+    if !svd.singular_values.iter().all(|&s| s > smax * 1e-12) {
         return None;
     }
     let coef_u = svd.solve(&b, 0.0).ok()?;
@@ -70,9 +71,9 @@ fn poly_fit(rh: &[f64], y: &[f64], w: &[f64], degree: usize) -> Option<[f64; MAX
     for j in 0..k {
         let scale = coef_u[j] / half.powi(j as i32);
         let mut binom = 1.0;
-        for m in 0..=j {
+        for (m, o) in out.iter_mut().enumerate().take(j + 1) {
             // C(j, m)·RH^m·(−c)^(j−m)
-            out[m] += scale * binom * (-c).powi((j - m) as i32);
+            *o += scale * binom * (-c).powi((j - m) as i32);
             binom = binom * (j - m) as f64 / (m + 1) as f64;
         }
     }
