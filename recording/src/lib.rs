@@ -15,6 +15,7 @@ mod error;
 mod estimates;
 mod frequency_response;
 mod metadata;
+mod output;
 mod table;
 mod time_series;
 
@@ -23,6 +24,7 @@ pub use error::{Error, FieldRef, Warning};
 pub use estimates::Estimates;
 pub use frequency_response::{FrPoint, FrequencyResponse, LEVEL_SCATTER_PCT, Level, Response, unwrap_degrees};
 pub use metadata::Metadata;
+pub use output::{write_atomically, write_atomically_with};
 pub use table::{Rule, Table};
 pub use time_series::{NumberFormat, TimeSeries};
 

@@ -3,7 +3,6 @@
 mod calibration_source;
 mod commands;
 mod input;
-mod output;
 mod overrides;
 mod simulator;
 mod toml_file;

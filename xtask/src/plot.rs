@@ -148,14 +148,15 @@ where
 
 /// RGB8 → PNG with the `png` crate (plotters' own encoder would pull in `image`).
 fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
-    let f = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(f), w, h);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut wr = enc.write_header().map_err(|e| format!("{}: {e}", path.display()))?;
-    wr.write_image_data(rgb).map_err(|e| format!("{}: {e}", path.display()))?;
-    wr.finish().map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(())
+    ipmc_recording::write_atomically_with(path, |out| {
+        let mut enc = png::Encoder::new(out, w, h);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut wr = enc.write_header().map_err(std::io::Error::other)?;
+        wr.write_image_data(rgb).map_err(std::io::Error::other)?;
+        wr.finish().map_err(std::io::Error::other)
+    })
+    .map_err(|e| e.to_string())
 }
 
 /// Writes `prefix`.svg and `prefix`.png: `est_csv` (and `fixed_csv`) against the recording's
@@ -182,7 +183,10 @@ pub fn plot(base: &[f64], fs: f64, est_csv: &Path, fixed_csv: Option<&Path>, pre
     if let Some(d) = svg.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
     }
-    draw(SVGBackend::new(&svg, (1200, 800)).into_drawing_area(), fs, &truth, &series, w0, w1)?;
+    // Drawn into memory and written whole, like every output.
+    let mut svg_text = String::new();
+    draw(SVGBackend::with_string(&mut svg_text, (1200, 800)).into_drawing_area(), fs, &truth, &series, w0, w1)?;
+    ipmc_recording::write_atomically(&svg, svg_text.as_bytes()).map_err(|e| e.to_string())?;
     let (w, h) = (1200u32, 800u32);
     let mut rgb = vec![0u8; (w * h * 3) as usize];
     draw(BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(), fs, &truth, &series, w0, w1)?;

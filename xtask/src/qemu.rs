@@ -235,5 +235,5 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {
         }
     }
     let text = est.to_csv().map_err(|e| e.to_string())?;
-    fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+    ipmc_recording::write_atomically(path, text.as_bytes()).map_err(|e| e.to_string())
 }

@@ -9,4 +9,4 @@ pub mod monitor;
 pub mod score;
 pub mod simulate;
 
-pub use crate::output::write_atomically;
+pub use ipmc_recording::write_atomically;

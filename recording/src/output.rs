@@ -1,21 +1,24 @@
 //! Output files: written whole or not at all. Content goes to a temporary file next to the
 //! target, is flushed to disk, and is renamed over the target in one step, so an interrupted or
-//! failed run leaves the previous file (or none), never half of a new one.
+//! failed run leaves the previous file (or none), never half of a new one. Every host output
+//! (the tool's commands, xtask's estimates and plots) is written through here.
 
-use anyhow::{Context, Result};
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use crate::Error;
+
 /// Writes `bytes` to `path` atomically.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     write_atomically_with(path, |w| w.write_all(bytes))
 }
 
-/// Writes what `fill` produces to `path` atomically (for outputs too large to build in memory).
-/// If `fill` fails, the temporary file is removed and `path` is untouched.
-pub fn write_atomically_with(path: &Path, fill: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> Result<()> {
-    let tmp = temporary_path(path)?;
+/// Writes what `fill` produces to `path` atomically (for outputs made by a writer, e.g. an
+/// encoder). If `fill` fails, the temporary file is removed and `path` is untouched.
+pub fn write_atomically_with(path: &Path, fill: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> Result<(), Error> {
+    let shown = path.display().to_string();
+    let tmp = temporary_path(path).ok_or_else(|| Error::file(&shown, "output path has no file name"))?;
     let written = (|| -> io::Result<()> {
         let mut w = BufWriter::new(File::create(&tmp)?);
         fill(&mut w)?;
@@ -24,20 +27,20 @@ pub fn write_atomically_with(path: &Path, fill: impl FnOnce(&mut dyn Write) -> i
     })();
     if let Err(e) = written {
         let _ = std::fs::remove_file(&tmp);
-        return Err(e).with_context(|| format!("cannot write {} (left unchanged)", path.display()));
+        return Err(Error::file(&shown, format!("cannot write ({e}); left unchanged")));
     }
-    std::fs::rename(&tmp, path).with_context(|| {
+    std::fs::rename(&tmp, path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        format!("cannot move the new {} into place (left unchanged)", path.display())
+        Error::file(&shown, format!("cannot move the new file into place ({e}); left unchanged"))
     })
 }
 
 /// A hidden name in the target's directory (a rename is only atomic within one file system),
 /// unique per process.
-fn temporary_path(path: &Path) -> Result<PathBuf> {
+fn temporary_path(path: &Path) -> Option<PathBuf> {
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().context("output path has no file name")?;
-    Ok(dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id())))
+    let name = path.file_name()?;
+    Some(dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id())))
 }
 
 #[cfg(test)]
@@ -45,7 +48,7 @@ mod tests {
     use super::*;
 
     fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("ipmc-output-test-{}-{name}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("ipmc-recording-output-test-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         dir
@@ -68,7 +71,7 @@ mod tests {
             Err(io::Error::other("interrupted"))
         })
         .unwrap_err();
-        assert!(format!("{err:#}").contains("left unchanged"), "{err:#}");
+        assert!(err.to_string().contains("left unchanged"), "{err}");
         assert_eq!(std::fs::read(&out).unwrap(), b"old complete content\n");
         assert_eq!(entries(&dir), ["EST.csv"]);
         write_atomically_with(&out, |w| w.write_all(b"new\n")).unwrap();
