@@ -134,14 +134,10 @@ const Y_GRID: [f64; 17] = {
 /// two decades away from the base calibration.
 const D_GRID: [f64; 9] = [1e-2, 3.16e-2, 0.1, 0.316, 1.0, 3.16, 10.0, 31.6, 100.0];
 
-fn fit_stage(
-    rh_pct: f64,
-    stage: &'static str,
-    tol: Tolerance,
-    problem: &ResponseProblem<'_>,
-    starts: &[Vec<f64>],
-) -> Result<Fit, IdentifyError> {
-    lsq::fit_with(tol, &problem.lsq_params(), starts, problem.n_residuals(), |v, out| problem.residuals(v, out))
+/// A fit whose estimates only start the next stage.
+fn start_stage(rh_pct: f64, stage: &'static str, problem: &ResponseProblem<'_>, starts: &[Vec<f64>]) -> Result<Vec<f64>, IdentifyError> {
+    lsq::minimize(Tolerance::START, &problem.lsq_params(), starts, problem.n_residuals(), |v, out| problem.residuals(v, out))
+        .map(|(estimates, _)| estimates)
         .map_err(|error| IdentifyError::Fit { rh_pct, stage, error })
 }
 
@@ -191,16 +187,16 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
     let stage1_names: Vec<ParamName> = [ParamName::Y, ParamName::Cs].iter().chain(mech_extra).copied().collect();
     let stage1 = ResponseProblem::new(p1, &stage1_names, &mech_points, &unit, Misfit::LogRatio);
     let starts = best_of_grid(&stage1, 0, &Y_GRID, 1);
-    let f1 = fit_stage(rh, "Y and Cs with Ca = 0", Tolerance::START, &stage1, &starts)?;
-    let mut p2 = stage1.params(&f1.estimates);
+    let f1 = start_stage(rh, "Y and Cs with Ca = 0", &stage1, &starts)?;
+    let mut p2 = stage1.params(&f1);
     p2.ca = p0.ca;
 
     let stage2_names: Vec<ParamName> = [ParamName::Y, ParamName::Cs, ParamName::Ca].iter().chain(mech_extra).copied().collect();
     let stage2 = ResponseProblem::new(p2, &stage2_names, &mech_points, &unit, Misfit::LogRatio);
-    let f2 = fit_stage(rh, "Y, Cs and Ca", Tolerance::START, &stage2, &[stage2.start()])?;
-    let mut p3 = stage2.params(&f2.estimates);
+    let f2 = start_stage(rh, "Y, Cs and Ca", &stage2, &[stage2.start()])?;
+    let mut p3 = stage2.params(&f2);
     let mut noise = Vec::new();
-    let (errors, gains) = stage2.relative_errors(&f2.estimates);
+    let (errors, gains) = stage2.relative_errors(&f2);
     noise.extend(noise::estimate(&mech_points, &errors, &gains, mech_channel, stage2_names.len()).map(|n| (mech_channel, n)));
 
     // Stage 3: d from the current (only needed when the mechanics came from the tip), by plain
@@ -213,7 +209,7 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
         let scale = vec![Sigma { ln_gain: typical, phase: typical }; current.len()];
         let stage3 = ResponseProblem::new(p3, &[ParamName::D], &current, &scale, Misfit::Difference);
         let starts = best_of_grid(&stage3, 0, &D_GRID, 1);
-        let d = fit_stage(rh, "d", Tolerance::START, &stage3, &starts)?.estimates;
+        let d = start_stage(rh, "d", &stage3, &starts)?;
         let (errors, gains) = stage3.relative_errors(&d);
         noise.extend(noise::estimate(&current, &errors, &gains, Channel::Current, 1).map(|n| (Channel::Current, n)));
         p3 = stage3.params(&d);
@@ -223,7 +219,8 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
     let gains: Vec<f64> = model_values(&p3, &level.points).iter().map(|g| g.norm()).collect();
     let sigmas = noise::sigmas(&level.points, &gains, &noise);
     let joint = ResponseProblem::new(p3, &fitted, &level.points, &sigmas, Misfit::Relative);
-    let fit = fit_stage(rh, "joint fit", Tolerance::REPORT, &joint, &[joint.start()])?;
+    let fit = lsq::fit(&joint.lsq_params(), &[joint.start()], joint.n_residuals(), |v, out| joint.residuals(v, out))
+        .map_err(|error| IdentifyError::Fit { rh_pct: rh, stage: "joint fit", error })?;
     let params = joint.params(&fit.estimates);
     Ok(LevelFit {
         rh_pct: rh,

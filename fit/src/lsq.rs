@@ -179,8 +179,36 @@ where
     fit_with(Tolerance::REPORT, params, starts, n_residuals, residuals)
 }
 
+/// The best optimum over `starts` and its χ², without the statistics [`fit`] adds (for a fit
+/// that only starts another one: the statistics cost a Jacobian and an SVD).
+pub fn minimize<F>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], n_residuals: usize, residuals: F) -> Result<(Vec<f64>, f64), FitError>
+where
+    F: Fn(&[f64], &mut [f64]),
+{
+    let (problem, chi2, _) = best_of_starts(tol, params, starts, n_residuals, &residuals)?;
+    Ok((problem.theta(&problem.u), chi2))
+}
+
 /// [`fit`] with chosen stopping tolerances.
 pub fn fit_with<F>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], n_residuals: usize, residuals: F) -> Result<Fit, FitError>
+where
+    F: Fn(&[f64], &mut [f64]),
+{
+    let (problem, chi2, evaluations) = best_of_starts(tol, params, starts, n_residuals, &residuals)?;
+    let before = problem.evaluations.get();
+    let mut fit = problem.statistics(chi2);
+    fit.evaluations = evaluations + problem.evaluations.get() - before;
+    Ok(fit)
+}
+
+/// Runs LM from every start; the best problem, its χ² and the evaluations spent on all starts.
+fn best_of_starts<'a, F>(
+    tol: Tolerance,
+    params: &'a [Param],
+    starts: &[Vec<f64>],
+    n_residuals: usize,
+    residuals: &'a F,
+) -> Result<(Problem<'a, F>, f64, usize), FitError>
 where
     F: Fn(&[f64], &mut [f64]),
 {
@@ -197,11 +225,11 @@ where
         }
     }
     let lm = LevenbergMarquardt::new().with_ftol(tol.ftol).with_xtol(tol.xtol).with_gtol(tol.ftol);
-    let mut best: Option<(Problem<'_, F>, f64)> = None;
+    let mut best: Option<(Problem<'a, F>, f64)> = None;
     let mut evaluations = 0;
     for start in starts {
         let u = DVector::from_iterator(n, params.iter().zip(start).map(|(p, &v)| p.bound.to_u(v)));
-        let problem = Problem::new(params, u, n_residuals, &residuals);
+        let problem = Problem::new(params, u, n_residuals, residuals);
         if !problem.chi2().is_finite() {
             evaluations += problem.evaluations.get();
             continue;
@@ -214,10 +242,7 @@ where
         }
     }
     let (problem, chi2) = best.ok_or(FitError::NoFiniteStart)?;
-    let before = problem.evaluations.get();
-    let mut fit = problem.statistics(chi2);
-    fit.evaluations = evaluations + problem.evaluations.get() - before;
-    Ok(fit)
+    Ok((problem, chi2, evaluations))
 }
 
 /// The LM crate's view of a problem: coordinates u, residuals by the caller's function.
@@ -227,11 +252,14 @@ struct Problem<'a, F> {
     n_residuals: usize,
     residual_fn: &'a F,
     evaluations: core::cell::Cell<usize>,
+    /// The residuals at the last u they were computed at: LM asks for the residuals and then
+    /// the Jacobian at the same point, and the Jacobian's differences start from them.
+    at_u: core::cell::RefCell<Option<(DVector<f64>, Vec<f64>)>>,
 }
 
 impl<'a, F: Fn(&[f64], &mut [f64])> Problem<'a, F> {
     fn new(params: &'a [Param], u: DVector<f64>, n_residuals: usize, residual_fn: &'a F) -> Self {
-        Problem { params, u, n_residuals, residual_fn, evaluations: core::cell::Cell::new(0) }
+        Problem { params, u, n_residuals, residual_fn, evaluations: core::cell::Cell::new(0), at_u: Default::default() }
     }
 
     fn theta(&self, u: &DVector<f64>) -> Vec<f64> {
@@ -244,9 +272,22 @@ impl<'a, F: Fn(&[f64], &mut [f64])> Problem<'a, F> {
         out.iter().all(|r| r.is_finite())
     }
 
+    /// The residuals at the current u (computed once per u).
+    fn eval_here(&self, out: &mut [f64]) -> bool {
+        if let Some((u, r)) = self.at_u.borrow().as_ref()
+            && *u == self.u
+        {
+            out.copy_from_slice(r);
+            return out.iter().all(|r| r.is_finite());
+        }
+        let ok = self.eval(&self.u, out);
+        *self.at_u.borrow_mut() = Some((self.u.clone(), out.to_vec()));
+        ok
+    }
+
     fn chi2(&self) -> f64 {
         let mut r = vec![0.0; self.n_residuals];
-        if self.eval(&self.u, &mut r) { r.iter().map(|x| x * x).sum() } else { f64::INFINITY }
+        if self.eval_here(&mut r) { r.iter().map(|x| x * x).sum() } else { f64::INFINITY }
     }
 
     /// Forward differences in u: one evaluation per parameter.
@@ -272,7 +313,7 @@ impl<'a, F: Fn(&[f64], &mut [f64])> Problem<'a, F> {
         let n = self.u.len();
         let m = self.n_residuals;
         let mut r0 = vec![0.0; m];
-        self.eval(&self.u, &mut r0);
+        self.eval_here(&mut r0);
         let dof = m - n;
         let s2 = if dof > 0 { chi2 / dof as f64 } else { f64::NAN };
         // (JᵀJ)⁻¹ through the SVD of J: singular directions get infinite variance instead of
@@ -334,12 +375,12 @@ impl<F: Fn(&[f64], &mut [f64])> LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'
 
     fn residuals(&self) -> Option<DVector<f64>> {
         let mut r = vec![0.0; self.n_residuals];
-        self.eval(&self.u, &mut r).then(|| DVector::from_vec(r))
+        self.eval_here(&mut r).then(|| DVector::from_vec(r))
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let mut r0 = vec![0.0; self.n_residuals];
-        if !self.eval(&self.u, &mut r0) {
+        if !self.eval_here(&mut r0) {
             return None;
         }
         self.jacobian_at(&r0)
