@@ -103,8 +103,9 @@ pub fn init() -> Board {
         defmt::error!("replay file has no IPMCRPL1 header");
         exit(2);
     }
-    let fs_hz = u32::from_le_bytes(header[8..12].try_into().unwrap());
-    let count = u32::from_le_bytes(header[12..16].try_into().unwrap());
+    // Constant indices into a fixed-size array: checked at compile time, nothing can panic.
+    let fs_hz = u32::from_le_bytes([header[8], header[9], header[10], header[11]]);
+    let count = u32::from_le_bytes([header[12], header[13], header[14], header[15]]);
     if fs_hz != SAMPLE_RATE_HZ {
         defmt::error!("replay is sampled at {} Hz, this firmware at {} Hz", fs_hz, SAMPLE_RATE_HZ);
         exit(2);
@@ -116,7 +117,7 @@ pub fn init() -> Board {
     // peek at the first sample's RH.
     let mut first = [0u8; BYTES_PER_SAMPLE];
     if count > 0 && replay.read_exact(&mut first).is_ok() {
-        REPLAY_RH_PCT.store(f32::from_le_bytes(first[4..8].try_into().unwrap()));
+        REPLAY_RH_PCT.store(f32::from_le_bytes([first[4], first[5], first[6], first[7]]));
     }
     let samples = Samples { replay, pending_first: (count > 0).then_some(first), ticker: None };
 
@@ -169,9 +170,9 @@ impl CurrentSource for Samples {
 
         let mut block_flags = 0;
         let mut rh = f32::NAN;
-        for (a, s) in amps.iter_mut().zip(raw.chunks_exact(BYTES_PER_SAMPLE)) {
-            let current = f32::from_le_bytes(s[0..4].try_into().unwrap());
-            rh = f32::from_le_bytes(s[4..8].try_into().unwrap());
+        for (a, &[c0, c1, c2, c3, r0, r1, r2, r3]) in amps.iter_mut().zip(raw.as_chunks::<BYTES_PER_SAMPLE>().0) {
+            let current = f32::from_le_bytes([c0, c1, c2, c3]);
+            rh = f32::from_le_bytes([r0, r1, r2, r3]);
             *a = if current.is_finite() {
                 current
             } else {
