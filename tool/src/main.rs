@@ -4,6 +4,8 @@ mod calibration_source;
 mod commands;
 mod input;
 mod overrides;
+mod plot;
+mod progress;
 mod simulator;
 mod toml_file;
 
@@ -42,6 +44,9 @@ enum Command {
     Score(commands::score::Args),
     /// Capacitance and effective dielectric constant κe from a constant-voltage charging recording.
     Charging(commands::charging::Args),
+    /// Figures (SVG and PNG): Bode plots against the model, parameters against humidity,
+    /// compensated estimate against the true base motion.
+    Plot(commands::plot::Args),
 }
 
 fn main() {
@@ -58,6 +63,7 @@ fn main() {
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),
         Command::Charging(a) => commands::charging::run(a),
+        Command::Plot(a) => commands::plot::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -79,6 +79,12 @@ pub fn ensure_apt_package(package: &str, present: impl Fn() -> bool) -> Result<(
 }
 
 /// qemu-system-arm with the b-l475e-iot01a machine (QEMU ≥ 9).
+/// DejaVu Sans, the font `cargo ipmc plot` draws its labels with (Debian: fonts-dejavu-core).
+pub fn ensure_plot_font() -> Result<()> {
+    const DEJAVU: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+    ensure_apt_package("fonts-dejavu-core", || std::path::Path::new(DEJAVU).exists())
+}
+
 pub fn ensure_qemu() -> Result<()> {
     if qemu_has_machine() {
         return Ok(());

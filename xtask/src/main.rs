@@ -11,7 +11,6 @@ mod bench;
 mod firmware;
 mod flash;
 mod install;
-mod plot;
 mod qemu;
 mod recording;
 mod replay;

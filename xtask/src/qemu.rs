@@ -206,13 +206,29 @@ fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
     plot(input, est_csv, &fixed_out)
 }
 
-/// SVG and PNG of the firmware's estimate, the true base and the fixed-45 % estimate; prints
-/// their paths.
+/// SVG and PNG of the firmware's estimate, the true base and the fixed-45 % estimate
+/// (`cargo ipmc plot compensated`); prints their paths. The plot's labels need DejaVu Sans.
 fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
-    let rec = recording::time_series(input)?;
-    let base = rec.base_m.ok_or("no base_m")?;
-    let (svg, png) = crate::plot::plot(&base, rec.fs_hz, est_csv, Some(fixed_csv), &est_csv.with_extension(""), 2.0, FIRMWARE_DELAY_SAMPLES)?;
-    println!("plot: {}\nplot: {}", svg.display(), png.display());
+    install::ensure_plot_font()?;
+    let prefix = est_csv.with_extension("");
+    let delay_ms = format!("{}", FIRMWARE_DELAY_SAMPLES as f64 * 1e3 / FIRMWARE_FS_HZ as f64);
+    let out = crate::test_all::ipmc(&[
+        "plot".as_ref(),
+        "compensated".as_ref(),
+        input.as_os_str(),
+        est_csv.as_os_str(),
+        "--baseline".as_ref(),
+        fixed_csv.as_os_str(),
+        "--label".as_ref(),
+        "compensated (firmware in QEMU)".as_ref(),
+        "--baseline-label".as_ref(),
+        "fixed 45 % design".as_ref(),
+        "--delay-ms".as_ref(),
+        delay_ms.as_ref(),
+        "--out".as_ref(),
+        prefix.as_os_str(),
+    ])?;
+    print!("{out}");
     Ok(())
 }
 

@@ -296,7 +296,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("core tests", || cargo_test_with("core/Cargo.toml", &["--features", "toml"])),
         ("host-tests", || cargo_test("host-tests/Cargo.toml")),
         ("recording tests", || cargo_test("recording/Cargo.toml")),
-        ("tool tests", || cargo_test("tool/Cargo.toml")),
+        ("tool tests", || crate::install::ensure_plot_font().and_then(|()| cargo_test("tool/Cargo.toml"))),
         ("fit tests", || cargo_test("fit/Cargo.toml")),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),

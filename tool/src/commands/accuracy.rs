@@ -42,7 +42,9 @@ pub fn run(a: Args) -> Result<()> {
     );
     println!("{:>6} | {:>9} {:>12} | {:>8} | {:>11} {:>12} | {:>11} {:>12}", "", "mag %", "phase °", "order", "rms %", "max %", "rms %", "max %");
     let mut worst = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let bar = crate::progress::bar(15, "humidities");
     for i in 0..=14 {
+        bar.inc(1);
         let rh = 20.0 + 5.0 * i as f64;
         let p: Params<f64> = calib.params_at(rh);
         let model = RationalModel::new(&p, ionic).ok_or_else(|| anyhow!("no rational model at RH {rh}"))?;
@@ -50,6 +52,7 @@ pub fn run(a: Args) -> Result<()> {
         let (rms, max) = compensation_error(&p, &design(rh)?, lo, hi, 281);
         let (brms, bmax) = compensation_error(&p, &baseline, lo, hi, 281);
         worst = (worst.0.max(mag), worst.1.max(ph), worst.2.max(rms), worst.3.max(max));
+        bar.suspend(|| {
         println!(
             "{rh:>6.1} | {:>9.3} {:>12.3} | {:>8} | {:>11.3} {:>12.3} | {:>11.2} {:>12.2}",
             mag * 100.0,
@@ -59,8 +62,10 @@ pub fn run(a: Args) -> Result<()> {
             max * 100.0,
             brms * 100.0,
             bmax * 100.0
-        );
+        )
+        });
     }
+    bar.finish_and_clear();
     println!(
         "worst: approximation {:.3} % / {:.3}°, compensation {:.3} % rms / {:.3} % max (targets 0.5 % / 0.5°, 1 % / 3 %)",
         worst.0 * 100.0,

@@ -156,6 +156,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
     let design = designer(calib, ts.fs_hz);
     let n = ts.t_s.len();
     let mut est = Estimates::with_capacity(n);
+    let bar = crate::progress::bar(n as u64, "samples");
     let fixed = match fixed_rh {
         Some(r) => {
             let (r, clamped) = calib.clamp_rh(r as f32);
@@ -192,6 +193,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
                 fl |= flags::BAD_SAMPLE;
             }
             let d = (c.delay_s() as f64 * ts.fs_hz).round() as usize;
+            bar.inc(block.len() as u64);
             for v in block {
                 est.base_est_m.push(v);
                 est.delay_samples.push(d);
@@ -202,6 +204,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
             pos = end;
         }
     }
+    bar.finish_and_clear();
     Ok(est)
 }
 

@@ -6,6 +6,7 @@ pub mod design;
 pub mod identify;
 pub mod model;
 pub mod monitor;
+pub mod plot;
 pub mod score;
 pub mod simulate;
 

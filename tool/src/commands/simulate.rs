@@ -38,7 +38,9 @@ pub fn run(a: Args) -> Result<()> {
     let mut metadata = Metadata::default();
     metadata.set("generator", format!("ipmc simulate session={} seed={}", a.session.display(), session.seed));
     metadata.set("calib", a.calib.as_deref().unwrap_or("default"));
+    let spin = crate::progress::spinner("simulating");
     let rec = simulate(&calib, &session, &ExactModel, metadata)?;
+    spin.finish_and_clear();
     let files = rec.files(&a.out)?;
     for (path, text) in &files {
         write_atomically(path, text.as_bytes())?;
@@ -123,7 +125,9 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
     if let Some(c) = &a.calib {
         metadata.set("calib", c);
     }
+    let spin = crate::progress::spinner("simulating");
     let rec = simulate(&calibration_source::load(a.calib.as_deref())?, &session, &ExactModel, metadata)?;
+    spin.finish_and_clear();
     for (path, text) in rec.files(&a.out)? {
         write_atomically(&path, text.as_bytes())?;
     }

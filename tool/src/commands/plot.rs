@@ -1,0 +1,203 @@
+//! `ipmc plot`: figures as SVG and PNG — a frequency response against the model per humidity
+//! level (`bode`), identified parameters against humidity with the calibration's laws
+//! (`params`), and a compensated estimate against the true base motion (`compensated`).
+
+use crate::calibration_source;
+use crate::input::checked;
+use crate::plot::bode::{Bode, LevelModel};
+use crate::plot::compensated::{Compensated, Series};
+use crate::plot::params::{ParamsFigure, level_objects, read_levels};
+use crate::plot::{humidity_color, render};
+use anyhow::{Result, bail};
+use ipmc_core::{ParamName, Params};
+use ipmc_recording::{Estimates, Format as _, FrequencyResponse, LEVEL_SCATTER_PCT, TimeSeries};
+use plotters::style::RGBColor;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    figure: Figure,
+}
+
+#[derive(clap::Subcommand)]
+enum Figure {
+    /// Frequency response (FR.csv) against the model, per humidity level: magnitude and phase of
+    /// each channel. Writes DIR/bode.svg and DIR/bode.png.
+    Bode {
+        /// Frequency-response recording.
+        recording: PathBuf,
+        /// Model from this calibration at each level's humidity (`default`, `paper` or a TOML file).
+        #[arg(long)]
+        calib: Option<String>,
+        /// Model from the per-level parameters `ipmc identify` wrote (LEVELS.json); the parameters
+        /// it does not give come from --calib.
+        #[arg(long)]
+        levels: Option<PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Identified parameters (LEVELS.json) against humidity, ± one standard error, with the
+    /// calibration's laws. Writes DIR/params.svg and DIR/params.png.
+    Params {
+        levels: PathBuf,
+        /// Calibration whose laws are drawn (`default`, `paper` or a TOML file).
+        #[arg(long)]
+        calib: Option<String>,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// An estimate (EST.csv of `ipmc compensate` or the firmware) against the true base motion of
+    /// its time-series recording: the last seconds, and the error over the whole run.
+    /// Writes FILE.svg and FILE.png.
+    Compensated {
+        recording: PathBuf,
+        estimate: PathBuf,
+        /// A second estimate to compare with (e.g. `compensate --fixed-rh 45`).
+        #[arg(long)]
+        baseline: Option<PathBuf>,
+        #[arg(long, default_value = "compensated")]
+        label: String,
+        #[arg(long, default_value = "baseline")]
+        baseline_label: String,
+        /// Latency of the estimates [ms]: the design's preview delay.
+        #[arg(long, default_value_t = 2.0)]
+        delay_ms: f64,
+        /// Length of the detail window at the end of the run [s].
+        #[arg(long, default_value_t = 2.0)]
+        seconds: f64,
+        /// Output file name without extension (`.svg` and `.png` are written).
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let (svg, png) = match a.figure {
+        Figure::Bode { recording, calib, levels, out } => {
+            let calib = calibration_source::load(calib.as_deref())?;
+            let fr = checked(FrequencyResponse::read(&recording))?;
+            let fitted = levels.as_deref().map(level_objects).transpose()?;
+            let level_list = fr.levels();
+            let mut models = Vec::with_capacity(level_list.len());
+            for (k, level) in level_list.into_iter().enumerate() {
+                let mut params: Params<f64> = calib.params_at(level.rh_pct);
+                if let Some(fitted) = &fitted {
+                    apply_fitted(&mut params, fitted, k, level.rh_pct)?;
+                }
+                models.push(LevelModel { level, params });
+            }
+            let source = if levels.is_some() { "identified parameters" } else { "calibration" };
+            let title = format!("{}: measured (dots) vs model from the {source} (lines)", file_name(&recording));
+            render(&Bode { title, levels: models }, &out.join("bode"), (1600, 1000))?
+        }
+        Figure::Params { levels, calib, out } => {
+            let calib = calibration_source::load(calib.as_deref())?;
+            let series = read_levels(&levels)?;
+            let title = format!("{}: identified parameters vs humidity", file_name(&levels));
+            render(&ParamsFigure { title, series, calib }, &out.join("params"), (1600, 1100))?
+        }
+        Figure::Compensated { recording, estimate, baseline, label, baseline_label, delay_ms, seconds, out } => {
+            let ts = checked(TimeSeries::read(&recording))?;
+            let base = ts.base_m.as_ref().ok_or_else(|| anyhow::anyhow!("{}: no base_m column to plot against", recording.display()))?;
+            let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
+            let mut series = vec![Series { name: label, color: RGBColor(0, 110, 220), est: est(&estimate)?, primary: true }];
+            if let Some(b) = &baseline {
+                series.push(Series { name: baseline_label, color: humidity_color(95.0), est: est(b)?, primary: false });
+            }
+            let delay = (delay_ms * 1e-3 * ts.fs_hz).round() as usize;
+            render(&Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay)?, &out, (1200, 800))?
+        }
+    };
+    println!("plot: {}\nplot: {}", svg.display(), png.display());
+    Ok(())
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// Sets the parameters level `k` of the recording was identified with: the k-th object when
+/// its `rh_pct` matches the level's, else the first object within the sensor's scatter.
+fn apply_fitted(params: &mut Params<f64>, fitted: &[serde_json::Map<String, serde_json::Value>], k: usize, rh_pct: f64) -> Result<()> {
+    let near = |o: &serde_json::Map<String, serde_json::Value>| o.get("rh_pct").and_then(|v| v.as_f64()).is_some_and(|r| (r - rh_pct).abs() <= LEVEL_SCATTER_PCT);
+    let Some(obj) = fitted.get(k).filter(|o| near(o)).or_else(|| fitted.iter().find(|o| near(o))) else {
+        bail!("no level of the LEVELS file is within {LEVEL_SCATTER_PCT} % of the recording's level at {rh_pct:.1} %");
+    };
+    for (key, value) in obj {
+        if let (Some(name), Some(v)) = (ParamName::parse(key), value.as_f64()) {
+            params.set(name, v);
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulator::physics::ExactModel;
+    use crate::simulator::session::Session;
+    use crate::simulator::simulate;
+    use ipmc_recording::Metadata;
+
+    /// A command's arguments as clap parses them from a command line.
+    fn parse<A: clap::Args>(args: &[&str]) -> A {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Cli<A: clap::Args> {
+            #[command(flatten)]
+            a: A,
+        }
+        Cli::<A>::parse_from(std::iter::once("ipmc").chain(args.iter().copied())).a
+    }
+
+    fn run_plot(args: &[&str]) -> Result<()> {
+        run(parse(args))
+    }
+
+    /// Every figure renders from simulated data to an SVG with its labels and a PNG of its size;
+    /// a LEVELS file that matches no level is refused naming the level.
+    #[test]
+    fn figures_render_from_simulated_recordings() {
+        let dir = std::env::temp_dir().join(format!("ipmc-plot-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let session = |name: &str| {
+            let p = repo.join("data/sessions").join(name);
+            Session::parse(&p, &std::fs::read_to_string(&p).unwrap()).unwrap()
+        };
+        let write = |s: &Session, name: &str| {
+            let rec = simulate(&ipmc_core::Calibration::default_preset(), s, &ExactModel, Metadata::default()).unwrap();
+            let path = dir.join(name);
+            std::fs::write(&path, &rec.files(&path).unwrap()[0].1).unwrap();
+            path.display().to_string()
+        };
+        let fr = write(&session("fr-up-down.toml"), "FR.csv");
+        let d = dir.display().to_string();
+        run_plot(&["bode", &fr, "--out", &d]).unwrap();
+        let svg = std::fs::read_to_string(dir.join("bode.svg")).unwrap();
+        assert!(svg.contains("phase of current") && svg.contains("(again)"), "labels missing");
+        let png = std::fs::read(dir.join("bode.png")).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!((u32::from_be_bytes(png[16..20].try_into().unwrap()), u32::from_be_bytes(png[20..24].try_into().unwrap())), (1600, 1000));
+
+        let levels = dir.join("LEVELS.json");
+        std::fs::write(&levels, r#"[{"rh_pct": 30.0, "Y": 9e8, "Y_se": 1e7, "d": 2e-15, "d_se": 1e-16}, {"rh_pct": 40.0, "Y": 9.1e8, "Y_se": 1e7, "d": 3e-15}]"#).unwrap();
+        let l = levels.display().to_string();
+        run_plot(&["params", &l, "--out", &d]).unwrap();
+        let svg = std::fs::read_to_string(dir.join("params.svg")).unwrap();
+        assert!(svg.contains("Y [Pa]") && svg.contains("calibration law"), "labels missing");
+        let err = run_plot(&["bode", &fr, "--levels", &l, "--out", &d]).unwrap_err().to_string();
+        assert!(err.contains("within 3 %") && (err.contains("at 49.") || err.contains("at 50.")), "{err}");
+
+        let mut ts = session("ts-step.toml");
+        ts.time_series.as_mut().unwrap().burst_s = 7.0;
+        let rec = write(&ts, "TS.csv");
+        let est = dir.join("EST.csv");
+        crate::commands::compensate::run(parse(&[&rec, "--out", &est.display().to_string()])).unwrap();
+        run_plot(&["compensated", &rec, &est.display().to_string(), "--out", &dir.join("comp").display().to_string()]).unwrap();
+        assert!(std::fs::read_to_string(dir.join("comp.svg")).unwrap().contains("Error over time"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
