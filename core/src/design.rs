@@ -20,6 +20,7 @@ use crate::lstsq::lstsq;
 use crate::model::jw;
 use crate::rational::{IonicOrder, MAX_ROOTS, RationalModel, Roots};
 use crate::roots::poly_roots;
+use crate::real::cis;
 use crate::{C, Calibration, ComplexMath, Params, Real};
 
 /// Most second-order sections an inverse can have (10 at fs ≤ 2 kHz; pure-delay sections are
@@ -29,6 +30,16 @@ pub const MAX_SECTIONS: usize = 20;
 pub const FIR_TAPS: usize = 5;
 /// Frequencies of the least-squares grid.
 const GRID: usize = 40;
+/// The 5th-order Butterworth's poles e^(iπ(2k + 6)/10), k = 0..4, for ω_c = 1: cos and sin of
+/// multiples of π/5 in closed form ((√5 ∓ 1)/4, √((5 ± √5)/8)), so no retune spends
+/// trigonometry on them and the real pole is exactly real.
+const BUTTERWORTH5_POLES: [(f64, f64); 5] = [
+    (-0.309_016_994_374_947_45, 0.951_056_516_295_153_5),
+    (-0.809_016_994_374_947_5, 0.587_785_252_292_473_1),
+    (-1.0, 0.0),
+    (-0.809_016_994_374_947_5, -0.587_785_252_292_473_1),
+    (-0.309_016_994_374_947_45, -0.951_056_516_295_153_5),
+];
 
 /// One biquad: y = (b0 + b1 z⁻¹ + b2 z⁻²)/(1 + a1 z⁻¹ + a2 z⁻²)·x, with a[0] = 1.
 ///
@@ -246,9 +257,8 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     let wc = T::lit(2.0) * T::PI() * cfg.hp_hz;
     let mut hp_poles: Roots<T> = Roots::new();
     let mut hp_zeros: Roots<T> = Roots::new();
-    for k in 0..5 {
-        let a = T::PI() * T::lit((2 * k + 6) as f64 / 10.0);
-        hp_poles.push(C::new(a.cos(), a.sin()) * wc);
+    for (re, im) in BUTTERWORTH5_POLES {
+        hp_poles.push(C::new(T::lit(re), T::lit(im)) * wc);
     }
     // s² + d₄s + d₃ with the 5th-order Butterworth's coefficients 1 + √5 and 3 + √5.
     let d4 = T::lit(3.236_067_977_499_79) * wc;
@@ -280,10 +290,11 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     for i in 0..GRID {
         let f = cfg.band_lo_hz + (cfg.band_hi_hz - cfg.band_lo_hz) * T::lit(i as f64 / (GRID - 1) as f64);
         let w = two_pi * f * t; // rad/sample
-        let zinv = C::new(w.cos(), -w.sin());
+        let zinv = cis(-w);
         let g0 = monic_response(&zd, &pd, zinv) * monic_response(&hzd, &hpd, zinv);
         // the pure-delay sections are part of G; the remaining phase target is d_fir samples
-        let base = model.eval(jw(f)) * g0 * C::new((w * T::lit(d_fir as f64)).cos(), (w * T::lit(d_fir as f64)).sin());
+        let ahead = cis(w * T::lit(d_fir as f64));
+        let base = model.eval(jw(f)) * g0 * ahead;
         let mut zk = C::new(T::one(), T::zero());
         for k in 0..FIR_TAPS {
             let v = base * zk;

@@ -45,6 +45,8 @@ pub trait Real: Num + NumAssign + Copy + PartialOrd + Neg<Output = Self> + Float
     fn powf(self, e: Self) -> Self;
     fn sin(self) -> Self;
     fn cos(self) -> Self;
+    /// (sin, cos) in one call: one argument reduction for both.
+    fn sin_cos(self) -> (Self, Self);
     fn sinh(self) -> Self;
     fn cosh(self) -> Self;
     fn atan2(self, x: Self) -> Self;
@@ -53,7 +55,7 @@ pub trait Real: Num + NumAssign + Copy + PartialOrd + Neg<Output = Self> + Float
 
 /// `$t` with its `libm` functions (`$sqrt` …: the f32 or the f64 names).
 macro_rules! real_via_libm {
-    ($t:ty, $sqrt:ident, $exp:ident, $ln:ident, $pow:ident, $sin:ident, $cos:ident, $sinh:ident, $cosh:ident, $atan2:ident, $hypot:ident, $floor:ident, $ceil:ident, $round:ident) => {
+    ($t:ty, $sqrt:ident, $exp:ident, $ln:ident, $pow:ident, $sin:ident, $cos:ident, $sin_cos:ident, $sinh:ident, $cosh:ident, $atan2:ident, $hypot:ident, $floor:ident, $ceil:ident, $round:ident) => {
         impl Real for $t {
             #[inline(always)]
             fn lit(x: f64) -> Self {
@@ -144,6 +146,10 @@ macro_rules! real_via_libm {
                 libm::$cos(self)
             }
             #[inline(always)]
+            fn sin_cos(self) -> (Self, Self) {
+                libm::$sin_cos(self)
+            }
+            #[inline(always)]
             fn sinh(self) -> Self {
                 libm::$sinh(self)
             }
@@ -163,8 +169,15 @@ macro_rules! real_via_libm {
     };
 }
 
-real_via_libm!(f32, sqrtf, expf, logf, powf, sinf, cosf, sinhf, coshf, atan2f, hypotf, floorf, ceilf, roundf);
-real_via_libm!(f64, sqrt, exp, log, pow, sin, cos, sinh, cosh, atan2, hypot, floor, ceil, round);
+real_via_libm!(f32, sqrtf, expf, logf, powf, sinf, cosf, sincosf, sinhf, coshf, atan2f, hypotf, floorf, ceilf, roundf);
+real_via_libm!(f64, sqrt, exp, log, pow, sin, cos, sincos, sinh, cosh, atan2, hypot, floor, ceil, round);
+
+/// e^(iθ) = cos θ + i sin θ.
+#[inline]
+pub fn cis<T: Real>(theta: T) -> C<T> {
+    let (sin, cos) = theta.sin_cos();
+    C::new(cos, sin)
+}
 
 /// The complex functions the core uses, on [`Real`], named as in C99's `<complex.h>`. num-complex's
 /// own (`norm`, `arg`, `exp`, `sqrt`) go through `Float`; the formulas here are theirs, so results
@@ -196,7 +209,8 @@ impl<T: Real> ComplexMath<T> for C<T> {
     fn cexp(self) -> Self {
         // e^(a+ib) = e^a·(cos b + i sin b)
         let r = self.re.exp();
-        C::new(r * self.im.cos(), r * self.im.sin())
+        let (sin, cos) = self.im.sin_cos();
+        C::new(r * cos, r * sin)
     }
     fn csqrt(self) -> Self {
         let half = T::lit(0.5);

@@ -46,7 +46,8 @@ pub fn aberth<T: Real>(roots: &mut [C<T>], ratio: impl Fn(C<T>) -> C<T>, max_ite
                 continue;
             }
             roots[i] = si - step;
-            if step.cabs() > rel_tol * roots[i].cabs() {
+            // |step| > tol·|root|, squared: no square roots in the inner loop.
+            if step.norm_sqr() > rel_tol * rel_tol * roots[i].norm_sqr() {
                 converged = false;
             }
         }
