@@ -1,5 +1,7 @@
 //! Host tests live in tests/; this library holds what several of them share.
 
+pub mod sine_drive;
+
 /// xorshift64*: deterministic noise without a dependency.
 pub struct Rng(pub u64);
 

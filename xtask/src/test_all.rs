@@ -81,6 +81,51 @@ fn qemu_replay_counts_and_retunes() -> Result<()> {
     Ok(())
 }
 
+/// A humidity step mid-stream retunes without a glitch: host-tests/tests/retune.rs's scenario
+/// run by the firmware. The sensor sits at RH B = 55.5 % throughout (its current is the exact
+/// model's for a steady 40 Hz base sine), the replayed humidity reads A = 55 % for the first 20 s
+/// (the firmware designs for A and settles) and B after. From the step on, the firmware's
+/// estimate must stay within the same bound as on the host: twice the larger of the two designs'
+/// steady errors on this input, measured on the host with the same f32 core.
+fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
+    use host_tests::sine_drive::{FS, SETTLE, Source, U, design, glitch_bound, steady_error_on, truth};
+    let (rh_a, rh_b) = (55.0, 55.5);
+    if FS != FIRMWARE_FS_HZ as f64 {
+        return Err(format!("the scenario runs at {FS} Hz, the firmware at {FIRMWARE_FS_HZ} Hz"));
+    }
+    let step = SETTLE;
+    let n = step + 4 * FIRMWARE_FS_HZ as usize; // the poll (≤ 1 s), 0.5 s warm-up, 0.5 s fade, 2 s after
+    let src = Source::new(rh_b);
+    let samples: Vec<Sample> =
+        (0..n).map(|k| Sample { current_a: src.at::<f32>(k), rh_pct: if k < step { rh_a as f32 } else { rh_b as f32 } }).collect();
+    let r = replay("humidity-step", &samples)?;
+    check_count(&r, samples.len())?;
+    if !r.blocks.iter().any(|b| b.first_sample as usize >= step && b.flags & flags::RETUNED != 0) {
+        return Err(format!("RH stepped {rh_a} → {rh_b} % but no later block is flagged RETUNED\n{}", r.log));
+    }
+    let bound = glitch_bound(steady_error_on::<f32>(rh_a, rh_b), steady_error_on::<f32>(rh_b, rh_b));
+    let delay_s = design(rh_b).delay_s as f64;
+    let mut worst = 0.0f64;
+    for b in &r.blocks {
+        for (i, &y) in b.base_est_m.iter().enumerate() {
+            let k = b.first_sample as usize + i;
+            if k >= step {
+                worst = worst.max((y as f64 - truth(k, delay_s)).abs());
+            }
+        }
+    }
+    println!(
+        "RH {rh_a} → {rh_b} % at {:.0} s during a steady 40 Hz sine: largest deviation from the true motion {:.3} % of U, bound {:.3} %",
+        step as f64 / FS,
+        worst / U * 100.0,
+        bound / U * 100.0
+    );
+    if !(worst <= bound) {
+        return Err(format!("deviation {:.3} % of U after the humidity step exceeds the glitch bound {:.3} %", worst / U * 100.0, bound / U * 100.0));
+    }
+    Ok(())
+}
+
 /// Faults through the replayed sources: the firmware keeps running, flags, and recovers.
 fn qemu_replay_faults() -> Result<()> {
     let mut samples = synthetic(5.0, |t| if (1.0..3.0).contains(&t) { f32::NAN } else { 50.0 });
@@ -303,6 +348,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("firmware build (qemu)", || firmware::build(Variant::Qemu).map(|_| ())),
         ("firmware size budget", size_within_budget),
         ("qemu replay: estimate count and retune", qemu_replay_counts_and_retunes),
+        ("qemu replay: humidity step retunes without a glitch", qemu_replay_humidity_step_without_glitch),
         ("qemu replay: fault injection", qemu_replay_faults),
         ("qemu replay: bundled recording", qemu_replay_bundled),
         ("qemu replay: host ↔ QEMU equivalence (RH ramp 40 → 50 %)", qemu_host_equivalence),
