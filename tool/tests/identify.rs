@@ -224,11 +224,16 @@ fn charging_recordings_give_kappa_e_at_their_levels() {
         .collect();
     files.sort();
     assert_eq!(files.len(), 3, "one charging recording per level: {files:?}");
-    let mut extra = vec![];
+    let plots = dir.join("plots");
+    let mut extra = vec!["--plots", plots.to_str().unwrap()];
     for f in &files {
         extra.extend(["--charging", f.as_str()]);
     }
     let id = identify_with("charging", 400.0, 40, 14, &extra);
+    for name in ["bode.svg", "bode.png", "params.svg", "params.png"] {
+        let len = std::fs::metadata(plots.join(name)).map_or(0, |m| m.len());
+        assert!(len > 10_000, "--plots wrote {name} with {len} bytes");
+    }
     let mut measured = 0;
     for l in &id.levels {
         let rh = num(l, "rh_pct");

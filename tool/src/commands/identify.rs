@@ -8,7 +8,10 @@
 //! every level's estimates with standard errors and correlations (JSON).
 
 use crate::commands::{charging, write_atomically};
-use crate::{calibration_source, input::checked};
+use crate::plot::bode::{Bode, LevelModel};
+use crate::plot::params::{ParamsFigure, read_levels};
+use crate::plot::render;
+use crate::{calibration_source, input::checked, progress};
 use anyhow::{Context, Result, bail};
 use ipmc_core::ParamName;
 use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_levels};
@@ -18,7 +21,6 @@ use ipmc_core::Calibration;
 use ipmc_recording::{Charging, Format as _, FrequencyResponse, LEVEL_SCATTER_PCT, Level};
 use serde_json::{Map, Value, json};
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -42,6 +44,11 @@ pub struct Args {
     /// its standard error `<name>_se`, the correlations, χ² and the estimated noise).
     #[arg(long)]
     levels: PathBuf,
+    /// Also draw the result into this directory: bode.svg/.png (each level's measured response
+    /// against its identified model) and params.svg/.png (the parameters ± SE against humidity
+    /// with the fitted laws), as `ipmc plot bode` and `ipmc plot params` draw them.
+    #[arg(long)]
+    plots: Option<PathBuf>,
 }
 
 /// κe of every charging recording, with the humidity it was taken at.
@@ -161,18 +168,8 @@ pub fn run(a: Args) -> Result<()> {
         })
         .collect();
 
-    // A level takes a few milliseconds; the bar appears only if the whole run is slow.
-    let bar = indicatif::ProgressBar::hidden();
-    bar.set_length(data.len() as u64);
-    bar.set_style(indicatif::ProgressStyle::with_template("identifying {bar:30} {pos}/{len} levels, {eta} left").expect("valid template"));
-    let started = Instant::now();
-    let shown = std::sync::atomic::AtomicBool::new(false);
-    let tick = || {
-        bar.inc(1);
-        if started.elapsed() > Duration::from_secs(1) && !shown.swap(true, std::sync::atomic::Ordering::Relaxed) {
-            bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
-        }
-    };
+    let bar = progress::bar(data.len() as u64, "levels");
+    let tick = || bar.inc(1);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let results = identify_levels(&base, &data, threads, &tick);
     bar.finish_and_clear();
@@ -204,5 +201,15 @@ pub fn run(a: Args) -> Result<()> {
     write_atomically(&a.out, format!("{header}{toml}").as_bytes())?;
     print_summary(&level_fits, &laws);
     println!("wrote {} and {}", a.out.display(), a.levels.display());
+    if let Some(dir) = &a.plots {
+        let models = fits.iter().map(|(l, f)| LevelModel { level: (*l).clone(), params: f.params }).collect();
+        let title = format!("{source}: measured (dots) vs identified model (lines)");
+        let bode = render(&Bode { title, levels: models }, &dir.join("bode"), (1600, 1000))?;
+        let title = format!("{source}: identified parameters vs humidity, laws of {}", a.out.display());
+        let params = render(&ParamsFigure { title, series: read_levels(&a.levels)?, calib }, &dir.join("params"), (1600, 1100))?;
+        for path in [bode.0, bode.1, params.0, params.1] {
+            println!("plot: {}", path.display());
+        }
+    }
     Ok(())
 }
