@@ -25,7 +25,7 @@
 //!   each channel's timing relative to the base channel (e^(−sΔt)) and capacitive feedthrough of
 //!   the drive into the current channel (+g·s).
 
-use crate::model::{current_response, ionic_factor, q_of, slope_of_q, tip_of_q, tip_response};
+use crate::model::{self, current_of_slope, slope_of_q, tip_of_q};
 use crate::{C, ComplexMath, Params, Real};
 
 /// Physics beyond eqs. 1–6. SI units; every field zero means "absent".
@@ -217,28 +217,23 @@ fn solve4<T: Real>(mut a: [[C<T>; 4]; 4], mut b: [C<T>; 4]) -> [C<T>; 4] {
 }
 
 /// Tip response W(L,s)/U(s) [m/m] and current H(s) [A/m] of the extended model, each through its
-/// channel's measurement chain. With a zero extension they are [`tip_response`] and
-/// [`current_response`].
+/// channel's measurement chain. With a zero extension they are [`model::responses`].
 pub fn responses<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> (C<T>, C<T>) {
-    if *x == Extension::default() {
-        return (tip_response(p, s), current_response(p, s));
-    }
-    let beam = if x.has_end_terms() || x.has_distributed_terms() {
-        beam_solve(p, x, s)
+    let (tip, current) = if x.has_end_terms() || x.has_distributed_terms() {
+        let beam = beam_solve(p, x, s);
+        (beam.tip, current_of_slope(p, s, (beam.tip_slope - beam.root_slope) * (p.l / T::lit(2.0))))
     } else {
-        let q = q_of(p, s);
-        BeamResponse { tip: tip_of_q(q), tip_slope: slope_of_q(q) * (T::lit(2.0) / p.l), root_slope: C::new(T::zero(), T::zero()) }
+        model::responses(p, s)
     };
-    let curvature_integral = beam.tip_slope - beam.root_slope;
-    let current = s * ionic_factor(p, s) * curvature_integral * (p.b * p.y / p.alpha0) + s * x.feedthrough;
-    (beam.tip * x.tip_chain(s), current * x.current_chain(s))
+    let current = current + s * x.feedthrough;
+    (tip * x.tip_chain(s), current * x.current_chain(s))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::Calibration;
-    use crate::model::jw;
+    use crate::model::{current_response, jw, q_of, tip_response};
 
     fn params(rh: f64) -> Params<f64> {
         Calibration::default_preset().params_at(rh)

@@ -174,8 +174,9 @@ pub fn responses<T: Real>(p: &Params<T>, s: C<T>) -> (C<T>, C<T>) {
     (m.tip(), current_of_slope(p, s, m.slope()))
 }
 
-/// Eq. 5 from S(q).
-fn current_of_slope<T: Real>(p: &Params<T>, s: C<T>, slope: C<T>) -> C<T> {
+/// Eq. 5 from S(q) (= L/2 times the curvature integrated over the length, which is what
+/// [`crate::extension`] passes for a beam whose root also turns).
+pub(crate) fn current_of_slope<T: Real>(p: &Params<T>, s: C<T>, slope: C<T>) -> C<T> {
     let mech = slope * (T::lit(2.0) / p.l);
     s * ionic_factor(p, s) * mech * (p.b * p.y / p.alpha0)
 }

@@ -2,6 +2,8 @@
 
 mod calibration_source;
 mod commands;
+mod conceal;
+mod diagnose;
 mod input;
 mod overrides;
 mod plot;
@@ -47,6 +49,12 @@ enum Command {
     /// Figures (SVG and PNG): Bode plots against the model, parameters against humidity,
     /// compensated estimate against the true base motion.
     Plot(commands::plot::Args),
+    /// Why simulation and recordings differ: locate the mismatch, name the missing physics from a
+    /// library of candidates, validate on held-out humidity levels; writes a report directory.
+    Diagnose(commands::diagnose::Args),
+    /// Prove `diagnose` on synthetic sessions with one concealed effect each and on clean
+    /// controls; prints the confusion table.
+    Prove(commands::prove::Args),
 }
 
 fn main() {
@@ -64,6 +72,8 @@ fn main() {
         Command::Score(a) => commands::score::run(a),
         Command::Charging(a) => commands::charging::run(a),
         Command::Plot(a) => commands::plot::run(a),
+        Command::Diagnose(a) => commands::diagnose::run(a),
+        Command::Prove(a) => commands::prove::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

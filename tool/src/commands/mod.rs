@@ -3,10 +3,12 @@ pub mod calib_export;
 pub mod charging;
 pub mod compensate;
 pub mod design;
+pub mod diagnose;
 pub mod identify;
 pub mod model;
 pub mod monitor;
 pub mod plot;
+pub mod prove;
 pub mod score;
 pub mod simulate;
 

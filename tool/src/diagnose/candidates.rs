@@ -1,0 +1,253 @@
+//! The library of candidate missing physics `diagnose` tests: what each is physically, how it
+//! shows in data, its few parameters, and how it maps them onto the core's extended model
+//! ([`ipmc_core::extension`]) or onto the humidity the parameters follow.
+//!
+//! Parameters are fitted in display units (ms, Ω, %RH…) so that every fitted number is of order
+//! one to a thousand: the fitter's finite-difference steps are absolute for unbounded parameters.
+
+use ipmc_core::Params;
+use ipmc_core::extension::Extension;
+use ipmc_fit::lsq::Bound;
+
+/// One parameter of a candidate.
+#[derive(Clone, Copy, Debug)]
+pub struct Spec {
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub bound: Bound,
+    /// Where fits start (a small but visible effect).
+    pub start: f64,
+    /// The value at which the candidate is absent (the library's nesting test checks it).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub absent: f64,
+}
+
+/// How a candidate enters the data.
+#[derive(Clone, Copy, Debug)]
+pub enum Kind {
+    /// Global parameters of the extended model, the same at every level; the level's own
+    /// parameters are passed for terms that scale with them.
+    Model(fn(&[f64], &Params<f64>) -> Extension<f64>),
+    /// The humidity (and temperature) the parameters follow is not the one read: the per-level
+    /// parameters follow their laws in an effective humidity.
+    Humidity(HumidityMap),
+    /// Narrow lines at the mains frequency and its harmonics in the current.
+    Mains,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HumidityMap {
+    HydrationLag,
+    SensorError,
+    Temperature,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct Candidate {
+    pub name: &'static str,
+    pub family: &'static str,
+    pub doc: &'static str,
+    pub params: &'static [Spec],
+    pub kind: Kind,
+}
+
+const fn spec(name: &'static str, unit: &'static str, bound: Bound, start: f64, absent: f64) -> Spec {
+    Spec { name, unit, bound, start, absent }
+}
+
+pub const LIBRARY: &[Candidate] = &[
+    Candidate {
+        name: "clamp_compliance",
+        family: "mechanical: boundary condition",
+        doc: "The clamp is not rigid: it turns by c_θ·M under the root bending moment M, so the \
+              beam sits on a rotational spring whose compliance is a property of the clamp, the \
+              same at every humidity. Parameter: c_θ [rad/(N·m)]; for this strip L/(YI) is about \
+              3600 rad/(N·m), so c_θ of a few hundred is a clamp 10 % as stiff as the beam. \
+              Shows as a first resonance lowered more where the beam is stiff (low humidity), a \
+              changed ratio of tip to current response (the compliant root takes part of the \
+              slope, and the current follows w'(L) − w'(0)) and a second mode that moves less \
+              than the first.",
+        params: &[spec("c_theta", "rad/(N·m)", Bound::Between(0.0, 20000.0), 50.0, 0.0)],
+        kind: Kind::Model(|v, _| Extension { clamp_compliance: v[0], ..Default::default() }),
+    },
+    Candidate {
+        name: "tip_mass",
+        family: "mechanical: added mass",
+        doc: "A body at the tip (glue, a reflector for the laser, a lead wire): a point mass M_t \
+              at z = L. Parameter: M_t in mg. Lowers the first resonance as \
+              1/√(1 + M_t/(0.24·mL)) while the base-motion ratio at low frequency stays one; \
+              the tip's share of inertia changes the mode shape, so tip and current disagree \
+              about the beam a little; the second mode falls more than the first.",
+        params: &[spec("tip_mass_mg", "mg", Bound::Between(0.0, 200.0), 2.0, 0.0)],
+        kind: Kind::Model(|v, _| Extension { tip_mass: v[0] * 1e-6, ..Default::default() }),
+    },
+    Candidate {
+        name: "air_loading",
+        family: "mechanical: air loading",
+        doc: "The surrounding air is dragged along: it adds mass per length and dissipates in an \
+              oscillating boundary layer whose force grows like √ω (Stokes), unlike the paper's \
+              viscous Ca. The added mass is not identifiable from frequency responses: the \
+              mechanics sees only (m + m_air)/Y and the current's scale is d's, so it is \
+              reported inside Y; the candidate fits the Stokes coefficient c_st \
+              [mN·s^½/m²]. Shows as damping that, against Ca and Cs, is too large below the \
+              resonance and too small above it, in both channels alike.",
+        params: &[spec("stokes", "mN·s^½/m²", Bound::Between(0.0, 100.0), 0.3, 0.0)],
+        kind: Kind::Model(|v, _| Extension { stokes: v[0] * 1e-3, ..Default::default() }),
+    },
+    Candidate {
+        name: "viscoelastic_relaxation",
+        family: "mechanical: viscoelastic law",
+        doc: "The polymer is a standard linear solid rather than Kelvin–Voigt: a relaxation branch \
+              of modulus ΔY and time τ stiffens the beam above 1/(2πτ) and dissipates most near \
+              it. Parameters: ΔY/Y and f_relax = 1/(2πτ) [Hz]. Shows as a modulus and a damping \
+              that change with frequency (Kelvin–Voigt damping grows as ω, this one peaks), \
+              seen by both channels alike.",
+        params: &[
+            spec("dY_ratio", "1", Bound::Between(0.0, 1.0), 0.02, 0.0),
+            spec("f_relax_hz", "Hz", Bound::Between(1.0, 2000.0), 60.0, 60.0),
+        ],
+        kind: Kind::Model(|v, p| Extension {
+            relax_modulus: [v[0] * p.y, 0.0],
+            relax_time: [1.0 / (2.0 * std::f64::consts::PI * v[1]), 0.0],
+            ..Default::default()
+        }),
+    },
+    Candidate {
+        name: "hysteretic_damping",
+        family: "mechanical: viscoelastic law",
+        doc: "Structural (hysteretic) damping: a loss factor η that does not depend on frequency, \
+              E* = Y(1 + iη), as many polymers and clamps show, instead of damping growing with \
+              ω. Parameter: η. Shows as a tip phase lag of about η/(1 − (f/f₁)²) already far \
+              below the resonance, where Kelvin–Voigt's lag vanishes like f, with the resonance's \
+              width about as before.",
+        params: &[spec("eta", "1", Bound::Between(0.0, 0.5), 0.005, 0.0)],
+        kind: Kind::Model(|v, _| Extension { loss_factor: v[0], ..Default::default() }),
+    },
+    Candidate {
+        name: "electrode_resistance",
+        family: "electrical: electrode resistance",
+        doc: "The electrodes' surface resistance R_e with the polymer's capacitance \
+              C = κe·b·L/(2h) forms an RC line: the current collected at the clamp is low-passed \
+              with a time constant that follows the capacitance, so it grows with humidity. \
+              Fitted as the line's low-frequency equivalent, one pole at τ = R_e·C/3. Parameter: \
+              R_e [Ω]. Shows in the current only: a phase lag growing with frequency and with \
+              humidity, a gain roll-off at high frequency; the tip is untouched.",
+        params: &[spec("r_electrode_ohm", "Ω", Bound::Between(0.0, 50.0), 0.1, 0.0)],
+        kind: Kind::Model(|v, p| Extension { electrode_tau_lumped: v[0] * ipmc_core::model::capacitance(p) / 3.0, ..Default::default() }),
+    },
+    Candidate {
+        name: "amplifier_bandwidth",
+        family: "electrical: measurement amplifier",
+        doc: "The transimpedance amplifier is not flat: its feedback capacitance and the second \
+              stage give a pole at f_a. Parameter: τ_a = 1/(2πf_a) [µs]. Shows in the current \
+              only, as a phase lag ∝ f well below f_a, the same at every humidity (unlike the \
+              electrode's RC, which follows the capacitance).",
+        params: &[spec("tau_amp_us", "µs", Bound::Between(0.0, 5000.0), 10.0, 0.0)],
+        kind: Kind::Model(|v, _| Extension { amp_tau: [v[0] * 1e-6, 0.0], ..Default::default() }),
+    },
+    Candidate {
+        name: "current_timing",
+        family: "instrumentation: timing between channels",
+        doc: "The current is not sampled at the same instant as the base (a multiplexed ADC, a \
+              filter's group delay): a delay Δt multiplies it by e^(−jωΔt). Parameter: Δt [µs]. \
+              Shows as a phase error of the current exactly linear in frequency, with no gain \
+              error (where an amplifier pole also rolls the gain off), the same at every humidity.",
+        params: &[spec("dt_current_us", "µs", Bound::Free, 0.0, 0.0)],
+        kind: Kind::Model(|v, _| Extension { skew_current: v[0] * 1e-6, ..Default::default() }),
+    },
+    Candidate {
+        name: "tip_timing",
+        family: "instrumentation: timing between channels",
+        doc: "The tip displacement is not sampled at the same instant as the base (the laser \
+              sensors' response time, close to 1 ms in the paper's set-up): e^(−jωΔt) on the tip \
+              channel. Parameter: Δt [µs]. Shows as a tip phase error linear in frequency with no \
+              gain error, while the current agrees with the model.",
+        params: &[spec("dt_tip_us", "µs", Bound::Free, 0.0, 0.0)],
+        kind: Kind::Model(|v, _| Extension { skew_tip: v[0] * 1e-6, ..Default::default() }),
+    },
+    Candidate {
+        name: "capacitive_feedthrough",
+        family: "electrical: feedthrough",
+        doc: "The shaker drive couples capacitively into the high-impedance current input: a \
+              current ∝ base velocity, g·s·U, adds to the IPMC's. Parameter: g [nA·s/m]. Shows in \
+              the current only, where the IPMC's own current is small: at low frequency (its \
+              double zero at s = 0) and at low humidity (small diffusivity), as a gain floor \
+              rising like f with a phase near +90°.",
+        params: &[spec("feedthrough_nas_per_m", "nA·s/m", Bound::Free, 0.0, 0.0)],
+        kind: Kind::Model(|v, _| Extension { feedthrough: v[0] * 1e-9, ..Default::default() }),
+    },
+    Candidate {
+        name: "mains_interference",
+        family: "interference",
+        doc: "Pickup from the mains (50 or 60 Hz and its harmonics) adds, at points measured near \
+              a line, a current of its own with a phase unrelated to the excitation. Fitted as one \
+              free complex current per affected point (2 parameters each, all counted by the \
+              information criterion). Shows as isolated points of the current deviating at \
+              k·50 or k·60 Hz while their neighbours agree with the model; the tip is clean.",
+        params: &[spec("line_hz", "Hz", Bound::Free, 50.0, 0.0)],
+        kind: Kind::Mains,
+    },
+    Candidate {
+        name: "hydration_lag",
+        family: "ionic: hydration dynamics",
+        doc: "The polymer's water content follows the ambient humidity through a first-order lag \
+              τ_h (diffusion of water into the membrane): every parameter takes the value of its \
+              humidity law at the lagged humidity, not at the one read. Parameter: τ_h [s]. Shows \
+              as hysteresis: a level visited on the way up looks drier than the same humidity on \
+              the way down; it depends on time order and sweep direction and vanishes for slow \
+              sessions.",
+        params: &[spec("tau_hydration_s", "s", Bound::Positive, 100.0, 0.0)],
+        kind: Kind::Humidity(HumidityMap::HydrationLag),
+    },
+    Candidate {
+        name: "humidity_sensor_error",
+        family: "instrumentation: humidity sensor",
+        doc: "The humidity reading is offset or mis-scaled (a drifted or mis-calibrated sensor, \
+              the HIH-4030's temperature correction): the sample lives at RH_true = RH_read + o + \
+              (g − 1)·(RH_read − 60). Parameters: o [%RH] and g. Shows as levels whose every \
+              fitted parameter (Y, Cs, Ca, d together) matches the calibration at a shifted \
+              humidity, where plain calibration drift moves the parameters independently.",
+        params: &[spec("rh_offset_pct", "%RH", Bound::Free, 0.0, 0.0), spec("rh_gain", "1", Bound::Free, 1.0, 1.0)],
+        kind: Kind::Humidity(HumidityMap::SensorError),
+    },
+    Candidate {
+        name: "temperature",
+        family: "environmental: temperature",
+        doc: "The polymer softens and its damping changes with temperature, which the paper held \
+              at 20 °C: ln Y and ln Cs gain terms linear in T − T̄ (and T enters the ionic K). \
+              Parameters: the relative slopes of Y and Cs per kelvin. Testable only when the \
+              recordings' temperature varies; shows as levels whose modulus departs from its \
+              humidity law in step with their temperature.",
+        params: &[spec("dlnY_per_K", "1/K", Bound::Free, 0.0, 0.0), spec("dlnCs_per_K", "1/K", Bound::Free, 0.0, 0.0)],
+        kind: Kind::Humidity(HumidityMap::Temperature),
+    },
+];
+
+pub fn by_name(name: &str) -> Option<&'static Candidate> {
+    LIBRARY.iter().find(|c| c.name == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_core::Calibration;
+
+    /// Every model candidate is the plain model at its `absent` values and something else at
+    /// its start (so a fit can move it and the null is nested in it).
+    #[test]
+    fn model_candidates_nest_the_plain_model() {
+        let p: Params<f64> = Calibration::default_preset().params_at(55.0);
+        for c in LIBRARY {
+            assert_eq!(c.params.iter().filter(|s| s.bound.admits(s.start)).count(), c.params.len(), "{}", c.name);
+            if let Kind::Model(f) = c.kind {
+                let absent: Vec<f64> = c.params.iter().map(|s| s.absent).collect();
+                let x = f(&absent, &p);
+                let s = ipmc_core::model::jw(40.0);
+                let (t, i) = ipmc_core::extension::responses(&p, &x, s);
+                assert!((t - ipmc_core::tip_response(&p, s)).norm() < 1e-9 * t.norm(), "{}", c.name);
+                assert!((i - ipmc_core::current_response(&p, s)).norm() < 1e-9 * i.norm(), "{}", c.name);
+            }
+        }
+        assert!(LIBRARY.len() >= 10);
+    }
+}

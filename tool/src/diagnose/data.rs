@@ -1,0 +1,96 @@
+//! The recordings as `diagnose` fits them: humidity levels of complex responses per frequency,
+//! each with the time, temperature and session it was measured in.
+
+use ipmc_core::C;
+use ipmc_recording::{FrequencyResponse, Response};
+
+/// One visit of one humidity level.
+#[derive(Clone, Debug)]
+pub struct LevelData {
+    /// Which recording (session) the level comes from.
+    pub session: usize,
+    /// Mean humidity reading [%].
+    pub rh_pct: f64,
+    /// Mean temperature [°C], when recorded.
+    pub temp_c: Option<f64>,
+    /// Mean measurement time [s] from the session's start, when recorded.
+    pub time_s: Option<f64>,
+    /// First and last measurement time [s], when recorded.
+    pub time_span: Option<(f64, f64)>,
+    /// Index (into the same `Vec<LevelData>`) of the earlier visit of this humidity.
+    pub revisit_of: Option<usize>,
+    /// Frequencies [Hz], ascending.
+    pub freqs: Vec<f64>,
+    /// Measured W(L)/U and I/U per frequency (None where the channel was not recorded).
+    pub tip: Vec<Option<C<f64>>>,
+    pub current: Vec<Option<C<f64>>>,
+}
+
+/// Every humidity reading of one session in time order: what the polymer's water content
+/// followed (hydration lag).
+#[derive(Clone, Debug, Default)]
+pub struct RhHistory {
+    pub t_s: Vec<f64>,
+    pub rh_pct: Vec<f64>,
+}
+
+/// The input of a diagnosis.
+#[derive(Clone, Debug, Default)]
+pub struct Dataset {
+    pub levels: Vec<LevelData>,
+    pub histories: Vec<RhHistory>,
+}
+
+fn complex(r: &Option<Response>) -> Option<C<f64>> {
+    r.as_ref().map(|r| C::from_polar(r.gain, r.phase_deg.to_radians()))
+}
+
+impl Dataset {
+    /// Groups every recording into levels (the recording crate's grouping) and keeps each
+    /// session's humidity history. Points with a zero gain carry no phase and are dropped.
+    pub fn from_recordings(recs: &[FrequencyResponse]) -> Self {
+        let mut out = Dataset::default();
+        for (session, rec) in recs.iter().enumerate() {
+            let first = out.levels.len();
+            for level in rec.levels() {
+                let n = level.points.len() as f64;
+                let mean = |f: &dyn Fn(&ipmc_recording::FrPoint) -> Option<f64>| -> Option<f64> {
+                    let v: Option<Vec<f64>> = level.points.iter().map(f).collect();
+                    v.map(|v| v.iter().sum::<f64>() / n)
+                };
+                let usable = |r: &Option<Response>| r.as_ref().is_some_and(|r| r.gain > 0.0);
+                let pts: Vec<_> = level.points.iter().filter(|p| usable(&p.tip) || usable(&p.current)).collect();
+                out.levels.push(LevelData {
+                    session,
+                    rh_pct: level.rh_pct,
+                    temp_c: mean(&|p| p.temp_c),
+                    time_s: mean(&|p| p.time_s),
+                    time_span: level.points.iter().map(|p| p.time_s).collect::<Option<Vec<f64>>>().map(|t| {
+                        (t.iter().cloned().fold(f64::INFINITY, f64::min), t.iter().cloned().fold(f64::NEG_INFINITY, f64::max))
+                    }),
+                    revisit_of: level.revisit_of.map(|i| first + i),
+                    freqs: pts.iter().map(|p| p.freq_hz).collect(),
+                    tip: pts.iter().map(|p| if usable(&p.tip) { complex(&p.tip) } else { None }).collect(),
+                    current: pts.iter().map(|p| if usable(&p.current) { complex(&p.current) } else { None }).collect(),
+                });
+            }
+            let mut timed: Vec<(f64, f64)> = rec.points.iter().filter_map(|p| p.time_s.map(|t| (t, p.rh_pct))).collect();
+            timed.sort_by(|a, b| a.0.total_cmp(&b.0));
+            out.histories.push(RhHistory { t_s: timed.iter().map(|x| x.0).collect(), rh_pct: timed.iter().map(|x| x.1).collect() });
+        }
+        out
+    }
+
+    pub fn has_times(&self) -> bool {
+        self.levels.iter().all(|l| l.time_s.is_some())
+    }
+
+    /// Spread of the levels' temperatures [K], 0 when not recorded.
+    pub fn temperature_span(&self) -> f64 {
+        let t: Vec<f64> = self.levels.iter().filter_map(|l| l.temp_c).collect();
+        if t.len() < self.levels.len() || t.is_empty() {
+            return 0.0;
+        }
+        t.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - t.iter().cloned().fold(f64::INFINITY, f64::min)
+    }
+}

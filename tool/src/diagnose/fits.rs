@@ -1,0 +1,432 @@
+//! The fits a diagnosis makes, all through `ipmc_fit::lsq`: the base model per humidity level
+//! (Y, Cs, Ca, d free at each level, so that calibration drift and scatter between levels are
+//! absorbed), the noise of each channel from the scatter between neighbouring points, and the
+//! joint fit of a model candidate's global parameters with every level's base parameters.
+
+use super::data::LevelData;
+use anyhow::{Result, anyhow};
+use ipmc_core::extension::{Extension, responses};
+use ipmc_core::model::jw;
+use ipmc_core::{C, Calibration, ParamName, Params};
+use ipmc_fit::lsq::{self, Bound, Fit, Param};
+use ipmc_fit::noise::{self, ChannelNoise};
+use ipmc_fit::response::{Channel, Point, Sigma, log_ratio};
+
+/// The base parameters refitted at every level: the four the paper identifies per level.
+pub const BASE: [ParamName; 4] = [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::D];
+
+/// ln of the base parameters at one level.
+pub type Theta = [f64; 4];
+
+/// Noise of each channel, from the data.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Noise {
+    pub tip: Option<ChannelNoise>,
+    pub current: Option<ChannelNoise>,
+}
+
+/// σ of every value of one level.
+#[derive(Clone, Debug)]
+pub struct LevelSigmas {
+    pub tip: Vec<Sigma>,
+    pub current: Vec<Sigma>,
+}
+
+/// The level's parameters: the calibration at its humidity (clamped to the declared range: the
+/// laws are not trusted outside it) and temperature, with the base parameters from `theta`.
+pub fn level_params(calib: &Calibration, level: &LevelData, theta: &Theta) -> Params<f64> {
+    let (rh, _) = calib.clamp_rh(level.rh_pct);
+    let mut p: Params<f64> = calib.params_at(rh);
+    for (name, v) in BASE.iter().zip(theta) {
+        p.set(*name, v.exp());
+    }
+    if let Some(t) = level.temp_c {
+        p.t_k = t + 273.15;
+    }
+    p
+}
+
+/// ln of the calibration's base parameters at a humidity (clamped to the declared range).
+pub fn calibration_theta(calib: &Calibration, rh_pct: f64) -> Theta {
+    let q: Params<f64> = calib.params_at(calib.clamp_rh(rh_pct).0);
+    BASE.map(|n| q.get(n).ln())
+}
+
+/// Which values of a level take part (a mask for the mains candidate's excluded points).
+#[derive(Clone, Debug)]
+pub struct Mask {
+    pub tip: Vec<bool>,
+    pub current: Vec<bool>,
+}
+
+impl Mask {
+    pub fn all(level: &LevelData) -> Self {
+        Mask { tip: level.tip.iter().map(|v| v.is_some()).collect(), current: level.current.iter().map(|v| v.is_some()).collect() }
+    }
+    pub fn count(&self) -> usize {
+        2 * (self.tip.iter().filter(|b| **b).count() + self.current.iter().filter(|b| **b).count())
+    }
+}
+
+/// Unweighted ln(measured/model) of a level's values, per channel (None where not measured).
+pub fn log_ratios(level: &LevelData, p: &Params<f64>, x: &Extension<f64>) -> (Vec<Option<C<f64>>>, Vec<Option<C<f64>>>) {
+    let mut tip = Vec::with_capacity(level.freqs.len());
+    let mut cur = Vec::with_capacity(level.freqs.len());
+    for (i, &f) in level.freqs.iter().enumerate() {
+        let (t, c) = responses(p, x, jw(f));
+        tip.push(level.tip[i].map(|m| log_ratio(m, t)));
+        cur.push(level.current[i].map(|m| log_ratio(m, c)));
+    }
+    (tip, cur)
+}
+
+/// Writes the weighted residuals of the masked values (log gain, phase per value).
+pub fn write_residuals(level: &LevelData, sig: &LevelSigmas, mask: &Mask, p: &Params<f64>, x: &Extension<f64>, out: &mut [f64]) {
+    let mut k = 0;
+    for (i, &f) in level.freqs.iter().enumerate() {
+        let (t, c) = responses(p, x, jw(f));
+        for (value, model, s, on) in [(level.tip[i], t, sig.tip[i], mask.tip[i]), (level.current[i], c, sig.current[i], mask.current[i])] {
+            if let (Some(m), true) = (value, on) {
+                let z = log_ratio(m, model);
+                out[k] = z.re / s.ln_gain;
+                out[k + 1] = z.im / s.phase;
+                k += 2;
+            }
+        }
+    }
+}
+
+pub fn chi2(level: &LevelData, sig: &LevelSigmas, mask: &Mask, p: &Params<f64>, x: &Extension<f64>) -> f64 {
+    let mut r = vec![0.0; mask.count()];
+    write_residuals(level, sig, mask, p, x, &mut r);
+    r.iter().map(|v| v * v).sum()
+}
+
+/// The base parameters the level's data determine: d only through the current.
+fn fitted_base(level: &LevelData) -> Vec<usize> {
+    if level.current.iter().any(|c| c.is_some()) { vec![0, 1, 2, 3] } else { vec![0, 1, 2] }
+}
+
+/// How far from the calibration a base parameter may go: e^±7 ≈ ×/÷ 1100. Fitted in ln θ
+/// inside that range, so that a parameter the data do not determine (Cs when the air damping
+/// carries the resonance) drifts in a bounded flat valley instead of overflowing.
+const LN_RANGE: f64 = 7.0;
+
+fn base_bound(calib: &Calibration, level: &LevelData, j: usize) -> Bound {
+    let c = calibration_theta(calib, level.rh_pct)[j];
+    Bound::Between(c - LN_RANGE, c + LN_RANGE)
+}
+
+/// A start strictly inside the bounds.
+fn inside(b: Bound, v: f64) -> f64 {
+    match b {
+        Bound::Between(lo, hi) => v.clamp(lo + 1e-3 * (hi - lo), hi - 1e-3 * (hi - lo)),
+        _ => v,
+    }
+}
+
+/// The resonance makes χ² in Y a narrow valley with side minima a few percent away, where a
+/// local optimizer started from the calibration can stay (the paper staged its fits for the
+/// same reason). A scan of ln Y over ±30 % in 0.5 % steps, the other parameters held, picks
+/// the right valley first.
+fn scan_modulus(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask: &Mask, x: &Extension<f64>, start: &Theta) -> Theta {
+    let mut r = vec![0.0; mask.count()];
+    let mut best = (f64::INFINITY, *start);
+    for k in -60..=60 {
+        let mut th = *start;
+        th[0] += 0.005 * k as f64;
+        write_residuals(level, sig, mask, &level_params(calib, level, &th), x, &mut r);
+        let c: f64 = r.iter().map(|v| v * v).sum();
+        if c < best.0 {
+            best = (c, th);
+        }
+    }
+    best.1
+}
+
+/// Fits the level's base parameters (in ln) with the extension held; returns θ and the fit,
+/// whose estimates and standard errors are of ln θ.
+pub fn fit_level(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask: &Mask, x: &Extension<f64>, start: &Theta) -> Result<(Theta, Fit)> {
+    fit_level_from(calib, level, sig, mask, x, &scan_modulus(calib, level, sig, mask, x, start))
+}
+
+/// One LM run can stop short in the resonance's curved valley (its trust region collapses);
+/// restarting from where it stopped continues, so runs repeat while χ² falls by more than 0.1.
+fn fit_level_from(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask: &Mask, x: &Extension<f64>, start: &Theta) -> Result<(Theta, Fit)> {
+    let (mut theta, mut fit) = fit_level_once(calib, level, sig, mask, x, start)?;
+    for _ in 0..4 {
+        let (t2, f2) = fit_level_once(calib, level, sig, mask, x, &theta)?;
+        let gain = fit.chi2 - f2.chi2;
+        if f2.chi2 < fit.chi2 {
+            (theta, fit) = (t2, f2);
+        }
+        if gain < 0.1 {
+            break;
+        }
+    }
+    Ok((theta, fit))
+}
+
+/// One LM run from a start already in the right valley.
+fn fit_level_once(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask: &Mask, x: &Extension<f64>, start: &Theta) -> Result<(Theta, Fit)> {
+    let free = fitted_base(level);
+    let params: Vec<Param> = free.iter().map(|&k| Param::new(BASE[k].as_str(), base_bound(calib, level, k))).collect();
+    let starts = vec![free.iter().zip(&params).map(|(&k, p)| inside(p.bound, start[k])).collect::<Vec<f64>>()];
+    let theta_of = |v: &[f64]| {
+        let mut th = *start;
+        for (&k, &val) in free.iter().zip(v) {
+            th[k] = val;
+        }
+        th
+    };
+    let fit = lsq::fit(&params, &starts, mask.count(), |v, out| {
+        let p = level_params(calib, level, &theta_of(v));
+        write_residuals(level, sig, mask, &p, x, out);
+    })
+    .map_err(|e| anyhow!("level at {:.1} %RH: {e}", level.rh_pct))?;
+    Ok((theta_of(&fit.estimates), fit))
+}
+
+/// Per-level base fits of a whole dataset; the fits' standard errors of ln θ come along.
+pub struct BaseFits {
+    pub theta: Vec<Theta>,
+    pub se: Vec<Theta>,
+    pub chi2: Vec<f64>,
+    pub residuals: Vec<usize>,
+}
+
+pub fn fit_levels(calib: &Calibration, levels: &[LevelData], sig: &[LevelSigmas], masks: &[Mask], x: &Extension<f64>, starts: &[Theta]) -> Result<BaseFits> {
+    let mut out = BaseFits { theta: vec![], se: vec![], chi2: vec![], residuals: vec![] };
+    for (l, level) in levels.iter().enumerate() {
+        let (theta, fit) = fit_level(calib, level, &sig[l], &masks[l], x, &starts[l])?;
+        // NaN marks a parameter the level's data cannot hold (d without the current).
+        let mut se = [f64::NAN; 4];
+        for (k, name) in BASE.iter().enumerate() {
+            if let Some(s) = fit.std_error(name.as_str()) {
+                se[k] = if s.is_nan() { f64::INFINITY } else { s };
+            }
+        }
+        out.theta.push(theta);
+        out.se.push(se);
+        out.chi2.push(fit.chi2);
+        out.residuals.push(masks[l].count());
+    }
+    Ok(out)
+}
+
+/// σ = 1 everywhere: the first fit, before the noise is known.
+pub fn unit_sigmas(level: &LevelData) -> LevelSigmas {
+    LevelSigmas { tip: vec![Sigma::UNIT; level.freqs.len()], current: vec![Sigma::UNIT; level.freqs.len()] }
+}
+
+/// The noise of each channel from the scatter of neighbouring points: the residuals of the
+/// per-level base fit are smooth wherever the model misses physics, so their local second
+/// difference (linear interpolation in ln f between the two neighbours) keeps the noise and
+/// cancels the structure. Its variance is σ²(1 + w₁² + w₂²) for interpolation weights w; points
+/// over 4σ (a narrow feature, a line) are left out and the estimate repeated, so that they
+/// count as structure, not noise.
+pub fn estimate_noise(calib: &Calibration, levels: &[LevelData], thetas: &[Theta]) -> Noise {
+    let mut per_channel: [(Vec<Point>, Vec<C<f64>>, Vec<f64>); 2] = Default::default();
+    for (level, theta) in levels.iter().zip(thetas) {
+        let p = level_params(calib, level, theta);
+        let (tip, cur) = log_ratios(level, &p, &Extension::default());
+        let ln_f: Vec<f64> = level.freqs.iter().map(|f| f.ln()).collect();
+        for (k, (ratios, values, channel)) in [(&tip, &level.tip, Channel::Tip), (&cur, &level.current, Channel::Current)].into_iter().enumerate() {
+            let idx: Vec<usize> = (0..ratios.len()).filter(|&i| ratios[i].is_some()).collect();
+            for w in idx.windows(3) {
+                let (a, b, c) = (w[0], w[1], w[2]);
+                let span = ln_f[c] - ln_f[a];
+                if span <= 0.0 {
+                    continue;
+                }
+                let wa = (ln_f[c] - ln_f[b]) / span;
+                let wc = 1.0 - wa;
+                let e = ratios[b].unwrap() - ratios[a].unwrap() * wa - ratios[c].unwrap() * wc;
+                let e = e / (1.0 + wa * wa + wc * wc).sqrt();
+                let gain = values[b].unwrap().norm();
+                per_channel[k].0.push(Point { freq_hz: level.freqs[b], channel, value: values[b].unwrap() });
+                per_channel[k].1.push(e);
+                per_channel[k].2.push(gain);
+            }
+        }
+    }
+    let mut out = Noise::default();
+    for (k, channel) in [Channel::Tip, Channel::Current].into_iter().enumerate() {
+        let (mut pts, mut e, mut g) = std::mem::take(&mut per_channel[k]);
+        let mut est = noise::estimate(&pts, &e, &g, channel, 0);
+        for _ in 0..2 {
+            let Some(n) = est else { break };
+            let keep: Vec<bool> = e
+                .iter()
+                .zip(&g)
+                .map(|(e, &g)| e.re.abs() <= 4.0 * n.sigma(g) && e.im.abs() <= 4.0 * n.sigma(g))
+                .collect();
+            let kept = |i: &usize| keep[*i];
+            let idx: Vec<usize> = (0..keep.len()).filter(kept).collect();
+            pts = idx.iter().map(|&i| pts[i]).collect();
+            e = idx.iter().map(|&i| e[i]).collect();
+            g = idx.iter().map(|&i| g[i]).collect();
+            // Dropping the tails of a Gaussian at 4σ shrinks its variance by < 0.1 %.
+            est = noise::estimate(&pts, &e, &g, channel, 0).or(est);
+        }
+        match channel {
+            Channel::Tip => out.tip = est,
+            Channel::Current => out.current = est,
+        }
+    }
+    out
+}
+
+/// σ of each value from the noise model at the measured gain (fixed through the fits).
+pub fn sigmas(level: &LevelData, noise: &Noise) -> LevelSigmas {
+    let one = |v: &Option<C<f64>>, n: &Option<ChannelNoise>| match (v, n) {
+        (Some(v), Some(n)) => Sigma { ln_gain: n.sigma(v.norm()).max(1e-6), phase: n.sigma(v.norm()).max(1e-6) },
+        _ => Sigma::UNIT,
+    };
+    LevelSigmas {
+        tip: level.tip.iter().map(|v| one(v, &noise.tip)).collect(),
+        current: level.current.iter().map(|v| one(v, &noise.current)).collect(),
+    }
+}
+
+/// A model candidate fitted jointly with every level's base parameters.
+pub struct JointFit {
+    pub phi: Vec<f64>,
+    pub phi_se: Vec<f64>,
+    pub theta: Vec<Theta>,
+    pub se: Vec<Theta>,
+    pub chi2: Vec<f64>,
+}
+
+/// Joint fit of `specs` (global, mapped to an extension by `ext`) and every level's base
+/// parameters, by block coordinates: the global parameters with the levels' held, then each
+/// level with the global ones held, until χ² stops falling by 0.1 (at most 6 sweeps). A dense
+/// fit of all 4·levels + k parameters at once costs a model evaluation of every level per
+/// parameter and per iteration, 10–50× more; block sweeps reach the same optimum where the
+/// global parameters are not degenerate with one level's, and where they are, χ² is flat along
+/// the degeneracy, so what is left is not evidence for the candidate anyway. The global
+/// parameters' standard errors are conditional on the levels' (smaller than marginal ones when
+/// strongly correlated with them).
+#[allow(clippy::too_many_arguments)]
+pub fn fit_joint(
+    calib: &Calibration,
+    levels: &[LevelData],
+    sig: &[LevelSigmas],
+    masks: &[Mask],
+    specs: &[super::candidates::Spec],
+    ext: fn(&[f64], &Params<f64>) -> Extension<f64>,
+    base: &[Theta],
+    phi_start: &[f64],
+) -> Result<JointFit> {
+    // The global step carries one common change of ln Y at every level along with the
+    // candidate's parameters: a tip mass or a compliant clamp lowers the resonance at every
+    // level, and Y must follow it at once or the step sees only the mismatch it creates.
+    let mut params: Vec<Param> = specs.iter().map(|s| Param::new(s.name, s.bound)).collect();
+    params.push(Param::new("common dlnY", Bound::Between(-0.7, 0.7)));
+    let k = specs.len();
+    let counts: Vec<usize> = masks.iter().map(|m| m.count()).collect();
+    let total: usize = counts.iter().sum();
+    let mut theta: Vec<Theta> = base.to_vec();
+    let mut se = vec![[f64::NAN; 4]; levels.len()];
+    let mut chi2 = vec![0.0; levels.len()];
+    let mut phi = phi_start.to_vec();
+    let mut phi_se = vec![f64::NAN; phi.len()];
+    let mut last = f64::INFINITY;
+    for _sweep in 0..6 {
+        let mut start = phi.clone();
+        start.push(0.0);
+        let global = lsq::fit(&params, &[start], total, |v, out| {
+            let mut at = 0;
+            for (l, level) in levels.iter().enumerate() {
+                let mut th = theta[l];
+                th[0] += v[k];
+                let p = level_params(calib, level, &th);
+                write_residuals(level, &sig[l], &masks[l], &p, &ext(&v[..k], &p), &mut out[at..at + counts[l]]);
+                at += counts[l];
+            }
+        })
+        .map_err(|e| anyhow!("joint fit: {e}"))?;
+        phi = global.estimates[..k].to_vec();
+        phi_se = global.std_errors[..k].to_vec();
+        for th in theta.iter_mut() {
+            th[0] += global.estimates[k];
+        }
+        for (l, level) in levels.iter().enumerate() {
+            let p = level_params(calib, level, &theta[l]);
+            let x = ext(&phi, &p);
+            let (th, fit) = fit_level_from(calib, level, &sig[l], &masks[l], &x, &theta[l])?;
+            theta[l] = th;
+            chi2[l] = fit.chi2;
+            for (k, name) in BASE.iter().enumerate() {
+                if let Some(s) = fit.std_error(name.as_str()) {
+                    se[l][k] = if s.is_nan() { f64::INFINITY } else { s };
+                }
+            }
+        }
+        let now: f64 = chi2.iter().sum();
+        if last - now < 0.1 {
+            break;
+        }
+        last = now;
+    }
+    Ok(JointFit { phi, phi_se, theta, se, chi2 })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A level made by the model with drifted parameters: the per-level fit from the
+    /// calibration finds them back.
+    #[test]
+    fn level_fit_recovers_drifted_parameters() {
+        let calib = Calibration::default_preset();
+        let rh = 52.0;
+        let mut p: Params<f64> = calib.params_at(rh);
+        p.y *= 1.04;
+        p.cs *= 0.8;
+        p.ca *= 1.3;
+        p.d *= 1.5;
+        let freqs: Vec<f64> = crate::conceal::FREQS.to_vec();
+        let level = LevelData {
+            session: 0,
+            rh_pct: rh,
+            temp_c: None,
+            time_s: None,
+            time_span: None,
+            revisit_of: None,
+            tip: freqs.iter().map(|&f| Some(ipmc_core::tip_response(&p, jw(f)))).collect(),
+            current: freqs.iter().map(|&f| Some(ipmc_core::current_response(&p, jw(f)))).collect(),
+            freqs,
+        };
+        let sig = LevelSigmas { tip: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29], current: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29] };
+        let (theta, fit) = fit_level(&calib, &level, &sig, &Mask::all(&level), &Extension::default(), &calibration_theta(&calib, rh)).unwrap();
+        let want = BASE.map(|n| p.get(n).ln());
+        assert!(fit.chi2 < 1e-6, "χ² {} at {theta:?}, want {want:?}", fit.chi2);
+    }
+}
+
+/// How structured the residuals are: the correlation of each weighted residual with its
+/// neighbour in frequency (same level, channel and component), as a z. A model that misses
+/// physics leaves residuals that are smooth in frequency (z ≫ 0) whatever the noise level; noise,
+/// even misjudged in size, leaves them uncorrelated (z ≈ 0 ± 1).
+pub fn structure_z(calib: &Calibration, levels: &[LevelData], sig: &[LevelSigmas], masks: &[Mask], theta: &[Theta], ext: &[Extension<f64>]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (l, level) in levels.iter().enumerate() {
+        let p = level_params(calib, level, &theta[l]);
+        let (tip, cur) = log_ratios(level, &p, &ext[l]);
+        for (ratios, sigmas, on) in [(&tip, &sig[l].tip, &masks[l].tip), (&cur, &sig[l].current, &masks[l].current)] {
+            let r: Vec<C<f64>> = (0..ratios.len())
+                .filter(|&i| on[i])
+                .filter_map(|i| ratios[i].map(|z| C::new(z.re / sigmas[i].ln_gain, z.im / sigmas[i].phase)))
+                .collect();
+            for w in r.windows(2) {
+                for (a, b) in [(w[0].re, w[1].re), (w[0].im, w[1].im)] {
+                    num += a * b;
+                    den += a * a * b * b;
+                }
+            }
+        }
+    }
+    if den > 0.0 { num / den.sqrt() } else { 0.0 }
+}

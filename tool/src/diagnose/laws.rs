@@ -1,0 +1,263 @@
+//! Humidity laws over levels: how the per-level base parameters follow humidity, and through
+//! which humidity. This is where the held-out levels get their parameters (from laws fitted on
+//! the other levels), and where candidates that change the humidity the sample lives at
+//! (hydration lag, humidity sensor error, temperature) are fitted and scored.
+//!
+//! ln θ_j is regressed on the humidity x (quadratic, as the paper's laws; linear or constant when
+//! there are few levels), weighted by 1/(SE² + τ_j²): SE from the level's fit and τ_j the scatter
+//! between levels that no law explains (estimated once, under the plain law, and then held for
+//! every candidate so that their χ² are comparable).
+
+use super::data::{LevelData, RhHistory};
+use super::fits::{Theta, calibration_theta};
+use ipmc_core::Calibration;
+use nalgebra::{DMatrix, DVector};
+
+/// The humidity each level's parameters follow, and optional extra regressors.
+#[derive(Clone, Debug)]
+pub struct Regressors {
+    /// Humidity per level [%].
+    pub x: Vec<f64>,
+    /// Temperature minus its mean per level [K], when a temperature term is fitted (for ln Y
+    /// and ln Cs only).
+    pub temperature: Option<Vec<f64>>,
+}
+
+/// Weighted least squares of y on the rows; `None` when singular.
+fn wls(rows: &[Vec<f64>], y: &[f64], w: &[f64]) -> Option<Vec<f64>> {
+    let (n, k) = (rows.len(), rows.first()?.len());
+    if n < k {
+        return None;
+    }
+    let a = DMatrix::from_fn(n, k, |i, j| rows[i][j] * w[i].sqrt());
+    let b = DVector::from_fn(n, |i, _| y[i] * w[i].sqrt());
+    let svd = a.svd(true, true);
+    svd.solve(&b, 1e-10).ok().map(|c| c.iter().copied().collect())
+}
+
+fn row(reg: &Regressors, l: usize, j: usize, degree: usize) -> Vec<f64> {
+    let u = (reg.x[l] - 60.0) / 20.0;
+    let mut r: Vec<f64> = (0..=degree).map(|d| u.powi(d as i32)).collect();
+    if let Some(t) = &reg.temperature
+        && j < 2
+    {
+        r.push(t[l]);
+    }
+    r
+}
+
+fn degree_for(n_train: usize) -> usize {
+    match n_train {
+        0..=2 => 0,
+        3..=4 => 1,
+        _ => 2,
+    }
+}
+
+/// Scatter between levels per component and the weights it gives.
+#[derive(Clone, Debug)]
+pub struct LawWeights {
+    pub tau2: [f64; 4],
+}
+
+impl LawWeights {
+    /// 1/(SE² + τ²), with SE capped at 1 (a factor e): a parameter a fit leaves undetermined
+    /// weighs like a poorly known one, not like none. Components not fitted (NaN) weigh 0.
+    pub fn weight(&self, se: &Theta, j: usize) -> f64 {
+        if se[j].is_nan() {
+            return 0.0;
+        }
+        let v = se[j].min(1.0).powi(2) + self.tau2[j];
+        if v > 0.0 { 1.0 / v } else { 0.0 }
+    }
+
+    /// τ_j² by moments from the plain law's residuals: their mean square minus the fits' own
+    /// variance, iterated with the weights it gives.
+    pub fn estimate(reg: &Regressors, theta: &[Theta], se: &[Theta]) -> Self {
+        let mut w = LawWeights { tau2: [0.0; 4] };
+        let all: Vec<usize> = (0..theta.len()).collect();
+        for _ in 0..3 {
+            for j in 0..4 {
+                let rows: Vec<usize> = all.iter().copied().filter(|&l| !se[l][j].is_nan()).collect();
+                let deg = degree_for(rows.len());
+                if rows.len() <= deg + 1 {
+                    continue;
+                }
+                let x: Vec<Vec<f64>> = rows.iter().map(|&l| row(reg, l, j, deg)).collect();
+                let y: Vec<f64> = rows.iter().map(|&l| theta[l][j]).collect();
+                let wt: Vec<f64> = rows.iter().map(|&l| w.weight(&se[l], j)).collect();
+                let Some(c) = wls(&x, &y, &wt) else { continue };
+                let dof = (rows.len() - c.len()).max(1) as f64;
+                let ms = rows.iter().zip(&x).map(|(&l, r)| (theta[l][j] - dot(r, &c)).powi(2)).sum::<f64>() / dof;
+                let own = rows.iter().map(|&l| se[l][j].min(1.0).powi(2)).sum::<f64>() / rows.len() as f64;
+                w.tau2[j] = (ms - own).max(1e-8);
+            }
+        }
+        w
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Fits the laws on `train` and predicts θ at `at` (components without data predict NaN).
+pub fn predict(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights, train: &[usize], at: usize) -> Theta {
+    let mut out = [f64::NAN; 4];
+    for (j, o) in out.iter_mut().enumerate() {
+        let rows: Vec<usize> = train.iter().copied().filter(|&l| !se[l][j].is_nan()).collect();
+        let deg = degree_for(rows.len());
+        let x: Vec<Vec<f64>> = rows.iter().map(|&l| row(reg, l, j, deg)).collect();
+        let y: Vec<f64> = rows.iter().map(|&l| theta[l][j]).collect();
+        let wt: Vec<f64> = rows.iter().map(|&l| w.weight(&se[l], j)).collect();
+        if let Some(c) = wls(&x, &y, &wt) {
+            *o = dot(&row(reg, at, j, deg), &c);
+        }
+    }
+    out
+}
+
+/// The law's coefficients for component j fitted on all levels ([1, u, u², (T − T̄)], u the
+/// humidity scaled as (x − 60)/20).
+pub fn coefficients(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights, j: usize) -> Vec<f64> {
+    let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan()).collect();
+    let deg = degree_for(rows.len());
+    let x: Vec<Vec<f64>> = rows.iter().map(|&l| row(reg, l, j, deg)).collect();
+    let y: Vec<f64> = rows.iter().map(|&l| theta[l][j]).collect();
+    let wt: Vec<f64> = rows.iter().map(|&l| w.weight(&se[l], j)).collect();
+    wls(&x, &y, &wt).unwrap_or_default()
+}
+
+/// Weighted χ² of the laws fitted on all levels, and their parameter count.
+pub fn chi2(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights) -> (f64, usize) {
+    let mut total = 0.0;
+    let mut k = 0;
+    for j in 0..4 {
+        let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan()).collect();
+        let deg = degree_for(rows.len());
+        let x: Vec<Vec<f64>> = rows.iter().map(|&l| row(reg, l, j, deg)).collect();
+        let y: Vec<f64> = rows.iter().map(|&l| theta[l][j]).collect();
+        let wt: Vec<f64> = rows.iter().map(|&l| w.weight(&se[l], j)).collect();
+        if let Some(c) = wls(&x, &y, &wt) {
+            k += c.len();
+            total += rows.iter().zip(&x).zip(&wt).map(|((&l, r), wi)| wi * (theta[l][j] - dot(r, &c)).powi(2)).sum::<f64>();
+        }
+    }
+    (total, k)
+}
+
+/// The calibration's θ at each level's humidity mapped by a sensor offset and gain.
+pub fn calibration_at_mapped(calib: &Calibration, levels: &[LevelData], offset: f64, gain: f64) -> Vec<Theta> {
+    levels.iter().map(|l| calibration_theta(calib, mapped_rh(l.rh_pct, offset, gain))).collect()
+}
+
+/// RH_true = RH_read + o + (g − 1)(RH_read − 60): gain about the middle of the range, so that
+/// offset and gain are nearly uncorrelated.
+pub fn mapped_rh(read: f64, offset: f64, gain: f64) -> f64 {
+    read + offset + (gain - 1.0) * (read - 60.0)
+}
+
+/// The polymer's humidity behind a first-order lag τ [s] of the readings, averaged over each
+/// level's time span. The readings are taken as linear between samples (the chamber moves
+/// smoothly between levels); the lag starts in equilibrium with the first reading.
+pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> Vec<f64> {
+    let lagged: Vec<Vec<f64>> = histories
+        .iter()
+        .map(|h| {
+            let mut out = Vec::with_capacity(h.t_s.len());
+            let mut state = h.rh_pct.first().copied().unwrap_or(0.0);
+            for i in 0..h.t_s.len() {
+                if i > 0 {
+                    let dt = (h.t_s[i] - h.t_s[i - 1]).max(0.0);
+                    let slope = if dt > 0.0 { (h.rh_pct[i] - h.rh_pct[i - 1]) / dt } else { 0.0 };
+                    let e = (-dt / tau_s).exp();
+                    // Exact for a linear input: h(Δ) = u₁ − aτ + (h₀ − u₀ + aτ)e^(−Δ/τ).
+                    state = h.rh_pct[i] - slope * tau_s + (state - h.rh_pct[i - 1] + slope * tau_s) * e;
+                }
+                out.push(state);
+            }
+            out
+        })
+        .collect();
+    levels
+        .iter()
+        .map(|l| {
+            let (Some((t0, t1)), Some(h)) = (l.time_span, histories.get(l.session)) else { return l.rh_pct };
+            let vals: Vec<f64> = h.t_s.iter().zip(&lagged[l.session]).filter(|(t, _)| **t >= t0 && **t <= t1).map(|(_, v)| *v).collect();
+            if vals.is_empty() { l.rh_pct } else { vals.iter().sum::<f64>() / vals.len() as f64 }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lag_follows_a_step_exponentially() {
+        let t: Vec<f64> = (0..=200).map(|i| i as f64).collect();
+        let rh: Vec<f64> = t.iter().map(|&t| if t < 10.0 { 40.0 } else { 60.0 }).collect();
+        let hist = RhHistory { t_s: t.clone(), rh_pct: rh };
+        let lvl = |a: f64, b: f64| LevelData {
+            session: 0,
+            rh_pct: 60.0,
+            temp_c: None,
+            time_s: Some((a + b) / 2.0),
+            time_span: Some((a, b)),
+            revisit_of: None,
+            freqs: vec![],
+            tip: vec![],
+            current: vec![],
+        };
+        let got = lagged_rh(&[lvl(60.0, 60.0)], &[hist], 50.0)[0];
+        // the step is a 1 s ramp from 9 to 10 s: about 50 s of lag after it
+        let want = 60.0 - 20.0 * (-(60.0 - 9.5) / 50.0f64).exp();
+        assert!((got - want).abs() < 0.1, "{got} vs {want}");
+    }
+
+    #[test]
+    fn laws_predict_a_quadratic_exactly() {
+        let x: Vec<f64> = (0..8).map(|i| 40.0 + 5.0 * i as f64).collect();
+        let theta: Vec<Theta> = x.iter().map(|&v| [1.0 + 0.01 * v, 2.0 - 1e-4 * v * v, 0.0, -30.0 + 0.05 * v]).collect();
+        let se = vec![[0.01; 4]; x.len()];
+        let reg = Regressors { x, temperature: None };
+        let w = LawWeights::estimate(&reg, &theta, &se);
+        let train: Vec<usize> = (0..8).filter(|&l| l != 3).collect();
+        let p = predict(&reg, &theta, &se, &w, &train, 3);
+        for j in 0..4 {
+            assert!((p[j] - theta[3][j]).abs() < 1e-9);
+        }
+    }
+}
+
+/// In-sample predictions of the laws fitted on all levels (weights re-estimated for these
+/// regressors) and the laws' parameter count.
+pub fn fitted(reg: &Regressors, theta: &[Theta], se: &[Theta]) -> (Vec<Theta>, usize) {
+    let w = LawWeights::estimate(reg, theta, se);
+    let all: Vec<usize> = (0..theta.len()).collect();
+    let pred = (0..theta.len()).map(|l| predict(reg, theta, se, &w, &all, l)).collect();
+    (pred, chi2(reg, theta, se, &w).1)
+}
+
+/// −2 log-likelihood (up to a constant) of the levels' θ around predictions, each component
+/// with its own scatter between levels τ_j² estimated from these residuals: Σ r²/v + ln v with
+/// v = SE² + τ_j². Unlike a χ² at fixed weights, it lets a model that explains the scatter
+/// (temperature, hydration) show it.
+pub fn nll(pred: &[Theta], theta: &[Theta], se: &[Theta]) -> f64 {
+    let mut total = 0.0;
+    for j in 0..4 {
+        let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan() && pred[l][j].is_finite()).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let n = rows.len() as f64;
+        let ms = rows.iter().map(|&l| (theta[l][j] - pred[l][j]).powi(2)).sum::<f64>() / n;
+        let own = rows.iter().map(|&l| se[l][j].min(1.0).powi(2)).sum::<f64>() / n;
+        let tau2 = (ms - own).max(1e-8);
+        for &l in &rows {
+            let v = se[l][j].min(1.0).powi(2) + tau2;
+            total += (theta[l][j] - pred[l][j]).powi(2) / v + v.ln();
+        }
+    }
+    total
+}

@@ -1,0 +1,114 @@
+//! The diagnosis as report.json (for programs) and report.md (for people).
+
+use super::candidates::by_name;
+use super::engine::Diagnosis;
+use serde_json::json;
+use std::fmt::Write as _;
+
+pub fn json(d: &Diagnosis, inputs: &[String], calib: &str) -> serde_json::Value {
+    json!({
+        "verdict": d.verdict,
+        "family": d.family,
+        "explanation": d.explanation,
+        "params": d.params,
+        "heldout_before": d.heldout_before,
+        "heldout_after": d.heldout_after,
+        "heldout_unit": "held-out χ² per residual, leave-one-level-out (1 = at the noise)",
+        "located": d.located,
+        "candidates": d.candidates,
+        "levels": d.levels,
+        "noise": {
+            "tip": d.noise.tip,
+            "current": d.noise.current,
+        },
+        "inputs": inputs,
+        "calibration": calib,
+    })
+}
+
+fn fmt_value(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e4).contains(&v.abs()) { format!("{v:.4}") } else { format!("{v:.3e}") }
+}
+
+pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Diagnosis\n");
+    let _ = writeln!(s, "Recordings: {}  \nCalibration: {calib}\n", inputs.join(", "));
+    let verdict = match d.verdict.as_str() {
+        "none" => "**No missing physics above the noise.**".to_string(),
+        "unexplained" => format!("**Unexplained:** {}.", d.explanation),
+        v => format!("**{v}** ({}): {}.", d.family, d.explanation),
+    };
+    let _ = writeln!(s, "## Verdict\n\n{verdict}\n");
+    if let Some(c) = by_name(&d.verdict) {
+        let _ = writeln!(s, "{}\n", c.doc);
+        let _ = writeln!(s, "| parameter | value | standard error | unit |\n|---|---|---|---|");
+        for p in &d.params {
+            let _ = writeln!(s, "| {} | {} | {} | {} |", p.name, fmt_value(p.value), fmt_value(p.std_error), p.unit);
+        }
+        let _ = writeln!(s);
+    }
+    let _ = writeln!(
+        s,
+        "Held-out error (each humidity level predicted from humidity laws fitted on the others; χ² per residual, 1 = at the noise): **{:.3} before, {:.3} after**.\n",
+        d.heldout_before, d.heldout_after
+    );
+    let c = &d.located.calibration;
+    let _ = writeln!(s, "## Compare\n");
+    let _ = writeln!(
+        s,
+        "The calibration as given fits with χ²/residual {:.2}; refitting Y, Cs, Ca and d at every level brings it to {:.2}. Mean drift from the calibration: Y {:+.1} %, Cs {:+.1} %, Ca {:+.1} %, d {:+.1} %.\n",
+        c.simulation_chi2_per_residual, c.refit_chi2_per_residual, c.drift_pct[0], c.drift_pct[1], c.drift_pct[2], c.drift_pct[3]
+    );
+    let fmt_noise = |n: &Option<ipmc_fit::noise::ChannelNoise>| match n {
+        Some(n) => format!("relative {:.2e} (ln gain and phase [rad]) + floor {:.2e}", n.rel, n.floor),
+        None => "not recorded".into(),
+    };
+    let _ = writeln!(s, "Noise from neighbouring-point scatter: tip {}; current {}.\n", fmt_noise(&d.noise.tip), fmt_noise(&d.noise.current));
+    let _ = writeln!(s, "## Locate\n\n{}.\n", d.located.summary);
+    let _ = writeln!(s, "| where | residuals | χ²/residual | z |\n|---|---|---|---|");
+    for r in d.located.channels.iter().chain(&d.located.frequency).chain(&d.located.levels) {
+        let _ = writeln!(s, "| {} | {} | {:.2} | {:.1} |", r.name, r.residuals, r.chi2_per_residual, r.z);
+    }
+    let r = &d.located.resonance_disagreement;
+    let _ = writeln!(s, "| {} | {} levels | {:.2} | {:.1} |", r.name, r.residuals, r.chi2_per_residual, r.z);
+    if let Some(t) = &d.located.temperature {
+        let _ = writeln!(s, "| {} | {} levels | | {:.1} |", t.name, t.residuals, t.z);
+    }
+    for h in &d.located.hysteresis {
+        let _ = writeln!(s, "| revisit of {:.1} %RH (levels {} → {}) | | | {:.1} |", h.rh_pct, h.first_level, h.revisit_level, h.combined_z);
+    }
+    for t in &d.located.trends {
+        let _ = writeln!(s, "| trend of {} {} with ln f (ρ = {:.2}) | | | {:.1} |", t.channel, t.component, t.correlation, t.z);
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(s, "## Candidates\n");
+    let _ = writeln!(
+        s,
+        "Passing needs ΔBIC ≥ {} against no extension and a held-out improvement with paired z ≥ {}.\n",
+        super::engine::MIN_DELTA_BIC,
+        super::engine::MIN_HELDOUT_Z
+    );
+    let _ = writeln!(s, "| candidate | family | ΔBIC | held-out | z | parameters | note |\n|---|---|---|---|---|---|---|");
+    for c in &d.candidates {
+        let params: Vec<String> = c.params.iter().map(|p| format!("{} = {} ± {} {}", p.name, fmt_value(p.value), fmt_value(p.std_error), p.unit)).collect();
+        if c.applicable {
+            let _ = writeln!(
+                s,
+                "| {}{} | {} | {:.1} | {:.3} | {:.1} | {} | {} |",
+                c.name,
+                if c.passes { " ✔" } else { "" },
+                c.family,
+                c.delta_bic,
+                c.heldout,
+                c.heldout_z,
+                params.join("; "),
+                c.note
+            );
+        } else {
+            let _ = writeln!(s, "| {} | {} | – | – | – | – | not testable: {} |", c.name, c.family, c.note);
+        }
+    }
+    let _ = writeln!(s);
+    s
+}
