@@ -18,8 +18,8 @@
 //! those the largest ΔBIC wins, the held-out score breaking near-ties (ΔBIC within 2, where the
 //! runner-up is named as indistinguishable). With none passing, the verdict is "none" if the
 //! per-level refit leaves no structured residual (neighbour correlation, [`fits::structure_z`]),
-//! "unexplained" if it does; a winner that removes less than half of a structured residual's
-//! neighbour correlation also gives "unexplained".
+//! "unexplained" if it does. A winner that removes less than half of a structured residual's
+//! neighbour correlation is still named (it passed both gates), with the remainder reported.
 
 use super::candidates::{Candidate, HumidityMap, Kind, LIBRARY};
 use super::data::Dataset;
@@ -265,36 +265,36 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             // Candidates acting through humidity explain the levels' parameters, not the shape
             // within a level: the structure test is for candidates fitted to the data.
             let explained = if structured && s.space == "data" { 1.0 - after.max(0.0) / structure_before } else { 1.0 };
-            if structured && after > STRUCTURED_Z && explained < 0.5 {
-                (
-                    "unexplained".to_string(),
-                    String::new(),
-                    format!(
-                        "a structured residual ({}) remains: the best candidate, {}, explains {:.0} % of it",
-                        located.summary,
-                        s.name,
-                        100.0 * explained
-                    ),
-                    vec![],
-                    heldout_before,
+            // A candidate that passes both gates explains part of the mismatch even when a
+            // structured residual remains (a second effect, or a law the candidate approximates):
+            // "unexplained" is for a residual no candidate explains, so the winner is named and
+            // the remainder reported with it.
+            let remainder = if structured && after > STRUCTURED_Z && explained < 0.5 {
+                format!(
+                    "; a structured residual remains ({}): {} explains {:.0} % of its neighbour correlation",
+                    located.summary,
+                    s.name,
+                    100.0 * explained.max(0.0)
                 )
             } else {
-                (
-                    s.name.clone(),
-                    s.family.clone(),
-                    format!(
-                        "{} (ΔBIC {:.1}, held-out χ²/residual {:.3} → {:.3}, z = {:.1}){}",
-                        s.name,
-                        s.delta_bic,
-                        heldout_before,
-                        s.heldout,
-                        s.heldout_z,
-                        runner_up.map_or(String::new(), |r| format!("; {} fits as well (ΔBIC {:.1}): the data cannot tell them apart", scores[r].name, scores[r].delta_bic))
-                    ),
-                    s.params.clone(),
+                String::new()
+            };
+            (
+                s.name.clone(),
+                s.family.clone(),
+                format!(
+                    "{} (ΔBIC {:.1}, held-out χ²/residual {:.3} → {:.3}, z = {:.1}){}{}",
+                    s.name,
+                    s.delta_bic,
+                    heldout_before,
                     s.heldout,
-                )
-            }
+                    s.heldout_z,
+                    runner_up.map_or(String::new(), |r| format!("; {} fits as well (ΔBIC {:.1}): the data cannot tell them apart", scores[r].name, scores[r].delta_bic)),
+                    remainder
+                ),
+                s.params.clone(),
+                s.heldout,
+            )
         }
         None if structured => (
             "unexplained".to_string(),
