@@ -1,8 +1,9 @@
 //! `ipmc diagnose REC.csv... [--calib CALIB] --report DIR`: why simulation and recordings
-//! differ. Writes DIR/report.md and DIR/report.json (see `crate::diagnose`).
+//! differ. Writes DIR/report.md, DIR/report.json and the figures (SVG and PNG; see
+//! `crate::diagnose`).
 
 use crate::commands::write_atomically;
-use crate::diagnose::{data::Dataset, engine, report};
+use crate::diagnose::{data::Dataset, engine, figures, report};
 use anyhow::{Context, Result};
 use ipmc_recording::{Format as _, FrequencyResponse};
 use std::path::{Path, PathBuf};
@@ -15,7 +16,7 @@ pub struct Args {
     /// Calibration: `default`, `paper` or a TOML file (`ipmc calib-export`).
     #[arg(long)]
     calib: Option<String>,
-    /// Directory for report.md and report.json (created if missing).
+    /// Directory for report.md, report.json and the figures as SVG and PNG (created if missing).
     #[arg(long)]
     report: PathBuf,
     /// No progress bar.
@@ -32,11 +33,12 @@ pub fn read_dataset(paths: &[PathBuf]) -> Result<Dataset> {
     Ok(Dataset::from_recordings(&recs))
 }
 
-pub fn write_report(dir: &Path, d: &engine::Diagnosis, inputs: &[String], calib: &str) -> Result<()> {
+pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let json = report::json(d, inputs, calib);
+    let drawn = figures::draw(dir, d, data)?;
+    let json = report::json(d, inputs, calib, &drawn);
     write_atomically(&dir.join("report.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
-    write_atomically(&dir.join("report.md"), report::markdown(d, inputs, calib).as_bytes())?;
+    write_atomically(&dir.join("report.md"), report::markdown(d, inputs, calib, &drawn).as_bytes())?;
     Ok(())
 }
 
@@ -52,11 +54,63 @@ pub fn run(a: Args) -> Result<()> {
     bar.finish_and_clear();
     let inputs: Vec<String> = a.recordings.iter().map(|p| p.display().to_string()).collect();
     let calib_name = a.calib.as_deref().unwrap_or("default");
-    write_report(&a.report, &d, &inputs, calib_name)?;
+    write_report(&a.report, &d, &data, &inputs, calib_name)?;
     println!("verdict: {}", d.verdict);
     println!("{}", d.explanation);
     println!("located: {}", d.located.summary);
     println!("held-out χ²/residual: {:.3} → {:.3}", d.heldout_before, d.heldout_after);
     println!("report: {}", a.report.join("report.md").display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::conceal::{Strength, make_case_with};
+
+    /// Runs the command on a generated case and checks every figure report.json lists: present
+    /// as SVG and PNG, each a valid non-empty file of its kind, linked from report.md; the
+    /// residual map has an "after" panel exactly when the verdict names an effect.
+    fn figures_of(effect: Option<&'static str>, seed: u64) {
+        let calib = ipmc_core::Calibration::default_preset();
+        let dir = std::env::temp_dir().join(format!("ipmc-diagnose-figures-{}-{}", effect.unwrap_or("clean"), std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let rec = dir.join("REC.csv");
+        std::fs::write(&rec, make_case_with(&calib, effect, seed, Strength::At(0.9)).recording.to_csv().unwrap()).unwrap();
+        let report_dir = dir.join("report");
+        run(Args { recordings: vec![rec], calib: None, report: report_dir.clone(), quiet: true }).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(report_dir.join("report.json")).unwrap()).unwrap();
+        let md = std::fs::read_to_string(report_dir.join("report.md")).unwrap();
+        let names: Vec<&str> = json["figures"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+        assert!(names.contains(&"residual-map.svg") && names.contains(&"residual-map.png"), "{names:?}");
+        assert!(names.iter().any(|n| n.starts_with("bode-level")), "{names:?}");
+        for name in &names {
+            let bytes = std::fs::read(report_dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+            if name.ends_with(".svg") {
+                let text = String::from_utf8(bytes).unwrap();
+                assert!(text.contains("<svg") && text.trim_end().ends_with("</svg>"), "{name} is not an SVG");
+                assert!(text.contains("<rect") || text.contains("<polyline"), "{name} draws nothing");
+            } else {
+                assert!(bytes.len() > 1000 && bytes[..8] == *b"\x89PNG\r\n\x1a\n", "{name} is not a PNG");
+            }
+            assert!(md.contains(&format!("]({name})")), "report.md does not link {name}");
+        }
+        let map = std::fs::read_to_string(report_dir.join("residual-map.svg")).unwrap();
+        let verdict = json["verdict"].as_str().unwrap();
+        let named = verdict != "none" && verdict != "unexplained";
+        assert_eq!(map.contains("after: augmented with"), named, "verdict {verdict}");
+        if named {
+            assert!(std::fs::read_to_string(report_dir.join(names.iter().find(|n| n.starts_with("bode-level") && n.ends_with(".svg")).unwrap())).unwrap().contains("augmented"));
+        }
+    }
+
+    #[test]
+    fn figures_with_an_effect() {
+        figures_of(Some("tip_mass"), 3);
+    }
+
+    #[test]
+    fn figures_of_a_clean_case() {
+        figures_of(None, 4);
+    }
 }

@@ -202,7 +202,7 @@ pub fn run(a: Args) -> Result<()> {
     print_summary(&level_fits, &laws);
     println!("wrote {} and {}", a.out.display(), a.levels.display());
     if let Some(dir) = &a.plots {
-        let models = fits.iter().map(|(l, f)| LevelModel { level: (*l).clone(), params: f.params }).collect();
+        let models = fits.iter().map(|(l, f)| LevelModel::new((*l).clone(), f.params)).collect();
         let title = format!("{source}: measured (dots) vs identified model (lines)");
         let bode = render(&Bode { title, levels: models }, &dir.join("bode"), (1600, 1000))?;
         let title = format!("{source}: identified parameters vs humidity, laws of {}", a.out.display());

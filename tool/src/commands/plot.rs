@@ -86,7 +86,7 @@ pub fn run(a: Args) -> Result<()> {
                 if let Some(fitted) = &fitted {
                     apply_fitted(&mut params, fitted, k, level.rh_pct)?;
                 }
-                models.push(LevelModel { level, params });
+                models.push(LevelModel::new(level, params));
             }
             let source = if levels.is_some() { "identified parameters" } else { "calibration" };
             let title = format!("{}: measured (dots) vs model from the {source} (lines)", file_name(&recording));

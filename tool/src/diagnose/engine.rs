@@ -82,6 +82,17 @@ pub struct LevelSummary {
     pub heldout_after: f64,
 }
 
+/// The models a level's figures draw, as the diagnosis fitted them (in sample).
+#[derive(Clone, Debug)]
+pub struct LevelModels {
+    /// The calibration at the level's humidity (the "simulation").
+    pub simulation: ipmc_core::Params<f64>,
+    /// The base model refitted at the level.
+    pub refit: ipmc_core::Params<f64>,
+    /// The winning candidate's model at the level (None when the verdict names no effect).
+    pub augmented: Option<(ipmc_core::Params<f64>, Extension<f64>)>,
+}
+
 pub struct Diagnosis {
     pub verdict: String,
     pub family: String,
@@ -93,6 +104,8 @@ pub struct Diagnosis {
     pub candidates: Vec<Score>,
     pub levels: Vec<LevelSummary>,
     pub noise: Noise,
+    /// Per level, in the order of the dataset's levels.
+    pub models: Vec<LevelModels>,
 }
 
 /// Per-level outcome of a candidate, what held-out scoring needs.
@@ -327,6 +340,14 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             heldout_after: after_per_level[l],
         })
         .collect();
+    let winning = winner.filter(|&i| verdict == scores[i].name).and_then(|i| fitted_of[i].as_ref());
+    let models = (0..n_levels)
+        .map(|l| LevelModels {
+            simulation: fits::level_params(calib, &levels[l], &cal_theta[l]),
+            refit: fits::level_params(calib, &levels[l], &ctx.base.theta[l]),
+            augmented: winning.map(|f| (fits::level_params(calib, &levels[l], &f.theta[l]), f.ext[l])),
+        })
+        .collect();
     let mut ranked = scores;
     ranked.sort_by(|a, b| b.passes.cmp(&a.passes).then(b.applicable.cmp(&a.applicable)).then(a.heldout.total_cmp(&b.heldout)));
     Ok(Diagnosis {
@@ -340,6 +361,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         candidates: ranked,
         levels: summaries,
         noise,
+        models,
     })
 }
 

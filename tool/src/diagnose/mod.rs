@@ -9,10 +9,12 @@
 //! - [`locate`]: where the mismatch lives and how significant it is.
 //! - [`engine`]: the diagnosis itself and its decision rule.
 //! - [`report`]: report.json and report.md.
+//! - [`figures`]: Bode overlays and residual maps for the report.
 
 pub mod candidates;
 pub mod data;
 pub mod engine;
+pub mod figures;
 pub mod fits;
 pub mod laws;
 pub mod locate;

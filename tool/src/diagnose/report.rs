@@ -2,10 +2,11 @@
 
 use super::candidates::by_name;
 use super::engine::Diagnosis;
+use super::figures::Drawn;
 use serde_json::json;
 use std::fmt::Write as _;
 
-pub fn json(d: &Diagnosis, inputs: &[String], calib: &str) -> serde_json::Value {
+pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]) -> serde_json::Value {
     json!({
         "verdict": d.verdict,
         "family": d.family,
@@ -23,6 +24,7 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str) -> serde_json::Value 
         },
         "inputs": inputs,
         "calibration": calib,
+        "figures": figures.iter().flat_map(|f| [format!("{}.svg", f.stem), format!("{}.png", f.stem)]).collect::<Vec<_>>(),
     })
 }
 
@@ -30,7 +32,7 @@ fn fmt_value(v: f64) -> String {
     if v == 0.0 || (1e-3..1e4).contains(&v.abs()) { format!("{v:.4}") } else { format!("{v:.3e}") }
 }
 
-pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str) -> String {
+pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Diagnosis\n");
     let _ = writeln!(s, "Recordings: {}  \nCalibration: {calib}\n", inputs.join(", "));
@@ -110,5 +112,13 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str) -> String {
         }
     }
     let _ = writeln!(s);
+    let _ = writeln!(s, "## Figures\n");
+    let _ = writeln!(
+        s,
+        "In sample: the base model refitted at each level, and the winning candidate fitted jointly with it (the held-out numbers are above). Colour scale of the residual map: rms of ln-gain and phase residuals over σ, both channels.\n"
+    );
+    for f in figures {
+        let _ = writeln!(s, "![{}]({}.svg)  \n[PNG]({}.png)\n", f.title, f.stem, f.stem);
+    }
     s
 }

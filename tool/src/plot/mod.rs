@@ -4,6 +4,7 @@
 pub mod bode;
 pub mod compensated;
 pub mod params;
+pub mod residual_map;
 
 use crate::commands::write_atomically;
 use anyhow::{Context, Result, anyhow};
