@@ -369,7 +369,91 @@ pub fn fit_joint(
         }
         last = now;
     }
-    Ok(JointFit { phi, phi_se, theta, se, chi2 })
+    polish_joint(calib, levels, sig, masks, specs, ext, JointFit { phi, phi_se, theta, se, chi2 })
+}
+
+/// The alternating steps of [`fit_joint`] crawl along valleys where a candidate's parameter
+/// trades off against every level's own (Stokes damping against each level's Ca and Cs, a loss
+/// factor against Cs): one simultaneous fit of all parameters from where they stopped finishes
+/// the descent and gives standard errors that carry those correlations.
+fn polish_joint(
+    calib: &Calibration,
+    levels: &[LevelData],
+    sig: &[LevelSigmas],
+    masks: &[Mask],
+    specs: &[super::candidates::Spec],
+    ext: fn(&[f64], &Params<f64>) -> Extension<f64>,
+    j: JointFit,
+) -> Result<JointFit> {
+    let k = specs.len();
+    let free: Vec<Vec<usize>> = levels.iter().map(fitted_base).collect();
+    let mut params: Vec<Param> = specs.iter().map(|s| Param::new(s.name, s.bound)).collect();
+    let mut start: Vec<f64> = specs.iter().zip(&j.phi).map(|(s, &v)| inside_tight(s.bound, v)).collect();
+    for (l, level) in levels.iter().enumerate() {
+        for &b in &free[l] {
+            let bound = base_bound(calib, level, b);
+            params.push(Param::new(format!("{} at level {l}", BASE[b].as_str()), bound));
+            start.push(inside(bound, j.theta[l][b]));
+        }
+    }
+    let counts: Vec<usize> = masks.iter().map(|m| m.count()).collect();
+    let theta_of = |v: &[f64]| -> Vec<Theta> {
+        let mut at = k;
+        levels
+            .iter()
+            .enumerate()
+            .map(|(l, _)| {
+                let mut th = j.theta[l];
+                for &b in &free[l] {
+                    th[b] = v[at];
+                    at += 1;
+                }
+                th
+            })
+            .collect()
+    };
+    let full = lsq::fit(&params, &[start], counts.iter().sum(), |v, out| {
+        let mut at = 0;
+        for (l, (level, th)) in levels.iter().zip(theta_of(v)).enumerate() {
+            let p = level_params(calib, level, &th);
+            write_residuals(level, &sig[l], &masks[l], &p, &ext(&v[..k], &p), &mut out[at..at + counts[l]]);
+            at += counts[l];
+        }
+    });
+    let before: f64 = j.chi2.iter().sum();
+    match full {
+        Ok(f) if f.chi2 < before => {
+            let theta = theta_of(&f.estimates);
+            let mut se = vec![[f64::NAN; 4]; levels.len()];
+            let mut at = k;
+            for (l, row) in se.iter_mut().enumerate() {
+                for &b in &free[l] {
+                    row[b] = if f.std_errors[at].is_nan() { f64::INFINITY } else { f.std_errors[at] };
+                    at += 1;
+                }
+            }
+            let mut at = 0;
+            let chi2 = counts
+                .iter()
+                .map(|&c| {
+                    let v: f64 = f.residuals[at..at + c].iter().map(|r| r * r).sum();
+                    at += c;
+                    v
+                })
+                .collect();
+            Ok(JointFit { phi: f.estimates[..k].to_vec(), phi_se: f.std_errors[..k].to_vec(), theta, se, chi2 })
+        }
+        _ => Ok(j),
+    }
+}
+
+/// A start strictly inside the bounds that moves a parameter at its bound (a candidate found
+/// absent) as little as the bound's transform allows.
+fn inside_tight(b: Bound, v: f64) -> f64 {
+    match b {
+        Bound::Between(lo, hi) => v.clamp(lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo)),
+        _ => v,
+    }
 }
 
 #[cfg(test)]
