@@ -1,12 +1,18 @@
 //! The diagnosis: compare with the calibration, refit per level, estimate the noise, test every
 //! candidate by a joint fit, held-out levels and an information criterion, and decide.
 //!
-//! **Held out.** Each level in turn is left out: its base parameters come from humidity laws
-//! fitted on the other levels' parameters (as a user of the model would get them at a new
-//! humidity), the candidate's global parameters from the joint fit. The score is the held-out
-//! χ² per residual (1 = at the noise). Leaving the level out of the candidate's few global
-//! parameters as well would cost a joint fit per level; with ≥ 5 levels and ≤ 2 global
-//! parameters one level moves them by far less than their standard error, so they are kept.
+//! **Held out.** Each level in turn is left out, and the score is its χ² per residual (1 = at
+//! the noise), each candidate against its own null:
+//! - a model candidate's global parameters are fitted on the other levels (their base
+//!   parameters held where the joint fit put them) and the held-out level's own four base
+//!   parameters are refitted with them, as the plain model's are: the level's drift from the
+//!   calibration is not the candidate's business, and judging the candidate by humidity laws
+//!   would bury a small effect under the scatter of the parameters between levels;
+//! - mains interference: the level refitted without its line points, which are scored by the
+//!   interference power the other levels show;
+//! - a candidate acting through humidity: the level's base parameters predicted by the humidity
+//!   laws (or the mapped calibration) fitted on the other levels, against the same prediction
+//!   with the humidity as read.
 //!
 //! **Information criterion.** BIC differences ΔBIC = Δχ² − Δk·ln N on the data (model and mains
 //! candidates) or on the per-level parameters (candidates acting through humidity).
@@ -29,7 +35,7 @@ use super::locate::{self, Located};
 use anyhow::Result;
 use ipmc_core::Calibration;
 use ipmc_core::extension::Extension;
-use ipmc_fit::lsq::{self, Bound, Param};
+use ipmc_fit::lsq::{self, Bound, Param, Tolerance};
 
 /// Very strong evidence on Kass & Raftery's scale (ΔBIC > 10 ⇔ Bayes factor > 150).
 pub const MIN_DELTA_BIC: f64 = 10.0;
@@ -64,6 +70,9 @@ pub struct Score {
     pub space: String,
     pub heldout: f64,
     pub heldout_per_level: Vec<f64>,
+    /// The same held-out score of the candidate's null (no extension, the humidity as read).
+    pub heldout_null: f64,
+    pub heldout_null_per_level: Vec<f64>,
     pub heldout_z: f64,
     pub passes: bool,
     pub note: String,
@@ -115,8 +124,6 @@ struct Fitted {
     ext: Vec<Extension<f64>>,
     masks: Vec<Mask>,
     regressors: Regressors,
-    /// Mains: per value, the interference power [σ²] the held-out level is predicted to carry.
-    line_power: Option<f64>,
 }
 
 struct Ctx<'a> {
@@ -146,18 +153,7 @@ impl Ctx<'_> {
                 }
                 let level = &self.data.levels[l];
                 let p = fits::level_params(self.calib, level, &th);
-                let mut chi2 = fits::chi2(level, &self.sig[l], &f.masks[l], &p, &f.ext[l]);
-                if let Some(power) = f.line_power {
-                    // Values at a line: predictive variance σ²(1 + A²) per component.
-                    let mut lines = self.all[l].clone();
-                    for (on, keep) in lines.current.iter_mut().zip(&f.masks[l].current) {
-                        *on = *on && !keep;
-                    }
-                    lines.tip.iter_mut().for_each(|b| *b = false);
-                    let r2 = fits::chi2(level, &self.sig[l], &lines, &p, &f.ext[l]);
-                    chi2 += r2 / (1.0 + power) + lines.count() as f64 * (1.0 + power).ln();
-                }
-                chi2 / self.all[l].count() as f64
+                fits::chi2(level, &self.sig[l], &f.masks[l], &p, &f.ext[l]) / self.all[l].count() as f64
             })
             .collect()
     }
@@ -175,10 +171,75 @@ impl Ctx<'_> {
             ext: vec![Extension::default(); n],
             masks: self.all.clone(),
             regressors: self.read.clone(),
-            line_power: None,
         }
     }
+
+    /// The plain model's per-level refit, as held-out score: the null of model candidates.
+    fn refit_null(&self) -> Vec<f64> {
+        self.base.chi2.iter().zip(&self.all).map(|(c, m)| c / m.count() as f64).collect()
+    }
+
+    /// Held-out score of a model candidate (see the module's doc): per level, its parameters
+    /// `phi` refitted on the other levels, then the level's base parameters with them.
+    fn refit_heldout(&self, cand: &Candidate, ext: ExtFn, phi: &[f64], f: &Fitted) -> Vec<f64> {
+        let levels = &self.data.levels;
+        let n = levels.len();
+        let params: Vec<Param> = cand.params.iter().map(|s| Param::new(s.name, s.bound)).collect();
+        let start = vec![cand.params.iter().zip(phi).map(|(s, &v)| fits::inside_tight(s.bound, v)).collect::<Vec<f64>>()];
+        let p_joint: Vec<ipmc_core::Params<f64>> = (0..n).map(|l| fits::level_params(self.calib, &levels[l], &f.theta[l])).collect();
+        (0..n)
+            .map(|held| {
+                let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();
+                let counts: Vec<usize> = train.iter().map(|&l| self.all[l].count()).collect();
+                let phi_train = lsq::minimize(Tolerance::REPORT, &params, &start, counts.iter().sum(), |v, out| {
+                    let mut at = 0;
+                    for (&l, &c) in train.iter().zip(&counts) {
+                        fits::write_residuals(&levels[l], &self.sig[l], &self.all[l], &p_joint[l], &ext(v, &p_joint[l]), &mut out[at..at + c]);
+                        at += c;
+                    }
+                })
+                .map_or_else(|_| phi.to_vec(), |(v, _)| v);
+                let x = ext(&phi_train, &p_joint[held]);
+                let chi2 = match fits::fit_level(self.calib, &levels[held], &self.sig[held], &self.all[held], &x, &f.theta[held]) {
+                    Ok((_, fit)) => fit.chi2,
+                    Err(_) => fits::chi2(&levels[held], &self.sig[held], &self.all[held], &p_joint[held], &x),
+                };
+                chi2 / self.all[held].count() as f64
+            })
+            .collect()
+    }
+
+    /// Held-out score of the mains candidate: per level, its refit without the line points plus
+    /// those points scored with the predictive variance σ²(1 + P) per component, P being the
+    /// interference power [σ²] the other levels show at their lines.
+    fn mains_heldout(&self, f: &Fitted) -> Vec<f64> {
+        let levels = &self.data.levels;
+        let n = levels.len();
+        let lines: Vec<(f64, usize)> = (0..n)
+            .map(|l| {
+                let mut lines = self.all[l].clone();
+                for (on, keep) in lines.current.iter_mut().zip(&f.masks[l].current) {
+                    *on = *on && !keep;
+                }
+                lines.tip.iter_mut().for_each(|b| *b = false);
+                let p = fits::level_params(self.calib, &levels[l], &f.theta[l]);
+                (fits::chi2(&levels[l], &self.sig[l], &lines, &p, &f.ext[l]), lines.count())
+            })
+            .collect();
+        (0..n)
+            .map(|held| {
+                let (r2, m): (f64, usize) = (0..n).filter(|&l| l != held).fold((0.0, 0), |(a, b), l| (a + lines[l].0, b + lines[l].1));
+                let power = if m > 0 { (r2 / m as f64 - 1.0).max(0.0) } else { 0.0 };
+                let p = fits::level_params(self.calib, &levels[held], &f.theta[held]);
+                let kept = fits::chi2(&levels[held], &self.sig[held], &f.masks[held], &p, &f.ext[held]);
+                let (r2, m) = lines[held];
+                (kept + r2 / (1.0 + power) + m as f64 * (1.0 + power).ln()) / self.all[held].count() as f64
+            })
+            .collect()
+    }
 }
+
+type ExtFn = fn(&[f64], &ipmc_core::Params<f64>) -> Extension<f64>;
 
 fn total_residuals(masks: &[Mask]) -> usize {
     masks.iter().map(|m| m.count()).sum()
@@ -248,7 +309,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         let t0 = std::time::Instant::now();
         let (score, fitted) = score_candidate(&ctx, cand, &before, &counts, n_data, chi2_0, (law_chi2_0, law_k_0), n_theta)?;
         if std::env::var_os("IPMC_TRACE").is_some() {
-            eprintln!("{}: {:.2} s dBIC {:.1} heldout {:.3} z {:.1} {:?}", cand.name, t0.elapsed().as_secs_f64(), score.delta_bic, score.heldout, score.heldout_z, score.params.iter().map(|p| p.value).collect::<Vec<_>>());
+            eprintln!("{}: {:.2} s dBIC {:.1} heldout {:.3} null {:.3} z {:.1} {:?}", cand.name, t0.elapsed().as_secs_f64(), score.delta_bic, score.heldout, score.heldout_null, score.heldout_z, score.params.iter().map(|p| p.value).collect::<Vec<_>>());
         }
         scores.push(score);
         fitted_of.push(fitted);
@@ -265,11 +326,11 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         let tie = (sa.delta_bic - sb.delta_bic).abs() < 2.0;
         sb.passes
             .cmp(&sa.passes)
-            .then(if tie { sa.heldout.total_cmp(&sb.heldout) } else { sb.delta_bic.total_cmp(&sa.delta_bic) })
+            .then(if tie { sb.heldout_z.total_cmp(&sa.heldout_z) } else { sb.delta_bic.total_cmp(&sa.delta_bic) })
     });
     let runner_up = order.get(1).copied().filter(|&i| scores[i].passes && winner_tie(&scores[order[0]], &scores[i]));
     let winner = order.first().copied().filter(|&i| scores[i].passes);
-    let (verdict, family, explanation, params, after) = match winner {
+    let (verdict, family, explanation, params, before_after) = match winner {
         Some(i) => {
             let s = &scores[i];
             let f = fitted_of[i].as_ref().expect("a passing candidate was fitted");
@@ -299,14 +360,14 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
                     "{} (ΔBIC {:.1}, held-out χ²/residual {:.3} → {:.3}, z = {:.1}){}{}",
                     s.name,
                     s.delta_bic,
-                    heldout_before,
+                    s.heldout_null,
                     s.heldout,
                     s.heldout_z,
                     runner_up.map_or(String::new(), |r| format!("; {} fits as well (ΔBIC {:.1}): the data cannot tell them apart", scores[r].name, scores[r].delta_bic)),
                     remainder
                 ),
                 s.params.clone(),
-                s.heldout,
+                (s.heldout_null, s.heldout),
             )
         }
         None if structured => (
@@ -314,19 +375,19 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             String::new(),
             format!("a structured residual ({}) that no candidate explains", located.summary),
             vec![],
-            heldout_before,
+            (heldout_before, heldout_before),
         ),
         None => (
             "none".to_string(),
             String::new(),
             "no missing physics above the noise".to_string(),
             vec![],
-            heldout_before,
+            (heldout_before, heldout_before),
         ),
     };
-    let after_per_level: Vec<f64> = match winner {
-        Some(i) if verdict == scores[i].name => scores[i].heldout_per_level.clone(),
-        _ => before.clone(),
+    let (before_per_level, after_per_level): (Vec<f64>, Vec<f64>) = match winner {
+        Some(i) if verdict == scores[i].name => (scores[i].heldout_null_per_level.clone(), scores[i].heldout_per_level.clone()),
+        _ => (before.clone(), before.clone()),
     };
     let summaries = (0..n_levels)
         .map(|l| LevelSummary {
@@ -336,7 +397,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             revisit_of: levels[l].revisit_of,
             simulation_chi2_per_residual: simulation[l],
             refit_chi2_per_residual: ctx.base.chi2[l] / counts[l],
-            heldout_before: before[l],
+            heldout_before: before_per_level[l],
             heldout_after: after_per_level[l],
         })
         .collect();
@@ -349,14 +410,15 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         })
         .collect();
     let mut ranked = scores;
-    ranked.sort_by(|a, b| b.passes.cmp(&a.passes).then(b.applicable.cmp(&a.applicable)).then(a.heldout.total_cmp(&b.heldout)));
+    // Held-out scores of different candidates have different nulls: rank by the evidence.
+    ranked.sort_by(|a, b| b.passes.cmp(&a.passes).then(b.applicable.cmp(&a.applicable)).then(b.delta_bic.total_cmp(&a.delta_bic)));
     Ok(Diagnosis {
         verdict,
         family,
         explanation,
         params,
-        heldout_before,
-        heldout_after: after,
+        heldout_before: before_after.0,
+        heldout_after: before_after.1,
         located,
         candidates: ranked,
         levels: summaries,
@@ -381,6 +443,8 @@ fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
         space: String::new(),
         heldout: before,
         heldout_per_level: vec![],
+        heldout_null: before,
+        heldout_null_per_level: vec![],
         heldout_z: 0.0,
         passes: false,
         note: note.into(),
@@ -408,17 +472,18 @@ fn score_candidate(
             .map(|(s, (v, e))| Estimate { name: s.name.into(), unit: s.unit.into(), value: *v, std_error: *e })
             .collect()
     };
-    let (fitted, delta_chi2, extra, space, params, note) = match cand.kind {
+    let (fitted, delta_chi2, extra, space, params, note, (null_per_level, per_level)) = match cand.kind {
         Kind::Model(ext) => {
             let start: Vec<f64> = cand.params.iter().map(|s| s.start).collect();
             let j = fits::fit_joint(ctx.calib, levels, &ctx.sig, &ctx.all, cand.params, ext, &ctx.base.theta, &start)?;
             let exts: Vec<Extension<f64>> = (0..n).map(|l| ext(&j.phi, &fits::level_params(ctx.calib, &levels[l], &j.theta[l]))).collect();
             let chi2: f64 = j.chi2.iter().sum();
-            let f = Fitted { theta: j.theta, se: j.se, ext: exts, masks: ctx.all.clone(), regressors: ctx.read.clone(), line_power: None };
-            (f, chi2_0 - chi2, cand.params.len(), "data", estimates(&j.phi, &j.phi_se), String::new())
+            let f = Fitted { theta: j.theta, se: j.se, ext: exts, masks: ctx.all.clone(), regressors: ctx.read.clone() };
+            let held = (ctx.refit_null(), ctx.refit_heldout(cand, ext, &j.phi, &f));
+            (f, chi2_0 - chi2, cand.params.len(), "data", estimates(&j.phi, &j.phi_se), String::new(), held)
         }
         Kind::Mains => {
-            let mut best: Option<(f64, Fitted, usize, f64)> = None;
+            let mut best: Option<(f64, Fitted, usize, f64, f64)> = None;
             for line in [50.0, 60.0] {
                 let masks: Vec<Mask> = levels
                     .iter()
@@ -455,26 +520,20 @@ fn score_candidate(
                 let power = (lines_chi2 / (2.0 * excluded as f64) - 1.0).max(0.0);
                 let dchi2 = chi2_0 - chi2;
                 if best.as_ref().is_none_or(|(d, ..)| dchi2 > *d) {
-                    let f = Fitted {
-                        theta: b.theta,
-                        se: b.se,
-                        ext: vec![Extension::default(); n],
-                        masks,
-                        regressors: ctx.read.clone(),
-                        line_power: Some(power),
-                    };
-                    best = Some((dchi2, f, excluded, line));
+                    let f = Fitted { theta: b.theta, se: b.se, ext: vec![Extension::default(); n], masks, regressors: ctx.read.clone() };
+                    best = Some((dchi2, f, excluded, line, power));
                 }
             }
-            let Some((dchi2, f, excluded, line)) = best else {
+            let Some((dchi2, f, excluded, line, power)) = best else {
                 return Ok((not_applicable(cand, "no frequency near 50/60 Hz or their harmonics", heldout_before), None));
             };
-            let amplitude = f.line_power.unwrap_or(0.0).sqrt();
+            let amplitude = power.sqrt();
+            let held = (ctx.refit_null(), ctx.mains_heldout(&f));
             let params = vec![
                 Estimate { name: "line_hz".into(), unit: "Hz".into(), value: line, std_error: 0.0 },
                 Estimate { name: "interference_rms".into(), unit: "σ".into(), value: amplitude, std_error: amplitude / (2.0 * excluded as f64).sqrt() },
             ];
-            (f, dchi2, 2 * excluded, "data", params, format!("{excluded} current values at lines"))
+            (f, dchi2, 2 * excluded, "data", params, format!("{excluded} current values at lines"), held)
         }
         Kind::Humidity(map) => {
             let base = &ctx.base;
@@ -494,7 +553,8 @@ fn score_candidate(
                     let curv = (score_tau(tau * h.exp()) - 2.0 * chi2 + score_tau(tau * (-h).exp())) / (h * h);
                     let se = if curv > 0.0 { tau * (2.0 / curv).sqrt() } else { f64::INFINITY };
                     let f = Fitted { regressors: reg, ..ctx.plain() };
-                    (f, law0.0 - chi2, 1, "level parameters", estimates(&[tau], &[se]), String::new())
+                    let held = (before.to_vec(), ctx.law_heldout(&f));
+                    (f, law0.0 - chi2, 1, "level parameters", estimates(&[tau], &[se]), String::new(), held)
                 }
                 HumidityMap::Temperature => {
                     if ctx.data.temperature_span() < 1.0 {
@@ -510,7 +570,8 @@ fn score_candidate(
                     let slope = |j: usize| laws::coefficients(&reg, &base.theta, &base.se, &w, j).last().copied().unwrap_or(f64::NAN);
                     let values = [slope(0), slope(1)];
                     let f = Fitted { regressors: reg, ..ctx.plain() };
-                    (f, law0.0 - chi2, k - law0.1, "level parameters", estimates(&values, &[f64::NAN, f64::NAN]), String::new())
+                    let held = (before.to_vec(), ctx.law_heldout(&f));
+                    (f, law0.0 - chi2, k - law0.1, "level parameters", estimates(&values, &[f64::NAN, f64::NAN]), String::new(), held)
                 }
                 HumidityMap::SensorError => {
                     let (o, g, delta, se_og) = fit_sensor(ctx, &(0..n).collect::<Vec<_>>());
@@ -521,7 +582,8 @@ fn score_candidate(
                             .collect()
                     };
                     // Nested null: the calibration as read with a constant drift per parameter.
-                    let (_, _, delta0, _) = fit_sensor_drift_only(ctx);
+                    let everyone: Vec<usize> = (0..n).collect();
+                    let delta0 = sensor_drift_only(ctx, &everyone);
                     let nll_null = laws::nll(&with(0.0, 1.0, &delta0), &base.theta, &base.se);
                     let nll_alt = laws::nll(&with(o, g, &delta), &base.theta, &base.se);
                     // It must also do as well as free humidity laws, else the drift is not a
@@ -535,27 +597,20 @@ fn score_candidate(
                         ext: vec![Extension::default(); n],
                         masks: ctx.all.clone(),
                         regressors: ctx.read.clone(),
-                        line_power: None,
                     };
                     let dchi2 = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
-                    (f, dchi2, 2, "level parameters", estimates(&[o, g], &se_og), note)
+                    let held = heldout_sensor(ctx, &f);
+                    (f, dchi2, 2, "level parameters", estimates(&[o, g], &se_og), note, held)
                 }
             }
         }
     };
     let n_ic = if space == "data" { n_data } else { n_theta };
     let delta_bic = delta_chi2 - extra as f64 * n_ic.ln();
-    let per_level = match cand.kind {
-        Kind::Humidity(HumidityMap::SensorError) => {
-            // Held out: (o, g) from the other levels; the held-out level's θ from the mapped
-            // calibration. Refitting (o, g) per fold costs 2-parameter fits only.
-            heldout_sensor(ctx, &fitted)
-        }
-        _ => ctx.law_heldout(&fitted),
-    };
     let heldout = weighted_mean(&per_level, counts);
-    let z = paired_z(before, &per_level, counts);
-    let passes = delta_bic >= MIN_DELTA_BIC && z >= MIN_HELDOUT_Z && heldout < heldout_before;
+    let heldout_null = weighted_mean(&null_per_level, counts);
+    let z = paired_z(&null_per_level, &per_level, counts);
+    let passes = delta_bic >= MIN_DELTA_BIC && z >= MIN_HELDOUT_Z && heldout < heldout_null;
     let _ = chi2_0;
     Ok((
         Score {
@@ -569,6 +624,8 @@ fn score_candidate(
             space: space.into(),
             heldout,
             heldout_per_level: per_level,
+            heldout_null,
+            heldout_null_per_level: null_per_level,
             heldout_z: z,
             passes,
             note,
@@ -609,35 +666,43 @@ fn fit_sensor(ctx: &Ctx, train: &[usize]) -> (f64, f64, Theta, Vec<f64>) {
 }
 
 /// The null of [`fit_sensor`]: the calibration as read plus a constant drift per parameter
-/// (weighted means of θ − calibration).
-fn fit_sensor_drift_only(ctx: &Ctx) -> (f64, f64, Theta, Vec<f64>) {
+/// (weighted means over the levels `train` of θ − calibration).
+fn sensor_drift_only(ctx: &Ctx, train: &[usize]) -> Theta {
     let levels = &ctx.data.levels;
     let mut delta = [0.0; 4];
     for (j, d) in delta.iter_mut().enumerate() {
         let (mut sw, mut s) = (0.0, 0.0);
-        for l in 0..levels.len() {
+        for &l in train {
             let w = ctx.weights.weight(&ctx.base.se[l], j);
             s += w * (ctx.base.theta[l][j] - fits::calibration_theta(ctx.calib, levels[l].rh_pct)[j]);
             sw += w;
         }
         *d = if sw > 0.0 { s / sw } else { 0.0 };
     }
-    (0.0, 1.0, delta, vec![])
+    delta
 }
 
-fn heldout_sensor(ctx: &Ctx, f: &Fitted) -> Vec<f64> {
+/// Held-out scores of the humidity sensor error and of its null, per level: (o, g) and the
+/// drift from the other levels, the held-out level's θ from the mapped calibration, against
+/// the calibration as read with the drift from the other levels. Refitting (o, g) per fold
+/// costs 2-parameter fits only.
+fn heldout_sensor(ctx: &Ctx, f: &Fitted) -> (Vec<f64>, Vec<f64>) {
     let levels = &ctx.data.levels;
     let n = levels.len();
+    let score = |held: usize, rh: f64, delta: &Theta| {
+        let c = fits::calibration_theta(ctx.calib, rh);
+        let th = [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2], c[3] + delta[3]];
+        let p = fits::level_params(ctx.calib, &levels[held], &th);
+        fits::chi2(&levels[held], &ctx.sig[held], &f.masks[held], &p, &f.ext[held]) / ctx.all[held].count() as f64
+    };
     (0..n)
         .map(|held| {
             let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();
             let (o, g, delta, _) = fit_sensor(ctx, &train);
-            let c = fits::calibration_theta(ctx.calib, laws::mapped_rh(levels[held].rh_pct, o, g));
-            let th = [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2], c[3] + delta[3]];
-            let p = fits::level_params(ctx.calib, &levels[held], &th);
-            fits::chi2(&levels[held], &ctx.sig[held], &f.masks[held], &p, &f.ext[held]) / ctx.all[held].count() as f64
+            let null = score(held, levels[held].rh_pct, &sensor_drift_only(ctx, &train));
+            (null, score(held, laws::mapped_rh(levels[held].rh_pct, o, g), &delta))
         })
-        .collect()
+        .unzip()
 }
 
 /// Minimizes a function of a positive scalar on [lo, hi] over ln x: a grid, then golden-section

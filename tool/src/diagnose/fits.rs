@@ -449,7 +449,7 @@ fn polish_joint(
 
 /// A start strictly inside the bounds that moves a parameter at its bound (a candidate found
 /// absent) as little as the bound's transform allows.
-fn inside_tight(b: Bound, v: f64) -> f64 {
+pub fn inside_tight(b: Bound, v: f64) -> f64 {
     match b {
         Bound::Between(lo, hi) => v.clamp(lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo)),
         _ => v,
