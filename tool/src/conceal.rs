@@ -345,7 +345,6 @@ mod tests {
         found("tip_mass");
     }
     #[test]
-    #[ignore = "below target: Stokes damping at 80 % of its range is diagnosed 'viscoelastic_relaxation' (a one-branch relaxation's two parameters mimic a √ω damping in 10–150 Hz better than the one Stokes coefficient against per-level Ca and Cs)"]
     fn air_loading_found() {
         found("air_loading");
     }
@@ -354,7 +353,6 @@ mod tests {
         found("viscoelastic_relaxation");
     }
     #[test]
-    #[ignore = "below target: a loss factor η = 0.044 is absorbed by the per-level Cs and Ca (diagnosed 'tip_timing' at seed 7, 'none' in prove)"]
     fn hysteretic_damping_found() {
         found("hysteretic_damping");
     }
