@@ -133,6 +133,13 @@ fn kind_name(k: LawKind) -> &'static str {
     }
 }
 
+/// Degree of a parameter's humidity law fitted on `levels` levels: quadratic, as the paper's;
+/// ln d cubic once six levels overdetermine the cubic (the default law is ln d = a + c·RH³,
+/// which a quadratic misses by more than the noise over 20–90 %).
+pub fn law_degree(param: ParamName, levels: usize) -> usize {
+    if param == ParamName::D && levels >= 6 { 3 } else { 2 }
+}
+
 /// The calibration whose laws go through `levels`, declared on `rh_range`, with every constant
 /// and the h and m laws of `base`. κe's law is refitted only from levels where it was measured.
 pub fn calibration_from_levels(base: &Calibration, levels: &[LevelFit], rh_range: (f64, f64)) -> Result<(Calibration, Vec<LawFit>), LawError> {
@@ -143,13 +150,13 @@ pub fn calibration_from_levels(base: &Calibration, levels: &[LevelFit], rh_range
     calib.rh_min = rh_range.0;
     calib.rh_max = rh_range.1;
     let mut report = Vec::new();
-    let d_degree = if levels.len() >= 6 { 3 } else { 2 };
+    let n = levels.len();
     let plan = [
-        (ParamName::Y, LawKind::Poly, 2),
-        (ParamName::Cs, LawKind::Poly, 2),
-        (ParamName::Ca, LawKind::Poly, 2),
-        (ParamName::KappaE, LawKind::Poly, 2),
-        (ParamName::D, LawKind::LogPoly, d_degree),
+        (ParamName::Y, LawKind::Poly, law_degree(ParamName::Y, n)),
+        (ParamName::Cs, LawKind::Poly, law_degree(ParamName::Cs, n)),
+        (ParamName::Ca, LawKind::Poly, law_degree(ParamName::Ca, n)),
+        (ParamName::KappaE, LawKind::Poly, law_degree(ParamName::KappaE, n)),
+        (ParamName::D, LawKind::LogPoly, law_degree(ParamName::D, n)),
     ];
     for (param, kind, degree) in plan {
         let points: Vec<(f64, Estimate)> = levels

@@ -41,6 +41,10 @@ use ipmc_fit::lsq::{self, Bound, Param, Tolerance};
 pub const MIN_DELTA_BIC: f64 = 10.0;
 /// Paired improvement of the held-out χ² over levels, in standard errors.
 pub const MIN_HELDOUT_Z: f64 = 0.5;
+/// Smallest humidity shift [%RH] a sensor error or hydration lag must cause at some level to
+/// be named: a tenth of a percent is within one reading's scatter and of no use to anyone,
+/// while the sensors this product reads (HTS221, HIH-4030) are specified to ±3.5 %RH.
+pub const MIN_RH_SHIFT_PCT: f64 = 1.0;
 /// z of the neighbour correlation of residuals ([`fits::structure_z`]) above which a residual
 /// counts as structured.
 pub const STRUCTURED_Z: f64 = 5.0;
@@ -472,7 +476,9 @@ fn score_candidate(
             .map(|(s, (v, e))| Estimate { name: s.name.into(), unit: s.unit.into(), value: *v, std_error: *e })
             .collect()
     };
-    let (fitted, delta_chi2, extra, space, params, note, (null_per_level, per_level)) = match cand.kind {
+    // A humidity remap too small to matter (see MIN_RH_SHIFT_PCT): why the candidate cannot pass.
+    let mut floor: Option<String> = None;
+    let (fitted, delta_chi2, extra, space, params, mut note, (null_per_level, per_level)) = match cand.kind {
         Kind::Model(ext) => {
             let start: Vec<f64> = cand.params.iter().map(|s| s.start).collect();
             let j = fits::fit_joint(ctx.calib, levels, &ctx.sig, &ctx.all, cand.params, ext, &ctx.base.theta, &start)?;
@@ -542,19 +548,27 @@ fn score_candidate(
                     if !ctx.data.has_times() {
                         return Ok((not_applicable(cand, "the recordings have no time_s", heldout_before), None));
                     }
-                    let score_tau = |tau: f64| {
-                        let reg = Regressors { x: laws::lagged_rh(levels, &ctx.data.histories, tau), temperature: None };
-                        laws::nll(&laws::fitted(&reg, &base.theta, &base.se).0, &base.theta, &base.se)
-                    };
-                    let (tau, chi2) = minimize_log(score_tau, 1.0, 1e5);
-                    let reg = Regressors { x: laws::lagged_rh(levels, &ctx.data.histories, tau), temperature: None };
+                    // The calibration's laws at the lagged humidity (with a drift per parameter),
+                    // not free laws: free laws are blind to the humidity's scale, so a lag far
+                    // longer than the session (the lagged humidity a scaled integral of the
+                    // readings) would pass as a change of the laws' shape.
+                    let everyone: Vec<usize> = (0..n).collect();
+                    let (tau, nll_alt) = fit_lag(ctx, &everyone);
+                    let nll_null = anchored_nll(ctx, &read_rh(ctx), &everyone);
+                    let score_tau = |tau: f64| anchored_nll(ctx, &laws::lagged_rh(levels, &ctx.data.histories, tau), &everyone);
                     // Uncertainty of τ from the χ² curvature in ln τ.
                     let h = 0.1f64;
-                    let curv = (score_tau(tau * h.exp()) - 2.0 * chi2 + score_tau(tau * (-h).exp())) / (h * h);
+                    let curv = (score_tau(tau * h.exp()) - 2.0 * nll_alt + score_tau(tau * (-h).exp())) / (h * h);
                     let se = if curv > 0.0 { tau * (2.0 / curv).sqrt() } else { f64::INFINITY };
-                    let f = Fitted { regressors: reg, ..ctx.plain() };
-                    let held = (before.to_vec(), ctx.law_heldout(&f));
-                    (f, law0.0 - chi2, 1, "level parameters", estimates(&[tau], &[se]), String::new(), held)
+                    let rh = laws::lagged_rh(levels, &ctx.data.histories, tau);
+                    let bic_alt = nll_alt + 5.0 * n_theta.ln();
+                    let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
+                    let note = format!("calibration + drift as read: −2lnL {nll_null:.1}; at the lagged humidity {nll_alt:.1}; free laws {:.1} ({} parameters)", law0.0, law0.1);
+                    let f = Fitted { theta: anchored(ctx, &rh, &everyone), ..ctx.plain() };
+                    let dchi2 = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
+                    floor = shift_floor(&rh, &read_rh(ctx));
+                    let held = heldout_anchored(ctx, &f, &|train| laws::lagged_rh(levels, &ctx.data.histories, fit_lag(ctx, train).0));
+                    (f, dchi2, 1, "level parameters", estimates(&[tau], &[se]), note, held)
                 }
                 HumidityMap::Temperature => {
                     if ctx.data.temperature_span() < 1.0 {
@@ -574,32 +588,24 @@ fn score_candidate(
                     (f, law0.0 - chi2, k - law0.1, "level parameters", estimates(&values, &[f64::NAN, f64::NAN]), String::new(), held)
                 }
                 HumidityMap::SensorError => {
-                    let (o, g, delta, se_og) = fit_sensor(ctx, &(0..n).collect::<Vec<_>>());
-                    let with = |o: f64, g: f64, delta: &Theta| -> Vec<Theta> {
-                        laws::calibration_at_mapped(ctx.calib, levels, o, g)
-                            .into_iter()
-                            .map(|c| [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2], c[3] + delta[3]])
-                            .collect()
-                    };
-                    // Nested null: the calibration as read with a constant drift per parameter.
                     let everyone: Vec<usize> = (0..n).collect();
-                    let delta0 = sensor_drift_only(ctx, &everyone);
-                    let nll_null = laws::nll(&with(0.0, 1.0, &delta0), &base.theta, &base.se);
-                    let nll_alt = laws::nll(&with(o, g, &delta), &base.theta, &base.se);
+                    let (o, g, _, se_og) = fit_sensor(ctx, &everyone);
+                    let rh: Vec<f64> = levels.iter().map(|l| laws::mapped_rh(l.rh_pct, o, g)).collect();
+                    // Nested null: the calibration as read with a constant drift per parameter.
+                    let nll_null = anchored_nll(ctx, &read_rh(ctx), &everyone);
+                    let nll_alt = anchored_nll(ctx, &rh, &everyone);
                     // It must also do as well as free humidity laws, else the drift is not a
                     // humidity error.
                     let bic_alt = nll_alt + 6.0 * n_theta.ln();
                     let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
                     let note = format!("calibration + drift as read: −2lnL {nll_null:.1}; with the humidity mapped {nll_alt:.1}; free laws {:.1} ({} parameters)", law0.0, law0.1);
-                    let f = Fitted {
-                        theta: with(o, g, &delta),
-                        se: base.se.clone(),
-                        ext: vec![Extension::default(); n],
-                        masks: ctx.all.clone(),
-                        regressors: ctx.read.clone(),
-                    };
+                    let f = Fitted { theta: anchored(ctx, &rh, &everyone), ..ctx.plain() };
                     let dchi2 = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
-                    let held = heldout_sensor(ctx, &f);
+                    floor = shift_floor(&rh, &read_rh(ctx));
+                    let held = heldout_anchored(ctx, &f, &|train| {
+                        let (o, g, ..) = fit_sensor(ctx, train);
+                        levels.iter().map(|l| laws::mapped_rh(l.rh_pct, o, g)).collect()
+                    });
                     (f, dchi2, 2, "level parameters", estimates(&[o, g], &se_og), note, held)
                 }
             }
@@ -610,8 +616,10 @@ fn score_candidate(
     let heldout = weighted_mean(&per_level, counts);
     let heldout_null = weighted_mean(&null_per_level, counts);
     let z = paired_z(&null_per_level, &per_level, counts);
-    let passes = delta_bic >= MIN_DELTA_BIC && z >= MIN_HELDOUT_Z && heldout < heldout_null;
-    let _ = chi2_0;
+    let passes = delta_bic >= MIN_DELTA_BIC && z >= MIN_HELDOUT_Z && heldout < heldout_null && floor.is_none();
+    if let Some(why) = floor {
+        note = if note.is_empty() { why } else { format!("{note}; {why}") };
+    }
     Ok((
         Score {
             name: cand.name.into(),
@@ -665,42 +673,62 @@ fn fit_sensor(ctx: &Ctx, train: &[usize]) -> (f64, f64, Theta, Vec<f64>) {
     }
 }
 
-/// The null of [`fit_sensor`]: the calibration as read plus a constant drift per parameter
-/// (weighted means over the levels `train` of θ − calibration).
-fn sensor_drift_only(ctx: &Ctx, train: &[usize]) -> Theta {
-    let levels = &ctx.data.levels;
+/// The humidity each level was read at.
+fn read_rh(ctx: &Ctx) -> Vec<f64> {
+    ctx.data.levels.iter().map(|l| l.rh_pct).collect()
+}
+
+/// The calibration at humidities `rh` plus a constant drift per parameter, the drift the
+/// weighted mean over the levels `train` of θ − calibration: the per-level θ a humidity remap
+/// predicts (the null when `rh` is the humidity read).
+fn anchored(ctx: &Ctx, rh: &[f64], train: &[usize]) -> Vec<Theta> {
+    let cal: Vec<Theta> = rh.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
     let mut delta = [0.0; 4];
     for (j, d) in delta.iter_mut().enumerate() {
         let (mut sw, mut s) = (0.0, 0.0);
         for &l in train {
             let w = ctx.weights.weight(&ctx.base.se[l], j);
-            s += w * (ctx.base.theta[l][j] - fits::calibration_theta(ctx.calib, levels[l].rh_pct)[j]);
+            s += w * (ctx.base.theta[l][j] - cal[l][j]);
             sw += w;
         }
         *d = if sw > 0.0 { s / sw } else { 0.0 };
     }
-    delta
+    cal.iter().map(|c| [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2], c[3] + delta[3]]).collect()
 }
 
-/// Held-out scores of the humidity sensor error and of its null, per level: (o, g) and the
-/// drift from the other levels, the held-out level's θ from the mapped calibration, against
-/// the calibration as read with the drift from the other levels. Refitting (o, g) per fold
-/// costs 2-parameter fits only.
-fn heldout_sensor(ctx: &Ctx, f: &Fitted) -> (Vec<f64>, Vec<f64>) {
+/// −2 ln L of the levels `train`'s θ under [`anchored`] at humidities `rh`.
+fn anchored_nll(ctx: &Ctx, rh: &[f64], train: &[usize]) -> f64 {
+    let pred = anchored(ctx, rh, train);
+    let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
+    laws::nll(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se))
+}
+
+/// The hydration lag τ [s] that best maps the levels `train` onto the calibration, and its −2 ln L.
+fn fit_lag(ctx: &Ctx, train: &[usize]) -> (f64, f64) {
+    minimize_log(|tau| anchored_nll(ctx, &laws::lagged_rh(&ctx.data.levels, &ctx.data.histories, tau), train), 1.0, 1e5)
+}
+
+/// A humidity error or lag that moves no level by [`MIN_RH_SHIFT_PCT`] is not reported.
+fn shift_floor(rh: &[f64], read: &[f64]) -> Option<String> {
+    let largest = rh.iter().zip(read).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    (largest < MIN_RH_SHIFT_PCT).then(|| format!("moves no level by {MIN_RH_SHIFT_PCT} %RH (largest {largest:.2} %RH)"))
+}
+
+/// Held-out scores of a humidity remap and of its null, per level: the remap (`remap_of` the
+/// training levels gives every level's humidity) and the drift from the other levels, against
+/// the calibration as read with the drift from the other levels.
+fn heldout_anchored(ctx: &Ctx, f: &Fitted, remap_of: &dyn Fn(&[usize]) -> Vec<f64>) -> (Vec<f64>, Vec<f64>) {
     let levels = &ctx.data.levels;
     let n = levels.len();
-    let score = |held: usize, rh: f64, delta: &Theta| {
-        let c = fits::calibration_theta(ctx.calib, rh);
-        let th = [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2], c[3] + delta[3]];
-        let p = fits::level_params(ctx.calib, &levels[held], &th);
+    let score = |held: usize, th: &Theta| {
+        let p = fits::level_params(ctx.calib, &levels[held], th);
         fits::chi2(&levels[held], &ctx.sig[held], &f.masks[held], &p, &f.ext[held]) / ctx.all[held].count() as f64
     };
     (0..n)
         .map(|held| {
             let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();
-            let (o, g, delta, _) = fit_sensor(ctx, &train);
-            let null = score(held, levels[held].rh_pct, &sensor_drift_only(ctx, &train));
-            (null, score(held, laws::mapped_rh(levels[held].rh_pct, o, g), &delta))
+            let null = score(held, &anchored(ctx, &read_rh(ctx), &train)[held]);
+            (null, score(held, &anchored(ctx, &remap_of(&train), &train)[held]))
         })
         .unzip()
 }

@@ -9,8 +9,7 @@
 //! every candidate so that their χ² are comparable).
 
 use super::data::{LevelData, RhHistory};
-use super::fits::{Theta, calibration_theta};
-use ipmc_core::Calibration;
+use super::fits::{BASE, Theta};
 use nalgebra::{DMatrix, DVector};
 
 /// The humidity each level's parameters follow, and optional extra regressors.
@@ -46,12 +45,15 @@ fn row(reg: &Regressors, l: usize, j: usize, degree: usize) -> Vec<f64> {
     r
 }
 
-fn degree_for(n_train: usize) -> usize {
-    match n_train {
+/// The calibration's law degree for component j ([`ipmc_fit::laws::law_degree`]), lowered
+/// when few levels leave no degrees of freedom to judge the law by.
+fn degree_for(n_train: usize, j: usize) -> usize {
+    let cap = match n_train {
         0..=2 => 0,
         3..=4 => 1,
-        _ => 2,
-    }
+        _ => 3,
+    };
+    ipmc_fit::laws::law_degree(BASE[j], n_train).min(cap)
 }
 
 /// Scatter between levels per component and the weights it gives.
@@ -79,7 +81,7 @@ impl LawWeights {
         for _ in 0..3 {
             for j in 0..4 {
                 let rows: Vec<usize> = all.iter().copied().filter(|&l| !se[l][j].is_nan()).collect();
-                let deg = degree_for(rows.len());
+                let deg = degree_for(rows.len(), j);
                 if rows.len() <= deg + 1 {
                     continue;
                 }
@@ -106,7 +108,7 @@ pub fn predict(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights, 
     let mut out = [f64::NAN; 4];
     for (j, o) in out.iter_mut().enumerate() {
         let rows: Vec<usize> = train.iter().copied().filter(|&l| !se[l][j].is_nan()).collect();
-        let deg = degree_for(rows.len());
+        let deg = degree_for(rows.len(), j);
         let x: Vec<Vec<f64>> = rows.iter().map(|&l| row(reg, l, j, deg)).collect();
         let y: Vec<f64> = rows.iter().map(|&l| theta[l][j]).collect();
         let wt: Vec<f64> = rows.iter().map(|&l| w.weight(&se[l], j)).collect();
@@ -121,7 +123,7 @@ pub fn predict(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights, 
 /// humidity scaled as (x − 60)/20).
 pub fn coefficients(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights, j: usize) -> Vec<f64> {
     let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan()).collect();
-    let deg = degree_for(rows.len());
+    let deg = degree_for(rows.len(), j);
     let x: Vec<Vec<f64>> = rows.iter().map(|&l| row(reg, l, j, deg)).collect();
     let y: Vec<f64> = rows.iter().map(|&l| theta[l][j]).collect();
     let wt: Vec<f64> = rows.iter().map(|&l| w.weight(&se[l], j)).collect();
@@ -134,7 +136,7 @@ pub fn chi2(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights) -> 
     let mut k = 0;
     for j in 0..4 {
         let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan()).collect();
-        let deg = degree_for(rows.len());
+        let deg = degree_for(rows.len(), j);
         let x: Vec<Vec<f64>> = rows.iter().map(|&l| row(reg, l, j, deg)).collect();
         let y: Vec<f64> = rows.iter().map(|&l| theta[l][j]).collect();
         let wt: Vec<f64> = rows.iter().map(|&l| w.weight(&se[l], j)).collect();
@@ -144,11 +146,6 @@ pub fn chi2(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights) -> 
         }
     }
     (total, k)
-}
-
-/// The calibration's θ at each level's humidity mapped by a sensor offset and gain.
-pub fn calibration_at_mapped(calib: &Calibration, levels: &[LevelData], offset: f64, gain: f64) -> Vec<Theta> {
-    levels.iter().map(|l| calibration_theta(calib, mapped_rh(l.rh_pct, offset, gain))).collect()
 }
 
 /// RH_true = RH_read + o + (g − 1)(RH_read − 60): gain about the middle of the range, so that
