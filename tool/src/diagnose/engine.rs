@@ -41,6 +41,9 @@ use ipmc_fit::lsq::{self, Bound, Param, Tolerance};
 pub const MIN_DELTA_BIC: f64 = 10.0;
 /// Paired improvement of the held-out χ² over levels, in standard errors.
 pub const MIN_HELDOUT_Z: f64 = 0.5;
+/// How much worse than their neighbours in frequency the values at the mains lines must fit
+/// for interference to be named (z): a broadband misfit raises both alike.
+pub const MIN_LINE_Z: f64 = 3.0;
 /// Smallest humidity shift [%RH] a sensor error or hydration lag must cause at some level to
 /// be named: a tenth of a percent is within one reading's scatter and of no use to anyone,
 /// while the sensors this product reads (HTS221, HIH-4030) are specified to ±3.5 %RH.
@@ -476,7 +479,8 @@ fn score_candidate(
             .map(|(s, (v, e))| Estimate { name: s.name.into(), unit: s.unit.into(), value: *v, std_error: *e })
             .collect()
     };
-    // A humidity remap too small to matter (see MIN_RH_SHIFT_PCT): why the candidate cannot pass.
+    // Why a candidate that fits cannot be named (a humidity remap too small to matter, lines no
+    // worse than their neighbours): kept in the note.
     let mut floor: Option<String> = None;
     let (fitted, delta_chi2, extra, space, params, mut note, (null_per_level, per_level)) = match cand.kind {
         Kind::Model(ext) => {
@@ -489,7 +493,8 @@ fn score_candidate(
             (f, chi2_0 - chi2, cand.params.len(), "data", estimates(&j.phi, &j.phi_se), String::new(), held)
         }
         Kind::Mains => {
-            let mut best: Option<(f64, Fitted, usize, f64, f64)> = None;
+            // (Δχ², fit, values at lines, line, power, z of the lines against their neighbours)
+            let mut best: Option<(f64, Fitted, usize, f64, f64, f64)> = None;
             for line in [50.0, 60.0] {
                 let masks: Vec<Mask> = levels
                     .iter()
@@ -511,35 +516,62 @@ fn score_candidate(
                 }
                 let b = fits::fit_levels(ctx.calib, levels, &ctx.sig, &masks, &Extension::default(), &ctx.base.theta)?;
                 let chi2: f64 = b.chi2.iter().sum();
-                // Interference power per value at the lines, in σ² (per component), from the
-                // values the fit left out.
-                let mut lines_chi2 = 0.0;
+                // χ² per current value under the fit without the lines; each line value against
+                // its neighbours in frequency that are not lines themselves: with no
+                // interference it is the worst of k + 1 values with probability 1/(k + 1), a
+                // sign test that a smooth misfit (which raises neighbours alike) cannot pass,
+                // however heavy its tails.
+                let mut at_lines = Vec::new();
+                let (mut worst, mut expected, mut variance) = (0.0, 0.0, 0.0);
                 for l in 0..n {
-                    let mut lines = ctx.all[l].clone();
-                    for (on, keep) in lines.current.iter_mut().zip(&masks[l].current) {
-                        *on = *on && !keep;
-                    }
-                    lines.tip.iter_mut().for_each(|b| *b = false);
                     let p = fits::level_params(ctx.calib, &levels[l], &b.theta[l]);
-                    lines_chi2 += fits::chi2(&levels[l], &ctx.sig[l], &lines, &p, &Extension::default());
+                    let (_, cur) = fits::log_ratios(&levels[l], &p, &Extension::default());
+                    let chi2_at = |i: usize| cur[i].map(|z| (z.re / ctx.sig[l].current[i].ln_gain).powi(2) + (z.im / ctx.sig[l].current[i].phase).powi(2));
+                    for i in 0..cur.len() {
+                        if !(ctx.all[l].current[i] && !masks[l].current[i]) {
+                            continue;
+                        }
+                        let Some(here) = chi2_at(i) else { continue };
+                        at_lines.push(here);
+                        let beside: Vec<f64> =
+                            [i.wrapping_sub(1), i + 1].into_iter().filter(|&j| j < cur.len() && masks[l].current[j]).filter_map(chi2_at).collect();
+                        if !beside.is_empty() {
+                            let p = 1.0 / (beside.len() + 1) as f64;
+                            expected += p;
+                            variance += p * (1.0 - p);
+                            if beside.iter().all(|&b| here > b) {
+                                worst += 1.0;
+                            }
+                        }
+                    }
                 }
-                let power = (lines_chi2 / (2.0 * excluded as f64) - 1.0).max(0.0);
-                let dchi2 = chi2_0 - chi2;
+                // The interference as a random-phase current at the lines: each of their
+                // values scattered with variance σ²(1 + P) per component, P by maximum
+                // likelihood; one parameter, where a free value per point would cost two each.
+                let m = 2.0 * at_lines.len() as f64;
+                let r2: f64 = at_lines.iter().sum();
+                let power = (r2 / m - 1.0).max(0.0);
+                let nll = chi2 + r2 / (1.0 + power) + m * (1.0 + power).ln();
+                let specific = if variance > 0.0 { (worst - expected) / variance.sqrt() } else { 0.0 };
+                let dchi2 = chi2_0 - nll;
                 if best.as_ref().is_none_or(|(d, ..)| dchi2 > *d) {
                     let f = Fitted { theta: b.theta, se: b.se, ext: vec![Extension::default(); n], masks, regressors: ctx.read.clone() };
-                    best = Some((dchi2, f, excluded, line, power));
+                    best = Some((dchi2, f, excluded, line, power, specific));
                 }
             }
-            let Some((dchi2, f, excluded, line, power)) = best else {
+            let Some((dchi2, f, excluded, line, power, specific)) = best else {
                 return Ok((not_applicable(cand, "no frequency near 50/60 Hz or their harmonics", heldout_before), None));
             };
+            if specific < MIN_LINE_Z {
+                floor = Some(format!("the values at the lines are no worse than their neighbours (z = {specific:.1})"));
+            }
             let amplitude = power.sqrt();
             let held = (ctx.refit_null(), ctx.mains_heldout(&f));
             let params = vec![
                 Estimate { name: "line_hz".into(), unit: "Hz".into(), value: line, std_error: 0.0 },
                 Estimate { name: "interference_rms".into(), unit: "σ".into(), value: amplitude, std_error: amplitude / (2.0 * excluded as f64).sqrt() },
             ];
-            (f, dchi2, 2 * excluded, "data", params, format!("{excluded} current values at lines"), held)
+            (f, dchi2, 1, "data", params, format!("{excluded} current values at lines, z = {specific:.1} against their neighbours"), held)
         }
         Kind::Humidity(map) => {
             let base = &ctx.base;
