@@ -155,8 +155,11 @@ pub fn mapped_rh(read: f64, offset: f64, gain: f64) -> f64 {
 }
 
 /// The polymer's humidity behind a first-order lag τ [s] of the readings, averaged over each
-/// level's time span. The readings are taken as linear between samples (the chamber moves
-/// smoothly between levels); the lag starts in equilibrium with the first reading.
+/// level's time span. The chamber is taken to move to each reading right after the one before
+/// (a bench sets the next level when a sweep ends and then waits for it): interpolating
+/// linearly across the wait instead would put the change half a wait late and fit a lag a
+/// quarter of the true one for 600 s waits. The lag starts in equilibrium with the first
+/// reading.
 pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> Vec<f64> {
     let lagged: Vec<Vec<f64>> = histories
         .iter()
@@ -166,10 +169,7 @@ pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> V
             for i in 0..h.t_s.len() {
                 if i > 0 {
                     let dt = (h.t_s[i] - h.t_s[i - 1]).max(0.0);
-                    let slope = if dt > 0.0 { (h.rh_pct[i] - h.rh_pct[i - 1]) / dt } else { 0.0 };
-                    let e = (-dt / tau_s).exp();
-                    // Exact for a linear input: h(Δ) = u₁ − aτ + (h₀ − u₀ + aτ)e^(−Δ/τ).
-                    state = h.rh_pct[i] - slope * tau_s + (state - h.rh_pct[i - 1] + slope * tau_s) * e;
+                    state = h.rh_pct[i] + (state - h.rh_pct[i]) * (-dt / tau_s).exp();
                 }
                 out.push(state);
             }
@@ -207,8 +207,8 @@ mod tests {
             current: vec![],
         };
         let got = lagged_rh(&[lvl(60.0, 60.0)], &[hist], 50.0)[0];
-        // the step is a 1 s ramp from 9 to 10 s: about 50 s of lag after it
-        let want = 60.0 - 20.0 * (-(60.0 - 9.5) / 50.0f64).exp();
+        // the chamber steps right after the last reading at 40 %, at 9 s
+        let want = 60.0 - 20.0 * (-(60.0 - 9.0) / 50.0f64).exp();
         assert!((got - want).abs() < 0.1, "{got} vs {want}");
     }
 
