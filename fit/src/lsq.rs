@@ -7,6 +7,10 @@
 //! Bounds are kept by optimizing an unconstrained coordinate u with θ = g(u) ([`Bound`]); the
 //! covariance is propagated back to θ through g′ (delta method), so a badly determined positive
 //! parameter shows up as a large relative standard error instead of a clipped estimate.
+//!
+//! A problem whose residuals come in blocks (one per humidity level, say) where most parameters
+//! move one block only is fitted by [`fit_blocks`]: the same optimizer, but each forward
+//! difference of a block's own parameter evaluates that block alone.
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
@@ -95,7 +99,8 @@ pub struct Fit {
     pub dof: usize,
     /// Weighted residuals at the optimum, in the order the residual function writes them.
     pub residuals: Vec<f64>,
-    /// Model evaluations spent over all starts (the cost of the fit).
+    /// Model evaluations spent over all starts (the cost of the fit; for [`fit_blocks`], block
+    /// evaluations are added up as their share of the residuals).
     pub evaluations: usize,
 }
 
@@ -126,6 +131,8 @@ pub enum FitError {
     TooFewResiduals { residuals: usize, params: usize },
     /// No start reached a finite χ² (the model gave non-finite values everywhere tried).
     NoFiniteStart,
+    /// A block problem's layout does not match its parameters ([`fit_blocks`]).
+    BadBlocks(String),
 }
 
 impl core::fmt::Display for FitError {
@@ -136,6 +143,7 @@ impl core::fmt::Display for FitError {
                 write!(f, "{residuals} residuals cannot determine {params} parameters")
             }
             FitError::NoFiniteStart => write!(f, "the model is not finite at any start"),
+            FitError::BadBlocks(reason) => write!(f, "block layout: {reason}"),
         }
     }
 }
@@ -149,16 +157,19 @@ pub struct Tolerance {
     pub ftol: f64,
     /// Relative step in the (transformed) parameters below which it stops.
     pub xtol: f64,
+    /// It stops after `patience`·(parameters + 1) trial evaluations of the residuals (at least
+    /// one per iteration) even if neither tolerance is met.
+    pub patience: usize,
 }
 
 impl Tolerance {
     /// For a reported fit: the statistical uncertainty of any parameter worth reporting is far
     /// above 1e-8 relative, so iterating towards machine precision (the crate's default) buys
     /// nothing.
-    pub const REPORT: Tolerance = Tolerance { ftol: 1e-10, xtol: 1e-8 };
+    pub const REPORT: Tolerance = Tolerance { ftol: 1e-10, xtol: 1e-8, patience: 100 };
     /// For a fit that only starts another one: it needs to land in the right basin, not on its
     /// floor.
-    pub const START: Tolerance = Tolerance { ftol: 1e-6, xtol: 1e-4 };
+    pub const START: Tolerance = Tolerance { ftol: 1e-6, xtol: 1e-4, patience: 100 };
 }
 
 /// Forward-difference step in u (relative step for `Positive` parameters).
@@ -185,7 +196,8 @@ pub fn minimize<F>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], n_resi
 where
     F: Fn(&[f64], &mut [f64]),
 {
-    let (problem, chi2, _) = best_of_starts(tol, params, starts, n_residuals, &residuals)?;
+    let model = Dense { n_residuals, f: residuals };
+    let (problem, chi2, _) = best_of_starts(tol, params, starts, &model)?;
     Ok((problem.theta(&problem.u), chi2))
 }
 
@@ -194,25 +206,132 @@ pub fn fit_with<F>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], n_resi
 where
     F: Fn(&[f64], &mut [f64]),
 {
-    let (problem, chi2, evaluations) = best_of_starts(tol, params, starts, n_residuals, &residuals)?;
-    let before = problem.evaluations.get();
+    fit_model(tol, params, starts, &Dense { n_residuals, f: residuals })
+}
+
+/// Which residuals a parameter of a block problem moves ([`fit_blocks`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reach {
+    /// Every block's.
+    Global,
+    /// Only those of the block with this index.
+    Block(usize),
+}
+
+/// The layout of a problem whose residuals come in consecutive blocks.
+#[derive(Clone, Copy, Debug)]
+pub struct Blocks<'a> {
+    /// Residual count of each block, in the order the blocks are laid out in the residual vector.
+    pub sizes: &'a [usize],
+    /// For each parameter (in the order of `params`), which residuals it moves.
+    pub reach: &'a [Reach],
+}
+
+/// [`fit`] for a problem whose residuals come in blocks, each parameter moving either every block
+/// or one block only (a model's global parameters and each humidity level's own ones). The
+/// result is the one [`fit`] gives on the concatenated residuals; only the cost differs: a
+/// Jacobian takes one evaluation of every block per global parameter, plus one, and one
+/// evaluation of its block per local parameter, instead of one of every block per parameter.
+///
+/// `residuals(θ, b, out)` writes block `b`'s `sizes[b]` weighted residuals for parameters θ (all
+/// of them, in natural units). It must not read a parameter that reaches another block only: that
+/// parameter's derivatives outside its block are taken as exactly zero. A non-finite residual
+/// marks θ as infeasible. [`Fit::residuals`] holds the blocks one after another.
+pub fn fit_blocks<F>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], blocks: Blocks<'_>, residuals: F) -> Result<Fit, FitError>
+where
+    F: Fn(&[f64], usize, &mut [f64]),
+{
+    if blocks.reach.len() != params.len() {
+        return Err(FitError::BadBlocks(format!("{} reaches for {} parameters", blocks.reach.len(), params.len())));
+    }
+    if let Some((p, b)) = params.iter().zip(blocks.reach).find_map(|(p, r)| match r {
+        Reach::Block(b) if *b >= blocks.sizes.len() => Some((p, b)),
+        _ => None,
+    }) {
+        return Err(FitError::BadBlocks(format!("{} reaches block {b} of {}", p.name, blocks.sizes.len())));
+    }
+    let mut offsets = Vec::with_capacity(blocks.sizes.len() + 1);
+    offsets.push(0);
+    for s in blocks.sizes {
+        offsets.push(offsets.last().copied().unwrap_or(0) + s);
+    }
+    fit_model(tol, params, starts, &Blocked { offsets, reach: blocks.reach, f: residuals })
+}
+
+/// How the optimizer gets residuals: all of them, or those one parameter moves.
+trait Residuals {
+    fn len(&self) -> usize;
+    /// Writes every residual at θ.
+    fn all(&self, theta: &[f64], out: &mut [f64]);
+    /// Writes, at θ, the residuals that parameter `j` moves and returns where they are in `out`
+    /// (the others it may leave as they were: their derivative in `j` is zero).
+    fn moved_by(&self, j: usize, theta: &[f64], out: &mut [f64]) -> core::ops::Range<usize>;
+}
+
+/// A residual function with no known structure: every parameter moves every residual.
+struct Dense<F> {
+    n_residuals: usize,
+    f: F,
+}
+
+impl<F: Fn(&[f64], &mut [f64])> Residuals for Dense<F> {
+    fn len(&self) -> usize {
+        self.n_residuals
+    }
+    fn all(&self, theta: &[f64], out: &mut [f64]) {
+        (self.f)(theta, out)
+    }
+    fn moved_by(&self, _j: usize, theta: &[f64], out: &mut [f64]) -> core::ops::Range<usize> {
+        (self.f)(theta, out);
+        0..self.n_residuals
+    }
+}
+
+/// A residual function evaluated block by block ([`fit_blocks`]).
+struct Blocked<'a, F> {
+    /// Where each block starts in the residual vector, and the total at the end.
+    offsets: Vec<usize>,
+    reach: &'a [Reach],
+    f: F,
+}
+
+impl<F: Fn(&[f64], usize, &mut [f64])> Residuals for Blocked<'_, F> {
+    fn len(&self) -> usize {
+        self.offsets.last().copied().unwrap_or(0)
+    }
+    fn all(&self, theta: &[f64], out: &mut [f64]) {
+        for (b, w) in self.offsets.windows(2).enumerate() {
+            (self.f)(theta, b, &mut out[w[0]..w[1]]);
+        }
+    }
+    fn moved_by(&self, j: usize, theta: &[f64], out: &mut [f64]) -> core::ops::Range<usize> {
+        match self.reach[j] {
+            Reach::Global => {
+                self.all(theta, out);
+                0..self.len()
+            }
+            Reach::Block(b) => {
+                let rows = self.offsets[b]..self.offsets[b + 1];
+                (self.f)(theta, b, &mut out[rows.clone()]);
+                rows
+            }
+        }
+    }
+}
+
+/// The best optimum over `starts` with its statistics.
+fn fit_model<R: Residuals>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], model: &R) -> Result<Fit, FitError> {
+    let (problem, chi2, evaluations) = best_of_starts(tol, params, starts, model)?;
+    let before = problem.evaluations();
     let mut fit = problem.statistics(chi2);
-    fit.evaluations = evaluations + problem.evaluations.get() - before;
+    fit.evaluations = evaluations + problem.evaluations() - before;
     Ok(fit)
 }
 
 /// Runs LM from every start; the best problem, its χ² and the evaluations spent on all starts.
-fn best_of_starts<'a, F>(
-    tol: Tolerance,
-    params: &'a [Param],
-    starts: &[Vec<f64>],
-    n_residuals: usize,
-    residuals: &'a F,
-) -> Result<(Problem<'a, F>, f64, usize), FitError>
-where
-    F: Fn(&[f64], &mut [f64]),
-{
+fn best_of_starts<'a, R: Residuals>(tol: Tolerance, params: &'a [Param], starts: &[Vec<f64>], model: &'a R) -> Result<(Problem<'a, R>, f64, usize), FitError> {
     let n = params.len();
+    let n_residuals = model.len();
     if n_residuals < n {
         return Err(FitError::TooFewResiduals { residuals: n_residuals, params: n });
     }
@@ -224,18 +343,18 @@ where
             return Err(FitError::BadStart { start: k, reason: format!("{} = {v} is outside {:?}", p.name, p.bound) });
         }
     }
-    let lm = LevenbergMarquardt::new().with_ftol(tol.ftol).with_xtol(tol.xtol).with_gtol(tol.ftol);
-    let mut best: Option<(Problem<'a, F>, f64)> = None;
+    let lm = LevenbergMarquardt::new().with_ftol(tol.ftol).with_xtol(tol.xtol).with_gtol(tol.ftol).with_patience(tol.patience.max(1));
+    let mut best: Option<(Problem<'a, R>, f64)> = None;
     let mut evaluations = 0;
     for start in starts {
         let u = DVector::from_iterator(n, params.iter().zip(start).map(|(p, &v)| p.bound.to_u(v)));
-        let problem = Problem::new(params, u, n_residuals, residuals);
+        let problem = Problem::new(params, u, model);
         if !problem.chi2().is_finite() {
-            evaluations += problem.evaluations.get();
+            evaluations += problem.evaluations();
             continue;
         }
         let (problem, _report) = lm.minimize(problem);
-        evaluations += problem.evaluations.get();
+        evaluations += problem.evaluations();
         let chi2 = problem.chi2();
         if chi2.is_finite() && best.as_ref().is_none_or(|(_, b)| chi2 < *b) {
             best = Some((problem, chi2));
@@ -246,20 +365,29 @@ where
 }
 
 /// The LM crate's view of a problem: coordinates u, residuals by the caller's function.
-struct Problem<'a, F> {
+struct Problem<'a, R> {
     params: &'a [Param],
     u: DVector<f64>,
-    n_residuals: usize,
-    residual_fn: &'a F,
-    evaluations: core::cell::Cell<usize>,
+    model: &'a R,
+    /// Residual values computed so far: a block evaluation costs its share of a full one.
+    rows_evaluated: core::cell::Cell<usize>,
     /// The residuals at the last u they were computed at: LM asks for the residuals and then
     /// the Jacobian at the same point, and the Jacobian's differences start from them.
     at_u: core::cell::RefCell<Option<(DVector<f64>, Vec<f64>)>>,
 }
 
-impl<'a, F: Fn(&[f64], &mut [f64])> Problem<'a, F> {
-    fn new(params: &'a [Param], u: DVector<f64>, n_residuals: usize, residual_fn: &'a F) -> Self {
-        Problem { params, u, n_residuals, residual_fn, evaluations: core::cell::Cell::new(0), at_u: Default::default() }
+impl<'a, R: Residuals> Problem<'a, R> {
+    fn new(params: &'a [Param], u: DVector<f64>, model: &'a R) -> Self {
+        Problem { params, u, model, rows_evaluated: core::cell::Cell::new(0), at_u: Default::default() }
+    }
+
+    /// Full model evaluations spent so far (block evaluations added up).
+    fn evaluations(&self) -> usize {
+        self.rows_evaluated.get().div_ceil(self.model.len().max(1))
+    }
+
+    fn count(&self, rows: usize) {
+        self.rows_evaluated.set(self.rows_evaluated.get() + rows);
     }
 
     fn theta(&self, u: &DVector<f64>) -> Vec<f64> {
@@ -267,8 +395,8 @@ impl<'a, F: Fn(&[f64], &mut [f64])> Problem<'a, F> {
     }
 
     fn eval(&self, u: &DVector<f64>, out: &mut [f64]) -> bool {
-        self.evaluations.set(self.evaluations.get() + 1);
-        (self.residual_fn)(&self.theta(u), out);
+        self.count(out.len());
+        self.model.all(&self.theta(u), out);
         out.iter().all(|r| r.is_finite())
     }
 
@@ -286,23 +414,26 @@ impl<'a, F: Fn(&[f64], &mut [f64])> Problem<'a, F> {
     }
 
     fn chi2(&self) -> f64 {
-        let mut r = vec![0.0; self.n_residuals];
+        let mut r = vec![0.0; self.model.len()];
         if self.eval_here(&mut r) { r.iter().map(|x| x * x).sum() } else { f64::INFINITY }
     }
 
-    /// Forward differences in u: one evaluation per parameter.
+    /// Forward differences in u: per parameter, one evaluation of the residuals it moves (the
+    /// other rows of its column stay zero).
     fn jacobian_at(&self, r0: &[f64]) -> Option<DMatrix<f64>> {
-        let (m, n) = (self.n_residuals, self.u.len());
+        let (m, n) = (self.model.len(), self.u.len());
         let mut jac = DMatrix::zeros(m, n);
         let mut r = vec![0.0; m];
         for j in 0..n {
             let mut u = self.u.clone();
             let h = DIFF_STEP * self.u[j].abs().max(1.0);
             u[j] += h;
-            if !self.eval(&u, &mut r) {
+            let rows = self.model.moved_by(j, &self.theta(&u), &mut r);
+            self.count(rows.len());
+            if !r[rows.clone()].iter().all(|x| x.is_finite()) {
                 return None;
             }
-            for i in 0..m {
+            for i in rows {
                 jac[(i, j)] = (r[i] - r0[i]) / h;
             }
         }
@@ -311,7 +442,7 @@ impl<'a, F: Fn(&[f64], &mut [f64])> Problem<'a, F> {
 
     fn statistics(&self, chi2: f64) -> Fit {
         let n = self.u.len();
-        let m = self.n_residuals;
+        let m = self.model.len();
         let mut r0 = vec![0.0; m];
         self.eval_here(&mut r0);
         let dof = m - n;
@@ -360,7 +491,7 @@ impl<'a, F: Fn(&[f64], &mut [f64])> Problem<'a, F> {
     }
 }
 
-impl<F: Fn(&[f64], &mut [f64])> LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, F> {
+impl<R: Residuals> LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, R> {
     type ResidualStorage = Owned<f64, Dyn>;
     type JacobianStorage = Owned<f64, Dyn, Dyn>;
     type ParameterStorage = Owned<f64, Dyn>;
@@ -374,12 +505,12 @@ impl<F: Fn(&[f64], &mut [f64])> LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        let mut r = vec![0.0; self.n_residuals];
+        let mut r = vec![0.0; self.model.len()];
         self.eval_here(&mut r).then(|| DVector::from_vec(r))
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let mut r0 = vec![0.0; self.n_residuals];
+        let mut r0 = vec![0.0; self.model.len()];
         if !self.eval_here(&mut r0) {
             return None;
         }
@@ -436,6 +567,79 @@ mod tests {
         .unwrap();
         assert!((f.estimates[0] * f.estimates[1] - 6.0).abs() < 1e-2);
         assert!(f.std_errors.iter().all(|s| s.is_infinite()), "{:?}", f.std_errors);
+    }
+
+    /// Three blocks of different sizes, y = a_b·e^(−k_b·x) + c_b·x² + g·x per block, with one
+    /// global slope g.
+    fn block_residuals(t: &[f64], b: usize, out: &mut [f64]) {
+        let (g, a, k, c) = (t[0], t[1 + 3 * b], t[2 + 3 * b], t[3 + 3 * b]);
+        for (i, o) in out.iter_mut().enumerate() {
+            let x = 0.3 * (i + 1) as f64 + b as f64;
+            let y = (1.7 + 0.1 * b as f64) * (-0.4 * x).exp() + 0.05 * x * x + 0.2 * x + 0.002 * (((i * 37 + b) % 7) as f64 - 3.0);
+            *o = (y - a * (-k * x).exp() - c * x * x - g * x) / 0.002;
+        }
+    }
+    const BLOCK_SIZES: [usize; 3] = [7, 11, 5];
+
+    fn block_problem() -> (Vec<Param>, Vec<Reach>) {
+        let mut params = vec![Param::new("g", Bound::Positive)];
+        let mut reach = vec![Reach::Global];
+        for b in 0..BLOCK_SIZES.len() {
+            params.push(Param::new(format!("a{b}"), Bound::Positive));
+            params.push(Param::new(format!("k{b}"), Bound::Between(0.0, 3.0)));
+            params.push(Param::new(format!("c{b}"), Bound::Free));
+            reach.extend([Reach::Block(b); 3]);
+        }
+        (params, reach)
+    }
+
+    fn dense_residuals(t: &[f64], out: &mut [f64]) {
+        let mut at = 0;
+        for (b, &n) in BLOCK_SIZES.iter().enumerate() {
+            block_residuals(t, b, &mut out[at..at + n]);
+            at += n;
+        }
+    }
+
+    /// The block Jacobian is the dense one: the same differences in each block's own rows,
+    /// zeros elsewhere (which the dense one gets by differencing equal values).
+    #[test]
+    fn block_jacobian_equals_the_dense_one() {
+        let (params, reach) = block_problem();
+        let theta = [0.9, 1.2, 0.5, 0.03, 2.0, 0.3, 0.1, 1.5, 0.8, -0.02];
+        let u = DVector::from_iterator(params.len(), params.iter().zip(&theta).map(|(p, &v)| p.bound.to_u(v)));
+        let dense = Dense { n_residuals: BLOCK_SIZES.iter().sum(), f: dense_residuals };
+        let blocked = Blocked { offsets: vec![0, 7, 18, 23], reach: &reach, f: block_residuals };
+        let jd = Problem::new(&params, u.clone(), &dense).jacobian().unwrap();
+        let blocked_problem = Problem::new(&params, u, &blocked);
+        let jb = blocked_problem.jacobian().unwrap();
+        // The global column and each block's three: every entry the structure allows is non-zero.
+        assert_eq!(jd.iter().filter(|v| **v != 0.0).count(), 23 + 3 * 23);
+        assert_eq!(jb, jd);
+        // One full evaluation for r0 and one per global parameter, a block's worth per local one.
+        assert_eq!(blocked_problem.rows_evaluated.get(), 23 * 2 + 3 * 23);
+    }
+
+    #[test]
+    fn a_block_fit_lands_where_the_dense_fit_does() {
+        let (params, reach) = block_problem();
+        let start = vec![1.0, 1.0, 0.5, 0.0, 1.0, 0.5, 0.0, 1.0, 0.5, 0.0];
+        let dense = fit(&params, std::slice::from_ref(&start), BLOCK_SIZES.iter().sum(), dense_residuals).unwrap();
+        let blocks = Blocks { sizes: &BLOCK_SIZES, reach: &reach };
+        let blocked = fit_blocks(Tolerance::REPORT, &params, &[start], blocks, block_residuals).unwrap();
+        assert!((dense.estimates[0] - 0.2).abs() < 0.05, "the dense fit itself went astray: {:?}", dense.estimates);
+        assert_eq!(blocked.estimates, dense.estimates);
+        assert_eq!(blocked.chi2, dense.chi2);
+        assert!(blocked.evaluations < dense.evaluations, "{} vs {}", blocked.evaluations, dense.evaluations);
+    }
+
+    #[test]
+    fn a_block_layout_that_does_not_match_is_refused() {
+        let (params, mut reach) = block_problem();
+        reach[4] = Reach::Block(3);
+        let blocks = Blocks { sizes: &BLOCK_SIZES, reach: &reach };
+        let e = fit_blocks(Tolerance::REPORT, &params, &[vec![1.0; 10]], blocks, block_residuals).unwrap_err();
+        assert!(matches!(e, FitError::BadBlocks(_)), "{e:?}");
     }
 
     #[test]
