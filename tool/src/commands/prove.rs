@@ -1,6 +1,6 @@
 //! `ipmc prove [--seed N] [--cases N] [--json]`: builds sessions with one concealed effect each
 //! (`crate::conceal`) plus clean controls, writes each as an interchange-format recording, runs
-//! the diagnosis blind on the file, and prints the confusion table.
+//! the diagnosis blind on the file (cases in parallel), and prints the confusion table.
 
 use crate::commands::diagnose::read_dataset;
 use crate::conceal::{EFFECTS, Strength, make_case_with};
@@ -8,6 +8,8 @@ use crate::diagnose::engine;
 use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -45,26 +47,50 @@ pub struct Outcome {
 }
 
 /// Runs `per_effect` cases of every effect and `clean` controls; `dir` receives the recordings.
-pub fn run_cases(calib: &ipmc_core::Calibration, seed: u64, per_effect: usize, clean: usize, strength: Strength, dir: &std::path::Path, progress: &dyn Fn(&str)) -> Result<Vec<Outcome>> {
+/// Cases are independent and each is seeded by its index, so they run on every core and the
+/// outcomes (in plan order) do not depend on how many there are.
+pub fn run_cases(
+    calib: &ipmc_core::Calibration,
+    seed: u64,
+    per_effect: usize,
+    clean: usize,
+    strength: Strength,
+    dir: &std::path::Path,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<Vec<Outcome>> {
     let mut plan: Vec<Option<&'static str>> = Vec::new();
     for _ in 0..per_effect {
         plan.extend(EFFECTS.iter().map(|e| Some(*e)));
     }
     plan.extend(std::iter::repeat_n(None, clean));
-    let mut out = Vec::with_capacity(plan.len());
-    for (i, effect) in plan.into_iter().enumerate() {
+    let one = |i: usize, effect: Option<&'static str>| -> Result<Outcome> {
         let case = make_case_with(calib, effect, seed.wrapping_mul(10_007).wrapping_add(i as u64), strength);
         let truth = effect.unwrap_or("none").to_string();
-        progress(&format!("case {i}: {truth}"));
         let path = dir.join(format!("case-{i:03}-{truth}.csv"));
         let csv = case.recording.to_csv().map_err(|e| anyhow::anyhow!("{e}"))?;
         crate::commands::write_atomically(&path, csv.as_bytes())?;
         // Blind: the diagnosis sees only the file.
         let data = read_dataset(std::slice::from_ref(&path))?;
-        let d = engine::diagnose(calib, &data, &|_| {})?;
-        out.push(Outcome { truth, magnitude: case.magnitude, verdict: d.verdict, heldout_before: d.heldout_before, heldout_after: d.heldout_after });
-    }
-    Ok(out)
+        let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;
+        progress(&format!("case {i}: {truth}"));
+        Ok(Outcome { truth, magnitude: case.magnitude, verdict: d.verdict, heldout_before: d.heldout_before, heldout_after: d.heldout_after })
+    };
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<Result<Outcome>>>> = Mutex::new((0..plan.len()).map(|_| None).collect());
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(plan.len().max(1));
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&effect) = plan.get(i) else { break };
+                    let outcome = one(i, effect);
+                    results.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(outcome);
+                }
+            });
+        }
+    });
+    results.into_inner().unwrap_or_else(|e| e.into_inner()).into_iter().map(|r| r.unwrap_or_else(|| Err(anyhow::anyhow!("a case was not run")))).collect()
 }
 
 pub fn run(a: Args) -> Result<()> {
