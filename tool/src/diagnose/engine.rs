@@ -98,15 +98,38 @@ pub struct LevelSummary {
     pub heldout_after: f64,
 }
 
-/// The models a level's figures draw, as the diagnosis fitted them (in sample).
+/// The model that scored one level held out (see the module's doc for each kind of candidate).
+#[derive(Clone, Debug)]
+pub struct HeldOutModel {
+    pub params: ipmc_core::Params<f64>,
+    pub extension: Extension<f64>,
+    /// Values scored with their variance σ² multiplied by the factor: the mains candidate's line
+    /// points, by 1 + the interference power of the other levels.
+    pub inflated: Option<(Mask, f64)>,
+    /// The level's held-out score: (Σ (residual/σ)² over all its values, σ inflated where
+    /// `inflated` says, + [`HeldOutModel::normalization`]) / number of residuals.
+    pub chi2_per_residual: f64,
+}
+
+impl HeldOutModel {
+    /// The inflated variance's share of −2 ln L (m ln factor for m inflated residuals): without
+    /// it, inflating σ would lower the score for free.
+    pub fn normalization(&self) -> f64 {
+        self.inflated.as_ref().map_or(0.0, |(mask, factor)| mask.count() as f64 * factor.ln())
+    }
+}
+
+/// The models a level's figures draw.
 #[derive(Clone, Debug)]
 pub struct LevelModels {
     /// The calibration at the level's humidity (the "simulation").
     pub simulation: ipmc_core::Params<f64>,
-    /// The base model refitted at the level.
+    /// The base model refitted at the level (in sample).
     pub refit: ipmc_core::Params<f64>,
-    /// The winning candidate's model at the level (None when the verdict names no effect).
-    pub augmented: Option<(ipmc_core::Params<f64>, Extension<f64>)>,
+    /// The held-out null the level's `heldout_before` scores.
+    pub before: HeldOutModel,
+    /// The winner held out, the level's `heldout_after` (None when the verdict names no effect).
+    pub after: Option<HeldOutModel>,
 }
 
 pub struct Diagnosis {
@@ -122,7 +145,26 @@ pub struct Diagnosis {
     pub noise: Noise,
     /// Per level, in the order of the dataset's levels.
     pub models: Vec<LevelModels>,
+    /// What the held-out models before and after are (after: None when no effect is named).
+    pub heldout_before_is: String,
+    pub heldout_after_is: Option<String>,
 }
+
+/// A candidate's held-out models per level and its null's, and what each is.
+struct HeldOut {
+    null: Vec<HeldOutModel>,
+    null_is: String,
+    candidate: Vec<HeldOutModel>,
+    candidate_is: String,
+}
+
+fn per_level_scores(models: &[HeldOutModel]) -> Vec<f64> {
+    models.iter().map(|m| m.chi2_per_residual).collect()
+}
+
+const REFIT_NULL_IS: &str = "the base model refitted at the level";
+const ANCHORED_NULL_IS: &str = "the calibration at the humidity as read plus the mean drift from it of the other levels";
+const LAW_NULL_IS: &str = "the level's base parameters predicted by humidity laws fitted on the other levels, at the humidity as read";
 
 /// Per-level outcome of a candidate, what held-out scoring needs.
 struct Fitted {
@@ -144,8 +186,8 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    /// Held-out χ² per residual of each level given per-level fits and their extension.
-    fn heldout(&self, f: &Fitted, laws_for: &dyn Fn(&[usize], usize) -> Theta) -> Vec<f64> {
+    /// The held-out model of each level given per-level fits and their extension.
+    fn heldout(&self, f: &Fitted, laws_for: &dyn Fn(&[usize], usize) -> Theta) -> Vec<HeldOutModel> {
         let n = self.data.levels.len();
         (0..n)
             .map(|l| {
@@ -158,14 +200,18 @@ impl Ctx<'_> {
                         th[j] = cal[j];
                     }
                 }
-                let level = &self.data.levels[l];
-                let p = fits::level_params(self.calib, level, &th);
-                fits::chi2(level, &self.sig[l], &f.masks[l], &p, &f.ext[l]) / self.all[l].count() as f64
+                self.scored(l, fits::level_params(self.calib, &self.data.levels[l], &th), f.ext[l])
             })
             .collect()
     }
 
-    fn law_heldout(&self, f: &Fitted) -> Vec<f64> {
+    /// Level `l`'s held-out model scored on all its values.
+    fn scored(&self, l: usize, params: ipmc_core::Params<f64>, extension: Extension<f64>) -> HeldOutModel {
+        let chi2 = fits::chi2(&self.data.levels[l], &self.sig[l], &self.all[l], &params, &extension);
+        HeldOutModel { params, extension, inflated: None, chi2_per_residual: chi2 / self.all[l].count() as f64 }
+    }
+
+    fn law_heldout(&self, f: &Fitted) -> Vec<HeldOutModel> {
         let w = LawWeights::estimate(&f.regressors, &f.theta, &f.se);
         self.heldout(f, &|train, at| laws::predict(&f.regressors, &f.theta, &f.se, &w, train, at))
     }
@@ -182,13 +228,20 @@ impl Ctx<'_> {
     }
 
     /// The plain model's per-level refit, as held-out score: the null of model candidates.
-    fn refit_null(&self) -> Vec<f64> {
-        self.base.chi2.iter().zip(&self.all).map(|(c, m)| c / m.count() as f64).collect()
+    fn refit_null(&self) -> Vec<HeldOutModel> {
+        (0..self.data.levels.len())
+            .map(|l| HeldOutModel {
+                params: fits::level_params(self.calib, &self.data.levels[l], &self.base.theta[l]),
+                extension: Extension::default(),
+                inflated: None,
+                chi2_per_residual: self.base.chi2[l] / self.all[l].count() as f64,
+            })
+            .collect()
     }
 
     /// Held-out score of a model candidate (see the module's doc): per level, its parameters
     /// `phi` refitted on the other levels, then the level's base parameters with them.
-    fn refit_heldout(&self, cand: &Candidate, ext: ExtFn, phi: &[f64], f: &Fitted) -> Vec<f64> {
+    fn refit_heldout(&self, cand: &Candidate, ext: ExtFn, phi: &[f64], f: &Fitted) -> Vec<HeldOutModel> {
         let levels = &self.data.levels;
         let n = levels.len();
         let params: Vec<Param> = cand.params.iter().map(|s| Param::new(s.name, s.bound)).collect();
@@ -207,11 +260,11 @@ impl Ctx<'_> {
                 })
                 .map_or_else(|_| phi.to_vec(), |(v, _)| v);
                 let x = ext(&phi_train, &p_joint[held]);
-                let chi2 = match fits::fit_level(self.calib, &levels[held], &self.sig[held], &self.all[held], &x, &f.theta[held]) {
-                    Ok((_, fit)) => fit.chi2,
-                    Err(_) => fits::chi2(&levels[held], &self.sig[held], &self.all[held], &p_joint[held], &x),
+                let (params, chi2) = match fits::fit_level(self.calib, &levels[held], &self.sig[held], &self.all[held], &x, &f.theta[held]) {
+                    Ok((theta, fit)) => (fits::level_params(self.calib, &levels[held], &theta), fit.chi2),
+                    Err(_) => (p_joint[held], fits::chi2(&levels[held], &self.sig[held], &self.all[held], &p_joint[held], &x)),
                 };
-                chi2 / self.all[held].count() as f64
+                HeldOutModel { params, extension: x, inflated: None, chi2_per_residual: chi2 / self.all[held].count() as f64 }
             })
             .collect()
     }
@@ -219,10 +272,10 @@ impl Ctx<'_> {
     /// Held-out score of the mains candidate: per level, its refit without the line points plus
     /// those points scored with the predictive variance σ²(1 + P) per component, P being the
     /// interference power [σ²] the other levels show at their lines.
-    fn mains_heldout(&self, f: &Fitted) -> Vec<f64> {
+    fn mains_heldout(&self, f: &Fitted) -> Vec<HeldOutModel> {
         let levels = &self.data.levels;
         let n = levels.len();
-        let lines: Vec<(f64, usize)> = (0..n)
+        let lines: Vec<(f64, Mask)> = (0..n)
             .map(|l| {
                 let mut lines = self.all[l].clone();
                 for (on, keep) in lines.current.iter_mut().zip(&f.masks[l].current) {
@@ -230,17 +283,19 @@ impl Ctx<'_> {
                 }
                 lines.tip.iter_mut().for_each(|b| *b = false);
                 let p = fits::level_params(self.calib, &levels[l], &f.theta[l]);
-                (fits::chi2(&levels[l], &self.sig[l], &lines, &p, &f.ext[l]), lines.count())
+                (fits::chi2(&levels[l], &self.sig[l], &lines, &p, &f.ext[l]), lines)
             })
             .collect();
         (0..n)
             .map(|held| {
-                let (r2, m): (f64, usize) = (0..n).filter(|&l| l != held).fold((0.0, 0), |(a, b), l| (a + lines[l].0, b + lines[l].1));
+                let (r2, m): (f64, usize) = (0..n).filter(|&l| l != held).fold((0.0, 0), |(a, b), l| (a + lines[l].0, b + lines[l].1.count()));
                 let power = if m > 0 { (r2 / m as f64 - 1.0).max(0.0) } else { 0.0 };
                 let p = fits::level_params(self.calib, &levels[held], &f.theta[held]);
                 let kept = fits::chi2(&levels[held], &self.sig[held], &f.masks[held], &p, &f.ext[held]);
-                let (r2, m) = lines[held];
-                (kept + r2 / (1.0 + power) + m as f64 * (1.0 + power).ln()) / self.all[held].count() as f64
+                let (r2, held_lines) = &lines[held];
+                let mut model = HeldOutModel { params: p, extension: f.ext[held], inflated: Some((held_lines.clone(), 1.0 + power)), chi2_per_residual: 0.0 };
+                model.chi2_per_residual = (kept + r2 / (1.0 + power) + model.normalization()) / self.all[held].count() as f64;
+                model
             })
             .collect()
     }
@@ -295,7 +350,8 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         .map(|l| fits::chi2(&levels[l], &ctx.sig[l], &ctx.all[l], &fits::level_params(calib, &levels[l], &cal_theta[l]), &none) / counts[l])
         .collect();
     let plain = ctx.plain();
-    let before = ctx.law_heldout(&plain);
+    let plain_heldout = ctx.law_heldout(&plain);
+    let before = per_level_scores(&plain_heldout);
     let heldout_before = weighted_mean(&before, &counts);
     let chi2_0: f64 = ctx.base.chi2.iter().sum();
     let (law_pred_0, law_k_0) = laws::fitted(&ctx.read, &ctx.base.theta, &ctx.base.se);
@@ -311,15 +367,17 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
 
     let mut scores = Vec::new();
     let mut fitted_of: Vec<Option<Fitted>> = Vec::new();
+    let mut heldout_of: Vec<Option<HeldOut>> = Vec::new();
     for cand in LIBRARY {
         progress(cand.name);
         let t0 = std::time::Instant::now();
-        let (score, fitted) = score_candidate(&ctx, cand, &before, &counts, n_data, chi2_0, (law_chi2_0, law_k_0), n_theta)?;
+        let (score, fitted, heldout) = score_candidate(&ctx, cand, &plain_heldout, &counts, n_data, chi2_0, (law_chi2_0, law_k_0), n_theta)?;
         if std::env::var_os("IPMC_TRACE").is_some() {
             eprintln!("{}: {:.2} s dBIC {:.1} heldout {:.3} null {:.3} z {:.1} {:?}", cand.name, t0.elapsed().as_secs_f64(), score.delta_bic, score.heldout, score.heldout_null, score.heldout_z, score.params.iter().map(|p| p.value).collect::<Vec<_>>());
         }
         scores.push(score);
         fitted_of.push(fitted);
+        heldout_of.push(heldout);
     }
 
     // Decide.
@@ -392,10 +450,15 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             (heldout_before, heldout_before),
         ),
     };
-    let (before_per_level, after_per_level): (Vec<f64>, Vec<f64>) = match winner {
-        Some(i) if verdict == scores[i].name => (scores[i].heldout_null_per_level.clone(), scores[i].heldout_per_level.clone()),
-        _ => (before.clone(), before.clone()),
+    // The held-out models the numbers score: the winner's and its null's, or the humidity laws'
+    // null when no effect is named.
+    let named = winner.filter(|&i| verdict == scores[i].name).and_then(|i| heldout_of[i].take());
+    let (before_models, before_is, after_models, after_is) = match named {
+        Some(h) => (h.null, h.null_is, Some(h.candidate), Some(h.candidate_is)),
+        None => (plain_heldout, LAW_NULL_IS.to_string(), None, None),
     };
+    let before_per_level = per_level_scores(&before_models);
+    let after_per_level = after_models.as_deref().map_or_else(|| before_per_level.clone(), per_level_scores);
     let summaries = (0..n_levels)
         .map(|l| LevelSummary {
             rh_pct: levels[l].rh_pct,
@@ -408,12 +471,15 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             heldout_after: after_per_level[l],
         })
         .collect();
-    let winning = winner.filter(|&i| verdict == scores[i].name).and_then(|i| fitted_of[i].as_ref());
-    let models = (0..n_levels)
-        .map(|l| LevelModels {
+    let mut after_models = after_models.map(Vec::into_iter);
+    let models = before_models
+        .into_iter()
+        .enumerate()
+        .map(|(l, before)| LevelModels {
             simulation: fits::level_params(calib, &levels[l], &cal_theta[l]),
             refit: fits::level_params(calib, &levels[l], &ctx.base.theta[l]),
-            augmented: winning.map(|f| (fits::level_params(calib, &levels[l], &f.theta[l]), f.ext[l])),
+            before,
+            after: after_models.as_mut().and_then(Iterator::next),
         })
         .collect();
     let mut ranked = scores;
@@ -431,6 +497,8 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         levels: summaries,
         noise,
         models,
+        heldout_before_is: before_is,
+        heldout_after_is: after_is,
     })
 }
 
@@ -462,16 +530,16 @@ fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
 fn score_candidate(
     ctx: &Ctx,
     cand: &Candidate,
-    before: &[f64],
+    before: &[HeldOutModel],
     counts: &[f64],
     n_data: f64,
     chi2_0: f64,
     law0: (f64, usize),
     n_theta: f64,
-) -> Result<(Score, Option<Fitted>)> {
+) -> Result<(Score, Option<Fitted>, Option<HeldOut>)> {
     let levels = &ctx.data.levels;
     let n = levels.len();
-    let heldout_before = weighted_mean(before, counts);
+    let heldout_before = weighted_mean(&per_level_scores(before), counts);
     let estimates = |values: &[f64], ses: &[f64]| -> Vec<Estimate> {
         cand.params
             .iter()
@@ -482,14 +550,19 @@ fn score_candidate(
     // Why a candidate that fits cannot be named (a humidity remap too small to matter, lines no
     // worse than their neighbours): kept in the note.
     let mut floor: Option<String> = None;
-    let (fitted, delta_chi2, extra, space, params, mut note, (null_per_level, per_level)) = match cand.kind {
+    let (fitted, delta_chi2, extra, space, params, mut note, held) = match cand.kind {
         Kind::Model(ext) => {
             let start: Vec<f64> = cand.params.iter().map(|s| s.start).collect();
             let j = fits::fit_joint(ctx.calib, levels, &ctx.sig, &ctx.all, cand.params, ext, &ctx.base.theta, &start)?;
             let exts: Vec<Extension<f64>> = (0..n).map(|l| ext(&j.phi, &fits::level_params(ctx.calib, &levels[l], &j.theta[l]))).collect();
             let chi2: f64 = j.chi2.iter().sum();
             let f = Fitted { theta: j.theta, se: j.se, ext: exts, masks: ctx.all.clone(), regressors: ctx.read.clone() };
-            let held = (ctx.refit_null(), ctx.refit_heldout(cand, ext, &j.phi, &f));
+            let held = HeldOut {
+                null: ctx.refit_null(),
+                null_is: REFIT_NULL_IS.into(),
+                candidate: ctx.refit_heldout(cand, ext, &j.phi, &f),
+                candidate_is: format!("the level's base parameters refitted with {}'s parameters fitted on the other levels", cand.name),
+            };
             (f, chi2_0 - chi2, cand.params.len(), "data", estimates(&j.phi, &j.phi_se), String::new(), held)
         }
         Kind::Mains => {
@@ -560,13 +633,18 @@ fn score_candidate(
                 }
             }
             let Some((dchi2, f, excluded, line, power, specific)) = best else {
-                return Ok((not_applicable(cand, "no frequency near 50/60 Hz or their harmonics", heldout_before), None));
+                return Ok((not_applicable(cand, "no frequency near 50/60 Hz or their harmonics", heldout_before), None, None));
             };
             if specific < MIN_LINE_Z {
                 floor = Some(format!("the values at the lines are no worse than their neighbours (z = {specific:.1})"));
             }
             let amplitude = power.sqrt();
-            let held = (ctx.refit_null(), ctx.mains_heldout(&f));
+            let held = HeldOut {
+                null: ctx.refit_null(),
+                null_is: REFIT_NULL_IS.into(),
+                candidate: ctx.mains_heldout(&f),
+                candidate_is: "the base model refitted at the level without its line points, those scored with σ² × (1 + the interference power of the other levels)".into(),
+            };
             let params = vec![
                 Estimate { name: "line_hz".into(), unit: "Hz".into(), value: line, std_error: 0.0 },
                 Estimate { name: "interference_rms".into(), unit: "σ".into(), value: amplitude, std_error: amplitude / (2.0 * excluded as f64).sqrt() },
@@ -578,7 +656,7 @@ fn score_candidate(
             match map {
                 HumidityMap::HydrationLag => {
                     if !ctx.data.has_times() {
-                        return Ok((not_applicable(cand, "the recordings have no time_s", heldout_before), None));
+                        return Ok((not_applicable(cand, "the recordings have no time_s", heldout_before), None, None));
                     }
                     // The calibration's laws at the lagged humidity (with a drift per parameter),
                     // not free laws: free laws are blind to the humidity's scale, so a lag far
@@ -599,12 +677,18 @@ fn score_candidate(
                     let f = Fitted { theta: anchored(ctx, &rh, &everyone), ..ctx.plain() };
                     let dchi2 = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
                     floor = shift_floor(&rh, &read_rh(ctx));
-                    let held = heldout_anchored(ctx, &f, &|train| laws::lagged_rh(levels, &ctx.data.histories, fit_lag(ctx, train).0));
+                    let (null, candidate) = heldout_anchored(ctx, &f, &|train| laws::lagged_rh(levels, &ctx.data.histories, fit_lag(ctx, train).0));
+                    let held = HeldOut {
+                        null,
+                        null_is: ANCHORED_NULL_IS.into(),
+                        candidate,
+                        candidate_is: "the calibration at the humidity lagged by the τ fitted on the other levels, plus their mean drift from it".into(),
+                    };
                     (f, dchi2, 1, "level parameters", estimates(&[tau], &[se]), note, held)
                 }
                 HumidityMap::Temperature => {
                     if ctx.data.temperature_span() < 1.0 {
-                        return Ok((not_applicable(cand, "temperature not recorded or constant within 1 K", heldout_before), None));
+                        return Ok((not_applicable(cand, "temperature not recorded or constant within 1 K", heldout_before), None, None));
                     }
                     let temps: Vec<f64> = levels.iter().map(|l| l.temp_c.unwrap_or(0.0)).collect();
                     let mean = temps.iter().sum::<f64>() / n as f64;
@@ -616,7 +700,12 @@ fn score_candidate(
                     let slope = |j: usize| laws::coefficients(&reg, &base.theta, &base.se, &w, j).last().copied().unwrap_or(f64::NAN);
                     let values = [slope(0), slope(1)];
                     let f = Fitted { regressors: reg, ..ctx.plain() };
-                    let held = (before.to_vec(), ctx.law_heldout(&f));
+                    let held = HeldOut {
+                        null: before.to_vec(),
+                        null_is: LAW_NULL_IS.into(),
+                        candidate: ctx.law_heldout(&f),
+                        candidate_is: "the level's base parameters predicted by laws in humidity and temperature fitted on the other levels".into(),
+                    };
                     (f, law0.0 - chi2, k - law0.1, "level parameters", estimates(&values, &[f64::NAN, f64::NAN]), String::new(), held)
                 }
                 HumidityMap::SensorError => {
@@ -634,10 +723,16 @@ fn score_candidate(
                     let f = Fitted { theta: anchored(ctx, &rh, &everyone), ..ctx.plain() };
                     let dchi2 = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
                     floor = shift_floor(&rh, &read_rh(ctx));
-                    let held = heldout_anchored(ctx, &f, &|train| {
+                    let (null, candidate) = heldout_anchored(ctx, &f, &|train| {
                         let (o, g, ..) = fit_sensor(ctx, train);
                         levels.iter().map(|l| laws::mapped_rh(l.rh_pct, o, g)).collect()
                     });
+                    let held = HeldOut {
+                        null,
+                        null_is: ANCHORED_NULL_IS.into(),
+                        candidate,
+                        candidate_is: "the calibration at the humidity mapped by the offset and gain fitted on the other levels, plus their mean drift from it".into(),
+                    };
                     (f, dchi2, 2, "level parameters", estimates(&[o, g], &se_og), note, held)
                 }
             }
@@ -645,6 +740,7 @@ fn score_candidate(
     };
     let n_ic = if space == "data" { n_data } else { n_theta };
     let delta_bic = delta_chi2 - extra as f64 * n_ic.ln();
+    let (null_per_level, per_level) = (per_level_scores(&held.null), per_level_scores(&held.candidate));
     let heldout = weighted_mean(&per_level, counts);
     let heldout_null = weighted_mean(&null_per_level, counts);
     let z = paired_z(&null_per_level, &per_level, counts);
@@ -671,6 +767,7 @@ fn score_candidate(
             note,
         },
         Some(fitted),
+        Some(held),
     ))
 }
 
@@ -746,15 +843,14 @@ fn shift_floor(rh: &[f64], read: &[f64]) -> Option<String> {
     (largest < MIN_RH_SHIFT_PCT).then(|| format!("moves no level by {MIN_RH_SHIFT_PCT} %RH (largest {largest:.2} %RH)"))
 }
 
-/// Held-out scores of a humidity remap and of its null, per level: the remap (`remap_of` the
+/// Held-out models of a humidity remap and of its null, per level: the remap (`remap_of` the
 /// training levels gives every level's humidity) and the drift from the other levels, against
 /// the calibration as read with the drift from the other levels.
-fn heldout_anchored(ctx: &Ctx, f: &Fitted, remap_of: &dyn Fn(&[usize]) -> Vec<f64>) -> (Vec<f64>, Vec<f64>) {
+fn heldout_anchored(ctx: &Ctx, f: &Fitted, remap_of: &dyn Fn(&[usize]) -> Vec<f64>) -> (Vec<HeldOutModel>, Vec<HeldOutModel>) {
     let levels = &ctx.data.levels;
     let n = levels.len();
     let score = |held: usize, th: &Theta| {
-        let p = fits::level_params(ctx.calib, &levels[held], th);
-        fits::chi2(&levels[held], &ctx.sig[held], &f.masks[held], &p, &f.ext[held]) / ctx.all[held].count() as f64
+        ctx.scored(held, fits::level_params(ctx.calib, &levels[held], th), f.ext[held])
     };
     (0..n)
         .map(|held| {

@@ -50,10 +50,11 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
         }
         let _ = writeln!(s);
     }
+    let after_is = d.heldout_after_is.as_deref().unwrap_or("no effect is named, the same model");
     let _ = writeln!(
         s,
-        "Held-out error (each humidity level predicted from humidity laws fitted on the others; χ² per residual, 1 = at the noise): **{:.3} before, {:.3} after**.\n",
-        d.heldout_before, d.heldout_after
+        "Held-out error (each humidity level in turn predicted without it; χ² per residual, 1 = at the noise): **{:.3} before, {:.3} after**. Before: {}. After: {}.\n",
+        d.heldout_before, d.heldout_after, d.heldout_before_is, after_is
     );
     let c = &d.located.calibration;
     let _ = writeln!(s, "## Compare\n");
@@ -113,9 +114,19 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
     }
     let _ = writeln!(s);
     let _ = writeln!(s, "## Figures\n");
+    let drawn = match &d.heldout_after_is {
+        Some(after) => format!(
+            "Held out, the models the numbers above score, at each level predicted without it. Residual map, left (before): {}; right (after): {}. Bode overlays at representative levels: the data (dots), the simulation (the calibration at the level's humidity, grey dashed), the held-out model before (blue) and after (red), and, where it differs from the held-out model before, the base model refitted at the level in sample (light blue dashed).",
+            d.heldout_before_is, after
+        ),
+        None => format!(
+            "No effect is named, so only the held-out model before is drawn, at each level predicted without it: {}. Residual map: its residuals. Bode overlays at representative levels: the data (dots), the simulation (the calibration at the level's humidity, grey dashed), that held-out model (blue), and, where it differs from it, the base model refitted at the level in sample (light blue dashed).",
+            d.heldout_before_is
+        ),
+    };
     let _ = writeln!(
         s,
-        "In sample: the base model refitted at each level, and the winning candidate fitted jointly with it (the held-out numbers are above). Colour scale of the residual map: rms of ln-gain and phase residuals over σ, both channels.\n"
+        "{drawn} Colour scale of the residual map: per frequency, the rms of the ln-gain and phase residuals over σ of both channels (σ inflated at the mains lines where the model was scored so).\n"
     );
     for f in figures {
         let _ = writeln!(s, "![{}]({}.svg)  \n[PNG]({}.png)\n", f.title, f.stem, f.stem);
