@@ -128,7 +128,7 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
             rows: data.levels.iter().zip(&sig).zip(&d.models).filter_map(|((l, s), m)| m.after.as_ref().map(|a| residual_row(l, s, a))).collect(),
         });
     }
-    let title = "Held-out residual map: |residual|/σ over frequency × humidity level, each level predicted without it".to_string();
+    let title = "Held-out residual map: |residual|/σ over frequency × humidity level, each level held out".to_string();
     let stem = "residual-map".to_string();
     render(&ResidualMap { title: title.clone(), panels }, &dir.join(&stem), (1600, 800))?;
     drawn.push(Drawn { title, stem });

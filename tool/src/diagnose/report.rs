@@ -53,7 +53,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
     let after_is = d.heldout_after_is.as_deref().unwrap_or("no effect is named, the same model");
     let _ = writeln!(
         s,
-        "Held-out error (each humidity level in turn predicted without it; χ² per residual, 1 = at the noise): **{:.3} before, {:.3} after**. Before: {}. After: {}.\n",
+        "Held-out error (each humidity level in turn, scored by a model whose tested part was fitted on the other levels; χ² per residual, 1 = at the noise): **{:.3} before, {:.3} after**. Before: {}. After: {}.\n",
         d.heldout_before, d.heldout_after, d.heldout_before_is, after_is
     );
     let c = &d.located.calibration;
@@ -116,11 +116,11 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
     let _ = writeln!(s, "## Figures\n");
     let drawn = match &d.heldout_after_is {
         Some(after) => format!(
-            "Held out, the models the numbers above score, at each level predicted without it. Residual map, left (before): {}; right (after): {}. Bode overlays at representative levels: the data (dots), the simulation (the calibration at the level's humidity, grey dashed), the held-out model before (blue) and after (red), and, where it differs from the held-out model before, the base model refitted at the level in sample (light blue dashed).",
+            "Held out: the models the numbers above score. Residual map, left (before): {}; right (after): {}. Bode overlays at representative levels: the data (dots), the simulation (the calibration at the level's humidity, grey dashed), the held-out model before (blue) and after (red), and, where it differs from the held-out model before, the base model refitted at the level in sample (light blue dashed).",
             d.heldout_before_is, after
         ),
         None => format!(
-            "No effect is named, so only the held-out model before is drawn, at each level predicted without it: {}. Residual map: its residuals. Bode overlays at representative levels: the data (dots), the simulation (the calibration at the level's humidity, grey dashed), that held-out model (blue), and, where it differs from it, the base model refitted at the level in sample (light blue dashed).",
+            "No effect is named, so only the held-out model before is drawn: {}. The residual map shows its residuals. Bode overlays at representative levels: the data (dots), the simulation (the calibration at the level's humidity, grey dashed), that held-out model (blue), and, where it differs from it, the base model refitted at the level in sample (light blue dashed).",
             d.heldout_before_is
         ),
     };
