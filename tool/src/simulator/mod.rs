@@ -152,6 +152,40 @@ mod tests {
     }
 
     /// The sample lags the chamber: a revisited level is not where the first visit was.
+    /// `diagnose` on this simulator's sessions, a generator `prove` does not use: what each
+    /// session simulates is what the diagnosis names.
+    fn diagnosis_of(s: &Session) -> crate::diagnose::engine::Diagnosis {
+        let (fr, _) = FrequencyResponse::parse("sim.csv", &csv(s)).unwrap();
+        let data = crate::diagnose::data::Dataset::from_recordings(&[fr]);
+        crate::diagnose::engine::diagnose(&Calibration::default_preset(), &data, &|_| {}).unwrap()
+    }
+
+    #[test]
+    fn a_clean_session_is_diagnosed_none() {
+        let d = diagnosis_of(&session("fr-one-mode.toml"));
+        assert_eq!(d.verdict, "none", "{}", d.explanation);
+    }
+
+    #[test]
+    fn a_hydration_lag_is_diagnosed_with_its_time_constant() {
+        let s = session("fr-up-down.toml");
+        let d = diagnosis_of(&s);
+        assert_eq!(d.verdict, "hydration_lag", "{}", d.explanation);
+        let tau = d.params[0].value;
+        assert!((tau / s.humidity.hydration_tau_s - 1.0).abs() < 0.25, "τ {tau} s for {} s", s.humidity.hydration_tau_s);
+    }
+
+    #[test]
+    fn a_humidity_sensor_bias_is_diagnosed_with_its_offset() {
+        let mut s = session("fr-10-levels.toml");
+        s.humidity.read_bias_pct = -3.0;
+        let d = diagnosis_of(&s);
+        assert_eq!(d.verdict, "humidity_sensor_error", "{}", d.explanation);
+        // The sensor reads 3 % low: the sample lives 3 % above the reading.
+        let offset = d.params[0].value;
+        assert!((offset - 3.0).abs() < 0.5, "offset {offset} %RH");
+    }
+
     #[test]
     fn hydration_lag_shows_as_hysteresis() {
         let mut s = session("fr-up-down.toml");
