@@ -10,9 +10,14 @@
 //!   would bury a small effect under the scatter of the parameters between levels;
 //! - mains interference: the level refitted without its line points, which are scored by the
 //!   interference power the other levels show;
-//! - a candidate acting through humidity: the level's base parameters predicted by the humidity
-//!   laws (or the mapped calibration) fitted on the other levels, against the same prediction
-//!   with the humidity as read.
+//! - hydration lag and humidity sensor error: the level's base parameters from the calibration
+//!   at the remapped humidity (τ, or offset and gain, from the other levels) plus the other
+//!   levels' mean drift from it, against the calibration at the humidity as read plus that
+//!   drift;
+//! - temperature: the level's base parameters predicted by humidity (and temperature) laws
+//!   fitted on the other levels, against the humidity laws alone.
+//!
+//! With no effect named, the numbers and figures are the per-level refit's.
 //!
 //! **Information criterion.** BIC differences ΔBIC = Δχ² − Δk·ln N on the data (model and mains
 //! candidates) or on the per-level parameters (candidates acting through humidity).
@@ -21,8 +26,10 @@
 //! held-out χ² with a paired significance over levels z ≥ [`MIN_HELDOUT_Z`] (a weak gate: the
 //! held-out differences between levels are heavy-tailed, a few levels carry an effect that
 //! grows with humidity or temperature, so the strong gate is the information criterion); among
-//! those the largest ΔBIC wins, the held-out score breaking near-ties (ΔBIC within 2, where the
-//! runner-up is named as indistinguishable). With none passing, the verdict is "none" if the
+//! those the largest ΔBIC wins, the held-out z breaking near-ties (ΔBIC within 2, where the
+//! runner-up is named as indistinguishable). A humidity remap must move some level by
+//! [`MIN_RH_SHIFT_PCT`], mains lines must stand out from their neighbours ([`MIN_LINE_Z`]).
+//! With none passing, the verdict is "none" if the
 //! per-level refit leaves no structured residual (neighbour correlation, [`fits::structure_z`]),
 //! "unexplained" if it does. A winner that removes less than half of a structured residual's
 //! neighbour correlation is still named (it passed both gates), with the remainder reported.
@@ -351,8 +358,6 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         .collect();
     let plain = ctx.plain();
     let plain_heldout = ctx.law_heldout(&plain);
-    let before = per_level_scores(&plain_heldout);
-    let heldout_before = weighted_mean(&before, &counts);
     let chi2_0: f64 = ctx.base.chi2.iter().sum();
     let (law_pred_0, law_k_0) = laws::fitted(&ctx.read, &ctx.base.theta, &ctx.base.se);
     let law_chi2_0 = laws::nll(&law_pred_0, &ctx.base.theta, &ctx.base.se);
@@ -395,6 +400,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     });
     let runner_up = order.get(1).copied().filter(|&i| scores[i].passes && winner_tie(&scores[order[0]], &scores[i]));
     let winner = order.first().copied().filter(|&i| scores[i].passes);
+    let refit_before = weighted_mean(&per_level_scores(&ctx.refit_null()), &counts);
     let (verdict, family, explanation, params, before_after) = match winner {
         Some(i) => {
             let s = &scores[i];
@@ -440,22 +446,23 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             String::new(),
             format!("a structured residual ({}) that no candidate explains", located.summary),
             vec![],
-            (heldout_before, heldout_before),
+            (refit_before, refit_before),
         ),
         None => (
             "none".to_string(),
             String::new(),
             "no missing physics above the noise".to_string(),
             vec![],
-            (heldout_before, heldout_before),
+            (refit_before, refit_before),
         ),
     };
-    // The held-out models the numbers score: the winner's and its null's, or the humidity laws'
-    // null when no effect is named.
+    // The held-out models the numbers score: the winner's and its null's, or the per-level refit
+    // when no effect is named (the model candidates' null: the humidity laws' would report the
+    // scatter of the parameters between levels, tens of σ, beside "no missing physics").
     let named = winner.filter(|&i| verdict == scores[i].name).and_then(|i| heldout_of[i].take());
     let (before_models, before_is, after_models, after_is) = match named {
         Some(h) => (h.null, h.null_is, Some(h.candidate), Some(h.candidate_is)),
-        None => (plain_heldout, LAW_NULL_IS.to_string(), None, None),
+        None => (ctx.refit_null(), REFIT_NULL_IS.to_string(), None, None),
     };
     let before_per_level = per_level_scores(&before_models);
     let after_per_level = after_models.as_deref().map_or_else(|| before_per_level.clone(), per_level_scores);

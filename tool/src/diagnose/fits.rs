@@ -299,14 +299,12 @@ pub struct JointFit {
 }
 
 /// Joint fit of `specs` (global, mapped to an extension by `ext`) and every level's base
-/// parameters, by block coordinates: the global parameters with the levels' held, then each
-/// level with the global ones held, until χ² stops falling by 0.1 (at most 6 sweeps). A dense
-/// fit of all 4·levels + k parameters at once costs a model evaluation of every level per
-/// parameter and per iteration, 10–50× more; block sweeps reach the same optimum where the
-/// global parameters are not degenerate with one level's, and where they are, χ² is flat along
-/// the degeneracy, so what is left is not evidence for the candidate anyway. The global
-/// parameters' standard errors are conditional on the levels' (smaller than marginal ones when
-/// strongly correlated with them).
+/// parameters: block coordinates first (the global parameters with the levels' held, then each
+/// level with the global ones held, until χ² stops falling by 0.1, at most 6 sweeps), which
+/// brings every level into its resonance's valley cheaply, then [`polish_joint`]. The sweeps
+/// alone stop short where a candidate trades off against all levels at once (Stokes damping
+/// found 8× too small), so their optimum is not the joint one. The global parameters' standard
+/// errors come from the simultaneous fit and carry their correlation with the levels'.
 #[allow(clippy::too_many_arguments)]
 pub fn fit_joint(
     calib: &Calibration,
