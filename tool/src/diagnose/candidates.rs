@@ -180,9 +180,10 @@ pub const LIBRARY: &[Candidate] = &[
         name: "mains_interference",
         family: "interference",
         doc: "Pickup from the mains (50 or 60 Hz and its harmonics) adds, at points measured near \
-              a line, a current of its own with a phase unrelated to the excitation. Fitted as one \
-              free complex current per affected point (2 parameters each, all counted by the \
-              information criterion). Shows as isolated points of the current deviating at \
+              a line, a current of its own with a phase unrelated to the excitation. Fitted as a \
+              random-phase current at the lines: the current's values there scatter with an \
+              extra variance P·σ² (one parameter, by maximum likelihood; the base model is \
+              refitted without them). Shows as isolated points of the current deviating at \
               k·50 or k·60 Hz while their neighbours agree with the model; the tip is clean.",
         params: &[spec("line_hz", "Hz", Bound::Free, 50.0, 0.0)],
         kind: Kind::Mains,
