@@ -671,27 +671,24 @@ fn score_candidate(
                     // readings) would pass as a change of the laws' shape.
                     let everyone: Vec<usize> = (0..n).collect();
                     let (tau, nll_alt) = fit_lag(ctx, &everyone);
-                    let nll_null = anchored_nll(ctx, &read_rh(ctx), &everyone);
                     let score_tau = |tau: f64| anchored_nll(ctx, &laws::lagged_rh(levels, &ctx.data.histories, tau), &everyone);
                     // Uncertainty of τ from the χ² curvature in ln τ.
                     let h = 0.1f64;
                     let curv = (score_tau(tau * h.exp()) - 2.0 * nll_alt + score_tau(tau * (-h).exp())) / (h * h);
                     let se = if curv > 0.0 { tau * (2.0 / curv).sqrt() } else { f64::INFINITY };
                     let rh = laws::lagged_rh(levels, &ctx.data.histories, tau);
-                    let bic_alt = nll_alt + 5.0 * n_theta.ln();
-                    let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
-                    let note = format!("calibration + drift as read: −2lnL {nll_null:.1}; at the lagged humidity {nll_alt:.1}; free laws {:.1} ({} parameters)", law0.0, law0.1);
-                    let f = Fitted { theta: anchored(ctx, &rh, &everyone), ..ctx.plain() };
-                    let dchi2 = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
-                    floor = shift_floor(&rh, &read_rh(ctx));
-                    let (null, candidate) = heldout_anchored(ctx, &f, &|train| laws::lagged_rh(levels, &ctx.data.histories, fit_lag(ctx, train).0));
-                    let held = HeldOut {
-                        null,
-                        null_is: ANCHORED_NULL_IS.into(),
-                        candidate,
-                        candidate_is: "the calibration at the humidity lagged by the τ fitted on the other levels, plus their mean drift from it".into(),
-                    };
-                    (f, dchi2, 1, "level parameters", estimates(&[tau], &[se]), note, held)
+                    let r = score_remap(
+                        ctx,
+                        &rh,
+                        1,
+                        "at the lagged humidity",
+                        "the calibration at the humidity lagged by the τ fitted on the other levels, plus their mean drift from it",
+                        &|train| laws::lagged_rh(levels, &ctx.data.histories, fit_lag(ctx, train).0),
+                        law0,
+                        n_theta,
+                    );
+                    floor = r.floor;
+                    (r.fitted, r.delta_chi2, 1, "level parameters", estimates(&[tau], &[se]), r.note, r.held)
                 }
                 HumidityMap::Temperature => {
                     if ctx.data.temperature_span() < 1.0 {
@@ -719,28 +716,21 @@ fn score_candidate(
                     let everyone: Vec<usize> = (0..n).collect();
                     let (o, g, _, se_og) = fit_sensor(ctx, &everyone);
                     let rh: Vec<f64> = levels.iter().map(|l| laws::mapped_rh(l.rh_pct, o, g)).collect();
-                    // Nested null: the calibration as read with a constant drift per parameter.
-                    let nll_null = anchored_nll(ctx, &read_rh(ctx), &everyone);
-                    let nll_alt = anchored_nll(ctx, &rh, &everyone);
-                    // It must also do as well as free humidity laws, else the drift is not a
-                    // humidity error.
-                    let bic_alt = nll_alt + 6.0 * n_theta.ln();
-                    let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
-                    let note = format!("calibration + drift as read: −2lnL {nll_null:.1}; with the humidity mapped {nll_alt:.1}; free laws {:.1} ({} parameters)", law0.0, law0.1);
-                    let f = Fitted { theta: anchored(ctx, &rh, &everyone), ..ctx.plain() };
-                    let dchi2 = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
-                    floor = shift_floor(&rh, &read_rh(ctx));
-                    let (null, candidate) = heldout_anchored(ctx, &f, &|train| {
-                        let (o, g, ..) = fit_sensor(ctx, train);
-                        levels.iter().map(|l| laws::mapped_rh(l.rh_pct, o, g)).collect()
-                    });
-                    let held = HeldOut {
-                        null,
-                        null_is: ANCHORED_NULL_IS.into(),
-                        candidate,
-                        candidate_is: "the calibration at the humidity mapped by the offset and gain fitted on the other levels, plus their mean drift from it".into(),
-                    };
-                    (f, dchi2, 2, "level parameters", estimates(&[o, g], &se_og), note, held)
+                    let r = score_remap(
+                        ctx,
+                        &rh,
+                        2,
+                        "with the humidity mapped",
+                        "the calibration at the humidity mapped by the offset and gain fitted on the other levels, plus their mean drift from it",
+                        &|train| {
+                            let (o, g, ..) = fit_sensor(ctx, train);
+                            levels.iter().map(|l| laws::mapped_rh(l.rh_pct, o, g)).collect()
+                        },
+                        law0,
+                        n_theta,
+                    );
+                    floor = r.floor;
+                    (r.fitted, r.delta_chi2, 2, "level parameters", estimates(&[o, g], &se_og), r.note, r.held)
                 }
             }
         }
@@ -848,6 +838,47 @@ fn fit_lag(ctx: &Ctx, train: &[usize]) -> (f64, f64) {
 fn shift_floor(rh: &[f64], read: &[f64]) -> Option<String> {
     let largest = rh.iter().zip(read).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     (largest < MIN_RH_SHIFT_PCT).then(|| format!("moves no level by {MIN_RH_SHIFT_PCT} %RH (largest {largest:.2} %RH)"))
+}
+
+/// What a humidity remap scores, against the calibration as read with its drift.
+struct RemapScore {
+    fitted: Fitted,
+    /// −2 ln L gained over the null; 0 when the remap does worse than free humidity laws (by
+    /// BIC): then the levels' parameters follow the calibration's laws at no humidity, and their
+    /// drift is not a humidity error.
+    delta_chi2: f64,
+    note: String,
+    floor: Option<String>,
+    held: HeldOut,
+}
+
+/// Scores the remap that puts the levels at humidities `rh` with `k` parameters of its own
+/// (plus the four drifts); `remap_of` refits it on training levels for the held-out scores.
+#[allow(clippy::too_many_arguments)]
+fn score_remap(
+    ctx: &Ctx,
+    rh: &[f64],
+    k: usize,
+    mapped: &str,
+    candidate_is: &str,
+    remap_of: &dyn Fn(&[usize]) -> Vec<f64>,
+    law0: (f64, usize),
+    n_theta: f64,
+) -> RemapScore {
+    let everyone: Vec<usize> = (0..ctx.data.levels.len()).collect();
+    let nll_null = anchored_nll(ctx, &read_rh(ctx), &everyone);
+    let nll_alt = anchored_nll(ctx, rh, &everyone);
+    let bic_alt = nll_alt + (k + 4) as f64 * n_theta.ln();
+    let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
+    let fitted = Fitted { theta: anchored(ctx, rh, &everyone), ..ctx.plain() };
+    let (null, candidate) = heldout_anchored(ctx, &fitted, remap_of);
+    RemapScore {
+        delta_chi2: if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 },
+        note: format!("calibration + drift as read: −2lnL {nll_null:.1}; {mapped} {nll_alt:.1}; free laws {:.1} ({} parameters)", law0.0, law0.1),
+        floor: shift_floor(rh, &read_rh(ctx)),
+        held: HeldOut { null, null_is: ANCHORED_NULL_IS.into(), candidate, candidate_is: candidate_is.into() },
+        fitted,
+    }
 }
 
 /// Held-out models of a humidity remap and of its null, per level: the remap (`remap_of` the
