@@ -252,10 +252,7 @@ impl core::fmt::Display for ValidationError {
                 param.unit(),
                 rh_pct
             ),
-            ValidationError::BadRange { rh_min, rh_max } => write!(
-                f,
-                "declared RH range {rh_min}–{rh_max} % is empty or outside 0–100 %"
-            ),
+            ValidationError::BadRange { rh_min, rh_max } => write!(f, "declared RH range {rh_min}–{rh_max} % is empty or outside 0–100 %"),
             ValidationError::BadConstant { name, value } => {
                 write!(f, "constant {name} is {value:e}: it must be positive and finite")
             }
@@ -269,9 +266,7 @@ const PAPER_CA: Law = Law::poly([0.051, -9.044e-5, 1.080e-6, 0.0, 0.0, 0.0, 0.0]
 const PAPER_KAPPA_E: Law = Law::poly([0.0023, -6.026e-5, 6.499e-7, 0.0, 0.0, 0.0, 0.0]);
 /// Eq. 11 exactly as printed. Negative on all of 38–80 % (physics notes): kept only so that the
 /// `paper` preset is verbatim and validation can show why it is unusable.
-const PAPER_D: Law = Law::poly([
-    -3.1713e-11, 3.645e-12, -1.724e-13, 4.291e-15, -5.928e-17, 4.307e-19, -1.285e-21,
-]);
+const PAPER_D: Law = Law::poly([-3.1713e-11, 3.645e-12, -1.724e-13, 4.291e-15, -5.928e-17, 4.307e-19, -1.285e-21]);
 const PAPER_H: Law = Law::linear_0_100(130e-6, 150e-6);
 const PAPER_M: Law = Law::linear_0_100(3.48e-3, 3.68e-3);
 

@@ -77,9 +77,7 @@ fn farthest_from_default(p: &Params<f64>, rh: f64) -> (ParamName, f64) {
 
 /// Parses without validating (a verbatim preset that validation refuses still reads back).
 pub fn parse_unvalidated(text: &str) -> Result<Calibration, FileError> {
-    toml::from_str(text).map_err(|e| {
-        syntax_error(text, &e, "`name = number` lines, `[y]`…`[m]` law tables and `coeffs = [numbers]`")
-    })
+    toml::from_str(text).map_err(|e| syntax_error(text, &e, "`name = number` lines, `[y]`…`[m]` law tables and `coeffs = [numbers]`"))
 }
 
 /// A toml error on `text` as a located [`FileError::Syntax`] (the tool's other TOML files use it

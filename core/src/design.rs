@@ -19,8 +19,8 @@
 use crate::lstsq::lstsq;
 use crate::model::jw;
 use crate::rational::{IonicOrder, MAX_ROOTS, RationalModel, Roots};
-use crate::roots::poly_roots;
 use crate::real::cis;
+use crate::roots::poly_roots;
 use crate::{C, Calibration, ComplexMath, Params, Real};
 
 /// Most second-order sections an inverse can have (10 at fs ≤ 2 kHz; pure-delay sections are
@@ -323,15 +323,8 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     all_zeros[..zd.n].copy_from_slice(zd.as_slice());
     all_zeros[zd.n..nz].copy_from_slice(&fir_roots);
 
-    let mut inv = Inverse {
-        sections: [Sos::identity(); MAX_SECTIONS],
-        n_sections: 0,
-        n_fixed: 0,
-        gain: c[0],
-        delay_s: tau,
-        rh_pct,
-        fs_hz: fs,
-    };
+    let mut inv =
+        Inverse { sections: [Sos::identity(); MAX_SECTIONS], n_sections: 0, n_fixed: 0, gain: c[0], delay_s: tau, rh_pct, fs_hz: fs };
     pair_into_sections(&mut inv, &mut all_zeros[..nz], pd.as_slice())?;
     for _ in 0..d_pure / 2 {
         push_section(&mut inv, Sos::from_ba([T::zero(), T::zero(), T::one()], [T::one(), T::zero(), T::zero()]))?;

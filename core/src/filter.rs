@@ -11,8 +11,8 @@
 //! increments are small. The first state is the section output minus its direct term, a
 //! signal, which is what makes state transfer on a retune meaningful.
 
-use crate::design::{Inverse, MAX_SECTIONS, Sos};
 use crate::Real;
+use crate::design::{Inverse, MAX_SECTIONS, Sos};
 
 /// Duration of a retune's crossfade [s]. Measured on a 0.25 % step during a steady 40 Hz sine
 /// (host-tests/tests/retune.rs): 128 ms fades disturbed the output by 2.3× the steady error, 0.5 s
@@ -161,9 +161,13 @@ impl<T: Real> Stage<T> {
 enum Transition {
     Idle,
     /// The incoming head runs beside the active one, unheard, until its own transient is gone.
-    WarmUp { remaining: u32 },
+    WarmUp {
+        remaining: u32,
+    },
     /// Then the output moves from the active head to the incoming one.
-    Fade { pos: u32 },
+    Fade {
+        pos: u32,
+    },
 }
 
 /// The running compensator: current in [A], base displacement out [m].

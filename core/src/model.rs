@@ -136,14 +136,7 @@ pub fn ionic_factor<T: Real>(p: &Params<T>, s: C<T>) -> C<T> {
     let h2 = p.h * p.h;
     if x.cabs() < T::lit(0.5) {
         // x coth x − 1 = x²/3 − x⁴/45 + 2x⁶/945 − x⁸/4725 + 2x¹⁰/93555 − 1382x¹²/638512875 + …
-        const K: [f64; 6] = [
-            1.0 / 3.0,
-            -1.0 / 45.0,
-            2.0 / 945.0,
-            -1.0 / 4725.0,
-            2.0 / 93555.0,
-            -1382.0 / 638_512_875.0,
-        ];
+        const K: [f64; 6] = [1.0 / 3.0, -1.0 / 45.0, 2.0 / 945.0, -1.0 / 4725.0, 2.0 / 93555.0, -1382.0 / 638_512_875.0];
         let mut acc = C::new(T::zero(), T::zero());
         for &k in K.iter().rev() {
             acc = acc * x2 + T::lit(k);
@@ -282,7 +275,9 @@ mod tests {
             // Trapezoid over 30 time constants: the charge that went in is C·U.
             let n = 300_000;
             let dt = 30.0 * tau / n as f64;
-            let q: f64 = (0..n).map(|k| 0.5 * dt * (step_charging_current(&p, u, k as f64 * dt) + step_charging_current(&p, u, (k + 1) as f64 * dt))).sum();
+            let q: f64 = (0..n)
+                .map(|k| 0.5 * dt * (step_charging_current(&p, u, k as f64 * dt) + step_charging_current(&p, u, (k + 1) as f64 * dt)))
+                .sum();
             assert!((q / (c * u) - 1.0).abs() < 1e-6, "RH {rh}: {q} vs {}", c * u);
             // Half the excess current is gone after τ·ln 2.
             let half = step_charging_current(&p, u, tau * 2f64.ln()) / step_charging_current(&p, u, 0.0);

@@ -110,11 +110,7 @@ impl<T: Real> Mechanical<T> {
     }
     /// Roots of A − ρB = a2·s² + (a1 − ρ·b1)·s − ρ·b0.
     fn quad_roots(&self, rho: C<T>) -> [C<T>; 2] {
-        quadratic(
-            C::new(self.a2, T::zero()),
-            C::new(self.a1, T::zero()) - rho * self.b1,
-            -rho * self.b0,
-        )
+        quadratic(C::new(self.a2, T::zero()), C::new(self.a1, T::zero()) - rho * self.b1, -rho * self.b0)
     }
 }
 

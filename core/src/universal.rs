@@ -29,7 +29,8 @@ pub const TAIL_C1: f64 = -1.1435648704681597e-05;
 /// Nonzero roots of Σ rₙ/(q − qₙ) + c₀ + c₁q (the tail taken at B = B₀). Each maps to a quadratic
 /// A − ρB in s whose roots start the search for the exact zeros; the real 236.7 is the
 /// non-minimum-phase zero of the physics notes (exact: 3.9266⁴ = 237.7).
-pub const ZERO_RHO: [(f64, f64); 4] = [(236.70592679, 0.0), (1832.17369405, -1428.02313321), (1832.17369405, 1428.02313321), (26911.06935192, 0.0)];
+pub const ZERO_RHO: [(f64, f64); 4] =
+    [(236.70592679, 0.0), (1832.17369405, -1428.02313321), (1832.17369405, 1428.02313321), (26911.06935192, 0.0)];
 
 /// ω₀ of the ionic approximation: the low edge of the band it is accurate on [rad/s].
 pub const IONIC_OMEGA0: f64 = 2.0 * core::f64::consts::PI * 5.0;

@@ -248,12 +248,11 @@ fn ref_current(ctx: &mut Ctx, bp: &BigParams, f_hz: f64) -> C<f64> {
     let s = ctx.jw(f_hz);
     let m = mechanical(ctx, bp, &s);
     // K = F² d C⁻ / (κe R T)
-    let kk = bp
-        .f
-        .mul(&bp.f, PREC, RM)
-        .mul(&bp.d, PREC, RM)
-        .mul(&bp.c_minus, PREC, RM)
-        .div(&bp.kappa_e.mul(&bp.r, PREC, RM).mul(&bp.t, PREC, RM), PREC, RM);
+    let kk = bp.f.mul(&bp.f, PREC, RM).mul(&bp.d, PREC, RM).mul(&bp.c_minus, PREC, RM).div(
+        &bp.kappa_e.mul(&bp.r, PREC, RM).mul(&bp.t, PREC, RM),
+        PREC,
+        RM,
+    );
     let beta2 = s.add(&Cx::real(kk)).scale(&bf(1.0).div(&bp.d, PREC, RM));
     let beta = beta2.sqrt();
     let bh = beta.scale(&bp.h);
@@ -475,10 +474,7 @@ fn physics_notes_sanity_values() {
         let bp = BigParams::from(&c.params_at::<f64>(rh));
         let (f1, g1) = ref_peak(&mut ctx, &bp, 20.0, 50.0);
         let (f2, g2) = ref_peak(&mut ctx, &bp, 5.0 * f1, 7.5 * f1);
-        println!(
-            "RH {rh} %: first tip resonance {f1:.3} Hz (gain {g1:.2}), second {f2:.2} Hz (gain {g2:.2}), ratio {:.3}",
-            f2 / f1
-        );
+        println!("RH {rh} %: first tip resonance {f1:.3} Hz (gain {g1:.2}), second {f2:.2} Hz (gain {g2:.2}), ratio {:.3}", f2 / f1);
         assert!((f1 - f1_expected).abs() <= 0.1, "first resonance at {rh} %: {f1} Hz, notes say {f1_expected}");
         assert!((f2 / f1 - 6.26).abs() <= 0.05, "second/first at {rh} %: {}", f2 / f1);
         // the peak is interior (not an end of the search bracket)
@@ -498,10 +494,8 @@ fn humidity_independent_model_is_wrong_by_tens_of_percent_at_68() {
     let b45 = BigParams::from(&c.params_at::<f64>(45.0));
     let b68 = BigParams::from(&c.params_at::<f64>(68.0));
     let freqs = log_grid(10.0, 150.0, 15);
-    let mut errs: Vec<f64> = freqs
-        .iter()
-        .map(|&f| (ref_current(&mut ctx, &b45, f).norm() / ref_current(&mut ctx, &b68, f).norm() - 1.0).abs())
-        .collect();
+    let mut errs: Vec<f64> =
+        freqs.iter().map(|&f| (ref_current(&mut ctx, &b45, f).norm() / ref_current(&mut ctx, &b68, f).norm() - 1.0).abs()).collect();
     let pairs: Vec<String> = freqs.iter().zip(&errs).map(|(f, e)| format!("{f:.1} Hz {:.1} %", e * 100.0)).collect();
     println!("|H45/H68 − 1| over 10–150 Hz: {}", pairs.join(", "));
     errs.sort_by(|a, b| a.partial_cmp(b).unwrap());

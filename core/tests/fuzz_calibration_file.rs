@@ -88,11 +88,23 @@ fn arbitrary_text_never_panics_and_errors_say_where() {
 #[derive(Clone, Debug)]
 enum Edit {
     /// The k-th number of the file becomes this text.
-    Number { k: usize, to: String },
-    DeleteLine { k: usize },
-    DuplicateLine { k: usize },
-    Truncate { at: usize },
-    Insert { at: usize, c: char },
+    Number {
+        k: usize,
+        to: String,
+    },
+    DeleteLine {
+        k: usize,
+    },
+    DuplicateLine {
+        k: usize,
+    },
+    Truncate {
+        at: usize,
+    },
+    Insert {
+        at: usize,
+        c: char,
+    },
 }
 
 fn replacement_number() -> impl Strategy<Value = String> {

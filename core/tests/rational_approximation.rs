@@ -147,11 +147,7 @@ fn four_pair_variant_has_order_12_and_is_stable() {
         assert!(mag < 0.015, "Four at {rh} %: {:.3} %", mag * 100.0);
         worst = (worst.0.max(mag), worst.1.max(ph));
     }
-    println!(
-        "rational (Four, order 12) over 5–500 Hz, RH 20–90 %: worst magnitude {:.3} %, worst phase {:.3}°",
-        worst.0 * 100.0,
-        worst.1
-    );
+    println!("rational (Four, order 12) over 5–500 Hz, RH 20–90 %: worst magnitude {:.3} %, worst phase {:.3}°", worst.0 * 100.0, worst.1);
 }
 
 /// The target is ≤ 0.5 % / 0.5° at denominator order ≤ 12. Neither variant meets both

@@ -46,7 +46,10 @@ fn main() {
             let t = Instant::now();
             let c = cpu_ms();
             let fits: Vec<_> = identify_levels(&base, &data, threads, &|| {}).into_iter().map(|r| r.expect("level fits")).collect();
-            let range = (levels.iter().map(|l| l.rh_range.0).fold(f64::INFINITY, f64::min), levels.iter().map(|l| l.rh_range.1).fold(0.0, f64::max));
+            let range = (
+                levels.iter().map(|l| l.rh_range.0).fold(f64::INFINITY, f64::min),
+                levels.iter().map(|l| l.rh_range.1).fold(0.0, f64::max),
+            );
             let (calib, _) = calibration_from_levels(&base, &fits, range).expect("laws");
             ms.push(t.elapsed().as_secs_f64() * 1e3);
             cpu.push(cpu_ms() - c);

@@ -99,10 +99,9 @@ pub enum IdentifyError {
 impl core::fmt::Display for IdentifyError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            IdentifyError::TooFewPoints { rh_pct, points, needed } => write!(
-                f,
-                "level at RH {rh_pct:.1} %: {points} frequencies, at least {needed} needed to fit Y, Cs, Ca and d"
-            ),
+            IdentifyError::TooFewPoints { rh_pct, points, needed } => {
+                write!(f, "level at RH {rh_pct:.1} %: {points} frequencies, at least {needed} needed to fit Y, Cs, Ca and d")
+            }
             IdentifyError::Fit { rh_pct, stage, error } => write!(f, "level at RH {rh_pct:.1} %, {stage}: {error}"),
         }
     }

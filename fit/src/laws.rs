@@ -105,10 +105,14 @@ fn fit_law(param: ParamName, kind: LawKind, degree: usize, points: &[(f64, Estim
     let coeffs = poly_fit(&rh, &y, &w, degree).ok_or(LawError::Singular { param })?;
     let law = Law { kind, coeffs };
     let chi2 = (known.len() == se.len()).then(|| {
-        rh.iter().zip(&y).zip(&w).map(|((&r, &v), &wi)| {
-            let poly = Law { kind: LawKind::Poly, coeffs };
-            (v - poly.eval(r)).powi(2) * wi
-        }).sum()
+        rh.iter()
+            .zip(&y)
+            .zip(&w)
+            .map(|((&r, &v), &wi)| {
+                let poly = Law { kind: LawKind::Poly, coeffs };
+                (v - poly.eval(r)).powi(2) * wi
+            })
+            .sum()
     });
     Ok((law, chi2))
 }
@@ -142,7 +146,11 @@ pub fn law_degree(param: ParamName, levels: usize) -> usize {
 
 /// The calibration whose laws go through `levels`, declared on `rh_range`, with every constant
 /// and the h and m laws of `base`. κe's law is refitted only from levels where it was measured.
-pub fn calibration_from_levels(base: &Calibration, levels: &[LevelFit], rh_range: (f64, f64)) -> Result<(Calibration, Vec<LawFit>), LawError> {
+pub fn calibration_from_levels(
+    base: &Calibration,
+    levels: &[LevelFit],
+    rh_range: (f64, f64),
+) -> Result<(Calibration, Vec<LawFit>), LawError> {
     if levels.is_empty() {
         return Err(LawError::NoLevels);
     }
@@ -176,10 +184,24 @@ pub fn calibration_from_levels(base: &Calibration, levels: &[LevelFit], rh_range
             let (log_law, log_chi2) = fit_law(param, LawKind::LogPoly, degree, &points)?;
             *law_slot(&mut calib, param) = log_law;
             note = Some("a quadratic in RH is not positive over the range; fitted in ln instead".into());
-            report.push(LawFit { param: param.as_str(), kind: kind_name(LawKind::LogPoly), degree: degree.min(points.len() - 1), levels: points.len(), chi2: log_chi2, note });
+            report.push(LawFit {
+                param: param.as_str(),
+                kind: kind_name(LawKind::LogPoly),
+                degree: degree.min(points.len() - 1),
+                levels: points.len(),
+                chi2: log_chi2,
+                note,
+            });
             continue;
         }
-        report.push(LawFit { param: param.as_str(), kind: kind_name(kind), degree: degree.min(points.len() - 1), levels: points.len(), chi2, note });
+        report.push(LawFit {
+            param: param.as_str(),
+            kind: kind_name(kind),
+            degree: degree.min(points.len() - 1),
+            levels: points.len(),
+            chi2,
+            note,
+        });
     }
     calib.validate().map_err(LawError::Invalid)?;
     Ok((calib, report))

@@ -192,7 +192,13 @@ where
 
 /// The best optimum over `starts` and its χ², without the statistics [`fit`] adds (for a fit
 /// that only starts another one: the statistics cost a Jacobian and an SVD).
-pub fn minimize<F>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], n_residuals: usize, residuals: F) -> Result<(Vec<f64>, f64), FitError>
+pub fn minimize<F>(
+    tol: Tolerance,
+    params: &[Param],
+    starts: &[Vec<f64>],
+    n_residuals: usize,
+    residuals: F,
+) -> Result<(Vec<f64>, f64), FitError>
 where
     F: Fn(&[f64], &mut [f64]),
 {
@@ -329,7 +335,12 @@ fn fit_model<R: Residuals>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>]
 }
 
 /// Runs LM from every start; the best problem, its χ² and the evaluations spent on all starts.
-fn best_of_starts<'a, R: Residuals>(tol: Tolerance, params: &'a [Param], starts: &[Vec<f64>], model: &'a R) -> Result<(Problem<'a, R>, f64, usize), FitError> {
+fn best_of_starts<'a, R: Residuals>(
+    tol: Tolerance,
+    params: &'a [Param],
+    starts: &[Vec<f64>],
+    model: &'a R,
+) -> Result<(Problem<'a, R>, f64, usize), FitError> {
     let n = params.len();
     let n_residuals = model.len();
     if n_residuals < n {
@@ -474,9 +485,7 @@ impl<'a, R: Residuals> Problem<'a, R> {
         let slopes: Vec<f64> = self.params.iter().zip(self.u.iter()).map(|(p, &x)| p.bound.slope(x)).collect();
         let covariance = DMatrix::from_fn(n, n, |a, b| cov_u[(a, b)] * slopes[a] * slopes[b]);
         let std_errors: Vec<f64> = (0..n).map(|k| covariance[(k, k)].sqrt()).collect();
-        let correlation = DMatrix::from_fn(n, n, |a, b| {
-            if a == b { 1.0 } else { cov_u[(a, b)] / (cov_u[(a, a)] * cov_u[(b, b)]).sqrt() }
-        });
+        let correlation = DMatrix::from_fn(n, n, |a, b| if a == b { 1.0 } else { cov_u[(a, b)] / (cov_u[(a, a)] * cov_u[(b, b)]).sqrt() });
         Fit {
             names: self.params.iter().map(|p| p.name.clone()).collect(),
             estimates: self.theta(&self.u),

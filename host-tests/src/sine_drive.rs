@@ -2,7 +2,7 @@
 //! with the firmware's QEMU test of the same scenario (`cargo xtask test`).
 
 use ipmc_core::model::{current_response, jw};
-use ipmc_core::{Calibration, ComplexMath, Compensator, DesignConfig, Inverse, Params, Real, design_inverse};
+use ipmc_core::{Calibration, Compensator, ComplexMath, DesignConfig, Inverse, Params, Real, design_inverse};
 
 pub const FS: f64 = 2000.0;
 pub const F0: f64 = 40.0;

@@ -7,7 +7,7 @@
 //! comparison isolates what the running filter does to those coefficients.
 
 use host_tests::Rng;
-use ipmc_core::{Calibration, ComplexMath, Compensator, DesignConfig, Inverse, Real, design_inverse};
+use ipmc_core::{Calibration, Compensator, ComplexMath, DesignConfig, Inverse, Real, design_inverse};
 
 const FS: f64 = 2000.0;
 const BLOCK: usize = 32;
@@ -183,7 +183,10 @@ fn f32_arithmetic_noise_is_small() {
         }
         let amp = (2.0 * sy / MEASURE as f64).sqrt();
         let rms = (se / MEASURE as f64).sqrt();
-        println!("f32 vs f64 arithmetic, same coefficients, RH {rh} %, 40 Hz: rms difference {:.3} % of the output amplitude", rms / amp * 100.0);
+        println!(
+            "f32 vs f64 arithmetic, same coefficients, RH {rh} %, 40 Hz: rms difference {:.3} % of the output amplitude",
+            rms / amp * 100.0
+        );
         if !(rms <= 0.01 * amp) {
             failures.push((rh, rms / amp));
         }
@@ -247,7 +250,6 @@ fn huge_finite_sample_does_not_poison_the_output() {
     assert!(bad.is_empty(), "{} non-finite outputs from sample {:?} on", bad.len(), bad.first());
 }
 
-
 /// (d) 1e6 samples of noise + sine with random retunes (every 0.25–2 s, to RH in 20–90 %, steps
 /// of up to ±5 %): every output is finite, the output does not grow (the largest |y| in the last
 /// quarter is no larger than in the first three quarters), and after the last retune and 20 quiet
@@ -287,10 +289,7 @@ fn long_run_with_noise_and_random_retunes_stays_bounded() {
     let expected = inv_final.response(40.0).cabs() * 1e-6;
     let tail = N - MEASURE;
     let (amp, _) = fit_sine(&y[tail..].iter().map(|&v| v as f64).collect::<Vec<_>>(), tail, 40.0);
-    println!(
-        "long run: max |y| / signal amplitude {:.2e}",
-        head.max(last) / expected
-    );
+    println!("long run: max |y| / signal amplitude {:.2e}", head.max(last) / expected);
     println!(
         "long run: {retunes} retunes, final RH {rh:.2} %; max |y| first 3/4 {head:.3e} m, last 1/4 {last:.3e} m; 40 Hz amplitude at the end {amp:.4e} vs design {expected:.4e} ({:+.3} %)",
         (amp / expected - 1.0) * 100.0

@@ -25,7 +25,6 @@ fn design(rh: f32) -> Inverse<f32> {
     design_inverse(&Calibration::default_preset(), rh, &DesignConfig::<f32>::default()).expect("default design")
 }
 
-
 /// Statistics of one million-sample window.
 #[derive(Default, Debug, Clone, Copy)]
 struct Window {

@@ -56,7 +56,12 @@ fn check<T: Real>(rh_a: f64, rh_b: f64) {
         tail / U * 100.0,
     );
     assert!(tail <= eb * 1.05 + 1e-12, "after the switch the output does not return to B's steady error: {tail} vs {eb}");
-    assert!(dev <= bound, "switch {rh_a} → {rh_b} %: deviation {:.4} % of U exceeds twice the steady error {:.4} %", dev / U * 100.0, bound / U * 100.0);
+    assert!(
+        dev <= bound,
+        "switch {rh_a} → {rh_b} %: deviation {:.4} % of U exceeds twice the steady error {:.4} %",
+        dev / U * 100.0,
+        bound / U * 100.0
+    );
 }
 
 // The firmware's filters: f32 coefficients run in f32.
@@ -125,6 +130,10 @@ fn not_retuning_violates_the_bound() {
     let mut comp = Compensator::new(&inv_a);
     run(&mut comp, &Source::new(40.0), 0, SETTLE, inv_a.delay_s, SETTLE);
     let dev = run(&mut comp, &Source::new(80.0), SETTLE, 2 * SETTLE, inv_a.delay_s, SETTLE + SETTLE / 2);
-    println!("no retune 40 → 80 % (f64 arithmetic): steady deviation {:.1} % of U vs twice the tuned steady errors {:.3} %", dev / U * 100.0, 2.0 * ea.max(eb) / U * 100.0);
+    println!(
+        "no retune 40 → 80 % (f64 arithmetic): steady deviation {:.1} % of U vs twice the tuned steady errors {:.3} %",
+        dev / U * 100.0,
+        2.0 * ea.max(eb) / U * 100.0
+    );
     assert!(dev > 10.0 * ea.max(eb));
 }

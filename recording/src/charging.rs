@@ -32,7 +32,11 @@ impl Format for Charging {
         let t_s = t.numbers(tc, Rule::Finite)?;
         let current_a = t.numbers(t.require("current_a")?, Rule::Finite)?;
         if t_s.len() < 2 {
-            return Err(Error::line(&t.source, t.header_line, "expected at least two samples after the header (the charge is an integral)"));
+            return Err(Error::line(
+                &t.source,
+                t.header_line,
+                "expected at least two samples after the header (the charge is an integral)",
+            ));
         }
         if let Some(i) = (1..t_s.len()).find(|&i| t_s[i] <= t_s[i - 1]) {
             return Err(t.error_at(i, tc, format!("expected a time after {} s, found `{}`", t_s[i - 1], t.field(i, tc))));
@@ -43,7 +47,6 @@ impl Format for Charging {
 }
 
 impl Charging {
-
     /// The recording as CSV (shortest round-trip numbers).
     pub fn to_csv(&self) -> Result<String, Error> {
         if self.t_s.len() != self.current_a.len() {

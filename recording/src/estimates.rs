@@ -34,12 +34,14 @@ impl Format for Estimates {
 }
 
 impl Estimates {
-
     /// The file as CSV; `{:e}` of an f32 is the shortest text that reads back as the same f32.
     pub fn to_csv(&self) -> Result<String, Error> {
         let n = self.t_s.len();
         let bad = |len: usize| len != n;
-        if bad(self.base_est_m.len()) || self.rh_pct.as_ref().is_some_and(|v| bad(v.len())) || self.flags.as_ref().is_some_and(|v| bad(v.len())) {
+        if bad(self.base_est_m.len())
+            || self.rh_pct.as_ref().is_some_and(|v| bad(v.len()))
+            || self.flags.as_ref().is_some_and(|v| bad(v.len()))
+        {
             return Err(Error::file("(writer)", "columns of different lengths"));
         }
         let mut s = String::with_capacity(n * 40 + 128);

@@ -101,7 +101,6 @@ impl Format for FrequencyResponse {
 }
 
 impl FrequencyResponse {
-
     /// The humidity levels in the order the session visited them, at the sensor's scatter.
     pub fn levels(&self) -> Vec<Level> {
         self.levels_within(LEVEL_SCATTER_PCT)
@@ -153,7 +152,10 @@ impl FrequencyResponse {
         let shape = |p: &FrPoint| (p.time_s.is_some(), p.temp_c.is_some(), p.tip.is_some(), p.current.is_some());
         let want = shape(first);
         if let Some(p) = self.points.iter().find(|p| shape(p) != want) {
-            return Err(Error::file("(writer)", format!("point at {} Hz, RH {} % carries other columns than the first", p.freq_hz, p.rh_pct)));
+            return Err(Error::file(
+                "(writer)",
+                format!("point at {} Hz, RH {} % carries other columns than the first", p.freq_hz, p.rh_pct),
+            ));
         }
         if !want.2 && !want.3 {
             return Err(Error::file("(writer)", "points carry neither a tip nor a current response"));

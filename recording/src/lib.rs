@@ -53,7 +53,12 @@ fn read_text(path: &std::path::Path) -> Result<String, Error> {
             let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
             let line = valid.iter().filter(|&&b| b == b'\n').count() + 1;
             let col = valid.rsplit(|&b| b == b'\n').next().map_or(0, |l| String::from_utf8_lossy(l).chars().count()) + 1;
-            Err(Error { source, line: Some(line), field: Some(FieldRef { name: None, index: None, char: Some(col) }), message: "not UTF-8 text".into() })
+            Err(Error {
+                source,
+                line: Some(line),
+                field: Some(FieldRef { name: None, index: None, char: Some(col) }),
+                message: "not UTF-8 text".into(),
+            })
         }
     }
 }

@@ -166,7 +166,11 @@ impl Table {
     /// Index of a required column; the error names it and the header line.
     pub fn require(&self, name: &str) -> Result<usize, Error> {
         self.find(name).ok_or_else(|| {
-            Error::line(&self.source, self.header_line, format!("missing required column `{name}` (the header has: {})", self.header.join(",")))
+            Error::line(
+                &self.source,
+                self.header_line,
+                format!("missing required column `{name}` (the header has: {})", self.header.join(",")),
+            )
         })
     }
 
@@ -175,7 +179,11 @@ impl Table {
         self.header
             .iter()
             .filter(|n| !known.contains(&n.as_str()))
-            .map(|n| Warning { source: self.source.clone(), line: Some(self.header_line), message: format!("unknown column `{n}` ignored") })
+            .map(|n| Warning {
+                source: self.source.clone(),
+                line: Some(self.header_line),
+                message: format!("unknown column `{n}` ignored"),
+            })
             .collect()
     }
 

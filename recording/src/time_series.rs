@@ -54,7 +54,6 @@ impl Format for TimeSeries {
 }
 
 impl TimeSeries {
-
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.t_s.len()
@@ -129,7 +128,11 @@ mod tests {
 
     #[test]
     fn reads_by_name_with_metadata_and_warnings() {
-        let (ts, w) = TimeSeries::parse("r.csv", "# fs_hz=2000\n# site=lab\nrh_pct,current_a,t_s,base_m,volts\n45,1e-7,0,1e-6,3\n46,2e-7,0.0005,0,3\n").unwrap();
+        let (ts, w) = TimeSeries::parse(
+            "r.csv",
+            "# fs_hz=2000\n# site=lab\nrh_pct,current_a,t_s,base_m,volts\n45,1e-7,0,1e-6,3\n46,2e-7,0.0005,0,3\n",
+        )
+        .unwrap();
         assert_eq!(ts.fs_hz, 2000.0);
         assert_eq!(ts.t_s, vec![0.0, 0.0005]);
         assert_eq!(ts.base_m, Some(vec![1e-6, 0.0]));

@@ -10,8 +10,8 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::time::Instant;
 
-use ipmc_recording::{Charging, Error, Format, FrequencyResponse, TimeSeries, Warning};
 use ipmc_recording::Estimates;
+use ipmc_recording::{Charging, Error, Format, FrequencyResponse, TimeSeries, Warning};
 
 /// xorshift64: deterministic, no dependency.
 struct Rng(u64);
@@ -41,7 +41,8 @@ const VALID_CHARGING: &str = "# voltage_v=0.1\n# rh_pct=55\ncurrent_a,t_s\n1e-3,
 const VALID_ESTIMATES: &str = "# fs_hz=2000\nt_s,base_est_m,rh_pct,flags\n0,1e-6,45.5,0\n0.0005,2e-6,45.5,8\n0.001,-1e-6,45.6,8\n";
 
 /// Characters the readers care about, and some they should not.
-const ALPHABET: &[&str] = &[",", "#", "=", "\n", "\r\n", "\"", " ", "0", "1", "9", ".", "e", "-", "+", "nan", "inf", "t_s", "é", "\t", "\0"];
+const ALPHABET: &[&str] =
+    &[",", "#", "=", "\n", "\r\n", "\"", " ", "0", "1", "9", ".", "e", "-", "+", "nan", "inf", "t_s", "é", "\t", "\0"];
 const FIELDS: &[&str] = &["", "nan", "inf", "-inf", "1e308", "-1e-320", "x", "\"4\"", "0", "-5", "1e400", "9999999999999999999999"];
 
 fn mutate(rng: &mut Rng, text: &str) -> String {

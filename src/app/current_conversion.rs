@@ -19,8 +19,7 @@ pub fn is_clipped_code(code: u16) -> bool {
 }
 
 /// Largest current the front end can represent without clipping, either sign.
-pub const CLIP_LIMIT_AMPS: f32 =
-    (TIA_BIAS_V - ADC_CLIP_MARGIN_CODES as f32 * VOLTS_PER_CODE) / TIA_GAIN_V_PER_A;
+pub const CLIP_LIMIT_AMPS: f32 = (TIA_BIAS_V - ADC_CLIP_MARGIN_CODES as f32 * VOLTS_PER_CODE) / TIA_GAIN_V_PER_A;
 
 #[inline(always)]
 pub fn is_clipped_amps(amps: f32) -> bool {

@@ -27,7 +27,9 @@ pub struct EstimateBlock {
 pub enum ReportItem {
     Block(EstimateBlock),
     /// The sample source ended (replay only): flush and finish.
-    End { blocks: u32 },
+    End {
+        blocks: u32,
+    },
 }
 
 /// Sample path → report task. Eight blocks (128 ms) absorb a slow stream write.

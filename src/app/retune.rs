@@ -2,8 +2,7 @@
 //! hands it to the sample path, which switches at its next block.
 
 use super::{
-    compensation,
-    flags,
+    compensation, flags,
     handoff::{self, DESIGN_READY, RETUNE_REQUEST},
 };
 

@@ -14,11 +14,11 @@
 //! | watchdog                  | IWDG, fed by the sample path (below)    |
 
 use embassy_executor::{InterruptExecutor, SendSpawner};
+pub use embassy_stm32::pac;
 use embassy_stm32::{
-    Config, bind_interrupts,
+    Config,
     adc::{Adc, AdcChannel, CONTINUOUS, RingBufferedAdc, SampleTime},
-    dma,
-    i2c,
+    bind_interrupts, dma, i2c,
     interrupt::{InterruptExt, Priority},
     mode::Async,
     peripherals::{ADC1, DMA1_CH1, DMA1_CH4, DMA1_CH5, DMA2_CH6, I2C2, IWDG, TIM6},
@@ -28,7 +28,6 @@ use embassy_stm32::{
     usart::{self, UartTx},
     wdg::IndependentWatchdog,
 };
-pub use embassy_stm32::pac;
 use pac::{Interrupt, interrupt};
 use static_cell::StaticCell;
 use {defmt_rtt as _, panic_probe as _};
@@ -39,13 +38,13 @@ use crate::app::{
     current_conversion, flags,
     ports::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
-use embassy_time::{Duration, with_timeout};
 #[cfg(not(feature = "humidity-hih4030"))]
 use crate::drivers::hts221::{self, Hts221};
 #[cfg(not(feature = "humidity-hih4030"))]
 use embassy_stm32::i2c::I2c;
 #[cfg(feature = "humidity-hih4030")]
 use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
+use embassy_time::{Duration, with_timeout};
 
 pub const NAME: &str = "B-L475E-IOT01A";
 
@@ -187,11 +186,7 @@ pub fn init() -> Board {
     uart_config.baudrate = STREAM_BAUD;
     let uart = UartTx::new(p.USART1, p.PB6, p.DMA2_CH6, Irqs, uart_config).expect("USART1 config is valid");
 
-    Board {
-        samples: Samples { adc, trigger, codes: [0; BLOCK_LEN], watchdog },
-        humidity,
-        stream: Stream(uart),
-    }
+    Board { samples: Samples { adc, trigger, codes: [0; BLOCK_LEN], watchdog }, humidity, stream: Stream(uart) }
 }
 
 pub struct Samples {
@@ -260,9 +255,7 @@ impl HumiditySource for Humidity {
         }
         let SensorState::Ready(sensor) = &mut self.state else { unreachable!() };
         sensor.read_rh_pct().await.map_err(|e| match e {
-            hts221::Error::NoNewData | hts221::Error::BadCalibration | hts221::Error::WrongDevice(_) => {
-                HumidityError::Implausible
-            }
+            hts221::Error::NoNewData | hts221::Error::BadCalibration | hts221::Error::WrongDevice(_) => HumidityError::Implausible,
             hts221::Error::Bus => HumidityError::NoResponse,
         })
     }

@@ -24,8 +24,8 @@ use semihosting::{fs::File, io::Read};
 use systick_timer::SystickDriver;
 
 use defmt_semihosting as _;
-pub use stm32_metapac as pac;
 use pac::{Interrupt, interrupt};
+pub use stm32_metapac as pac;
 
 use super::Board;
 use crate::app::{

@@ -65,10 +65,7 @@ impl<I2C: I2c> Hts221<I2C> {
             return Err(Error::NoNewData);
         }
         let mut out = [0u8; 2];
-        self.i2c
-            .write_read(ADDRESS, &[HUMIDITY_OUT_L | AUTO_INCREMENT], &mut out)
-            .await
-            .map_err(|_| Error::Bus)?;
+        self.i2c.write_read(ADDRESS, &[HUMIDITY_OUT_L | AUTO_INCREMENT], &mut out).await.map_err(|_| Error::Bus)?;
         Ok(self.calibration.rh_pct(i16::from_le_bytes(out)))
     }
 }

@@ -81,9 +81,16 @@ pub fn command(args: &[String]) -> Result<()> {
     let verdict = |ok: bool| if ok { "met" } else { "MISSED" };
 
     println!("QEMU -icount shift=0, SysTick on the core clock: {ipt:.3} instructions per tick (calibrated with nop loops)");
-    println!("block {block} samples at {fs} Hz: {:.1} ms per block; latency {:.1} ms (block) + {DESIGN_DELAY_MS} ms (design preview)", 1e3 * block / fs, 1e3 * block / fs);
+    println!(
+        "block {block} samples at {fs} Hz: {:.1} ms per block; latency {:.1} ms (block) + {DESIGN_DELAY_MS} ms (design preview)",
+        1e3 * block / fs,
+        1e3 * block / fs
+    );
     println!("per-sample compute path (conversion + Compensator::process_block per block, {sections} sections):");
-    println!("  {ips:.1} instructions per sample, {per_section:.2} per section per sample (target ≤ {TARGET_PER_SECTION}: {}; stretch {STRETCH_PER_SECTION})", verdict(per_section <= TARGET_PER_SECTION));
+    println!(
+        "  {ips:.1} instructions per sample, {per_section:.2} per section per sample (target ≤ {TARGET_PER_SECTION}: {}; stretch {STRETCH_PER_SECTION})",
+        verdict(per_section <= TARGET_PER_SECTION)
+    );
     println!("  of which ADC code → A conversion {conv:.1} per sample");
     println!(
         "  the sections alone (one cascade, no input check, head/tail split or retune logic): {:.2} per section per sample",

@@ -93,14 +93,12 @@ pub fn ensure_qemu() -> Result<()> {
         return Err(QEMU_ADVICE.into());
     }
     let codename = os_codename().unwrap_or_default();
-    let apt = |args: &[&str]| {
-        run(Command::new("apt-get").args(args).env("DEBIAN_FRONTEND", "noninteractive"))
-    };
+    let apt = |args: &[&str]| run(Command::new("apt-get").args(args).env("DEBIAN_FRONTEND", "noninteractive"));
     if codename == "bookworm" {
         if !Path::new(BACKPORTS_SOURCES).exists() {
             let sources = fs::read_to_string(DEBIAN_SOURCES).map_err(|e| format!("{DEBIAN_SOURCES}: {e}\n{QEMU_ADVICE}"))?;
-            let backports = backports_stanzas(&sources, "bookworm")
-                .ok_or_else(|| format!("no bookworm suite in {DEBIAN_SOURCES}\n{QEMU_ADVICE}"))?;
+            let backports =
+                backports_stanzas(&sources, "bookworm").ok_or_else(|| format!("no bookworm suite in {DEBIAN_SOURCES}\n{QEMU_ADVICE}"))?;
             println!("==> adding bookworm-backports to apt ({BACKPORTS_SOURCES})");
             fs::write(BACKPORTS_SOURCES, backports).map_err(|e| format!("{BACKPORTS_SOURCES}: {e}"))?;
         }

@@ -27,7 +27,8 @@ pub fn repo_root() -> PathBuf {
 
 pub type Result<T> = std::result::Result<T, String>;
 
-const USAGE: &str = "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | bench [--json] | build | size | test [STEP…] | flash ELF>";
+const USAGE: &str =
+    "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | bench [--json] | build | size | test [STEP…] | flash ELF>";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();

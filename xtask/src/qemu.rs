@@ -143,12 +143,8 @@ pub fn command(args: &[String]) -> Result<()> {
     if (rec.fs_hz - FIRMWARE_FS_HZ as f64).abs() > 1e-6 * FIRMWARE_FS_HZ as f64 {
         return Err(format!("{} is sampled at {} Hz; the firmware runs at {FIRMWARE_FS_HZ} Hz", input.display(), rec.fs_hz));
     }
-    let samples: Vec<Sample> = rec
-        .current_a
-        .iter()
-        .zip(&rec.rh_pct)
-        .map(|(&i, &rh)| Sample { current_a: i as f32, rh_pct: rh as f32 })
-        .collect();
+    let samples: Vec<Sample> =
+        rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &rh)| Sample { current_a: i as f32, rh_pct: rh as f32 }).collect();
 
     let elf = firmware::build(Variant::Qemu)?;
     println!("==> replaying {} ({} samples) in QEMU", input.display(), samples.len());
@@ -198,7 +194,14 @@ fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
     }
     let firmware = ipmc_figure(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str()])?;
     let fixed_out = repo_root().join("target/qemu-run/EST-fixed45.csv");
-    let fixed = ipmc_figure(&["compensate".as_ref(), input.as_os_str(), "--out".as_ref(), fixed_out.as_os_str(), "--fixed-rh".as_ref(), "45".as_ref()])?;
+    let fixed = ipmc_figure(&[
+        "compensate".as_ref(),
+        input.as_os_str(),
+        "--out".as_ref(),
+        fixed_out.as_os_str(),
+        "--fixed-rh".as_ref(),
+        "45".as_ref(),
+    ])?;
     println!(
         "accuracy vs true base (delayed {FIRMWARE_DELAY_SAMPLES} samples, first 5 s of settling skipped; `cargo ipmc score`):\n  \
          firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}"
@@ -231,8 +234,6 @@ fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
     print!("{out}");
     Ok(())
 }
-
-
 
 /// The firmware's estimates as EST.csv (the format `ipmc compensate` writes, one writer).
 pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {

@@ -121,7 +121,11 @@ fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
         bound / U * 100.0
     );
     if !(worst <= bound) {
-        return Err(format!("deviation {:.3} % of U after the humidity step exceeds the glitch bound {:.3} %", worst / U * 100.0, bound / U * 100.0));
+        return Err(format!(
+            "deviation {:.3} % of U after the humidity step exceeds the glitch bound {:.3} %",
+            worst / U * 100.0,
+            bound / U * 100.0
+        ));
     }
     Ok(())
 }
@@ -243,7 +247,6 @@ fn qemu_replay_bundled() -> Result<()> {
 /// `ipmc compensate --schedule` on the same input (issue 4).
 const EQUIVALENCE_TOL: f64 = 1e-6;
 
-
 /// Runs `cargo ipmc <args>` at the repository root.
 pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
     let mut cmd = cargo();
@@ -348,7 +351,8 @@ fn diagnose_prove() -> Result<()> {
     let out = ipmc(&["prove".as_ref(), "--per-effect".as_ref(), "1".as_ref(), "--clean".as_ref(), "3".as_ref(), "--json".as_ref()])?;
     print!("{out}");
     let line = out.lines().last().ok_or("ipmc prove printed nothing")?;
-    let (fp, named, reduced) = (json_count(line, "false_positives")?, json_count(line, "named_correctly")?, json_count(line, "heldout_reduced")?);
+    let (fp, named, reduced) =
+        (json_count(line, "false_positives")?, json_count(line, "named_correctly")?, json_count(line, "heldout_reduced")?);
     if fp > 0 {
         return Err(format!("{fp} clean control(s) diagnosed with an effect"));
     }

@@ -40,7 +40,10 @@ pub fn run(a: Args) -> Result<()> {
         "{:>6} | {:>22} | {:>8} | {:>24} | {:>24}",
         "RH %", "rational approx (5–500)", "", "compensated |HGe^jωτ−1|", "fixed-45% baseline"
     );
-    println!("{:>6} | {:>9} {:>12} | {:>8} | {:>11} {:>12} | {:>11} {:>12}", "", "mag %", "phase °", "order", "rms %", "max %", "rms %", "max %");
+    println!(
+        "{:>6} | {:>9} {:>12} | {:>8} | {:>11} {:>12} | {:>11} {:>12}",
+        "", "mag %", "phase °", "order", "rms %", "max %", "rms %", "max %"
+    );
     let mut worst = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let bar = crate::progress::bar(15, "humidities");
     for i in 0..=14 {
@@ -53,16 +56,16 @@ pub fn run(a: Args) -> Result<()> {
         let (brms, bmax) = compensation_error(&p, &baseline, lo, hi, 281);
         worst = (worst.0.max(mag), worst.1.max(ph), worst.2.max(rms), worst.3.max(max));
         bar.suspend(|| {
-        println!(
-            "{rh:>6.1} | {:>9.3} {:>12.3} | {:>8} | {:>11.3} {:>12.3} | {:>11.2} {:>12.2}",
-            mag * 100.0,
-            ph,
-            model.order(),
-            rms * 100.0,
-            max * 100.0,
-            brms * 100.0,
-            bmax * 100.0
-        )
+            println!(
+                "{rh:>6.1} | {:>9.3} {:>12.3} | {:>8} | {:>11.3} {:>12.3} | {:>11.2} {:>12.2}",
+                mag * 100.0,
+                ph,
+                model.order(),
+                rms * 100.0,
+                max * 100.0,
+                brms * 100.0,
+                bmax * 100.0
+            )
         });
     }
     bar.finish_and_clear();

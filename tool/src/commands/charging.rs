@@ -108,7 +108,13 @@ pub fn run(a: Args) -> Result<()> {
     }
     let model = calib.params_at::<f64>(rh).kappa_e;
     println!("charging at {} V, RH {rh} %: Q = {:.4e} C, leakage {:.3e} A, τ = {:.4} s", f.voltage_v, f.charge_c, f.leakage_a, f.tau_s);
-    println!("C = {:.4e} F, κe = {:.4e} F/m (calibration: {:.4e} F/m, {:+.2} %)", f.capacitance_f, f.kappa_e, model, (f.kappa_e / model - 1.0) * 100.0);
+    println!(
+        "C = {:.4e} F, κe = {:.4e} F/m (calibration: {:.4e} F/m, {:+.2} %)",
+        f.capacitance_f,
+        f.kappa_e,
+        model,
+        (f.kappa_e / model - 1.0) * 100.0
+    );
     if let Some(out) = &a.out {
         write_atomically(out, (serde_json::to_string_pretty(&f)? + "\n").as_bytes())?;
     }

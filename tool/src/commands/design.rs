@@ -43,11 +43,8 @@ pub fn run(a: Args) -> Result<()> {
     let model = RationalModel::new(&p, IonicOrder::Five).ok_or_else(|| anyhow!("no rational model at these parameters"))?;
     let (mag, ph) = approximation_error(&p, &model, 5.0, 500.0, 400);
 
-    let sections: Vec<_> = inv
-        .sections()
-        .iter()
-        .map(|s| json!({"b": s.b, "a": s.a, "delta": {"beta": s.beta, "alpha": s.alpha}}))
-        .collect();
+    let sections: Vec<_> =
+        inv.sections().iter().map(|s| json!({"b": s.b, "a": s.a, "delta": {"beta": s.beta, "alpha": s.alpha}})).collect();
     let doc = json!({
         "fs_hz": a.fs,
         "rh_pct": a.rh,

@@ -100,7 +100,13 @@ mod tests {
         let named = verdict != "none" && verdict != "unexplained";
         assert_eq!(map.contains("after: augmented with"), named, "verdict {verdict}");
         if named {
-            assert!(std::fs::read_to_string(report_dir.join(names.iter().find(|n| n.starts_with("bode-level") && n.ends_with(".svg")).unwrap())).unwrap().contains("augmented"));
+            assert!(
+                std::fs::read_to_string(
+                    report_dir.join(names.iter().find(|n| n.starts_with("bode-level") && n.ends_with(".svg")).unwrap())
+                )
+                .unwrap()
+                .contains("augmented")
+            );
         }
     }
 

@@ -13,11 +13,11 @@ use crate::plot::params::{ParamsFigure, read_levels};
 use crate::plot::render;
 use crate::{calibration_source, input::checked, progress};
 use anyhow::{Context, Result, bail};
+use ipmc_core::Calibration;
 use ipmc_core::ParamName;
+use ipmc_core::calibration_file;
 use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_levels};
 use ipmc_fit::laws::{LawFit, calibration_from_levels};
-use ipmc_core::calibration_file;
-use ipmc_core::Calibration;
 use ipmc_recording::{Charging, Format as _, FrequencyResponse, LEVEL_SCATTER_PCT, Level};
 use serde_json::{Map, Value, json};
 use std::path::PathBuf;
@@ -57,10 +57,15 @@ fn charging_kappas(paths: &[PathBuf], base: &Calibration) -> Result<Vec<(f64, f6
         .iter()
         .map(|path| {
             let ch = checked(Charging::read(path))?;
-            let rh = ch.rh_pct.with_context(|| format!("{}: no `# rh_pct=N` metadata: identify needs each charging recording's humidity", path.display()))?;
+            let rh = ch.rh_pct.with_context(|| {
+                format!("{}: no `# rh_pct=N` metadata: identify needs each charging recording's humidity", path.display())
+            })?;
             let (figures, settled) = charging::analyse(&ch, base, rh).with_context(|| path.display().to_string())?;
             if !settled {
-                eprintln!("warning: {}: the charging current has not settled by the end of the recording; κe may be too large", path.display());
+                eprintln!(
+                    "warning: {}: the charging current has not settled by the end of the recording; κe may be too large",
+                    path.display()
+                );
             }
             Ok((rh, figures.kappa_e, path.clone()))
         })
@@ -111,11 +116,8 @@ fn level_json(level: &Level, fit: &LevelFit) -> Value {
     o.insert("dof".into(), json!(fit.fit.dof));
     o.insert("tip_points".into(), json!(fit.tip_points));
     o.insert("current_points".into(), json!(fit.current_points));
-    let noise: Map<String, Value> = fit
-        .noise
-        .iter()
-        .map(|(ch, n)| (format!("{ch:?}").to_lowercase(), json!({ "relative": n.rel, "floor": n.floor })))
-        .collect();
+    let noise: Map<String, Value> =
+        fit.noise.iter().map(|(ch, n)| (format!("{ch:?}").to_lowercase(), json!({ "relative": n.rel, "floor": n.floor }))).collect();
     o.insert("noise".into(), Value::Object(noise));
     Value::Object(o)
 }
@@ -192,12 +194,8 @@ pub fn run(a: Args) -> Result<()> {
     write_atomically(&a.levels, serde_json::to_string_pretty(&json)?.as_bytes())?;
     calibration_file::check(&calib).map_err(|e| anyhow::anyhow!("{source}: the identified calibration would not load: {e}"))?;
     let toml = calibration_file::to_text(&calib);
-    let header = format!(
-        "# Identified by `ipmc identify` from {source} ({} levels, RH {:.1}–{:.1} %).\n",
-        fits.len(),
-        rh_range.0,
-        rh_range.1
-    );
+    let header =
+        format!("# Identified by `ipmc identify` from {source} ({} levels, RH {:.1}–{:.1} %).\n", fits.len(), rh_range.0, rh_range.1);
     write_atomically(&a.out, format!("{header}{toml}").as_bytes())?;
     print_summary(&level_fits, &laws);
     println!("wrote {} and {}", a.out.display(), a.levels.display());

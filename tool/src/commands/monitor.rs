@@ -62,9 +62,7 @@ pub fn run(a: Args) -> Result<()> {
                 return;
             }
             io_result = match event {
-                Event::Sample(s) => csv.as_mut().map_or(Ok(()), |w| {
-                    writeln!(w, "{},{:e},{},{}", s.t_s, s.base_est_m, s.rh_pct, s.flags)
-                }),
+                Event::Sample(s) => csv.as_mut().map_or(Ok(()), |w| writeln!(w, "{},{:e},{},{}", s.t_s, s.base_est_m, s.rh_pct, s.flags)),
                 Event::Status(line) => writeln!(stdout, "{line}"),
             };
         });

@@ -121,7 +121,9 @@ fn file_name(p: &Path) -> String {
 /// Sets the parameters level `k` of the recording was identified with: the k-th object when
 /// its `rh_pct` matches the level's, else the first object within the sensor's scatter.
 fn apply_fitted(params: &mut Params<f64>, fitted: &[serde_json::Map<String, serde_json::Value>], k: usize, rh_pct: f64) -> Result<()> {
-    let near = |o: &serde_json::Map<String, serde_json::Value>| o.get("rh_pct").and_then(|v| v.as_f64()).is_some_and(|r| (r - rh_pct).abs() <= LEVEL_SCATTER_PCT);
+    let near = |o: &serde_json::Map<String, serde_json::Value>| {
+        o.get("rh_pct").and_then(|v| v.as_f64()).is_some_and(|r| (r - rh_pct).abs() <= LEVEL_SCATTER_PCT)
+    };
     let Some(obj) = fitted.get(k).filter(|o| near(o)).or_else(|| fitted.iter().find(|o| near(o))) else {
         bail!("no level of the LEVELS file is within {LEVEL_SCATTER_PCT} % of the recording's level at {rh_pct:.1} %");
     };
@@ -180,7 +182,10 @@ mod tests {
         assert!(svg.contains("phase of current") && svg.contains("(again)"), "labels missing");
         let png = std::fs::read(dir.join("bode.png")).unwrap();
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-        assert_eq!((u32::from_be_bytes(png[16..20].try_into().unwrap()), u32::from_be_bytes(png[20..24].try_into().unwrap())), (1600, 1000));
+        assert_eq!(
+            (u32::from_be_bytes(png[16..20].try_into().unwrap()), u32::from_be_bytes(png[20..24].try_into().unwrap())),
+            (1600, 1000)
+        );
 
         let levels = dir.join("LEVELS.json");
         std::fs::write(&levels, r#"[{"rh_pct": 30.0, "Y": 9e8, "Y_se": 1e7, "d": 2e-15, "d_se": 1e-16}, {"rh_pct": 40.0, "Y": 9.1e8, "Y_se": 1e7, "d": 3e-15}]"#).unwrap();

@@ -73,7 +73,13 @@ pub fn run_cases(
         let data = read_dataset(std::slice::from_ref(&path))?;
         let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;
         progress(&format!("case {i}: {truth}"));
-        Ok(Outcome { truth, magnitude: case.magnitude, verdict: d.verdict, heldout_before: d.heldout_before, heldout_after: d.heldout_after })
+        Ok(Outcome {
+            truth,
+            magnitude: case.magnitude,
+            verdict: d.verdict,
+            heldout_before: d.heldout_before,
+            heldout_after: d.heldout_after,
+        })
     };
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<Result<Outcome>>>> = Mutex::new((0..plan.len()).map(|_| None).collect());
@@ -90,7 +96,12 @@ pub fn run_cases(
             });
         }
     });
-    results.into_inner().unwrap_or_else(|e| e.into_inner()).into_iter().map(|r| r.unwrap_or_else(|| Err(anyhow::anyhow!("a case was not run")))).collect()
+    results
+        .into_inner()
+        .unwrap_or_else(|e| e.into_inner())
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|| Err(anyhow::anyhow!("a case was not run"))))
+        .collect()
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -102,7 +113,7 @@ pub fn run(a: Args) -> Result<()> {
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let total = (a.per_effect * EFFECTS.len() + a.clean) as u64;
     let bar = crate::progress::bar(total, "cases");
-        if let Some(at) = a.at {
+    if let Some(at) = a.at {
         anyhow::ensure!((0.0..=1.0).contains(&at), "--at must be within 0 and 1, not {at}");
     }
     let strength = a.at.map_or(Strength::Random, Strength::At);
@@ -115,7 +126,8 @@ pub fn run(a: Args) -> Result<()> {
     let correct = outcomes.iter().filter(|o| o.verdict == o.truth).count();
     let clean: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth == "none").collect();
     let false_positives = clean.iter().filter(|o| o.verdict != "none").count();
-    let improved = outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").filter(|o| o.heldout_after < o.heldout_before).count();
+    let improved =
+        outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").filter(|o| o.heldout_after < o.heldout_before).count();
     let named = outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").count();
     println!(
         "\n{correct}/{} correct ({:.0} %), {false_positives} false positive(s) on {} clean controls, held-out error reduced in {improved}/{named} correct diagnoses",
@@ -146,7 +158,8 @@ pub fn table(outcomes: &[Outcome]) -> String {
     let _ = writeln!(s, "{:<24} {:<26} {:<58} {:>9} {:>9}", "concealed", "verdict", "magnitude", "held-out", "after");
     for o in outcomes {
         let mark = if o.verdict == o.truth { "" } else { "  ✗" };
-        let _ = writeln!(s, "{:<24} {:<26} {:<58} {:>9.3} {:>9.3}{mark}", o.truth, o.verdict, o.magnitude, o.heldout_before, o.heldout_after);
+        let _ =
+            writeln!(s, "{:<24} {:<26} {:<58} {:>9.3} {:>9.3}{mark}", o.truth, o.verdict, o.magnitude, o.heldout_before, o.heldout_after);
     }
     let mut verdicts: Vec<&str> = outcomes.iter().map(|o| o.verdict.as_str()).collect();
     verdicts.sort();

@@ -65,9 +65,12 @@ impl Dataset {
                     rh_pct: level.rh_pct,
                     temp_c: mean(&|p| p.temp_c),
                     time_s: mean(&|p| p.time_s),
-                    time_span: level.points.iter().map(|p| p.time_s).collect::<Option<Vec<f64>>>().map(|t| {
-                        (t.iter().cloned().fold(f64::INFINITY, f64::min), t.iter().cloned().fold(f64::NEG_INFINITY, f64::max))
-                    }),
+                    time_span: level
+                        .points
+                        .iter()
+                        .map(|p| p.time_s)
+                        .collect::<Option<Vec<f64>>>()
+                        .map(|t| (t.iter().cloned().fold(f64::INFINITY, f64::min), t.iter().cloned().fold(f64::NEG_INFINITY, f64::max))),
                     revisit_of: level.revisit_of.map(|i| first + i),
                     freqs: pts.iter().map(|p| p.freq_hz).collect(),
                     tip: pts.iter().map(|p| if usable(&p.tip) { complex(&p.tip) } else { None }).collect(),

@@ -261,13 +261,21 @@ impl Ctx<'_> {
                 let phi_train = lsq::minimize(Tolerance::REPORT, &params, &start, counts.iter().sum(), |v, out| {
                     let mut at = 0;
                     for (&l, &c) in train.iter().zip(&counts) {
-                        fits::write_residuals(&levels[l], &self.sig[l], &self.all[l], &p_joint[l], &ext(v, &p_joint[l]), &mut out[at..at + c]);
+                        fits::write_residuals(
+                            &levels[l],
+                            &self.sig[l],
+                            &self.all[l],
+                            &p_joint[l],
+                            &ext(v, &p_joint[l]),
+                            &mut out[at..at + c],
+                        );
                         at += c;
                     }
                 })
                 .map_or_else(|_| phi.to_vec(), |(v, _)| v);
                 let x = ext(&phi_train, &p_joint[held]);
-                let (params, chi2) = match fits::fit_level(self.calib, &levels[held], &self.sig[held], &self.all[held], &x, &f.theta[held]) {
+                let (params, chi2) = match fits::fit_level(self.calib, &levels[held], &self.sig[held], &self.all[held], &x, &f.theta[held])
+                {
                     Ok((theta, fit)) => (fits::level_params(self.calib, &levels[held], &theta), fit.chi2),
                     Err(_) => (p_joint[held], fits::chi2(&levels[held], &self.sig[held], &self.all[held], &p_joint[held], &x)),
                 };
@@ -295,12 +303,18 @@ impl Ctx<'_> {
             .collect();
         (0..n)
             .map(|held| {
-                let (r2, m): (f64, usize) = (0..n).filter(|&l| l != held).fold((0.0, 0), |(a, b), l| (a + lines[l].0, b + lines[l].1.count()));
+                let (r2, m): (f64, usize) =
+                    (0..n).filter(|&l| l != held).fold((0.0, 0), |(a, b), l| (a + lines[l].0, b + lines[l].1.count()));
                 let power = if m > 0 { (r2 / m as f64 - 1.0).max(0.0) } else { 0.0 };
                 let p = fits::level_params(self.calib, &levels[held], &f.theta[held]);
                 let kept = fits::chi2(&levels[held], &self.sig[held], &f.masks[held], &p, &f.ext[held]);
                 let (r2, held_lines) = &lines[held];
-                let mut model = HeldOutModel { params: p, extension: f.ext[held], inflated: Some((held_lines.clone(), 1.0 + power)), chi2_per_residual: 0.0 };
+                let mut model = HeldOutModel {
+                    params: p,
+                    extension: f.ext[held],
+                    inflated: Some((held_lines.clone(), 1.0 + power)),
+                    chi2_per_residual: 0.0,
+                };
                 model.chi2_per_residual = (kept + r2 / (1.0 + power) + model.normalization()) / self.all[held].count() as f64;
                 model
             })
@@ -376,9 +390,19 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     for cand in LIBRARY {
         progress(cand.name);
         let t0 = std::time::Instant::now();
-        let (score, fitted, heldout) = score_candidate(&ctx, cand, &plain_heldout, &counts, n_data, chi2_0, (law_chi2_0, law_k_0), n_theta)?;
+        let (score, fitted, heldout) =
+            score_candidate(&ctx, cand, &plain_heldout, &counts, n_data, chi2_0, (law_chi2_0, law_k_0), n_theta)?;
         if std::env::var_os("IPMC_TRACE").is_some() {
-            eprintln!("{}: {:.2} s dBIC {:.1} heldout {:.3} null {:.3} z {:.1} {:?}", cand.name, t0.elapsed().as_secs_f64(), score.delta_bic, score.heldout, score.heldout_null, score.heldout_z, score.params.iter().map(|p| p.value).collect::<Vec<_>>());
+            eprintln!(
+                "{}: {:.2} s dBIC {:.1} heldout {:.3} null {:.3} z {:.1} {:?}",
+                cand.name,
+                t0.elapsed().as_secs_f64(),
+                score.delta_bic,
+                score.heldout,
+                score.heldout_null,
+                score.heldout_z,
+                score.params.iter().map(|p| p.value).collect::<Vec<_>>()
+            );
         }
         scores.push(score);
         fitted_of.push(fitted);
@@ -394,9 +418,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     order.sort_by(|&a, &b| {
         let (sa, sb) = (&scores[a], &scores[b]);
         let tie = (sa.delta_bic - sb.delta_bic).abs() < 2.0;
-        sb.passes
-            .cmp(&sa.passes)
-            .then(if tie { sb.heldout_z.total_cmp(&sa.heldout_z) } else { sb.delta_bic.total_cmp(&sa.delta_bic) })
+        sb.passes.cmp(&sa.passes).then(if tie { sb.heldout_z.total_cmp(&sa.heldout_z) } else { sb.delta_bic.total_cmp(&sa.delta_bic) })
     });
     let runner_up = order.get(1).copied().filter(|&i| scores[i].passes && winner_tie(&scores[order[0]], &scores[i]));
     let winner = order.first().copied().filter(|&i| scores[i].passes);
@@ -434,7 +456,10 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
                     s.heldout_null,
                     s.heldout,
                     s.heldout_z,
-                    runner_up.map_or(String::new(), |r| format!("; {} fits as well (ΔBIC {:.1}): the data cannot tell them apart", scores[r].name, scores[r].delta_bic)),
+                    runner_up.map_or(String::new(), |r| format!(
+                        "; {} fits as well (ΔBIC {:.1}): the data cannot tell them apart",
+                        scores[r].name, scores[r].delta_bic
+                    )),
                     remainder
                 ),
                 s.params.clone(),
@@ -448,13 +473,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             vec![],
             (refit_before, refit_before),
         ),
-        None => (
-            "none".to_string(),
-            String::new(),
-            "no missing physics above the noise".to_string(),
-            vec![],
-            (refit_before, refit_before),
-        ),
+        None => ("none".to_string(), String::new(), "no missing physics above the noise".to_string(), vec![], (refit_before, refit_before)),
     };
     // The held-out models the numbers score: the winner's and its null's, or the per-level refit
     // when no effect is named (the model candidates' null: the humidity laws' would report the
@@ -606,15 +625,20 @@ fn score_candidate(
                 for l in 0..n {
                     let p = fits::level_params(ctx.calib, &levels[l], &b.theta[l]);
                     let (_, cur) = fits::log_ratios(&levels[l], &p, &Extension::default());
-                    let chi2_at = |i: usize| cur[i].map(|z| (z.re / ctx.sig[l].current[i].ln_gain).powi(2) + (z.im / ctx.sig[l].current[i].phase).powi(2));
+                    let chi2_at = |i: usize| {
+                        cur[i].map(|z| (z.re / ctx.sig[l].current[i].ln_gain).powi(2) + (z.im / ctx.sig[l].current[i].phase).powi(2))
+                    };
                     for i in 0..cur.len() {
                         if !(ctx.all[l].current[i] && !masks[l].current[i]) {
                             continue;
                         }
                         let Some(here) = chi2_at(i) else { continue };
                         at_lines.push(here);
-                        let beside: Vec<f64> =
-                            [i.wrapping_sub(1), i + 1].into_iter().filter(|&j| j < cur.len() && masks[l].current[j]).filter_map(chi2_at).collect();
+                        let beside: Vec<f64> = [i.wrapping_sub(1), i + 1]
+                            .into_iter()
+                            .filter(|&j| j < cur.len() && masks[l].current[j])
+                            .filter_map(chi2_at)
+                            .collect();
                         if !beside.is_empty() {
                             let p = 1.0 / (beside.len() + 1) as f64;
                             expected += p;
@@ -654,7 +678,12 @@ fn score_candidate(
             };
             let params = vec![
                 Estimate { name: "line_hz".into(), unit: "Hz".into(), value: line, std_error: 0.0 },
-                Estimate { name: "interference_rms".into(), unit: "σ".into(), value: amplitude, std_error: amplitude / (2.0 * excluded as f64).sqrt() },
+                Estimate {
+                    name: "interference_rms".into(),
+                    unit: "σ".into(),
+                    value: amplitude,
+                    std_error: amplitude / (2.0 * excluded as f64).sqrt(),
+                },
             ];
             (f, dchi2, 1, "data", params, format!("{excluded} current values at lines, z = {specific:.1} against their neighbours"), held)
         }
@@ -708,7 +737,8 @@ fn score_candidate(
                         null: before.to_vec(),
                         null_is: LAW_NULL_IS.into(),
                         candidate: ctx.law_heldout(&f),
-                        candidate_is: "the level's base parameters predicted by laws in humidity and temperature fitted on the other levels".into(),
+                        candidate_is:
+                            "the level's base parameters predicted by laws in humidity and temperature fitted on the other levels".into(),
                     };
                     (f, law0.0 - chi2, k - law0.1, "level parameters", estimates(&values, &[f64::NAN, f64::NAN]), String::new(), held)
                 }
@@ -794,7 +824,9 @@ fn fit_sensor(ctx: &Ctx, train: &[usize]) -> (f64, f64, Theta, Vec<f64>) {
     };
     let starts: Vec<Vec<f64>> = [-8.0, 0.0, 8.0].iter().map(|&o| vec![o, 1.0, 0.0, 0.0, 0.0, 0.0]).collect();
     match lsq::fit(&params, &starts, 4 * train.len(), resid) {
-        Ok(f) => (f.estimates[0], f.estimates[1], [f.estimates[2], f.estimates[3], f.estimates[4], f.estimates[5]], f.std_errors[..2].to_vec()),
+        Ok(f) => {
+            (f.estimates[0], f.estimates[1], [f.estimates[2], f.estimates[3], f.estimates[4], f.estimates[5]], f.std_errors[..2].to_vec())
+        }
         Err(_) => (0.0, 1.0, [0.0; 4], vec![f64::NAN; 2]),
     }
 }
@@ -874,7 +906,10 @@ fn score_remap(
     let (null, candidate) = heldout_anchored(ctx, &fitted, remap_of);
     RemapScore {
         delta_chi2: if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 },
-        note: format!("calibration + drift as read: −2lnL {nll_null:.1}; {mapped} {nll_alt:.1}; free laws {:.1} ({} parameters)", law0.0, law0.1),
+        note: format!(
+            "calibration + drift as read: −2lnL {nll_null:.1}; {mapped} {nll_alt:.1}; free laws {:.1} ({} parameters)",
+            law0.0, law0.1
+        ),
         floor: shift_floor(rh, &read_rh(ctx)),
         held: HeldOut { null, null_is: ANCHORED_NULL_IS.into(), candidate, candidate_is: candidate_is.into() },
         fitted,
@@ -887,9 +922,7 @@ fn score_remap(
 fn heldout_anchored(ctx: &Ctx, f: &Fitted, remap_of: &dyn Fn(&[usize]) -> Vec<f64>) -> (Vec<HeldOutModel>, Vec<HeldOutModel>) {
     let levels = &ctx.data.levels;
     let n = levels.len();
-    let score = |held: usize, th: &Theta| {
-        ctx.scored(held, fits::level_params(ctx.calib, &levels[held], th), f.ext[held])
-    };
+    let score = |held: usize, th: &Theta| ctx.scored(held, fits::level_params(ctx.calib, &levels[held], th), f.ext[held]);
     (0..n)
         .map(|held| {
             let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();

@@ -8,8 +8,8 @@ use super::data::{Dataset, LevelData};
 use super::engine::{Diagnosis, HeldOutModel};
 use super::fits;
 use crate::plot::bode::{Bode, LevelModel, ModelLine};
-use crate::plot::residual_map::{Panel, ResidualMap, Row};
 use crate::plot::render;
+use crate::plot::residual_map::{Panel, ResidualMap, Row};
 use anyhow::Result;
 use ipmc_core::extension::Extension;
 use ipmc_core::{C, Params};
@@ -38,7 +38,15 @@ fn as_recorded(level: &LevelData) -> Level {
     };
     let (tip, current) = (unwrapped(&level.tip), unwrapped(&level.current));
     let points = (0..level.freqs.len())
-        .map(|i| FrPoint { line: 0, time_s: None, rh_pct: level.rh_pct, temp_c: level.temp_c, freq_hz: level.freqs[i], tip: tip[i], current: current[i] })
+        .map(|i| FrPoint {
+            line: 0,
+            time_s: None,
+            rh_pct: level.rh_pct,
+            temp_c: level.temp_c,
+            freq_hz: level.freqs[i],
+            tip: tip[i],
+            current: current[i],
+        })
         .collect();
     Level { rh_pct: level.rh_pct, rh_range: (level.rh_pct, level.rh_pct), start_time_s: None, revisit_of: level.revisit_of, points }
 }
@@ -96,7 +104,13 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
     let mut drawn = Vec::new();
     for l in representative_levels(d) {
         let m = &d.models[l];
-        let line = |label: &str, params: Params<f64>, extension: Extension<f64>, color, dashed| ModelLine { label: Some(label.into()), params, extension, color: Some(color), dashed };
+        let line = |label: &str, params: Params<f64>, extension: Extension<f64>, color, dashed| ModelLine {
+            label: Some(label.into()),
+            params,
+            extension,
+            color: Some(color),
+            dashed,
+        };
         let mut lines = vec![line("simulation (calibration)", m.simulation, Extension::default(), SIMULATION_COLOR, true)];
         // The in-sample refit is worth a line only where the held-out null is something else.
         if m.before.params != m.refit || m.before.extension != Extension::default() {
@@ -113,7 +127,11 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
             if m.after.is_some() { "before and after" } else { "(no effect named)" }
         );
         let stem = format!("bode-level{:02}", l + 1);
-        render(&Bode { title: title.clone(), levels: vec![LevelModel { level: as_recorded(&data.levels[l]), lines }] }, &dir.join(&stem), (1600, 1000))?;
+        render(
+            &Bode { title: title.clone(), levels: vec![LevelModel { level: as_recorded(&data.levels[l]), lines }] },
+            &dir.join(&stem),
+            (1600, 1000),
+        )?;
         drawn.push(Drawn { title, stem });
     }
     let sig: Vec<fits::LevelSigmas> = data.levels.iter().map(|l| fits::sigmas(l, &d.noise)).collect();
@@ -125,7 +143,13 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
     if d.models.iter().all(|m| m.after.is_some()) {
         panels.push(Panel {
             title: format!("after: augmented with {} (χ²/residual {:.3})", d.verdict, d.heldout_after),
-            rows: data.levels.iter().zip(&sig).zip(&d.models).filter_map(|((l, s), m)| m.after.as_ref().map(|a| residual_row(l, s, a))).collect(),
+            rows: data
+                .levels
+                .iter()
+                .zip(&sig)
+                .zip(&d.models)
+                .filter_map(|((l, s), m)| m.after.as_ref().map(|a| residual_row(l, s, a)))
+                .collect(),
         });
     }
     let title = "Held-out residual map: |residual|/σ over frequency × humidity level, each level held out".to_string();
@@ -167,13 +191,27 @@ mod tests {
                 let m = &d.models[l];
                 let (before, count) = drawn_score(level, &sig, &m.before);
                 let (after, _) = drawn_score(level, &sig, m.after.as_ref().unwrap());
-                assert!(close(before, d.levels[l].heldout_before), "{effect} level {l}: drawn before {before}, reported {}", d.levels[l].heldout_before);
-                assert!(close(after, d.levels[l].heldout_after), "{effect} level {l}: drawn after {after}, reported {}", d.levels[l].heldout_after);
+                assert!(
+                    close(before, d.levels[l].heldout_before),
+                    "{effect} level {l}: drawn before {before}, reported {}",
+                    d.levels[l].heldout_before
+                );
+                assert!(
+                    close(after, d.levels[l].heldout_after),
+                    "{effect} level {l}: drawn after {after}, reported {}",
+                    d.levels[l].heldout_after
+                );
                 sums[0] += before * count as f64;
                 sums[1] += after * count as f64;
                 n += count as f64;
             }
-            assert!(close(sums[0] / n, d.heldout_before) && close(sums[1] / n, d.heldout_after), "{effect}: drawn {:?}, reported {} → {}", sums.map(|s| s / n), d.heldout_before, d.heldout_after);
+            assert!(
+                close(sums[0] / n, d.heldout_before) && close(sums[1] / n, d.heldout_after),
+                "{effect}: drawn {:?}, reported {} → {}",
+                sums.map(|s| s / n),
+                d.heldout_before,
+                d.heldout_after
+            );
             let in_sample = data.levels.iter().zip(&d.models).map(|(level, m)| {
                 let refit = HeldOutModel { params: m.refit, extension: Extension::default(), inflated: None, chi2_per_residual: f64::NAN };
                 drawn_score(level, &fits::sigmas(level, &d.noise), &refit)

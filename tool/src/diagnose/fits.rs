@@ -146,13 +146,27 @@ fn scan_modulus(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask:
 
 /// Fits the level's base parameters (in ln) with the extension held; returns θ and the fit,
 /// whose estimates and standard errors are of ln θ.
-pub fn fit_level(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask: &Mask, x: &Extension<f64>, start: &Theta) -> Result<(Theta, Fit)> {
+pub fn fit_level(
+    calib: &Calibration,
+    level: &LevelData,
+    sig: &LevelSigmas,
+    mask: &Mask,
+    x: &Extension<f64>,
+    start: &Theta,
+) -> Result<(Theta, Fit)> {
     fit_level_from(calib, level, sig, mask, x, &scan_modulus(calib, level, sig, mask, x, start))
 }
 
 /// One LM run can stop short in the resonance's curved valley (its trust region collapses);
 /// restarting from where it stopped continues, so runs repeat while χ² falls by more than 0.1.
-fn fit_level_from(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask: &Mask, x: &Extension<f64>, start: &Theta) -> Result<(Theta, Fit)> {
+fn fit_level_from(
+    calib: &Calibration,
+    level: &LevelData,
+    sig: &LevelSigmas,
+    mask: &Mask,
+    x: &Extension<f64>,
+    start: &Theta,
+) -> Result<(Theta, Fit)> {
     let (mut theta, mut fit) = fit_level_once(calib, level, sig, mask, x, start)?;
     for _ in 0..4 {
         let (t2, f2) = fit_level_once(calib, level, sig, mask, x, &theta)?;
@@ -168,7 +182,14 @@ fn fit_level_from(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mas
 }
 
 /// One LM run from a start already in the right valley.
-fn fit_level_once(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask: &Mask, x: &Extension<f64>, start: &Theta) -> Result<(Theta, Fit)> {
+fn fit_level_once(
+    calib: &Calibration,
+    level: &LevelData,
+    sig: &LevelSigmas,
+    mask: &Mask,
+    x: &Extension<f64>,
+    start: &Theta,
+) -> Result<(Theta, Fit)> {
     let free = fitted_base(level);
     let params: Vec<Param> = free.iter().map(|&k| Param::new(BASE[k].as_str(), base_bound(calib, level, k))).collect();
     let starts = vec![free.iter().zip(&params).map(|(&k, p)| inside(p.bound, start[k])).collect::<Vec<f64>>()];
@@ -195,7 +216,14 @@ pub struct BaseFits {
     pub residuals: Vec<usize>,
 }
 
-pub fn fit_levels(calib: &Calibration, levels: &[LevelData], sig: &[LevelSigmas], masks: &[Mask], x: &Extension<f64>, starts: &[Theta]) -> Result<BaseFits> {
+pub fn fit_levels(
+    calib: &Calibration,
+    levels: &[LevelData],
+    sig: &[LevelSigmas],
+    masks: &[Mask],
+    x: &Extension<f64>,
+    starts: &[Theta],
+) -> Result<BaseFits> {
     let mut out = BaseFits { theta: vec![], se: vec![], chi2: vec![], residuals: vec![] };
     for (l, level) in levels.iter().enumerate() {
         let (theta, fit) = fit_level(calib, level, &sig[l], &masks[l], x, &starts[l])?;
@@ -231,7 +259,9 @@ pub fn estimate_noise(calib: &Calibration, levels: &[LevelData], thetas: &[Theta
         let p = level_params(calib, level, theta);
         let (tip, cur) = log_ratios(level, &p, &Extension::default());
         let ln_f: Vec<f64> = level.freqs.iter().map(|f| f.ln()).collect();
-        for (k, (ratios, values, channel)) in [(&tip, &level.tip, Channel::Tip), (&cur, &level.current, Channel::Current)].into_iter().enumerate() {
+        for (k, (ratios, values, channel)) in
+            [(&tip, &level.tip, Channel::Tip), (&cur, &level.current, Channel::Current)].into_iter().enumerate()
+        {
             let idx: Vec<usize> = (0..ratios.len()).filter(|&i| ratios[i].is_some()).collect();
             for w in idx.windows(3) {
                 let (a, b, c) = (w[0], w[1], w[2]);
@@ -256,11 +286,8 @@ pub fn estimate_noise(calib: &Calibration, levels: &[LevelData], thetas: &[Theta
         let mut est = noise::estimate(&pts, &e, &g, channel, 0);
         for _ in 0..2 {
             let Some(n) = est else { break };
-            let keep: Vec<bool> = e
-                .iter()
-                .zip(&g)
-                .map(|(e, &g)| e.re.abs() <= 4.0 * n.sigma(g) && e.im.abs() <= 4.0 * n.sigma(g))
-                .collect();
+            let keep: Vec<bool> =
+                e.iter().zip(&g).map(|(e, &g)| e.re.abs() <= 4.0 * n.sigma(g) && e.im.abs() <= 4.0 * n.sigma(g)).collect();
             let kept = |i: &usize| keep[*i];
             let idx: Vec<usize> = (0..keep.len()).filter(kept).collect();
             pts = idx.iter().map(|&i| pts[i]).collect();
@@ -506,8 +533,10 @@ mod tests {
             current: freqs.iter().map(|&f| Some(ipmc_core::current_response(&p, jw(f)))).collect(),
             freqs,
         };
-        let sig = LevelSigmas { tip: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29], current: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29] };
-        let (theta, fit) = fit_level(&calib, &level, &sig, &Mask::all(&level), &Extension::default(), &calibration_theta(&calib, rh)).unwrap();
+        let sig =
+            LevelSigmas { tip: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29], current: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29] };
+        let (theta, fit) =
+            fit_level(&calib, &level, &sig, &Mask::all(&level), &Extension::default(), &calibration_theta(&calib, rh)).unwrap();
         let want = BASE.map(|n| p.get(n).ln());
         assert!(fit.chi2 < 1e-6, "χ² {} at {theta:?}, want {want:?}", fit.chi2);
     }
@@ -517,7 +546,14 @@ mod tests {
 /// neighbour in frequency (same level, channel and component), as a z. A model that misses
 /// physics leaves residuals that are smooth in frequency (z ≫ 0) whatever the noise level; noise,
 /// even misjudged in size, leaves them uncorrelated (z ≈ 0 ± 1).
-pub fn structure_z(calib: &Calibration, levels: &[LevelData], sig: &[LevelSigmas], masks: &[Mask], theta: &[Theta], ext: &[Extension<f64>]) -> f64 {
+pub fn structure_z(
+    calib: &Calibration,
+    levels: &[LevelData],
+    sig: &[LevelSigmas],
+    masks: &[Mask],
+    theta: &[Theta],
+    ext: &[Extension<f64>],
+) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
     for (l, level) in levels.iter().enumerate() {
         let p = level_params(calib, level, &theta[l]);

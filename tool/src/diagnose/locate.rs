@@ -8,7 +8,7 @@
 //! z ≈ 0 ± 1 where the model is complete.
 
 use super::data::{Dataset, LevelData};
-use super::fits::{self, BaseFits, BASE, LevelSigmas, Mask, Theta};
+use super::fits::{self, BASE, BaseFits, LevelSigmas, Mask, Theta};
 use anyhow::Result;
 use ipmc_core::extension::{Extension, responses};
 use ipmc_core::model::jw;
@@ -100,7 +100,14 @@ fn first_resonance(calib: &Calibration, level: &LevelData, theta: &Theta) -> f64
     best.0
 }
 
-pub fn locate(calib: &Calibration, data: &Dataset, sig: &[LevelSigmas], base: &BaseFits, cal_theta: &[Theta], simulation: &[f64]) -> Result<Located> {
+pub fn locate(
+    calib: &Calibration,
+    data: &Dataset,
+    sig: &[LevelSigmas],
+    base: &BaseFits,
+    cal_theta: &[Theta],
+    simulation: &[f64],
+) -> Result<Located> {
     let levels = &data.levels;
     let n_res: usize = base.residuals.iter().sum();
     let dof_ratio = 1.0 - 4.0 * levels.len() as f64 / n_res as f64;
@@ -118,7 +125,8 @@ pub fn locate(calib: &Calibration, data: &Dataset, sig: &[LevelSigmas], base: &B
         let f1 = first_resonance(calib, level, &base.theta[l]);
         for (i, &f) in level.freqs.iter().enumerate() {
             let (t, c) = responses(&p, &Extension::default(), jw(f));
-            for (ch, (m, model, s)) in [(level.tip[i], t, sig[l].tip[i]), (level.current[i], c, sig[l].current[i])].into_iter().enumerate() {
+            for (ch, (m, model, s)) in [(level.tip[i], t, sig[l].tip[i]), (level.current[i], c, sig[l].current[i])].into_iter().enumerate()
+            {
                 if let Some(m) = m {
                     let z = log_ratio(m, model);
                     values.push(Value { level: l, f_rel: f / f1, ln_f: f.ln(), channel: ch, r: C::new(z.re / s.ln_gain, z.im / s.phase) });
@@ -136,7 +144,11 @@ pub fn locate(calib: &Calibration, data: &Dataset, sig: &[LevelSigmas], base: &B
             (n > 0).then(|| region(names[ch].into(), c, n, dof_ratio))
         })
         .collect();
-    let bands: [(&str, f64, f64); 3] = [("below resonance (< 0.7 f₁)", 0.0, 0.7), ("near resonance (0.7–1.4 f₁)", 0.7, 1.4), ("above resonance (> 1.4 f₁)", 1.4, f64::INFINITY)];
+    let bands: [(&str, f64, f64); 3] = [
+        ("below resonance (< 0.7 f₁)", 0.0, 0.7),
+        ("near resonance (0.7–1.4 f₁)", 0.7, 1.4),
+        ("above resonance (> 1.4 f₁)", 1.4, f64::INFINITY),
+    ];
     let mut frequency = Vec::new();
     for (name, lo, hi) in bands {
         for ch in 0..2 {
@@ -198,7 +210,11 @@ pub fn locate(calib: &Calibration, data: &Dataset, sig: &[LevelSigmas], base: &B
     narrow_lines.truncate(12);
     let level_regions: Vec<Region> =
         (0..levels.len()).map(|l| region(format!("{:.1} %RH", levels[l].rh_pct), base.chi2[l], base.residuals[l], dof_ratio)).collect();
-    let scatter = super::laws::LawWeights::estimate(&super::laws::Regressors { x: levels.iter().map(|l| l.rh_pct).collect(), temperature: None }, &base.theta, &base.se);
+    let scatter = super::laws::LawWeights::estimate(
+        &super::laws::Regressors { x: levels.iter().map(|l| l.rh_pct).collect(), temperature: None },
+        &base.theta,
+        &base.se,
+    );
     let mut hysteresis = Vec::new();
     for (l, level) in levels.iter().enumerate() {
         if let Some(first) = level.revisit_of {
@@ -224,7 +240,8 @@ pub fn locate(calib: &Calibration, data: &Dataset, sig: &[LevelSigmas], base: &B
         let reg = super::laws::Regressors { x: levels.iter().map(|l| l.rh_pct).collect(), temperature: None };
         let w = super::laws::LawWeights::estimate(&reg, &base.theta, &base.se);
         let all: Vec<usize> = (0..levels.len()).collect();
-        let dev: Vec<f64> = (0..levels.len()).map(|l| base.theta[l][0] - super::laws::predict(&reg, &base.theta, &base.se, &w, &all, l)[0]).collect();
+        let dev: Vec<f64> =
+            (0..levels.len()).map(|l| base.theta[l][0] - super::laws::predict(&reg, &base.theta, &base.se, &w, &all, l)[0]).collect();
         let t: Vec<f64> = levels.iter().map(|l| l.temp_c.unwrap_or(0.0)).collect();
         let (mt, md) = (t.iter().sum::<f64>() / t.len() as f64, dev.iter().sum::<f64>() / dev.len() as f64);
         let sxy: f64 = t.iter().zip(&dev).map(|(a, b)| (a - mt) * (b - md)).sum();
@@ -242,7 +259,8 @@ pub fn locate(calib: &Calibration, data: &Dataset, sig: &[LevelSigmas], base: &B
     let drift_pct = {
         let mut d = [0.0; 4];
         for j in 0..4 {
-            let v: Vec<f64> = (0..levels.len()).filter(|&l| !base.se[l][j].is_nan()).map(|l| (base.theta[l][j] - cal_theta[l][j]).exp() - 1.0).collect();
+            let v: Vec<f64> =
+                (0..levels.len()).filter(|&l| !base.se[l][j].is_nan()).map(|l| (base.theta[l][j] - cal_theta[l][j]).exp() - 1.0).collect();
             d[j] = if v.is_empty() { f64::NAN } else { 100.0 * v.iter().sum::<f64>() / v.len() as f64 };
         }
         d
@@ -283,7 +301,18 @@ pub fn locate(calib: &Calibration, data: &Dataset, sig: &[LevelSigmas], base: &B
         parts.push(format!("tip and current disagree about the resonance (z = {:.1})", resonance_disagreement.z));
     }
     let summary = if parts.is_empty() { "no localized mismatch above the noise".to_string() } else { parts.join("; ") };
-    Ok(Located { summary, calibration, channels, frequency, trends, narrow_lines, levels: level_regions, hysteresis, temperature, resonance_disagreement })
+    Ok(Located {
+        summary,
+        calibration,
+        channels,
+        frequency,
+        trends,
+        narrow_lines,
+        levels: level_regions,
+        hysteresis,
+        temperature,
+        resonance_disagreement,
+    })
 }
 
 /// Y from the tip alone against Y from the current alone at every level with both channels.

@@ -67,7 +67,8 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
         Some(n) => format!("relative {:.2e} (ln gain and phase [rad]) + floor {:.2e}", n.rel, n.floor),
         None => "not recorded".into(),
     };
-    let _ = writeln!(s, "Noise from neighbouring-point scatter: tip {}; current {}.\n", fmt_noise(&d.noise.tip), fmt_noise(&d.noise.current));
+    let _ =
+        writeln!(s, "Noise from neighbouring-point scatter: tip {}; current {}.\n", fmt_noise(&d.noise.tip), fmt_noise(&d.noise.current));
     let _ = writeln!(s, "## Locate\n\n{}.\n", d.located.summary);
     let _ = writeln!(s, "| where | residuals | χ²/residual | z |\n|---|---|---|---|");
     for r in d.located.channels.iter().chain(&d.located.frequency).chain(&d.located.levels) {
@@ -79,7 +80,8 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
         let _ = writeln!(s, "| {} | {} levels | | {:.1} |", t.name, t.residuals, t.z);
     }
     for h in &d.located.hysteresis {
-        let _ = writeln!(s, "| revisit of {:.1} %RH (levels {} → {}) | | | {:.1} |", h.rh_pct, h.first_level, h.revisit_level, h.combined_z);
+        let _ =
+            writeln!(s, "| revisit of {:.1} %RH (levels {} → {}) | | | {:.1} |", h.rh_pct, h.first_level, h.revisit_level, h.combined_z);
     }
     for t in &d.located.trends {
         let _ = writeln!(s, "| trend of {} {} with ln f (ρ = {:.2}) | | | {:.1} |", t.channel, t.component, t.correlation, t.z);
@@ -94,7 +96,8 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
     );
     let _ = writeln!(s, "| candidate | family | ΔBIC | held-out | z | parameters | note |\n|---|---|---|---|---|---|---|");
     for c in &d.candidates {
-        let params: Vec<String> = c.params.iter().map(|p| format!("{} = {} ± {} {}", p.name, fmt_value(p.value), fmt_value(p.std_error), p.unit)).collect();
+        let params: Vec<String> =
+            c.params.iter().map(|p| format!("{} = {} ± {} {}", p.name, fmt_value(p.value), fmt_value(p.std_error), p.unit)).collect();
         if c.applicable {
             let _ = writeln!(
                 s,

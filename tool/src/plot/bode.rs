@@ -100,10 +100,15 @@ impl Figure for Bode {
         let all = || self.levels.iter().flat_map(|l| l.level.points.iter());
         let (f_lo, f_hi) = all().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.freq_hz), b.max(p.freq_hz)));
         for (c, &ch) in channels.iter().enumerate() {
-            let curves: Vec<Vec<Vec<(f64, f64, f64)>>> = self.levels.iter().map(|l| l.lines.iter().map(|line| model_curve(l, line, ch)).collect()).collect();
-            let gains = all().filter_map(|p| ch.measured(p).map(|r| r.gain)).chain(curves.iter().flatten().flatten().map(|c| c.1)).filter(|g| *g > 0.0);
+            let curves: Vec<Vec<Vec<(f64, f64, f64)>>> =
+                self.levels.iter().map(|l| l.lines.iter().map(|line| model_curve(l, line, ch)).collect()).collect();
+            let gains = all()
+                .filter_map(|p| ch.measured(p).map(|r| r.gain))
+                .chain(curves.iter().flatten().flatten().map(|c| c.1))
+                .filter(|g| *g > 0.0);
             let (g_lo, g_hi) = gains.fold((f64::INFINITY, 0.0f64), |(a, b), g| (a.min(g), b.max(g)));
-            let level_phases = self.levels.iter().flat_map(|l| l.level.points.iter().filter_map(move |p| ch.measured(p).map(|r| r.phase_deg)));
+            let level_phases =
+                self.levels.iter().flat_map(|l| l.level.points.iter().filter_map(move |p| ch.measured(p).map(|r| r.phase_deg)));
             let phases = level_phases.chain(curves.iter().flatten().flatten().map(|c| c.2));
             let (p_lo, p_hi) = phases.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p), b.max(p)));
 
@@ -114,7 +119,12 @@ impl Figure for Bode {
                 .y_label_area_size(70)
                 .build_cartesian_2d((f_lo..f_hi).log_scale(), (g_lo / 1.5..g_hi * 1.5).log_scale())
                 .map_err(pe)?;
-            mag.configure_mesh().x_desc("f [Hz]").x_label_formatter(&|v| format!("{v:.0}")).y_label_formatter(&|v| format!("{v:.0e}")).draw().map_err(pe)?;
+            mag.configure_mesh()
+                .x_desc("f [Hz]")
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .draw()
+                .map_err(pe)?;
             let mut phase = ChartBuilder::on(&panels[channels.len() + c])
                 .caption(format!("phase of {} [deg]", ch.name()), ("sans-serif", 18))
                 .margin(10)
@@ -125,7 +135,8 @@ impl Figure for Bode {
             phase.configure_mesh().x_desc("f [Hz]").x_label_formatter(&|v| format!("{v:.0}")).draw().map_err(pe)?;
             for (lm, lines) in self.levels.iter().zip(&curves) {
                 let level_color = humidity_color(lm.level.rh_pct);
-                let measured: Vec<(f64, ipmc_recording::Response)> = lm.level.points.iter().filter_map(|p| ch.measured(p).map(|r| (p.freq_hz, r))).collect();
+                let measured: Vec<(f64, ipmc_recording::Response)> =
+                    lm.level.points.iter().filter_map(|p| ch.measured(p).map(|r| (p.freq_hz, r))).collect();
                 for (line, curve) in lm.lines.iter().zip(lines) {
                     let color = line.color.unwrap_or(level_color);
                     let style = color.stroke_width(2);
@@ -136,7 +147,9 @@ impl Figure for Bode {
                         mag.draw_series(LineSeries::new(gain, style)).map_err(pe)?
                     };
                     if c == 0 {
-                        let label = line.label.clone().unwrap_or_else(|| format!("{:.1} %{}", lm.level.rh_pct, if lm.level.revisit_of.is_some() { " (again)" } else { "" }));
+                        let label = line.label.clone().unwrap_or_else(|| {
+                            format!("{:.1} %{}", lm.level.rh_pct, if lm.level.revisit_of.is_some() { " (again)" } else { "" })
+                        });
                         s.label(label).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
                     }
                     let phases = curve.iter().map(|c| (c.0, c.2));
@@ -146,7 +159,8 @@ impl Figure for Bode {
                         phase.draw_series(LineSeries::new(phases, style)).map_err(pe)?;
                     }
                 }
-                mag.draw_series(measured.iter().filter(|m| m.1.gain > 0.0).map(|m| Circle::new((m.0, m.1.gain), 3, level_color.filled()))).map_err(pe)?;
+                mag.draw_series(measured.iter().filter(|m| m.1.gain > 0.0).map(|m| Circle::new((m.0, m.1.gain), 3, level_color.filled())))
+                    .map_err(pe)?;
                 phase.draw_series(measured.iter().map(|m| Circle::new((m.0, m.1.phase_deg), 3, level_color.filled()))).map_err(pe)?;
             }
             if c == 0 {

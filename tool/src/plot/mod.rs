@@ -14,11 +14,8 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// Where Debian's `fonts-dejavu-core` (and other distributions) put DejaVu Sans.
-const FONT_PATHS: [&str; 3] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-];
+const FONT_PATHS: [&str; 3] =
+    ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf"];
 
 /// A figure drawable on any backend.
 pub trait Figure {
@@ -40,7 +37,8 @@ fn register_font() -> Result<()> {
             "no TrueType font for the plot labels: install DejaVu Sans (Debian: apt-get install fonts-dejavu-core)".to_string()
         })?;
         let bytes: &'static [u8] = Box::leak(std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?.into_boxed_slice());
-        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).map_err(|_| format!("{}: not a TrueType font", path.display()))
+        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+            .map_err(|_| format!("{}: not a TrueType font", path.display()))
     })
     .clone()
     .map_err(|e| anyhow!(e))

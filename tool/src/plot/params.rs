@@ -28,14 +28,18 @@ pub fn level_objects(path: &Path) -> Result<Vec<Map<String, Value>>> {
     let text = std::fs::read_to_string(path).map_err(|e| anyhow!("cannot read {}: {e}", path.display()))?;
     let doc: Value = serde_json::from_str(&text).map_err(|e| anyhow!("{}:{}:{}: {e}", path.display(), e.line(), e.column()))?;
     let list = doc.as_array().ok_or_else(|| anyhow!("{}: expected a JSON array of levels", path.display()))?;
-    list.iter().enumerate().map(|(k, v)| v.as_object().cloned().ok_or_else(|| anyhow!("{}: level {k} is not a JSON object", path.display()))).collect()
+    list.iter()
+        .enumerate()
+        .map(|(k, v)| v.as_object().cloned().ok_or_else(|| anyhow!("{}: level {k} is not a JSON object", path.display())))
+        .collect()
 }
 
 /// LEVELS.json as one series per parameter present.
 pub fn read_levels(path: &Path) -> Result<Vec<ParamSeries>> {
     let mut series: Vec<ParamSeries> = vec![];
     for (k, obj) in level_objects(path)?.iter().enumerate() {
-        let rh = obj.get("rh_pct").and_then(|v| v.as_f64()).ok_or_else(|| anyhow!("{}: level {k} has no numeric `rh_pct`", path.display()))?;
+        let rh =
+            obj.get("rh_pct").and_then(|v| v.as_f64()).ok_or_else(|| anyhow!("{}: level {k} has no numeric `rh_pct`", path.display()))?;
         for (key, value) in obj {
             let Some(name) = ParamName::parse(key) else { continue };
             let Some(v) = value.as_f64() else { bail!("{}: level {k}: `{key}` is not a number", path.display()) };
@@ -71,7 +75,8 @@ impl Figure for ParamsFigure {
                     (rh, p.get(s.name))
                 })
                 .collect();
-            let values = s.points.iter().flat_map(|&(_, v, se)| [v - se.unwrap_or(0.0), v + se.unwrap_or(0.0)]).chain(law.iter().map(|l| l.1));
+            let values =
+                s.points.iter().flat_map(|&(_, v, se)| [v - se.unwrap_or(0.0), v + se.unwrap_or(0.0)]).chain(law.iter().map(|l| l.1));
             let (lo, hi) = values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
             let x_lo = s.points.iter().map(|p| p.0).fold(rh_lo, f64::min);
             let x_hi = s.points.iter().map(|p| p.0).fold(rh_hi, f64::max);
@@ -91,7 +96,14 @@ impl Figure for ParamsFigure {
                     chart
                         .draw_series(s.points.iter().map(|&(rh, v, se)| {
                             let e = se.unwrap_or(0.0);
-                            ErrorBar::new_vertical(rh, (v - e).max(if log { lo / 2.0 } else { f64::NEG_INFINITY }), v, v + e, color.filled(), 6)
+                            ErrorBar::new_vertical(
+                                rh,
+                                (v - e).max(if log { lo / 2.0 } else { f64::NEG_INFINITY }),
+                                v,
+                                v + e,
+                                color.filled(),
+                                6,
+                            )
                         }))
                         .map_err(pe)?
                         .label("identified ± 1 s.e.")
@@ -100,21 +112,25 @@ impl Figure for ParamsFigure {
                 }};
             }
             if log {
-                panel_body!(ChartBuilder::on(panel)
-                    .caption(&caption, ("sans-serif", 18))
-                    .margin(10)
-                    .x_label_area_size(34)
-                    .y_label_area_size(80)
-                    .build_cartesian_2d(x_lo..x_hi, (lo / 1.5..hi * 1.5).log_scale())
-                    .map_err(pe)?);
+                panel_body!(
+                    ChartBuilder::on(panel)
+                        .caption(&caption, ("sans-serif", 18))
+                        .margin(10)
+                        .x_label_area_size(34)
+                        .y_label_area_size(80)
+                        .build_cartesian_2d(x_lo..x_hi, (lo / 1.5..hi * 1.5).log_scale())
+                        .map_err(pe)?
+                );
             } else {
-                panel_body!(ChartBuilder::on(panel)
-                    .caption(&caption, ("sans-serif", 18))
-                    .margin(10)
-                    .x_label_area_size(34)
-                    .y_label_area_size(80)
-                    .build_cartesian_2d(x_lo..x_hi, (lo - pad)..(hi + pad))
-                    .map_err(pe)?);
+                panel_body!(
+                    ChartBuilder::on(panel)
+                        .caption(&caption, ("sans-serif", 18))
+                        .margin(10)
+                        .x_label_area_size(34)
+                        .y_label_area_size(80)
+                        .build_cartesian_2d(x_lo..x_hi, (lo - pad)..(hi + pad))
+                        .map_err(pe)?
+                );
             }
         }
         Ok(())

@@ -88,9 +88,12 @@ impl Figure for ResidualMap {
             for (i, (row, e)) in panel.rows.iter().zip(&cell_edges).enumerate() {
                 let y = i as f64;
                 chart
-                    .draw_series(row.cells.iter().enumerate().filter_map(|(k, (_, v))| {
-                        v.map(|v| Rectangle::new([(e[k], y), (e[k + 1], y + 1.0)], color_of(v).filled()))
-                    }))
+                    .draw_series(
+                        row.cells
+                            .iter()
+                            .enumerate()
+                            .filter_map(|(k, (_, v))| v.map(|v| Rectangle::new([(e[k], y), (e[k + 1], y + 1.0)], color_of(v).filled()))),
+                    )
                     .map_err(pe)?;
             }
         }

@@ -15,9 +15,9 @@ mod time_series;
 use anyhow::Result;
 use ipmc_core::{Calibration, Params};
 use ipmc_recording::{Charging, FrequencyResponse, Metadata, NumberFormat, TimeSeries};
-use std::path::{Path, PathBuf};
 use physics::Physics;
 use session::{Kind, Session};
+use std::path::{Path, PathBuf};
 
 /// A simulated recording, ready to write.
 pub enum Recording {
@@ -55,7 +55,9 @@ impl Recording {
                 format!("{} frequency-response points at {} humidity levels", fr.points.len(), fr.levels().len())
             }
             Recording::TimeSeries(ts, _) => format!("{} samples in {} bursts at {} Hz", ts.len(), ts.bursts().len(), ts.fs_hz),
-            Recording::Charging(list) => format!("{} charging recording(s) of {} samples", list.len(), list.first().map_or(0, |c| c.t_s.len())),
+            Recording::Charging(list) => {
+                format!("{} charging recording(s) of {} samples", list.len(), list.first().map_or(0, |c| c.t_s.len()))
+            }
         }
     }
 }
@@ -135,7 +137,10 @@ mod tests {
         assert!(warnings.is_empty());
         let levels = fr.levels();
         assert_eq!(levels.iter().map(|l| l.rh_pct).collect::<Vec<_>>(), s.humidity.levels_pct);
-        assert_eq!(levels.iter().map(|l| l.revisit_of).collect::<Vec<_>>(), vec![None, None, None, None, None, Some(3), Some(2), Some(1), Some(0)]);
+        assert_eq!(
+            levels.iter().map(|l| l.revisit_of).collect::<Vec<_>>(),
+            vec![None, None, None, None, None, Some(3), Some(2), Some(1), Some(0)]
+        );
         let calib = Calibration::default_preset();
         for l in &levels {
             let p = calib.params_at(l.rh_pct);
@@ -274,7 +279,12 @@ mod tests {
         let session = crate::commands::simulate::tests_support::bundled_sweep_session();
         let mut metadata = Metadata::default();
         metadata.set("generator", "ipmc simulate-sweep seed=1 rh_from=40 rh_to=80 seconds=60 noise_a=0");
-        let made = simulate(&Calibration::default_preset(), &session, &ExactModel, metadata).unwrap().files(Path::new("x.csv")).unwrap().remove(0).1;
+        let made = simulate(&Calibration::default_preset(), &session, &ExactModel, metadata)
+            .unwrap()
+            .files(Path::new("x.csv"))
+            .unwrap()
+            .remove(0)
+            .1;
         assert!(made == bundled, "data/sweep-40-80.csv differs from what simulate-sweep makes");
     }
 }

@@ -225,7 +225,11 @@ impl Session {
             non_negative(name, v)?;
         }
         positive("noise.base_amplitude_m", n.base_amplitude_m)?;
-        let sections = [("frequencies", self.frequencies.is_some()), ("time_series", self.time_series.is_some()), ("charging", self.charging.is_some())];
+        let sections = [
+            ("frequencies", self.frequencies.is_some()),
+            ("time_series", self.time_series.is_some()),
+            ("charging", self.charging.is_some()),
+        ];
         let wanted = match self.kind {
             Kind::FrequencyResponse => "frequencies",
             Kind::TimeSeries => "time_series",
@@ -287,9 +291,7 @@ impl Frequencies {
     pub fn frequencies_hz(&self) -> Result<Vec<f64>> {
         let mut f = match (&self.list_hz, self.from_hz, self.to_hz, self.points) {
             (Some(list), None, None, None) => list.clone(),
-            (None, Some(lo), Some(hi), Some(n)) if (1..=MAX_FREQUENCY_POINTS).contains(&n) && lo > 0.0 && hi >= lo => {
-                log_spaced(lo, hi, n)
-            }
+            (None, Some(lo), Some(hi), Some(n)) if (1..=MAX_FREQUENCY_POINTS).contains(&n) && lo > 0.0 && hi >= lo => log_spaced(lo, hi, n),
             (None, Some(_), Some(_), Some(_)) => {
                 bail!("frequencies: need 1 ≤ points ≤ {MAX_FREQUENCY_POINTS} and 0 < from_hz ≤ to_hz")
             }

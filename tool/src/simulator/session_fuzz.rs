@@ -82,9 +82,11 @@ fn check(text: &str) -> Result<bool, String> {
             let bounded = match s.kind {
                 Kind::TimeSeries => s.time_series.as_ref().is_some_and(|t| levels * t.fs_hz * t.burst_s <= MAX_SAMPLES),
                 Kind::Charging => s.charging.as_ref().is_some_and(|c| c.fs_hz * c.duration_s <= MAX_SAMPLES),
-                Kind::FrequencyResponse => {
-                    s.frequencies.as_ref().and_then(|f| f.frequencies_hz().ok()).is_some_and(|f| f.len() <= MAX_FREQUENCY_POINTS.max(text.len()))
-                }
+                Kind::FrequencyResponse => s
+                    .frequencies
+                    .as_ref()
+                    .and_then(|f| f.frequencies_hz().ok())
+                    .is_some_and(|f| f.len() <= MAX_FREQUENCY_POINTS.max(text.len())),
             };
             if bounded { Ok(true) } else { Err("accepted an unbounded session".into()) }
         }

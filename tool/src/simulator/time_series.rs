@@ -34,7 +34,11 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mut rng = SplitMix64(session.seed);
     let tones: Vec<Tone> = log_spaced(plan.from_hz, plan.to_hz, plan.tones)
         .into_iter()
-        .map(|freq_hz| Tone { freq_hz, amplitude_m: plan.amplitude_m / plan.tones as f64, phase: 2.0 * std::f64::consts::PI * rng.uniform() })
+        .map(|freq_hz| Tone {
+            freq_hz,
+            amplitude_m: plan.amplitude_m / plan.tones as f64,
+            phase: 2.0 * std::f64::consts::PI * rng.uniform(),
+        })
         .collect();
     metadata.set("tones_hz", tones.iter().map(|t| format!("{:.3}", t.freq_hz)).collect::<Vec<_>>().join(";"));
 
@@ -66,7 +70,13 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             let t = if plan.ramp { (leg * per_burst + i) as f64 / plan.fs_hz } else { burst_t0 + i as f64 / plan.fs_hz };
             if plan.ramp && levels.len() > 1 {
                 // Each leg ends where the next starts; the last ends on the last level.
-                let span = if last_leg && per_burst > 1 { (per_burst - 1) as f64 } else if last_leg { 1.0 } else { per_burst as f64 };
+                let span = if last_leg && per_burst > 1 {
+                    (per_burst - 1) as f64
+                } else if last_leg {
+                    1.0
+                } else {
+                    per_burst as f64
+                };
                 let (from, to) = (levels[leg], levels[leg + 1]);
                 hydration.set_chamber(from + (to - from) * i as f64 / span, t);
             }
