@@ -19,7 +19,7 @@ const STRETCH_RETUNE: f64 = 100_000.0;
 const DESIGN_DELAY_MS: f64 = 2.0;
 
 fn build() -> Result<std::path::PathBuf> {
-    install::ensure_cargo_tool("flip-link", "flip-link")?;
+    install::ensure_firmware_tools()?;
     let target_dir = repo_root().join("target/qemu");
     let mut cmd = cargo();
     cmd.current_dir(repo_root())

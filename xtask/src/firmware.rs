@@ -41,7 +41,7 @@ pub fn cargo() -> Command {
 
 /// `cargo build --release` of one variant; returns the ELF path.
 pub fn build(variant: Variant) -> Result<PathBuf> {
-    install::ensure_cargo_tool("flip-link", "flip-link")?;
+    install::ensure_firmware_tools()?;
     let mut cmd = cargo();
     cmd.current_dir(repo_root()).args(["build", "--release", "--bin", "ipmc-firmware"]);
     cmd.arg("--target-dir").arg(variant.target_dir());

@@ -362,10 +362,36 @@ fn diagnose_prove() -> Result<()> {
     Ok(())
 }
 
+/// A fresh machine has no thumb target and nothing installs it on use (RUSTUP_AUTO_INSTALL=0,
+/// `$CARGO` is not rustup's proxy): remove it, then a plain no_std build for it must bring it back.
+/// Before the wrapper, both README commands stopped at `can't find crate for core`.
+fn thumb_target_installs_on_use() -> Result<()> {
+    use crate::install::{FIRMWARE_TARGET, firmware_target_installed};
+    if std::process::Command::new("rustup").arg("--version").output().is_err() {
+        return Err("rustup is not on PATH: cannot check that the firmware target installs on use".into());
+    }
+    if firmware_target_installed()? {
+        println!("removing {FIRMWARE_TARGET} to build as a fresh machine would");
+        run(std::process::Command::new("rustup").current_dir(repo_root()).args(["target", "remove", FIRMWARE_TARGET]))?;
+    }
+    if firmware_target_installed()? {
+        return Err(format!("{FIRMWARE_TARGET} still installed after `rustup target remove`"));
+    }
+    let target_dir = repo_root().join("target/fresh-target");
+    let built = run(cargo().current_dir(repo_root()).args(["check", "--manifest-path", "core/Cargo.toml", "--no-default-features"]).arg("--target-dir").arg(&target_dir));
+    if !firmware_target_installed()? {
+        // Leave the machine as it was for the firmware steps that follow.
+        crate::install::ensure_firmware_tools()?;
+        return Err(format!("a cargo build for {FIRMWARE_TARGET} did not install the target ({built:?})"));
+    }
+    built
+}
+
 /// `filter`: when given, only the steps whose name contains one of these strings run.
 pub fn command(filter: &[String]) -> Result<()> {
     type Step = (&'static str, fn() -> Result<()>);
     let steps: &[Step] = &[
+        ("fresh machine: the thumb target installs on use", thumb_target_installs_on_use),
         // `toml`: the calibration file reader and its fuzz test.
         ("core tests", || cargo_test_with("core/Cargo.toml", &["--features", "toml"])),
         ("host-tests", || cargo_test("host-tests/Cargo.toml")),
