@@ -22,8 +22,16 @@ impl Variant {
         }
     }
 
+    /// The cargo feature flags that select this variant.
+    pub fn feature_args(self) -> &'static [&'static str] {
+        match self {
+            Variant::Hardware => &[],
+            Variant::Qemu => &["--no-default-features", "--features", "qemu"],
+        }
+    }
+
     /// Each variant gets its own target directory so switching does not rebuild the other.
-    fn target_dir(self) -> PathBuf {
+    pub fn target_dir(self) -> PathBuf {
         match self {
             Variant::Hardware => repo_root().join("target"),
             Variant::Qemu => repo_root().join("target/qemu"),
@@ -45,9 +53,7 @@ pub fn build(variant: Variant) -> Result<PathBuf> {
     let mut cmd = cargo();
     cmd.current_dir(repo_root()).args(["build", "--release", "--bin", "ipmc-firmware"]);
     cmd.arg("--target-dir").arg(variant.target_dir());
-    if variant == Variant::Qemu {
-        cmd.args(["--no-default-features", "--features", "qemu"]);
-    }
+    cmd.args(variant.feature_args());
     println!("==> building firmware ({})", variant.name());
     crate::run(&mut cmd)?;
     Ok(variant.elf())

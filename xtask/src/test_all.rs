@@ -362,6 +362,38 @@ fn diagnose_prove() -> Result<()> {
     Ok(())
 }
 
+/// `cargo fmt --check` over the workspace (rustfmt.toml keeps the code's density).
+fn format_check() -> Result<()> {
+    run(cargo().current_dir(repo_root()).args(["fmt", "--all", "--check"]))
+}
+
+/// `cargo clippy -D warnings`: every host crate with its tests, and each firmware variant
+/// (the lint policy is `[workspace.lints]` in Cargo.toml).
+fn lint() -> Result<()> {
+    for m in ["core", "recording", "fit", "tool", "host-tests", "xtask"] {
+        let manifest = format!("{m}/Cargo.toml");
+        run(cargo().current_dir(repo_root()).args([
+            "clippy",
+            "--target",
+            "host-tuple",
+            "--all-targets",
+            "--manifest-path",
+            &manifest,
+            "--",
+            "-D",
+            "warnings",
+        ]))?;
+    }
+    crate::install::ensure_firmware_tools()?;
+    for v in Variant::ALL {
+        let mut cmd = cargo();
+        cmd.current_dir(repo_root()).args(["clippy", "--release", "--bins", "--examples"]).arg("--target-dir").arg(v.target_dir());
+        cmd.args(v.feature_args());
+        run(cmd.args(["--", "-D", "warnings"]))?;
+    }
+    Ok(())
+}
+
 /// A fresh machine has no thumb target and nothing installs it on use (RUSTUP_AUTO_INSTALL=0,
 /// `$CARGO` is not rustup's proxy): remove it, then a plain no_std build for it must bring it back.
 /// Before the wrapper, both README commands stopped at `can't find crate for core`.
@@ -378,7 +410,11 @@ fn thumb_target_installs_on_use() -> Result<()> {
         return Err(format!("{FIRMWARE_TARGET} still installed after `rustup target remove`"));
     }
     let target_dir = repo_root().join("target/fresh-target");
-    let built = run(cargo().current_dir(repo_root()).args(["check", "--manifest-path", "core/Cargo.toml", "--no-default-features"]).arg("--target-dir").arg(&target_dir));
+    let built = run(cargo()
+        .current_dir(repo_root())
+        .args(["check", "--manifest-path", "core/Cargo.toml", "--no-default-features"])
+        .arg("--target-dir")
+        .arg(&target_dir));
     if !firmware_target_installed()? {
         // Leave the machine as it was for the firmware steps that follow.
         crate::install::ensure_firmware_tools()?;
@@ -391,6 +427,8 @@ fn thumb_target_installs_on_use() -> Result<()> {
 pub fn command(filter: &[String]) -> Result<()> {
     type Step = (&'static str, fn() -> Result<()>);
     let steps: &[Step] = &[
+        ("format: cargo fmt --check", format_check),
+        ("lint: cargo clippy -D warnings (host crates, both firmware variants)", lint),
         ("fresh machine: the thumb target installs on use", thumb_target_installs_on_use),
         // `toml`: the calibration file reader and its fuzz test.
         ("core tests", || cargo_test_with("core/Cargo.toml", &["--features", "toml"])),
