@@ -8,11 +8,7 @@ use std::{
     process::{Command, Stdio},
 };
 
-use crate::{
-    Result, describe,
-    firmware::{Variant, cargo},
-    install, repo_root,
-};
+use crate::{Result, cargo, describe, firmware::Variant, install, repo_root};
 
 /// Issue 4 targets.
 const TARGET_PER_SECTION: f64 = 12.0;

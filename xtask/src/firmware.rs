@@ -1,8 +1,8 @@
 //! Building the firmware variants.
 
-use std::{path::PathBuf, process::Command};
+use std::path::PathBuf;
 
-use crate::{Result, install, repo_root};
+use crate::{Result, cargo, install, repo_root};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Variant {
@@ -41,10 +41,6 @@ impl Variant {
     pub fn elf(self) -> PathBuf {
         self.target_dir().join("thumbv7em-none-eabihf/release/ipmc-firmware")
     }
-}
-
-pub fn cargo() -> Command {
-    Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
 }
 
 /// `cargo build --release` of one variant; returns the ELF path.

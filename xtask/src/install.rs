@@ -3,7 +3,7 @@
 
 use std::{fs, path::Path, process::Command};
 
-use crate::{Result, firmware::cargo, repo_root, run};
+use crate::{Result, cargo, repo_root, run};
 
 pub const QEMU_MACHINE: &str = "b-l475e-iot01a";
 const DEBIAN_SOURCES: &str = "/etc/apt/sources.list.d/debian.sources";
