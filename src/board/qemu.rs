@@ -18,14 +18,12 @@
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m_rt::exception;
-use embassy_executor::{InterruptExecutor, SendSpawner};
 use embassy_time::{Duration, Instant, Ticker, Timer};
 use ipmc_core::replay::{self, BYTES_PER_SAMPLE};
 use semihosting::{fs::File, io::Read};
 use systick_timer::SystickDriver;
 
 use defmt_semihosting as _;
-use pac::{Interrupt, interrupt};
 pub use stm32_metapac as pac;
 
 use super::Board;
@@ -52,37 +50,9 @@ fn SysTick() {
     TIME.systick_interrupt();
 }
 
-/// Executors: interrupts of peripherals this board does not use; lower number = more urgent.
-const SAMPLE_IRQ: Interrupt = Interrupt::UART4;
-const IO_IRQ: Interrupt = Interrupt::UART5;
-const SAMPLE_PRIORITY: u8 = 1 << 4;
-const IO_PRIORITY: u8 = 2 << 4;
-
-#[interrupt]
-fn UART4() {
-    // SAFETY: the executor was started before this interrupt was unmasked.
-    unsafe { crate::SAMPLE_EXECUTOR.on_interrupt() }
-}
-
-#[interrupt]
-fn UART5() {
-    // SAFETY: as above.
-    unsafe { crate::IO_EXECUTOR.on_interrupt() }
-}
-
-fn start_executor(executor: &'static InterruptExecutor, irq: Interrupt, priority: u8) -> SendSpawner {
-    // SAFETY: the priority is set once, before the executor unmasks the interrupt.
-    unsafe { cortex_m::Peripherals::steal().NVIC.set_priority(irq, priority) };
-    executor.start(irq)
-}
-
-pub fn start_sample_executor(executor: &'static InterruptExecutor) -> SendSpawner {
-    start_executor(executor, SAMPLE_IRQ, SAMPLE_PRIORITY)
-}
-
-pub fn start_io_executor(executor: &'static InterruptExecutor) -> SendSpawner {
-    start_executor(executor, IO_IRQ, IO_PRIORITY)
-}
+/// Executor priorities (`executors`): below SysTick, the time base.
+pub const SAMPLE_PRIORITY: u8 = 1 << 4;
+pub const IO_PRIORITY: u8 = 2 << 4;
 
 /// RH [%] of the sample last delivered by the replay; what the "sensor" reads.
 static REPLAY_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
