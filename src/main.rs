@@ -19,7 +19,6 @@ compile_error!("select a board feature: `board-b-l475e` (default) or `qemu`");
 
 mod app;
 mod board;
-mod drivers;
 
 use embassy_executor::{Executor, InterruptExecutor};
 use static_cell::StaticCell;

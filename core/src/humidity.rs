@@ -16,8 +16,9 @@ pub struct Hts221Calibration {
 }
 
 impl Hts221Calibration {
-    /// From the 16 calibration registers 0x30..=0x3F; `None` if the two points coincide
-    /// (the part is then unusable: the line through them is undefined).
+    /// From the 16 calibration registers 0x30..=0x3F; `None` unless 0 ≤ H0 < H1 ≤ 100 %RH and
+    /// the two raw points differ (a part read before it loaded its calibration gives zeros: a
+    /// line of slope 0/0, or a constant 0 %RH).
     pub fn from_registers(r: &[u8; 16]) -> Option<Self> {
         let [h0_rh_x2, h1_rh_x2, _, _, _, _, h0_lo, h0_hi, _, _, h1_lo, h1_hi, _, _, _, _] = *r;
         let cal = Self {
@@ -26,7 +27,7 @@ impl Hts221Calibration {
             h0_t0_out: i16::from_le_bytes([h0_lo, h0_hi]),
             h1_t0_out: i16::from_le_bytes([h1_lo, h1_hi]),
         };
-        (cal.h1_t0_out != cal.h0_t0_out).then_some(cal)
+        (h0_rh_x2 < h1_rh_x2 && h1_rh_x2 <= 200 && cal.h1_t0_out != cal.h0_t0_out).then_some(cal)
     }
 
     /// RH [%] for a raw HUMIDITY_OUT value, limited to 0..100 as the datasheet prescribes.
@@ -102,6 +103,13 @@ mod tests {
         let mut r = registers();
         r[10..12].copy_from_slice(&(-2000i16).to_le_bytes());
         assert_eq!(Hts221Calibration::from_registers(&r), None);
+        let mut r = registers();
+        r[0] = r[1];
+        assert_eq!(Hts221Calibration::from_registers(&r), None, "H0 = H1");
+        let mut r = registers();
+        r[1] = 201;
+        assert_eq!(Hts221Calibration::from_registers(&r), None, "H1 beyond 100 %");
+        assert_eq!(Hts221Calibration::from_registers(&[0; 16]), None, "read before boot");
     }
 
     #[test]

@@ -25,8 +25,30 @@ pub fn delay_samples() -> usize {
     (c.max_delay_s * c.fs_hz).round() as usize
 }
 
+/// Samples lost in a gap of `gap_us` between the arrivals of two blocks (an ADC overrun: the
+/// ring buffer restarts and the samples in between are gone). Whole blocks, since the DMA
+/// delivers half-buffers: the gap is rounded to block periods, and one period is the block
+/// that did arrive.
+pub fn samples_lost(gap_us: u64) -> u32 {
+    let period_us = 1_000_000 * BLOCK_LEN as u64 / SAMPLE_RATE_HZ as u64;
+    let periods = (gap_us + period_us / 2) / period_us;
+    (periods.saturating_sub(1) * BLOCK_LEN as u64).min(u32::MAX as u64) as u32
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn gaps_count_whole_blocks() {
+        use super::{BLOCK_LEN, samples_lost};
+        // 16 ms per block at 2 kHz: an on-time block lost nothing, jitter included.
+        assert_eq!(samples_lost(16_000), 0);
+        assert_eq!(samples_lost(23_000), 0);
+        assert_eq!(samples_lost(0), 0);
+        assert_eq!(samples_lost(25_000), BLOCK_LEN as u32);
+        assert_eq!(samples_lost(48_000), 2 * BLOCK_LEN as u32);
+        assert_eq!(samples_lost(1_000_000), 62 * BLOCK_LEN as u32);
+    }
+
     #[test]
     fn the_preview_is_whole_samples() {
         let c = crate::DesignConfig::<f64>::firmware();

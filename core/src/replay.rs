@@ -1,8 +1,8 @@
 //! The replay file the QEMU board layer reads over semihosting, written by `cargo xtask qemu`:
 //! one codec for both ends. Layout (little endian): the magic "IPMCRPL1", u32 sample rate [Hz],
 //! u32 sample count, then per sample an f32 current [A] and an f32 humidity [%RH]. A NaN humidity
-//! means the sensor is silent at that sample, +inf that it answers late; a non-finite current is
-//! a corrupt sample (fault injection).
+//! means the sensor is silent at that sample, +inf that it answers late, −inf that it answers
+//! with no new sample; a non-finite current is a corrupt sample (fault injection).
 
 /// The file's name in QEMU's working directory (a C string: semihosting opens it by that).
 pub const FILE_NAME: &core::ffi::CStr = c"ipmc-replay.bin";

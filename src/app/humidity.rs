@@ -9,11 +9,14 @@ use super::{
     config::{HUMIDITY_PERIOD_MS, RH_FALLBACK_PCT},
     flags,
     handoff::{self, LATEST_RH_PCT, RETUNE_REQUEST},
-    ports::HumiditySource,
+    ports::{HumidityError, HumiditySource},
 };
 
 /// A reading that takes longer than this counts as no response.
 const READ_TIMEOUT: Duration = Duration::from_millis(HUMIDITY_PERIOD_MS / 2);
+
+/// Polls in a row without a new sample after which the reading counts as stale.
+const NO_NEW_DATA_PERIODS: u64 = 3;
 
 /// Clamps to the calibration's declared range; the bool says whether it had to.
 fn clamp_to_calibration(rh_pct: f32) -> (f32, bool) {
@@ -27,13 +30,15 @@ pub async fn humidity_task(mut sensor: Humidity) {
     let mut design_rh = f32::NAN;
     let mut failures: u32 = 0;
     let started = Instant::now();
+    let mut last_new = Instant::now();
     loop {
         let reading = match with_timeout(READ_TIMEOUT, sensor.read_rh_pct()).await {
             Ok(r) => r,
-            Err(_) => Err(super::ports::HumidityError::NoResponse),
+            Err(_) => Err(HumidityError::NoResponse),
         };
         match reading {
             Ok(raw) => {
+                last_new = Instant::now();
                 let (rh, clamped) = clamp_to_calibration(raw);
                 if failures > 0 {
                     defmt::info!("humidity back after {} failed readings", failures);
@@ -45,6 +50,13 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 if ipmc_core::filter::needs_retune(design_rh, rh) {
                     design_rh = rh;
                     RETUNE_REQUEST.signal(rh);
+                }
+            }
+            // The sensor is fine, only not faster than the poll: the last value holds, unless
+            // no new sample has come for several periods (a sensor that stopped converting).
+            Err(HumidityError::NoNewData) => {
+                if last_new.elapsed() > Duration::from_millis(NO_NEW_DATA_PERIODS * HUMIDITY_PERIOD_MS) {
+                    handoff::set_condition(flags::RH_STALE, true);
                 }
             }
             Err(e) => {

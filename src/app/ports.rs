@@ -5,8 +5,9 @@ use super::config::BLOCK_LEN;
 
 /// Outcome of one block read.
 pub enum SampleBlock {
-    /// `BLOCK_LEN` current samples in amperes were written; `flags` are `app::flags` bits.
-    Ready { flags: u16 },
+    /// `BLOCK_LEN` current samples in amperes were written; `flags` are `app::flags` bits;
+    /// `lost_samples` were lost before them (an overrun), so the time axis skips them.
+    Ready { flags: u16, lost_samples: u32 },
     /// The source has no more data (replay finished). Real hardware never returns this.
     #[allow(dead_code)]
     End,
@@ -25,8 +26,11 @@ pub trait CurrentSource {
 pub enum HumidityError {
     /// The sensor did not answer (bus error, NACK, replayed outage).
     NoResponse,
-    /// The sensor answered with no new data or an impossible value.
+    /// The sensor answered with an impossible value.
     Implausible,
+    /// The sensor has no sample newer than the last one read: the last value still holds.
+    #[cfg_attr(feature = "humidity-hih4030", allow(dead_code))] // an analog sensor always has a value
+    NoNewData,
 }
 
 /// Relative humidity in percent.

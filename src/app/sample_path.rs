@@ -31,7 +31,11 @@ pub async fn sample_task(mut samples: Samples) {
     loop {
         let mut block = EstimateBlock { first_sample, rh_pct: 0.0, flags: 0, base_est_m: [0.0; BLOCK_LEN] };
         let source_flags = match samples.read_block(&mut block.base_est_m).await {
-            SampleBlock::Ready { flags } => flags,
+            SampleBlock::Ready { flags, lost_samples } => {
+                first_sample = first_sample.wrapping_add(lost_samples);
+                block.first_sample = first_sample;
+                flags
+            }
             SampleBlock::End => break,
         };
         block.flags = source_flags | handoff::conditions();

@@ -36,12 +36,18 @@ use crate::app::{
     ports::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
 #[cfg(not(feature = "humidity-hih4030"))]
-use crate::drivers::hts221::{self, Hts221};
-#[cfg(not(feature = "humidity-hih4030"))]
 use embassy_stm32::i2c::I2c;
 #[cfg(feature = "humidity-hih4030")]
 use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
-use embassy_time::{Duration, with_timeout};
+use embassy_time::{Duration, Instant, with_timeout};
+#[cfg(not(feature = "humidity-hih4030"))]
+use ipmc_core::humidity::Hts221Calibration;
+use ipmc_core::operating_point::samples_lost;
+#[cfg(not(feature = "humidity-hih4030"))]
+use ipmc_sensors::{
+    hts221,
+    i2c_recovery::{self, BusHealth},
+};
 
 pub const NAME: &str = "B-L475E-IOT01A";
 
@@ -59,6 +65,9 @@ const STREAM_BAUD: u32 = 921_600;
 const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 #[cfg(not(feature = "humidity-hih4030"))]
 const I2C_HZ: u32 = 100_000;
+/// Longest I2C transfer [ms]: the longest HTS221 transfer (16 calibration bytes) takes 2 ms at 100 kHz.
+#[cfg(not(feature = "humidity-hih4030"))]
+const I2C_TIMEOUT_MS: u64 = 10;
 
 bind_interrupts!(struct Irqs {
     DMA1_CHANNEL1 => dma::InterruptHandler<DMA1_CH1>;
@@ -79,12 +88,17 @@ static ADC_DMA_BUF: StaticCell<[u16; 2 * BLOCK_LEN]> = StaticCell::new();
 
 fn clocks() -> Config {
     let mut config = Config::default();
-    // HSI16 → PLL (×10 /2) → 80 MHz SYSCLK; the ADC runs from SYSCLK.
-    config.rcc.hsi = true;
+    // MSI 4 MHz → PLL (×40 /2) → 80 MHz SYSCLK; the ADC runs from SYSCLK. With the board's
+    // 32.768 kHz crystal on LSE, embassy puts MSI in PLL mode (MSIPLLEN): MSI, and with it the
+    // sample rate, the filter's fs, the time base and the baud rate, inherit the crystal's
+    // ±20 ppm instead of HSI16's ±1–2 % over temperature.
+    config.rcc.ls = rcc::LsConfig::default_lse();
+    config.rcc.msi = Some(rcc::MSIRange::RANGE4M);
+    config.rcc.hsi = false;
     config.rcc.pll = Some(rcc::Pll {
-        source: rcc::PllSource::HSI,
+        source: rcc::PllSource::MSI,
         prediv: rcc::PllPreDiv::DIV1,
-        mul: rcc::PllMul::MUL10,
+        mul: rcc::PllMul::MUL40,
         divp: None,
         divq: None,
         divr: Some(rcc::PllRDiv::DIV2),
@@ -152,8 +166,15 @@ pub fn init() -> Board {
     let humidity = {
         let mut i2c_config = i2c::Config::default();
         i2c_config.frequency = Hertz(I2C_HZ);
-        let i2c = I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config);
-        Humidity { state: SensorState::Absent(Some(i2c)) }
+        // embassy's async I2C busy-waits inside its poll while the bus is BUSY (SDA held low),
+        // up to this timeout: keep it far below the humidity task's (500 ms) so a wedged bus
+        // costs the I/O executor milliseconds, not a second.
+        i2c_config.timeout = embassy_time::Duration::from_millis(I2C_TIMEOUT_MS);
+        // As ST's board support does; harmless beside external pull-ups.
+        i2c_config.scl_pullup = true;
+        i2c_config.sda_pullup = true;
+        let bus = I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config);
+        Humidity { bus, calibration: None, health: BusHealth::new() }
     };
     // ADC1 belongs to the timer-triggered current ring buffer; the humidity gets ADC2.
     #[cfg(feature = "humidity-hih4030")]
@@ -163,7 +184,8 @@ pub fn init() -> Board {
     uart_config.baudrate = STREAM_BAUD;
     let uart = UartTx::new(p.USART1, p.PB6, p.DMA2_CH6, Irqs, uart_config).expect("USART1 config is valid");
 
-    Board { samples: Samples { adc, trigger, codes: [0; BLOCK_LEN], watchdog }, humidity, stream: Stream(uart) }
+    let samples = Samples { adc, trigger, codes: [0; BLOCK_LEN], watchdog, last_block: None, first_conversion: true };
+    Board { samples, humidity, stream: Stream(uart) }
 }
 
 pub struct Samples {
@@ -171,70 +193,165 @@ pub struct Samples {
     trigger: Timer<'static, TIM6>,
     codes: [u16; BLOCK_LEN],
     watchdog: IndependentWatchdog<'static, IWDG>,
+    /// When the last block arrived: the length of a gap after an overrun.
+    last_block: Option<Instant>,
+    /// The next block's first conversion is the first since calibration (below).
+    first_conversion: bool,
 }
 
 impl CurrentSource for Samples {
     fn start(&mut self) {
         self.adc.start();
+        // embassy-stm32 0.6 has no timer trigger for this ADC: init() wrote it into CFGR. Should
+        // the HAL's start() have rewritten it, the ADC would free-run at ~1.3 MS/s, overrun
+        // every block and the watchdog would reset the board forever: refuse instead.
+        let cfgr = pac::ADC1.cfgr().read();
+        if cfgr.cont() || cfgr.exten() != ADC_EXTEN_RISING || cfgr.extsel() != ADC_EXTSEL_TIM6_TRGO {
+            defmt::panic!(
+                "ADC1 is not triggered by TIM6 (CFGR cont {}, exten {}, extsel {}): refusing to sample",
+                cfgr.cont(),
+                cfgr.exten(),
+                cfgr.extsel()
+            );
+        }
         self.trigger.start();
+        self.first_conversion = true;
         // From here on the sample path must deliver a block every 16 ms.
         self.watchdog.unleash();
     }
 
     async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
         let mut block_flags = 0;
+        let mut overrun = false;
         // An overrun means the sample path fell a whole half-buffer behind; the ring buffer
         // restarts and the gap is flagged.
         while self.adc.read(&mut self.codes).await.is_err() {
             block_flags |= flags::SAMPLES_LOST;
+            overrun = true;
         }
         // Fed by progress: a block arrived, so the previous one was processed.
         self.watchdog.pet();
+        let now = Instant::now();
+        let lost_samples = match self.last_block {
+            Some(last) if overrun => samples_lost((now - last).as_micros()),
+            _ => 0,
+        };
+        self.last_block = Some(now);
+        // STM32L47x erratum (ES0250, "wrong ADC result if conversion done late after
+        // calibration"): the first conversion after calibration may be wrong. embassy discards
+        // it in its blocking path, not in the ring-buffered one: hold the second in its place.
+        if core::mem::take(&mut self.first_conversion) {
+            self.codes[0] = self.codes[1];
+        }
         for (a, &code) in amps.iter_mut().zip(self.codes.iter()) {
             if current_conversion::is_clipped_code(code) {
                 block_flags |= flags::CLIPPED;
             }
             *a = current_conversion::code_to_amps(code);
         }
-        SampleBlock::Ready { flags: block_flags }
+        SampleBlock::Ready { flags: block_flags, lost_samples }
     }
 }
 
 #[cfg(not(feature = "humidity-hih4030"))]
 type Bus = I2c<'static, Async, i2c::Master>;
 
-#[cfg(not(feature = "humidity-hih4030"))]
-enum SensorState {
-    /// Not (yet) set up; the bus is kept to retry.
-    Absent(Option<Bus>),
-    Ready(Hts221<Bus>),
-}
-
-/// On-board HTS221; set up on first use and again after it failed to set up.
+/// On-board HTS221. The bus is owned here, outside the reading future the humidity task
+/// cancels on timeout; the sensor is set up (again) whenever it has no calibration.
 #[cfg(not(feature = "humidity-hih4030"))]
 pub struct Humidity {
-    state: SensorState,
+    bus: Bus,
+    calibration: Option<Hts221Calibration>,
+    health: BusHealth,
+}
+
+#[cfg(not(feature = "humidity-hih4030"))]
+impl Humidity {
+    /// Frees a bus a slave holds (a reset mid-read leaves SDA low): PB10/PB11 as open-drain
+    /// GPIO for nine clocks and a STOP, then back to the I2C peripheral, reset.
+    fn clear_bus(&mut self) {
+        const SCL: usize = 10;
+        const SDA: usize = 11;
+        let gpio = pac::GPIOB;
+        let pins = [SCL, SDA];
+        for n in pins {
+            gpio.bsrr().write(|w| w.set_bs(n, true));
+            gpio.moder().modify(|w| w.set_moder(n, pac::gpio::vals::Moder::OUTPUT));
+        }
+        let outcome = i2c_recovery::clear_bus(&mut RegisterPin(SCL), &mut RegisterPin(SDA), &mut embassy_time::Delay);
+        for n in pins {
+            gpio.moder().modify(|w| w.set_moder(n, pac::gpio::vals::Moder::ALTERNATE));
+        }
+        // Clears the peripheral's BUSY and error state (RM0351: PE low resets the I2C logic).
+        pac::I2C2.cr1().modify(|w| w.set_pe(false));
+        while pac::I2C2.cr1().read().pe() {}
+        pac::I2C2.cr1().modify(|w| w.set_pe(true));
+        match outcome {
+            i2c_recovery::Recovery::Stuck => defmt::warn!("I2C2: SDA still low after nine clocks (short or dead part?)"),
+            r => defmt::info!("I2C2 bus cleared: {}", r),
+        }
+        self.calibration = None;
+    }
 }
 
 #[cfg(not(feature = "humidity-hih4030"))]
 impl HumiditySource for Humidity {
     async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
-        if let SensorState::Absent(bus) = &mut self.state {
-            let bus = bus.take().expect("bus is returned on every failed setup");
-            match Hts221::new(bus).await {
-                Ok(sensor) => self.state = SensorState::Ready(sensor),
-                Err((bus, e)) => {
+        // Before the first set-up, and after repeated failures: a wedged bus never recovers by
+        // retrying transfers.
+        if self.health.should_clear() {
+            self.clear_bus();
+        }
+        let calibration = match self.calibration {
+            Some(c) => c,
+            None => match hts221::set_up(&mut self.bus, &mut embassy_time::Delay).await {
+                Ok(c) => *self.calibration.insert(c),
+                Err(e) => {
                     defmt::warn!("HTS221 setup failed: {}", e);
-                    self.state = SensorState::Absent(Some(bus));
+                    self.health.record(false);
                     return Err(HumidityError::NoResponse);
                 }
-            }
-        }
-        let SensorState::Ready(sensor) = &mut self.state else { unreachable!() };
-        sensor.read_rh_pct().await.map_err(|e| match e {
-            hts221::Error::NoNewData | hts221::Error::BadCalibration | hts221::Error::WrongDevice(_) => HumidityError::Implausible,
+            },
+        };
+        let reading = hts221::read_rh_pct(&mut self.bus, &calibration).await;
+        self.health.record(!matches!(reading, Err(hts221::Error::Bus)));
+        reading.map_err(|e| match e {
+            hts221::Error::NoNewData => HumidityError::NoNewData,
             hts221::Error::Bus => HumidityError::NoResponse,
+            hts221::Error::BadCalibration | hts221::Error::WrongDevice(_) | hts221::Error::BootTimeout => HumidityError::Implausible,
         })
+    }
+}
+
+/// A GPIOB pin driven through its registers while the I2C peripheral is detached from it
+/// (the peripheral owns the pin objects; recovery borrows only the wires).
+#[cfg(not(feature = "humidity-hih4030"))]
+struct RegisterPin(usize);
+
+#[cfg(not(feature = "humidity-hih4030"))]
+impl embedded_hal::digital::ErrorType for RegisterPin {
+    type Error = core::convert::Infallible;
+}
+
+#[cfg(not(feature = "humidity-hih4030"))]
+impl embedded_hal::digital::OutputPin for RegisterPin {
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        pac::GPIOB.bsrr().write(|w| w.set_br(self.0, true));
+        Ok(())
+    }
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        pac::GPIOB.bsrr().write(|w| w.set_bs(self.0, true));
+        Ok(())
+    }
+}
+
+#[cfg(not(feature = "humidity-hih4030"))]
+impl embedded_hal::digital::InputPin for RegisterPin {
+    fn is_high(&mut self) -> Result<bool, Self::Error> {
+        Ok(pac::GPIOB.idr().read().idr(self.0) == pac::gpio::vals::Idr::HIGH)
+    }
+    fn is_low(&mut self) -> Result<bool, Self::Error> {
+        self.is_high().map(|h| !h)
     }
 }
 

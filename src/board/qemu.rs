@@ -149,7 +149,7 @@ impl CurrentSource for Samples {
             }
         }
         REPLAY_RH_PCT.store(rh);
-        SampleBlock::Ready { flags: block_flags }
+        SampleBlock::Ready { flags: block_flags, lost_samples: 0 }
     }
 }
 
@@ -165,7 +165,10 @@ impl HumiditySource for Humidity {
             Timer::after_millis(HUMIDITY_PERIOD_MS).await;
             return Ok(50.0);
         }
-        if rh.is_nan() {
+        if rh == f32::NEG_INFINITY {
+            // A sensor slower than the poll: answers, but with nothing new.
+            Err(HumidityError::NoNewData)
+        } else if rh.is_nan() {
             Err(HumidityError::NoResponse)
         } else if !(0.0..=100.0).contains(&rh) {
             Err(HumidityError::Implausible)

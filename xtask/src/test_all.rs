@@ -207,6 +207,31 @@ fn qemu_replay_sensor_faults() -> Result<()> {
     Ok(())
 }
 
+/// A humidity sensor that answers "no new data" (the HTS221 between its own conversions): the
+/// last value holds without RH_STALE for a couple of polls; after three periods with nothing
+/// new the reading is stale; a new sample clears the flag.
+fn qemu_replay_no_new_humidity() -> Result<()> {
+    let fs = FIRMWARE_FS_HZ as f32;
+    let samples = synthetic(12.0, |t| if (2.0..3.5).contains(&t) || (5.0..10.0).contains(&t) { f32::NEG_INFINITY } else { 50.0 });
+    let r = replay("no-new-humidity", &samples)?;
+    check_count(&r, samples.len())?;
+    let stale_in = |from: f32, to: f32| {
+        r.blocks.iter().filter(|b| (from * fs..to * fs).contains(&(b.first_sample as f32)) && b.flags & flags::RH_STALE != 0).count()
+    };
+    let (short, long) = (stale_in(0.0, 5.0), stale_in(9.0, 10.0));
+    println!("RH_STALE blocks: {short} during 1.5 s without new data, {long} in the last second of 5 s without");
+    if short != 0 {
+        return Err(format!("{short} blocks flagged RH_STALE while the sensor only had no new sample for 1.5 s"));
+    }
+    if long == 0 {
+        return Err(format!("5 s without a new humidity sample, but no block flagged RH_STALE\n{}", r.log));
+    }
+    if r.blocks.last().ok_or("no blocks")?.flags & flags::RH_STALE != 0 {
+        return Err("new humidity samples again, but the last block is still RH_STALE".into());
+    }
+    Ok(())
+}
+
 /// No receiver on the stream at all (QEMU's serial port goes nowhere): the firmware processes
 /// every block and ends normally; its sample path never waits for the UART.
 fn qemu_replay_no_receiver() -> Result<()> {
@@ -432,6 +457,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("qemu replay: host ↔ QEMU equivalence (RH ramp 40 → 50 %)", qemu_host_equivalence),
         ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),
+        ("qemu replay: humidity sensor with no new data", qemu_replay_no_new_humidity),
         (OPT_IN_QEMU_LONG, qemu_long_run),
     ];
     // Opt-in steps run only when a filter names them.

@@ -1,0 +1,87 @@
+//! ST HTS221 relative-humidity sensor (I2C address 0x5F; on the B-L475E-IOT01A): the bus
+//! traffic. The two-point factory calibration (registers 0x30..0x3F) is checked and applied by
+//! `ipmc_core::humidity::Hts221Calibration`.
+//!
+//! The driver borrows the bus for each call instead of owning it: the firmware cancels a read
+//! that takes too long, and a cancelled future must not take the bus with it.
+
+use embedded_hal_async::{delay::DelayNs, i2c::I2c};
+use ipmc_core::humidity::Hts221Calibration;
+
+pub const ADDRESS: u8 = 0x5F;
+
+pub const WHO_AM_I: u8 = 0x0F;
+pub const WHO_AM_I_VALUE: u8 = 0xBC;
+pub const CTRL_REG1: u8 = 0x20;
+pub const CTRL_REG2: u8 = 0x21;
+pub const STATUS_REG: u8 = 0x27;
+pub const HUMIDITY_OUT_L: u8 = 0x28;
+pub const CALIB_START: u8 = 0x30;
+/// Sub-address bit that makes multi-byte reads auto-increment.
+pub const AUTO_INCREMENT: u8 = 0x80;
+
+/// CTRL_REG1: power on, block data update (no torn reads), 7 Hz output data rate. The firmware
+/// polls about once a second: at 7 Hz every poll finds a fresh sample, where a sensor running at
+/// its own 1 Hz beside a 1 Hz poll drifts in and out of "no new data".
+pub const CTRL_REG1_PD_BDU_7HZ: u8 = 0b1000_0110;
+/// CTRL_REG2 BOOT: reload the calibration registers from the part's own memory; clears itself.
+pub const CTRL_REG2_BOOT: u8 = 1 << 7;
+const STATUS_H_DA: u8 = 1 << 1;
+/// The reboot takes a few milliseconds (datasheet: BOOT "self-clears after the process").
+const BOOT_POLL_MS: u32 = 2;
+const BOOT_POLLS: u32 = 10;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Error {
+    Bus,
+    WrongDevice(u8),
+    /// The reboot bit never cleared.
+    BootTimeout,
+    /// The calibration registers do not describe a line through 0..100 %RH (e.g. read before
+    /// the part had booted: all zeros).
+    BadCalibration,
+    /// No new humidity sample since the last read: not a failure, the last value still holds.
+    NoNewData,
+}
+
+/// Checks the device, reboots it so its calibration registers are loaded, reads and checks the
+/// calibration and starts 7 Hz conversions.
+pub async fn set_up<I: I2c>(i2c: &mut I, delay: &mut impl DelayNs) -> Result<Hts221Calibration, Error> {
+    let mut id = [0u8];
+    i2c.write_read(ADDRESS, &[WHO_AM_I], &mut id).await.map_err(|_| Error::Bus)?;
+    if id[0] != WHO_AM_I_VALUE {
+        return Err(Error::WrongDevice(id[0]));
+    }
+    i2c.write(ADDRESS, &[CTRL_REG2, CTRL_REG2_BOOT]).await.map_err(|_| Error::Bus)?;
+    let mut booted = false;
+    for _ in 0..BOOT_POLLS {
+        delay.delay_ms(BOOT_POLL_MS).await;
+        let mut ctrl2 = [0u8];
+        i2c.write_read(ADDRESS, &[CTRL_REG2], &mut ctrl2).await.map_err(|_| Error::Bus)?;
+        if ctrl2[0] & CTRL_REG2_BOOT == 0 {
+            booted = true;
+            break;
+        }
+    }
+    if !booted {
+        return Err(Error::BootTimeout);
+    }
+    let mut regs = [0u8; 16];
+    i2c.write_read(ADDRESS, &[CALIB_START | AUTO_INCREMENT], &mut regs).await.map_err(|_| Error::Bus)?;
+    let calibration = Hts221Calibration::from_registers(&regs).ok_or(Error::BadCalibration)?;
+    i2c.write(ADDRESS, &[CTRL_REG1, CTRL_REG1_PD_BDU_7HZ]).await.map_err(|_| Error::Bus)?;
+    Ok(calibration)
+}
+
+/// The newest humidity sample in %RH; `NoNewData` if none arrived since the last call.
+pub async fn read_rh_pct<I: I2c>(i2c: &mut I, calibration: &Hts221Calibration) -> Result<f32, Error> {
+    let mut status = [0u8];
+    i2c.write_read(ADDRESS, &[STATUS_REG], &mut status).await.map_err(|_| Error::Bus)?;
+    if status[0] & STATUS_H_DA == 0 {
+        return Err(Error::NoNewData);
+    }
+    let mut out = [0u8; 2];
+    i2c.write_read(ADDRESS, &[HUMIDITY_OUT_L | AUTO_INCREMENT], &mut out).await.map_err(|_| Error::Bus)?;
+    Ok(calibration.rh_pct(i16::from_le_bytes(out)))
+}
