@@ -5,3 +5,4 @@
 
 pub mod hts221;
 pub mod i2c_recovery;
+pub mod vrefint;

@@ -7,11 +7,33 @@ use super::config::{ADC_CLIP_MARGIN_CODES, ADC_FULL_SCALE_CODE, ADC_VREF_V, TIA_
 
 const VOLTS_PER_CODE: f32 = ADC_VREF_V / ADC_FULL_SCALE_CODE as f32;
 
-/// Current in amperes for one ADC code.
+/// Current in amperes for one ADC code with the nominal reference (`config::ADC_VREF_V`).
 #[inline(always)]
 pub fn code_to_amps(code: u16) -> f32 {
-    (code as f32 * VOLTS_PER_CODE - TIA_BIAS_V) / TIA_GAIN_V_PER_A
+    FrontEnd::NOMINAL.amps(code)
 }
+
+/// ADC code → current for a reference voltage measured at start-up. The TIA's bias is a
+/// divider of the same supply, so it stays at mid-scale in codes; only the scale follows VDDA.
+#[derive(Clone, Copy)]
+pub struct FrontEnd {
+    amps_per_code: f32,
+}
+
+impl FrontEnd {
+    pub const NOMINAL: FrontEnd = FrontEnd::with_vref(ADC_VREF_V);
+
+    pub const fn with_vref(vref_v: f32) -> FrontEnd {
+        FrontEnd { amps_per_code: vref_v / ADC_FULL_SCALE_CODE as f32 / TIA_GAIN_V_PER_A }
+    }
+
+    #[inline(always)]
+    pub fn amps(&self, code: u16) -> f32 {
+        (code as f32 - MID_SCALE_CODE) * self.amps_per_code
+    }
+}
+
+const MID_SCALE_CODE: f32 = TIA_BIAS_V / VOLTS_PER_CODE;
 
 #[inline(always)]
 pub fn is_clipped_code(code: u16) -> bool {

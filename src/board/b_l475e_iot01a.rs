@@ -54,6 +54,8 @@ pub const NAME: &str = "B-L475E-IOT01A";
 /// ADC1 external trigger 13 of the regular group is TIM6_TRGO (RM0351, ADC EXTSEL table).
 const ADC_EXTSEL_TIM6_TRGO: u8 = 13;
 const ADC_EXTEN_RISING: u8 = 0b01;
+/// Factory conversion of VREFINT at VDDA = 3.0 V, 30 °C (STM32L475 datasheet, Table 8).
+const VREFINT_CAL_ADDR: usize = 0x1FFF_75AA;
 const STREAM_BAUD: u32 = 921_600;
 /// Independent watchdog timeout. Started when sampling starts and fed once per block the sample
 /// path receives (every 16 ms), so it fires only if the sample path itself stops: a hung ADC or
@@ -141,8 +143,28 @@ pub fn init() -> Board {
     pac::DBGMCU.apb1fzr1().modify(|w| w.set_iwdg(true));
     let watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
 
+    // The reference every conversion scales with, measured before ADC1 goes to the sample
+    // trigger (VREFINT is on ADC1 only). Two reads: the first after calibration may be wrong
+    // (erratum below); 640.5 cycles is 8 µs, above VREFINT's 4 µs minimum sampling time.
+    let mut adc = Adc::new(p.ADC1);
+    let front_end = {
+        let mut vrefint = adc.enable_vrefint();
+        let _ = adc.blocking_read(&mut vrefint, SampleTime::CYCLES640_5);
+        let code = adc.blocking_read(&mut vrefint, SampleTime::CYCLES640_5);
+        // SAFETY: VREFINT_CAL, a read-only factory word in system memory (DS10969 Table 8).
+        let cal = unsafe { core::ptr::read_volatile(VREFINT_CAL_ADDR as *const u16) };
+        match ipmc_sensors::vrefint::vdda_v(code, cal) {
+            Some(v) => {
+                defmt::info!("ADC reference VDDA = {} V (VREFINT {} counts, factory {})", v, code, cal);
+                current_conversion::FrontEnd::with_vref(v)
+            }
+            None => {
+                defmt::warn!("VREFINT {} counts (factory {}) is no reference: assuming VDDA = 3.3 V", code, cal);
+                current_conversion::FrontEnd::NOMINAL
+            }
+        }
+    };
     // Current: ADC1 converts once per TIM6 update; DMA writes a circular buffer.
-    let adc = Adc::new(p.ADC1);
     let mut adc = adc.into_ring_buffered(
         p.DMA1_CH1,
         ADC_DMA_BUF.init([0; 2 * BLOCK_LEN]),
@@ -184,7 +206,7 @@ pub fn init() -> Board {
     uart_config.baudrate = STREAM_BAUD;
     let uart = UartTx::new(p.USART1, p.PB6, p.DMA2_CH6, Irqs, uart_config).expect("USART1 config is valid");
 
-    let samples = Samples { adc, trigger, codes: [0; BLOCK_LEN], watchdog, last_block: None, first_conversion: true };
+    let samples = Samples { adc, trigger, codes: [0; BLOCK_LEN], watchdog, last_block: None, first_conversion: true, front_end };
     Board { samples, humidity, stream: Stream(uart) }
 }
 
@@ -197,6 +219,7 @@ pub struct Samples {
     last_block: Option<Instant>,
     /// The next block's first conversion is the first since calibration (below).
     first_conversion: bool,
+    front_end: current_conversion::FrontEnd,
 }
 
 impl CurrentSource for Samples {
@@ -247,7 +270,7 @@ impl CurrentSource for Samples {
             if current_conversion::is_clipped_code(code) {
                 block_flags |= flags::CLIPPED;
             }
-            *a = current_conversion::code_to_amps(code);
+            *a = self.front_end.amps(code);
         }
         SampleBlock::Ready { flags: block_flags, lost_samples }
     }

@@ -379,7 +379,7 @@ fn format_check() -> Result<()> {
 /// `cargo clippy -D warnings`: every host crate with its tests, and each firmware variant
 /// (the lint policy is `[workspace.lints]` in Cargo.toml).
 fn lint() -> Result<()> {
-    for m in ["core", "recording", "fit", "tool", "host-tests", "xtask"] {
+    for m in ["core", "sensors", "recording", "fit", "tool", "host-tests", "xtask"] {
         let manifest = format!("{m}/Cargo.toml");
         run(cargo().current_dir(repo_root()).args([
             "clippy",
@@ -445,6 +445,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("recording tests", || cargo_test("recording/Cargo.toml")),
         ("tool tests", || crate::install::ensure_plot_font().and_then(|()| cargo_test("tool/Cargo.toml"))),
         ("fit tests", || cargo_test("fit/Cargo.toml")),
+        ("sensors tests (drivers and bus recovery against fake buses)", || cargo_test("sensors/Cargo.toml")),
         ("diagnose: ipmc prove (reduced)", diagnose_prove),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
