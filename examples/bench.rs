@@ -185,7 +185,7 @@ fn main() -> ! {
     let switch = instr(since(t));
     let mut blocks = 0u32;
     let t = now();
-    while comp.is_fading() {
+    while comp.is_retuning() {
         black_box(sample_block(&mut comp, dma_block(&codes, at)));
         at += BLOCK_LEN;
         blocks += 1;

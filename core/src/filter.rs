@@ -24,17 +24,6 @@ pub const FADE_S: f64 = 0.5;
 /// for bit only with the same block length.
 pub const BLOCK_LEN: usize = 32;
 
-/// A retune is due when the humidity moved by more than this [% RH] from the RH of the active
-/// (or already requested) design: about a tenth of the compensation error a 1 % RH mismatch
-/// causes (≈ 3 %, `ipmc accuracy`), at ~1 retune per second during a fast 0.25 %/s drift.
-pub const RETUNE_THRESHOLD_PCT: f32 = 0.25;
-
-/// Whether a reading at `rh_pct` calls for a new design, given the RH of the last one (NaN:
-/// none yet).
-pub fn needs_retune(design_rh_pct: f32, rh_pct: f32) -> bool {
-    design_rh_pct.is_nan() || (rh_pct - design_rh_pct).abs() > RETUNE_THRESHOLD_PCT
-}
-
 /// Largest input the compensator takes as a measurement [A]: three decades above any IPMC
 /// strip's short-circuit current and the firmware front end's 1.76 µA rail. Anything larger (a
 /// corrupted word, a wrong unit) is replaced like a NaN: measured, a finite 1e20 A sample kept
@@ -218,16 +207,6 @@ impl<T: Real> Compensator<T> {
         }
     }
 
-    pub fn with_fade(mut self, samples: u32) -> Self {
-        self.fade_len = samples.max(1);
-        self
-    }
-
-    pub fn with_warmup(mut self, samples: u32) -> Self {
-        self.warmup_len = samples.max(1);
-        self
-    }
-
     pub fn rh_pct(&self) -> T {
         self.rh_pct
     }
@@ -241,8 +220,8 @@ impl<T: Real> Compensator<T> {
         let (a, t) = (self.active.state_max_abs(), self.tail.state_max_abs());
         if a.is_nan() || t.is_nan() || next.is_nan() { T::nan() } else { a.max(t).max(next) }
     }
-    /// Whether a retune is under way (warming up or fading).
-    pub fn is_fading(&self) -> bool {
+    /// Whether a retune is under way (the incoming head warming up or the output fading to it).
+    pub fn is_retuning(&self) -> bool {
         self.transition != Transition::Idle
     }
 

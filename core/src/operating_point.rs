@@ -18,6 +18,17 @@ impl<T: Real> DesignConfig<T> {
     }
 }
 
+/// A retune is due when the humidity moved by more than this [% RH] from the RH of the active
+/// (or already requested) design: about a tenth of the compensation error a 1 % RH mismatch
+/// causes (≈ 3 %, `ipmc accuracy`), at ~1 retune per second during a fast 0.25 %/s drift.
+pub const RETUNE_THRESHOLD_PCT: f32 = 0.25;
+
+/// Whether a reading at `rh_pct` calls for a new design, given the RH of the last one (NaN:
+/// none yet).
+pub fn needs_retune(design_rh_pct: f32, rh_pct: f32) -> bool {
+    design_rh_pct.is_nan() || (rh_pct - design_rh_pct).abs() > RETUNE_THRESHOLD_PCT
+}
+
 /// Samples the firmware's estimate lags the true base motion by: its design's preview
 /// (`max_delay_s`) at the firmware's rate.
 pub fn delay_samples() -> usize {

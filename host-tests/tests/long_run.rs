@@ -12,7 +12,7 @@
 use std::time::Instant;
 
 use host_tests::Rng;
-use ipmc_core::filter::{BLOCK_LEN, needs_retune};
+use ipmc_core::operating_point::{BLOCK_LEN, needs_retune};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
 
 const FS: f64 = 2000.0;

@@ -28,10 +28,10 @@ fn switch_case<T: Real>(rh_a: f64, rh_b: f64) -> (f64, f64, f64, f64) {
     let mut comp = Compensator::new(&inv_a);
     run(&mut comp, &Source::new(rh_b), 0, SETTLE, delay, SETTLE);
     comp.switch_to(&inv_b);
-    assert!(comp.is_fading());
+    assert!(comp.is_retuning());
     let src_b = Source::new(rh_b);
     let during = run(&mut comp, &src_b, SETTLE, SETTLE + AFTER, delay, SETTLE);
-    assert!(!comp.is_fading(), "the crossfade never completed");
+    assert!(!comp.is_retuning(), "the crossfade never completed");
     let tail = run(&mut comp, &src_b, SETTLE + AFTER, SETTLE + AFTER + 4000, delay, SETTLE + AFTER);
     (during.max(tail), ea, eb, tail)
 }

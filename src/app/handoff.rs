@@ -52,8 +52,6 @@ impl AtomicF32 {
 
 /// Latest RH [%] accepted by the humidity task (clamped to the calibrated range).
 pub static LATEST_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
-/// RH [%] of the design the sample path is running.
-pub static ACTIVE_DESIGN_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
 /// Humidity and design flags (`RH_STALE`, `RH_CLAMPED`, `DESIGN_FAILED`) for the next blocks.
 pub static CONDITION_FLAGS: AtomicU16 = AtomicU16::new(0);
 

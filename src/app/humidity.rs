@@ -47,7 +47,7 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 LATEST_RH_PCT.store(rh);
                 handoff::set_condition(flags::RH_STALE, false);
                 handoff::set_condition(flags::RH_CLAMPED, clamped);
-                if ipmc_core::filter::needs_retune(design_rh, rh) {
+                if ipmc_core::operating_point::needs_retune(design_rh, rh) {
                     design_rh = rh;
                     RETUNE_REQUEST.signal(rh);
                 }

@@ -9,7 +9,7 @@ use super::{
     compensation::SamplePathFilter,
     config::{BLOCK_LEN, SAMPLE_RATE_HZ},
     flags,
-    handoff::{self, ACTIVE_DESIGN_RH_PCT, DESIGN_READY, EstimateBlock, LATEST_RH_PCT, REPORT_QUEUE, ReportItem},
+    handoff::{self, DESIGN_READY, EstimateBlock, LATEST_RH_PCT, REPORT_QUEUE, ReportItem},
     ports::{CurrentSource, SampleBlock},
 };
 
@@ -19,7 +19,6 @@ pub async fn sample_task(mut samples: Samples) {
     // estimate comes from a real filter.
     let first = DESIGN_READY.wait().await;
     let mut filter = SamplePathFilter::new(&first);
-    ACTIVE_DESIGN_RH_PCT.store(first.rh_pct);
     defmt::info!("sampling starts, design for {} %RH", first.rh_pct);
 
     samples.start();
@@ -45,7 +44,6 @@ pub async fn sample_task(mut samples: Samples) {
 
         if let Some(design) = DESIGN_READY.try_take() {
             filter.switch_to(&design);
-            ACTIVE_DESIGN_RH_PCT.store(design.rh_pct);
             block.flags |= flags::RETUNED;
         }
         if filter.process(&mut block.base_est_m) {

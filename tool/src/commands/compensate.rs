@@ -178,7 +178,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
             let mut fl = if clamped { flags::RH_CLAMPED } else { 0 };
             match comp.as_mut() {
                 None => comp = Some(Compensator::new(&design(rh)?)),
-                Some(c) if fixed.is_none() && ipmc_core::filter::needs_retune(c.rh_pct(), rh) => {
+                Some(c) if fixed.is_none() && ipmc_core::operating_point::needs_retune(c.rh_pct(), rh) => {
                     c.switch_to(&design(rh)?);
                     est.retunes += 1;
                     fl |= flags::RETUNED;
