@@ -331,6 +331,8 @@ fn estimate_burst(ts: &TimeSeries, base: &[f64], r: std::ops::Range<usize>, plan
         if neighbour_offsets.is_empty() {
             return None;
         }
+        // Neighbouring lines share their between-bins: each projected once.
+        let mut whole: std::collections::HashMap<u64, (C<f64>, C<f64>)> = std::collections::HashMap::new();
         let p = freqs
             .iter()
             .zip(h)
@@ -345,7 +347,9 @@ fn estimate_burst(ts: &TimeSeries, base: &[f64], r: std::ops::Range<usize>, plan
                     match w {
                         // One record: its bin noise is that of the mean over the periods.
                         None => {
-                            let (yy, uu) = (project(&y_all[used.clone()], None, g, fs), project(&u_all[used.clone()], None, g, fs));
+                            let (yy, uu) = *whole.entry((g * used.len() as f64 / fs).round() as u64).or_insert_with(|| {
+                                (project(&y_all[used.clone()], None, g, fs), project(&u_all[used.clone()], None, g, fs))
+                            });
                             sum += (yy - h * uu).norm_sqr();
                             n += 1.0;
                         }
