@@ -23,7 +23,6 @@
 #[allow(dead_code)]
 mod config;
 #[path = "../src/app/current_conversion.rs"]
-#[allow(dead_code)]
 mod current_conversion;
 
 use core::hint::black_box;

@@ -300,7 +300,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
             let v = base * zk;
             a[2 * i][k] = v.re;
             a[2 * i + 1][k] = v.im;
-            zk = zk * zinv;
+            zk *= zinv;
         }
         b[2 * i] = T::one();
         b[2 * i + 1] = T::zero();
@@ -360,10 +360,10 @@ fn monic_response<T: Real>(zeros: &Roots<T>, poles: &Roots<T>, zinv: C<T>) -> C<
     let mut v = one;
     for i in 0..zeros.n.max(poles.n) {
         if i < zeros.n {
-            v = v * (one - zeros.r[i] * zinv);
+            v *= one - zeros.r[i] * zinv;
         }
         if i < poles.n {
-            v = v / (one - poles.r[i] * zinv);
+            v /= one - poles.r[i] * zinv;
         }
     }
     v

@@ -100,17 +100,17 @@ impl<T: Real> Extension<T> {
         let mut g = one;
         for &tau in &self.amp_tau {
             if tau != T::zero() {
-                g = g / (s * tau + one);
+                g /= s * tau + one;
             }
         }
         if self.electrode_tau_lumped != T::zero() {
-            g = g / (s * self.electrode_tau_lumped + one);
+            g /= s * self.electrode_tau_lumped + one;
         }
         if self.electrode_tau_distributed != T::zero() {
-            g = g * rc_line(s * self.electrode_tau_distributed);
+            g *= rc_line(s * self.electrode_tau_distributed);
         }
         if self.skew_current != T::zero() {
-            g = g * (-s * self.skew_current).cexp();
+            g *= (-s * self.skew_current).cexp();
         }
         g
     }

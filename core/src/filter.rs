@@ -324,18 +324,18 @@ impl<T: Real> Compensator<T> {
             }
             Transition::Idle => Transition::Idle,
         };
-        if let Transition::Fade { pos } = self.transition {
-            if pos >= self.fade_len {
-                if let Some(n) = self.next.take() {
-                    self.active = n;
-                }
-                self.transition = Transition::Idle;
-                if let Some(p) = self.pending.take() {
-                    let mut head = p;
-                    head.take_state_from(&self.active);
-                    self.next = Some(head);
-                    self.transition = Transition::WarmUp { remaining: self.warmup_len };
-                }
+        if let Transition::Fade { pos } = self.transition
+            && pos >= self.fade_len
+        {
+            if let Some(n) = self.next.take() {
+                self.active = n;
+            }
+            self.transition = Transition::Idle;
+            if let Some(p) = self.pending.take() {
+                let mut head = p;
+                head.take_state_from(&self.active);
+                self.next = Some(head);
+                self.transition = Transition::WarmUp { remaining: self.warmup_len };
             }
         }
     }

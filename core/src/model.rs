@@ -75,7 +75,7 @@ fn series<T: Real>(q: C<T>) -> (C<T>, C<T>, C<T>) {
             m4 *= -4.0;
             p16 *= 16.0;
             phi += qj * T::lit(m4 / (fact / k));
-            qj = qj * q;
+            qj *= q;
         }
         cc += qj * T::lit(m4 / fact);
         d1 += qj * T::lit(p16 / fact);

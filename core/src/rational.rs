@@ -193,10 +193,10 @@ impl<T: Real> RationalModel<T> {
         let (nz, np) = (self.zeros.n, self.poles.n);
         for i in 0..nz.max(np) {
             if i < nz {
-                v = v * (s - self.zeros.r[i]);
+                v *= s - self.zeros.r[i];
             }
             if i < np {
-                v = v / (s - self.poles.r[i]);
+                v /= s - self.poles.r[i];
             }
         }
         v

@@ -263,20 +263,20 @@ fn long_run_with_noise_and_random_retunes_stays_bounded() {
     let mut comp = Compensator::new(&inv0);
     let w = 2.0 * std::f64::consts::PI * 40.0 / FS;
     let quiet_from = N - 80_000; // no retunes in the last 40 s
-    let mut next_retune = 500 + (rng.next() * 3500.0) as usize;
+    let mut next_retune = 500 + (rng.uniform() * 3500.0) as usize;
     let mut retunes = 0;
     let mut y = vec![0f32; N];
     let mut n = 0;
     while n < N {
         if n >= next_retune && n < quiet_from {
-            rh = (rh + (rng.next() * 2.0 - 1.0) * 5.0).clamp(20.0, 90.0);
+            rh = (rh + (rng.uniform() * 2.0 - 1.0) * 5.0).clamp(20.0, 90.0);
             comp.switch_to(&design(rh));
             retunes += 1;
-            next_retune = n + 500 + (rng.next() * 3500.0) as usize;
+            next_retune = n + 500 + (rng.uniform() * 3500.0) as usize;
         }
         let len = BLOCK.min(N - n);
         for k in 0..len {
-            let noise = (rng.next() * 2.0 - 1.0) * 1e-7; // 10 % of the sine, white
+            let noise = (rng.uniform() * 2.0 - 1.0) * 1e-7; // 10 % of the sine, white
             y[n + k] = (1e-6 * (w * (n + k) as f64).sin() + noise) as f32;
         }
         comp.process_block(&mut y[n..n + len]);

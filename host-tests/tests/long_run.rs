@@ -55,7 +55,7 @@ fn ten_million_samples_with_drift_and_random_retunes() {
     let mut c32 = Compensator::new(&first);
     let mut c64 = Compensator::new(&first.cast::<f64>());
     let mut design_rh = rh_at(0) as f32;
-    let mut next_random = 500 + (rng.next() * 3500.0) as usize;
+    let mut next_random = 500 + (rng.uniform() * 3500.0) as usize;
     let (mut threshold_retunes, mut random_retunes) = (0usize, 0usize);
     let w40 = 2.0 * std::f64::consts::PI * 40.0 / FS;
     let w7 = 2.0 * std::f64::consts::PI * 7.3 / FS;
@@ -72,8 +72,8 @@ fn ten_million_samples_with_drift_and_random_retunes() {
         } else if n >= next_random {
             // A retune nobody needed, to a reading off by up to ±0.2 % RH (sensor noise).
             random_retunes += 1;
-            next_random = n + 500 + (rng.next() * 3500.0) as usize;
-            Some(rh + ((rng.next() * 2.0 - 1.0) * 0.2) as f32)
+            next_random = n + 500 + (rng.uniform() * 3500.0) as usize;
+            Some(rh + ((rng.uniform() * 2.0 - 1.0) * 0.2) as f32)
         } else {
             None
         };
@@ -85,7 +85,7 @@ fn ten_million_samples_with_drift_and_random_retunes() {
         }
         for k in 0..BLOCK_LEN {
             let t = (n + k) as f64;
-            let noise = (rng.next() * 2.0 - 1.0) * 1e-7;
+            let noise = (rng.uniform() * 2.0 - 1.0) * 1e-7;
             let v = 1e-6 * (w40 * t).sin() + 3e-7 * (w7 * t).sin() + noise;
             x32[k] = v as f32;
             x64[k] = x32[k] as f64;

@@ -27,7 +27,7 @@ impl Format for Charging {
         if voltage_v == 0.0 {
             return Err(Error::file(&t.source, "metadata `# voltage_v=0`: expected a non-zero voltage"));
         }
-        let rh_pct = t.metadata_number("rh_pct", Rule::Finite)?;
+        let rh_pct = t.metadata_number("rh_pct", Rule::Humidity)?;
         let tc = t.require("t_s")?;
         let t_s = t.numbers(tc, Rule::Finite)?;
         let current_a = t.numbers(t.require("current_a")?, Rule::Finite)?;

@@ -56,7 +56,7 @@ pub struct Level {
 
 impl Format for FrequencyResponse {
     fn from_table(t: &Table) -> Result<(Self, Vec<Warning>), Error> {
-        let rh = t.numbers(t.require("rh_pct")?, Rule::Finite)?;
+        let rh = t.numbers(t.require("rh_pct")?, Rule::Humidity)?;
         let freq = t.numbers(t.require("freq_hz")?, Rule::Positive)?;
         let optional = |name: &str| t.find(name).map(|c| t.numbers(c, Rule::Finite)).transpose();
         let time = optional("time_s")?;

@@ -16,7 +16,15 @@ pub enum Rule {
     NonNegative,
     /// Finite and > 0 (frequencies, rates).
     Positive,
+    /// A relative humidity in percent: 0–100 with `RH_OVERSHOOT_PCT` of sensor overshoot either
+    /// side. Anything further out is a unit mix-up or a dead sensor, and refusing it at its line
+    /// beats a fit that fails later without saying why.
+    Humidity,
 }
+
+/// How far outside 0–100 % a humidity reading may lie and still be a reading: capacitive sensors
+/// overshoot near saturation and read a little below zero when dry (HTS221, SHT4x: ±few %RH).
+pub const RH_OVERSHOOT_PCT: f64 = 5.0;
 
 impl Rule {
     fn accepts(self, v: f64) -> bool {
@@ -25,6 +33,7 @@ impl Rule {
                 Rule::Finite => true,
                 Rule::NonNegative => v >= 0.0,
                 Rule::Positive => v > 0.0,
+                Rule::Humidity => (-RH_OVERSHOOT_PCT..=100.0 + RH_OVERSHOOT_PCT).contains(&v),
             }
     }
     fn expected(self) -> &'static str {
@@ -32,6 +41,7 @@ impl Rule {
             Rule::Finite => "a finite number",
             Rule::NonNegative => "a finite number ≥ 0",
             Rule::Positive => "a finite number > 0",
+            Rule::Humidity => "a relative humidity in −5…105 % (0–100 % and the sensor's overshoot)",
         }
     }
 }
@@ -298,6 +308,11 @@ mod tests {
         let t = Table::parse("r.csv", "x\n0\n").unwrap();
         assert!(t.numbers(0, Rule::Positive).is_err());
         assert_eq!(t.numbers(0, Rule::NonNegative).unwrap(), vec![0.0]);
+        assert!(t.numbers(0, Rule::Humidity).is_ok());
+        let t = Table::parse("r.csv", "rh_pct\n102.5\n-4\n155\n").unwrap();
+        let e = t.numbers(0, Rule::Humidity).unwrap_err();
+        assert_eq!(e.line, Some(4), "{e}");
+        assert!(e.message.contains("relative humidity") && e.message.contains("`155`"), "{e}");
     }
 
     #[test]

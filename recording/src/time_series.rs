@@ -36,7 +36,7 @@ impl Format for TimeSeries {
     fn from_table(t: &Table) -> Result<(Self, Vec<Warning>), Error> {
         let t_s = t.numbers(t.require("t_s")?, Rule::Finite)?;
         let current_a = t.numbers(t.require("current_a")?, Rule::Finite)?;
-        let rh_pct = t.numbers(t.require("rh_pct")?, Rule::Finite)?;
+        let rh_pct = t.numbers(t.require("rh_pct")?, Rule::Humidity)?;
         let optional = |name: &str| t.find(name).map(|c| t.numbers(c, Rule::Finite)).transpose();
         let (base_m, tip_m, temp_c) = (optional("base_m")?, optional("tip_m")?, optional("temp_c")?);
         if t_s.is_empty() {

@@ -116,10 +116,10 @@ fn check<T>(text: &str, answer: Result<(T, Vec<Warning>), Error>, rows: impl Fn(
                     return Err(format!("line {l} of {lines}: {e}"));
                 }
                 let width = text.split('\n').nth(l - 1).map_or(0, |s| s.chars().count());
-                if let Some(c) = e.field.as_ref().and_then(|f| f.char) {
-                    if !(1..=width + 1).contains(&c) {
-                        return Err(format!("column {c} of a {width}-character line: {e}"));
-                    }
+                if let Some(c) = e.field.as_ref().and_then(|f| f.char)
+                    && !(1..=width + 1).contains(&c)
+                {
+                    return Err(format!("column {c} of a {width}-character line: {e}"));
                 }
             }
             Ok(None)

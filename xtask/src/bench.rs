@@ -8,7 +8,7 @@ use std::{
     process::{Command, Stdio},
 };
 
-use crate::{Result, describe, firmware::cargo, install, repo_root};
+use crate::{Result, cargo, describe, firmware::Variant, install, repo_root};
 
 /// Issue 4 targets.
 const TARGET_PER_SECTION: f64 = 12.0;
@@ -19,11 +19,12 @@ const STRETCH_RETUNE: f64 = 100_000.0;
 const DESIGN_DELAY_MS: f64 = 2.0;
 
 fn build() -> Result<std::path::PathBuf> {
-    install::ensure_cargo_tool("flip-link", "flip-link")?;
-    let target_dir = repo_root().join("target/qemu");
+    install::ensure_firmware_tools()?;
+    let target_dir = Variant::Qemu.target_dir();
     let mut cmd = cargo();
     cmd.current_dir(repo_root())
-        .args(["build", "--release", "--example", "bench", "--no-default-features", "--features", "qemu"])
+        .args(["build", "--release", "--example", "bench"])
+        .args(Variant::Qemu.feature_args())
         .arg("--target-dir")
         .arg(&target_dir);
     println!("==> building the benchmark (examples/bench.rs, qemu board)");
@@ -49,10 +50,10 @@ pub fn measure() -> Result<BTreeMap<String, f64>> {
     let mut m = BTreeMap::new();
     for line in text.lines() {
         let mut it = line.split_whitespace();
-        if let (Some(k), Some(v), None) = (it.next(), it.next(), it.next()) {
-            if let Ok(v) = v.parse::<f64>() {
-                m.insert(k.to_string(), v);
-            }
+        if let (Some(k), Some(v), None) = (it.next(), it.next(), it.next())
+            && let Ok(v) = v.parse::<f64>()
+        {
+            m.insert(k.to_string(), v);
         }
     }
     Ok(m)

@@ -1,8 +1,8 @@
 //! Building the firmware variants.
 
-use std::{path::PathBuf, process::Command};
+use std::path::PathBuf;
 
-use crate::{Result, install, repo_root};
+use crate::{Result, cargo, install, repo_root};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Variant {
@@ -22,8 +22,16 @@ impl Variant {
         }
     }
 
+    /// The cargo feature flags that select this variant.
+    pub fn feature_args(self) -> &'static [&'static str] {
+        match self {
+            Variant::Hardware => &[],
+            Variant::Qemu => &["--no-default-features", "--features", "qemu"],
+        }
+    }
+
     /// Each variant gets its own target directory so switching does not rebuild the other.
-    fn target_dir(self) -> PathBuf {
+    pub fn target_dir(self) -> PathBuf {
         match self {
             Variant::Hardware => repo_root().join("target"),
             Variant::Qemu => repo_root().join("target/qemu"),
@@ -35,19 +43,13 @@ impl Variant {
     }
 }
 
-pub fn cargo() -> Command {
-    Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()))
-}
-
 /// `cargo build --release` of one variant; returns the ELF path.
 pub fn build(variant: Variant) -> Result<PathBuf> {
-    install::ensure_cargo_tool("flip-link", "flip-link")?;
+    install::ensure_firmware_tools()?;
     let mut cmd = cargo();
     cmd.current_dir(repo_root()).args(["build", "--release", "--bin", "ipmc-firmware"]);
     cmd.arg("--target-dir").arg(variant.target_dir());
-    if variant == Variant::Qemu {
-        cmd.args(["--no-default-features", "--features", "qemu"]);
-    }
+    cmd.args(variant.feature_args());
     println!("==> building firmware ({})", variant.name());
     crate::run(&mut cmd)?;
     Ok(variant.elf())

@@ -53,7 +53,7 @@ pub fn command(args: &[String]) -> Result<()> {
         Ok(s) if s.success() => Ok(()),
         Ok(s) => Err(format!("probe-rs exited with {s}")),
         Err(_) => Err("probe-rs is not installed: `cargo install probe-rs-tools --locked` \
-                       (see README, Flashing); CI does not need it"
+                       (see docs/firmware.md, Flashing); CI does not need it"
             .into()),
     }
 }

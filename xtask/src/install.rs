@@ -1,9 +1,9 @@
 //! Installs what the commands need on a bare Debian machine (as root), or says exactly what
-//! to install. The rustup target comes from rust-toolchain.toml on the first cargo call.
+//! to install.
 
 use std::{fs, path::Path, process::Command};
 
-use crate::{Result, firmware::cargo, run};
+use crate::{Result, cargo, repo_root, run};
 
 pub const QEMU_MACHINE: &str = "b-l475e-iot01a";
 const DEBIAN_SOURCES: &str = "/etc/apt/sources.list.d/debian.sources";
@@ -12,6 +12,23 @@ const BACKPORTS_SOURCES: &str = "/etc/apt/sources.list.d/ipmc-backports.sources"
 fn on_path(bin: &str) -> bool {
     Command::new(bin).arg("--version").output().is_ok()
 }
+
+/// The firmware's Rust target and its linker, flip-link. rust-toolchain.toml lists the target,
+/// but nothing installs it: machines set RUSTUP_AUTO_INSTALL=0 and `$CARGO` is the toolchain's
+/// own cargo, not rustup's proxy. `.cargo/ensure-firmware-tools` installs both, the same script
+/// cargo runs as its rustc wrapper.
+pub fn ensure_firmware_tools() -> Result<()> {
+    run(Command::new(repo_root().join(".cargo/ensure-firmware-tools")).current_dir(repo_root()).env_remove("RUSTC"))
+}
+
+/// Whether the firmware's Rust target is installed for the toolchain that builds here.
+pub fn firmware_target_installed() -> Result<bool> {
+    let out = Command::new("rustc").current_dir(repo_root()).args(["--print", "sysroot"]).output().map_err(|e| format!("rustc: {e}"))?;
+    let sysroot = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    Ok(Path::new(&sysroot).join("lib/rustlib").join(FIRMWARE_TARGET).join("lib").is_dir())
+}
+
+pub const FIRMWARE_TARGET: &str = "thumbv7em-none-eabihf";
 
 /// A `cargo install --locked` tool (flip-link, defmt-print).
 pub fn ensure_cargo_tool(bin: &str, krate: &str) -> Result<()> {

@@ -8,6 +8,7 @@
 //! - `flash ELF`                               cargo runner: `probe-rs run` with probe-rs.toml
 
 mod bench;
+mod exec;
 mod firmware;
 mod flash;
 mod install;
@@ -18,12 +19,9 @@ mod size;
 mod stream;
 mod test_all;
 
-use std::{path::PathBuf, process::ExitCode};
+use std::process::ExitCode;
 
-/// The repository root (this crate lives in `<root>/xtask`).
-pub fn repo_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask is inside the repository").to_path_buf()
-}
+pub use exec::{cargo, describe, ipmc, repo_root, run};
 
 pub type Result<T> = std::result::Result<T, String>;
 
@@ -56,19 +54,4 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// Runs a command to completion; an error names it if it fails or cannot start.
-pub fn run(cmd: &mut std::process::Command) -> Result<()> {
-    let status = cmd.status().map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
-    if status.success() { Ok(()) } else { Err(format!("{} failed ({status})", describe(cmd))) }
-}
-
-pub fn describe(cmd: &std::process::Command) -> String {
-    let mut s = cmd.get_program().to_string_lossy().into_owned();
-    for a in cmd.get_args() {
-        s.push(' ');
-        s.push_str(&a.to_string_lossy());
-    }
-    s
 }

@@ -11,7 +11,7 @@ use std::{
 use crate::{
     Result, describe,
     firmware::{self, Variant},
-    install, recording,
+    install, ipmc, recording,
     replay::{self, Sample},
     repo_root,
     stream::{self, Block},
@@ -108,17 +108,6 @@ fn decode_defmt(elf: &Path, raw: &Path) -> Result<String> {
     Ok(String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
 }
 
-fn bundled_recording() -> Option<PathBuf> {
-    let mut csvs: Vec<PathBuf> = fs::read_dir(repo_root().join("data"))
-        .ok()?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
-        .filter(|p| recording::is_time_series(p))
-        .collect();
-    csvs.sort();
-    csvs.into_iter().next()
-}
-
 pub fn command(args: &[String]) -> Result<()> {
     let mut input = None;
     let mut out = None;
@@ -132,7 +121,7 @@ pub fn command(args: &[String]) -> Result<()> {
     }
     let input = match input {
         Some(p) => p,
-        None => bundled_recording().ok_or(
+        None => recording::bundled().ok_or(
             "no --input given and no bundled time-series recording under data/ yet; \
              run `cargo xtask qemu --input REC.csv`",
         )?,
@@ -172,18 +161,10 @@ const FIRMWARE_DELAY_SAMPLES: usize = 4;
 /// Runs `cargo ipmc ARGS…` and returns the figure it prints after "skipped): " (the scoring
 /// lives in the tool, so the firmware and the host are scored by the same code).
 fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<String> {
-    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-    cmd.current_dir(repo_root()).arg("ipmc").args(args);
-    let what = describe(&cmd);
-    let o = cmd.output().map_err(|e| format!("cannot run {what}: {e}"))?;
-    if !o.status.success() {
-        return Err(format!("{what} failed:\n{}", String::from_utf8_lossy(&o.stderr)));
-    }
-    let text = String::from_utf8_lossy(&o.stdout);
-    Ok(text
-        .lines()
+    let text = ipmc(args)?;
+    text.lines()
         .find_map(|l| l.split_once("skipped): ").map(|(_, r)| r.to_string()))
-        .unwrap_or_else(|| format!("no figure in the output of {what}: {text}")))
+        .ok_or_else(|| format!("no figure in the output of cargo ipmc {args:?}: {text}"))
 }
 
 /// If the input recording carries the true `base_m`, prints the firmware's error against it
@@ -215,7 +196,7 @@ fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
     install::ensure_plot_font()?;
     let prefix = est_csv.with_extension("");
     let delay_ms = format!("{}", FIRMWARE_DELAY_SAMPLES as f64 * 1e3 / FIRMWARE_FS_HZ as f64);
-    let out = crate::test_all::ipmc(&[
+    let out = ipmc(&[
         "plot".as_ref(),
         "compensated".as_ref(),
         input.as_os_str(),

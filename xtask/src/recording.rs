@@ -1,7 +1,7 @@
 //! The recordings xtask reads, through the one reader of the formats (`ipmc-recording`): its
 //! errors as xtask's `String`, its warnings on stderr.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use ipmc_recording::{Error, Estimates, Format as _, TimeSeries, Warning};
 
@@ -28,4 +28,16 @@ pub fn is_time_series(path: &Path) -> bool {
 /// The estimates of an EST.csv (`ipmc compensate`'s or the firmware's), in metres.
 pub fn estimates_m(path: &Path) -> Result<Vec<f64>> {
     Ok(checked(Estimates::read(path))?.base_est_m.into_iter().map(f64::from).collect())
+}
+
+/// The bundled recording `cargo xtask qemu` replays by default: the first time series under
+/// `data/` by name.
+pub fn bundled() -> Option<PathBuf> {
+    let mut csvs: Vec<PathBuf> = std::fs::read_dir(crate::repo_root().join("data"))
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "csv") && is_time_series(p))
+        .collect();
+    csvs.sort();
+    csvs.into_iter().next()
 }

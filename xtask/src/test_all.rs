@@ -1,11 +1,12 @@
 //! `cargo xtask test`: every test of the repository, one step after another. A failed step
 //! does not stop the others; the summary names each failed step and the exit code is non-zero.
 
-use std::{f32::consts::PI, path::Path};
+use std::f32::consts::PI;
 
 use crate::{
-    Result,
-    firmware::{self, Variant, cargo},
+    Result, cargo,
+    firmware::{self, Variant},
+    ipmc,
     qemu::{self, FIRMWARE_FS_HZ, Replayed, flags},
     replay::{Sample, expected_estimates},
     repo_root, run, size,
@@ -228,15 +229,11 @@ fn qemu_long_run() -> Result<()> {
 }
 
 fn qemu_replay_bundled() -> Result<()> {
-    let dir = repo_root().join("data");
-    let Some(path) = std::fs::read_dir(&dir).ok().and_then(|d| {
-        d.filter_map(|e| e.ok().map(|e| e.path()))
-            .find(|p| p.extension().is_some_and(|x| x == "csv") && crate::recording::is_time_series(p))
-    }) else {
+    let Some(path) = crate::recording::bundled() else {
         println!("no bundled recording under data/ yet: skipped");
         return Ok(());
     };
-    let rec = crate::recording::time_series(Path::new(&path))?;
+    let rec = crate::recording::time_series(&path)?;
     let samples: Vec<Sample> =
         rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
     let r = replay("bundled", &samples)?;
@@ -246,18 +243,6 @@ fn qemu_replay_bundled() -> Result<()> {
 /// Relative rms difference allowed between the firmware's estimates under QEMU and the host's
 /// `ipmc compensate --schedule` on the same input (issue 4).
 const EQUIVALENCE_TOL: f64 = 1e-6;
-
-/// Runs `cargo ipmc <args>` at the repository root.
-pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
-    let mut cmd = cargo();
-    cmd.current_dir(repo_root()).args(["ipmc"]).args(args);
-    let what = crate::describe(&cmd);
-    let o = cmd.output().map_err(|e| format!("cannot run {what}: {e}"))?;
-    if !o.status.success() {
-        return Err(format!("{what} failed:\n{}", String::from_utf8_lossy(&o.stderr)));
-    }
-    Ok(String::from_utf8_lossy(&o.stdout).into_owned())
-}
 
 /// Host ↔ QEMU equivalence: the firmware on a 10 s recording with a humidity ramp 40 → 50 %
 /// (so it retunes several times at moments its own tasks choose), then the host's f32 chain on
@@ -336,11 +321,9 @@ fn host_equivalence_on_ramp(name: &str, seconds: u32, rh_from: u32, rh_to: u32) 
 /// The long QEMU run takes over 8 minutes of real time: not part of the default suite.
 const OPT_IN_QEMU_LONG: &str = "qemu-long: 1 million samples through the firmware, bit-compared with the host (RH ramp 40 → 70 %)";
 
-/// The number after `"key":` in a one-line JSON object.
-fn json_count(line: &str, key: &str) -> Result<u64> {
-    let at = line.find(&format!("\"{key}\":")).ok_or_else(|| format!("no {key} in {line}"))?;
-    let digits: String = line[at + key.len() + 3..].chars().take_while(|c| c.is_ascii_digit()).collect();
-    digits.parse().map_err(|e| format!("{key} in {line}: {e}"))
+/// A count in `ipmc prove --json`'s summary object.
+fn json_count(summary: &serde_json::Value, key: &str) -> Result<u64> {
+    summary.get(key).and_then(serde_json::Value::as_u64).ok_or_else(|| format!("no count `{key}` in {summary}"))
 }
 
 /// `ipmc prove` with one case per effect and three clean controls (the README's command runs
@@ -351,8 +334,9 @@ fn diagnose_prove() -> Result<()> {
     let out = ipmc(&["prove".as_ref(), "--per-effect".as_ref(), "1".as_ref(), "--clean".as_ref(), "3".as_ref(), "--json".as_ref()])?;
     print!("{out}");
     let line = out.lines().last().ok_or("ipmc prove printed nothing")?;
+    let summary: serde_json::Value = serde_json::from_str(line).map_err(|e| format!("ipmc prove --json: {e}: {line}"))?;
     let (fp, named, reduced) =
-        (json_count(line, "false_positives")?, json_count(line, "named_correctly")?, json_count(line, "heldout_reduced")?);
+        (json_count(&summary, "false_positives")?, json_count(&summary, "named_correctly")?, json_count(&summary, "heldout_reduced")?);
     if fp > 0 {
         return Err(format!("{fp} clean control(s) diagnosed with an effect"));
     }
@@ -362,10 +346,74 @@ fn diagnose_prove() -> Result<()> {
     Ok(())
 }
 
+/// `cargo fmt --check` over the workspace (rustfmt.toml keeps the code's density).
+fn format_check() -> Result<()> {
+    run(cargo().current_dir(repo_root()).args(["fmt", "--all", "--check"]))
+}
+
+/// `cargo clippy -D warnings`: every host crate with its tests, and each firmware variant
+/// (the lint policy is `[workspace.lints]` in Cargo.toml).
+fn lint() -> Result<()> {
+    for m in ["core", "recording", "fit", "tool", "host-tests", "xtask"] {
+        let manifest = format!("{m}/Cargo.toml");
+        run(cargo().current_dir(repo_root()).args([
+            "clippy",
+            "--target",
+            "host-tuple",
+            "--all-targets",
+            "--manifest-path",
+            &manifest,
+            "--",
+            "-D",
+            "warnings",
+        ]))?;
+    }
+    crate::install::ensure_firmware_tools()?;
+    for v in Variant::ALL {
+        let mut cmd = cargo();
+        cmd.current_dir(repo_root()).args(["clippy", "--release", "--bins", "--examples"]).arg("--target-dir").arg(v.target_dir());
+        cmd.args(v.feature_args());
+        run(cmd.args(["--", "-D", "warnings"]))?;
+    }
+    Ok(())
+}
+
+/// A fresh machine has no thumb target and nothing installs it on use (RUSTUP_AUTO_INSTALL=0,
+/// `$CARGO` is not rustup's proxy): remove it, then a plain no_std build for it must bring it back.
+/// Before the wrapper, both README commands stopped at `can't find crate for core`.
+fn thumb_target_installs_on_use() -> Result<()> {
+    use crate::install::{FIRMWARE_TARGET, firmware_target_installed};
+    if std::process::Command::new("rustup").arg("--version").output().is_err() {
+        return Err("rustup is not on PATH: cannot check that the firmware target installs on use".into());
+    }
+    if firmware_target_installed()? {
+        println!("removing {FIRMWARE_TARGET} to build as a fresh machine would");
+        run(std::process::Command::new("rustup").current_dir(repo_root()).args(["target", "remove", FIRMWARE_TARGET]))?;
+    }
+    if firmware_target_installed()? {
+        return Err(format!("{FIRMWARE_TARGET} still installed after `rustup target remove`"));
+    }
+    let target_dir = repo_root().join("target/fresh-target");
+    let built = run(cargo()
+        .current_dir(repo_root())
+        .args(["check", "--manifest-path", "core/Cargo.toml", "--no-default-features"])
+        .arg("--target-dir")
+        .arg(&target_dir));
+    if !firmware_target_installed()? {
+        // Leave the machine as it was for the firmware steps that follow.
+        crate::install::ensure_firmware_tools()?;
+        return Err(format!("a cargo build for {FIRMWARE_TARGET} did not install the target ({built:?})"));
+    }
+    built
+}
+
 /// `filter`: when given, only the steps whose name contains one of these strings run.
 pub fn command(filter: &[String]) -> Result<()> {
     type Step = (&'static str, fn() -> Result<()>);
     let steps: &[Step] = &[
+        ("format: cargo fmt --check", format_check),
+        ("lint: cargo clippy -D warnings (host crates, both firmware variants)", lint),
+        ("fresh machine: the thumb target installs on use", thumb_target_installs_on_use),
         // `toml`: the calibration file reader and its fuzz test.
         ("core tests", || cargo_test_with("core/Cargo.toml", &["--features", "toml"])),
         ("host-tests", || cargo_test("host-tests/Cargo.toml")),

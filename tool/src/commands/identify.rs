@@ -9,7 +9,7 @@
 
 use crate::commands::{charging, write_atomically};
 use crate::plot::bode::{Bode, LevelModel};
-use crate::plot::params::{ParamsFigure, read_levels};
+use crate::plot::params::{ParamsFigure, levels_series};
 use crate::plot::render;
 use crate::{calibration_source, input::checked, progress};
 use anyhow::{Context, Result, bail};
@@ -41,10 +41,10 @@ pub struct Args {
     /// Where to write the identified calibration (TOML).
     #[arg(long)]
     out: PathBuf,
-    /// Where to write the per-level estimates (JSON: one object per level, each parameter with
+    /// Also write the per-level estimates here (JSON: one object per level, each parameter with
     /// its standard error `<name>_se`, the correlations, χ² and the estimated noise).
     #[arg(long)]
-    levels: PathBuf,
+    levels: Option<PathBuf>,
     /// Also draw the result into this directory: bode.svg/.png (each level's measured response
     /// against its identified model) and params.svg/.png (the parameters ± SE against humidity
     /// with the fitted laws), as `ipmc plot bode` and `ipmc plot params` draw them.
@@ -192,20 +192,25 @@ pub fn run(a: Args) -> Result<()> {
     let (calib, laws) = calibration_from_levels(&base, &level_fits, rh_range).with_context(|| format!("{source}: calibration"))?;
 
     let json = Value::Array(fits.iter().map(|(l, f)| level_json(l, f)).collect());
-    write_atomically(&a.levels, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    if let Some(path) = &a.levels {
+        write_atomically(path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    }
     calibration_file::check(&calib).map_err(|e| anyhow::anyhow!("{source}: the identified calibration would not load: {e}"))?;
     let toml = calibration_file::to_text(&calib);
     let header =
         format!("# Identified by `ipmc identify` from {source} ({} levels, RH {:.1}–{:.1} %).\n", fits.len(), rh_range.0, rh_range.1);
     write_atomically(&a.out, format!("{header}{toml}").as_bytes())?;
     print_summary(&level_fits, &laws);
-    println!("wrote {} and {}", a.out.display(), a.levels.display());
+    match &a.levels {
+        Some(path) => println!("wrote {} and {}", a.out.display(), path.display()),
+        None => println!("wrote {}", a.out.display()),
+    }
     if let Some(dir) = &a.plots {
         let models = fits.iter().map(|(l, f)| LevelModel::new((*l).clone(), f.params)).collect();
         let title = format!("{source}: measured (dots) vs identified model (lines)");
         let bode = render(&Bode { title, levels: models }, &dir.join("bode"), (1600, 1000))?;
         let title = format!("{source}: identified parameters vs humidity, laws of {}", a.out.display());
-        let params = render(&ParamsFigure { title, series: read_levels(&a.levels)?, calib }, &dir.join("params"), (1600, 1100))?;
+        let params = render(&ParamsFigure { title, series: levels_series(&source, &json)?, calib }, &dir.join("params"), (1600, 1100))?;
         for path in [bode.0, bode.1, params.0, params.1] {
             println!("plot: {}", path.display());
         }

@@ -382,7 +382,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         eprintln!("base fits and noise done");
     }
     progress("locating the mismatch");
-    let located = locate::locate(&ctx.calib, data, &ctx.sig, &ctx.base, &cal_theta, &simulation)?;
+    let located = locate::locate(ctx.calib, data, &ctx.sig, &ctx.base, &cal_theta, &simulation)?;
 
     let mut scores = Vec::new();
     let mut fitted_of: Vec<Option<Fitted>> = Vec::new();
@@ -602,7 +602,7 @@ fn score_candidate(
                         let mut m = m.clone();
                         for (on, &f) in m.current.iter_mut().zip(&l.freqs) {
                             let k = (f / line).round();
-                            if k >= 1.0 && k <= 4.0 && (f - k * line).abs() <= (0.01 * f).max(0.5) {
+                            if (1.0..=4.0).contains(&k) && (f - k * line).abs() <= (0.01 * f).max(0.5) {
                                 *on = false;
                             }
                         }

@@ -68,8 +68,11 @@ impl Mask {
     }
 }
 
+/// Per frequency of a level, a value where the channel was measured.
+pub type PerPoint<V> = Vec<Option<V>>;
+
 /// Unweighted ln(measured/model) of a level's values, per channel (None where not measured).
-pub fn log_ratios(level: &LevelData, p: &Params<f64>, x: &Extension<f64>) -> (Vec<Option<C<f64>>>, Vec<Option<C<f64>>>) {
+pub fn log_ratios(level: &LevelData, p: &Params<f64>, x: &Extension<f64>) -> (PerPoint<C<f64>>, PerPoint<C<f64>>) {
     let mut tip = Vec::with_capacity(level.freqs.len());
     let mut cur = Vec::with_capacity(level.freqs.len());
     for (i, &f) in level.freqs.iter().enumerate() {
@@ -254,7 +257,9 @@ pub fn unit_sigmas(level: &LevelData) -> LevelSigmas {
 /// over 4σ (a narrow feature, a line) are left out and the estimate repeated, so that they
 /// count as structure, not noise.
 pub fn estimate_noise(calib: &Calibration, levels: &[LevelData], thetas: &[Theta]) -> Noise {
-    let mut per_channel: [(Vec<Point>, Vec<C<f64>>, Vec<f64>); 2] = Default::default();
+    // Per channel: where each residual is, the residual, and its model's magnitude.
+    type ChannelResiduals = (Vec<Point>, Vec<C<f64>>, Vec<f64>);
+    let mut per_channel: [ChannelResiduals; 2] = Default::default();
     for (level, theta) in levels.iter().zip(thetas) {
         let p = level_params(calib, level, theta);
         let (tip, cur) = log_ratios(level, &p, &Extension::default());
@@ -506,6 +511,38 @@ pub fn inside_tight(b: Bound, v: f64) -> f64 {
     }
 }
 
+/// How structured the residuals are: the correlation of each weighted residual with its
+/// neighbour in frequency (same level, channel and component), as a z. A model that misses
+/// physics leaves residuals that are smooth in frequency (z ≫ 0) whatever the noise level; noise,
+/// even misjudged in size, leaves them uncorrelated (z ≈ 0 ± 1).
+pub fn structure_z(
+    calib: &Calibration,
+    levels: &[LevelData],
+    sig: &[LevelSigmas],
+    masks: &[Mask],
+    theta: &[Theta],
+    ext: &[Extension<f64>],
+) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (l, level) in levels.iter().enumerate() {
+        let p = level_params(calib, level, &theta[l]);
+        let (tip, cur) = log_ratios(level, &p, &ext[l]);
+        for (ratios, sigmas, on) in [(&tip, &sig[l].tip, &masks[l].tip), (&cur, &sig[l].current, &masks[l].current)] {
+            let r: Vec<C<f64>> = (0..ratios.len())
+                .filter(|&i| on[i])
+                .filter_map(|i| ratios[i].map(|z| C::new(z.re / sigmas[i].ln_gain, z.im / sigmas[i].phase)))
+                .collect();
+            for w in r.windows(2) {
+                for (a, b) in [(w[0].re, w[1].re), (w[0].im, w[1].im)] {
+                    num += a * b;
+                    den += a * a * b * b;
+                }
+            }
+        }
+    }
+    if den > 0.0 { num / den.sqrt() } else { 0.0 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -540,36 +577,4 @@ mod tests {
         let want = BASE.map(|n| p.get(n).ln());
         assert!(fit.chi2 < 1e-6, "χ² {} at {theta:?}, want {want:?}", fit.chi2);
     }
-}
-
-/// How structured the residuals are: the correlation of each weighted residual with its
-/// neighbour in frequency (same level, channel and component), as a z. A model that misses
-/// physics leaves residuals that are smooth in frequency (z ≫ 0) whatever the noise level; noise,
-/// even misjudged in size, leaves them uncorrelated (z ≈ 0 ± 1).
-pub fn structure_z(
-    calib: &Calibration,
-    levels: &[LevelData],
-    sig: &[LevelSigmas],
-    masks: &[Mask],
-    theta: &[Theta],
-    ext: &[Extension<f64>],
-) -> f64 {
-    let (mut num, mut den) = (0.0, 0.0);
-    for (l, level) in levels.iter().enumerate() {
-        let p = level_params(calib, level, &theta[l]);
-        let (tip, cur) = log_ratios(level, &p, &ext[l]);
-        for (ratios, sigmas, on) in [(&tip, &sig[l].tip, &masks[l].tip), (&cur, &sig[l].current, &masks[l].current)] {
-            let r: Vec<C<f64>> = (0..ratios.len())
-                .filter(|&i| on[i])
-                .filter_map(|i| ratios[i].map(|z| C::new(z.re / sigmas[i].ln_gain, z.im / sigmas[i].phase)))
-                .collect();
-            for w in r.windows(2) {
-                for (a, b) in [(w[0].re, w[1].re), (w[0].im, w[1].im)] {
-                    num += a * b;
-                    den += a * a * b * b;
-                }
-            }
-        }
-    }
-    if den > 0.0 { num / den.sqrt() } else { 0.0 }
 }

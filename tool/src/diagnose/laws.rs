@@ -186,6 +186,38 @@ pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> V
         .collect()
 }
 
+/// In-sample predictions of the laws fitted on all levels (weights re-estimated for these
+/// regressors) and the laws' parameter count.
+pub fn fitted(reg: &Regressors, theta: &[Theta], se: &[Theta]) -> (Vec<Theta>, usize) {
+    let w = LawWeights::estimate(reg, theta, se);
+    let all: Vec<usize> = (0..theta.len()).collect();
+    let pred = (0..theta.len()).map(|l| predict(reg, theta, se, &w, &all, l)).collect();
+    (pred, chi2(reg, theta, se, &w).1)
+}
+
+/// −2 log-likelihood (up to a constant) of the levels' θ around predictions, each component
+/// with its own scatter between levels τ_j² estimated from these residuals: Σ r²/v + ln v with
+/// v = SE² + τ_j². Unlike a χ² at fixed weights, it lets a model that explains the scatter
+/// (temperature, hydration) show it.
+pub fn nll(pred: &[Theta], theta: &[Theta], se: &[Theta]) -> f64 {
+    let mut total = 0.0;
+    for j in 0..4 {
+        let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan() && pred[l][j].is_finite()).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let n = rows.len() as f64;
+        let ms = rows.iter().map(|&l| (theta[l][j] - pred[l][j]).powi(2)).sum::<f64>() / n;
+        let own = rows.iter().map(|&l| se[l][j].min(1.0).powi(2)).sum::<f64>() / n;
+        let tau2 = (ms - own).max(1e-8);
+        for &l in &rows {
+            let v = se[l][j].min(1.0).powi(2) + tau2;
+            total += (theta[l][j] - pred[l][j]).powi(2) / v + v.ln();
+        }
+    }
+    total
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -225,36 +257,4 @@ mod tests {
             assert!((p[j] - theta[3][j]).abs() < 1e-9);
         }
     }
-}
-
-/// In-sample predictions of the laws fitted on all levels (weights re-estimated for these
-/// regressors) and the laws' parameter count.
-pub fn fitted(reg: &Regressors, theta: &[Theta], se: &[Theta]) -> (Vec<Theta>, usize) {
-    let w = LawWeights::estimate(reg, theta, se);
-    let all: Vec<usize> = (0..theta.len()).collect();
-    let pred = (0..theta.len()).map(|l| predict(reg, theta, se, &w, &all, l)).collect();
-    (pred, chi2(reg, theta, se, &w).1)
-}
-
-/// −2 log-likelihood (up to a constant) of the levels' θ around predictions, each component
-/// with its own scatter between levels τ_j² estimated from these residuals: Σ r²/v + ln v with
-/// v = SE² + τ_j². Unlike a χ² at fixed weights, it lets a model that explains the scatter
-/// (temperature, hydration) show it.
-pub fn nll(pred: &[Theta], theta: &[Theta], se: &[Theta]) -> f64 {
-    let mut total = 0.0;
-    for j in 0..4 {
-        let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan() && pred[l][j].is_finite()).collect();
-        if rows.is_empty() {
-            continue;
-        }
-        let n = rows.len() as f64;
-        let ms = rows.iter().map(|&l| (theta[l][j] - pred[l][j]).powi(2)).sum::<f64>() / n;
-        let own = rows.iter().map(|&l| se[l][j].min(1.0).powi(2)).sum::<f64>() / n;
-        let tau2 = (ms - own).max(1e-8);
-        for &l in &rows {
-            let v = se[l][j].min(1.0).powi(2) + tau2;
-            total += (theta[l][j] - pred[l][j]).powi(2) / v + v.ln();
-        }
-    }
-    total
 }

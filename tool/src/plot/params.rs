@@ -27,22 +27,34 @@ pub struct ParamsFigure {
 pub fn level_objects(path: &Path) -> Result<Vec<Map<String, Value>>> {
     let text = std::fs::read_to_string(path).map_err(|e| anyhow!("cannot read {}: {e}", path.display()))?;
     let doc: Value = serde_json::from_str(&text).map_err(|e| anyhow!("{}:{}:{}: {e}", path.display(), e.line(), e.column()))?;
-    let list = doc.as_array().ok_or_else(|| anyhow!("{}: expected a JSON array of levels", path.display()))?;
+    objects_of(&path.display().to_string(), &doc)
+}
+
+fn objects_of(source: &str, doc: &Value) -> Result<Vec<Map<String, Value>>> {
+    let list = doc.as_array().ok_or_else(|| anyhow!("{source}: expected a JSON array of levels"))?;
     list.iter()
         .enumerate()
-        .map(|(k, v)| v.as_object().cloned().ok_or_else(|| anyhow!("{}: level {k} is not a JSON object", path.display())))
+        .map(|(k, v)| v.as_object().cloned().ok_or_else(|| anyhow!("{source}: level {k} is not a JSON object")))
         .collect()
 }
 
 /// LEVELS.json as one series per parameter present.
 pub fn read_levels(path: &Path) -> Result<Vec<ParamSeries>> {
+    series_of(&path.display().to_string(), &level_objects(path)?)
+}
+
+/// The per-level estimates `ipmc identify` makes (LEVELS.json's content) as one series per parameter.
+pub fn levels_series(source: &str, doc: &Value) -> Result<Vec<ParamSeries>> {
+    series_of(source, &objects_of(source, doc)?)
+}
+
+fn series_of(source: &str, levels: &[Map<String, Value>]) -> Result<Vec<ParamSeries>> {
     let mut series: Vec<ParamSeries> = vec![];
-    for (k, obj) in level_objects(path)?.iter().enumerate() {
-        let rh =
-            obj.get("rh_pct").and_then(|v| v.as_f64()).ok_or_else(|| anyhow!("{}: level {k} has no numeric `rh_pct`", path.display()))?;
+    for (k, obj) in levels.iter().enumerate() {
+        let rh = obj.get("rh_pct").and_then(|v| v.as_f64()).ok_or_else(|| anyhow!("{source}: level {k} has no numeric `rh_pct`"))?;
         for (key, value) in obj {
             let Some(name) = ParamName::parse(key) else { continue };
-            let Some(v) = value.as_f64() else { bail!("{}: level {k}: `{key}` is not a number", path.display()) };
+            let Some(v) = value.as_f64() else { bail!("{source}: level {k}: `{key}` is not a number") };
             let se = obj.get(&format!("{key}_se")).and_then(|v| v.as_f64()).filter(|s| s.is_finite());
             match series.iter_mut().find(|s| s.name == name) {
                 Some(s) => s.points.push((rh, v, se)),
@@ -51,7 +63,7 @@ pub fn read_levels(path: &Path) -> Result<Vec<ParamSeries>> {
         }
     }
     if series.is_empty() {
-        bail!("{}: no parameter values (keys named as --set names them: Y, Cs, Ca, d, …)", path.display());
+        bail!("{source}: no parameter values (keys named as --set names them: Y, Cs, Ca, d, …)");
     }
     Ok(series)
 }

@@ -58,7 +58,8 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mut hydration = Hydration::settled(levels[0], 0.0, h.hydration_tau_s);
     // Responses per tone at the last humidity the sample was at: a constant level costs one
     // model evaluation per tone, not one per sample.
-    let mut cached: Option<(u64, Vec<(C<f64>, C<f64>)>)> = None;
+    type TipAndCurrent = (C<f64>, C<f64>);
+    let mut cached: Option<(u64, Vec<TipAndCurrent>)> = None;
     let mut burst_t0 = 0.0;
     for leg in 0..legs {
         if !plan.ramp && leg > 0 {
