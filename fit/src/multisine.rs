@@ -19,6 +19,9 @@
 //! window's leakage, which cancels in e to first order). What lies between the lines in the
 //! current, interference such as mains and its harmonics, is kept as a spectrum.
 
+use crate::noise;
+pub use crate::noise::ChannelNoise;
+use crate::response::{Channel, Point};
 use ipmc_core::C;
 use ipmc_recording::{Error, FrPoint, FrequencyResponse, Response, TimeSeries};
 use std::f64::consts::PI;
@@ -460,6 +463,27 @@ fn between_lines(x: &[f64], fs: f64, lines: &[f64], hann_len: Option<usize>) -> 
     out
 }
 
+/// Each channel's noise over all bursts as the fits model it (`noise::ChannelNoise`: σ² =
+/// rel² + floor²/|H|², the same for ln gain and phase), fitted to the lines' own σ: what a fit
+/// can weigh a time series' points with instead of estimating the noise from its residuals.
+/// (tip, current); None for a channel not recorded or with fewer than three finite σ.
+pub fn channel_noise(bursts: &[Burst]) -> (Option<ChannelNoise>, Option<ChannelNoise>) {
+    let of = |channel: Channel, pick: &dyn Fn(&Line) -> Option<Ratio>| {
+        let mut points = vec![];
+        let mut errors = vec![];
+        let mut gains = vec![];
+        for l in bursts.iter().flat_map(|b| &b.lines) {
+            let Some(r) = pick(l).filter(|r| r.sigma.is_finite() && r.value.norm() > 0.0) else { continue };
+            points.push(Point { freq_hz: l.freq_hz, channel, value: r.value });
+            // A complex error whose two parts each have the line's variance.
+            errors.push(C::new(r.sigma, r.sigma));
+            gains.push(r.value.norm());
+        }
+        noise::estimate(&points, &errors, &gains, channel, 0)
+    };
+    (of(Channel::Tip, &|l| l.tip), of(Channel::Current, &|l| Some(l.current)))
+}
+
 /// The bursts as a frequency-response recording: one point per line, at the burst's mean
 /// humidity, temperature and time, so that every frequency-response reader takes them.
 pub fn to_frequency_response(bursts: &[Burst], metadata: &ipmc_recording::Metadata) -> FrequencyResponse {
@@ -600,6 +624,18 @@ mod tests {
         let l = &bursts[1].lines[50].current;
         let (a, b) = (l.sigma_segments.unwrap(), l.sigma_neighbours.unwrap());
         assert!(a / b > 0.3 && a / b < 3.0, "{a} vs {b}");
+        // The fits' noise model through the lines' σ (white noise on every channel: relative
+        // from the base, floor from the output) states the actual error as well.
+        let (tip, cur) = channel_noise(&bursts);
+        let (tip, cur) = (tip.unwrap(), cur.unwrap());
+        let (mut actual, mut stated) = (0.0, 0.0);
+        for l in bursts.iter().flat_map(|b| &b.lines) {
+            for (r, h, n) in [(l.tip.unwrap(), tip_h(l.freq_hz), tip), (l.current, current_h(l.freq_hz), cur)] {
+                actual += (r.value - h).norm_sqr() / (2.0 * h.norm_sqr());
+                stated += n.sigma(r.value.norm()).powi(2);
+            }
+        }
+        assert!((0.85..1.15).contains(&(actual / stated)), "actual/stated error power with the noise model {}", actual / stated);
     }
 
     #[test]

@@ -45,12 +45,16 @@ pub fn summary(bursts: &[Burst]) -> String {
         .iter()
         .flat_map(|b| b.between.freq_hz.iter().zip(&b.between.current_a).map(move |(f, a)| (*f, *a / b.between.floor_a)))
         .fold((0.0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+    let model = |n: Option<multisine::ChannelNoise>| n.map_or("—".into(), |n| format!("rel {:.2e}, floor {:.2e}", n.rel, n.floor));
+    let (tip, current) = multisine::channel_noise(bursts);
     format!(
-        "time series: {} bursts, {lines} lines, median σ of the current's lines {:.2} %; strongest current between the lines {:.0}× its floor at {:.2} Hz",
+        "time series: {} bursts, {lines} lines, median σ of the current's lines {:.2} %; strongest current between the lines {:.0}× its floor at {:.2} Hz; the lines' noise as the fits model it: tip {}, current {}",
         bursts.len(),
         100.0 * median,
         strongest.1,
-        strongest.0
+        strongest.0,
+        model(tip),
+        model(current)
     )
 }
 
