@@ -127,7 +127,7 @@ fn biquad_block(sections: &mut [DirectForm2Transposed<f32, f32>], block: &mut [f
 }
 
 fn design(rh: f32) -> Inverse<f32> {
-    let cfg = DesignConfig { fs_hz: SAMPLE_RATE_HZ as f32, ..DesignConfig::default() };
+    let cfg = DesignConfig::firmware();
     match design_inverse(&Calibration::default(), rh, &cfg) {
         Ok(d) => d,
         Err(_) => {

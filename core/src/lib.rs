@@ -19,12 +19,14 @@ pub mod filter;
 pub mod humidity;
 pub mod lstsq;
 pub mod model;
+pub mod operating_point;
 pub mod rational;
+pub mod rational_tables;
 pub mod real;
+pub mod replay;
 pub mod roots;
 pub mod stream;
 pub mod stuck;
-pub mod universal;
 
 pub use calibration::{Calibration, Law, LawKind, ParamName, Params, ValidationError};
 pub use design::{DesignConfig, DesignError, Inverse, MAX_SECTIONS, Sos, compensation_error, design_inverse};

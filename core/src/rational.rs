@@ -4,7 +4,7 @@
 //! heap. Vector fitting at order 12 needs a few least-squares solves of a ~200×25 system per
 //! iteration, millions of flops; and fitting noise-free but infinite-order data it has no
 //! guarantee of stability for parameters it was not run on. Here the structure of the model does
-//! the work (see [`crate::universal`] for the derivation): the mechanical poles are the roots of
+//! the work (see [`crate::rational_tables`] for the derivation): the mechanical poles are the roots of
 //! one quadratic per mode (closed form, stable by construction), the half-order ionic element is a
 //! fixed minimax table shifted by K, and only the eight zeros of the mechanical factor need an
 //! iterative search, started next to the answer. Denominator order: 8 (four modes) + 5 (ionic) = 13
@@ -13,8 +13,8 @@
 //! H_r(s) = k · Π(s − zᵢ) / Π(s − pⱼ), real coefficients (roots closed under conjugation).
 
 use crate::model::q_of;
+use crate::rational_tables::{HALF_ORDER_4, HALF_ORDER_5, HalfOrder, IONIC_OMEGA0, MODE_Q, MODE_R, TAIL_C1, ZERO_RHO};
 use crate::roots::{aberth, quadratic, symmetrize};
-use crate::universal::{HALF_ORDER_4, HALF_ORDER_5, HalfOrder, IONIC_OMEGA0, MODE_Q, MODE_R, TAIL_C1, ZERO_RHO};
 use crate::{C, ComplexMath, Params, Real};
 
 /// Capacity of a root list: 16 zeros and 13 poles are the most the model produces.

@@ -4,15 +4,15 @@
 use ipmc_core::model::{current_response, jw};
 use ipmc_core::{Calibration, Compensator, ComplexMath, DesignConfig, Inverse, Params, Real, design_inverse};
 
-pub const FS: f64 = 2000.0;
+pub const FS: f64 = ipmc_core::operating_point::SAMPLE_RATE_HZ as f64;
 pub const F0: f64 = 40.0;
 pub const U: f64 = 1e-3; // 1 mm base amplitude
-pub const BLOCK: usize = 32; // firmware-like block size
+pub const BLOCK: usize = ipmc_core::operating_point::BLOCK_LEN;
 pub const SETTLE: usize = 40_000; // 20 s: the slowest pole (1 Hz high-pass) decays e^-40 over it
 
 pub fn design(rh: f64) -> Inverse<f32> {
     let c = Calibration::default_preset();
-    let cfg = DesignConfig::<f32> { fs_hz: FS as f32, ..DesignConfig::default() };
+    let cfg = DesignConfig::<f32>::firmware();
     design_inverse(&c, rh as f32, &cfg).unwrap_or_else(|e| panic!("design at {rh} %: {e}"))
 }
 

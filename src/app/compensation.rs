@@ -3,15 +3,13 @@
 
 use ipmc_core::{Calibration, Compensator, DesignConfig, DesignError, Inverse, design_inverse};
 
-use super::config::SAMPLE_RATE_HZ;
-
 /// The calibration compiled into this firmware (see `calibration`: chosen at build time).
 pub fn calibration() -> Calibration {
     super::calibration::CALIBRATION
 }
 
 fn design_config() -> DesignConfig<f32> {
-    DesignConfig { fs_hz: SAMPLE_RATE_HZ as f32, ..DesignConfig::default() }
+    DesignConfig::firmware()
 }
 
 /// Slow: runs in the retune task only.

@@ -1,11 +1,9 @@
 //! Build-time settings of the application (the board decides pins, not these numbers).
 
-/// Current sampling rate. The board's trigger timer and the filter design both use it.
-pub const SAMPLE_RATE_HZ: u32 = 2_000;
-
-/// Samples per processed block: one DMA half-buffer. 32 samples at 2 kHz = 16 ms latency,
-/// long enough that per-block overhead is small next to the per-sample filter cost.
-pub use ipmc_core::filter::BLOCK_LEN;
+/// Sample rate and block length (one DMA half-buffer: 16 ms at 2 kHz, long enough that per-block
+/// overhead is small next to the per-sample filter cost): the core's operating point, which the
+/// replay, the host's replica and the host tests share.
+pub use ipmc_core::operating_point::{BLOCK_LEN, SAMPLE_RATE_HZ};
 
 /// Longest wait for the stream to take one frame [ms]. A frame of 32 estimates is 1.6 ms of
 /// USART time at 921 600 baud; ten times that means the transmitter is stalled, and the report

@@ -13,13 +13,11 @@
 //! | time driver               | TIM2 (embassy-stm32 `time-driver-tim2`) |
 //! | watchdog                  | IWDG, fed by the sample path (below)    |
 
-use embassy_executor::{InterruptExecutor, SendSpawner};
 pub use embassy_stm32::pac;
 use embassy_stm32::{
     Config,
     adc::{Adc, AdcChannel, CONTINUOUS, RingBufferedAdc, SampleTime},
     bind_interrupts, dma, i2c,
-    interrupt::{InterruptExt, Priority},
     mode::Async,
     peripherals::{ADC1, DMA1_CH1, DMA1_CH4, DMA1_CH5, DMA2_CH6, I2C2, IWDG, TIM6},
     rcc,
@@ -28,7 +26,6 @@ use embassy_stm32::{
     usart::{self, UartTx},
     wdg::IndependentWatchdog,
 };
-use pac::{Interrupt, interrupt};
 use static_cell::StaticCell;
 use {defmt_rtt as _, panic_probe as _};
 
@@ -72,30 +69,10 @@ bind_interrupts!(struct Irqs {
     I2C2_ER => i2c::ErrorInterruptHandler<I2C2>;
 });
 
-const SAMPLE_IRQ: Interrupt = Interrupt::UART4;
-const IO_IRQ: Interrupt = Interrupt::UART5;
-
-#[interrupt]
-unsafe fn UART4() {
-    // SAFETY: the executor was started before this interrupt was unmasked.
-    unsafe { crate::SAMPLE_EXECUTOR.on_interrupt() }
-}
-
-#[interrupt]
-unsafe fn UART5() {
-    // SAFETY: as above.
-    unsafe { crate::IO_EXECUTOR.on_interrupt() }
-}
-
-pub fn start_sample_executor(executor: &'static InterruptExecutor) -> SendSpawner {
-    SAMPLE_IRQ.set_priority(Priority::P6);
-    executor.start(SAMPLE_IRQ)
-}
-
-pub fn start_io_executor(executor: &'static InterruptExecutor) -> SendSpawner {
-    IO_IRQ.set_priority(Priority::P7);
-    executor.start(IO_IRQ)
-}
+/// Executor priorities (`executors`): P6 and P7 of the NVIC's sixteen, below the DMA and
+/// time-base interrupts embassy leaves at the most urgent.
+pub const SAMPLE_PRIORITY: u8 = 6 << 4;
+pub const IO_PRIORITY: u8 = 7 << 4;
 
 /// Two halves of `BLOCK_LEN`: the DMA fills one while the sample path reads the other.
 static ADC_DMA_BUF: StaticCell<[u16; 2 * BLOCK_LEN]> = StaticCell::new();

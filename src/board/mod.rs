@@ -3,8 +3,8 @@
 //! - `NAME`, `pac` (the register-access crate for its chip);
 //! - `init() -> Board` with concrete `Samples`, `Humidity` and `Stream` types implementing the
 //!   ports in `crate::app::ports`;
-//! - `start_sample_executor` / `start_io_executor` (interrupt choice and priority) and the
-//!   matching interrupt handlers;
+//! - `SAMPLE_PRIORITY` / `IO_PRIORITY`, the NVIC priorities of the two interrupt executors
+//!   (`executors`: interrupts and handlers, shared);
 //! - `finish()`: what happens when the sample source says the input has ended.
 
 #[cfg(feature = "board-b-l475e")]
@@ -16,6 +16,9 @@ pub use b_l475e_iot01a::*;
 mod qemu;
 #[cfg(feature = "qemu")]
 pub use qemu::*;
+
+mod executors;
+pub use executors::{start_io_executor, start_sample_executor};
 
 /// The three sources/sinks a board hands to the application.
 pub struct Board {

@@ -18,13 +18,12 @@
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m_rt::exception;
-use embassy_executor::{InterruptExecutor, SendSpawner};
 use embassy_time::{Duration, Instant, Ticker, Timer};
+use ipmc_core::replay::{self, BYTES_PER_SAMPLE};
 use semihosting::{fs::File, io::Read};
 use systick_timer::SystickDriver;
 
 use defmt_semihosting as _;
-use pac::{Interrupt, interrupt};
 pub use stm32_metapac as pac;
 
 use super::Board;
@@ -40,9 +39,6 @@ pub const NAME: &str = "qemu b-l475e-iot01a (replay)";
 /// QEMU's RCC model leaves SYSCLK on the 4 MHz MSI after reset, and nothing here changes it.
 const SYSCLK_HZ: u64 = 4_000_000;
 /// Replay file name, relative to QEMU's working directory.
-const REPLAY_PATH: &core::ffi::CStr = c"ipmc-replay.bin";
-const REPLAY_MAGIC: &[u8; 8] = b"IPMCRPL1";
-const BYTES_PER_SAMPLE: usize = 8;
 /// USART1 baud rate: QEMU ignores it, set for a realistic register image.
 const STREAM_BAUD: u32 = 921_600;
 
@@ -54,37 +50,9 @@ fn SysTick() {
     TIME.systick_interrupt();
 }
 
-/// Executors: interrupts of peripherals this board does not use; lower number = more urgent.
-const SAMPLE_IRQ: Interrupt = Interrupt::UART4;
-const IO_IRQ: Interrupt = Interrupt::UART5;
-const SAMPLE_PRIORITY: u8 = 1 << 4;
-const IO_PRIORITY: u8 = 2 << 4;
-
-#[interrupt]
-fn UART4() {
-    // SAFETY: the executor was started before this interrupt was unmasked.
-    unsafe { crate::SAMPLE_EXECUTOR.on_interrupt() }
-}
-
-#[interrupt]
-fn UART5() {
-    // SAFETY: as above.
-    unsafe { crate::IO_EXECUTOR.on_interrupt() }
-}
-
-fn start_executor(executor: &'static InterruptExecutor, irq: Interrupt, priority: u8) -> SendSpawner {
-    // SAFETY: the priority is set once, before the executor unmasks the interrupt.
-    unsafe { cortex_m::Peripherals::steal().NVIC.set_priority(irq, priority) };
-    executor.start(irq)
-}
-
-pub fn start_sample_executor(executor: &'static InterruptExecutor) -> SendSpawner {
-    start_executor(executor, SAMPLE_IRQ, SAMPLE_PRIORITY)
-}
-
-pub fn start_io_executor(executor: &'static InterruptExecutor) -> SendSpawner {
-    start_executor(executor, IO_IRQ, IO_PRIORITY)
-}
+/// Executor priorities (`executors`): below SysTick, the time base.
+pub const SAMPLE_PRIORITY: u8 = 1 << 4;
+pub const IO_PRIORITY: u8 = 2 << 4;
 
 /// RH [%] of the sample last delivered by the replay; what the "sensor" reads.
 static REPLAY_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
@@ -94,18 +62,15 @@ pub fn init() -> Board {
     let mut core = cortex_m::Peripherals::take().expect("init runs once");
     TIME.start(&mut core.SYST);
 
-    let mut replay = File::open(REPLAY_PATH).unwrap_or_else(|_| {
+    let mut replay = File::open(replay::FILE_NAME).unwrap_or_else(|_| {
         defmt::error!("cannot open the replay file {=str} (run through `cargo xtask qemu`)", "ipmc-replay.bin");
         exit(2)
     });
-    let mut header = [0u8; 16];
-    if replay.read_exact(&mut header).is_err() || &header[..8] != REPLAY_MAGIC {
+    let mut header = [0u8; replay::HEADER_LEN];
+    let Some(replay::Header { fs_hz, count }) = replay.read_exact(&mut header).ok().and_then(|()| replay::Header::decode(&header)) else {
         defmt::error!("replay file has no IPMCRPL1 header");
-        exit(2);
-    }
-    // Constant indices into a fixed-size array: checked at compile time, nothing can panic.
-    let fs_hz = u32::from_le_bytes([header[8], header[9], header[10], header[11]]);
-    let count = u32::from_le_bytes([header[12], header[13], header[14], header[15]]);
+        exit(2)
+    };
     if fs_hz != SAMPLE_RATE_HZ {
         defmt::error!("replay is sampled at {} Hz, this firmware at {} Hz", fs_hz, SAMPLE_RATE_HZ);
         exit(2);
@@ -117,7 +82,7 @@ pub fn init() -> Board {
     // peek at the first sample's RH.
     let mut first = [0u8; BYTES_PER_SAMPLE];
     if count > 0 && replay.read_exact(&mut first).is_ok() {
-        REPLAY_RH_PCT.store(f32::from_le_bytes([first[4], first[5], first[6], first[7]]));
+        REPLAY_RH_PCT.store(replay::Sample::decode(&first).rh_pct);
     }
     let samples = Samples { replay, pending_first: (count > 0).then_some(first), ticker: None };
 
@@ -170,9 +135,9 @@ impl CurrentSource for Samples {
 
         let mut block_flags = 0;
         let mut rh = f32::NAN;
-        for (a, &[c0, c1, c2, c3, r0, r1, r2, r3]) in amps.iter_mut().zip(raw.as_chunks::<BYTES_PER_SAMPLE>().0) {
-            let current = f32::from_le_bytes([c0, c1, c2, c3]);
-            rh = f32::from_le_bytes([r0, r1, r2, r3]);
+        for (a, bytes) in amps.iter_mut().zip(raw.as_chunks::<BYTES_PER_SAMPLE>().0) {
+            let replay::Sample { current_a: current, rh_pct } = replay::Sample::decode(bytes);
+            rh = rh_pct;
             *a = if current.is_finite() {
                 current
             } else {

@@ -17,8 +17,8 @@ use crate::{
     stream::{self, Block},
 };
 
-/// The firmware's sample rate (src/app/config.rs SAMPLE_RATE_HZ).
-pub const FIRMWARE_FS_HZ: u32 = 2_000;
+/// The firmware's sample rate (the core's operating point).
+pub use ipmc_core::operating_point::SAMPLE_RATE_HZ as FIRMWARE_FS_HZ;
 
 /// What came back from one QEMU run.
 pub struct Replayed {
@@ -50,7 +50,7 @@ pub fn run_replay_to(elf: &Path, samples: &[Sample], work: &Path, serial: &str) 
     install::ensure_qemu()?;
     install::ensure_cargo_tool("defmt-print", "defmt-print")?;
     fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
-    fs::write(work.join(replay::FILE_NAME), replay::encode(FIRMWARE_FS_HZ, samples))
+    fs::write(work.join(replay::FILE_NAME.to_str().expect("ASCII name")), replay::encode(FIRMWARE_FS_HZ, samples))
         .map_err(|e| format!("writing the replay file: {e}"))?;
     let stream_path = work.join("stream.bin");
     let defmt_path = work.join("defmt.bin");
@@ -154,10 +154,6 @@ pub fn command(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// Samples the firmware's estimates lag the true base by: its design's 2 ms preview at
-/// 2 kHz. The estimate for sample n corresponds to the true base at sample n − 4.
-const FIRMWARE_DELAY_SAMPLES: usize = 4;
-
 /// Runs `cargo ipmc ARGS…` and returns the figure it prints after "skipped): " (the scoring
 /// lives in the tool, so the firmware and the host are scored by the same code).
 fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<String> {
@@ -184,8 +180,9 @@ fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
         "45".as_ref(),
     ])?;
     println!(
-        "accuracy vs true base (delayed {FIRMWARE_DELAY_SAMPLES} samples, first 5 s of settling skipped; `cargo ipmc score`):\n  \
-         firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}"
+        "accuracy vs true base (delayed {} samples, first 5 s of settling skipped; `cargo ipmc score`):\n  \
+         firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}",
+        ipmc_core::operating_point::delay_samples()
     );
     plot(input, est_csv, &fixed_out)
 }
@@ -195,7 +192,7 @@ fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
 fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
     install::ensure_plot_font()?;
     let prefix = est_csv.with_extension("");
-    let delay_ms = format!("{}", FIRMWARE_DELAY_SAMPLES as f64 * 1e3 / FIRMWARE_FS_HZ as f64);
+    let delay_ms = format!("{}", ipmc_core::operating_point::delay_samples() as f64 * 1e3 / FIRMWARE_FS_HZ as f64);
     let out = ipmc(&[
         "plot".as_ref(),
         "compensated".as_ref(),
