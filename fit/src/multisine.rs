@@ -136,7 +136,7 @@ fn detect(base: &[f64], fs_hz: f64, source: &str) -> Result<Plan, Error> {
         return Err(Error::file(source, "no excited line in the base motion's spectrum: not a multisine recording"));
     }
     let g = excited.iter().fold(0, |g, &k| gcd(g, k));
-    Ok(if n % g == 0 {
+    Ok(if n.is_multiple_of(g) {
         Plan::Periodic { period: n / g, bins: excited.iter().map(|k| k / g).collect() }
     } else {
         Plan::Periodic { period: n, bins: excited }
@@ -272,7 +272,7 @@ fn estimate_burst(ts: &TimeSeries, base: &[f64], r: std::ops::Range<usize>, plan
     };
     let mut u = lines_of(&mut u_all);
     let mut y_i = lines_of(&mut i_all);
-    let mut y_t = t_all.as_mut().map(|t| lines_of(t));
+    let mut y_t = t_all.as_mut().map(lines_of);
     let ratio = |y: &[Vec<C<f64>>], u: &[Vec<C<f64>>]| -> Vec<C<f64>> {
         (0..freqs.len()).map(|k| y.iter().map(|s| s[k]).sum::<C<f64>>() / u.iter().map(|s| s[k]).sum::<C<f64>>()).collect()
     };
