@@ -4,6 +4,8 @@
 //!   errors and correlations: generic, knows nothing of IPMCs.
 //! - [`response`]: residuals of a measured tip/current response against the core's exact model
 //!   (`ipmc_core::model`), with any subset of the model's parameters fitted by their `--set` names.
+//! - [`multisine`]: tip/base and current/base responses, their noise and the between-line
+//!   spectrum estimated from a time-series recording's multisine bursts.
 //! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
 //! - [`laws`]: humidity laws through the levels, and the calibration they make.
@@ -13,5 +15,6 @@
 pub mod identify;
 pub mod laws;
 pub mod lsq;
+pub mod multisine;
 pub mod noise;
 pub mod response;

@@ -23,7 +23,8 @@ pub struct Error {
 }
 
 impl Error {
-    pub(crate) fn file(source: &str, message: impl Into<String>) -> Self {
+    /// An error about a whole file (no line): also for analyses of a recording read here.
+    pub fn file(source: &str, message: impl Into<String>) -> Self {
         Error { source: source.into(), line: None, field: None, message: message.into() }
     }
     pub(crate) fn line(source: &str, line: usize, message: impl Into<String>) -> Self {

@@ -5,12 +5,12 @@
 use crate::commands::write_atomically;
 use crate::diagnose::{data::Dataset, engine, figures, report};
 use anyhow::{Context, Result};
-use ipmc_recording::{Format as _, FrequencyResponse};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Frequency-response recordings (interchange format §1); several are several sessions.
+    /// Recordings, frequency responses (interchange format §1) or time series of multisine
+    /// bursts (§2, with `base_m`); several are several sessions.
     #[arg(required = true)]
     recordings: Vec<PathBuf>,
     /// Calibration: `default`, `paper` or a TOML file (`ipmc calib-export`).
@@ -27,10 +27,13 @@ pub struct Args {
 /// Reads the recordings into the levels a diagnosis fits.
 pub fn read_dataset(paths: &[PathBuf]) -> Result<Dataset> {
     let mut recs = Vec::with_capacity(paths.len());
+    let mut bursts = Vec::with_capacity(paths.len());
     for p in paths {
-        recs.push(crate::input::checked(FrequencyResponse::read(p))?);
+        let r = crate::input::responses(p)?;
+        recs.push(r.response);
+        bursts.push(r.bursts.unwrap_or_default());
     }
-    Ok(Dataset::from_recordings(&recs))
+    Ok(Dataset { bursts, ..Dataset::from_recordings(&recs) })
 }
 
 pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
@@ -45,6 +48,9 @@ pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &
 pub fn run(a: Args) -> Result<()> {
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
     let data = read_dataset(&a.recordings)?;
+    for (path, bursts) in a.recordings.iter().zip(&data.bursts).filter(|(_, b)| !b.is_empty()) {
+        println!("{}: {}", path.display(), crate::input::summary(bursts));
+    }
     let steps = 2 + crate::diagnose::candidates::LIBRARY.len() as u64;
     let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { crate::progress::bar(steps, "diagnosing") };
     let d = engine::diagnose(&calib, &data, &|step| {

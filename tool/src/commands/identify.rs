@@ -18,14 +18,15 @@ use ipmc_core::ParamName;
 use ipmc_core::calibration_file;
 use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_levels};
 use ipmc_fit::laws::{LawFit, calibration_from_levels};
-use ipmc_recording::{Charging, Format as _, FrequencyResponse, LEVEL_SCATTER_PCT, Level};
+use ipmc_recording::{Charging, Format as _, LEVEL_SCATTER_PCT, Level};
 use serde_json::{Map, Value, json};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
     /// Frequency-response recording (CSV: rh_pct, freq_hz and the tip and/or current gain and
-    /// phase; see recording-format.md). Its rows are grouped into humidity levels.
+    /// phase; see recording-format.md), or a time series of multisine bursts with `base_m`
+    /// (each burst's lines estimated by `ipmc_fit::multisine`). Grouped into humidity levels.
     recording: PathBuf,
     /// Charging recording (t_s,current_a with `# voltage_v` and `# rh_pct`) taken at one of
     /// the levels: κe there is measured (`ipmc charging`) instead of taken from the base
@@ -151,7 +152,7 @@ fn print_summary(fits: &[LevelFit], laws: &[LawFit]) {
 pub fn run(a: Args) -> Result<()> {
     let base = calibration_source::load(a.calib.as_deref())?;
     let source = a.recording.display().to_string();
-    let recording = checked(FrequencyResponse::read(&a.recording))?;
+    let recording = crate::input::responses(&a.recording)?.response;
     let levels = recording.levels();
     let kappas = charging_kappas(&a.charging, &base)?;
     for (rh, _, path) in &kappas {

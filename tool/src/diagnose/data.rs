@@ -39,6 +39,10 @@ pub struct RhHistory {
 pub struct Dataset {
     pub levels: Vec<LevelData>,
     pub histories: Vec<RhHistory>,
+    /// Per session, the bursts a time series was estimated from (empty for a frequency
+    /// response): each line's noise and the current's spectrum between the lines
+    /// (`BetweenLines`, where mains and its harmonics show).
+    pub bursts: Vec<Vec<ipmc_fit::multisine::Burst>>,
 }
 
 fn complex(r: &Option<Response>) -> Option<C<f64>> {
