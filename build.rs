@@ -14,7 +14,10 @@ use std::{
     process::ExitCode,
 };
 
-use ipmc_core::{Calibration, Law, calibration_file};
+use ipmc_core::{
+    Calibration, Law, calibration_file,
+    humidity_path::{HumidityPath, SensorKind},
+};
 
 const CALIB_VAR: &str = "IPMC_CALIB";
 
@@ -61,16 +64,27 @@ fn load_calibration() -> Result<(Calibration, String), String> {
         calibration_file::FileError::Syntax { .. } => format!("{CALIB_VAR}={shown}:{e}"),
         _ => format!("{CALIB_VAR}={shown}: {e}"),
     })?;
+    // A correction measured on one sensor would be wrong on another.
+    if let Some(kind) = calibration.humidity.sensor
+        && kind != firmware_sensor()
+    {
+        return Err(format!(
+            "{CALIB_VAR}={shown}: its [humidity] correction is for the {} sensor; this firmware reads the {} \
+             (build with the matching `humidity-…` feature, or drop `sensor` and the correction)",
+            kind.as_str(),
+            firmware_sensor().as_str()
+        ));
+    }
     Ok((calibration, shown))
 }
 
 /// A Rust constant expression equal to `c`. The destructuring names every field, so a field
 /// added to `Calibration` breaks this build script instead of being silently left out.
 fn calibration_expr(c: &Calibration) -> String {
-    let Calibration { faraday, r_gas, t_k, l, b, alpha0, c_minus, y, cs, ca, kappa_e, d, h, m, rh_min, rh_max } = c;
+    let Calibration { faraday, r_gas, t_k, l, b, alpha0, c_minus, y, cs, ca, kappa_e, d, h, m, rh_min, rh_max, humidity } = c;
     format!(
         "ipmc_core::Calibration {{ faraday: {}, r_gas: {}, t_k: {}, l: {}, b: {}, alpha0: {}, c_minus: {}, \
-         y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, h: {}, m: {}, rh_min: {}, rh_max: {} }}",
+         y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, h: {}, m: {}, rh_min: {}, rh_max: {}, humidity: {} }}",
         f64_expr(*faraday),
         f64_expr(*r_gas),
         f64_expr(*t_k),
@@ -87,7 +101,33 @@ fn calibration_expr(c: &Calibration) -> String {
         law_expr(m),
         f64_expr(*rh_min),
         f64_expr(*rh_max),
+        humidity_path_expr(humidity),
     )
+}
+
+fn humidity_path_expr(p: &HumidityPath) -> String {
+    let HumidityPath { sensor, offset_pct, gain, tau_wet_s, tau_dry_s, uncertainty_pct } = p;
+    let sensor = sensor.map_or("None".into(), |k| format!("Some(ipmc_core::humidity_path::SensorKind::{k:?})"));
+    let uncertainty = uncertainty_pct.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
+    format!(
+        "ipmc_core::humidity_path::HumidityPath {{ sensor: {sensor}, offset_pct: {}, gain: {}, tau_wet_s: {}, tau_dry_s: {}, \
+         uncertainty_pct: {uncertainty} }}",
+        f64_expr(*offset_pct),
+        f64_expr(*gain),
+        f64_expr(*tau_wet_s),
+        f64_expr(*tau_dry_s),
+    )
+}
+
+/// The humidity sensor this firmware is built for (its cargo feature).
+fn firmware_sensor() -> SensorKind {
+    if env::var_os("CARGO_FEATURE_HUMIDITY_HIH4030").is_some() {
+        SensorKind::Hih4030
+    } else if env::var_os("CARGO_FEATURE_HUMIDITY_SHT4X").is_some() {
+        SensorKind::Sht4x
+    } else {
+        SensorKind::Hts221
+    }
 }
 
 fn law_expr(law: &Law) -> String {

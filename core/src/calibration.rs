@@ -3,6 +3,7 @@
 //! A calibration is plain f64 data (so it can be a `const` in the firmware and a TOML file on the
 //! host); [`Calibration::params_at`] narrows it to the working precision at one humidity.
 
+use crate::humidity_path::{HumidityPath, PathError};
 use crate::real::Real;
 
 /// Most coefficients a law may have (a sixth-order polynomial, as the paper prints for d).
@@ -227,6 +228,10 @@ pub struct Calibration {
     pub rh_min: f64,
     /// Highest RH [%] the laws are declared valid at.
     pub rh_max: f64,
+    /// From the sensor's reading to the humidity the strip is at (the file's `[humidity]`
+    /// table; without it, the reading as it is).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub humidity: HumidityPath,
 }
 
 /// Why a calibration cannot be used.
@@ -239,6 +244,8 @@ pub enum ValidationError {
     /// A physical constant that is not a model parameter (Faraday's, the gas constant) is
     /// non-positive or non-finite.
     BadConstant { name: &'static str, value: f64 },
+    /// The `[humidity]` table has a value no sensor or strip can have.
+    Humidity(PathError),
 }
 
 impl core::fmt::Display for ValidationError {
@@ -256,6 +263,7 @@ impl core::fmt::Display for ValidationError {
             ValidationError::BadConstant { name, value } => {
                 write!(f, "constant {name} is {value:e}: it must be positive and finite")
             }
+            ValidationError::Humidity(e) => write!(f, "{e}"),
         }
     }
 }
@@ -318,6 +326,7 @@ impl Calibration {
             m: PAPER_M,
             rh_min: 38.0,
             rh_max: 80.0,
+            humidity: HumidityPath::NONE,
         }
     }
 
@@ -428,6 +437,7 @@ impl Calibration {
                 return Err(ValidationError::BadConstant { name, value });
             }
         }
+        self.humidity.validate().map_err(ValidationError::Humidity)?;
         let steps = Real::ceil((hi - lo) * 10.0) as usize;
         for param in [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::KappaE, ParamName::D, ParamName::H, ParamName::M] {
             let law = self.law(param).expect("humidity law");

@@ -133,6 +133,38 @@ mod tests {
     }
 
     #[test]
+    fn the_humidity_table_is_optional_checked_and_kept() {
+        use crate::humidity_path::{HumidityPath, SensorKind};
+        let plain = to_text(&Calibration::default_preset());
+        let old = plain.split("[humidity]").next().unwrap().to_string();
+        assert!(!old.contains("[humidity]"));
+        assert_eq!(parse(&old).unwrap().humidity, HumidityPath::NONE, "files from before the table");
+        let mut c = Calibration::default_preset();
+        c.humidity = HumidityPath {
+            sensor: Some(SensorKind::Hts221),
+            offset_pct: 2.5,
+            gain: 0.98,
+            tau_wet_s: 600.0,
+            tau_dry_s: 900.0,
+            uncertainty_pct: Some(1.2),
+        };
+        let text = to_text(&c);
+        assert!(text.contains("[humidity]") && text.contains("sensor = \"hts221\""), "{text}");
+        assert_eq!(parse(&text), Ok(c));
+        let only = old.clone() + "\n[humidity]\ntau_wet_s = 300.0\n";
+        let p = parse(&only).unwrap().humidity;
+        assert_eq!((p.tau_wet_s, p.tau_dry_s, p.gain, p.offset_pct), (300.0, 0.0, 1.0, 0.0), "unset keys keep their defaults");
+        for (bad, key) in
+            [("tau_wet_s = -5.0", "humidity.tau_wet_s"), ("gain = 0.0", "humidity.gain"), ("offset_pct = 25.0", "humidity.offset_pct")]
+        {
+            let e = parse(&format!("{old}\n[humidity]\n{bad}\n")).unwrap_err().to_string();
+            assert!(e.contains(key), "{bad}: {e}");
+        }
+        let e = parse(&format!("{old}\n[humidity]\nsensor = \"dht22\"\n")).unwrap_err();
+        assert!(matches!(e, FileError::Syntax { .. }), "{e}");
+    }
+
+    #[test]
     fn unknown_fields_are_refused() {
         let text = to_text(&Calibration::default_preset()) + "rh_maximum = 95.0\n";
         let e = parse(&text).unwrap_err().to_string();

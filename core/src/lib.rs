@@ -10,6 +10,10 @@
 //! and glitch-free retuning).
 #![cfg_attr(not(feature = "std"), no_std)]
 
+// The unit tests run on the host and may format.
+#[cfg(test)]
+extern crate std;
+
 pub mod calibration;
 #[cfg(feature = "toml")]
 pub mod calibration_file;
@@ -17,6 +21,7 @@ pub mod design;
 pub mod extension;
 pub mod filter;
 pub mod humidity;
+pub mod humidity_path;
 pub mod lstsq;
 pub mod model;
 pub mod operating_point;

@@ -8,7 +8,9 @@
 //! payload, little endian:
 //!   u8   version (= FRAME_VERSION)
 //!   u32  index of the block's first sample since acquisition start
-//!   f32  RH [%] used for the block
+//!   f32  RH [%] the block's design is for: the strip's humidity (the reading through the
+//!        calibration's humidity path: sensor correction, hydration lag), clamped to its range
+//!   f32  RH [%] as the humidity sensor read it
 //!   u16  flags (bits: [`flags`])
 //!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
 //!   f32  × n  base displacement estimates [m], one per sample at the firmware's sample rate
@@ -63,10 +65,11 @@ pub mod flags {
     ];
 }
 
-/// Bumped whenever the payload layout changes; decoders refuse other versions.
-pub const FRAME_VERSION: u8 = 1;
-/// version + first sample + RH + flags + count.
-pub const HEADER_LEN: usize = 1 + 4 + 4 + 2 + 1;
+/// Bumped whenever the payload layout changes; decoders refuse other versions. 2: the reading
+/// as read beside the strip's humidity (version 1 had one RH, the reading).
+pub const FRAME_VERSION: u8 = 2;
+/// version + first sample + RH of the design + RH as read + flags + count.
+pub const HEADER_LEN: usize = 1 + 4 + 4 + 4 + 2 + 1;
 const CRC_LEN: usize = 2;
 /// The count is one byte.
 pub const MAX_ESTIMATES: usize = u8::MAX as usize;
@@ -93,7 +96,10 @@ pub const MAX_FRAME_LEN: usize = max_frame_len(MAX_ESTIMATES);
 pub struct Header {
     /// Index of the block's first sample since acquisition start (wraps at 2³²).
     pub first_sample: u32,
+    /// The strip's humidity the block's design is for [%].
     pub rh_pct: f32,
+    /// The humidity sensor's reading [%] (NaN before the first).
+    pub rh_read_pct: f32,
     pub flags: u16,
 }
 
@@ -122,6 +128,7 @@ pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usiz
     put(&[FRAME_VERSION])?;
     put(&header.first_sample.to_le_bytes())?;
     put(&header.rh_pct.to_le_bytes())?;
+    put(&header.rh_read_pct.to_le_bytes())?;
     put(&header.flags.to_le_bytes())?;
     put(&[count])?;
     for v in estimates {
@@ -158,7 +165,11 @@ impl fmt::Display for DecodeError {
             DecodeError::Cobs => write!(f, "not a valid COBS frame"),
             DecodeError::TooShort(n) => write!(f, "frame of {n} bytes is too short"),
             DecodeError::Crc => write!(f, "CRC mismatch"),
-            DecodeError::Version(v) => write!(f, "frame version {v} (expected {FRAME_VERSION})"),
+            DecodeError::Version(v) => write!(
+                f,
+                "frame version {v}, this decoder reads version {FRAME_VERSION}: the firmware and the host tool are \
+                 from different releases (build and flash both from one checkout)"
+            ),
             DecodeError::Length { count, payload_len } => {
                 write!(f, "frame says {count} estimates but its payload has {payload_len} bytes")
             }
@@ -205,6 +216,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     }
     let (first_sample, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rh_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (rh_read_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (flags, rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
     let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
     let (estimate_bytes, tail) = rest.as_chunks::<4>();
@@ -215,6 +227,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
         header: Header {
             first_sample: u32::from_le_bytes(*first_sample),
             rh_pct: f32::from_le_bytes(*rh_pct),
+            rh_read_pct: f32::from_le_bytes(*rh_read_pct),
             flags: u16::from_le_bytes(*flags),
         },
         estimate_bytes,
@@ -269,7 +282,7 @@ impl<const N: usize> Deframer<N> {
 mod tests {
     use super::*;
 
-    const H: Header = Header { first_sample: 64, rh_pct: 46.5, flags: 0b1001 };
+    const H: Header = Header { first_sample: 64, rh_pct: 46.5, rh_read_pct: 49.25, flags: 0b1001 };
 
     fn frame(header: &Header, est: &[f32]) -> ([u8; MAX_FRAME_LEN], usize) {
         let mut out = [0u8; MAX_FRAME_LEN];
@@ -309,11 +322,32 @@ mod tests {
         assert_eq!(p[0], FRAME_VERSION);
         assert_eq!(p[1..5], 64u32.to_le_bytes());
         assert_eq!(p[5..9], 46.5f32.to_le_bytes());
-        assert_eq!(p[9..11], 9u16.to_le_bytes());
-        assert_eq!(p[11], 2);
-        assert_eq!(p[12..16], 1.0f32.to_le_bytes());
-        assert_eq!(p[16..20], (-2.0f32).to_le_bytes());
-        assert_eq!(p[20..22], CRC16.checksum(&p[..20]).to_le_bytes());
+        assert_eq!(p[9..13], 49.25f32.to_le_bytes());
+        assert_eq!(p[13..15], 9u16.to_le_bytes());
+        assert_eq!(p[15], 2);
+        assert_eq!(p[16..20], 1.0f32.to_le_bytes());
+        assert_eq!(p[20..24], (-2.0f32).to_le_bytes());
+        assert_eq!(p[24..26], CRC16.checksum(&p[..24]).to_le_bytes());
+    }
+
+    /// A version-1 frame (one RH, the layout before this one) with a valid CRC is refused by
+    /// its version, with a message that says what to do.
+    #[test]
+    fn refuses_the_previous_version() {
+        let mut payload = [0u8; 1 + 4 + 4 + 2 + 1 + 4 + 2];
+        payload[0] = 1;
+        payload[1..5].copy_from_slice(&64u32.to_le_bytes());
+        payload[5..9].copy_from_slice(&46.5f32.to_le_bytes());
+        payload[11] = 1;
+        payload[12..16].copy_from_slice(&1.0f32.to_le_bytes());
+        let crc = CRC16.checksum(&payload[..16]);
+        payload[16..].copy_from_slice(&crc.to_le_bytes());
+        let mut encoded = [0u8; 32];
+        let n = cobs::encode(&payload, &mut encoded);
+        let e = decode(&mut encoded[..n]).unwrap_err();
+        assert_eq!(e, DecodeError::Version(1));
+        let shown = std::string::ToString::to_string(&e);
+        assert!(shown.contains("different releases"), "{shown}");
     }
 
     #[test]

@@ -19,7 +19,9 @@ pub static DESIGN_READY: Signal<CriticalSectionRawMutex, Inverse<f32>> = Signal:
 pub struct EstimateBlock {
     /// Index of the first sample since acquisition started.
     pub first_sample: u32,
+    /// The strip's humidity (what the designs are for) and the sensor's reading [%].
     pub rh_pct: f32,
+    pub rh_read_pct: f32,
     pub flags: u16,
     pub base_est_m: [f32; BLOCK_LEN],
 }
@@ -50,8 +52,11 @@ impl AtomicF32 {
     }
 }
 
-/// Latest RH [%] accepted by the humidity task (clamped to the calibrated range).
+/// Latest RH [%] of the strip: the reading through the calibration's humidity path (sensor
+/// correction, hydration), clamped to the calibrated range.
 pub static LATEST_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
+/// Latest humidity reading as the sensor gave it [%].
+pub static LATEST_READ_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
 /// Humidity and design flags (`RH_STALE`, `RH_CLAMPED`, `DESIGN_FAILED`) for the next blocks.
 pub static CONDITION_FLAGS: AtomicU16 = AtomicU16::new(0);
 

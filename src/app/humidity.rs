@@ -1,14 +1,17 @@
 //! Humidity: polls the board's sensor about once a second, keeps the last good value on
-//! failure, clamps to the calibrated range and asks for a retune when RH moved enough.
+//! failure, turns the reading into the strip's humidity (the calibration's humidity path: the
+//! sensor's correction, then the strip's hydration lag, run between readings), clamps that to
+//! the calibrated range and asks for a retune when it moved enough.
 
 use embassy_time::{Duration, Instant, Ticker, with_timeout};
+use ipmc_core::humidity_path::Hydration;
 
 use crate::board::Humidity;
 
 use super::{
     config::{HUMIDITY_PERIOD_MS, RH_FALLBACK_PCT},
     flags,
-    handoff::{self, LATEST_RH_PCT, RETUNE_REQUEST},
+    handoff::{self, LATEST_READ_RH_PCT, LATEST_RH_PCT, RETUNE_REQUEST},
     ports::{HumidityError, HumiditySource},
 };
 
@@ -18,9 +21,17 @@ const READ_TIMEOUT: Duration = Duration::from_millis(HUMIDITY_PERIOD_MS / 2);
 /// Polls in a row without a new sample after which the reading counts as stale.
 const NO_NEW_DATA_PERIODS: u64 = 3;
 
-/// Clamps to the calibration's declared range; the bool says whether it had to.
-fn clamp_to_calibration(rh_pct: f32) -> (f32, bool) {
-    super::compensation::calibration().clamp_rh(rh_pct)
+/// Makes the strip's humidity the one the blocks report, clamped to the calibration's declared
+/// range, and asks for a design at it when it moved away from `design_rh` (the active or already
+/// requested design's).
+fn publish(strip_pct: f32, design_rh: &mut f32) {
+    let (rh, clamped) = super::compensation::calibration().clamp_rh(strip_pct);
+    LATEST_RH_PCT.store(rh);
+    handoff::set_condition(flags::RH_CLAMPED, clamped);
+    if ipmc_core::operating_point::needs_retune(*design_rh, rh) {
+        *design_rh = rh;
+        RETUNE_REQUEST.signal(rh);
+    }
 }
 
 #[embassy_executor::task]
@@ -31,6 +42,15 @@ pub async fn humidity_task(mut sensor: Humidity) {
     let mut failures: u32 = 0;
     let started = Instant::now();
     let mut last_new = Instant::now();
+    let path = super::compensation::calibration().humidity;
+    let mut strip = Hydration::<f32>::new(&path);
+    // The air's humidity at the strip (the last corrected reading) and since when the strip's
+    // model has run: it keeps relaxing toward that air while no new reading comes.
+    let mut air: Option<(f32, Instant)> = None;
+    let mut advance = |air_pct: f32, since: Instant| {
+        let now = Instant::now();
+        (strip.update(air_pct, (now - since).as_micros() as f32 * 1e-6), now)
+    };
     loop {
         let reading = match with_timeout(READ_TIMEOUT, sensor.read_rh_pct()).await {
             Ok(r) => r,
@@ -39,22 +59,25 @@ pub async fn humidity_task(mut sensor: Humidity) {
         match reading {
             Ok(raw) => {
                 last_new = Instant::now();
-                let (rh, clamped) = clamp_to_calibration(raw);
+                let air_pct = path.correct(raw);
+                let (strip_pct, now) = advance(air_pct, air.map_or(last_new, |(_, t)| t));
+                air = Some((air_pct, now));
+                LATEST_READ_RH_PCT.store(raw);
                 if failures > 0 {
                     defmt::info!("humidity back after {} failed readings", failures);
                 }
                 failures = 0;
-                LATEST_RH_PCT.store(rh);
                 handoff::set_condition(flags::RH_STALE, false);
-                handoff::set_condition(flags::RH_CLAMPED, clamped);
-                if ipmc_core::operating_point::needs_retune(design_rh, rh) {
-                    design_rh = rh;
-                    RETUNE_REQUEST.signal(rh);
-                }
+                publish(strip_pct, &mut design_rh);
             }
             // The sensor is fine, only not faster than the poll: the last value holds, unless
             // no new sample has come for several periods (a sensor that stopped converting).
             Err(HumidityError::NoNewData) => {
+                if let Some((air_pct, since)) = air {
+                    let (strip_pct, now) = advance(air_pct, since);
+                    air = Some((air_pct, now));
+                    publish(strip_pct, &mut design_rh);
+                }
                 if last_new.elapsed() > Duration::from_millis(NO_NEW_DATA_PERIODS * HUMIDITY_PERIOD_MS) {
                     handoff::set_condition(flags::RH_STALE, true);
                 }

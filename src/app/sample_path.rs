@@ -9,7 +9,7 @@ use super::{
     compensation::SamplePathFilter,
     config::{BLOCK_LEN, SAMPLE_RATE_HZ},
     flags,
-    handoff::{self, DESIGN_READY, EstimateBlock, LATEST_RH_PCT, REPORT_QUEUE, ReportItem},
+    handoff::{self, DESIGN_READY, EstimateBlock, LATEST_READ_RH_PCT, LATEST_RH_PCT, REPORT_QUEUE, ReportItem},
     ports::{CurrentSource, SampleBlock},
 };
 
@@ -28,7 +28,7 @@ pub async fn sample_task(mut samples: Samples) {
     // One second of identical samples is no live front end (see ipmc_core::stuck).
     let mut stuck = StuckDetector::new(SAMPLE_RATE_HZ);
     loop {
-        let mut block = EstimateBlock { first_sample, rh_pct: 0.0, flags: 0, base_est_m: [0.0; BLOCK_LEN] };
+        let mut block = EstimateBlock { first_sample, rh_pct: 0.0, rh_read_pct: 0.0, flags: 0, base_est_m: [0.0; BLOCK_LEN] };
         let source_flags = match samples.read_block(&mut block.base_est_m).await {
             SampleBlock::Ready { flags, lost_samples } => {
                 first_sample = first_sample.wrapping_add(lost_samples);
@@ -51,6 +51,7 @@ pub async fn sample_task(mut samples: Samples) {
         }
 
         block.rh_pct = LATEST_RH_PCT.load();
+        block.rh_read_pct = LATEST_READ_RH_PCT.load();
         if dropped_since_last {
             block.flags |= flags::REPORT_DROPPED;
         }

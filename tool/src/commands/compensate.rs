@@ -1,6 +1,9 @@
 //! `ipmc compensate`: runs the firmware's compensation chain (f32 [`Compensator`], blocks of 32
 //! samples, retuned when the humidity moves) over a time-series recording on the host, and
-//! writes the base-motion estimates as `t_s,base_est_m,rh_pct,flags` (the firmware's EST.csv).
+//! writes the base-motion estimates as `t_s,base_est_m,rh_pct,rh_read_pct,flags` (the firmware's
+//! EST.csv). The recording's humidity goes through the calibration's humidity path (sensor
+//! correction, the strip's hydration lag, `ipmc_core::humidity_path`) as on the device:
+//! `rh_pct` is the strip's humidity the design is for, `rh_read_pct` the reading.
 //!
 //! With `--fixed-rh R` one design at R is used throughout and never retuned: the paper's
 //! humidity-independent model, the baseline the compensation is measured against.
@@ -12,6 +15,7 @@
 use crate::commands::write_atomically;
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
+use ipmc_core::humidity_path::Hydration;
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::{Path, PathBuf};
@@ -50,6 +54,8 @@ pub struct Args {
 pub struct ScheduledBlock {
     pub first_sample: usize,
     pub rh_pct: f32,
+    /// The reading the firmware reported beside it (NaN if the file has no `rh_read_pct`).
+    pub rh_read_pct: f32,
     pub flags: u16,
 }
 
@@ -67,7 +73,8 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
     let mut out: Vec<ScheduledBlock> = vec![];
     for (row, (&rh, &fl)) in rh.iter().zip(fl).enumerate() {
         if row % BLOCK_LEN == 0 {
-            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, flags: fl });
+            let rh_read_pct = est.rh_read_pct.as_ref().and_then(|r| r.get(row).copied()).unwrap_or(f32::NAN);
+            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, rh_read_pct, flags: fl });
         } else {
             let b = out.last().expect("a block was started");
             if b.flags != fl || b.rh_pct.to_bits() != rh.to_bits() {
@@ -109,6 +116,7 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
             est.delay_samples.push(d);
             est.burst_start.push(0);
             est.rh_pct.push(b.rh_pct);
+            est.rh_read_pct.push(b.rh_read_pct);
             est.flags.push(b.flags);
         }
     }
@@ -126,7 +134,9 @@ pub struct Estimates {
     pub delay_samples: Vec<usize>,
     /// Per sample: index of the first sample of its burst.
     pub burst_start: Vec<usize>,
+    /// Per sample: the strip's humidity the block was designed for, and the reading [%].
     pub rh_pct: Vec<f32>,
+    pub rh_read_pct: Vec<f32>,
     pub flags: Vec<u16>,
     pub retunes: usize,
 }
@@ -138,6 +148,7 @@ impl Estimates {
             delay_samples: Vec::with_capacity(n),
             burst_start: Vec::with_capacity(n),
             rh_pct: Vec::with_capacity(n),
+            rh_read_pct: Vec::with_capacity(n),
             flags: Vec::with_capacity(n),
             retunes: 0,
         }
@@ -152,6 +163,8 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
 
 /// Runs the compensation over `ts`: a fresh compensator per burst, designed at the first
 /// block's RH (or `fixed_rh`), retuned per block when the RH moved more than the threshold.
+/// Each block's reading (its mean) goes through the calibration's humidity path; the strip's
+/// hydration runs across bursts, through the time between them.
 pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
     let design = designer(calib, ts.fs_hz);
     let n = ts.t_s.len();
@@ -167,14 +180,20 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
         }
         None => None,
     };
+    let path = calib.humidity;
+    let mut strip = Hydration::<f32>::new(&path);
+    let mut last_t: Option<f64> = None;
     for burst in ts.bursts() {
         let (b0, b1) = (burst.start, burst.end);
         let mut comp: Option<Compensator<f32>> = fixed.as_ref().map(Compensator::new);
         let mut pos = b0;
         while pos < b1 {
             let end = (pos + BLOCK_LEN).min(b1);
-            let rh_raw = (ts.rh_pct[pos..end].iter().sum::<f64>() / (end - pos) as f64) as f32;
-            let (rh, clamped) = calib.clamp_rh(rh_raw);
+            let rh_read = (ts.rh_pct[pos..end].iter().sum::<f64>() / (end - pos) as f64) as f32;
+            let dt_s = last_t.map_or(0.0, |t| ts.t_s[pos] - t) as f32;
+            last_t = Some(ts.t_s[pos]);
+            let rh_strip = strip.update(path.correct(rh_read), dt_s);
+            let (rh, clamped) = calib.clamp_rh(rh_strip);
             let mut fl = if clamped { flags::RH_CLAMPED } else { 0 };
             match comp.as_mut() {
                 None => comp = Some(Compensator::new(&design(rh)?)),
@@ -198,7 +217,8 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
                 est.base_est_m.push(v);
                 est.delay_samples.push(d);
                 est.burst_start.push(b0);
-                est.rh_pct.push(rh_raw);
+                est.rh_pct.push(rh_strip);
+                est.rh_read_pct.push(rh_read);
                 est.flags.push(fl);
             }
             pos = end;
@@ -277,6 +297,7 @@ pub fn run(a: Args) -> Result<()> {
         t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
         base_est_m: est.base_est_m.clone(),
         rh_pct: Some(est.rh_pct.clone()),
+        rh_read_pct: Some(est.rh_read_pct.clone()),
         flags: Some(est.flags.clone()),
         ..Default::default()
     };
@@ -325,7 +346,9 @@ mod tests {
         let schedule = |csv: &str| schedule_of(&EstimateFile::parse("e.csv", csv).unwrap().0, "e.csv");
         let s = schedule(&csv).unwrap();
         assert_eq!(s.len(), 2);
-        assert_eq!(s[1], ScheduledBlock { first_sample: BLOCK_LEN, rh_pct: 40.35, flags: flags::RETUNED });
+        assert_eq!(s[1].rh_pct, 40.35);
+        assert_eq!((s[1].first_sample, s[1].flags), (BLOCK_LEN, flags::RETUNED));
+        assert!(s[1].rh_read_pct.is_nan(), "no rh_read_pct column");
         let bad = csv.replacen("40.1,0\n", "40.1,8\n", 1);
         assert!(schedule(&bad).unwrap_err().to_string().contains("inside the block"));
         assert!(schedule("t_s,base_est_m,flags\n0,1,0\n").unwrap_err().to_string().contains("`rh_pct`"));

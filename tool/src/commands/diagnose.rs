@@ -5,6 +5,8 @@
 use crate::commands::write_atomically;
 use crate::diagnose::{data::Dataset, engine, figures, report};
 use anyhow::{Context, Result};
+use ipmc_core::Calibration;
+use ipmc_core::humidity_path::{HumidityPath, SensorKind};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -19,13 +21,50 @@ pub struct Args {
     /// Directory for report.md, report.json and the figures as SVG and PNG (created if missing).
     #[arg(long)]
     report: PathBuf,
+    /// Also write the input calibration with what the diagnosis found and belongs in it to
+    /// this TOML file: a hydration lag's time constants or the humidity sensor's correction
+    /// (its `[humidity]` table). Nothing is written when the verdict is anything else.
+    #[arg(long)]
+    write_calib: Option<PathBuf>,
+    /// The humidity sensor the recordings were read with, which a correction belongs to
+    /// (`hts221`, `sht4x`, `hih4030`; default: the calibration's, else the board's HTS221).
+    #[arg(long)]
+    humidity_sensor: Option<String>,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
 }
 
-/// Reads the recordings into the levels a diagnosis fits.
-pub fn read_dataset(paths: &[PathBuf]) -> Result<Dataset> {
+/// `calib` with what `d` found and belongs in a calibration when its verdict is a part of the
+/// humidity path: the path fitted as a whole (`Diagnosis::humidity_path`), its lag added to the
+/// calibration's own (the mean delays of lags in series add) and its sensor correction applied
+/// after the calibration's own (it was found on readings already corrected by it). None for
+/// any other verdict.
+pub fn calibration_with(calib: &Calibration, d: &engine::Diagnosis, sensor: SensorKind) -> Option<Calibration> {
+    let found = d.humidity_path?;
+    let old = calib.humidity;
+    let mut out = *calib;
+    out.humidity =
+        HumidityPath { tau_wet_s: old.tau_wet_s + found.tau_wet_s, tau_dry_s: old.tau_dry_s + found.tau_dry_s, ..found.after(&old) };
+    if found.gain != 1.0 || found.offset_pct != 0.0 {
+        out.humidity.sensor = Some(sensor);
+    }
+    Some(out)
+}
+
+fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
+    match arg {
+        None => Ok(calib.humidity.sensor.unwrap_or(SensorKind::Hts221)),
+        Some(s) => [SensorKind::Hts221, SensorKind::Sht4x, SensorKind::Hih4030]
+            .into_iter()
+            .find(|k| k.as_str() == s)
+            .ok_or_else(|| anyhow::anyhow!("--humidity-sensor {s}: expected hts221, sht4x or hih4030")),
+    }
+}
+
+/// Reads the recordings into the levels a diagnosis fits, at the humidity `path` says the strip
+/// felt (the calibration's `[humidity]`).
+pub fn read_dataset(paths: &[PathBuf], path: &HumidityPath) -> Result<Dataset> {
     let mut recs = Vec::with_capacity(paths.len());
     let mut bursts = Vec::with_capacity(paths.len());
     for p in paths {
@@ -33,7 +72,7 @@ pub fn read_dataset(paths: &[PathBuf]) -> Result<Dataset> {
         recs.push(r.response);
         bursts.push(r.bursts.unwrap_or_default());
     }
-    Ok(Dataset { bursts, ..Dataset::from_recordings(&recs) })
+    Ok(Dataset { bursts, ..Dataset::felt(&recs, path) })
 }
 
 pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
@@ -47,7 +86,7 @@ pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &
 
 pub fn run(a: Args) -> Result<()> {
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
-    let data = read_dataset(&a.recordings)?;
+    let data = read_dataset(&a.recordings, &calib.humidity)?;
     for (path, bursts) in a.recordings.iter().zip(&data.bursts).filter(|(_, b)| !b.is_empty()) {
         println!("{}: {}", path.display(), crate::input::summary(bursts));
     }
@@ -66,6 +105,31 @@ pub fn run(a: Args) -> Result<()> {
     println!("located: {}", d.located.summary);
     println!("held-out χ²/residual: {:.3} → {:.3}", d.heldout_before, d.heldout_after);
     println!("report: {}", a.report.join("report.md").display());
+    if let Some(out) = &a.write_calib {
+        match calibration_with(&calib, &d, sensor_kind(a.humidity_sensor.as_deref(), &calib)?) {
+            Some(c) => {
+                ipmc_core::calibration_file::check(&c)
+                    .map_err(|e| anyhow::anyhow!("the calibration with the finding is not usable: {e}"))?;
+                let text = format!(
+                    "# {calib_name} with what `ipmc diagnose {}` found: {}\n{}",
+                    inputs.join(" "),
+                    d.verdict,
+                    ipmc_core::calibration_file::to_text(&c)
+                );
+                write_atomically(out, text.as_bytes())?;
+                let h = c.humidity;
+                println!(
+                    "calibration -> {}: [humidity] offset {:+.2} %RH, gain {:.4}, τ wet {:.0} s, τ dry {:.0} s",
+                    out.display(),
+                    h.offset_pct,
+                    h.gain,
+                    h.tau_wet_s,
+                    h.tau_dry_s
+                );
+            }
+            None => println!("calibration: not written ({} is not a humidity-path finding)", d.verdict),
+        }
+    }
     Ok(())
 }
 
@@ -84,7 +148,8 @@ mod tests {
         let rec = dir.join("REC.csv");
         std::fs::write(&rec, make_case_with(&calib, effect, seed, Strength::At(0.9)).recording.to_csv().unwrap()).unwrap();
         let report_dir = dir.join("report");
-        run(Args { recordings: vec![rec], calib: None, report: report_dir.clone(), quiet: true }).unwrap();
+        run(Args { recordings: vec![rec], calib: None, report: report_dir.clone(), write_calib: None, humidity_sensor: None, quiet: true })
+            .unwrap();
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(report_dir.join("report.json")).unwrap()).unwrap();
         let md = std::fs::read_to_string(report_dir.join("report.md")).unwrap();
         let names: Vec<&str> = json["figures"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();

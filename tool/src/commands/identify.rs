@@ -153,7 +153,10 @@ pub fn run(a: Args) -> Result<()> {
     let base = calibration_source::load(a.calib.as_deref())?;
     let source = a.recording.display().to_string();
     let recording = crate::input::responses(&a.recording)?.response;
-    let levels = recording.levels();
+    // The laws are fitted at the humidity the strip felt: the base calibration's humidity path
+    // (sensor correction, hydration lag) applied to the readings, and kept in the result.
+    let mut levels = recording.levels();
+    crate::input::levels_felt(&recording, &mut levels, &base.humidity, &source);
     let kappas = charging_kappas(&a.charging, &base)?;
     for (rh, _, path) in &kappas {
         if !levels.iter().any(|l| (l.rh_pct - rh).abs() <= LEVEL_SCATTER_PCT) {

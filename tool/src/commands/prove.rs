@@ -70,7 +70,7 @@ pub fn run_cases(
         let csv = case.recording.to_csv().map_err(|e| anyhow::anyhow!("{e}"))?;
         crate::commands::write_atomically(&path, csv.as_bytes())?;
         // Blind: the diagnosis sees only the file.
-        let data = read_dataset(std::slice::from_ref(&path))?;
+        let data = read_dataset(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE)?;
         let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;
         progress(&format!("case {i}: {truth}"));
         Ok(Outcome {

@@ -2,6 +2,7 @@
 //! each with the time, temperature and session it was measured in.
 
 use ipmc_core::C;
+use ipmc_core::humidity_path::HumidityPath;
 use ipmc_recording::{FrequencyResponse, Response};
 
 /// One visit of one humidity level.
@@ -52,11 +53,23 @@ fn complex(r: &Option<Response>) -> Option<C<f64>> {
 impl Dataset {
     /// Groups every recording into levels (the recording crate's grouping) and keeps each
     /// session's humidity history. Points with a zero gain carry no phase and are dropped.
+    #[cfg(test)]
     pub fn from_recordings(recs: &[FrequencyResponse]) -> Self {
+        Self::felt(recs, &HumidityPath::NONE)
+    }
+
+    /// The levels at the strip's humidity: the readings through the calibration's humidity
+    /// `path` (its levels' RH and the RH histories), so a diagnosis looks for what the
+    /// calibration does not already account for.
+    pub fn felt(recs: &[FrequencyResponse], path: &HumidityPath) -> Self {
         let mut out = Dataset::default();
         for (session, rec) in recs.iter().enumerate() {
             let first = out.levels.len();
-            for level in rec.levels() {
+            let source = format!("recording {}", session + 1);
+            let mut levels = rec.levels();
+            crate::input::levels_felt(rec, &mut levels, path, &source);
+            let strip = crate::input::strip_rh(rec, path, &source);
+            for level in levels {
                 let n = level.points.len() as f64;
                 let mean = |f: &dyn Fn(&ipmc_recording::FrPoint) -> Option<f64>| -> Option<f64> {
                     let v: Option<Vec<f64>> = level.points.iter().map(f).collect();
@@ -81,7 +94,7 @@ impl Dataset {
                     current: pts.iter().map(|p| if usable(&p.current) { complex(&p.current) } else { None }).collect(),
                 });
             }
-            let mut timed: Vec<(f64, f64)> = rec.points.iter().filter_map(|p| p.time_s.map(|t| (t, p.rh_pct))).collect();
+            let mut timed: Vec<(f64, f64)> = rec.points.iter().zip(&strip).filter_map(|(p, &rh)| p.time_s.map(|t| (t, rh))).collect();
             timed.sort_by(|a, b| a.0.total_cmp(&b.0));
             out.histories.push(RhHistory { t_s: timed.iter().map(|x| x.0).collect(), rh_pct: timed.iter().map(|x| x.1).collect() });
         }

@@ -42,6 +42,7 @@ use super::locate::{self, Located};
 use anyhow::Result;
 use ipmc_core::Calibration;
 use ipmc_core::extension::Extension;
+use ipmc_core::humidity_path::HumidityPath;
 use ipmc_fit::lsq::{self, Bound, Param, Tolerance};
 
 /// Very strong evidence on Kass & Raftery's scale (ΔBIC > 10 ⇔ Bayes factor > 150).
@@ -155,6 +156,10 @@ pub struct Diagnosis {
     /// What the held-out models before and after are (after: None when no effect is named).
     pub heldout_before_is: String,
     pub heldout_after_is: Option<String>,
+    /// When the verdict is a part of the humidity path (hydration lag, sensor error): the whole
+    /// path fitted at once (see [`fit_humidity_path`]), relative to the humidity the levels are
+    /// at (the readings through the calibration's own path).
+    pub humidity_path: Option<HumidityPath>,
 }
 
 /// A candidate's held-out models per level and its null's, and what each is.
@@ -511,6 +516,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     let mut ranked = scores;
     // Held-out scores of different candidates have different nulls: rank by the evidence.
     ranked.sort_by(|a, b| b.passes.cmp(&a.passes).then(b.applicable.cmp(&a.applicable)).then(b.delta_bic.total_cmp(&a.delta_bic)));
+    let humidity_path = matches!(verdict.as_str(), "hydration_lag" | "humidity_sensor_error").then(|| fit_humidity_path(&ctx));
     Ok(Diagnosis {
         verdict,
         family,
@@ -525,6 +531,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         models,
         heldout_before_is: before_is,
         heldout_after_is: after_is,
+        humidity_path,
     })
 }
 
@@ -801,34 +808,149 @@ fn score_candidate(
 /// Fits RH_true = mapped(RH_read; o, g) and a constant drift δ_j of each ln θ_j to the levels
 /// `train`: returns o, g, δ and the standard errors of o and g.
 fn fit_sensor(ctx: &Ctx, train: &[usize]) -> (f64, f64, Theta, Vec<f64>) {
-    let levels = &ctx.data.levels;
+    let read: Vec<f64> = ctx.data.levels.iter().map(|l| l.rh_pct).collect();
+    fit_sensor_at(ctx, train, &read)
+}
+
+/// [`fit_sensor`] for levels at humidities `read` (the readings, or the readings behind a lag),
+/// with the fit's −2 ln L.
+fn fit_sensor_at(ctx: &Ctx, train: &[usize], read: &[f64]) -> (f64, f64, Theta, Vec<f64>) {
+    let (o, g, drift, se, _) = fit_sensor_nll(ctx, train, read);
+    (o, g, drift, se)
+}
+
+fn fit_sensor_nll(ctx: &Ctx, train: &[usize], read: &[f64]) -> (f64, f64, Theta, Vec<f64>, f64) {
+    fit_sensor_with(ctx, train, read, true, true)
+}
+
+/// The sensor's offset and gain (or the offset alone, the gain 1: `free_gain` false) that map
+/// the levels `train` at humidities `read` onto the calibration, with a free drift per parameter
+/// (`drift`) or none, and the fit's −2 ln L.
+fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: bool, free_gain: bool) -> (f64, f64, Theta, Vec<f64>, f64) {
     let base = &ctx.base;
-    let params = [
-        Param::new("rh_offset_pct", Bound::Between(-25.0, 25.0)),
-        Param::new("rh_gain", Bound::Between(0.6, 1.4)),
-        Param::new("dY", Bound::Free),
-        Param::new("dCs", Bound::Free),
-        Param::new("dCa", Bound::Free),
-        Param::new("dd", Bound::Free),
-    ];
+    let mut params = vec![Param::new("rh_offset_pct", Bound::Between(-25.0, 25.0))];
+    if free_gain {
+        params.push(Param::new("rh_gain", Bound::Between(0.6, 1.4)));
+    }
+    let first_drift = params.len();
+    if drift {
+        params.extend(["dY", "dCs", "dCa", "dd"].map(|n| Param::new(n, Bound::Free)));
+    }
+    let gain_of = |v: &[f64]| if free_gain { v[1] } else { 1.0 };
     let resid = |v: &[f64], out: &mut [f64]| {
         let mut k = 0;
         for &l in train {
-            let pred = fits::calibration_theta(ctx.calib, laws::mapped_rh(levels[l].rh_pct, v[0], v[1]));
+            let pred = fits::calibration_theta(ctx.calib, laws::mapped_rh(read[l], v[0], gain_of(v)));
             for j in 0..4 {
                 let w = ctx.weights.weight(&base.se[l], j);
-                out[k] = if w > 0.0 { (base.theta[l][j] - pred[j] - v[2 + j]) * w.sqrt() } else { 0.0 };
+                let d = if drift { v[first_drift + j] } else { 0.0 };
+                out[k] = if w > 0.0 { (base.theta[l][j] - pred[j] - d) * w.sqrt() } else { 0.0 };
                 k += 1;
             }
         }
     };
-    let starts: Vec<Vec<f64>> = [-8.0, 0.0, 8.0].iter().map(|&o| vec![o, 1.0, 0.0, 0.0, 0.0, 0.0]).collect();
+    let starts: Vec<Vec<f64>> = [-8.0, 0.0, 8.0]
+        .iter()
+        .map(|&o| {
+            let mut v = vec![o];
+            if free_gain {
+                v.push(1.0);
+            }
+            v.resize(params.len(), 0.0);
+            v
+        })
+        .collect();
     match lsq::fit(&params, &starts, 4 * train.len(), resid) {
         Ok(f) => {
-            (f.estimates[0], f.estimates[1], [f.estimates[2], f.estimates[3], f.estimates[4], f.estimates[5]], f.std_errors[..2].to_vec())
+            let (o, g) = (f.estimates[0], gain_of(&f.estimates));
+            let mapped: Vec<f64> = read.iter().map(|&r| laws::mapped_rh(r, o, g)).collect();
+            let (drifts, nll) = if drift {
+                let d = &f.estimates[first_drift..];
+                ([d[0], d[1], d[2], d[3]], anchored_nll(ctx, &mapped, train))
+            } else {
+                let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
+                let pred: Vec<Theta> = mapped.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
+                ([0.0; 4], laws::nll(&pick(&pred), &pick(&base.theta), &pick(&base.se)))
+            };
+            let se_gain = if free_gain { f.std_errors[1] } else { 0.0 };
+            (o, g, drifts, vec![f.std_errors[0], se_gain], nll)
         }
-        Err(_) => (0.0, 1.0, [0.0; 4], vec![f64::NAN; 2]),
+        Err(_) => (0.0, 1.0, [0.0; 4], vec![f64::NAN; 2], f64::INFINITY),
     }
+}
+
+/// The whole humidity path at once, once a part of it is named: the sensor's offset and gain
+/// and the strip's hydration lag (when the recordings have times), fitted together. Each alone
+/// absorbs some of the other (a lag fitted beside an uncorrected offset comes out short; an
+/// offset and gain beside a short lag take its hysteresis for a span error), and what goes
+/// into a calibration is the path, not the one part the verdict names.
+/// The path is fitted without a drift of the parameters: a drift trades off against the
+/// sensor's offset, and what is written into the calibration must be the humidity, not a
+/// mixture of humidity and calibration error.
+const PATH_FIT_DRIFT: bool = false;
+/// Rounds of refitting the levels at the strip's humidity the path gives (see
+/// [`fit_humidity_path`]); measured, the third changes the path by < 0.05 %RH.
+const PATH_ROUNDS: usize = 3;
+
+fn fit_humidity_path(ctx: &Ctx) -> HumidityPath {
+    let mut path = fit_path_once(ctx);
+    // Each level's own fit holds κe, h and m at the humidity the level is placed at, the reading:
+    // with the reading off, its Y, Cs, Ca and d come out pulled toward the reading, and the
+    // path fitted on them short of the truth. So the levels are refitted where the path puts
+    // them, and the path on those fits.
+    for _ in 0..PATH_ROUNDS {
+        let strip = path_rh(ctx, &path);
+        let mut moved = ctx.data.levels.clone();
+        for (l, rh) in moved.iter_mut().zip(&strip) {
+            l.rh_pct = *rh;
+        }
+        let Ok(base) = fits::fit_levels(ctx.calib, &moved, &ctx.sig, &ctx.all, &Extension::default(), &ctx.base.theta) else { break };
+        let refitted = Ctx {
+            calib: ctx.calib,
+            data: ctx.data,
+            sig: ctx.sig.clone(),
+            all: ctx.all.clone(),
+            base,
+            read: ctx.read.clone(),
+            weights: ctx.weights.clone(),
+        };
+        path = fit_path_once(&refitted);
+    }
+    path
+}
+
+/// Each level's humidity under `path`: its readings behind the lag, then corrected.
+fn path_rh(ctx: &Ctx, path: &HumidityPath) -> Vec<f64> {
+    let behind = if path.has_lag() {
+        laws::lagged_rh(&ctx.data.levels, &ctx.data.histories, path.tau_wet_s)
+    } else {
+        ctx.data.levels.iter().map(|l| l.rh_pct).collect()
+    };
+    behind.iter().map(|&r| path.correct(r)).collect()
+}
+
+fn fit_path_once(ctx: &Ctx) -> HumidityPath {
+    let everyone: Vec<usize> = (0..ctx.data.levels.len()).collect();
+    // BIC's price of one more parameter of the path, on the levels' four parameters each.
+    let penalty = (4.0 * everyone.len() as f64).ln();
+    let read: Vec<f64> = ctx.data.levels.iter().map(|l| l.rh_pct).collect();
+    // The sensor's gain only where the data ask for it: a gain the levels cannot pin down
+    // trades off against the offset and the lag and moves the humidity at the range's ends.
+    let sensor = |read: &[f64]| {
+        let free = fit_sensor_with(ctx, &everyone, read, PATH_FIT_DRIFT, true);
+        let unit = fit_sensor_with(ctx, &everyone, read, PATH_FIT_DRIFT, false);
+        if unit.4 - free.4 > penalty { free } else { unit }
+    };
+    if !ctx.data.has_times() {
+        let (o, g, ..) = sensor(&read);
+        return laws::sensor_correction(o, g);
+    }
+    let lagged = |tau: f64| laws::lagged_rh(&ctx.data.levels, &ctx.data.histories, tau);
+    let (tau, nll_lag) = minimize_log(|tau| sensor(&lagged(tau)).4, 1.0, 1e5);
+    let none = sensor(&read);
+    // Likewise a lag that does not beat none by its parameter's price is none.
+    let (tau, (o, g, ..)) = if none.4 - nll_lag > penalty { (tau, sensor(&lagged(tau))) } else { (0.0, none) };
+    HumidityPath { tau_wet_s: tau, tau_dry_s: tau, ..laws::sensor_correction(o, g) }
 }
 
 /// The humidity each level was read at.

@@ -10,6 +10,7 @@
 
 use super::data::{LevelData, RhHistory};
 use super::fits::{BASE, Theta};
+use ipmc_core::humidity_path::{HumidityPath, relax};
 use nalgebra::{DMatrix, DVector};
 
 /// The humidity each level's parameters follow, and optional extra regressors.
@@ -148,10 +149,18 @@ pub fn chi2(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights) -> 
     (total, k)
 }
 
-/// RH_true = RH_read + o + (g − 1)(RH_read − 60): gain about the middle of the range, so that
+/// RH where the sensor-error candidate pivots its gain [%]: the middle of the range, so that
 /// offset and gain are nearly uncorrelated.
+const SENSOR_PIVOT_PCT: f64 = 60.0;
+
+/// RH_true = RH_read + o + (g − 1)(RH_read − 60), as the calibration's sensor correction
+/// (RH_true = gain·RH_read + offset_pct).
+pub fn sensor_correction(offset: f64, gain: f64) -> HumidityPath {
+    HumidityPath { gain, offset_pct: offset - (gain - 1.0) * SENSOR_PIVOT_PCT, ..HumidityPath::NONE }
+}
+
 pub fn mapped_rh(read: f64, offset: f64, gain: f64) -> f64 {
-    read + offset + (gain - 1.0) * (read - 60.0)
+    sensor_correction(offset, gain).correct(read)
 }
 
 /// The polymer's humidity behind a first-order lag τ [s] of the readings, averaged over each
@@ -169,7 +178,7 @@ pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> V
             for i in 0..h.t_s.len() {
                 if i > 0 {
                     let dt = (h.t_s[i] - h.t_s[i - 1]).max(0.0);
-                    state = h.rh_pct[i] + (state - h.rh_pct[i]) * (-dt / tau_s).exp();
+                    state = relax(state, h.rh_pct[i], dt, tau_s, tau_s);
                 }
                 out.push(state);
             }

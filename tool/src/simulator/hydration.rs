@@ -2,6 +2,8 @@
 //! membrane, so after a change of chamber humidity the sample follows with a first-order lag
 //! (time constant `tau_s`; 0 means it follows at once). The humidity sensor reads the chamber.
 
+use ipmc_core::humidity_path::relax;
+
 pub struct Hydration {
     tau_s: f64,
     /// The sample's humidity at `since` [%].
@@ -24,11 +26,7 @@ impl Hydration {
 
     /// The sample's humidity at `t_s` (≥ the last change).
     pub fn sample_at(&self, t_s: f64) -> f64 {
-        if self.tau_s <= 0.0 || self.sample == self.chamber {
-            self.chamber
-        } else {
-            self.chamber + (self.sample - self.chamber) * (-(t_s - self.since) / self.tau_s).exp()
-        }
+        relax(self.sample, self.chamber, t_s - self.since, self.tau_s, self.tau_s)
     }
 
     /// The chamber moves to `rh_pct` at `t_s`.
