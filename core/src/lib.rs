@@ -14,6 +14,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod block_humidity;
 pub mod calibration;
 #[cfg(feature = "toml")]
 pub mod calibration_file;

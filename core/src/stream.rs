@@ -8,8 +8,9 @@
 //! payload, little endian:
 //!   u8   version (= FRAME_VERSION)
 //!   u32  index of the block's first sample since acquisition start
-//!   f32  RH [%] the block's design is for: the strip's humidity (the reading through the
-//!        calibration's humidity path: sensor correction, hydration lag), clamped to its range
+//!   f32  RH [%] the block's active design is for
+//!   f32  RH [%] of the strip at the block: the reading through the calibration's humidity path
+//!        (sensor correction, hydration lag), before clamping to the calibrated range
 //!   f32  RH [%] as the humidity sensor read it
 //!   u16  flags (bits: [`flags`])
 //!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
@@ -65,11 +66,11 @@ pub mod flags {
     ];
 }
 
-/// Bumped whenever the payload layout changes; decoders refuse other versions. 2: the reading
-/// as read beside the strip's humidity (version 1 had one RH, the reading).
+/// Bumped whenever the payload layout changes; decoders refuse other versions. 2: the strip's
+/// humidity and the reading beside the design's (version 1 had one RH, the reading's).
 pub const FRAME_VERSION: u8 = 2;
-/// version + first sample + RH of the design + RH as read + flags + count.
-pub const HEADER_LEN: usize = 1 + 4 + 4 + 4 + 2 + 1;
+/// version + first sample + RH of the design, of the strip, as read + flags + count.
+pub const HEADER_LEN: usize = 1 + 4 + 3 * 4 + 2 + 1;
 const CRC_LEN: usize = 2;
 /// The count is one byte.
 pub const MAX_ESTIMATES: usize = u8::MAX as usize;
@@ -96,8 +97,10 @@ pub const MAX_FRAME_LEN: usize = max_frame_len(MAX_ESTIMATES);
 pub struct Header {
     /// Index of the block's first sample since acquisition start (wraps at 2³²).
     pub first_sample: u32,
-    /// The strip's humidity the block's design is for [%].
+    /// The humidity the block's active design is for [%].
     pub rh_pct: f32,
+    /// The strip's humidity at the block [%] (NaN before the first reading).
+    pub rh_strip_pct: f32,
     /// The humidity sensor's reading [%] (NaN before the first).
     pub rh_read_pct: f32,
     pub flags: u16,
@@ -128,6 +131,7 @@ pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usiz
     put(&[FRAME_VERSION])?;
     put(&header.first_sample.to_le_bytes())?;
     put(&header.rh_pct.to_le_bytes())?;
+    put(&header.rh_strip_pct.to_le_bytes())?;
     put(&header.rh_read_pct.to_le_bytes())?;
     put(&header.flags.to_le_bytes())?;
     put(&[count])?;
@@ -204,7 +208,9 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     let n = cobs::decode_in_place(encoded).map_err(|_| DecodeError::Cobs)?;
     let payload = encoded.get(..n).ok_or(DecodeError::Cobs)?;
     let (body, crc) = payload.split_last_chunk::<CRC_LEN>().ok_or(DecodeError::TooShort(n))?;
-    if body.len() < HEADER_LEN {
+    // A frame of another version may be shorter than this one's header: its version is the
+    // error worth reporting, so the length is checked field by field after it.
+    if body.is_empty() {
         return Err(DecodeError::TooShort(n));
     }
     if CRC16.checksum(body) != u16::from_le_bytes(*crc) {
@@ -216,6 +222,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     }
     let (first_sample, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rh_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (rh_strip_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rh_read_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (flags, rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
     let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
@@ -227,6 +234,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
         header: Header {
             first_sample: u32::from_le_bytes(*first_sample),
             rh_pct: f32::from_le_bytes(*rh_pct),
+            rh_strip_pct: f32::from_le_bytes(*rh_strip_pct),
             rh_read_pct: f32::from_le_bytes(*rh_read_pct),
             flags: u16::from_le_bytes(*flags),
         },
@@ -282,7 +290,7 @@ impl<const N: usize> Deframer<N> {
 mod tests {
     use super::*;
 
-    const H: Header = Header { first_sample: 64, rh_pct: 46.5, rh_read_pct: 49.25, flags: 0b1001 };
+    const H: Header = Header { first_sample: 64, rh_pct: 46.5, rh_strip_pct: 46.625, rh_read_pct: 49.25, flags: 0b1001 };
 
     fn frame(header: &Header, est: &[f32]) -> ([u8; MAX_FRAME_LEN], usize) {
         let mut out = [0u8; MAX_FRAME_LEN];
@@ -322,12 +330,13 @@ mod tests {
         assert_eq!(p[0], FRAME_VERSION);
         assert_eq!(p[1..5], 64u32.to_le_bytes());
         assert_eq!(p[5..9], 46.5f32.to_le_bytes());
-        assert_eq!(p[9..13], 49.25f32.to_le_bytes());
-        assert_eq!(p[13..15], 9u16.to_le_bytes());
-        assert_eq!(p[15], 2);
-        assert_eq!(p[16..20], 1.0f32.to_le_bytes());
-        assert_eq!(p[20..24], (-2.0f32).to_le_bytes());
-        assert_eq!(p[24..26], CRC16.checksum(&p[..24]).to_le_bytes());
+        assert_eq!(p[9..13], 46.625f32.to_le_bytes());
+        assert_eq!(p[13..17], 49.25f32.to_le_bytes());
+        assert_eq!(p[17..19], 9u16.to_le_bytes());
+        assert_eq!(p[19], 2);
+        assert_eq!(p[20..24], 1.0f32.to_le_bytes());
+        assert_eq!(p[24..28], (-2.0f32).to_le_bytes());
+        assert_eq!(p[28..30], CRC16.checksum(&p[..28]).to_le_bytes());
     }
 
     /// A version-1 frame (one RH, the layout before this one) with a valid CRC is refused by

@@ -59,7 +59,13 @@ fn valid_stream(blocks: usize, n: usize) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
     for k in 0..blocks {
         let est: Vec<f32> = (0..n).map(|i| ((k * n + i) as f32 * 0.37).sin() * 1e-4).collect();
-        let h = Header { first_sample: (k * n) as u32, rh_pct: 40.0 + k as f32, rh_read_pct: 41.5 + k as f32, flags: (k % 256) as u16 };
+        let h = Header {
+            first_sample: (k * n) as u32,
+            rh_pct: 40.0 + k as f32,
+            rh_strip_pct: 40.5 + k as f32,
+            rh_read_pct: 41.5 + k as f32,
+            flags: (k % 256) as u16,
+        };
         let len = stream::encode(&h, &est, &mut buf).expect("valid frame encodes");
         out.extend_from_slice(&buf[..len]);
     }

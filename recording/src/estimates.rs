@@ -1,20 +1,22 @@
-//! Estimate files (`t_s,base_est_m,rh_pct,rh_read_pct,flags`): what `ipmc compensate` and the firmware
+//! Estimate files (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags`): what `ipmc compensate` and the firmware
 //! (through `cargo xtask qemu`) write and `ipmc score`, the plot and the equivalence test read.
 //! The f32 columns are parsed as f32 directly so values the firmware printed compare bit for bit.
 
 use crate::{Error, Format, Metadata, Rule, Table, Warning};
 use std::fmt::Write as _;
 
-const COLUMNS: [&str; 5] = ["t_s", "base_est_m", "rh_pct", "rh_read_pct", "flags"];
+const COLUMNS: [&str; 6] = ["t_s", "base_est_m", "rh_pct", "rh_strip_pct", "rh_read_pct", "flags"];
 
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Estimates {
     pub metadata: Metadata,
     pub t_s: Vec<f64>,
     pub base_est_m: Vec<f32>,
-    /// Per sample: the humidity the firmware designed for in its block (the strip's, after the
-    /// calibration's humidity path) [%], if written.
+    /// Per sample: the humidity the block's active design is for [%], if written.
     pub rh_pct: Option<Vec<f32>>,
+    /// Per sample: the strip's humidity at the block (the reading through the calibration's
+    /// humidity path, before clamping) [%], if written.
+    pub rh_strip_pct: Option<Vec<f32>>,
     /// Per sample: the humidity sensor's reading as read [%], if written.
     pub rh_read_pct: Option<Vec<f32>>,
     /// Per sample: the block's flag bits, if written.
@@ -31,9 +33,13 @@ impl Format for Estimates {
             return Err(t.error_at(i, bc, format!("expected a finite number, found `{}`", t.field(i, bc))));
         }
         let rh_pct = t.find("rh_pct").map(|c| t.parsed::<f32>(c, "a number")).transpose()?;
+        let rh_strip_pct = t.find("rh_strip_pct").map(|c| t.parsed::<f32>(c, "a number")).transpose()?;
         let rh_read_pct = t.find("rh_read_pct").map(|c| t.parsed::<f32>(c, "a number")).transpose()?;
         let flags = t.find("flags").map(|c| t.parsed::<u16>(c, "an integer 0..=65535")).transpose()?;
-        Ok((Estimates { metadata: t.metadata.clone(), t_s, base_est_m, rh_pct, rh_read_pct, flags }, t.unknown_columns(&COLUMNS)))
+        Ok((
+            Estimates { metadata: t.metadata.clone(), t_s, base_est_m, rh_pct, rh_strip_pct, rh_read_pct, flags },
+            t.unknown_columns(&COLUMNS),
+        ))
     }
 }
 
@@ -44,6 +50,7 @@ impl Estimates {
         let bad = |len: usize| len != n;
         if bad(self.base_est_m.len())
             || self.rh_pct.as_ref().is_some_and(|v| bad(v.len()))
+            || self.rh_strip_pct.as_ref().is_some_and(|v| bad(v.len()))
             || self.rh_read_pct.as_ref().is_some_and(|v| bad(v.len()))
             || self.flags.as_ref().is_some_and(|v| bad(v.len()))
         {
@@ -55,6 +62,9 @@ impl Estimates {
         if self.rh_pct.is_some() {
             s.push_str(",rh_pct");
         }
+        if self.rh_strip_pct.is_some() {
+            s.push_str(",rh_strip_pct");
+        }
         if self.rh_read_pct.is_some() {
             s.push_str(",rh_read_pct");
         }
@@ -65,6 +75,9 @@ impl Estimates {
         for i in 0..n {
             let _ = write!(s, "{},{:e}", self.t_s[i], self.base_est_m[i]);
             if let Some(v) = &self.rh_pct {
+                let _ = write!(s, ",{}", v[i]);
+            }
+            if let Some(v) = &self.rh_strip_pct {
                 let _ = write!(s, ",{}", v[i]);
             }
             if let Some(v) = &self.rh_read_pct {
@@ -89,6 +102,7 @@ mod tests {
             t_s: vec![0.0, 0.0005],
             base_est_m: vec![1.0f32 / 3.0, -7.1e-38],
             rh_pct: Some(vec![40.35, 40.1f32.next_up()]),
+            rh_strip_pct: Some(vec![f32::NAN, 40.2]),
             rh_read_pct: Some(vec![43.35, 43.1f32.next_down()]),
             flags: Some(vec![0, 8]),
             ..Default::default()

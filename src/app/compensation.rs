@@ -32,6 +32,10 @@ impl SamplePathFilter {
         self.0.process_block(block);
         self.0.bad_samples != bad_before
     }
+    /// RH [%] of the design the filter runs (or fades to).
+    pub fn rh_pct(&self) -> f32 {
+        self.0.rh_pct()
+    }
     /// Glitch-free crossfade to a new design.
     pub fn switch_to(&mut self, design: &Inverse<f32>) {
         self.0.switch_to(design)

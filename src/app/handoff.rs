@@ -19,8 +19,9 @@ pub static DESIGN_READY: Signal<CriticalSectionRawMutex, Inverse<f32>> = Signal:
 pub struct EstimateBlock {
     /// Index of the first sample since acquisition started.
     pub first_sample: u32,
-    /// The strip's humidity (what the designs are for) and the sensor's reading [%].
+    /// RH of the active design, of the strip and as read [%] (`ipmc_core::stream::Header`).
     pub rh_pct: f32,
+    pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
     pub flags: u16,
     pub base_est_m: [f32; BLOCK_LEN],
@@ -52,12 +53,10 @@ impl AtomicF32 {
     }
 }
 
-/// Latest RH [%] of the strip: the reading through the calibration's humidity path (sensor
-/// correction, hydration), clamped to the calibrated range.
-pub static LATEST_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
-/// Latest humidity reading as the sensor gave it [%].
+/// Latest humidity reading as the sensor gave it [%] (NaN before the first): the sample path
+/// makes the strip's humidity of it, block by block.
 pub static LATEST_READ_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
-/// Humidity and design flags (`RH_STALE`, `RH_CLAMPED`, `DESIGN_FAILED`) for the next blocks.
+/// Humidity and design flags (`RH_STALE`, `DESIGN_FAILED`) for the next blocks.
 pub static CONDITION_FLAGS: AtomicU16 = AtomicU16::new(0);
 
 pub fn set_condition(flag: u16, on: bool) {

@@ -1,7 +1,13 @@
 //! The per-sample path: current block → compensation → report queue. Runs at the highest
-//! priority; after start-up it never waits for anything but the next block of samples.
+//! priority; after start-up it never waits for anything but the next block of samples. Each
+//! block also advances the strip's humidity by its own duration (`ipmc_core::block_humidity`)
+//! and asks for a design when that moved away from the active one.
 
-use ipmc_core::stuck::StuckDetector;
+use ipmc_core::{
+    block_humidity::{BlockHumidity, span_s},
+    operating_point::needs_retune,
+    stuck::StuckDetector,
+};
 
 use crate::board::Samples;
 
@@ -9,7 +15,7 @@ use super::{
     compensation::SamplePathFilter,
     config::{BLOCK_LEN, SAMPLE_RATE_HZ},
     flags,
-    handoff::{self, DESIGN_READY, EstimateBlock, LATEST_READ_RH_PCT, LATEST_RH_PCT, REPORT_QUEUE, ReportItem},
+    handoff::{self, DESIGN_READY, EstimateBlock, LATEST_READ_RH_PCT, REPORT_QUEUE, RETUNE_REQUEST, ReportItem},
     ports::{CurrentSource, SampleBlock},
 };
 
@@ -27,12 +33,21 @@ pub async fn sample_task(mut samples: Samples) {
     let mut dropped_since_last = false;
     // One second of identical samples is no live front end (see ipmc_core::stuck).
     let mut stuck = StuckDetector::new(SAMPLE_RATE_HZ);
+    let mut humidity = BlockHumidity::<f32>::new(&super::compensation::calibration());
+    // RH of the active or already requested design.
+    let mut design_rh = first.rh_pct;
+    // Samples from the previous block's start to this one's (0 before the first: the strip
+    // starts settled at the first reading).
+    let mut since_last: u32 = 0;
     loop {
-        let mut block = EstimateBlock { first_sample, rh_pct: 0.0, rh_read_pct: 0.0, flags: 0, base_est_m: [0.0; BLOCK_LEN] };
+        let mut block =
+            EstimateBlock { first_sample, rh_pct: 0.0, rh_strip_pct: f32::NAN, rh_read_pct: 0.0, flags: 0, base_est_m: [0.0; BLOCK_LEN] };
         let source_flags = match samples.read_block(&mut block.base_est_m).await {
             SampleBlock::Ready { flags, lost_samples } => {
                 first_sample = first_sample.wrapping_add(lost_samples);
                 block.first_sample = first_sample;
+                // The strip dried or wetted through the lost samples too.
+                since_last += lost_samples;
                 flags
             }
             SampleBlock::End => break,
@@ -50,8 +65,20 @@ pub async fn sample_task(mut samples: Samples) {
             block.flags |= flags::BAD_SAMPLE;
         }
 
-        block.rh_pct = LATEST_RH_PCT.load();
         block.rh_read_pct = LATEST_READ_RH_PCT.load();
+        // No reading yet: the first design is the humidity task's fallback, and stays.
+        if let Some(now) = humidity.advance(block.rh_read_pct, span_s(since_last, SAMPLE_RATE_HZ)) {
+            block.rh_strip_pct = humidity.strip_pct().unwrap_or(now.rh_pct);
+            if now.clamped {
+                block.flags |= flags::RH_CLAMPED;
+            }
+            if needs_retune(design_rh, now.rh_pct) {
+                design_rh = now.rh_pct;
+                RETUNE_REQUEST.signal(now.rh_pct);
+            }
+        }
+        since_last = BLOCK_LEN as u32;
+        block.rh_pct = filter.rh_pct();
         if dropped_since_last {
             block.flags |= flags::REPORT_DROPPED;
         }

@@ -1,5 +1,5 @@
 //! `cargo xtask qemu`: replays a recording through the QEMU build of the firmware and writes
-//! its estimates as EST.csv (`t_s,base_est_m,rh_pct,rh_read_pct,flags`).
+//! its estimates as EST.csv (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags`).
 
 use std::{
     fs,
@@ -218,7 +218,13 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {
     if let Some(dir) = path.parent() {
         fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     }
-    let mut est = ipmc_recording::Estimates { rh_pct: Some(vec![]), rh_read_pct: Some(vec![]), flags: Some(vec![]), ..Default::default() };
+    let mut est = ipmc_recording::Estimates {
+        rh_pct: Some(vec![]),
+        rh_strip_pct: Some(vec![]),
+        rh_read_pct: Some(vec![]),
+        flags: Some(vec![]),
+        ..Default::default()
+    };
     est.metadata.set("fs_hz", FIRMWARE_FS_HZ);
     for b in blocks {
         for (k, &v) in b.base_est_m.iter().enumerate() {
@@ -226,6 +232,7 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {
             est.t_s.push(t_s.get(i).copied().unwrap_or(i as f64 / FIRMWARE_FS_HZ as f64));
             est.base_est_m.push(v);
             est.rh_pct.as_mut().expect("set above").push(b.rh_pct);
+            est.rh_strip_pct.as_mut().expect("set above").push(b.rh_strip_pct);
             est.rh_read_pct.as_mut().expect("set above").push(b.rh_read_pct);
             est.flags.as_mut().expect("set above").push(b.flags);
         }

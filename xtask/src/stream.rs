@@ -8,8 +8,9 @@ use crate::Result;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Block {
     pub first_sample: u32,
-    /// The strip's humidity the design is for, and the sensor's reading [%].
+    /// RH of the active design, of the strip and as read [%] (`ipmc_core::stream::Header`).
     pub rh_pct: f32,
+    pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
     pub flags: u16,
     pub base_est_m: Vec<f32>,
@@ -25,6 +26,7 @@ pub fn decode_all(bytes: &[u8]) -> Result<Vec<Block>> {
             Some(Ok(f)) => blocks.push(Block {
                 first_sample: f.header.first_sample,
                 rh_pct: f.header.rh_pct,
+                rh_strip_pct: f.header.rh_strip_pct,
                 rh_read_pct: f.header.rh_read_pct,
                 flags: f.header.flags,
                 base_est_m: f.estimates().collect(),
@@ -43,7 +45,8 @@ mod tests {
 
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
-        let n = encode(&Header { first_sample: first, rh_pct: rh, rh_read_pct: rh + 1.5, flags }, est, &mut out).unwrap();
+        let n = encode(&Header { first_sample: first, rh_pct: rh, rh_strip_pct: rh + 0.5, rh_read_pct: rh + 1.5, flags }, est, &mut out)
+            .unwrap();
         out.truncate(n);
         out
     }
@@ -54,7 +57,10 @@ mod tests {
         bytes.extend(frame(2, 46.0, 8, &[2e-3, -1e-3]));
         let blocks = decode_all(&bytes).unwrap();
         assert_eq!(blocks.len(), 2);
-        assert_eq!(blocks[1], Block { first_sample: 2, rh_pct: 46.0, rh_read_pct: 47.5, flags: 8, base_est_m: vec![2e-3, -1e-3] });
+        assert_eq!(
+            blocks[1],
+            Block { first_sample: 2, rh_pct: 46.0, rh_strip_pct: 46.5, rh_read_pct: 47.5, flags: 8, base_est_m: vec![2e-3, -1e-3] }
+        );
         let mut bad = frame(0, 45.0, 0, &[1.0]);
         bad[5] ^= 0x10;
         assert!(decode_all(&bad).is_err());

@@ -1,9 +1,10 @@
 //! `ipmc compensate`: runs the firmware's compensation chain (f32 [`Compensator`], blocks of 32
 //! samples, retuned when the humidity moves) over a time-series recording on the host, and
-//! writes the base-motion estimates as `t_s,base_est_m,rh_pct,rh_read_pct,flags` (the firmware's
-//! EST.csv). The recording's humidity goes through the calibration's humidity path (sensor
-//! correction, the strip's hydration lag, `ipmc_core::humidity_path`) as on the device:
-//! `rh_pct` is the strip's humidity the design is for, `rh_read_pct` the reading.
+//! writes the base-motion estimates as `t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags`
+//! (the firmware's EST.csv). The recording's humidity goes through the calibration's humidity
+//! path block by block (sensor correction, the strip's hydration lag:
+//! `ipmc_core::block_humidity`) as on the device: `rh_pct` is the active design's humidity,
+//! `rh_strip_pct` the strip's, `rh_read_pct` the reading.
 //!
 //! With `--fixed-rh R` one design at R is used throughout and never retuned: the paper's
 //! humidity-independent model, the baseline the compensation is measured against.
@@ -15,7 +16,7 @@
 use crate::commands::write_atomically;
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
-use ipmc_core::humidity_path::Hydration;
+use ipmc_core::block_humidity::{BlockHumidity, span_s};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::{Path, PathBuf};
@@ -54,7 +55,9 @@ pub struct Args {
 pub struct ScheduledBlock {
     pub first_sample: usize,
     pub rh_pct: f32,
-    /// The reading the firmware reported beside it (NaN if the file has no `rh_read_pct`).
+    /// The strip's humidity and the reading the firmware reported beside it (NaN if the file
+    /// has no such column).
+    pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
     pub flags: u16,
 }
@@ -73,8 +76,9 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
     let mut out: Vec<ScheduledBlock> = vec![];
     for (row, (&rh, &fl)) in rh.iter().zip(fl).enumerate() {
         if row % BLOCK_LEN == 0 {
-            let rh_read_pct = est.rh_read_pct.as_ref().and_then(|r| r.get(row).copied()).unwrap_or(f32::NAN);
-            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, rh_read_pct, flags: fl });
+            let at = |c: &Option<Vec<f32>>| c.as_ref().and_then(|r| r.get(row).copied()).unwrap_or(f32::NAN);
+            let (rh_strip_pct, rh_read_pct) = (at(&est.rh_strip_pct), at(&est.rh_read_pct));
+            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, rh_strip_pct, rh_read_pct, flags: fl });
         } else {
             let b = out.last().expect("a block was started");
             if b.flags != fl || b.rh_pct.to_bits() != rh.to_bits() {
@@ -91,11 +95,15 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
 /// Replays the firmware's schedule over `ts`: one compensator, designed at the first block's
 /// RH, switched at each RETUNED block to a design at that block's RH, blocks of [`BLOCK_LEN`]
 /// exactly as the firmware processes them. Samples past the schedule are not processed.
+/// Where the schedule has the firmware's readings and strip humidities, the strip's model is
+/// run here from the readings too and must give the firmware's values bit for bit.
 pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock]) -> Result<Estimates> {
     let design = designer(calib, ts.fs_hz);
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
     let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
+    let mut humidity = BlockHumidity::<f32>::new(calib);
+    let fs = whole_hz(ts.fs_hz)?;
     for (k, b) in schedule.iter().enumerate() {
         if b.first_sample != k * BLOCK_LEN {
             bail!("schedule block {k} starts at sample {}, expected {}", b.first_sample, k * BLOCK_LEN);
@@ -103,6 +111,16 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
         let pos = b.first_sample;
         if pos + BLOCK_LEN > ts.t_s.len() {
             break;
+        }
+        let dt = span_s(if k == 0 { 0 } else { BLOCK_LEN as u32 }, fs);
+        if humidity.advance(b.rh_read_pct, dt).is_some() && !b.rh_strip_pct.is_nan() {
+            let here = humidity.strip_pct().expect("advanced");
+            if here.to_bits() != b.rh_strip_pct.to_bits() {
+                bail!(
+                    "block at sample {pos}: the firmware's strip humidity is {} %, the humidity path run here from its readings gives {here} %",
+                    b.rh_strip_pct
+                );
+            }
         }
         if b.flags & flags::RETUNED != 0 {
             comp.switch_to(&design(b.rh_pct)?);
@@ -116,11 +134,20 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
             est.delay_samples.push(d);
             est.burst_start.push(0);
             est.rh_pct.push(b.rh_pct);
+            est.rh_strip_pct.push(b.rh_strip_pct);
             est.rh_read_pct.push(b.rh_read_pct);
             est.flags.push(b.flags);
         }
     }
     Ok(est)
+}
+
+/// The sample rate as the whole number of hertz the device runs at.
+fn whole_hz(fs_hz: f64) -> Result<u32> {
+    if fs_hz.fract() != 0.0 || !(1.0..=1e6).contains(&fs_hz) {
+        bail!("sample rate {fs_hz} Hz: the firmware's chain runs at a whole number of hertz");
+    }
+    Ok(fs_hz as u32)
 }
 
 pub fn read_time_series(path: &Path) -> Result<TimeSeries> {
@@ -134,8 +161,9 @@ pub struct Estimates {
     pub delay_samples: Vec<usize>,
     /// Per sample: index of the first sample of its burst.
     pub burst_start: Vec<usize>,
-    /// Per sample: the strip's humidity the block was designed for, and the reading [%].
+    /// Per sample: the humidity of the block's active design, the strip's and the reading [%].
     pub rh_pct: Vec<f32>,
+    pub rh_strip_pct: Vec<f32>,
     pub rh_read_pct: Vec<f32>,
     pub flags: Vec<u16>,
     pub retunes: usize,
@@ -148,6 +176,7 @@ impl Estimates {
             delay_samples: Vec::with_capacity(n),
             burst_start: Vec::with_capacity(n),
             rh_pct: Vec::with_capacity(n),
+            rh_strip_pct: Vec::with_capacity(n),
             rh_read_pct: Vec::with_capacity(n),
             flags: Vec::with_capacity(n),
             retunes: 0,
@@ -163,8 +192,9 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
 
 /// Runs the compensation over `ts`: a fresh compensator per burst, designed at the first
 /// block's RH (or `fixed_rh`), retuned per block when the RH moved more than the threshold.
-/// Each block's reading (its mean) goes through the calibration's humidity path; the strip's
-/// hydration runs across bursts, through the time between them.
+/// Each block's reading (its mean) goes through the calibration's humidity path as on the
+/// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
+/// between them.
 pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
     let design = designer(calib, ts.fs_hz);
     let n = ts.t_s.len();
@@ -180,9 +210,11 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
         }
         None => None,
     };
-    let path = calib.humidity;
-    let mut strip = Hydration::<f32>::new(&path);
-    let mut last_t: Option<f64> = None;
+    let mut humidity = BlockHumidity::<f32>::new(calib);
+    let fs = whole_hz(ts.fs_hz)?;
+    // Where the previous block started (the strip's model steps by whole blocks inside a burst,
+    // by the recording's clock between bursts).
+    let mut last: Option<(usize, f64)> = None;
     for burst in ts.bursts() {
         let (b0, b1) = (burst.start, burst.end);
         let mut comp: Option<Compensator<f32>> = fixed.as_ref().map(Compensator::new);
@@ -190,11 +222,16 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
         while pos < b1 {
             let end = (pos + BLOCK_LEN).min(b1);
             let rh_read = (ts.rh_pct[pos..end].iter().sum::<f64>() / (end - pos) as f64) as f32;
-            let dt_s = last_t.map_or(0.0, |t| ts.t_s[pos] - t) as f32;
-            last_t = Some(ts.t_s[pos]);
-            let rh_strip = strip.update(path.correct(rh_read), dt_s);
-            let (rh, clamped) = calib.clamp_rh(rh_strip);
-            let mut fl = if clamped { flags::RH_CLAMPED } else { 0 };
+            let dt_s = match last {
+                None => 0.0,
+                Some((p, _)) if p >= b0 => span_s((pos - p) as u32, fs),
+                Some((_, t)) => (ts.t_s[pos] - t) as f32,
+            };
+            last = Some((pos, ts.t_s[pos]));
+            let now = humidity.advance(rh_read, dt_s).ok_or_else(|| anyhow!("sample {pos}: no humidity reading (NaN rh_pct)"))?;
+            let rh_strip = humidity.strip_pct().expect("advanced");
+            let rh = now.rh_pct;
+            let mut fl = if now.clamped { flags::RH_CLAMPED } else { 0 };
             match comp.as_mut() {
                 None => comp = Some(Compensator::new(&design(rh)?)),
                 Some(c) if fixed.is_none() && ipmc_core::operating_point::needs_retune(c.rh_pct(), rh) => {
@@ -217,7 +254,8 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
                 est.base_est_m.push(v);
                 est.delay_samples.push(d);
                 est.burst_start.push(b0);
-                est.rh_pct.push(rh_strip);
+                est.rh_pct.push(c.rh_pct());
+                est.rh_strip_pct.push(rh_strip);
                 est.rh_read_pct.push(rh_read);
                 est.flags.push(fl);
             }
@@ -297,6 +335,7 @@ pub fn run(a: Args) -> Result<()> {
         t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
         base_est_m: est.base_est_m.clone(),
         rh_pct: Some(est.rh_pct.clone()),
+        rh_strip_pct: Some(est.rh_strip_pct.clone()),
         rh_read_pct: Some(est.rh_read_pct.clone()),
         flags: Some(est.flags.clone()),
         ..Default::default()

@@ -22,8 +22,9 @@ const DEFAULT_FS_HZ: u32 = 2_000;
 pub struct Args {
     /// Serial port (e.g. /dev/ttyACM0, COM3), a captured stream file, or `-` for stdin.
     port: String,
-    /// Write every estimate to this CSV (`t_s,base_est_m,rh_pct,rh_read_pct,flags`, `# fs_hz=`
-    /// metadata; `rh_pct` the strip's humidity the design is for, `rh_read_pct` the sensor's reading).
+    /// Write every estimate to this CSV (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags`,
+    /// `# fs_hz=` metadata; `rh_pct` the active design's humidity, `rh_strip_pct` the strip's,
+    /// `rh_read_pct` the sensor's reading).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Serial baud rate (ignored for files and stdin).
@@ -41,7 +42,7 @@ pub fn run(a: Args) -> Result<()> {
             let f = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
             let mut w = BufWriter::new(f);
             writeln!(w, "# fs_hz={}", a.fs_hz)?;
-            writeln!(w, "t_s,base_est_m,rh_pct,rh_read_pct,flags")?;
+            writeln!(w, "t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags")?;
             Some(w)
         }
         None => None,
@@ -63,9 +64,9 @@ pub fn run(a: Args) -> Result<()> {
                 return;
             }
             io_result = match event {
-                Event::Sample(s) => {
-                    csv.as_mut().map_or(Ok(()), |w| writeln!(w, "{},{:e},{},{},{}", s.t_s, s.base_est_m, s.rh_pct, s.rh_read_pct, s.flags))
-                }
+                Event::Sample(s) => csv.as_mut().map_or(Ok(()), |w| {
+                    writeln!(w, "{},{:e},{},{},{},{}", s.t_s, s.base_est_m, s.rh_pct, s.rh_strip_pct, s.rh_read_pct, s.flags)
+                }),
                 Event::Status(line) => writeln!(stdout, "{line}"),
             };
         });
@@ -116,6 +117,7 @@ pub struct Sample {
     pub t_s: f64,
     pub base_est_m: f32,
     pub rh_pct: f32,
+    pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
     pub flags: u16,
 }
@@ -181,7 +183,8 @@ impl Monitor {
         let base_index = self.index_offset + first as u64;
         for (k, &v) in f.estimates.iter().enumerate() {
             let t_s = (base_index + k as u64) as f64 / self.fs_hz;
-            let s = Sample { t_s, base_est_m: v, rh_pct: f.rh_pct, rh_read_pct: f.rh_read_pct, flags: f.flags };
+            let s =
+                Sample { t_s, base_est_m: v, rh_pct: f.rh_pct, rh_strip_pct: f.rh_strip_pct, rh_read_pct: f.rh_read_pct, flags: f.flags };
             emit(Event::Sample(s));
             if t_s >= self.next_status_s {
                 self.next_status_s = t_s.floor() + 1.0;
@@ -192,10 +195,11 @@ impl Monitor {
 
     fn status_line(&self, s: &Sample) -> String {
         format!(
-            "t {:10.3} s  base {:+.4e} m  RH {:6.2} % (read {:6.2} %)  flags {:#06x}{}  (frames {}, bad {})",
+            "t {:10.3} s  base {:+.4e} m  RH {:6.2} % (strip {:6.2} %, read {:6.2} %)  flags {:#06x}{}  (frames {}, bad {})",
             s.t_s,
             s.base_est_m,
             s.rh_pct,
+            s.rh_strip_pct,
             s.rh_read_pct,
             s.flags,
             flag_names(s.flags),
@@ -214,6 +218,7 @@ impl Monitor {
 struct OwnedFrame {
     first_sample: u32,
     rh_pct: f32,
+    rh_strip_pct: f32,
     rh_read_pct: f32,
     flags: u16,
     estimates: Vec<f32>,
@@ -224,6 +229,7 @@ impl From<&Frame<'_>> for OwnedFrame {
         Self {
             first_sample: f.header.first_sample,
             rh_pct: f.header.rh_pct,
+            rh_strip_pct: f.header.rh_strip_pct,
             rh_read_pct: f.header.rh_read_pct,
             flags: f.header.flags,
             estimates: f.estimates().collect(),
@@ -242,7 +248,8 @@ mod tests {
 
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
-        let n = encode(&Header { first_sample: first, rh_pct: rh, rh_read_pct: rh + 2.0, flags }, est, &mut out).unwrap();
+        let n = encode(&Header { first_sample: first, rh_pct: rh, rh_strip_pct: rh + 1.0, rh_read_pct: rh + 2.0, flags }, est, &mut out)
+            .unwrap();
         out.truncate(n);
         out
     }
@@ -289,7 +296,7 @@ mod tests {
             // 201 blocks of 16 ms = 3.2 s of stream: lines at 0, 1, 2 and 3 s.
             assert_eq!(lines.len(), 4, "{lines:?}");
             assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
-            assert!(lines[0].contains("RH  45.00 % (read  47.00 %)"), "{}", lines[0]);
+            assert!(lines[0].contains("RH  45.00 % (strip  46.00 %, read  47.00 %)"), "{}", lines[0]);
             assert!(lines.iter().any(|l| l.contains("bad 2")));
         }
     }

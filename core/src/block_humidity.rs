@@ -1,0 +1,107 @@
+//! The humidity each block's design is for, block by block: the sensor's latest reading through
+//! the calibration's humidity path (the correction, then the strip's hydration advanced by the
+//! block's own duration), clamped to the calibrated range.
+//!
+//! The strip's model runs on the sample clock, not on the time the reading arrived: the
+//! firmware's sample path and the host's replica (`ipmc compensate`) advance it by the same
+//! steps from the same readings, so the two agree bit for bit, and the QEMU run can be checked
+//! against the host block by block.
+
+use crate::calibration::Calibration;
+use crate::humidity_path::{HumidityPath, Hydration};
+use crate::real::Real;
+
+/// What one block's humidity came to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BlockRh<T> {
+    /// The strip's humidity clamped to the calibration's range: what the design is for [%].
+    pub rh_pct: T,
+    /// Whether the clamp had to act.
+    pub clamped: bool,
+}
+
+/// The strip's humidity, run block by block from the readings.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockHumidity<T> {
+    path: HumidityPath,
+    strip: Hydration<T>,
+    rh_min: f64,
+    rh_max: f64,
+}
+
+impl<T: Real> BlockHumidity<T> {
+    pub fn new(calibration: &Calibration) -> Self {
+        BlockHumidity {
+            path: calibration.humidity,
+            strip: Hydration::new(&calibration.humidity),
+            rh_min: calibration.rh_min,
+            rh_max: calibration.rh_max,
+        }
+    }
+
+    /// The block that follows `dt_s` after the previous one, with the sensor's latest reading
+    /// `rh_read_pct` (NaN: none yet, and None comes back: there is no humidity to design for).
+    pub fn advance(&mut self, rh_read_pct: T, dt_s: T) -> Option<BlockRh<T>> {
+        if rh_read_pct.is_nan() {
+            return None;
+        }
+        let strip = self.strip.update(self.path.correct(rh_read_pct), dt_s);
+        let (lo, hi) = (T::lit(self.rh_min), T::lit(self.rh_max));
+        Some(if strip < lo {
+            BlockRh { rh_pct: lo, clamped: true }
+        } else if strip > hi {
+            BlockRh { rh_pct: hi, clamped: true }
+        } else {
+            BlockRh { rh_pct: strip, clamped: false }
+        })
+    }
+
+    /// The strip's humidity before the clamp, after the last block (None before the first reading).
+    pub fn strip_pct(&self) -> Option<T> {
+        self.strip.rh_pct()
+    }
+}
+
+/// Duration of `samples` at `fs_hz` [s], computed one way for every caller so that the strip's
+/// model takes the same steps on the device and on the host.
+pub fn span_s<T: Real>(samples: u32, fs_hz: u32) -> T {
+    T::lit(samples as f64) / T::lit(fs_hz as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn calib(path: HumidityPath) -> Calibration {
+        Calibration { humidity: path, ..Calibration::default_preset() }
+    }
+
+    #[test]
+    fn follows_the_path_and_clamps() {
+        let c = calib(HumidityPath { offset_pct: 3.0, tau_wet_s: 10.0, tau_dry_s: 10.0, ..HumidityPath::NONE });
+        let mut h = BlockHumidity::<f32>::new(&c);
+        assert_eq!(h.advance(f32::NAN, 0.016), None, "no reading yet");
+        let first = h.advance(47.0, 0.016).unwrap();
+        assert_eq!(first, BlockRh { rh_pct: 50.0, clamped: false }, "settled at the first corrected reading");
+        // Ten seconds of blocks toward 60 % (read 57): one time constant.
+        let mut last = first;
+        for _ in 0..625 {
+            last = h.advance(57.0, span_s(32, 2000)).unwrap();
+        }
+        let want = 60.0 - 10.0 * (-1.0f32).exp();
+        assert!((last.rh_pct - want).abs() < 2e-3, "{} vs {want}", last.rh_pct);
+        // A reading beyond the range is clamped, the strip keeps its own value.
+        let mut h = BlockHumidity::<f32>::new(&calib(HumidityPath::NONE));
+        let r = h.advance(97.0, 0.016).unwrap();
+        assert_eq!(r, BlockRh { rh_pct: c.rh_max as f32, clamped: true });
+        assert_eq!(h.strip_pct(), Some(97.0));
+    }
+
+    #[test]
+    fn no_path_is_the_reading() {
+        let mut h = BlockHumidity::<f32>::new(&calib(HumidityPath::NONE));
+        for rh in [45.0f32, 45.125, 61.0, 39.5] {
+            assert_eq!(h.advance(rh, 0.016).unwrap().rh_pct, rh);
+        }
+    }
+}
