@@ -2,6 +2,7 @@
 //!
 //! - `qemu [--input REC.csv] [--out EST.csv]`  replay a recording through the QEMU firmware
 //! - `bench [--json]`                         instruction counts of the compute path under QEMU -icount
+//! - `humidity-loop`                          diagnose → --write-calib → compensate on a biased, lagging session
 //! - `build`                                   build both firmware variants (release)
 //! - `size`                                    flash/RAM of the release builds vs the budget
 //! - `test [STEP…]`                             every test of the repository (CI runs this), or the steps named
@@ -11,6 +12,7 @@ mod bench;
 mod exec;
 mod firmware;
 mod flash;
+mod humidity_loop;
 mod install;
 mod qemu;
 mod recording;
@@ -25,8 +27,7 @@ pub use exec::{cargo, describe, ipmc, repo_root, run};
 
 pub type Result<T> = std::result::Result<T, String>;
 
-const USAGE: &str =
-    "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | bench [--json] | build | size | test [STEP…] | flash ELF>";
+const USAGE: &str = "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | bench [--json] | humidity-loop | build | size | test [STEP…] | flash ELF>";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -37,6 +38,7 @@ fn main() -> ExitCode {
     let result = match command.as_str() {
         "qemu" => qemu::command(rest),
         "bench" => bench::command(rest),
+        "humidity-loop" => humidity_loop::command(rest),
         "build" => firmware::build_all().map(|_| ()),
         "size" => size::command(),
         "test" => test_all::command(rest),

@@ -447,6 +447,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("fit tests", || cargo_test("fit/Cargo.toml")),
         ("sensors tests (drivers and bus recovery against fake buses)", || cargo_test("sensors/Cargo.toml")),
         ("diagnose: ipmc prove (reduced)", diagnose_prove),
+        ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
         ("firmware build (qemu)", || firmware::build(Variant::Qemu).map(|_| ())),

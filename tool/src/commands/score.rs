@@ -17,6 +17,9 @@ pub struct Args {
     /// Latency of the estimate [ms]: the design's preview delay (2 ms by default).
     #[arg(long, default_value_t = 2.0)]
     delay_ms: f64,
+    /// One JSON line `{"inband": …, "broadband": …}` (relative rms errors, fractions) for scripts.
+    #[arg(long)]
+    json: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -32,6 +35,8 @@ pub fn run(a: Args) -> Result<()> {
         burst_start[burst.clone()].fill(burst.start);
     }
     match relative_error(&est, &vec![delay; est.len()], &burst_start, base, ts.fs_hz) {
+        Some((broad, inband)) if a.json => println!("{}", serde_json::json!({ "inband": inband, "broadband": broad })),
+        None if a.json => bail!("not enough samples after settling to score"),
         Some((broad, inband)) => println!(
             "error vs true base (delayed {delay} samples, first {SETTLE_S} s skipped): in-band (>{INBAND_HP_HZ} Hz) {:.3} % rms, broadband {:.3} % rms",
             inband * 100.0,
