@@ -1,6 +1,6 @@
 //! Building the firmware variants.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::{Result, cargo, install, repo_root};
 
@@ -45,14 +45,24 @@ impl Variant {
 
 /// `cargo build --release` of one variant; returns the ELF path.
 pub fn build(variant: Variant) -> Result<PathBuf> {
+    build_in(variant, &variant.target_dir(), None)
+}
+
+/// `build` into `target_dir` with the calibration `calib` baked in (`IPMC_CALIB`; None: the
+/// default preset), so a test build with its own calibration leaves the usual builds alone.
+pub fn build_in(variant: Variant, target_dir: &Path, calib: Option<&Path>) -> Result<PathBuf> {
     install::ensure_firmware_tools()?;
     let mut cmd = cargo();
     cmd.current_dir(repo_root()).args(["build", "--release", "--bin", "ipmc-firmware"]);
-    cmd.arg("--target-dir").arg(variant.target_dir());
+    cmd.arg("--target-dir").arg(target_dir);
     cmd.args(variant.feature_args());
-    println!("==> building firmware ({})", variant.name());
+    match calib {
+        Some(c) => cmd.env("IPMC_CALIB", c),
+        None => cmd.env_remove("IPMC_CALIB"),
+    };
+    println!("==> building firmware ({}{})", variant.name(), calib.map(|c| format!(", IPMC_CALIB={}", c.display())).unwrap_or_default());
     crate::run(&mut cmd)?;
-    Ok(variant.elf())
+    Ok(target_dir.join("thumbv7em-none-eabihf/release/ipmc-firmware"))
 }
 
 pub fn build_all() -> Result<Vec<PathBuf>> {

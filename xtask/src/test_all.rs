@@ -250,7 +250,7 @@ fn qemu_replay_no_receiver() -> Result<()> {
 /// Opt-in (`cargo xtask test qemu-long`): one million samples (500 s of real time under QEMU)
 /// of a slow humidity ramp, bit-compared with the host's f32 chain like the equivalence step.
 fn qemu_long_run() -> Result<()> {
-    host_equivalence_on_ramp("long", 500, 40, 70)
+    host_equivalence_on_ramp("long", 500, 40, 70, &Variant::Qemu.elf(), None).map(|_| ())
 }
 
 fn qemu_replay_bundled() -> Result<()> {
@@ -275,11 +275,57 @@ const EQUIVALENCE_TOL: f64 = 1e-6;
 /// tool is built with num-traits' `std` feature (tool/Cargo.toml), so this also fails if the
 /// core's f32 math stops going through libm (core/src/real.rs).
 fn qemu_host_equivalence() -> Result<()> {
-    host_equivalence_on_ramp("equivalence", 10, 40, 50)
+    host_equivalence_on_ramp("equivalence", 10, 40, 50, &Variant::Qemu.elf(), None).map(|_| ())
+}
+
+/// The humidity path's test calibration: the default preset with a sensor correction and a
+/// hydration lag short enough to act within the ramp (wetting faster than drying).
+fn calibration_with_humidity_path() -> ipmc_core::Calibration {
+    use ipmc_core::humidity_path::{HumidityPath, SensorKind};
+    let humidity = HumidityPath {
+        sensor: Some(SensorKind::Hts221),
+        offset_pct: 2.0,
+        gain: 1.02,
+        tau_wet_s: 1.0,
+        tau_dry_s: 2.0,
+        uncertainty_pct: None,
+    };
+    ipmc_core::Calibration { humidity, ..ipmc_core::Calibration::default_preset() }
+}
+
+/// The equivalence with the strip's model running: a QEMU build with a calibration whose
+/// `[humidity]` corrects the reading and lags it; the host reruns the model from the firmware's
+/// readings (`compensate --schedule` refuses any bit difference in the strip's humidity) and
+/// the estimates must agree as without the path.
+fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
+    let work = repo_root().join("target/qemu-test/humidity-path");
+    std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;
+    let calib = work.join("CALIB-with-path.toml");
+    let text = ipmc_core::calibration_file::to_text(&calibration_with_humidity_path());
+    std::fs::write(&calib, text).map_err(|e| format!("{}: {e}", calib.display()))?;
+    let elf = firmware::build_in(Variant::Qemu, &repo_root().join("target/qemu-humidity-path"), Some(&calib))?;
+    let blocks = host_equivalence_on_ramp("humidity-path", 10, 40, 50, &elf, Some(&calib))?;
+    // Both parts must have acted: without the path the strip is the reading (0), with the
+    // correction alone it is +2 + 0.02·RH ≈ +2.9 %RH above it, and the lag on the rising ramp
+    // (1 %RH/s, τ 1 s) takes about 1 %RH of that back.
+    let gap: Vec<f64> = blocks.iter().map(|b| (b.rh_strip_pct - b.rh_read_pct) as f64).collect();
+    let mean = gap.iter().sum::<f64>() / gap.len() as f64;
+    println!("strip − reading over {} blocks: mean {mean:+.3} %RH (no path: 0, the correction alone: ≈ +2.9)", gap.len());
+    if !((mean - 0.0).abs() > 0.5 && (mean - 2.9).abs() > 0.5) {
+        return Err(format!("strip − reading {mean:+.3} %RH: the firmware did not apply both the correction and the lag"));
+    }
+    Ok(())
 }
 
 /// The same on `seconds` of a ramp `rh_from` → `rh_to` %, in target/qemu-test/`name`.
-fn host_equivalence_on_ramp(name: &str, seconds: u32, rh_from: u32, rh_to: u32) -> Result<()> {
+fn host_equivalence_on_ramp(
+    name: &str,
+    seconds: u32,
+    rh_from: u32,
+    rh_to: u32,
+    elf: &std::path::Path,
+    calib: Option<&std::path::Path>,
+) -> Result<Vec<crate::stream::Block>> {
     let work = repo_root().join("target/qemu-test").join(name);
     std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;
     let rec_path = work.join(format!("ramp-{rh_from}-{rh_to}.csv"));
@@ -299,7 +345,7 @@ fn host_equivalence_on_ramp(name: &str, seconds: u32, rh_from: u32, rh_to: u32) 
     let samples: Vec<Sample> =
         rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
     let started = std::time::Instant::now();
-    let r = replay(name, &samples)?;
+    let r = qemu::run_replay(elf, &samples, &work)?;
     println!("{} samples through the firmware under QEMU in {:.0} s", samples.len(), started.elapsed().as_secs_f64());
     if r.blocks_with(flags::REPORT_DROPPED) > 0 {
         return Err(format!("{} blocks flagged REPORT_DROPPED", r.blocks_with(flags::REPORT_DROPPED)));
@@ -312,14 +358,18 @@ fn host_equivalence_on_ramp(name: &str, seconds: u32, rh_from: u32, rh_to: u32) 
     let fw_path = work.join("EST-qemu.csv");
     qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks)?;
     let host_path = work.join("EST-host.csv");
-    ipmc(&[
+    let mut args: Vec<&std::ffi::OsStr> = vec![
         "compensate".as_ref(),
         rec_path.as_os_str(),
         "--out".as_ref(),
         host_path.as_os_str(),
         "--schedule".as_ref(),
         fw_path.as_os_str(),
-    ])?;
+    ];
+    if let Some(c) = calib {
+        args.extend(["--calib".as_ref(), c.as_os_str()]);
+    }
+    ipmc(&args)?;
     let fw = crate::recording::estimates_m(&fw_path)?;
     let host = crate::recording::estimates_m(&host_path)?;
     if fw.len() != host.len() {
@@ -340,7 +390,7 @@ fn host_equivalence_on_ramp(name: &str, seconds: u32, rh_from: u32, rh_to: u32) 
     if !(rel <= EQUIVALENCE_TOL) {
         return Err(format!("relative rms difference {rel:.3e} > {EQUIVALENCE_TOL:e} ({} vs {})", fw_path.display(), host_path.display()));
     }
-    Ok(())
+    Ok(r.blocks)
 }
 
 /// The long QEMU run takes over 8 minutes of real time: not part of the default suite.
@@ -457,6 +507,10 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("qemu replay: fault injection", qemu_replay_faults),
         ("qemu replay: bundled recording", qemu_replay_bundled),
         ("qemu replay: host ↔ QEMU equivalence (RH ramp 40 → 50 %)", qemu_host_equivalence),
+        (
+            "qemu replay: host ↔ QEMU equivalence with a humidity path (correction and hydration lag)",
+            qemu_host_equivalence_with_humidity_path,
+        ),
         ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),
         ("qemu replay: humidity sensor with no new data", qemu_replay_no_new_humidity),
