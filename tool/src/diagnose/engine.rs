@@ -1266,3 +1266,55 @@ fn minimize_log(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> (f64, f64) {
     let v = f(u.exp());
     if v <= grid[best].1 { (u.exp(), v) } else { (grid[best].0.exp(), grid[best].1) }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn score(name: &str, delta_chi2: f64, delta_bic: f64, other_gates: bool) -> Score {
+        Score {
+            name: name.into(),
+            family: String::new(),
+            applicable: true,
+            params: vec![],
+            delta_chi2,
+            extra_params: 1,
+            delta_bic,
+            space: "data".into(),
+            heldout: 1.0,
+            heldout_per_level: vec![],
+            heldout_null: 1.0,
+            heldout_null_per_level: vec![],
+            heldout_z: 1.0,
+            passes: other_gates && delta_bic >= MIN_DELTA_BIC,
+            note: String::new(),
+            other_gates,
+        }
+    }
+
+    /// One rule: a candidate that passes the held-out gates and is within INDISTINGUISHABLE_BIC
+    /// of the verdict is reported beside it, even below the naming threshold; one beyond it, or
+    /// failing the held-out gates, is not.
+    #[test]
+    fn indistinguishable_is_one_rule() {
+        let best = score("a", 0.0, 11.0, true);
+        assert!(indistinguishable(&best, &score("b", 0.0, 11.0 - INDISTINGUISHABLE_BIC + 0.1, true)));
+        assert!(!indistinguishable(&best, &score("c", 0.0, 11.0 - INDISTINGUISHABLE_BIC - 0.1, true)));
+        assert!(!indistinguishable(&best, &score("d", 0.0, 10.5, false)));
+        for (a, b) in
+            [("current_timing", "amplifier_bandwidth"), ("viscoelastic_relaxation", "air_loading"), ("temperature", "hydration_lag")]
+        {
+            assert_eq!(separating_measurement(a, b), separating_measurement(b, a));
+        }
+        assert!(separating_measurement("current_timing", "amplifier_bandwidth").contains("1 kHz"));
+    }
+
+    /// ĉ is the best-fitting model's χ²/dof, never below 1.
+    #[test]
+    fn overdispersion_is_the_best_fit_per_dof() {
+        let scores = [score("a", 100.0, 0.0, true), score("b", 300.0, 0.0, true), score("c", 390.0, 0.0, false)];
+        let c = overdispersion(&scores, 500.0, 101.0);
+        assert!((c - 200.0 / 100.0).abs() < 1e-12, "{c}");
+        assert_eq!(overdispersion(&scores, 50.0, 101.0), 1.0);
+    }
+}
