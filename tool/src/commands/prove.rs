@@ -1,6 +1,10 @@
 //! `ipmc prove [--seed N] [--cases N] [--json]`: builds sessions with one concealed effect each
 //! (`crate::conceal`) plus clean controls, writes each as an interchange-format recording, runs
 //! the diagnosis blind on the file (cases in parallel), and prints the confusion table.
+//!
+//! `ipmc prove --external DIR [--calib DIR/nominal.toml]`: diagnoses recordings made elsewhere
+//! (DIR/caseNN.csv, one at a time, each timed) against DIR/truths.json and prints the same
+//! table with each case's indistinguishable set, evidence and wall time.
 
 use crate::commands::diagnose::read_dataset;
 use crate::conceal::{EFFECTS, Strength, make_case_with};
@@ -35,6 +39,10 @@ pub struct Args {
     /// End with one JSON line {"cases", "correct", "false_positives", "clean_cases", …}.
     #[arg(long)]
     json: bool,
+    /// Diagnose the recordings of this directory (caseNN.csv) against its truths.json instead
+    /// of making sessions; the calibration defaults to DIR/nominal.toml.
+    #[arg(long)]
+    external: Option<PathBuf>,
 }
 
 /// One case's outcome.
@@ -105,6 +113,9 @@ pub fn run_cases(
 }
 
 pub fn run(a: Args) -> Result<()> {
+    if let Some(dir) = &a.external {
+        return external(dir, a.calib.as_deref(), a.json);
+    }
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
     let dir = match &a.keep {
         Some(d) => d.clone(),
@@ -190,4 +201,135 @@ pub fn table(outcomes: &[Outcome]) -> String {
         let _ = writeln!(s);
     }
     s
+}
+
+/// The tool's candidate for an effect named in an external truths.json (its README's table).
+pub fn candidate_of_external(effect: &str, params: &serde_json::Value) -> String {
+    match effect {
+        "tia_bandwidth" => "amplifier_bandwidth".into(),
+        "sorption_lag" => "hydration_lag".into(),
+        "channel_skew" => match params.get("channel").and_then(|c| c.as_str()) {
+            Some("tip") => "tip_timing".into(),
+            _ => "current_timing".into(),
+        },
+        "mains" => "mains_interference".into(),
+        "rh_offset" => "humidity_sensor_error".into(),
+        "viscoelastic" => "viscoelastic_relaxation".into(),
+        other => other.into(),
+    }
+}
+
+/// One external case's outcome.
+pub struct ExternalOutcome {
+    pub case: String,
+    pub truth: String,
+    pub verdict: String,
+    pub delta_bic: f64,
+    /// (name, ΔBIC) of the candidates the data cannot separate from the verdict.
+    pub indistinguishable: Vec<(String, f64)>,
+    /// ΔBIC of the true candidate (None for clean cases or when it was not testable).
+    pub truth_delta_bic: Option<f64>,
+    pub seconds: f64,
+}
+
+impl ExternalOutcome {
+    pub fn correct(&self) -> bool {
+        self.verdict == self.truth
+    }
+    pub fn truth_in_set(&self) -> bool {
+        self.indistinguishable.iter().any(|(n, _)| *n == self.truth)
+    }
+}
+
+fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()> {
+    let default_calib = dir.join("nominal.toml");
+    let calib_arg = calib.map(str::to_string).unwrap_or_else(|| default_calib.display().to_string());
+    let calib = crate::calibration_source::load(Some(&calib_arg))?;
+    let truths_path = dir.join("truths.json");
+    let truths: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&truths_path).with_context(|| format!("cannot read {}", truths_path.display()))?)
+            .with_context(|| format!("{} is not JSON", truths_path.display()))?;
+    let truths = truths.as_object().ok_or_else(|| anyhow::anyhow!("{}: expected an object of cases", truths_path.display()))?;
+    let mut outcomes = Vec::new();
+    println!("{:<7} {:<24} {:<24} {:>9} {:>9} {:>6}  indistinguishable (ΔBIC)", "case", "truth", "verdict", "ΔBIC", "truth ΔBIC", "s");
+    for (case, t) in truths {
+        let path = dir.join(format!("{case}.csv"));
+        let effect = t.get("effect").and_then(|e| e.as_str()).unwrap_or("none");
+        let truth = candidate_of_external(effect, t.get("effect_params").unwrap_or(&serde_json::Value::Null));
+        let t0 = std::time::Instant::now();
+        let data = read_dataset(std::slice::from_ref(&path), &calib.humidity)?;
+        let d = engine::diagnose(&calib, &data, &|_| {}).with_context(|| format!("{case} ({truth})"))?;
+        let seconds = t0.elapsed().as_secs_f64();
+        let bic_of = |name: &str| d.candidates.iter().find(|c| c.name == name && c.applicable).map(|c| c.delta_bic);
+        let o = ExternalOutcome {
+            case: case.clone(),
+            verdict: d.verdict.clone(),
+            delta_bic: bic_of(&d.verdict).unwrap_or(f64::NAN),
+            indistinguishable: d.indistinguishable.iter().map(|a| (a.name.clone(), a.delta_bic)).collect(),
+            truth_delta_bic: bic_of(&truth),
+            truth,
+            seconds,
+        };
+        let mark = if o.correct() {
+            ""
+        } else if o.truth_in_set() {
+            "  (truth in set)"
+        } else {
+            "  ✗"
+        };
+        let set: Vec<String> = o.indistinguishable.iter().map(|(n, b)| format!("{n} ({b:.1})")).collect();
+        println!(
+            "{:<7} {:<24} {:<24} {:>9.1} {:>9} {:>6.2}  {}{mark}",
+            o.case,
+            o.truth,
+            o.verdict,
+            o.delta_bic,
+            o.truth_delta_bic.map_or("–".into(), |b| format!("{b:.1}")),
+            o.seconds,
+            set.join(", ")
+        );
+        outcomes.push(o);
+    }
+    let as_outcomes: Vec<Outcome> = outcomes
+        .iter()
+        .map(|o| Outcome {
+            truth: o.truth.clone(),
+            magnitude: String::new(),
+            verdict: o.verdict.clone(),
+            heldout_before: 0.0,
+            heldout_after: 0.0,
+        })
+        .collect();
+    let full = table(&as_outcomes);
+    if let Some(at) = full.find("\nconfusion") {
+        print!("{}", &full[at..]);
+    }
+    let correct = outcomes.iter().filter(|o| o.correct()).count();
+    let clean: Vec<&ExternalOutcome> = outcomes.iter().filter(|o| o.truth == "none").collect();
+    let false_alarms = clean.iter().filter(|o| o.verdict != "none").count();
+    let wrong: Vec<&ExternalOutcome> = outcomes.iter().filter(|o| !o.correct()).collect();
+    let in_set = wrong.iter().filter(|o| o.truth_in_set()).count();
+    let slowest = outcomes.iter().map(|o| o.seconds).fold(0.0, f64::max);
+    let total: f64 = outcomes.iter().map(|o| o.seconds).sum();
+    println!(
+        "\n{correct}/{} named correctly, {false_alarms} false alarm(s) on {} clean cases, true effect in the indistinguishable set in {in_set}/{} wrong verdicts; wall time {total:.1} s, slowest {slowest:.2} s",
+        outcomes.len(),
+        clean.len(),
+        wrong.len()
+    );
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "cases": outcomes.len(),
+                "correct": correct,
+                "false_alarms": false_alarms,
+                "clean_cases": clean.len(),
+                "wrong": wrong.len(),
+                "truth_in_indistinguishable": in_set,
+                "slowest_s": slowest,
+            })
+        );
+    }
+    Ok(())
 }

@@ -127,13 +127,17 @@ pub const LIBRARY: &[Candidate] = &[
         name: "electrode_resistance",
         family: "electrical: electrode resistance",
         doc: "The electrodes' surface resistance R_e with the polymer's capacitance \
-              C = κe·b·L/(2h) forms an RC line: the current collected at the clamp is low-passed \
-              with a time constant that follows the capacitance, so it grows with humidity. \
-              Fitted as the line's low-frequency equivalent, one pole at τ = R_e·C/3. Parameter: \
-              R_e [Ω]. Shows in the current only: a phase lag growing with frequency and with \
-              humidity, a gain roll-off at high frequency; the tip is untouched.",
+              C = κe·b·L/(2h) forms a distributed RC line (Chen & Tan, IEEE/ASME TMech 2008; \
+              Punning et al., Sens. Actuators A 133, 2007, measured platinum-electrode IPMC \
+              surface resistances of a few to tens of Ω per square, rising with bending): the \
+              current collected at the clamp is multiplied by tanh√(sτ)/√(sτ) with τ = R_e·C, \
+              a time constant that follows the capacitance, which grows with humidity. \
+              Parameter: R_e [Ω], the end-to-end resistance. Shows in the current only: a \
+              phase lag growing with frequency and with humidity, tending to −45° (a line, not \
+              a pole's −90°) once ωτ ≫ 1, a gain roll-off at high frequency; the tip is \
+              untouched.",
         params: &[spec("r_electrode_ohm", "Ω", Bound::Between(0.0, 50.0), 0.1, 0.0)],
-        kind: Kind::Model(|v, p| Extension { electrode_tau_lumped: v[0] * ipmc_core::model::capacitance(p) / 3.0, ..Default::default() }),
+        kind: Kind::Model(|v, p| Extension { electrode_tau_distributed: v[0] * ipmc_core::model::capacitance(p), ..Default::default() }),
     },
     Candidate {
         name: "amplifier_bandwidth",
@@ -214,12 +218,27 @@ pub const LIBRARY: &[Candidate] = &[
     Candidate {
         name: "temperature",
         family: "environmental: temperature",
-        doc: "The polymer softens and its damping changes with temperature, which the paper held \
-              at 20 °C: ln Y and ln Cs gain terms linear in T − T̄ (and T enters the ionic K). \
-              Parameters: the relative slopes of Y and Cs per kelvin. Testable only when the \
-              recordings' temperature varies; shows as levels whose modulus departs from its \
-              humidity law in step with their temperature.",
-        params: &[spec("dlnY_per_K", "1/K", Bound::Free, 0.0, 0.0), spec("dlnCs_per_K", "1/K", Bound::Free, 0.0, 0.0)],
+        doc: "The paper held the strip at 20 °C; a room that drifts during the session changes \
+              the polymer at every point at once. Ion transport is thermally activated: \
+              d ∝ exp(−E_a/RT), with E_a of hydrated Nafion about 10–20 kJ/mol (water \
+              self-diffusion ≈ 18–20 kJ/mol, Zawodzinski et al., J. Phys. Chem. 95, 1991; \
+              proton conductivity ≈ 8–15 kJ/mol when well hydrated, Sone et al., \
+              J. Electrochem. Soc. 143, 1996), i.e. ≈ 2 %/K of d; the modulus softens, \
+              ln Y falling by α per kelvin, α of a few 0.1 %/K for hydrated Nafion near room \
+              temperature (Kundu et al., Polymer 46, 2005; Majsztrik et al., Macromolecules \
+              41, 2008); and K's absolute temperature T enters every level's model (through \
+              the temperature read, always). Parameters: E_a [kJ/mol] and α [1/K], fitted on \
+              the levels' Y and d at the mean temperature of each level (the `temp_c` column, \
+              per point or per level: a slow drift within a session is enough), the calibration \
+              at the humidity read plus a drift per parameter. Testable only when the levels' \
+              temperatures span ≥ 1 K; shows as levels whose d (current gain ∝ √d) and \
+              resonance depart from their humidity laws in step with their temperature, the \
+              same humidity visited warm and cold disagreeing in the direction of T (where a \
+              hydration lag follows the sweep direction).",
+        params: &[
+            spec("ea_kj_per_mol", "kJ/mol", Bound::Between(0.0, 80.0), 15.0, 0.0),
+            spec("alpha_y_per_k", "1/K", Bound::Between(-0.05, 0.05), 0.003, 0.0),
+        ],
         kind: Kind::Humidity(HumidityMap::Temperature),
     },
 ];

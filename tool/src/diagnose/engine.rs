@@ -47,6 +47,11 @@ use ipmc_fit::lsq::{self, Bound, Param, Tolerance};
 
 /// Very strong evidence on Kass & Raftery's scale (ΔBIC > 10 ⇔ Bayes factor > 150).
 pub const MIN_DELTA_BIC: f64 = 10.0;
+/// Two candidates are told apart only when one beats the other by the evidence a candidate
+/// needs to be named at all ([`MIN_DELTA_BIC`], "very strong" on Kass & Raftery's scale):
+/// every passing candidate whose ΔBIC is within this of the best is reported as
+/// indistinguishable from it. A confident wrong name is worse than an honest pair.
+pub const INDISTINGUISHABLE_BIC: f64 = MIN_DELTA_BIC;
 /// Paired improvement of the held-out χ² over levels, in standard errors.
 pub const MIN_HELDOUT_Z: f64 = 0.5;
 /// How much worse than their neighbours in frequency the values at the mains lines must fit
@@ -91,6 +96,26 @@ pub struct Score {
     pub heldout_z: f64,
     pub passes: bool,
     pub note: String,
+    /// Every gate but the information criterion passed (held-out, floors): `passes` is this and
+    /// ΔBIC ≥ [`MIN_DELTA_BIC`] once ΔBIC is corrected for overdispersion.
+    #[serde(skip)]
+    other_gates: bool,
+}
+
+/// A candidate the data cannot separate from the verdict, with the evidence.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Alternative {
+    pub name: String,
+    pub delta_bic: f64,
+    /// The verdict's ΔBIC minus this one's (< [`INDISTINGUISHABLE_BIC`]).
+    pub delta_bic_gap: f64,
+    pub heldout: f64,
+    pub heldout_z: f64,
+    /// Paired z over levels of the verdict's held-out χ² against this one's (positive: the
+    /// verdict predicts held-out levels better), where both share a null.
+    pub heldout_z_vs_verdict: Option<f64>,
+    /// What measurement would separate the two.
+    pub separate_by: String,
 }
 
 /// Per-level view for the report and its figures.
@@ -142,6 +167,10 @@ pub struct LevelModels {
 
 pub struct Diagnosis {
     pub verdict: String,
+    /// Passing candidates within [`INDISTINGUISHABLE_BIC`] of the verdict.
+    pub indistinguishable: Vec<Alternative>,
+    /// Overdispersion ĉ of the data's χ² (see [`overdispersion`]) that data-space ΔBIC are divided by.
+    pub overdispersion: f64,
     pub family: String,
     pub explanation: String,
     pub params: Vec<Estimate>,
@@ -176,7 +205,6 @@ fn per_level_scores(models: &[HeldOutModel]) -> Vec<f64> {
 
 const REFIT_NULL_IS: &str = "the base model refitted at the level";
 const ANCHORED_NULL_IS: &str = "the calibration at the humidity as read plus the mean drift from it of the other levels";
-const LAW_NULL_IS: &str = "the level's base parameters predicted by humidity laws fitted on the other levels, at the humidity as read";
 
 /// Per-level outcome of a candidate, what held-out scoring needs.
 struct Fitted {
@@ -414,19 +442,42 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         heldout_of.push(heldout);
     }
 
+    // Overdispersion: ΔBIC on the data as quasi-likelihood differences.
+    let c_hat = overdispersion(&scores, chi2_0, n_data - 4.0 * n_levels as f64);
+    for sc in scores.iter_mut().filter(|sc| sc.applicable && sc.space == "data") {
+        sc.delta_bic = sc.delta_chi2 / c_hat - sc.extra_params as f64 * n_data.ln();
+        sc.passes = sc.other_gates && sc.delta_bic >= MIN_DELTA_BIC;
+    }
     // Decide.
-    let dof0 = n_data - 4.0 * n_levels as f64;
-    let _ = dof0;
     let structure_before = fits::structure_z(calib, levels, &ctx.sig, &ctx.all, &ctx.base.theta, &vec![none; n_levels]);
     let structured = structure_before > STRUCTURED_Z;
     let mut order: Vec<usize> = (0..scores.len()).collect();
     order.sort_by(|&a, &b| {
         let (sa, sb) = (&scores[a], &scores[b]);
-        let tie = (sa.delta_bic - sb.delta_bic).abs() < 2.0;
-        sb.passes.cmp(&sa.passes).then(if tie { sb.heldout_z.total_cmp(&sa.heldout_z) } else { sb.delta_bic.total_cmp(&sa.delta_bic) })
+        sb.passes.cmp(&sa.passes).then(sb.delta_bic.total_cmp(&sa.delta_bic))
     });
-    let runner_up = order.get(1).copied().filter(|&i| scores[i].passes && winner_tie(&scores[order[0]], &scores[i]));
     let winner = order.first().copied().filter(|&i| scores[i].passes);
+    let tied: Vec<usize> =
+        winner.map_or_else(Vec::new, |w| order[1..].iter().copied().filter(|&i| indistinguishable(&scores[w], &scores[i])).collect());
+    let alternatives: Vec<Alternative> = match winner {
+        Some(w) => tied
+            .iter()
+            .map(|&i| {
+                let (a, b) = (&scores[w], &scores[i]);
+                let shared_null = a.space == b.space && a.heldout_null_per_level == b.heldout_null_per_level;
+                Alternative {
+                    name: b.name.clone(),
+                    delta_bic: b.delta_bic,
+                    delta_bic_gap: a.delta_bic - b.delta_bic,
+                    heldout: b.heldout,
+                    heldout_z: b.heldout_z,
+                    heldout_z_vs_verdict: shared_null.then(|| paired_z(&b.heldout_per_level, &a.heldout_per_level, &counts)),
+                    separate_by: separating_measurement(&a.name, &b.name),
+                }
+            })
+            .collect(),
+        None => vec![],
+    };
     let refit_before = weighted_mean(&per_level_scores(&ctx.refit_null()), &counts);
     let (verdict, family, explanation, params, before_after) = match winner {
         Some(i) => {
@@ -461,10 +512,14 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
                     s.heldout_null,
                     s.heldout,
                     s.heldout_z,
-                    runner_up.map_or(String::new(), |r| format!(
-                        "; {} fits as well (ΔBIC {:.1}): the data cannot tell them apart",
-                        scores[r].name, scores[r].delta_bic
-                    )),
+                    if alternatives.is_empty() {
+                        String::new()
+                    } else {
+                        format!(
+                            "; the data cannot tell it from {} (ΔBIC within {INDISTINGUISHABLE_BIC})",
+                            alternatives.iter().map(|a| format!("{} (ΔBIC {:.1})", a.name, a.delta_bic)).collect::<Vec<_>>().join(", ")
+                        )
+                    },
                     remainder
                 ),
                 s.params.clone(),
@@ -518,6 +573,8 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     ranked.sort_by(|a, b| b.passes.cmp(&a.passes).then(b.applicable.cmp(&a.applicable)).then(b.delta_bic.total_cmp(&a.delta_bic)));
     let humidity_path = matches!(verdict.as_str(), "hydration_lag" | "humidity_sensor_error").then(|| fit_humidity_path(&ctx));
     Ok(Diagnosis {
+        indistinguishable: if winner.is_some() { alternatives } else { vec![] },
+        overdispersion: c_hat,
         verdict,
         family,
         explanation,
@@ -535,8 +592,64 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     })
 }
 
-fn winner_tie(a: &Score, b: &Score) -> bool {
-    (a.delta_bic - b.delta_bic).abs() < 2.0
+/// The one ambiguity rule: `b` passes every gate but the information criterion's (it lowers the
+/// held-out error; a floor does not stop it) and its ΔBIC is within [`INDISTINGUISHABLE_BIC`]
+/// of the verdict `a`'s: the evidence between them is less than what naming needs, so `b` is
+/// reported beside `a` even when `b` alone would not be named (a verdict barely past the
+/// threshold is not separated from a runner-up just under it). ΔBIC of candidates acting on
+/// the data and of those acting through the humidity are on different data (the values, the
+/// levels' parameters): they are compared all the same, each being the evidence against the
+/// same null.
+fn indistinguishable(a: &Score, b: &Score) -> bool {
+    b.applicable && b.other_gates && a.delta_bic - b.delta_bic < INDISTINGUISHABLE_BIC
+}
+
+/// Overdispersion ĉ ≥ 1 of the data's χ²: the best-fitting model's χ² per degree of freedom
+/// (no extension, or a candidate acting on the data). Residuals scattered more than the noise
+/// estimated from neighbouring points (level-to-level calibration errors, a law slightly off)
+/// inflate every Δχ² by that factor, and a BIC that ignores it names a candidate for fitting
+/// the excess. Dividing Δχ² by ĉ is quasi-likelihood (Burnham & Anderson, Model Selection and
+/// Multimodel Inference, 2002, §2.5: QAIC; the same for BIC); ĉ is the most general model's, and
+/// a single extension is the most general fitted here.
+pub fn overdispersion(scores: &[Score], chi2_0: f64, dof_0: f64) -> f64 {
+    let mut best = chi2_0 / dof_0.max(1.0);
+    for s in scores.iter().filter(|s| s.applicable && s.space == "data" && s.other_gates) {
+        let dof = (dof_0 - s.extra_params as f64).max(1.0);
+        best = best.min((chi2_0 - s.delta_chi2) / dof);
+    }
+    best.max(1.0)
+}
+
+/// The measurement that would separate two candidates the data cannot tell apart.
+pub fn separating_measurement(a: &str, b: &str) -> String {
+    let pair = |x: &str, y: &str| (a == x && b == y) || (a == y && b == x);
+    let has = |x: &str| a == x || b == x;
+    let s = if pair("current_timing", "amplifier_bandwidth") {
+        "sweep to ≥ 1 kHz (a pole rolls the current's gain off and its phase bends away from a line in f, a delay's does not), or measure the amplifier's response with a test current"
+    } else if pair("electrode_resistance", "amplifier_bandwidth") || pair("electrode_resistance", "current_timing") {
+        "record levels far apart in humidity (the electrodes' RC follows the strip's capacitance, which grows with humidity; an amplifier or a delay does not), measure the electrodes' surface resistance (four-point probe), or the amplifier with a test current"
+    } else if pair("viscoelastic_relaxation", "air_loading") {
+        "record in vacuum or at reduced pressure (air loading goes, the polymer's law stays), or sweep to 400 Hz to see the second mode"
+    } else if has("tip_mass")
+        && (has("air_loading") || has("viscoelastic_relaxation") || has("clamp_compliance") || has("hysteretic_damping"))
+    {
+        "sweep through the second mode (≈ 6.3 f₁, ≥ 250 Hz: a tip mass lowers it far more than the first), or weigh what is at the tip"
+    } else if has("clamp_compliance") {
+        "sweep through the second mode, or measure the root's rotation (a clamp's compliance shows as root slope)"
+    } else if has("temperature") {
+        "record the temperature per point, or hold it constant (±0.5 K) over the session"
+    } else if pair("hydration_lag", "humidity_sensor_error") {
+        "revisit levels in both sweep directions with longer settling (a lag's error changes sign with direction, an offset does not), or check the sensor at a reference humidity (a saturated salt)"
+    } else if has("tip_timing") {
+        "measure the tip sensor's delay against a reference (a step or an accelerometer at the tip)"
+    } else if has("mains_interference") {
+        "record with the shaker off (mains lines stay), or shift the excitation lines off 50/60 Hz and their harmonics"
+    } else if has("capacitive_feedthrough") {
+        "record with the strip disconnected (feedthrough stays) or shield the current input"
+    } else {
+        "more humidity levels, a wider band, or a second session in the other sweep direction"
+    };
+    s.to_string()
 }
 
 fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
@@ -556,6 +669,7 @@ fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
         heldout_z: 0.0,
         passes: false,
         note: note.into(),
+        other_gates: false,
     }
 }
 
@@ -730,24 +844,38 @@ fn score_candidate(
                     if ctx.data.temperature_span() < 1.0 {
                         return Ok((not_applicable(cand, "temperature not recorded or constant within 1 K", heldout_before), None, None));
                     }
-                    let temps: Vec<f64> = levels.iter().map(|l| l.temp_c.unwrap_or(0.0)).collect();
-                    let mean = temps.iter().sum::<f64>() / n as f64;
-                    let reg = Regressors { x: ctx.read.x.clone(), temperature: Some(temps.iter().map(|t| t - mean).collect()) };
-                    let (pred, k) = laws::fitted(&reg, &base.theta, &base.se);
-                    let chi2 = laws::nll(&pred, &base.theta, &base.se);
-                    // Slopes of ln Y and ln Cs per K: the temperature column's coefficients.
-                    let w = LawWeights::estimate(&reg, &base.theta, &base.se);
-                    let slope = |j: usize| laws::coefficients(&reg, &base.theta, &base.se, &w, j).last().copied().unwrap_or(f64::NAN);
-                    let values = [slope(0), slope(1)];
-                    let f = Fitted { regressors: reg, ..ctx.plain() };
+                    let everyone: Vec<usize> = (0..n).collect();
+                    let (phi, se_phi) = fit_thermal(ctx, &everyone);
+                    let pred = thermal(ctx, &phi, &everyone);
+                    let nll_null = anchored_nll(ctx, &read_rh(ctx), &everyone);
+                    let pick = |v: &[Theta]| everyone.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
+                    let nll_alt = laws::nll(&pick(&pred), &pick(&base.theta), &pick(&base.se));
+                    // As for the humidity remaps: when free humidity laws beat the calibration
+                    // with temperature (by BIC), the levels do not follow the calibration's
+                    // laws at any temperature, and their drift is not the temperature's.
+                    let bic_alt = nll_alt + 6.0 * n_theta.ln();
+                    let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
+                    let delta = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
+                    let f = Fitted { theta: pred, ..ctx.plain() };
+                    let (null, candidate): (Vec<HeldOutModel>, Vec<HeldOutModel>) = (0..n)
+                        .map(|held| {
+                            let train: Vec<usize> = (0..n).filter(|&k| k != held).collect();
+                            let score = |th: &Theta| ctx.scored(held, fits::level_params(ctx.calib, &levels[held], th), f.ext[held]);
+                            let (phi_train, _) = fit_thermal(ctx, &train);
+                            (score(&anchored(ctx, &read_rh(ctx), &train)[held]), score(&thermal(ctx, &phi_train, &train)[held]))
+                        })
+                        .unzip();
                     let held = HeldOut {
-                        null: before.to_vec(),
-                        null_is: LAW_NULL_IS.into(),
-                        candidate: ctx.law_heldout(&f),
-                        candidate_is:
-                            "the level's base parameters predicted by laws in humidity and temperature fitted on the other levels".into(),
+                        null,
+                        null_is: ANCHORED_NULL_IS.into(),
+                        candidate,
+                        candidate_is: "the calibration at the humidity as read with the level's temperature acting on d (Arrhenius) and Y, the activation energy and modulus slope fitted on the other levels, plus their mean drift from it".into(),
                     };
-                    (f, law0.0 - chi2, k - law0.1, "level parameters", estimates(&values, &[f64::NAN, f64::NAN]), String::new(), held)
+                    let note = format!(
+                        "calibration + drift as read: −2lnL {nll_null:.1}; with temperature {nll_alt:.1}; free laws {:.1} ({} parameters)",
+                        law0.0, law0.1
+                    );
+                    (f, delta, 2, "level parameters", estimates(&phi, &se_phi), note, held)
                 }
                 HumidityMap::SensorError => {
                     let everyone: Vec<usize> = (0..n).collect();
@@ -778,7 +906,8 @@ fn score_candidate(
     let heldout = weighted_mean(&per_level, counts);
     let heldout_null = weighted_mean(&null_per_level, counts);
     let z = paired_z(&null_per_level, &per_level, counts);
-    let passes = delta_bic >= MIN_DELTA_BIC && z >= MIN_HELDOUT_Z && heldout < heldout_null && floor.is_none();
+    let other_gates = z >= MIN_HELDOUT_Z && heldout < heldout_null && floor.is_none();
+    let passes = delta_bic >= MIN_DELTA_BIC && other_gates;
     if let Some(why) = floor {
         note = if note.is_empty() { why } else { format!("{note}; {why}") };
     }
@@ -799,10 +928,68 @@ fn score_candidate(
             heldout_z: z,
             passes,
             note,
+            other_gates,
         },
         Some(fitted),
         Some(held),
     ))
+}
+
+/// The levels' θ under temperature: the calibration at the humidity read, with the level's
+/// absolute temperature T (its mean `temp_c`) acting on the ionic transport by Arrhenius,
+/// ln d += −(E_a/R)(1/T − 1/T_c), and on the modulus, ln Y += −α(T − T_c) (T_c the
+/// calibration's temperature; K's own 1/T is in every level's parameters already, see
+/// [`fits::level_params`]), plus the mean drift over `train`. `phi` = [E_a in kJ/mol, α in 1/K].
+fn thermal(ctx: &Ctx, phi: &[f64], train: &[usize]) -> Vec<Theta> {
+    with_drift(ctx, thermal_raw(ctx, phi), train)
+}
+
+/// E_a [kJ/mol] and α [1/K] of [`thermal`] fitted to the levels `train` (with a free drift per
+/// parameter), and their standard errors.
+fn fit_thermal(ctx: &Ctx, train: &[usize]) -> (Vec<f64>, Vec<f64>) {
+    let base = &ctx.base;
+    let params = vec![
+        Param::new("ea_kj_per_mol", Bound::Between(0.0, 80.0)),
+        Param::new("alpha_y_per_k", Bound::Between(-0.05, 0.05)),
+        Param::new("dY", Bound::Free),
+        Param::new("dCs", Bound::Free),
+        Param::new("dCa", Bound::Free),
+        Param::new("dd", Bound::Free),
+    ];
+    let resid = |v: &[f64], out: &mut [f64]| {
+        let raw = thermal_raw(ctx, v);
+        let mut k = 0;
+        for &l in train {
+            for j in 0..4 {
+                let w = ctx.weights.weight(&base.se[l], j);
+                out[k] = if w > 0.0 { (base.theta[l][j] - raw[l][j] - v[2 + j]) * w.sqrt() } else { 0.0 };
+                k += 1;
+            }
+        }
+    };
+    let starts = vec![vec![15.0, 0.003, 0.0, 0.0, 0.0, 0.0]];
+    match lsq::fit(&params, &starts, 4 * train.len(), resid) {
+        Ok(f) => (f.estimates[..2].to_vec(), f.std_errors[..2].to_vec()),
+        Err(_) => (vec![0.0, 0.0], vec![f64::NAN, f64::NAN]),
+    }
+}
+
+/// [`thermal`] without the drift.
+fn thermal_raw(ctx: &Ctx, phi: &[f64]) -> Vec<Theta> {
+    let t_c = ctx.calib.t_k;
+    ctx.data
+        .levels
+        .iter()
+        .map(|l| {
+            let mut c = fits::calibration_theta(ctx.calib, l.rh_pct);
+            if let Some(t) = l.temp_c {
+                let t = t + 273.15;
+                c[0] -= phi[1] * (t - t_c);
+                c[3] -= phi[0] * 1e3 / ctx.calib.r_gas * (1.0 / t - 1.0 / t_c);
+            }
+            c
+        })
+        .collect()
 }
 
 /// Fits RH_true = mapped(RH_read; o, g) and a constant drift δ_j of each ln θ_j to the levels
@@ -962,7 +1149,11 @@ fn read_rh(ctx: &Ctx) -> Vec<f64> {
 /// weighted mean over the levels `train` of θ − calibration: the per-level θ a humidity remap
 /// predicts (the null when `rh` is the humidity read).
 fn anchored(ctx: &Ctx, rh: &[f64], train: &[usize]) -> Vec<Theta> {
-    let cal: Vec<Theta> = rh.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
+    with_drift(ctx, rh.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect(), train)
+}
+
+/// `cal` plus the weighted mean over the levels `train` of θ − `cal` per parameter.
+fn with_drift(ctx: &Ctx, cal: Vec<Theta>, train: &[usize]) -> Vec<Theta> {
     let mut delta = [0.0; 4];
     for (j, d) in delta.iter_mut().enumerate() {
         let (mut sw, mut s) = (0.0, 0.0);
@@ -1074,4 +1265,56 @@ fn minimize_log(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> (f64, f64) {
     let u = (x0 + x1) / 2.0;
     let v = f(u.exp());
     if v <= grid[best].1 { (u.exp(), v) } else { (grid[best].0.exp(), grid[best].1) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn score(name: &str, delta_chi2: f64, delta_bic: f64, other_gates: bool) -> Score {
+        Score {
+            name: name.into(),
+            family: String::new(),
+            applicable: true,
+            params: vec![],
+            delta_chi2,
+            extra_params: 1,
+            delta_bic,
+            space: "data".into(),
+            heldout: 1.0,
+            heldout_per_level: vec![],
+            heldout_null: 1.0,
+            heldout_null_per_level: vec![],
+            heldout_z: 1.0,
+            passes: other_gates && delta_bic >= MIN_DELTA_BIC,
+            note: String::new(),
+            other_gates,
+        }
+    }
+
+    /// One rule: a candidate that passes the held-out gates and is within INDISTINGUISHABLE_BIC
+    /// of the verdict is reported beside it, even below the naming threshold; one beyond it, or
+    /// failing the held-out gates, is not.
+    #[test]
+    fn indistinguishable_is_one_rule() {
+        let best = score("a", 0.0, 11.0, true);
+        assert!(indistinguishable(&best, &score("b", 0.0, 11.0 - INDISTINGUISHABLE_BIC + 0.1, true)));
+        assert!(!indistinguishable(&best, &score("c", 0.0, 11.0 - INDISTINGUISHABLE_BIC - 0.1, true)));
+        assert!(!indistinguishable(&best, &score("d", 0.0, 10.5, false)));
+        for (a, b) in
+            [("current_timing", "amplifier_bandwidth"), ("viscoelastic_relaxation", "air_loading"), ("temperature", "hydration_lag")]
+        {
+            assert_eq!(separating_measurement(a, b), separating_measurement(b, a));
+        }
+        assert!(separating_measurement("current_timing", "amplifier_bandwidth").contains("1 kHz"));
+    }
+
+    /// ĉ is the best-fitting model's χ²/dof, never below 1.
+    #[test]
+    fn overdispersion_is_the_best_fit_per_dof() {
+        let scores = [score("a", 100.0, 0.0, true), score("b", 300.0, 0.0, true), score("c", 390.0, 0.0, false)];
+        let c = overdispersion(&scores, 500.0, 101.0);
+        assert!((c - 200.0 / 100.0).abs() < 1e-12, "{c}");
+        assert_eq!(overdispersion(&scores, 50.0, 101.0), 1.0);
+    }
 }

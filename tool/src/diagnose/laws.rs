@@ -120,17 +120,6 @@ pub fn predict(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights, 
     out
 }
 
-/// The law's coefficients for component j fitted on all levels ([1, u, u², (T − T̄)], u the
-/// humidity scaled as (x − 60)/20).
-pub fn coefficients(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights, j: usize) -> Vec<f64> {
-    let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan()).collect();
-    let deg = degree_for(rows.len(), j);
-    let x: Vec<Vec<f64>> = rows.iter().map(|&l| row(reg, l, j, deg)).collect();
-    let y: Vec<f64> = rows.iter().map(|&l| theta[l][j]).collect();
-    let wt: Vec<f64> = rows.iter().map(|&l| w.weight(&se[l], j)).collect();
-    wls(&x, &y, &wt).unwrap_or_default()
-}
-
 /// Weighted χ² of the laws fitted on all levels, and their parameter count.
 pub fn chi2(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights) -> (f64, usize) {
     let mut total = 0.0;

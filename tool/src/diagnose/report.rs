@@ -9,6 +9,9 @@ use std::fmt::Write as _;
 pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]) -> serde_json::Value {
     json!({
         "verdict": d.verdict,
+        "indistinguishable": d.indistinguishable,
+        "indistinguishable_rule": format!("passing candidates whose ΔBIC is within {} of the verdict's", super::engine::INDISTINGUISHABLE_BIC),
+        "overdispersion": d.overdispersion,
         "family": d.family,
         "explanation": d.explanation,
         "params": d.params,
@@ -42,6 +45,24 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
         v => format!("**{v}** ({}): {}.", d.family, d.explanation),
     };
     let _ = writeln!(s, "## Verdict\n\n{verdict}\n");
+    if !d.indistinguishable.is_empty() {
+        let _ = writeln!(
+            s,
+            "**The data cannot separate {} from:** (passing candidates whose ΔBIC is within {} of its, less than very strong evidence on Kass & Raftery's scale)\n",
+            d.verdict,
+            super::engine::INDISTINGUISHABLE_BIC
+        );
+        let _ = writeln!(
+            s,
+            "| candidate | ΔBIC | behind by | held-out | held-out z vs verdict | measurement that would separate them |\n|---|---|---|---|---|---|"
+        );
+        for a in &d.indistinguishable {
+            let z = a.heldout_z_vs_verdict.map_or("–".to_string(), |z| format!("{z:.1}"));
+            let _ =
+                writeln!(s, "| {} | {:.1} | {:.1} | {:.3} | {z} | {} |", a.name, a.delta_bic, a.delta_bic_gap, a.heldout, a.separate_by);
+        }
+        let _ = writeln!(s);
+    }
     if let Some(c) = by_name(&d.verdict) {
         let _ = writeln!(s, "{}\n", c.doc);
         let _ = writeln!(s, "| parameter | value | standard error | unit |\n|---|---|---|---|");
@@ -90,9 +111,10 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
     let _ = writeln!(s, "## Candidates\n");
     let _ = writeln!(
         s,
-        "Passing needs ΔBIC ≥ {} against no extension and a held-out improvement with paired z ≥ {}.\n",
+        "Passing needs ΔBIC ≥ {} against no extension and a held-out improvement with paired z ≥ {}. ΔBIC on the data are quasi-likelihood: Δχ² divided by the overdispersion ĉ = {:.2} (the best-fitting model's χ² per degree of freedom, at least 1).\n",
         super::engine::MIN_DELTA_BIC,
-        super::engine::MIN_HELDOUT_Z
+        super::engine::MIN_HELDOUT_Z,
+        d.overdispersion
     );
     let _ = writeln!(s, "| candidate | family | ΔBIC | held-out | z | parameters | note |\n|---|---|---|---|---|---|---|");
     for c in &d.candidates {
