@@ -224,9 +224,10 @@ pub const LIBRARY: &[Candidate] = &[
               self-diffusion ≈ 18–20 kJ/mol, Zawodzinski et al., J. Phys. Chem. 95, 1991; \
               proton conductivity ≈ 8–15 kJ/mol when well hydrated, Sone et al., \
               J. Electrochem. Soc. 143, 1996), i.e. ≈ 2 %/K of d; the modulus softens, \
-              ln Y falling by α per kelvin, α of a few 0.1 %/K for hydrated Nafion near room \
-              temperature (Kundu et al., Polymer 46, 2005; Majsztrik et al., Macromolecules \
-              41, 2008); and K's absolute temperature T enters every level's model (through \
+              ln Y falling by α per kelvin: hydrated Nafion's tensile modulus roughly halves \
+              between room temperature and 60–70 °C, about 1–2 %/K (Kundu et al., Polymer 46, \
+              2005; Majsztrik et al., Macromolecules 41, 2008; an IPMC's metal electrodes \
+              stiffen the composite and may lower it); and K's absolute temperature T enters every level's model (through \
               the temperature read, always). Parameters: E_a [kJ/mol] and α [1/K], fitted on \
               the levels' Y and d at the mean temperature of each level (the `temp_c` column, \
               per point or per level: a slow drift within a session is enough), the calibration \
