@@ -17,6 +17,9 @@ compile_error!("select exactly one board feature: `board-b-l475e` (default) or `
 #[cfg(not(any(feature = "board-b-l475e", feature = "qemu")))]
 compile_error!("select a board feature: `board-b-l475e` (default) or `qemu`");
 
+#[cfg(all(feature = "humidity-hih4030", feature = "humidity-sht4x"))]
+compile_error!("select at most one humidity sensor feature: `humidity-hih4030` or `humidity-sht4x` (none: the on-board HTS221)");
+
 mod app;
 mod board;
 

@@ -2,7 +2,11 @@
 //! firmware's drivers stay thin and the conversions are tested on the host.
 //!
 //! - HTS221 (on the B-L475E-IOT01A): the part's two-point factory calibration.
+//! - Sensirion SHT4x (precise digital alternative): fixed linear conversions of 16-bit words,
+//!   each word checked by its CRC-8.
 //! - Honeywell HIH-4030 (analog alternative): ratiometric output, temperature-compensated.
+
+use crc::{CRC_8_NRSC_5, Crc};
 
 /// The humidity half of the HTS221's factory calibration (registers 0x30..=0x3F,
 /// datasheet DocID026384 table 16): RH is linear in the raw output between the points
@@ -65,6 +69,34 @@ pub fn hih4030_rh_pct(vout_over_vsupply: f32, temp_c: f32) -> Result<f32, Implau
     let hi = 100.0 + HIH4030_TOLERANCE_PCT;
     // Also false for NaN, and the divisor is ~1 over the sensor's −40..85 °C range.
     if (lo..=hi).contains(&rh) { Ok(rh.clamp(0.0, 100.0)) } else { Err(Implausible { rh_pct: rh }) }
+}
+
+/// The SHT4x's checksum of each 16-bit word (Sensirion SHT4x datasheet, section 4.4): CRC-8,
+/// polynomial 0x31, initial value 0xFF, no reflection, no final XOR — the catalogue's
+/// CRC-8/NRSC-5.
+const SHT4X_CRC: Crc<u8> = Crc::<u8>::new(&CRC_8_NRSC_5);
+
+/// CRC-8 of `bytes` as the SHT4x computes it (datasheet example: 0xBE 0xEF → 0x92).
+pub fn sht4x_crc8(bytes: &[u8]) -> u8 {
+    SHT4X_CRC.checksum(bytes)
+}
+
+/// The 16-bit word of a 3-byte group the SHT4x sends (MSB, LSB, CRC); `None` if the CRC does
+/// not match: a corrupted word is never a value.
+pub fn sht4x_word(group: [u8; 3]) -> Option<u16> {
+    let [msb, lsb, crc] = group;
+    (sht4x_crc8(&[msb, lsb]) == crc).then_some(u16::from_be_bytes([msb, lsb]))
+}
+
+/// RH [%] from the SHT4x's raw humidity word: −6 + 125·S/65535 (datasheet section 4.6), cropped
+/// to 0..100 % as the datasheet prescribes (the raw line reaches −6 % and 119 %).
+pub fn sht4x_rh_pct(raw: u16) -> f32 {
+    (-6.0 + 125.0 * raw as f32 / 65535.0).clamp(0.0, 100.0)
+}
+
+/// Temperature [°C] from the SHT4x's raw temperature word: −45 + 175·S/65535.
+pub fn sht4x_temp_c(raw: u16) -> f32 {
+    -45.0 + 175.0 * raw as f32 / 65535.0
 }
 
 #[cfg(test)]
@@ -133,5 +165,35 @@ mod tests {
         assert!(hih4030_rh_pct(f32::NAN, 25.0).is_err());
         assert_eq!(hih4030_rh_pct(0.16 - 0.0062 * 3.0, 25.0), Ok(0.0)); // −3 %: noise near dry, limited
         assert_eq!(hih4030_rh_pct(0.16 + 0.0062 * 103.0, 25.0), Ok(100.0));
+    }
+
+    #[test]
+    fn sht4x_crc_datasheet_example() {
+        // Datasheet section 4.4: CRC(0xBEEF) = 0x92.
+        assert_eq!(sht4x_crc8(&[0xBE, 0xEF]), 0x92);
+        assert_eq!(sht4x_word([0xBE, 0xEF, 0x92]), Some(0xBEEF));
+        assert_eq!(sht4x_word([0xBE, 0xEF, 0x93]), None, "wrong checksum");
+        assert_eq!(sht4x_word([0xBE, 0xEE, 0x92]), None, "a flipped data bit");
+        // Catalogue check value of CRC-8/NRSC-5 over "123456789".
+        assert_eq!(sht4x_crc8(b"123456789"), 0xF7);
+    }
+
+    #[test]
+    fn sht4x_conversions() {
+        // The ends of the raw line, then cropped to 0..100 %.
+        assert_eq!(sht4x_rh_pct(0), 0.0);
+        assert_eq!(sht4x_rh_pct(u16::MAX), 100.0);
+        assert_eq!(sht4x_temp_c(0), -45.0);
+        assert_eq!(sht4x_temp_c(u16::MAX), 130.0);
+        // 0x8000 = 32768: RH −6 + 125·32768/65535 = 56.500954 %, T −45 + 175·32768/65535 = 42.501335 °C.
+        assert!(close(sht4x_rh_pct(0x8000), 56.500954, 1e-4));
+        assert!(close(sht4x_temp_c(0x8000), 42.501335, 1e-4));
+        // 0 % and 100 % are at raw 3145.68 and 55573.68: the line is cropped just beyond them.
+        assert_eq!(sht4x_rh_pct(3145), 0.0);
+        assert!(sht4x_rh_pct(3146) > 0.0);
+        assert!(sht4x_rh_pct(55573) < 100.0);
+        assert_eq!(sht4x_rh_pct(55574), 100.0);
+        // 25 °C is raw 26214 exactly (175·26214 = 70·65535).
+        assert!(close(sht4x_temp_c(26214), 25.0, 1e-4));
     }
 }

@@ -27,6 +27,23 @@ impl SensorKind {
             SensorKind::Hih4030 => "hih4030",
         }
     }
+
+    /// The sensor's RH accuracy from its datasheet [±%RH], the reading's uncertainty when the
+    /// calibration gives none (see [`HumidityPath::uncertainty_pct_for`]):
+    /// - HTS221: ±3.5 %RH over 20–80 %RH, typical (ST DocID026384, table 2; ±5 %RH over 0–100 %).
+    /// - SHT4x: ±1.8 %RH, typical, of the SHT40 and SHT41 (Sensirion SHT4x datasheet, section 2.1;
+    ///   the maximum is a wider band given as a graph over RH); the SHT45 is ±1.0 %RH typical,
+    ///   but the firmware cannot tell the three apart, so the family gets the SHT40's figure.
+    /// - HIH-4030: ±3.5 %RH, the minimum/maximum of the accuracy about the part's best-fit
+    ///   straight line (Honeywell HIH-4030/31 datasheet, table 1); the interchangeability of the
+    ///   nominal line is ±5 %RH below 60 %RH and ±8 %RH above.
+    pub const fn datasheet_accuracy_pct(self) -> f64 {
+        match self {
+            SensorKind::Hts221 => 3.5,
+            SensorKind::Sht4x => 1.8,
+            SensorKind::Hih4030 => 3.5,
+        }
+    }
 }
 
 /// Largest sensor offset accepted [%RH]: beyond it the "sensor" is broken or is another
@@ -124,6 +141,13 @@ impl HumidityPath {
             return bad("uncertainty_pct", u, "the reading's uncertainty must be within 0–20 %RH");
         }
         Ok(())
+    }
+
+    /// Uncertainty of a corrected reading from a `kind` sensor [%RH]: the table's
+    /// `uncertainty_pct` when it gives one (a salt calibration, `ipmc diagnose`), else the
+    /// sensor's datasheet accuracy.
+    pub fn uncertainty_pct_for(&self, kind: SensorKind) -> f64 {
+        self.uncertainty_pct.unwrap_or(kind.datasheet_accuracy_pct())
     }
 }
 
@@ -224,5 +248,18 @@ mod tests {
         let shown = HumidityPath { tau_wet_s: -5.0, ..ok }.validate().unwrap_err();
         let shown = std::string::ToString::to_string(&shown);
         assert!(shown.starts_with("humidity.tau_wet_s = -5: "), "{shown}");
+    }
+
+    #[test]
+    fn uncertainty_from_the_table_else_the_datasheet() {
+        assert_eq!(SensorKind::Hts221.datasheet_accuracy_pct(), 3.5);
+        assert_eq!(SensorKind::Sht4x.datasheet_accuracy_pct(), 1.8);
+        assert_eq!(SensorKind::Hih4030.datasheet_accuracy_pct(), 3.5);
+        assert_eq!(HumidityPath::NONE.uncertainty_pct_for(SensorKind::Sht4x), 1.8);
+        assert_eq!(HumidityPath::NONE.uncertainty_pct_for(SensorKind::Hts221), 3.5);
+        let salted = HumidityPath { sensor: Some(SensorKind::Sht4x), uncertainty_pct: Some(0.6), ..HumidityPath::NONE };
+        assert_eq!(salted.uncertainty_pct_for(SensorKind::Sht4x), 0.6);
+        // A measured figure stands whatever the sensor: the table is the better knowledge.
+        assert_eq!(salted.uncertainty_pct_for(SensorKind::Hih4030), 0.6);
     }
 }

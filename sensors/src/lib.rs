@@ -5,4 +5,5 @@
 
 pub mod hts221;
 pub mod i2c_recovery;
+pub mod sht4x;
 pub mod vrefint;

@@ -29,7 +29,8 @@ pub enum HumidityError {
     /// The sensor answered with an impossible value.
     Implausible,
     /// The sensor has no sample newer than the last one read: the last value still holds.
-    #[cfg_attr(feature = "humidity-hih4030", allow(dead_code))] // an analog sensor always has a value
+    // An analog sensor always has a value; an SHT4x converts on each request.
+    #[cfg_attr(any(feature = "humidity-hih4030", feature = "humidity-sht4x"), allow(dead_code))]
     NoNewData,
 }
 

@@ -7,6 +7,7 @@
 //! | sample trigger            | TIM6 TRGO (update) → ADC1 EXTSEL 13     |
 //! | ADC ring buffer           | DMA1 channel 1                          |
 //! | HTS221 humidity (default) | I2C2: PB10 SCL, PB11 SDA; DMA1 ch4/ch5  |
+//! | SHT4x humidity (feature `humidity-sht4x`) | I2C1 on the Arduino connector: D15 = PB8 SCL, D14 = PB9 SDA; DMA1 ch6/ch7 (I2C2 is on no connector) |
 //! | HIH-4030 humidity (feature `humidity-hih4030`) | Arduino A1 = PC4 (ADC2_IN13), one conversion per reading |
 //! | binary stream             | USART1 TX PB6 (ST-LINK VCP); DMA2 ch6   |
 //! | sample / I/O executors    | UART4 / UART5 interrupts (unused UARTs) |
@@ -19,7 +20,7 @@ use embassy_stm32::{
     adc::{Adc, AdcChannel, CONTINUOUS, RingBufferedAdc, SampleTime},
     bind_interrupts, dma, i2c,
     mode::Async,
-    peripherals::{ADC1, DMA1_CH1, DMA1_CH4, DMA1_CH5, DMA2_CH6, I2C2, IWDG, TIM6},
+    peripherals::{ADC1, DMA1_CH1, DMA2_CH6, IWDG, TIM6},
     rcc,
     time::Hertz,
     timer::low_level::{RoundTo, Timer},
@@ -37,17 +38,22 @@ use crate::app::{
 };
 #[cfg(not(feature = "humidity-hih4030"))]
 use embassy_stm32::i2c::I2c;
+#[cfg(not(feature = "humidity-sht4x"))]
+use embassy_stm32::peripherals::{DMA1_CH4, DMA1_CH5, I2C2};
+#[cfg(feature = "humidity-sht4x")]
+use embassy_stm32::peripherals::{DMA1_CH6, DMA1_CH7, I2C1};
 #[cfg(feature = "humidity-hih4030")]
 use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
 use embassy_time::{Duration, Instant, with_timeout};
-#[cfg(not(feature = "humidity-hih4030"))]
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use ipmc_core::humidity::Hts221Calibration;
 use ipmc_core::operating_point::samples_lost;
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
+use ipmc_sensors::hts221;
 #[cfg(not(feature = "humidity-hih4030"))]
-use ipmc_sensors::{
-    hts221,
-    i2c_recovery::{self, BusHealth},
-};
+use ipmc_sensors::i2c_recovery::{self, BusHealth};
+#[cfg(feature = "humidity-sht4x")]
+use ipmc_sensors::sht4x;
 
 pub const NAME: &str = "B-L475E-IOT01A";
 
@@ -67,17 +73,48 @@ const STREAM_BAUD: u32 = 921_600;
 const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 #[cfg(not(feature = "humidity-hih4030"))]
 const I2C_HZ: u32 = 100_000;
-/// Longest I2C transfer [ms]: the longest HTS221 transfer (16 calibration bytes) takes 2 ms at 100 kHz.
+/// Longest I2C transfer [ms]: the longest HTS221 transfer (16 calibration bytes) takes 2 ms at
+/// 100 kHz, the SHT4x's (6 bytes) under 1 ms; the SHT4x's conversion is a wait between transfers.
 #[cfg(not(feature = "humidity-hih4030"))]
 const I2C_TIMEOUT_MS: u64 = 10;
+/// The humidity sensor's I2C: the on-board HTS221 is on I2C2 (PB10 SCL, PB11 SDA), wired to the
+/// on-board sensors only.
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
+mod i2c_wires {
+    pub const NAME: &str = "I2C2";
+    pub const SCL: usize = 10;
+    pub const SDA: usize = 11;
+    pub const REGS: super::pac::i2c::I2c = super::pac::I2C2;
+}
+/// An external SHT4x is on the Arduino connector's I2C1 (D15 = PB8 SCL, D14 = PB9 SDA): PB10/PB11
+/// reach no connector of the board (docs/firmware.md, "Choosing a humidity sensor").
+#[cfg(feature = "humidity-sht4x")]
+mod i2c_wires {
+    pub const NAME: &str = "I2C1";
+    pub const SCL: usize = 8;
+    pub const SDA: usize = 9;
+    pub const REGS: super::pac::i2c::I2c = super::pac::I2C1;
+}
 
 bind_interrupts!(struct Irqs {
     DMA1_CHANNEL1 => dma::InterruptHandler<DMA1_CH1>;
+    #[cfg(not(feature = "humidity-sht4x"))]
     DMA1_CHANNEL4 => dma::InterruptHandler<DMA1_CH4>;
+    #[cfg(not(feature = "humidity-sht4x"))]
     DMA1_CHANNEL5 => dma::InterruptHandler<DMA1_CH5>;
+    #[cfg(feature = "humidity-sht4x")]
+    DMA1_CHANNEL6 => dma::InterruptHandler<DMA1_CH6>;
+    #[cfg(feature = "humidity-sht4x")]
+    DMA1_CHANNEL7 => dma::InterruptHandler<DMA1_CH7>;
     DMA2_CHANNEL6 => dma::InterruptHandler<DMA2_CH6>;
+    #[cfg(not(feature = "humidity-sht4x"))]
     I2C2_EV => i2c::EventInterruptHandler<I2C2>;
+    #[cfg(not(feature = "humidity-sht4x"))]
     I2C2_ER => i2c::ErrorInterruptHandler<I2C2>;
+    #[cfg(feature = "humidity-sht4x")]
+    I2C1_EV => i2c::EventInterruptHandler<I2C1>;
+    #[cfg(feature = "humidity-sht4x")]
+    I2C1_ER => i2c::ErrorInterruptHandler<I2C1>;
 });
 
 /// Executor priorities (`executors`): P6 and P7 of the NVIC's sixteen, below the DMA and
@@ -195,8 +232,19 @@ pub fn init() -> Board {
         // As ST's board support does; harmless beside external pull-ups.
         i2c_config.scl_pullup = true;
         i2c_config.sda_pullup = true;
-        let bus = I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config);
-        Humidity { bus, calibration: None, health: BusHealth::new() }
+        #[cfg(not(feature = "humidity-sht4x"))]
+        let humidity = Humidity {
+            bus: I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config),
+            calibration: None,
+            health: BusHealth::new(),
+        };
+        #[cfg(feature = "humidity-sht4x")]
+        let humidity = Humidity {
+            bus: I2c::new(p.I2C1, p.PB8, p.PB9, p.DMA1_CH6, p.DMA1_CH7, Irqs, i2c_config),
+            serial: None,
+            health: BusHealth::new(),
+        };
+        humidity
     };
     // ADC1 belongs to the timer-triggered current ring buffer; the humidity gets ADC2.
     #[cfg(feature = "humidity-hih4030")]
@@ -281,49 +329,47 @@ type Bus = I2c<'static, Async, i2c::Master>;
 
 /// On-board HTS221. The bus is owned here, outside the reading future the humidity task
 /// cancels on timeout; the sensor is set up (again) whenever it has no calibration.
-#[cfg(not(feature = "humidity-hih4030"))]
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 pub struct Humidity {
     bus: Bus,
     calibration: Option<Hts221Calibration>,
     health: BusHealth,
 }
 
+/// Frees a bus a slave holds (a reset mid-read leaves SDA low): the sensor's SCL/SDA pins as
+/// open-drain GPIO for nine clocks and a STOP, then back to the I2C peripheral, reset. The
+/// caller sets its sensor up again afterwards.
 #[cfg(not(feature = "humidity-hih4030"))]
-impl Humidity {
-    /// Frees a bus a slave holds (a reset mid-read leaves SDA low): PB10/PB11 as open-drain
-    /// GPIO for nine clocks and a STOP, then back to the I2C peripheral, reset.
-    fn clear_bus(&mut self) {
-        const SCL: usize = 10;
-        const SDA: usize = 11;
-        let gpio = pac::GPIOB;
-        let pins = [SCL, SDA];
-        for n in pins {
-            gpio.bsrr().write(|w| w.set_bs(n, true));
-            gpio.moder().modify(|w| w.set_moder(n, pac::gpio::vals::Moder::OUTPUT));
-        }
-        let outcome = i2c_recovery::clear_bus(&mut RegisterPin(SCL), &mut RegisterPin(SDA), &mut embassy_time::Delay);
-        for n in pins {
-            gpio.moder().modify(|w| w.set_moder(n, pac::gpio::vals::Moder::ALTERNATE));
-        }
-        // Clears the peripheral's BUSY and error state (RM0351: PE low resets the I2C logic).
-        pac::I2C2.cr1().modify(|w| w.set_pe(false));
-        while pac::I2C2.cr1().read().pe() {}
-        pac::I2C2.cr1().modify(|w| w.set_pe(true));
-        match outcome {
-            i2c_recovery::Recovery::Stuck => defmt::warn!("I2C2: SDA still low after nine clocks (short or dead part?)"),
-            r => defmt::info!("I2C2 bus cleared: {}", r),
-        }
-        self.calibration = None;
+fn clear_bus() {
+    use i2c_wires::{NAME, REGS, SCL, SDA};
+    let gpio = pac::GPIOB;
+    let pins = [SCL, SDA];
+    for n in pins {
+        gpio.bsrr().write(|w| w.set_bs(n, true));
+        gpio.moder().modify(|w| w.set_moder(n, pac::gpio::vals::Moder::OUTPUT));
+    }
+    let outcome = i2c_recovery::clear_bus(&mut RegisterPin(SCL), &mut RegisterPin(SDA), &mut embassy_time::Delay);
+    for n in pins {
+        gpio.moder().modify(|w| w.set_moder(n, pac::gpio::vals::Moder::ALTERNATE));
+    }
+    // Clears the peripheral's BUSY and error state (RM0351: PE low resets the I2C logic).
+    REGS.cr1().modify(|w| w.set_pe(false));
+    while REGS.cr1().read().pe() {}
+    REGS.cr1().modify(|w| w.set_pe(true));
+    match outcome {
+        i2c_recovery::Recovery::Stuck => defmt::warn!("{}: SDA still low after nine clocks (short or dead part?)", NAME),
+        r => defmt::info!("{} bus cleared: {}", NAME, r),
     }
 }
 
-#[cfg(not(feature = "humidity-hih4030"))]
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 impl HumiditySource for Humidity {
     async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
         // Before the first set-up, and after repeated failures: a wedged bus never recovers by
         // retrying transfers.
         if self.health.should_clear() {
-            self.clear_bus();
+            clear_bus();
+            self.calibration = None;
         }
         let calibration = match self.calibration {
             Some(c) => c,
@@ -342,6 +388,50 @@ impl HumiditySource for Humidity {
             hts221::Error::NoNewData => HumidityError::NoNewData,
             hts221::Error::Bus => HumidityError::NoResponse,
             hts221::Error::BadCalibration | hts221::Error::WrongDevice(_) | hts221::Error::BootTimeout => HumidityError::Implausible,
+        })
+    }
+}
+
+/// External SHT4x on I2C1, owned here like the HTS221's bus; the sensor is set up (soft reset,
+/// serial number as the presence check) whenever it has not been since the last bus clearing.
+#[cfg(feature = "humidity-sht4x")]
+pub struct Humidity {
+    bus: Bus,
+    /// The serial number read at set-up; none: set up before the next measurement.
+    serial: Option<u32>,
+    health: BusHealth,
+}
+
+#[cfg(feature = "humidity-sht4x")]
+impl HumiditySource for Humidity {
+    async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
+        if self.health.should_clear() {
+            clear_bus();
+            self.serial = None;
+        }
+        if self.serial.is_none() {
+            match sht4x::set_up(&mut self.bus, &mut embassy_time::Delay).await {
+                Ok(serial) => {
+                    defmt::info!("SHT4x at {=u8:#x}, serial number {=u32:#010x}", sht4x::ADDRESS, serial);
+                    self.serial = Some(serial);
+                }
+                Err(e) => {
+                    defmt::warn!("SHT4x setup failed: {}", e);
+                    self.health.record(e != sht4x::Error::Bus);
+                    return Err(HumidityError::NoResponse);
+                }
+            }
+        }
+        // Each measurement is a new conversion: the SHT4x never has "no new data".
+        let reading = sht4x::measure(&mut self.bus, &mut embassy_time::Delay).await;
+        // Only a failed transfer counts against the bus: a CRC error came over a bus that works
+        // (every byte was clocked and acknowledged), clearing it would not help.
+        self.health.record(!matches!(reading, Err(sht4x::Error::Bus)));
+        reading.map(|m| m.rh_pct).map_err(|e| match e {
+            sht4x::Error::Bus => HumidityError::NoResponse,
+            // The part answered, with bytes that are not its measurement: like any reading that
+            // is not a humidity, it is implausible and the last good value holds.
+            sht4x::Error::Crc => HumidityError::Implausible,
         })
     }
 }

@@ -29,6 +29,9 @@ enum Command {
     /// Accuracy table over humidity: rational approximation, compensated inverse, and the
     /// paper's humidity-independent (45 %) inverse as the baseline.
     Accuracy(commands::accuracy::Args),
+    /// Compensation error against a humidity-sensor error: per %RH, and at each sensor's
+    /// datasheet accuracy (which sensor to buy).
+    RhSensitivity(commands::rh_sensitivity::Args),
     /// Synthetic time-series recording: multisine base motion, humidity ramp, model current.
     SimulateSweep(commands::simulate::SweepArgs),
     /// Simulated recording (frequency response, time series or charging) from a calibration and a session file.
@@ -63,6 +66,7 @@ fn main() {
         Command::Model(a) => commands::model::run(a),
         Command::Design(a) => commands::design::run(a),
         Command::Accuracy(a) => commands::accuracy::run(a),
+        Command::RhSensitivity(a) => commands::rh_sensitivity::run(a),
         Command::SimulateSweep(a) => commands::simulate::run_sweep(a),
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Identify(a) => commands::identify::run(a),

@@ -8,16 +8,19 @@ use crate::{Result, cargo, install, repo_root};
 pub enum Variant {
     /// B-L475E-IOT01A hardware (default features).
     Hardware,
+    /// The same hardware with an external SHT4x humidity sensor (feature `humidity-sht4x`).
+    HardwareSht4x,
     /// QEMU replay board layer.
     Qemu,
 }
 
 impl Variant {
-    pub const ALL: [Variant; 2] = [Variant::Hardware, Variant::Qemu];
+    pub const ALL: [Variant; 3] = [Variant::Hardware, Variant::HardwareSht4x, Variant::Qemu];
 
     pub fn name(self) -> &'static str {
         match self {
             Variant::Hardware => "board-b-l475e",
+            Variant::HardwareSht4x => "b-l475e-sht4x",
             Variant::Qemu => "qemu",
         }
     }
@@ -26,6 +29,7 @@ impl Variant {
     pub fn feature_args(self) -> &'static [&'static str] {
         match self {
             Variant::Hardware => &[],
+            Variant::HardwareSht4x => &["--features", "humidity-sht4x"],
             Variant::Qemu => &["--no-default-features", "--features", "qemu"],
         }
     }
@@ -34,6 +38,7 @@ impl Variant {
     pub fn target_dir(self) -> PathBuf {
         match self {
             Variant::Hardware => repo_root().join("target"),
+            Variant::HardwareSht4x => repo_root().join("target/sht4x"),
             Variant::Qemu => repo_root().join("target/qemu"),
         }
     }

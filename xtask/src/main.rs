@@ -3,7 +3,7 @@
 //! - `qemu [--input REC.csv] [--out EST.csv]`  replay a recording through the QEMU firmware
 //! - `bench [--json]`                         instruction counts of the compute path under QEMU -icount
 //! - `humidity-loop`                          diagnose → --write-calib → compensate on a biased, lagging session
-//! - `build`                                   build both firmware variants (release)
+//! - `build`                                   build every firmware variant (release)
 //! - `size`                                    flash/RAM of the release builds vs the budget
 //! - `test [STEP…]`                             every test of the repository (CI runs this), or the steps named
 //! - `flash ELF`                               cargo runner: `probe-rs run` with probe-rs.toml

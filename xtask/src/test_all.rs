@@ -487,7 +487,7 @@ pub fn command(filter: &[String]) -> Result<()> {
     type Step = (&'static str, fn() -> Result<()>);
     let steps: &[Step] = &[
         ("format: cargo fmt --check", format_check),
-        ("lint: cargo clippy -D warnings (host crates, both firmware variants)", lint),
+        ("lint: cargo clippy -D warnings (host crates, every firmware variant)", lint),
         ("fresh machine: the thumb target installs on use", thumb_target_installs_on_use),
         // `toml`: the calibration file reader and its fuzz test.
         ("core tests", || cargo_test_with("core/Cargo.toml", &["--features", "toml"])),
@@ -500,6 +500,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
+        ("firmware build (board-b-l475e, humidity-sht4x)", || firmware::build(Variant::HardwareSht4x).map(|_| ())),
         ("firmware build (qemu)", || firmware::build(Variant::Qemu).map(|_| ())),
         ("firmware size budget", size_within_budget),
         ("qemu replay: estimate count and retune", qemu_replay_counts_and_retunes),
