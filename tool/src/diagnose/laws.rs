@@ -10,7 +10,7 @@
 
 use super::data::{LevelData, RhHistory};
 use super::fits::{BASE, Theta};
-use ipmc_core::humidity_path::{HumidityPath, relax};
+use ipmc_core::humidity_path::{HumidityPath, Hydration};
 use nalgebra::{DMatrix, DVector};
 
 /// The humidity each level's parameters follow, and optional extra regressors.
@@ -162,16 +162,18 @@ pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> V
     let lagged: Vec<Vec<f64>> = histories
         .iter()
         .map(|h| {
-            let mut out = Vec::with_capacity(h.t_s.len());
-            let mut state = h.rh_pct.first().copied().unwrap_or(0.0);
-            for i in 0..h.t_s.len() {
-                if i > 0 {
-                    let dt = (h.t_s[i] - h.t_s[i - 1]).max(0.0);
-                    state = relax(state, h.rh_pct[i], dt, tau_s, tau_s);
-                }
-                out.push(state);
-            }
-            out
+            // The strip's model of the calibration's humidity path, settled at the first reading.
+            let mut strip = Hydration::<f64>::new(&HumidityPath { tau_wet_s: tau_s, tau_dry_s: tau_s, ..HumidityPath::NONE });
+            let mut last: Option<f64> = None;
+            h.t_s
+                .iter()
+                .zip(&h.rh_pct)
+                .map(|(&t, &rh)| {
+                    let dt = last.map_or(0.0, |l| t - l);
+                    last = Some(t);
+                    strip.update(rh, dt)
+                })
+                .collect()
         })
         .collect();
     levels
