@@ -10,16 +10,16 @@
 //! - defmt goes out over semihosting (decode with `defmt-print -e <ELF>`), a panic exits QEMU
 //!   with a failure status, and the end of the replay exits it with success.
 //!
-//! Replay file (written by `cargo xtask qemu`), little endian:
-//!   8 bytes magic "IPMCRPL1", u32 sample rate [Hz], u32 sample count,
-//!   then per sample: f32 current [A], f32 RH [%] (NaN RH = humidity sensor silent then,
-//!   +inf = sensor too slow to answer in time, any other value outside 0–100 % = garbage).
+//! Replay file (written by `cargo xtask qemu`; layout in `ipmc_core::replay`): samples of
+//! current and RH, and the waits between a recording's bursts. A wait is not replayed in time:
+//! the board lets the humidity task read the next burst's humidity, then reports the wait's
+//! samples as lost, so the strip's hydration moves on through it as it would on the bench.
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m_rt::exception;
 use embassy_time::{Duration, Instant, Ticker, Timer};
-use ipmc_core::replay::{self, BYTES_PER_SAMPLE};
+use ipmc_core::replay::{self, BYTES_PER_GAP, BYTES_PER_SAMPLE, Gap};
 use semihosting::{fs::File, io::Read};
 use systick_timer::SystickDriver;
 
@@ -57,6 +57,8 @@ pub const IO_PRIORITY: u8 = 2 << 4;
 /// RH [%] of the sample last delivered by the replay; what the "sensor" reads.
 static REPLAY_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
 static SAMPLES_LEFT: AtomicU32 = AtomicU32::new(0);
+/// Waits a replay may hold (a recording's bursts less one).
+const MAX_GAPS: usize = 64;
 
 pub fn init() -> Board {
     let mut core = cortex_m::Peripherals::take().expect("init runs once");
@@ -67,10 +69,24 @@ pub fn init() -> Board {
         exit(2)
     });
     let mut header = [0u8; replay::HEADER_LEN];
-    let Some(replay::Header { fs_hz, count }) = replay.read_exact(&mut header).ok().and_then(|()| replay::Header::decode(&header)) else {
-        defmt::error!("replay file has no IPMCRPL1 header");
+    let Some(replay::Header { fs_hz, count, gaps }) = replay.read_exact(&mut header).ok().and_then(|()| replay::Header::decode(&header))
+    else {
+        defmt::error!("replay file has no IPMCRPL2 header (written by another release of `cargo xtask qemu`?)");
         exit(2)
     };
+    if gaps as usize > MAX_GAPS {
+        defmt::error!("replay has {} waits between bursts, this board holds at most {}", gaps, MAX_GAPS);
+        exit(2);
+    }
+    let mut waits = [Gap { before_sample: 0, lost_samples: 0 }; MAX_GAPS];
+    for w in waits.iter_mut().take(gaps as usize) {
+        let mut bytes = [0u8; BYTES_PER_GAP];
+        if replay.read_exact(&mut bytes).is_err() {
+            defmt::error!("replay file shorter than its header says");
+            exit(2);
+        }
+        *w = Gap::decode(&bytes);
+    }
     if fs_hz != SAMPLE_RATE_HZ {
         defmt::error!("replay is sampled at {} Hz, this firmware at {} Hz", fs_hz, SAMPLE_RATE_HZ);
         exit(2);
@@ -79,12 +95,25 @@ pub fn init() -> Board {
     defmt::info!("replay: {} samples at {} Hz", count, fs_hz);
 
     // The humidity "sensor" must answer before sampling starts (the first design needs RH):
-    // peek at the first sample's RH.
-    let mut first = [0u8; BYTES_PER_SAMPLE];
-    if count > 0 && replay.read_exact(&mut first).is_ok() {
-        REPLAY_RH_PCT.store(replay::Sample::decode(&first).rh_pct);
+    // read the first block ahead for its reading.
+    let mut first = [0u8; BLOCK_LEN * BYTES_PER_SAMPLE];
+    let ahead = (count as usize).min(BLOCK_LEN);
+    if replay.read_exact(&mut first[..ahead * BYTES_PER_SAMPLE]).is_err() {
+        defmt::error!("replay file shorter than its header says");
+        exit(2);
     }
-    let samples = Samples { replay, pending_first: (count > 0).then_some(first), ticker: None };
+    if ahead > 0 {
+        REPLAY_RH_PCT.store(block_reading(&first.as_chunks::<BYTES_PER_SAMPLE>().0[..ahead]));
+    }
+    let samples = Samples {
+        replay,
+        first_block: (ahead == BLOCK_LEN).then_some(first),
+        ticker: None,
+        waits,
+        wait_count: gaps as usize,
+        next_wait: 0,
+        delivered: 0,
+    };
 
     pac::RCC.apb2enr().modify(|w| w.set_usart1en(true));
     pac::USART1.brr().write(|w| w.set_brr((SYSCLK_HZ as u32 / STREAM_BAUD) as u16));
@@ -99,15 +128,35 @@ pub fn init() -> Board {
 /// Replayed current: `BLOCK_LEN` samples per block period, like the hardware DMA half-buffer.
 pub struct Samples {
     replay: File,
-    /// The first sample, already read by `init` to learn the starting RH.
-    pending_first: Option<[u8; BYTES_PER_SAMPLE]>,
+    /// The first block, already read by `init` to learn the starting RH.
+    first_block: Option<[u8; BLOCK_LEN * BYTES_PER_SAMPLE]>,
     ticker: Option<Ticker>,
+    waits: [Gap; MAX_GAPS],
+    wait_count: usize,
+    next_wait: usize,
+    /// Samples delivered so far.
+    delivered: u32,
+}
+
+impl Samples {
+    fn block_period() -> Duration {
+        Duration::from_micros(1_000_000 * BLOCK_LEN as u64 / SAMPLE_RATE_HZ as u64)
+    }
+
+    /// The samples of the waits before the end of the block starting at `delivered`.
+    fn lost_before_block_end(&mut self) -> u32 {
+        let mut lost = 0u32;
+        while self.next_wait < self.wait_count && self.waits[self.next_wait].before_sample < self.delivered + BLOCK_LEN as u32 {
+            lost = lost.saturating_add(self.waits[self.next_wait].lost_samples);
+            self.next_wait += 1;
+        }
+        lost
+    }
 }
 
 impl CurrentSource for Samples {
     fn start(&mut self) {
-        let period_us = 1_000_000 * BLOCK_LEN as u64 / SAMPLE_RATE_HZ as u64;
-        self.ticker = Some(Ticker::every(Duration::from_micros(period_us)));
+        self.ticker = Some(Ticker::every(Self::block_period()));
     }
 
     async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
@@ -119,25 +168,34 @@ impl CurrentSource for Samples {
         if left < BLOCK_LEN {
             return SampleBlock::End;
         }
-        let mut raw = [0u8; BLOCK_LEN * BYTES_PER_SAMPLE];
-        let unread = match self.pending_first.take() {
-            Some(first) => {
-                raw[..BYTES_PER_SAMPLE].copy_from_slice(&first);
-                &mut raw[BYTES_PER_SAMPLE..]
+        let raw = match self.first_block.take() {
+            Some(first) => first,
+            None => {
+                let mut raw = [0u8; BLOCK_LEN * BYTES_PER_SAMPLE];
+                if self.replay.read_exact(&mut raw).is_err() {
+                    defmt::error!("replay file shorter than its header says");
+                    return SampleBlock::End;
+                }
+                raw
             }
-            None => &mut raw[..],
         };
-        if self.replay.read_exact(unread).is_err() {
-            defmt::error!("replay file shorter than its header says");
-            return SampleBlock::End;
-        }
         SAMPLES_LEFT.store((left - BLOCK_LEN) as u32, Ordering::Relaxed);
 
+        let chunks = raw.as_chunks::<BYTES_PER_SAMPLE>().0;
+        let lost_samples = self.lost_before_block_end();
+        if lost_samples > 0 {
+            // Off the sample clock for the wait, but not off the humidity sensor: the humidity
+            // task reads the next burst's humidity before its first block comes, and the sample
+            // clock starts again from here.
+            REPLAY_RH_PCT.store(block_reading(chunks));
+            Timer::after_millis(HUMIDITY_PERIOD_MS * 3 / 2).await;
+            self.ticker = Some(Ticker::every(Self::block_period()));
+        }
+        self.delivered += BLOCK_LEN as u32;
+
         let mut block_flags = 0;
-        let mut rh = f32::NAN;
-        for (a, bytes) in amps.iter_mut().zip(raw.as_chunks::<BYTES_PER_SAMPLE>().0) {
-            let replay::Sample { current_a: current, rh_pct } = replay::Sample::decode(bytes);
-            rh = rh_pct;
+        for (a, bytes) in amps.iter_mut().zip(chunks) {
+            let current = replay::Sample::decode(bytes).current_a;
             *a = if current.is_finite() {
                 current
             } else {
@@ -148,9 +206,24 @@ impl CurrentSource for Samples {
                 block_flags |= flags::CLIPPED;
             }
         }
-        REPLAY_RH_PCT.store(rh);
-        SampleBlock::Ready { flags: block_flags, lost_samples: 0 }
+        REPLAY_RH_PCT.store(block_reading(chunks));
+        SampleBlock::Ready { flags: block_flags, lost_samples }
     }
+}
+
+/// What the humidity sensor reads during a block: the mean of the block's RH column, as
+/// `ipmc compensate` reads a block (a recorded column sampled with the current carries its
+/// read noise per sample, not per sensor reading). A fault marker in the last sample (non-finite,
+/// or outside 0–100 %) is the reading as it is.
+fn block_reading(chunks: &[[u8; BYTES_PER_SAMPLE]]) -> f32 {
+    let rh = |c| replay::Sample::decode(c).rh_pct;
+    let last = chunks.last().map_or(f32::NAN, rh);
+    let plausible = |r: f32| (0.0..=100.0).contains(&r);
+    if !plausible(last) {
+        return last;
+    }
+    let (sum, n) = chunks.iter().map(rh).filter(|&r| plausible(r)).fold((0.0f32, 0u32), |(s, n), r| (s + r, n + 1));
+    sum / n as f32
 }
 
 /// Replayed humidity sensor: reads the RH column at the current replay position.

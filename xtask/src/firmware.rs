@@ -70,6 +70,12 @@ pub fn build_in(variant: Variant, target_dir: &Path, calib: Option<&Path>) -> Re
     Ok(target_dir.join("thumbv7em-none-eabihf/release/ipmc-firmware"))
 }
 
+/// Where QEMU builds with a calibration of their own go: one directory for all of them, so a
+/// change of calibration rebuilds only the firmware crate.
+pub fn own_calibration_target_dir() -> PathBuf {
+    repo_root().join("target/qemu-own-calibration")
+}
+
 pub fn build_all() -> Result<Vec<PathBuf>> {
     Variant::ALL.iter().map(|&v| build(v)).collect()
 }

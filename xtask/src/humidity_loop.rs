@@ -1,11 +1,12 @@
 //! `cargo xtask humidity-loop`: the humidity path end to end on simulated sessions with a
 //! −3 %RH sensor bias and a 900 s hydration lag: `ipmc diagnose --write-calib` on a frequency
 //! response, then `ipmc compensate` of a time series with humidity steps with the calibration as
-//! it was and as diagnose wrote it, beside the same series without the bias and the lag.
+//! it was and as diagnose wrote it, beside the same series without the bias and the lag; and the
+//! same series through the firmware under QEMU built with the written calibration.
 
 use std::{ffi::OsStr, fs, path::Path};
 
-use crate::{Result, ipmc, repo_root};
+use crate::{Result, ipmc, qemu, repo_root};
 
 const FR_SESSION: &str = "data/sessions/fr-bias-lag.toml";
 const TS_SESSION: &str = "data/sessions/ts-bias-lag.toml";
@@ -19,17 +20,24 @@ pub struct Loop {
     pub verdict: String,
     pub before: f64,
     pub after: f64,
+    /// The firmware under QEMU with the written calibration baked in.
+    pub after_firmware: f64,
     pub clean: f64,
     pub written: String,
 }
 
-fn score(rec: &Path, calib: Option<&Path>, work: &Path, name: &str) -> Result<f64> {
+fn compensate_and_score(rec: &Path, calib: Option<&Path>, work: &Path, name: &str) -> Result<f64> {
     let est = work.join(format!("EST-{name}.csv"));
     let mut args: Vec<&OsStr> = vec!["compensate".as_ref(), rec.as_os_str(), "--out".as_ref(), est.as_os_str()];
     if let Some(c) = calib {
         args.extend(["--calib".as_ref(), c.as_os_str()]);
     }
     ipmc(&args)?;
+    score(rec, &est)
+}
+
+/// `ipmc score --json`'s in-band figure: host and firmware estimates are scored by one code.
+fn score(rec: &Path, est: &Path) -> Result<f64> {
     let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str(), "--json".as_ref()])?;
     let v: serde_json::Value = serde_json::from_str(out.trim()).map_err(|e| format!("ipmc score --json: {e}: {out}"))?;
     v["inband"].as_f64().ok_or_else(|| format!("ipmc score --json: no `inband` in {out}"))
@@ -74,10 +82,14 @@ pub fn run_loop(work: &Path) -> Result<Loop> {
     if !calib.exists() {
         return Err(format!("diagnose named `{verdict}` and wrote no calibration"));
     }
+    let firmware_est = work.join("EST-firmware.csv");
+    let replayed = qemu::replay_recording(&ts, &firmware_est, Some(&calib), &work.join("qemu"))?;
+    println!("firmware under QEMU: {} estimates, {} retunes", replayed.estimates(), replayed.blocks_with(qemu::flags::RETUNED));
     Ok(Loop {
-        before: score(&ts, None, work, "before")?,
-        after: score(&ts, Some(&calib), work, "after")?,
-        clean: score(&ts_clean, None, work, "clean")?,
+        before: compensate_and_score(&ts, None, work, "before")?,
+        after: compensate_and_score(&ts, Some(&calib), work, "after")?,
+        after_firmware: score(&ts, &firmware_est)?,
+        clean: compensate_and_score(&ts_clean, None, work, "clean")?,
         verdict,
         written,
     })
@@ -88,13 +100,16 @@ fn print(l: &Loop) {
         "compensation in band, time series with steps 40 → 70 → 55 → 40 %RH:\n  \
          with the calibration as it was (sensor −3 %RH, 900 s lag unknown): {:.3} % rms\n  \
          with the calibration diagnose wrote:                              {:.3} % rms\n  \
+         the same, firmware under QEMU built with that calibration:        {:.3} % rms\n  \
          the same series without bias and lag:                             {:.3} % rms\n  \
-         after / clean = {:.2} (target ≤ {TARGET_RATIO}: {})",
+         after / clean = {:.2} on the host, {:.2} in the firmware (target ≤ {TARGET_RATIO}: {})",
         l.before * 100.0,
         l.after * 100.0,
+        l.after_firmware * 100.0,
         l.clean * 100.0,
         l.after / l.clean,
-        if l.after <= TARGET_RATIO * l.clean { "met" } else { "NOT met" }
+        l.after_firmware / l.clean,
+        if l.after.max(l.after_firmware) <= TARGET_RATIO * l.clean { "met" } else { "NOT met" }
     );
 }
 
@@ -108,8 +123,7 @@ pub fn command(args: &[String]) -> Result<()> {
 }
 
 /// The test step: the loop must name a part of the humidity path, write it, and the written
-/// calibration must remove most of the error the path caused. The issue's 1.5× target is
-/// printed beside it (not yet met: docs/calibrating.md says by how much and why).
+/// calibration must bring the error within the target times the clean series' error.
 pub fn test_step() -> Result<()> {
     let l = run_loop(&repo_root().join("target/qemu-test/humidity-loop"))?;
     print(&l);
@@ -119,15 +133,14 @@ pub fn test_step() -> Result<()> {
     if !l.written.contains("offset") {
         return Err(format!("no [humidity] table reported written: {}", l.written));
     }
-    // The path the time series needs is what diagnose wrote: most of the error it caused goes.
-    let caused = l.before - l.clean;
-    let left = l.after - l.clean;
-    if !(left < 0.1 * caused) {
-        return Err(format!(
-            "the written calibration leaves {:.3} % of the {:.3} % the path caused (more than a tenth)",
-            left * 100.0,
-            caused * 100.0
-        ));
+    for (who, after) in [("the host", l.after), ("the firmware under QEMU", l.after_firmware)] {
+        if !(after <= TARGET_RATIO * l.clean) {
+            return Err(format!(
+                "{who} with the written calibration: {:.3} % rms, more than {TARGET_RATIO} × the clean series' {:.3} %",
+                after * 100.0,
+                l.clean * 100.0
+            ));
+        }
     }
     Ok(())
 }

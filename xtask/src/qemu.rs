@@ -12,7 +12,7 @@ use crate::{
     Result, describe,
     firmware::{self, Variant},
     install, ipmc, recording,
-    replay::{self, Sample},
+    replay::{self, Replay},
     repo_root,
     stream::{self, Block},
 };
@@ -39,18 +39,18 @@ impl Replayed {
 /// Flag bits of the stream (defined with the wire format).
 pub use ipmc_core::stream::flags;
 
-/// Runs `elf` in QEMU on `samples` inside `work` (created), and decodes what comes back.
-pub fn run_replay(elf: &Path, samples: &[Sample], work: &Path) -> Result<Replayed> {
-    run_replay_to(elf, samples, work, "")
+/// Runs `elf` in QEMU on `replay` inside `work` (created), and decodes what comes back.
+pub fn run_replay(elf: &Path, replay: &Replay, work: &Path) -> Result<Replayed> {
+    run_replay_to(elf, replay, work, "")
 }
 
 /// The same with the stream going to QEMU chardev `serial` (e.g. `null`: no receiver; no
 /// blocks come back) instead of a file (empty).
-pub fn run_replay_to(elf: &Path, samples: &[Sample], work: &Path, serial: &str) -> Result<Replayed> {
+pub fn run_replay_to(elf: &Path, replay: &Replay, work: &Path, serial: &str) -> Result<Replayed> {
     install::ensure_qemu()?;
     install::ensure_cargo_tool("defmt-print", "defmt-print")?;
     fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
-    fs::write(work.join(replay::FILE_NAME.to_str().expect("ASCII name")), replay::encode(FIRMWARE_FS_HZ, samples))
+    fs::write(work.join(replay::FILE_NAME.to_str().expect("ASCII name")), replay.encode(FIRMWARE_FS_HZ))
         .map_err(|e| format!("writing the replay file: {e}"))?;
     let stream_path = work.join("stream.bin");
     let defmt_path = work.join("defmt.bin");
@@ -71,8 +71,9 @@ pub fn run_replay_to(elf: &Path, samples: &[Sample], work: &Path, serial: &str) 
         .stdin(Stdio::null());
     let what = describe(&cmd);
     let mut child = cmd.spawn().map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
-    // Real-time pacing plus start-up, with a wide margin for a loaded machine.
-    let limit = Duration::from_secs(60 + 4 * samples.len() as u64 / FIRMWARE_FS_HZ as u64);
+    // Real-time pacing plus start-up and the board's wait at each gap, with a wide margin for a
+    // loaded machine.
+    let limit = Duration::from_secs(60 + 4 * replay.samples.len() as u64 / FIRMWARE_FS_HZ as u64 + 4 * replay.gaps.len() as u64);
     let started = Instant::now();
     let status = loop {
         if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
@@ -111,11 +112,13 @@ fn decode_defmt(elf: &Path, raw: &Path) -> Result<String> {
 pub fn command(args: &[String]) -> Result<()> {
     let mut input = None;
     let mut out = None;
+    let mut calib = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--input" => input = Some(PathBuf::from(it.next().ok_or("--input needs a file")?)),
             "--out" => out = Some(PathBuf::from(it.next().ok_or("--out needs a file")?)),
+            "--calib" => calib = Some(PathBuf::from(it.next().ok_or("--calib needs a calibration file")?)),
             other => return Err(format!("qemu: unknown argument `{other}`")),
         }
     }
@@ -127,24 +130,11 @@ pub fn command(args: &[String]) -> Result<()> {
         )?,
     };
     let out = out.unwrap_or_else(|| repo_root().join("target/qemu-run/EST.csv"));
-
-    let rec = recording::time_series(&input)?;
-    if (rec.fs_hz - FIRMWARE_FS_HZ as f64).abs() > 1e-6 * FIRMWARE_FS_HZ as f64 {
-        return Err(format!("{} is sampled at {} Hz; the firmware runs at {FIRMWARE_FS_HZ} Hz", input.display(), rec.fs_hz));
-    }
-    let samples: Vec<Sample> =
-        rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &rh)| Sample { current_a: i as f32, rh_pct: rh as f32 }).collect();
-
-    let elf = firmware::build(Variant::Qemu)?;
-    println!("==> replaying {} ({} samples) in QEMU", input.display(), samples.len());
-    let replayed = run_replay(&elf, &samples, &repo_root().join("target/qemu-run"))?;
+    let replayed = replay_recording(&input, &out, calib.as_deref(), &repo_root().join("target/qemu-run"))?;
     print!("{}", replayed.log);
-
-    write_est_csv(&out, &rec.t_s, &replayed.blocks)?;
     println!(
-        "{} estimates ({} samples replayed, {} retunes, {} blocks with stale RH, {} clipped) -> {}",
+        "{} estimates ({} retunes, {} blocks with stale RH, {} clipped) -> {}",
         replayed.estimates(),
-        samples.len(),
         replayed.blocks_with(flags::RETUNED),
         replayed.blocks_with(flags::RH_STALE),
         replayed.blocks_with(flags::CLIPPED),
@@ -152,6 +142,30 @@ pub fn command(args: &[String]) -> Result<()> {
     );
     report_accuracy(&input, &out)?;
     Ok(())
+}
+
+/// Replays the time-series recording `input` in the QEMU build of the firmware (with `calib`
+/// baked in, or the default preset), inside `work`, and writes its estimates to `out`.
+pub fn replay_recording(input: &Path, out: &Path, calib: Option<&Path>, work: &Path) -> Result<Replayed> {
+    let rec = recording::time_series(input)?;
+    if (rec.fs_hz - FIRMWARE_FS_HZ as f64).abs() > 1e-6 * FIRMWARE_FS_HZ as f64 {
+        return Err(format!("{} is sampled at {} Hz; the firmware runs at {FIRMWARE_FS_HZ} Hz", input.display(), rec.fs_hz));
+    }
+    let replay = Replay::of_recording(&rec);
+    let elf = match calib {
+        Some(c) => firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(c))?,
+        None => firmware::build(Variant::Qemu)?,
+    };
+    let waits: f64 = replay.gaps.iter().map(|g| g.lost_samples as f64).sum::<f64>() / FIRMWARE_FS_HZ as f64;
+    println!(
+        "==> replaying {} ({} samples{}) in QEMU",
+        input.display(),
+        replay.samples.len(),
+        if replay.gaps.is_empty() { String::new() } else { format!(", {} waits between bursts, {waits:.0} s in all", replay.gaps.len()) }
+    );
+    let replayed = run_replay(&elf, &replay, work)?;
+    write_est_csv(out, &rec.t_s, &replayed.blocks, &replay)?;
+    Ok(replayed)
 }
 
 /// Runs `cargo ipmc ARGS…` and returns the figure it prints after "skipped): " (the scoring
@@ -214,7 +228,7 @@ fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
 }
 
 /// The firmware's estimates as EST.csv (the format `ipmc compensate` writes, one writer).
-pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {
+pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay) -> Result<()> {
     if let Some(dir) = path.parent() {
         fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     }
@@ -228,7 +242,7 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block]) -> Result<()> {
     est.metadata.set("fs_hz", FIRMWARE_FS_HZ);
     for b in blocks {
         for (k, &v) in b.base_est_m.iter().enumerate() {
-            let i = b.first_sample as usize + k;
+            let i = replay.sample_of(b.first_sample) + k;
             est.t_s.push(t_s.get(i).copied().unwrap_or(i as f64 / FIRMWARE_FS_HZ as f64));
             est.base_est_m.push(v);
             est.rh_pct.as_mut().expect("set above").push(b.rh_pct);

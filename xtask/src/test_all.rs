@@ -8,7 +8,7 @@ use crate::{
     firmware::{self, Variant},
     ipmc,
     qemu::{self, FIRMWARE_FS_HZ, Replayed, flags},
-    replay::{Sample, expected_estimates},
+    replay::{Replay, Sample, expected_estimates},
     repo_root, run, size,
 };
 
@@ -49,7 +49,7 @@ fn synthetic(seconds: f32, rh: impl Fn(f32) -> f32) -> Vec<Sample> {
 
 fn replay(name: &str, samples: &[Sample]) -> Result<Replayed> {
     let work = repo_root().join("target/qemu-test").join(name);
-    qemu::run_replay(&Variant::Qemu.elf(), samples, &work)
+    qemu::run_replay(&Variant::Qemu.elf(), &Replay::continuous(samples.to_vec()), &work)
 }
 
 fn check_count(r: &Replayed, samples: usize) -> Result<()> {
@@ -237,7 +237,7 @@ fn qemu_replay_no_new_humidity() -> Result<()> {
 fn qemu_replay_no_receiver() -> Result<()> {
     let samples = synthetic(3.0, |_| 50.0);
     let work = repo_root().join("target/qemu-test/no-receiver");
-    let r = qemu::run_replay_to(&Variant::Qemu.elf(), &samples, &work, "null")?;
+    let r = qemu::run_replay_to(&Variant::Qemu.elf(), &Replay::continuous(samples.clone()), &work, "null")?;
     let want = expected_estimates(samples.len()) / 32;
     let line = r.log.lines().find(|l| l.contains("input ended")).unwrap_or_default().to_string();
     println!("{line}");
@@ -303,7 +303,7 @@ fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
     let calib = work.join("CALIB-with-path.toml");
     let text = ipmc_core::calibration_file::to_text(&calibration_with_humidity_path());
     std::fs::write(&calib, text).map_err(|e| format!("{}: {e}", calib.display()))?;
-    let elf = firmware::build_in(Variant::Qemu, &repo_root().join("target/qemu-humidity-path"), Some(&calib))?;
+    let elf = firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(&calib))?;
     let blocks = host_equivalence_on_ramp("humidity-path", 10, 40, 50, &elf, Some(&calib))?;
     // Both parts must have acted: without the path the strip is the reading (0), with the
     // correction alone it is +2 + 0.02·RH ≈ +2.9 %RH above it, and the lag on the rising ramp
@@ -342,10 +342,10 @@ fn host_equivalence_on_ramp(
         rec_path.as_os_str(),
     ])?;
     let rec = crate::recording::time_series(&rec_path)?;
-    let samples: Vec<Sample> =
-        rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
+    let replay = Replay::of_recording(&rec);
+    let samples = &replay.samples;
     let started = std::time::Instant::now();
-    let r = qemu::run_replay(elf, &samples, &work)?;
+    let r = qemu::run_replay(elf, &replay, &work)?;
     println!("{} samples through the firmware under QEMU in {:.0} s", samples.len(), started.elapsed().as_secs_f64());
     if r.blocks_with(flags::REPORT_DROPPED) > 0 {
         return Err(format!("{} blocks flagged REPORT_DROPPED", r.blocks_with(flags::REPORT_DROPPED)));
@@ -356,7 +356,7 @@ fn host_equivalence_on_ramp(
         return Err(format!("RH ramps {rh_from} → {rh_to} % but the firmware never retuned\n{}", r.log));
     }
     let fw_path = work.join("EST-qemu.csv");
-    qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks)?;
+    qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks, &replay)?;
     let host_path = work.join("EST-host.csv");
     let mut args: Vec<&std::ffi::OsStr> = vec![
         "compensate".as_ref(),

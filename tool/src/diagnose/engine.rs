@@ -1092,15 +1092,13 @@ fn fit_humidity_path(ctx: &Ctx) -> HumidityPath {
             l.rh_pct = *rh;
         }
         let Ok(base) = fits::fit_levels(ctx.calib, &moved, &ctx.sig, &ctx.all, &Extension::default(), &ctx.base.theta) else { break };
-        let refitted = Ctx {
-            calib: ctx.calib,
-            data: ctx.data,
-            sig: ctx.sig.clone(),
-            all: ctx.all.clone(),
-            base,
-            read: ctx.read.clone(),
-            weights: ctx.weights.clone(),
-        };
+        // The law scatter is re-estimated where the path puts the levels: measured at the
+        // reading, it holds the very hysteresis and offset the path removes, and weighs the
+        // parameters that show them most as if they were noise.
+        let at_strip = Regressors { x: strip, temperature: None };
+        let weights = LawWeights::estimate(&at_strip, &base.theta, &base.se);
+        let refitted =
+            Ctx { calib: ctx.calib, data: ctx.data, sig: ctx.sig.clone(), all: ctx.all.clone(), base, read: ctx.read.clone(), weights };
         path = fit_path_once(&refitted);
     }
     path

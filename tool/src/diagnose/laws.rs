@@ -161,7 +161,8 @@ pub fn mapped_rh(read: f64, offset: f64, gain: f64) -> f64 {
 pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> Vec<f64> {
     let lagged: Vec<Vec<f64>> = histories
         .iter()
-        .map(|h| {
+        .enumerate()
+        .map(|(session, h)| {
             // The strip's model of the calibration's humidity path, settled at the first reading.
             let mut strip = Hydration::<f64>::new(&HumidityPath { tau_wet_s: tau_s, tau_dry_s: tau_s, ..HumidityPath::NONE });
             let mut last: Option<f64> = None;
@@ -169,6 +170,10 @@ pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> V
                 .iter()
                 .zip(&h.rh_pct)
                 .map(|(&t, &rh)| {
+                    // A level is one chamber humidity: its mean reading, not the first noisy one,
+                    // stands for the whole wait before it (the wait is most of the lag's drive).
+                    let in_level = levels.iter().find(|l| l.session == session && l.time_span.is_some_and(|(t0, t1)| t >= t0 && t <= t1));
+                    let rh = in_level.map_or(rh, |l| l.rh_pct);
                     let dt = last.map_or(0.0, |l| t - l);
                     last = Some(t);
                     strip.update(rh, dt)
