@@ -571,7 +571,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     let mut ranked = scores;
     // Held-out scores of different candidates have different nulls: rank by the evidence.
     ranked.sort_by(|a, b| b.passes.cmp(&a.passes).then(b.applicable.cmp(&a.applicable)).then(b.delta_bic.total_cmp(&a.delta_bic)));
-    let humidity_path = matches!(verdict.as_str(), "hydration_lag" | "humidity_sensor_error").then(|| fit_humidity_path(&ctx));
+    let humidity_path = matches!(verdict.as_str(), "hydration_lag" | "humidity_sensor_error").then(|| fit_humidity_path(&ctx, c_hat));
     Ok(Diagnosis {
         indistinguishable: if winner.is_some() { alternatives } else { vec![] },
         overdispersion: c_hat,
@@ -1079,8 +1079,8 @@ const PATH_FIT_DRIFT: bool = false;
 /// [`fit_humidity_path`]); measured, the third changes the path by < 0.05 %RH.
 const PATH_ROUNDS: usize = 3;
 
-fn fit_humidity_path(ctx: &Ctx) -> HumidityPath {
-    let mut path = fit_path_once(ctx);
+fn fit_humidity_path(ctx: &Ctx, c_hat: f64) -> HumidityPath {
+    let mut path = fit_path_once(ctx, c_hat);
     // Each level's own fit holds κe, h and m at the humidity the level is placed at, the reading:
     // with the reading off, its Y, Cs, Ca and d come out pulled toward the reading, and the
     // path fitted on them short of the truth. So the levels are refitted where the path puts
@@ -1099,7 +1099,7 @@ fn fit_humidity_path(ctx: &Ctx) -> HumidityPath {
         let weights = LawWeights::estimate(&at_strip, &base.theta, &base.se);
         let refitted =
             Ctx { calib: ctx.calib, data: ctx.data, sig: ctx.sig.clone(), all: ctx.all.clone(), base, read: ctx.read.clone(), weights };
-        path = fit_path_once(&refitted);
+        path = fit_path_once(&refitted, c_hat);
     }
     path
 }
@@ -1114,10 +1114,12 @@ fn path_rh(ctx: &Ctx, path: &HumidityPath) -> Vec<f64> {
     behind.iter().map(|&r| path.correct(r)).collect()
 }
 
-fn fit_path_once(ctx: &Ctx) -> HumidityPath {
+/// `c_hat` is the data's overdispersion: the levels' standard errors are that much too small
+/// in variance, so their likelihood gains are divided by it before BIC prices a parameter.
+fn fit_path_once(ctx: &Ctx, c_hat: f64) -> HumidityPath {
     let everyone: Vec<usize> = (0..ctx.data.levels.len()).collect();
     // BIC's price of one more parameter of the path, on the levels' four parameters each.
-    let penalty = (4.0 * everyone.len() as f64).ln();
+    let penalty = c_hat * (4.0 * everyone.len() as f64).ln();
     let read: Vec<f64> = ctx.data.levels.iter().map(|l| l.rh_pct).collect();
     // The sensor's gain only where the data ask for it: a gain the levels cannot pin down
     // trades off against the offset and the lag and moves the humidity at the range's ends.
