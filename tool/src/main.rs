@@ -4,6 +4,7 @@ mod calibration_source;
 mod commands;
 mod conceal;
 mod diagnose;
+mod effect;
 mod input;
 mod overrides;
 mod plot;

@@ -136,17 +136,19 @@ pub fn run(a: Args) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conceal::{Strength, make_case_with};
+    use crate::conceal::{Strength, make_case};
+    use crate::effect::Effect;
 
     /// Runs the command on a generated case and checks every figure report.json lists: present
     /// as SVG and PNG, each a valid non-empty file of its kind, linked from report.md; the
     /// residual map has an "after" panel exactly when the verdict names an effect.
-    fn figures_of(effect: Option<&'static str>, seed: u64) {
+    fn figures_of(effect: Option<Effect>, seed: u64) {
         let calib = ipmc_core::Calibration::default_preset();
-        let dir = std::env::temp_dir().join(format!("ipmc-diagnose-figures-{}-{}", effect.unwrap_or("clean"), std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("ipmc-diagnose-figures-{}-{}", effect.map_or("clean", Effect::name), std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let rec = dir.join("REC.csv");
-        std::fs::write(&rec, make_case_with(&calib, effect, seed, Strength::At(0.9)).recording.to_csv().unwrap()).unwrap();
+        std::fs::write(&rec, make_case(&calib, effect, seed, Strength::At(0.9)).recording.to_csv().unwrap()).unwrap();
         let report_dir = dir.join("report");
         run(Args { recordings: vec![rec], calib: None, report: report_dir.clone(), write_calib: None, humidity_sensor: None, quiet: true })
             .unwrap();
@@ -183,7 +185,7 @@ mod tests {
 
     #[test]
     fn figures_with_an_effect() {
-        figures_of(Some("tip_mass"), 3);
+        figures_of(Some(Effect::TipMass), 3);
     }
 
     #[test]

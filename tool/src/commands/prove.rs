@@ -7,8 +7,9 @@
 //! table with each case's indistinguishable set, evidence and wall time.
 
 use crate::commands::diagnose::read_dataset;
-use crate::conceal::{EFFECTS, Strength, make_case_with};
+use crate::conceal::{Strength, make_case};
 use crate::diagnose::engine;
+use crate::effect::Effect;
 use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -66,14 +67,14 @@ pub fn run_cases(
     dir: &std::path::Path,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Vec<Outcome>> {
-    let mut plan: Vec<Option<&'static str>> = Vec::new();
+    let mut plan: Vec<Option<Effect>> = Vec::new();
     for _ in 0..per_effect {
-        plan.extend(EFFECTS.iter().map(|e| Some(*e)));
+        plan.extend(Effect::ALL.map(Some));
     }
     plan.extend(std::iter::repeat_n(None, clean));
-    let one = |i: usize, effect: Option<&'static str>| -> Result<Outcome> {
-        let case = make_case_with(calib, effect, seed.wrapping_mul(10_007).wrapping_add(i as u64), strength);
-        let truth = effect.unwrap_or("none").to_string();
+    let one = |i: usize, effect: Option<Effect>| -> Result<Outcome> {
+        let case = make_case(calib, effect, seed.wrapping_mul(10_007).wrapping_add(i as u64), strength);
+        let truth = effect.map_or("none", Effect::name).to_string();
         let path = dir.join(format!("case-{i:03}-{truth}.csv"));
         let csv = case.recording.to_csv().map_err(|e| anyhow::anyhow!("{e}"))?;
         crate::commands::write_atomically(&path, csv.as_bytes())?;
@@ -122,7 +123,7 @@ pub fn run(a: Args) -> Result<()> {
         None => std::env::temp_dir().join(format!("ipmc-prove-{}", std::process::id())),
     };
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let total = (a.per_effect * EFFECTS.len() + a.clean) as u64;
+    let total = (a.per_effect * Effect::ALL.len() + a.clean) as u64;
     let bar = crate::progress::bar(total, "cases");
     if let Some(at) = a.at {
         anyhow::ensure!((0.0..=1.0).contains(&at), "--at must be within 0 and 1, not {at}");

@@ -5,6 +5,7 @@
 //! Parameters are fitted in display units (ms, Ω, %RH…) so that every fitted number is of order
 //! one to a thousand: the fitter's finite-difference steps are absolute for unbounded parameters.
 
+use crate::effect::Effect;
 use ipmc_core::Params;
 use ipmc_core::extension::Extension;
 use ipmc_fit::lsq::Bound;
@@ -57,7 +58,7 @@ const fn spec(name: &'static str, unit: &'static str, bound: Bound, start: f64, 
 
 pub const LIBRARY: &[Candidate] = &[
     Candidate {
-        name: "clamp_compliance",
+        name: Effect::ClampCompliance.name(),
         family: "mechanical: boundary condition",
         doc: "The clamp is not rigid: it turns by c_θ·M under the root bending moment M, so the \
               beam sits on a rotational spring whose compliance is a property of the clamp, the \
@@ -71,7 +72,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { clamp_compliance: v[0], ..Default::default() }),
     },
     Candidate {
-        name: "tip_mass",
+        name: Effect::TipMass.name(),
         family: "mechanical: added mass",
         doc: "A body at the tip (glue, a reflector for the laser, a lead wire): a point mass M_t \
               at z = L. Parameter: M_t in mg. Lowers the first resonance as \
@@ -82,7 +83,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { tip_mass: v[0] * 1e-6, ..Default::default() }),
     },
     Candidate {
-        name: "air_loading",
+        name: Effect::AirLoading.name(),
         family: "mechanical: air loading",
         doc: "The surrounding air is dragged along: it adds mass per length and dissipates in an \
               oscillating boundary layer whose force grows like √ω (Stokes), unlike the paper's \
@@ -95,7 +96,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { stokes: v[0] * 1e-3, ..Default::default() }),
     },
     Candidate {
-        name: "viscoelastic_relaxation",
+        name: Effect::ViscoelasticRelaxation.name(),
         family: "mechanical: viscoelastic law",
         doc: "The polymer is a standard linear solid rather than Kelvin–Voigt: a relaxation branch \
               of modulus ΔY and time τ stiffens the beam above 1/(2πτ) and dissipates most near \
@@ -113,7 +114,7 @@ pub const LIBRARY: &[Candidate] = &[
         }),
     },
     Candidate {
-        name: "hysteretic_damping",
+        name: Effect::HystereticDamping.name(),
         family: "mechanical: viscoelastic law",
         doc: "Structural (hysteretic) damping: a loss factor η that does not depend on frequency, \
               E* = Y(1 + iη), as many polymers and clamps show, instead of damping growing with \
@@ -124,7 +125,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { loss_factor: v[0], ..Default::default() }),
     },
     Candidate {
-        name: "electrode_resistance",
+        name: Effect::ElectrodeResistance.name(),
         family: "electrical: electrode resistance",
         doc: "The electrodes' surface resistance R_e with the polymer's capacitance \
               C = κe·b·L/(2h) forms a distributed RC line (Chen & Tan, IEEE/ASME TMech 2008; \
@@ -140,7 +141,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, p| Extension { electrode_tau_distributed: v[0] * ipmc_core::model::capacitance(p), ..Default::default() }),
     },
     Candidate {
-        name: "amplifier_bandwidth",
+        name: Effect::AmplifierBandwidth.name(),
         family: "electrical: measurement amplifier",
         doc: "The transimpedance amplifier is not flat: its feedback capacitance and the second \
               stage give a pole at f_a. Parameter: τ_a = 1/(2πf_a) [µs]. Shows in the current \
@@ -150,7 +151,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { amp_tau: [v[0] * 1e-6, 0.0], ..Default::default() }),
     },
     Candidate {
-        name: "current_timing",
+        name: Effect::CurrentTiming.name(),
         family: "instrumentation: timing between channels",
         doc: "The current is not sampled at the same instant as the base (a multiplexed ADC, a \
               filter's group delay): a delay Δt multiplies it by e^(−jωΔt). Parameter: Δt [µs]. \
@@ -160,7 +161,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { skew_current: v[0] * 1e-6, ..Default::default() }),
     },
     Candidate {
-        name: "tip_timing",
+        name: Effect::TipTiming.name(),
         family: "instrumentation: timing between channels",
         doc: "The tip displacement is not sampled at the same instant as the base (the laser \
               sensors' response time, close to 1 ms in the paper's set-up): e^(−jωΔt) on the tip \
@@ -170,7 +171,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { skew_tip: v[0] * 1e-6, ..Default::default() }),
     },
     Candidate {
-        name: "capacitive_feedthrough",
+        name: Effect::CapacitiveFeedthrough.name(),
         family: "electrical: feedthrough",
         doc: "The shaker drive couples capacitively into the high-impedance current input: a \
               current ∝ base velocity, g·s·U, adds to the IPMC's. Parameter: g [nA·s/m]. Shows in \
@@ -181,7 +182,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { feedthrough: v[0] * 1e-9, ..Default::default() }),
     },
     Candidate {
-        name: "mains_interference",
+        name: Effect::MainsInterference.name(),
         family: "interference",
         doc: "Pickup from the mains (50 or 60 Hz and its harmonics) adds, at points measured near \
               a line, a current of its own with a phase unrelated to the excitation. Fitted as a \
@@ -193,7 +194,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Mains,
     },
     Candidate {
-        name: "hydration_lag",
+        name: Effect::HydrationLag.name(),
         family: "ionic: hydration dynamics",
         doc: "The polymer's water content follows the ambient humidity through a first-order lag \
               τ_h (diffusion of water into the membrane): every parameter takes the value of its \
@@ -205,7 +206,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Humidity(HumidityMap::HydrationLag),
     },
     Candidate {
-        name: "humidity_sensor_error",
+        name: Effect::HumiditySensorError.name(),
         family: "instrumentation: humidity sensor",
         doc: "The humidity reading is offset or mis-scaled (a drifted or mis-calibrated sensor, \
               the HIH-4030's temperature correction): the sample lives at RH_true = RH_read + o + \
@@ -216,7 +217,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Humidity(HumidityMap::SensorError),
     },
     Candidate {
-        name: "temperature",
+        name: Effect::Temperature.name(),
         family: "environmental: temperature",
         doc: "The paper held the strip at 20 °C; a room that drifts during the session changes \
               the polymer at every point at once. Ion transport is thermally activated: \
@@ -270,5 +271,18 @@ mod tests {
             }
         }
         assert!(LIBRARY.len() >= 10);
+    }
+
+    /// Every effect the simulator conceals has the candidate that should find it, and no two
+    /// candidates share a name.
+    #[test]
+    fn one_candidate_per_effect() {
+        for e in Effect::ALL {
+            assert!(by_name(e.name()).is_some(), "{e}");
+        }
+        let mut names: Vec<&str> = LIBRARY.iter().map(|c| c.name).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), LIBRARY.len());
     }
 }

@@ -162,8 +162,9 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conceal::{Strength, make_case_with};
+    use crate::conceal::{Strength, make_case};
     use crate::diagnose::engine;
+    use crate::effect::Effect;
 
     /// The held-out score a level's drawn residuals give: their Σ z² with the inflated
     /// variance's normalization, over their number.
@@ -180,10 +181,10 @@ mod tests {
     #[test]
     fn heldout_numbers_are_the_drawn_residuals() {
         let calib = ipmc_core::Calibration::default_preset();
-        for effect in ["tip_mass", "mains_interference"] {
-            let data = Dataset::from_recordings(&[make_case_with(&calib, Some(effect), 3, Strength::At(0.9)).recording]);
+        for effect in [Effect::TipMass, Effect::MainsInterference] {
+            let data = Dataset::from_recordings(&[make_case(&calib, Some(effect), 3, Strength::At(0.9)).recording]);
             let d = engine::diagnose(&calib, &data, &|_| {}).unwrap();
-            assert_eq!(d.verdict, effect);
+            assert_eq!(d.verdict, effect.name());
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
             let (mut sums, mut n) = ([0.0; 2], 0.0);
             for (l, level) in data.levels.iter().enumerate() {

@@ -3,6 +3,7 @@
 //! exact model lacks can be injected). Deterministic for a given seed.
 
 mod charging;
+pub mod effects;
 mod frequency_response;
 pub mod hydration;
 pub mod physics;

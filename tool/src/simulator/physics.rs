@@ -6,6 +6,7 @@
 //! resistance, a second relaxation, a temperature coefficient…), implement [`Physics`] —
 //! typically wrapping [`ExactModel`] and modifying its answer — and pass it to
 //! [`super::simulate`]: the session handling, humidity path, noise and writing stay the same.
+//! The effects `ipmc prove` conceals are such implementations (`super::effects`).
 
 use ipmc_core::model::{responses, step_charging_current};
 use ipmc_core::{C, Params};

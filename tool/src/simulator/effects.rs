@@ -1,0 +1,216 @@
+//! The effects `ipmc prove` conceals, drawn at a magnitude from a realistic range. What the
+//! sample does differently is a [`Physics`] ([`SampleEffect`]: the simulator's seam); what the
+//! bench does differently (the humidity path, the room's temperature) is a [`BenchEffect`] the
+//! session applies.
+//!
+//! Effects are generated in a physically richer or different form than the candidate that
+//! fits them where that is natural: the electrode as a distributed RC line (fitted: one pole),
+//! the tip body with rotary inertia (fitted: a point mass), the polymer's relaxation with two
+//! time constants (fitted: one), the amplifier with two poles (fitted: one), hydration with
+//! different time constants for wetting and drying (fitted: one). Magnitudes are drawn
+//! log-uniformly over ranges whose low ends are near what 12 levels can detect.
+
+use super::physics::Physics;
+use super::random::SplitMix64;
+use crate::effect::Effect;
+use ipmc_core::extension::{Extension, responses};
+use ipmc_core::model::{capacitance, current_response, jw};
+use ipmc_core::{C, Params};
+
+/// The room temperature the sample's laws hold at [°C]; a temperature effect moves away from it.
+pub const ROOM_C: f64 = 20.0;
+
+/// Where in its range an effect's magnitude is drawn: at random, or at a fixed fraction of the
+/// range (log scale) for tests that need a clearly visible effect.
+#[derive(Clone, Copy)]
+pub enum Strength {
+    Random,
+    At(f64),
+}
+
+/// What the sample does beyond the exact model, the same at every level.
+#[derive(Clone, Copy, Default)]
+pub struct SampleEffect {
+    /// Extension of the model (same physical constants at every level).
+    ext: Extension<f64>,
+    /// Electrode resistance [Ω]: the line's τ follows each level's capacitance.
+    electrode_ohm: f64,
+    /// d ln Y/dT and d ln Cs/dT [1/K] away from [`ROOM_C`].
+    temperature_coeffs: Option<(f64, f64)>,
+    /// Mains: line [Hz], amplitude relative to |current| at the line, phase of harmonics 1–3.
+    mains: Option<(f64, f64, [f64; 3])>,
+    /// Capacitive feedthrough [A/m of base displacement, per rad/s], set by the session.
+    pub feedthrough: f64,
+}
+
+/// What the bench does differently: the humidity the sample feels and reads, the room.
+#[derive(Clone, Copy)]
+pub struct BenchEffect {
+    /// Hydration lag time constants while wetting and drying [s].
+    pub hydration: Option<(f64, f64)>,
+    /// Humidity sensor: read = gain·true + offset.
+    pub sensor_gain: f64,
+    pub sensor_offset_pct: f64,
+    /// The room's swing between levels [K] (levels measured at different times of day).
+    pub temperature_swing_k: f64,
+    /// Feedthrough relative to |current(10 Hz)| at the session's driest level; the session
+    /// knows that level and sets [`SampleEffect::feedthrough`] from it.
+    pub feedthrough_rel: f64,
+}
+
+impl Default for BenchEffect {
+    fn default() -> Self {
+        BenchEffect { hydration: None, sensor_gain: 1.0, sensor_offset_pct: 0.0, temperature_swing_k: 0.0, feedthrough_rel: 0.0 }
+    }
+}
+
+/// An effect as drawn: the sample's part, the bench's part and its magnitude in words.
+pub struct Drawn {
+    pub sample: SampleEffect,
+    pub bench: BenchEffect,
+    pub words: String,
+}
+
+struct Draw<'a> {
+    rng: &'a mut SplitMix64,
+    strength: Strength,
+}
+
+impl Draw<'_> {
+    fn log_uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        let u = self.rng.uniform();
+        let u = match self.strength {
+            Strength::Random => u,
+            Strength::At(a) => a,
+        };
+        (lo.ln() + (hi.ln() - lo.ln()) * u).exp()
+    }
+
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.rng.uniform()
+    }
+
+    fn sign(&mut self) -> f64 {
+        if self.rng.uniform() < 0.5 { -1.0 } else { 1.0 }
+    }
+}
+
+/// Draws `effect` (None: a clean sample and bench) for a sample whose parameters at 60 %RH are
+/// `p60`.
+pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: &mut SplitMix64) -> Drawn {
+    let mut d = Draw { rng, strength };
+    let mut s = SampleEffect::default();
+    let mut b = BenchEffect::default();
+    let ei = p60.y * p60.inertia();
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let words = match effect {
+        None => "clean".to_string(),
+        Some(Effect::ClampCompliance) => {
+            let kappa = d.log_uniform(0.03, 0.2);
+            s.ext.clamp_compliance = kappa * p60.l / ei;
+            format!("c_θ = {:.0} rad/(N·m) (κ = {kappa:.3} at 60 %)", s.ext.clamp_compliance)
+        }
+        Some(Effect::TipMass) => {
+            let ratio = d.log_uniform(0.03, 0.3);
+            let mass = ratio * p60.m * p60.l;
+            s.ext.tip_mass = mass;
+            // A small block 1.5 mm across centred on the tip.
+            s.ext.tip_inertia = mass * (1.5e-3f64).powi(2) / 6.0;
+            format!("M_t = {:.1} mg ({:.0} % of the beam) with rotary inertia", mass * 1e6, ratio * 100.0)
+        }
+        Some(Effect::AirLoading) => {
+            let ratio = d.log_uniform(0.02, 0.15);
+            s.ext.added_mass = ratio * p60.m;
+            s.ext.stokes = d.log_uniform(2e-3, 2e-2);
+            format!("m_air/m = {ratio:.3}, c_st = {:.1} mN·s^½/m²", s.ext.stokes * 1e3)
+        }
+        Some(Effect::ViscoelasticRelaxation) => {
+            let dy = d.log_uniform(0.04, 0.25);
+            let f = d.log_uniform(20.0, 150.0);
+            // Two branches a factor 3 apart in time (a relaxation spectrum), ΔY/2 each.
+            let tau = 1.0 / (two_pi * f);
+            s.ext.relax_modulus = [dy * p60.y / 2.0; 2];
+            s.ext.relax_time = [tau / 3f64.sqrt(), tau * 3f64.sqrt()];
+            format!("ΔY/Y = {dy:.3} relaxing near {f:.0} Hz")
+        }
+        Some(Effect::HystereticDamping) => {
+            s.ext.loss_factor = d.log_uniform(0.01, 0.06);
+            format!("η = {:.3}", s.ext.loss_factor)
+        }
+        Some(Effect::ElectrodeResistance) => {
+            s.electrode_ohm = d.log_uniform(0.5, 5.0);
+            format!("R_e = {:.2} Ω distributed", s.electrode_ohm)
+        }
+        Some(Effect::AmplifierBandwidth) => {
+            let f = d.log_uniform(250.0, 1500.0);
+            let tau = 1.0 / (two_pi * f);
+            s.ext.amp_tau = [tau, tau / d.uniform(3.0, 6.0)];
+            format!("poles at {f:.0} Hz and {:.0} Hz", 1.0 / (two_pi * s.ext.amp_tau[1]))
+        }
+        Some(Effect::CurrentTiming) => {
+            s.ext.skew_current = d.sign() * d.log_uniform(50e-6, 500e-6);
+            format!("Δt_current = {:.0} µs", s.ext.skew_current * 1e6)
+        }
+        Some(Effect::TipTiming) => {
+            s.ext.skew_tip = d.sign() * d.log_uniform(50e-6, 800e-6);
+            format!("Δt_tip = {:.0} µs", s.ext.skew_tip * 1e6)
+        }
+        Some(Effect::CapacitiveFeedthrough) => {
+            b.feedthrough_rel = d.log_uniform(0.03, 0.3);
+            format!("{:.1} % of the 10 Hz current at the driest level", b.feedthrough_rel * 100.0)
+        }
+        Some(Effect::MainsInterference) => {
+            let line = if d.rng.uniform() < 0.5 { 50.0 } else { 60.0 };
+            let rel = d.log_uniform(0.05, 0.4);
+            let phases = [0; 3].map(|_| d.rng.uniform() * two_pi);
+            s.mains = Some((line, rel, phases));
+            format!("{line:.0} Hz pickup, {:.0} % of |H| at the line", rel * 100.0)
+        }
+        Some(Effect::HydrationLag) => {
+            let wet = d.log_uniform(80.0, 600.0);
+            let dry = wet * d.uniform(1.3, 2.5);
+            b.hydration = Some((wet, dry));
+            format!("τ wetting {wet:.0} s, drying {dry:.0} s")
+        }
+        Some(Effect::HumiditySensorError) => {
+            let o = d.sign() * d.log_uniform(2.0, 8.0);
+            let g = 1.0 + d.sign() * d.uniform(0.0, 0.08);
+            (b.sensor_gain, b.sensor_offset_pct) = (g, o);
+            format!("read = {g:.3}·true {o:+.1} %")
+        }
+        Some(Effect::Temperature) => {
+            let swing = d.uniform(3.0, 6.0);
+            let ay = -d.log_uniform(0.012, 0.03);
+            let acs = -d.log_uniform(0.005, 0.02);
+            b.temperature_swing_k = swing;
+            s.temperature_coeffs = Some((ay, acs));
+            format!("±{swing:.1} K between levels, dlnY/dT = {ay:.4}/K, dlnCs/dT = {acs:.4}/K")
+        }
+    };
+    Drawn { sample: s, bench: b, words }
+}
+
+impl Physics for SampleEffect {
+    fn response(&self, params: &Params<f64>, _rh_pct: f64, temp_c: f64, s: C<f64>) -> (C<f64>, C<f64>) {
+        let mut p = *params;
+        if let Some((ay, acs)) = self.temperature_coeffs {
+            p.y *= (ay * (temp_c - ROOM_C)).exp();
+            p.cs *= (acs * (temp_c - ROOM_C)).exp();
+        }
+        let mut ext = self.ext;
+        if self.electrode_ohm > 0.0 {
+            ext.electrode_tau_distributed = self.electrode_ohm * capacitance(&p);
+        }
+        ext.feedthrough = self.feedthrough;
+        let (tip, mut cur) = responses(&p, &ext, s);
+        if let Some((line, rel, phases)) = self.mains {
+            let f = s.im / (2.0 * std::f64::consts::PI);
+            let k = (f / line).round();
+            if (1.0..=3.0).contains(&k) && (f - k * line).abs() < 0.5 {
+                let amp = rel * current_response(&p, jw(line)).norm() / k;
+                cur += C::from_polar(amp, phases[k as usize - 1]);
+            }
+        }
+        (tip, cur)
+    }
+}
