@@ -2,7 +2,6 @@
 
 mod calibration_source;
 mod commands;
-mod conceal;
 mod diagnose;
 mod effect;
 mod input;

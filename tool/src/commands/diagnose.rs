@@ -136,7 +136,7 @@ pub fn run(a: Args) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conceal::{Strength, make_case};
+    use crate::simulator::concealed::{Strength, make_case};
     use crate::effect::Effect;
 
     /// Runs the command on a generated case and checks every figure report.json lists: present

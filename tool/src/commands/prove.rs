@@ -7,7 +7,7 @@
 //! table with each case's indistinguishable set, evidence and wall time.
 
 use crate::commands::diagnose::read_dataset;
-use crate::conceal::{Strength, make_case};
+use crate::simulator::concealed::{Strength, make_case};
 use crate::diagnose::engine;
 use crate::effect::Effect;
 use anyhow::{Context, Result};

@@ -96,13 +96,10 @@ fn sweep_session(a: &SweepArgs) -> Session {
         kind: Kind::TimeSeries,
         seed: a.seed,
         temp_c: None,
-        humidity: Humidity {
-            levels_pct: vec![a.rh_from, a.rh_to],
-            settle_s: 0.0,
-            hydration_tau_s: 0.0,
-            read_error_pct: 0.0,
-            read_bias_pct: 0.0,
-        },
+        temp_swing_k: 0.0,
+        temp_read_error_k: 0.0,
+        humidity: Humidity { levels_pct: vec![a.rh_from, a.rh_to], ..Humidity::default() },
+        sample: Default::default(),
         frequencies: None::<Frequencies>,
         time_series: Some(TimeSeriesPlan {
             fs_hz: a.fs,

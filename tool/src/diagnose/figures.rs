@@ -162,7 +162,7 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conceal::{Strength, make_case};
+    use crate::simulator::concealed::{Strength, make_case};
     use crate::diagnose::engine;
     use crate::effect::Effect;
 

@@ -558,7 +558,7 @@ mod tests {
         p.cs *= 0.8;
         p.ca *= 1.3;
         p.d *= 1.5;
-        let freqs: Vec<f64> = crate::conceal::FREQS.to_vec();
+        let freqs: Vec<f64> = crate::simulator::concealed::FREQS.to_vec();
         let level = LevelData {
             session: 0,
             rh_pct: rh,

@@ -5,7 +5,7 @@
 
 use super::physics::Physics;
 use super::random::SplitMix64;
-use super::sample_at;
+use super::{Departure, level_temp_c, sample_at};
 use super::session::Session;
 use anyhow::{Result, bail};
 use ipmc_core::Calibration;
@@ -18,9 +18,11 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let samples = (plan.duration_s * plan.fs_hz).round() as usize + 1;
     let leakage_a = plan.leakage_ohm.map_or(0.0, |r| plan.voltage_v / r);
     let mut out = vec![];
+    let drift = Departure::drift(&session.sample, &mut rng);
     // Each level is charged from a discharged, settled sample: hydration lag plays no part.
     for &level in &h.levels_pct {
-        let (params, temp_c) = sample_at(calib, session, level);
+        let dep = drift.at_level(&session.sample, &mut rng);
+        let (params, temp_c) = sample_at(calib, level, dep, level_temp_c(session, &mut rng));
         let mut rec = Charging { metadata: metadata.clone(), voltage_v: plan.voltage_v, ..Charging::default() };
         for k in 0..samples {
             let t = k as f64 / plan.fs_hz;
@@ -31,7 +33,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             rec.t_s.push(t);
             rec.current_a.push(i);
         }
-        rec.rh_pct = Some(level + h.read_bias_pct + rng.gauss(h.read_error_pct));
+        rec.rh_pct = Some(h.read_gain * level + h.read_bias_pct + rng.gauss(h.read_error_pct));
         out.push(rec);
     }
     Ok(out)

@@ -2,13 +2,13 @@
 //! every frequency for `dwell_s`, the way a lock-in sweep in a humidity chamber does. Phases are
 //! reported wrapped to (−180°, 180°], as an instrument reports them.
 
-use super::hydration::Hydration;
+use super::bench::Bench;
 use super::physics::Physics;
 use super::random::SplitMix64;
-use super::sample_at;
+use super::{Departure, level_temp_c, sample_at};
 use super::session::Session;
 use anyhow::{Result, bail};
-use ipmc_core::model::jw;
+use ipmc_core::model::{current_response, jw};
 use ipmc_core::{C, Calibration};
 use ipmc_recording::{FrPoint, FrequencyResponse, Metadata, Response};
 
@@ -17,17 +17,23 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let freqs = plan.frequencies_hz()?;
     let (h, n) = (&session.humidity, &session.noise);
     let mut rng = SplitMix64(session.seed);
-    let mut hydration = Hydration::settled(h.levels_pct[0], 0.0, h.hydration_tau_s);
+    let mut bench = Bench::settled(h.levels_pct[0], h);
+    let drift = Departure::drift(&session.sample, &mut rng);
     let mut points = Vec::with_capacity(h.levels_pct.len() * freqs.len());
     let mut t = 0.0;
     for (k, &level) in h.levels_pct.iter().enumerate() {
-        if k > 0 {
-            hydration.set_chamber(level, t);
+        let setpoint = level + rng.gauss(h.level_error_pct);
+        if k > 0 || setpoint != level {
+            bench.set_target(setpoint);
         }
-        t += h.settle_s;
+        let dep = drift.at_level(&session.sample, &mut rng);
+        let temp_level = level_temp_c(session, &mut rng);
+        let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
+        bench.advance(wait, &mut rng);
+        t += wait;
         for &f in &freqs {
-            let rh_sample = hydration.sample_at(t);
-            let (params, temp_c) = sample_at(calib, session, rh_sample);
+            let rh_sample = bench.sample();
+            let (params, temp_c) = sample_at(calib, rh_sample, dep, temp_level);
             let (tip, current) = physics.response(&params, rh_sample, temp_c, jw(f));
             if !(tip.is_finite() && current.is_finite()) {
                 bail!("the physics gave a non-finite response at {f} Hz, RH {rh_sample} %");
@@ -35,18 +41,28 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             // Additive front-end noise on the current phasor, referred to base displacement.
             let sd = n.current_a * (1.0 + n.current_corner_hz / f).sqrt() / n.base_amplitude_m / std::f64::consts::SQRT_2;
             let current = current + C::new(rng.gauss(sd), rng.gauss(sd));
+            // The instruments' absolute floors.
+            let current_floor = if n.current_floor_of_peak > 0.0 {
+                n.current_floor_of_peak * freqs.iter().map(|&g| current_response(&params, jw(g)).norm()).fold(0.0, f64::max)
+            } else {
+                0.0
+            };
+            let floor = |v: C<f64>, sd: f64, rng: &mut SplitMix64| v + C::new(rng.gauss(sd), rng.gauss(sd)) / std::f64::consts::SQRT_2;
+            let tip = floor(tip, n.tip_floor, &mut rng);
+            let current = floor(current, current_floor, &mut rng);
             let tip = measured(tip, n.tip_gain_pct, n.tip_phase_deg, &mut rng);
             let current = measured(current, n.current_gain_pct, n.current_phase_deg, &mut rng);
-            let rh_read = hydration.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct);
+            let rh_read = h.read_gain * bench.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct);
             points.push(FrPoint {
                 line: 0,
                 time_s: Some(t),
                 rh_pct: rh_read,
-                temp_c: session.temp_c,
+                temp_c: temp_level.map(|c| c + rng.gauss(session.temp_read_error_k)),
                 freq_hz: f,
                 tip: Some(tip),
                 current: Some(current),
             });
+            bench.advance(plan.dwell_s, &mut rng);
             t += plan.dwell_s;
         }
     }

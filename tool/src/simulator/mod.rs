@@ -2,10 +2,11 @@
 //! ([`session::Session`]) and a physics ([`physics::Physics`]: the seam where an effect the
 //! exact model lacks can be injected). Deterministic for a given seed.
 
+mod bench;
 mod charging;
+pub mod concealed;
 pub mod effects;
 mod frequency_response;
-pub mod hydration;
 pub mod physics;
 pub mod random;
 pub mod session;
@@ -77,11 +78,42 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     }
 }
 
-/// The sample at humidity `rh_pct`: the calibration's laws there, at the session's temperature
-/// when it gives one. Returns the temperature [°C] the physics is told.
-fn sample_at(calib: &Calibration, session: &Session, rh_pct: f64) -> (Params<f64>, f64) {
+/// How the sample departs from its calibration at one level: the session's drift times the
+/// level's scatter, as factors on Y, Cs, Ca and d.
+#[derive(Clone, Copy)]
+struct Departure([f64; 4]);
+
+impl Departure {
+    /// The session's drift (draws nothing where the session has none).
+    fn drift(sample: &session::Sample, rng: &mut random::SplitMix64) -> Self {
+        Departure(sample.drift_pct.map(|sd| rng.gauss(sd / 100.0).exp()))
+    }
+
+    /// The drift times one level's scatter.
+    fn at_level(self, sample: &session::Sample, rng: &mut random::SplitMix64) -> Self {
+        let mut f = self.0;
+        for (f, sd) in f.iter_mut().zip(sample.scatter_pct) {
+            *f *= rng.gauss(sd / 100.0).exp();
+        }
+        Departure(f)
+    }
+}
+
+/// The room's temperature for one level: the session's, swung (draws nothing without a swing).
+fn level_temp_c(session: &Session, rng: &mut random::SplitMix64) -> Option<f64> {
+    session.temp_c.map(|t| if session.temp_swing_k > 0.0 { t + session.temp_swing_k * (2.0 * rng.uniform() - 1.0) } else { t })
+}
+
+/// The sample at humidity `rh_pct`: the calibration's laws there, departed by `dep`, at the
+/// temperature `temp_c` when the session gives one. Returns the temperature [°C] the physics is told.
+fn sample_at(calib: &Calibration, rh_pct: f64, dep: Departure, temp_c: Option<f64>) -> (Params<f64>, f64) {
     let mut p: Params<f64> = calib.params_at(rh_pct);
-    match session.temp_c {
+    let [y, cs, ca, d] = dep.0;
+    p.y *= y;
+    p.cs *= cs;
+    p.ca *= ca;
+    p.d *= d;
+    match temp_c {
         Some(t) => {
             p.t_k = t + 273.15;
             (p, t)

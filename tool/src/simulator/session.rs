@@ -30,7 +30,16 @@ pub struct Session {
     pub seed: u64,
     /// Temperature [°C]; absent: the calibration's T, and no `temp_c` column.
     pub temp_c: Option<f64>,
+    /// The room's swing between levels [K]: each level is at `temp_c` plus a uniform draw in
+    /// ±swing (levels measured at different times of day). Needs `temp_c`.
+    #[serde(default)]
+    pub temp_swing_k: f64,
+    /// Standard deviation of the thermometer's error, per reading [K].
+    #[serde(default)]
+    pub temp_read_error_k: f64,
     pub humidity: Humidity,
+    #[serde(default)]
+    pub sample: Sample,
     #[serde(default)]
     pub frequencies: Option<Frequencies>,
     #[serde(default)]
@@ -64,6 +73,56 @@ pub struct Humidity {
     /// Constant offset of the humidity sensor [%RH].
     #[serde(default)]
     pub read_bias_pct: f64,
+    /// Span of the humidity sensor: read = gain · chamber + bias + error.
+    #[serde(default = "unit")]
+    pub read_gain: f64,
+    /// Drying time constant of the sample's water content [s]; absent: `hydration_tau_s`.
+    pub hydration_tau_dry_s: Option<f64>,
+    /// Time constant with which the chamber approaches each level [s]; 0: it steps.
+    #[serde(default)]
+    pub chamber_tau_s: f64,
+    /// The chamber's random wander [%RH per √s] (integrated on 1 s steps).
+    #[serde(default)]
+    pub chamber_wander_pct: f64,
+    /// Standard deviation of where the chamber settles around each level [%RH].
+    #[serde(default)]
+    pub level_error_pct: f64,
+    /// Each wait is `settle_s` plus a uniform draw up to this [s].
+    #[serde(default)]
+    pub settle_jitter_s: f64,
+}
+
+impl Default for Humidity {
+    fn default() -> Self {
+        Humidity {
+            levels_pct: Vec::new(),
+            settle_s: 0.0,
+            hydration_tau_s: 0.0,
+            read_error_pct: 0.0,
+            read_bias_pct: 0.0,
+            read_gain: 1.0,
+            hydration_tau_dry_s: None,
+            chamber_tau_s: 0.0,
+            chamber_wander_pct: 0.0,
+            level_error_pct: 0.0,
+            settle_jitter_s: 0.0,
+        }
+    }
+}
+
+fn unit() -> f64 {
+    1.0
+}
+
+/// How the sample differs from its calibration: a drift drawn once per session and a scatter
+/// drawn per level, each log-normal with these standard deviations [%] for Y, Cs, Ca and d.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sample {
+    #[serde(default)]
+    pub drift_pct: [f64; 4],
+    #[serde(default)]
+    pub scatter_pct: [f64; 4],
 }
 
 /// Excitation frequencies of a frequency-response session: `list_hz`, or `points` log-spaced
@@ -152,6 +211,13 @@ pub struct Noise {
     /// Time series: noise of the recorded tip motion [m] (sd per sample).
     #[serde(default)]
     pub tip_m: f64,
+    /// Frequency response: absolute noise floor of the tip response [m/m] (sd of the phasor).
+    #[serde(default)]
+    pub tip_floor: f64,
+    /// Frequency response: absolute noise floor of the current, as a fraction of the level's
+    /// largest current response over the session's frequencies (sd of the phasor).
+    #[serde(default)]
+    pub current_floor_of_peak: f64,
 }
 
 fn default_base_amplitude() -> f64 {
@@ -169,6 +235,8 @@ impl Default for Noise {
             current_corner_hz: 0.0,
             base_amplitude_m: default_base_amplitude(),
             tip_m: 0.0,
+            tip_floor: 0.0,
+            current_floor_of_peak: 0.0,
         }
     }
 }
@@ -207,6 +275,27 @@ impl Session {
         if !h.read_bias_pct.is_finite() {
             bail!("humidity.read_bias_pct must be finite");
         }
+        positive("humidity.read_gain", h.read_gain)?;
+        if let Some(t) = h.hydration_tau_dry_s {
+            non_negative("humidity.hydration_tau_dry_s", t)?;
+        }
+        for (name, v) in [
+            ("humidity.chamber_tau_s", h.chamber_tau_s),
+            ("humidity.chamber_wander_pct", h.chamber_wander_pct),
+            ("humidity.level_error_pct", h.level_error_pct),
+            ("humidity.settle_jitter_s", h.settle_jitter_s),
+            ("temp_swing_k", self.temp_swing_k),
+            ("temp_read_error_k", self.temp_read_error_k),
+        ] {
+            non_negative(name, v)?;
+        }
+        if self.temp_c.is_none() && (self.temp_swing_k > 0.0 || self.temp_read_error_k > 0.0) {
+            bail!("temp_swing_k and temp_read_error_k need temp_c (the room's temperature)");
+        }
+        for (k, name) in ["Y", "Cs", "Ca", "d"].iter().enumerate() {
+            non_negative(&format!("sample.drift_pct[{k}] ({name})"), self.sample.drift_pct[k])?;
+            non_negative(&format!("sample.scatter_pct[{k}] ({name})"), self.sample.scatter_pct[k])?;
+        }
         if let Some(t) = self.temp_c
             && !(t.is_finite() && t > -273.15)
         {
@@ -221,6 +310,8 @@ impl Session {
             ("noise.current_a", n.current_a),
             ("noise.current_corner_hz", n.current_corner_hz),
             ("noise.tip_m", n.tip_m),
+            ("noise.tip_floor", n.tip_floor),
+            ("noise.current_floor_of_peak", n.current_floor_of_peak),
         ] {
             non_negative(name, v)?;
         }

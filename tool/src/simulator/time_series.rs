@@ -11,10 +11,10 @@
 //! continuous burst, the chamber humidity moving linearly from each level to the next over
 //! `burst_s` (`ipmc simulate-sweep` is the two-level ramp).
 
-use super::hydration::Hydration;
+use super::bench::Bench;
 use super::physics::Physics;
 use super::random::SplitMix64;
-use super::sample_at;
+use super::{Departure, level_temp_c, sample_at};
 use super::session::{Session, log_spaced};
 use anyhow::{Result, bail};
 use ipmc_core::model::jw;
@@ -55,16 +55,29 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
         tip_m: plan.record_tip.then(|| Vec::with_capacity(total)),
         temp_c: session.temp_c.map(|_| Vec::with_capacity(total)),
     };
-    let mut hydration = Hydration::settled(levels[0], 0.0, h.hydration_tau_s);
+    let mut bench = Bench::settled(levels[0], h);
+    let drift = Departure::drift(&session.sample, &mut rng);
+    let (mut dep, mut temp_level) = (drift, session.temp_c);
     // Responses per tone at the last humidity the sample was at: a constant level costs one
     // model evaluation per tone, not one per sample.
     type TipAndCurrent = (C<f64>, C<f64>);
     let mut cached: Option<(u64, Vec<TipAndCurrent>)> = None;
     let mut burst_t0 = 0.0;
     for leg in 0..legs {
-        if !plan.ramp && leg > 0 {
-            burst_t0 += plan.burst_s + h.settle_s;
-            hydration.set_chamber(levels[leg], burst_t0 - h.settle_s);
+        if !plan.ramp {
+            let setpoint = levels[leg] + rng.gauss(h.level_error_pct);
+            dep = drift.at_level(&session.sample, &mut rng);
+            temp_level = level_temp_c(session, &mut rng);
+            cached = None;
+            if leg > 0 {
+                let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
+                burst_t0 += plan.burst_s + wait;
+                bench.set_target(setpoint);
+                bench.advance(wait, &mut rng);
+            } else if setpoint != levels[leg] {
+                bench.set_target(setpoint);
+                bench.advance(h.settle_s, &mut rng);
+            }
         }
         let last_leg = leg + 1 == legs;
         for i in 0..per_burst {
@@ -79,11 +92,12 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
                     per_burst as f64
                 };
                 let (from, to) = (levels[leg], levels[leg + 1]);
-                hydration.set_chamber(from + (to - from) * i as f64 / span, t);
+                bench.set_target(from + (to - from) * i as f64 / span);
+                bench.advance(0.0, &mut rng);
             }
-            let rh_sample = hydration.sample_at(t);
+            let rh_sample = bench.sample();
             if cached.as_ref().is_none_or(|(bits, _)| *bits != rh_sample.to_bits()) {
-                let (params, temp_c) = sample_at(calib, session, rh_sample);
+                let (params, temp_c) = sample_at(calib, rh_sample, dep, temp_level);
                 let responses = tones.iter().map(|tone| physics.response(&params, rh_sample, temp_c, jw(tone.freq_hz))).collect();
                 cached = Some((rh_sample.to_bits(), responses));
             }
@@ -106,10 +120,11 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
                 v.push(tip);
             }
             ts.current_a.push(cur);
-            ts.rh_pct.push(hydration.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct));
-            if let (Some(v), Some(temp)) = (ts.temp_c.as_mut(), session.temp_c) {
-                v.push(temp);
+            ts.rh_pct.push(h.read_gain * bench.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct));
+            if let (Some(v), Some(temp)) = (ts.temp_c.as_mut(), temp_level) {
+                v.push(temp + rng.gauss(session.temp_read_error_k));
             }
+            bench.advance(1.0 / plan.fs_hz, &mut rng);
         }
     }
     Ok(ts)

@@ -1,0 +1,185 @@
+//! Sessions with one concealed effect, for proving `diagnose` (`ipmc prove`): a frequency
+//! response of the simulator (`super::simulate`) whose sample answers through the effect's
+//! [`Physics`](super::physics::Physics) (`super::effects`), on a bench with everything a real
+//! session has, so that only the effect is a signal:
+//!
+//! - the chamber's time order: humidity stepped up 5 % at a time, then down through three of the
+//!   levels again (revisits), each step a first-order approach of the chamber (τ 30 s) that
+//!   settles within ±0.7 % of its level and wanders 0.02 %/√s, 2–3 min of stabilization, then a
+//!   stepped sine of 29 frequencies at 2.5 s each;
+//! - the sensor's humidity read error (±0.4 % per reading);
+//! - calibration drift (the sample's laws differ from the calibration: Y ±3 %, Cs, Ca, d ±15 %)
+//!   and scatter between levels (Y 1 %, Cs 3 %, Ca 6 %, d 6 %);
+//! - noise: relative (0.5–1.5 % in gain, as many radians in phase) plus an absolute floor;
+//! - temperature recorded at 20 ± 0.1 °C (swinging between levels only in the temperature case).
+
+use super::effects::{self, ROOM_C};
+pub use super::effects::Strength;
+use super::random::SplitMix64;
+use super::session::{Frequencies, Humidity, Kind, Noise, Sample, Session};
+use super::{Recording, simulate};
+use crate::effect::Effect;
+use ipmc_core::model::{current_response, jw};
+use ipmc_core::{Calibration, Params};
+use ipmc_recording::{FrequencyResponse, Metadata};
+
+/// The stepped-sine frequencies [Hz]: denser around the first resonance (30–38 Hz over the
+/// humidity range), and the round numbers a bench uses (so 50/60 Hz and harmonics are hit).
+pub const FREQS: [f64; 29] = [
+    10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 25.0, 28.0, 30.0, 32.0, 34.0, 35.0, 36.0, 38.0, 40.0, 45.0, 50.0, 55.0, 60.0, 70.0, 80.0,
+    90.0, 100.0, 110.0, 120.0, 130.0, 140.0, 150.0,
+];
+
+/// A generated case: what was concealed (with its magnitude in words) and the recording.
+pub struct Case {
+    pub magnitude: String,
+    pub recording: FrequencyResponse,
+}
+
+/// Builds one session with `effect` (None: a clean control) at `strength` in its range.
+pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strength: Strength) -> Case {
+    let mut rng = SplitMix64(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0x5DEE_CE66);
+    let p60: Params<f64> = calib.params_at(60.0);
+    let effects::Drawn { sample: mut physics, bench, words: magnitude } = effects::draw(effect, &p60, strength, &mut rng);
+    let mut uniform = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+    let (noise_tip, noise_cur) = (uniform(0.005, 0.015), uniform(0.005, 0.015));
+    // Up in 5 % steps, then down through three of the levels again.
+    let start = uniform(37.0, 43.0);
+    let mut levels_pct: Vec<f64> = (0..9).map(|k| start + 5.0 * k as f64).collect();
+    levels_pct.extend([start + 30.0, start + 20.0, start + 10.0]);
+    let p_dry: Params<f64> = calib.params_at(calib.clamp_rh(start).0);
+    physics.feedthrough = bench.feedthrough_rel * current_response(&p_dry, jw(10.0)).norm() / (2.0 * std::f64::consts::PI * 10.0);
+    let (hydration_tau_s, tau_dry) = bench.hydration.unwrap_or((0.0, 0.0));
+    let session = Session {
+        kind: Kind::FrequencyResponse,
+        seed: rng.uniform().to_bits(),
+        temp_c: Some(ROOM_C),
+        temp_swing_k: bench.temperature_swing_k,
+        temp_read_error_k: 0.1,
+        humidity: Humidity {
+            levels_pct,
+            settle_s: 120.0,
+            settle_jitter_s: 60.0,
+            chamber_tau_s: 30.0,
+            chamber_wander_pct: 0.02,
+            level_error_pct: 0.7,
+            hydration_tau_s,
+            hydration_tau_dry_s: Some(tau_dry),
+            read_error_pct: 0.4,
+            read_gain: bench.sensor_gain,
+            read_bias_pct: bench.sensor_offset_pct,
+        },
+        sample: Sample { drift_pct: [3.0, 15.0, 15.0, 15.0], scatter_pct: [1.0, 3.0, 6.0, 6.0] },
+        frequencies: Some(Frequencies { list_hz: Some(FREQS.to_vec()), from_hz: None, to_hz: None, points: None, dwell_s: 2.5 }),
+        time_series: None,
+        charging: None,
+        noise: Noise {
+            tip_gain_pct: 100.0 * noise_tip,
+            tip_phase_deg: noise_tip.to_degrees(),
+            current_gain_pct: 100.0 * noise_cur,
+            current_phase_deg: noise_cur.to_degrees(),
+            tip_floor: 1e-3,
+            current_floor_of_peak: 0.003,
+            ..Noise::default()
+        },
+    };
+    let mut metadata = Metadata::default();
+    metadata.set("generator", format!("ipmc prove seed={seed}"));
+    match simulate(calib, &session, &physics, metadata) {
+        Ok(Recording::FrequencyResponse(recording)) => Case { magnitude, recording },
+        Ok(_) => unreachable!("a frequency-response session makes a frequency response"),
+        Err(e) => panic!("prove's session does not simulate: {e}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! Each candidate found when its effect is concealed clearly (at 80 % of its magnitude range,
+    //! log scale), and nothing found in clean sessions. The recording goes through the
+    //! interchange format's writer and reader, as `prove` does.
+    use super::*;
+    use crate::diagnose::{data::Dataset, engine};
+    use ipmc_core::Calibration;
+    use ipmc_recording::Format as _;
+
+    fn verdict(effect: Option<Effect>, seed: u64) -> String {
+        let calib = Calibration::default_preset();
+        let case = make_case(&calib, effect, seed, Strength::At(0.8));
+        let csv = case.recording.to_csv().unwrap();
+        let (fr, _) = FrequencyResponse::parse("case.csv", &csv).unwrap();
+        let d = engine::diagnose(&calib, &Dataset::from_recordings(&[fr]), &|_| {}).unwrap();
+        if d.verdict != "none" && d.verdict != "unexplained" {
+            assert!(d.heldout_after < d.heldout_before, "{}: held-out {} → {}", d.verdict, d.heldout_before, d.heldout_after);
+        }
+        d.verdict
+    }
+
+    fn found(effect: Effect) {
+        let v = verdict(Some(effect), 7);
+        assert_eq!(v, effect.name(), "concealed {effect}, diagnosed {v}");
+    }
+
+    #[test]
+    fn clean_sessions_give_none() {
+        for seed in [1, 2] {
+            assert_eq!(verdict(None, seed), "none", "seed {seed}");
+        }
+    }
+
+    #[test]
+    fn clamp_compliance_found() {
+        found(Effect::ClampCompliance);
+    }
+    #[test]
+    fn tip_mass_found() {
+        found(Effect::TipMass);
+    }
+    #[test]
+    fn air_loading_found() {
+        found(Effect::AirLoading);
+    }
+    #[test]
+    fn viscoelastic_relaxation_found() {
+        found(Effect::ViscoelasticRelaxation);
+    }
+    #[test]
+    fn hysteretic_damping_found() {
+        found(Effect::HystereticDamping);
+    }
+    #[test]
+    fn electrode_resistance_found() {
+        found(Effect::ElectrodeResistance);
+    }
+    #[test]
+    fn amplifier_bandwidth_found() {
+        found(Effect::AmplifierBandwidth);
+    }
+    #[test]
+    fn current_timing_found() {
+        found(Effect::CurrentTiming);
+    }
+    #[test]
+    fn tip_timing_found() {
+        found(Effect::TipTiming);
+    }
+    #[test]
+    fn capacitive_feedthrough_found() {
+        found(Effect::CapacitiveFeedthrough);
+    }
+    #[test]
+    fn mains_interference_found() {
+        found(Effect::MainsInterference);
+    }
+    #[test]
+    fn hydration_lag_found() {
+        found(Effect::HydrationLag);
+    }
+    #[test]
+    fn humidity_sensor_error_found() {
+        found(Effect::HumiditySensorError);
+    }
+    #[test]
+    fn temperature_found() {
+        found(Effect::Temperature);
+    }
+}
