@@ -1,15 +1,17 @@
-//! `ipmc prove [--seed N] [--cases N] [--json]`: builds sessions with one concealed effect each
-//! (`crate::conceal`) plus clean controls, writes each as an interchange-format recording, runs
-//! the diagnosis blind on the file (cases in parallel), and prints the confusion table.
+//! `ipmc prove [--seed N] [--per-effect N] [--clean N] [--format fr|ts] [--json]`: builds
+//! sessions with one concealed effect each (`crate::simulator::concealed`, as frequency
+//! responses or time series) plus clean controls, writes each as an interchange-format
+//! recording, runs the diagnosis blind on the file (cases in parallel), and prints the
+//! confusion table.
 //!
 //! `ipmc prove --external DIR [--calib DIR/nominal.toml]`: diagnoses recordings made elsewhere
 //! (DIR/caseNN.csv, one at a time, each timed) against DIR/truths.json and prints the same
 //! table with each case's indistinguishable set, evidence and wall time.
 
 use crate::commands::diagnose::read_dataset;
-use crate::simulator::concealed::{Strength, make_case};
 use crate::diagnose::engine;
 use crate::effect::Effect;
+use crate::simulator::concealed::{Format, Strength, make_case};
 use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -40,6 +42,9 @@ pub struct Args {
     /// End with one JSON line {"cases", "correct", "false_positives", "clean_cases", …}.
     #[arg(long)]
     json: bool,
+    /// Record each case as a frequency response (`fr`) or a time series of multisine bursts (`ts`).
+    #[arg(long, value_enum, default_value = "fr")]
+    format: Format,
     /// Diagnose the recordings of this directory (caseNN.csv) against its truths.json instead
     /// of making sessions; the calibration defaults to DIR/nominal.toml.
     #[arg(long)]
@@ -55,15 +60,22 @@ pub struct Outcome {
     pub heldout_after: f64,
 }
 
-/// Runs `per_effect` cases of every effect and `clean` controls; `dir` receives the recordings.
-/// Cases are independent and each is seeded by its index, so they run on every core and the
-/// outcomes (in plan order) do not depend on how many there are.
+/// What a run makes: `per_effect` cases of every effect and `clean` controls, each recorded as
+/// `format`, magnitudes at `strength`, all seeded from `seed`.
+pub struct Plan {
+    pub seed: u64,
+    pub per_effect: usize,
+    pub clean: usize,
+    pub strength: Strength,
+    pub format: Format,
+}
+
+/// Runs the cases of `plan`; `dir` receives the recordings. Cases are independent and each is
+/// seeded by its index, so they run on every core and the outcomes (in plan order) do not
+/// depend on how many there are.
 pub fn run_cases(
     calib: &ipmc_core::Calibration,
-    seed: u64,
-    per_effect: usize,
-    clean: usize,
-    strength: Strength,
+    &Plan { seed, per_effect, clean, strength, format }: &Plan,
     dir: &std::path::Path,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Vec<Outcome>> {
@@ -73,10 +85,10 @@ pub fn run_cases(
     }
     plan.extend(std::iter::repeat_n(None, clean));
     let one = |i: usize, effect: Option<Effect>| -> Result<Outcome> {
-        let case = make_case(calib, effect, seed.wrapping_mul(10_007).wrapping_add(i as u64), strength);
+        let case = make_case(calib, effect, seed.wrapping_mul(10_007).wrapping_add(i as u64), strength, format);
         let truth = effect.map_or("none", Effect::name).to_string();
         let path = dir.join(format!("case-{i:03}-{truth}.csv"));
-        let csv = case.recording.to_csv().map_err(|e| anyhow::anyhow!("{e}"))?;
+        let csv = case.recording.to_csv()?;
         crate::commands::write_atomically(&path, csv.as_bytes())?;
         // Blind: the diagnosis sees only the file.
         let data = read_dataset(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE)?;
@@ -129,7 +141,8 @@ pub fn run(a: Args) -> Result<()> {
         anyhow::ensure!((0.0..=1.0).contains(&at), "--at must be within 0 and 1, not {at}");
     }
     let strength = a.at.map_or(Strength::Random, Strength::At);
-    let outcomes = run_cases(&calib, a.seed, a.per_effect, a.clean, strength, &dir, &|_| bar.inc(1))?;
+    let plan = Plan { seed: a.seed, per_effect: a.per_effect, clean: a.clean, strength, format: a.format };
+    let outcomes = run_cases(&calib, &plan, &dir, &|_| bar.inc(1))?;
     bar.finish_and_clear();
     if a.keep.is_none() {
         let _ = std::fs::remove_dir_all(&dir);

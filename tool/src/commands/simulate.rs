@@ -111,6 +111,7 @@ fn sweep_session(a: &SweepArgs) -> Session {
             amplitude_m: a.amplitude_m,
             record_tip: false,
             compact: true,
+            tone_grid_hz: None,
         }),
         charging: None,
         noise: Noise { current_a: a.noise_a, ..Noise::default() },

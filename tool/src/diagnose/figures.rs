@@ -162,9 +162,9 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulator::concealed::{Strength, make_case};
     use crate::diagnose::engine;
     use crate::effect::Effect;
+    use crate::simulator::concealed::{Format, Strength, make_case};
 
     /// The held-out score a level's drawn residuals give: their Σ z² with the inflated
     /// variance's normalization, over their number.
@@ -182,7 +182,9 @@ mod tests {
     fn heldout_numbers_are_the_drawn_residuals() {
         let calib = ipmc_core::Calibration::default_preset();
         for effect in [Effect::TipMass, Effect::MainsInterference] {
-            let data = Dataset::from_recordings(&[make_case(&calib, Some(effect), 3, Strength::At(0.9)).recording]);
+            let data = Dataset::from_recordings(&[make_case(&calib, Some(effect), 3, Strength::At(0.9), Format::Fr)
+                .frequency_response()
+                .unwrap()]);
             let d = engine::diagnose(&calib, &data, &|_| {}).unwrap();
             assert_eq!(d.verdict, effect.name());
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);

@@ -47,7 +47,8 @@ impl Bench {
         let n = dt_s.ceil().max(1.0);
         let h = dt_s / n;
         for _ in 0..n as usize {
-            self.chamber = relax(self.chamber, self.target, h, self.tau_chamber_s, self.tau_chamber_s) + rng.gauss(self.wander_pct * h.sqrt());
+            self.chamber =
+                relax(self.chamber, self.target, h, self.tau_chamber_s, self.tau_chamber_s) + rng.gauss(self.wander_pct * h.sqrt());
             self.sample = relax(self.sample, self.chamber, h, self.tau_wet_s, self.tau_dry_s);
         }
     }

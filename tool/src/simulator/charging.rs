@@ -5,8 +5,8 @@
 
 use super::physics::Physics;
 use super::random::SplitMix64;
-use super::{Departure, level_temp_c, sample_at};
 use super::session::Session;
+use super::{Departure, level_temp_c, sample_at};
 use anyhow::{Result, bail};
 use ipmc_core::Calibration;
 use ipmc_recording::{Charging, Metadata};

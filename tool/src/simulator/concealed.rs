@@ -1,27 +1,29 @@
 //! Sessions with one concealed effect, for proving `diagnose` (`ipmc prove`): a frequency
-//! response of the simulator (`super::simulate`) whose sample answers through the effect's
+//! response or a time series of the simulator (`super::simulate`) whose sample answers through the effect's
 //! [`Physics`](super::physics::Physics) (`super::effects`), on a bench with everything a real
 //! session has, so that only the effect is a signal:
 //!
 //! - the chamber's time order: humidity stepped up 5 % at a time, then down through three of the
 //!   levels again (revisits), each step a first-order approach of the chamber (τ 30 s) that
 //!   settles within ±0.7 % of its level and wanders 0.02 %/√s, 2–3 min of stabilization, then a
-//!   stepped sine of 29 frequencies at 2.5 s each;
+//!   stepped sine of 29 frequencies at 2.5 s each, or 2 s of a periodic multisine (1 s period,
+//!   the same 29 lines);
 //! - the sensor's humidity read error (±0.4 % per reading);
 //! - calibration drift (the sample's laws differ from the calibration: Y ±3 %, Cs, Ca, d ±15 %)
 //!   and scatter between levels (Y 1 %, Cs 3 %, Ca 6 %, d 6 %);
-//! - noise: relative (0.5–1.5 % in gain, as many radians in phase) plus an absolute floor;
+//! - noise: relative (0.5–1.5 % in gain, as many radians in phase) plus an absolute floor; in a
+//!   time series, white noise per sample sized to give the median line 0.5–1.5 %;
 //! - temperature recorded at 20 ± 0.1 °C (swinging between levels only in the temperature case).
 
-use super::effects::{self, ROOM_C};
 pub use super::effects::Strength;
+use super::effects::{self, ROOM_C};
 use super::random::SplitMix64;
-use super::session::{Frequencies, Humidity, Kind, Noise, Sample, Session};
+use super::session::{Frequencies, Humidity, Kind, Noise, Sample, Session, TimeSeriesPlan};
 use super::{Recording, simulate};
 use crate::effect::Effect;
-use ipmc_core::model::{current_response, jw};
+use ipmc_core::model::{current_response, jw, tip_response};
 use ipmc_core::{Calibration, Params};
-use ipmc_recording::{FrequencyResponse, Metadata};
+use ipmc_recording::Metadata;
 
 /// The stepped-sine frequencies [Hz]: denser around the first resonance (30–38 Hz over the
 /// humidity range), and the round numbers a bench uses (so 50/60 Hz and harmonics are hit).
@@ -30,14 +32,40 @@ pub const FREQS: [f64; 29] = [
     90.0, 100.0, 110.0, 120.0, 130.0, 140.0, 150.0,
 ];
 
+/// What a case is recorded as.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// A stepped-sine frequency response.
+    Fr,
+    /// A time series of periodic multisine bursts.
+    Ts,
+}
+
+/// Time-series bursts: two periods of the 1 s multisine, as a lab's bench records them.
+const BURST_S: f64 = 2.0;
+const FS_HZ: f64 = 2000.0;
+/// Base motion per line [m].
+const LINE_AMPLITUDE_M: f64 = 10e-6;
+
 /// A generated case: what was concealed (with its magnitude in words) and the recording.
 pub struct Case {
     pub magnitude: String,
-    pub recording: FrequencyResponse,
+    pub recording: Recording,
+}
+
+#[cfg(test)]
+impl Case {
+    /// The recording when it is a frequency response.
+    pub fn frequency_response(self) -> Option<ipmc_recording::FrequencyResponse> {
+        match self.recording {
+            Recording::FrequencyResponse(fr) => Some(fr),
+            _ => None,
+        }
+    }
 }
 
 /// Builds one session with `effect` (None: a clean control) at `strength` in its range.
-pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strength: Strength) -> Case {
+pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strength: Strength, format: Format) -> Case {
     let mut rng = SplitMix64(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0x5DEE_CE66);
     let p60: Params<f64> = calib.params_at(60.0);
     let effects::Drawn { sample: mut physics, bench, words: magnitude } = effects::draw(effect, &p60, strength, &mut rng);
@@ -70,24 +98,60 @@ pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strengt
             read_bias_pct: bench.sensor_offset_pct,
         },
         sample: Sample { drift_pct: [3.0, 15.0, 15.0, 15.0], scatter_pct: [1.0, 3.0, 6.0, 6.0] },
-        frequencies: Some(Frequencies { list_hz: Some(FREQS.to_vec()), from_hz: None, to_hz: None, points: None, dwell_s: 2.5 }),
+        frequencies: None,
         time_series: None,
         charging: None,
-        noise: Noise {
-            tip_gain_pct: 100.0 * noise_tip,
-            tip_phase_deg: noise_tip.to_degrees(),
-            current_gain_pct: 100.0 * noise_cur,
-            current_phase_deg: noise_cur.to_degrees(),
-            tip_floor: 1e-3,
-            current_floor_of_peak: 0.003,
-            ..Noise::default()
+        noise: Noise { mains_hz: bench.mains.map_or(0.0, |m| m.0), mains_rel: bench.mains.map_or(0.0, |m| m.1), ..Noise::default() },
+    };
+    let session = match format {
+        Format::Fr => Session {
+            frequencies: Some(Frequencies { list_hz: Some(FREQS.to_vec()), from_hz: None, to_hz: None, points: None, dwell_s: 2.5 }),
+            noise: Noise {
+                tip_gain_pct: 100.0 * noise_tip,
+                tip_phase_deg: noise_tip.to_degrees(),
+                current_gain_pct: 100.0 * noise_cur,
+                current_phase_deg: noise_cur.to_degrees(),
+                tip_floor: 1e-3,
+                current_floor_of_peak: 0.003,
+                ..session.noise
+            },
+            ..session
         },
+        Format::Ts => {
+            // White noise per sample gives each line of a burst of n samples a relative error of
+            // about σ·√(2/n)/amplitude: sized on the median line at the driest level, so weak
+            // lines are noisier and strong ones quieter, as with a real front end.
+            let per_line = |v: f64, rel: f64| rel * LINE_AMPLITUDE_M * v / (2.0 / (BURST_S * FS_HZ)).sqrt();
+            let median = |r: &dyn Fn(f64) -> f64| {
+                let mut v: Vec<f64> = FREQS.iter().map(|&f| r(f)).collect();
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            let current_a = per_line(median(&|f| current_response(&p_dry, jw(f)).norm()), noise_cur);
+            let tip_m = per_line(median(&|f| tip_response(&p_dry, jw(f)).norm()), noise_tip);
+            Session {
+                kind: Kind::TimeSeries,
+                time_series: Some(TimeSeriesPlan {
+                    fs_hz: FS_HZ,
+                    burst_s: BURST_S,
+                    ramp: false,
+                    tones: FREQS.len(),
+                    from_hz: FREQS[0],
+                    to_hz: FREQS[FREQS.len() - 1],
+                    amplitude_m: LINE_AMPLITUDE_M * FREQS.len() as f64,
+                    record_tip: true,
+                    compact: false,
+                    tone_grid_hz: Some(1.0),
+                }),
+                noise: Noise { current_a, tip_m, ..session.noise },
+                ..session
+            }
+        }
     };
     let mut metadata = Metadata::default();
     metadata.set("generator", format!("ipmc prove seed={seed}"));
     match simulate(calib, &session, &physics, metadata) {
-        Ok(Recording::FrequencyResponse(recording)) => Case { magnitude, recording },
-        Ok(_) => unreachable!("a frequency-response session makes a frequency response"),
+        Ok(recording) => Case { magnitude, recording },
         Err(e) => panic!("prove's session does not simulate: {e}"),
     }
 }
@@ -100,11 +164,11 @@ mod tests {
     use super::*;
     use crate::diagnose::{data::Dataset, engine};
     use ipmc_core::Calibration;
-    use ipmc_recording::Format as _;
+    use ipmc_recording::{Format as _, FrequencyResponse};
 
     fn verdict(effect: Option<Effect>, seed: u64) -> String {
         let calib = Calibration::default_preset();
-        let case = make_case(&calib, effect, seed, Strength::At(0.8));
+        let case = make_case(&calib, effect, seed, Strength::At(0.8), Format::Fr);
         let csv = case.recording.to_csv().unwrap();
         let (fr, _) = FrequencyResponse::parse("case.csv", &csv).unwrap();
         let d = engine::diagnose(&calib, &Dataset::from_recordings(&[fr]), &|_| {}).unwrap();
@@ -117,6 +181,23 @@ mod tests {
     fn found(effect: Effect) {
         let v = verdict(Some(effect), 7);
         assert_eq!(v, effect.name(), "concealed {effect}, diagnosed {v}");
+    }
+
+    /// The same bench recorded as multisine time series, through the file and the time-series
+    /// estimator as `prove --format ts` reads them: a clear effect found, a clean case `none`.
+    #[test]
+    fn time_series_cases_are_diagnosed_from_the_file() {
+        let calib = Calibration::default_preset();
+        for (effect, seed) in [(Some(Effect::TipMass), 7), (None, 1)] {
+            let case = make_case(&calib, effect, seed, Strength::At(0.8), Format::Ts);
+            assert!(matches!(case.recording, Recording::TimeSeries(..)));
+            let path = std::env::temp_dir().join(format!("ipmc-concealed-ts-{seed}-{}.csv", std::process::id()));
+            std::fs::write(&path, case.recording.to_csv().unwrap()).unwrap();
+            let data = crate::commands::diagnose::read_dataset(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE);
+            std::fs::remove_file(&path).unwrap();
+            let d = engine::diagnose(&calib, &data.unwrap(), &|_| {}).unwrap();
+            assert_eq!(d.verdict, effect.map_or("none", Effect::name));
+        }
     }
 
     #[test]

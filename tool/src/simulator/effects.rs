@@ -1,7 +1,7 @@
 //! The effects `ipmc prove` conceals, drawn at a magnitude from a realistic range. What the
 //! sample does differently is a [`Physics`] ([`SampleEffect`]: the simulator's seam); what the
-//! bench does differently (the humidity path, the room's temperature) is a [`BenchEffect`] the
-//! session applies.
+//! bench does differently (the humidity path, the room's temperature, mains pickup) is a
+//! [`BenchEffect`] the session applies.
 //!
 //! Effects are generated in a physically richer or different form than the candidate that
 //! fits them where that is natural: the electrode as a distributed RC line (fitted: one pole),
@@ -14,7 +14,7 @@ use super::physics::Physics;
 use super::random::SplitMix64;
 use crate::effect::Effect;
 use ipmc_core::extension::{Extension, responses};
-use ipmc_core::model::{capacitance, current_response, jw};
+use ipmc_core::model::capacitance;
 use ipmc_core::{C, Params};
 
 /// The room temperature the sample's laws hold at [°C]; a temperature effect moves away from it.
@@ -37,8 +37,6 @@ pub struct SampleEffect {
     electrode_ohm: f64,
     /// d ln Y/dT and d ln Cs/dT [1/K] away from [`ROOM_C`].
     temperature_coeffs: Option<(f64, f64)>,
-    /// Mains: line [Hz], amplitude relative to |current| at the line, phase of harmonics 1–3.
-    mains: Option<(f64, f64, [f64; 3])>,
     /// Capacitive feedthrough [A/m of base displacement, per rad/s], set by the session.
     pub feedthrough: f64,
 }
@@ -53,6 +51,8 @@ pub struct BenchEffect {
     pub sensor_offset_pct: f64,
     /// The room's swing between levels [K] (levels measured at different times of day).
     pub temperature_swing_k: f64,
+    /// Mains pickup on the current: line [Hz] and amplitude relative to the current at the line.
+    pub mains: Option<(f64, f64)>,
     /// Feedthrough relative to |current(10 Hz)| at the session's driest level; the session
     /// knows that level and sets [`SampleEffect::feedthrough`] from it.
     pub feedthrough_rel: f64,
@@ -60,7 +60,14 @@ pub struct BenchEffect {
 
 impl Default for BenchEffect {
     fn default() -> Self {
-        BenchEffect { hydration: None, sensor_gain: 1.0, sensor_offset_pct: 0.0, temperature_swing_k: 0.0, feedthrough_rel: 0.0 }
+        BenchEffect {
+            hydration: None,
+            sensor_gain: 1.0,
+            sensor_offset_pct: 0.0,
+            temperature_swing_k: 0.0,
+            mains: None,
+            feedthrough_rel: 0.0,
+        }
     }
 }
 
@@ -162,8 +169,7 @@ pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: 
         Some(Effect::MainsInterference) => {
             let line = if d.rng.uniform() < 0.5 { 50.0 } else { 60.0 };
             let rel = d.log_uniform(0.05, 0.4);
-            let phases = [0; 3].map(|_| d.rng.uniform() * two_pi);
-            s.mains = Some((line, rel, phases));
+            b.mains = Some((line, rel));
             format!("{line:.0} Hz pickup, {:.0} % of |H| at the line", rel * 100.0)
         }
         Some(Effect::HydrationLag) => {
@@ -202,15 +208,6 @@ impl Physics for SampleEffect {
             ext.electrode_tau_distributed = self.electrode_ohm * capacitance(&p);
         }
         ext.feedthrough = self.feedthrough;
-        let (tip, mut cur) = responses(&p, &ext, s);
-        if let Some((line, rel, phases)) = self.mains {
-            let f = s.im / (2.0 * std::f64::consts::PI);
-            let k = (f / line).round();
-            if (1.0..=3.0).contains(&k) && (f - k * line).abs() < 0.5 {
-                let amp = rel * current_response(&p, jw(line)).norm() / k;
-                cur += C::from_polar(amp, phases[k as usize - 1]);
-            }
-        }
-        (tip, cur)
+        responses(&p, &ext, s)
     }
 }

@@ -5,8 +5,8 @@
 use super::bench::Bench;
 use super::physics::Physics;
 use super::random::SplitMix64;
-use super::{Departure, level_temp_c, sample_at};
 use super::session::Session;
+use super::{Departure, Mains, level_temp_c, sample_at};
 use anyhow::{Result, bail};
 use ipmc_core::model::{current_response, jw};
 use ipmc_core::{C, Calibration};
@@ -19,6 +19,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mut rng = SplitMix64(session.seed);
     let mut bench = Bench::settled(h.levels_pct[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
+    let mains = Mains::draw(n, &mut rng);
     let mut points = Vec::with_capacity(h.levels_pct.len() * freqs.len());
     let mut t = 0.0;
     for (k, &level) in h.levels_pct.iter().enumerate() {
@@ -37,6 +38,16 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             let (tip, current) = physics.response(&params, rh_sample, temp_c, jw(f));
             if !(tip.is_finite() && current.is_finite()) {
                 bail!("the physics gave a non-finite response at {f} Hz, RH {rh_sample} %");
+            }
+            // A lock-in at a mains harmonic takes the pickup in with the response.
+            let mut current = current;
+            if let Some(m) = &mains {
+                let at_line = current_response(&params, jw(m.line_hz)).norm();
+                for (f_line, rel, phase) in m.harmonics() {
+                    if (f - f_line).abs() < 0.5 {
+                        current += C::from_polar(rel * at_line, phase);
+                    }
+                }
             }
             // Additive front-end noise on the current phasor, referred to base displacement.
             let sd = n.current_a * (1.0 + n.current_corner_hz / f).sqrt() / n.base_amplitude_m / std::f64::consts::SQRT_2;

@@ -50,6 +50,13 @@ impl Recording {
         })
     }
 
+    /// The recording's one file as text (a charging session at several levels has several).
+    pub fn to_csv(&self) -> Result<String> {
+        let mut files = self.files(Path::new("recording.csv"))?;
+        anyhow::ensure!(files.len() == 1, "{} files, not one", files.len());
+        Ok(files.remove(0).1)
+    }
+
     /// One line saying what was made.
     pub fn summary(&self) -> String {
         match self {
@@ -96,6 +103,30 @@ impl Departure {
             *f *= rng.gauss(sd / 100.0).exp();
         }
         Departure(f)
+    }
+}
+
+/// Mains pickup on the current: the phases of harmonics 1–3, drawn once per session (nothing
+/// drawn without pickup).
+struct Mains {
+    line_hz: f64,
+    rel: f64,
+    phases: [f64; 3],
+}
+
+impl Mains {
+    fn draw(n: &session::Noise, rng: &mut random::SplitMix64) -> Option<Self> {
+        (n.mains_hz > 0.0 && n.mains_rel > 0.0).then(|| Mains {
+            line_hz: n.mains_hz,
+            rel: n.mains_rel,
+            phases: [0; 3].map(|_| 2.0 * std::f64::consts::PI * rng.uniform()),
+        })
+    }
+
+    /// Harmonics k = 1–3: frequency [Hz], amplitude relative to the sample's current at the
+    /// line, phase.
+    fn harmonics(&self) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        (1..=3).map(|k| (k as f64 * self.line_hz, self.rel / k as f64, self.phases[k - 1]))
     }
 }
 

@@ -159,6 +159,9 @@ pub struct TimeSeriesPlan {
     pub to_hz: f64,
     /// Sum of the tone amplitudes [m].
     pub amplitude_m: f64,
+    /// Put the tones on this grid [Hz] (the nearest multiple, each once): a periodic multisine
+    /// of period 1/grid, as a lab's bench plays it. Absent: log-spaced, off any grid.
+    pub tone_grid_hz: Option<f64>,
     /// Write the true tip motion (`tip_m`).
     #[serde(default = "yes")]
     pub record_tip: bool,
@@ -211,6 +214,13 @@ pub struct Noise {
     /// Time series: noise of the recorded tip motion [m] (sd per sample).
     #[serde(default)]
     pub tip_m: f64,
+    /// Mains pickup on the current: line frequency [Hz] (50 or 60; 0: none) and amplitude of
+    /// its fundamental relative to the current the sample gives at that frequency (per tone
+    /// amplitude in a time series); harmonics 2 and 3 at 1/2 and 1/3 of it, each with its own phase.
+    #[serde(default)]
+    pub mains_hz: f64,
+    #[serde(default)]
+    pub mains_rel: f64,
     /// Frequency response: absolute noise floor of the tip response [m/m] (sd of the phasor).
     #[serde(default)]
     pub tip_floor: f64,
@@ -237,6 +247,8 @@ impl Default for Noise {
             tip_m: 0.0,
             tip_floor: 0.0,
             current_floor_of_peak: 0.0,
+            mains_hz: 0.0,
+            mains_rel: 0.0,
         }
     }
 }
@@ -312,6 +324,8 @@ impl Session {
             ("noise.tip_m", n.tip_m),
             ("noise.tip_floor", n.tip_floor),
             ("noise.current_floor_of_peak", n.current_floor_of_peak),
+            ("noise.mains_hz", n.mains_hz),
+            ("noise.mains_rel", n.mains_rel),
         ] {
             non_negative(name, v)?;
         }
@@ -353,6 +367,9 @@ impl Session {
             }
             positive("time_series.from_hz", t.from_hz)?;
             positive("time_series.amplitude_m", t.amplitude_m)?;
+            if let Some(g) = t.tone_grid_hz {
+                positive("time_series.tone_grid_hz", g)?;
+            }
             if t.tones == 0 || t.to_hz < t.from_hz {
                 bail!("time_series: need tones ≥ 1 and from_hz ≤ to_hz");
             }
@@ -393,6 +410,18 @@ impl Frequencies {
         }
         f.sort_by(f64::total_cmp);
         Ok(f)
+    }
+}
+
+impl TimeSeriesPlan {
+    /// The multisine's tone frequencies [Hz], ascending.
+    pub fn tones_hz(&self) -> Vec<f64> {
+        let mut f = log_spaced(self.from_hz, self.to_hz, self.tones);
+        if let Some(g) = self.tone_grid_hz {
+            f = f.into_iter().map(|f| (f / g).round().max(1.0) * g).collect();
+            f.dedup();
+        }
+        f
     }
 }
 

@@ -14,10 +14,10 @@
 use super::bench::Bench;
 use super::physics::Physics;
 use super::random::SplitMix64;
-use super::{Departure, level_temp_c, sample_at};
-use super::session::{Session, log_spaced};
+use super::session::Session;
+use super::{Departure, Mains, level_temp_c, sample_at};
 use anyhow::{Result, bail};
-use ipmc_core::model::jw;
+use ipmc_core::model::{current_response, jw};
 use ipmc_core::{C, Calibration};
 use ipmc_recording::{Metadata, TimeSeries};
 
@@ -32,13 +32,11 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let (h, n) = (&session.humidity, &session.noise);
     let levels = &h.levels_pct;
     let mut rng = SplitMix64(session.seed);
-    let tones: Vec<Tone> = log_spaced(plan.from_hz, plan.to_hz, plan.tones)
+    let freqs = plan.tones_hz();
+    let count = freqs.len() as f64;
+    let tones: Vec<Tone> = freqs
         .into_iter()
-        .map(|freq_hz| Tone {
-            freq_hz,
-            amplitude_m: plan.amplitude_m / plan.tones as f64,
-            phase: 2.0 * std::f64::consts::PI * rng.uniform(),
-        })
+        .map(|freq_hz| Tone { freq_hz, amplitude_m: plan.amplitude_m / count, phase: 2.0 * std::f64::consts::PI * rng.uniform() })
         .collect();
     metadata.set("tones_hz", tones.iter().map(|t| format!("{:.3}", t.freq_hz)).collect::<Vec<_>>().join(";"));
 
@@ -57,11 +55,13 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     };
     let mut bench = Bench::settled(levels[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
+    let mains = Mains::draw(n, &mut rng);
+    let tone_amplitude_m = tones.first().map_or(0.0, |t| t.amplitude_m);
     let (mut dep, mut temp_level) = (drift, session.temp_c);
     // Responses per tone at the last humidity the sample was at: a constant level costs one
     // model evaluation per tone, not one per sample.
     type TipAndCurrent = (C<f64>, C<f64>);
-    let mut cached: Option<(u64, Vec<TipAndCurrent>)> = None;
+    let mut cached: Option<(u64, Vec<TipAndCurrent>, f64)> = None;
     let mut burst_t0 = 0.0;
     for leg in 0..legs {
         if !plan.ramp {
@@ -96,18 +96,23 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
                 bench.advance(0.0, &mut rng);
             }
             let rh_sample = bench.sample();
-            if cached.as_ref().is_none_or(|(bits, _)| *bits != rh_sample.to_bits()) {
+            if cached.as_ref().is_none_or(|(bits, ..)| *bits != rh_sample.to_bits()) {
                 let (params, temp_c) = sample_at(calib, rh_sample, dep, temp_level);
                 let responses = tones.iter().map(|tone| physics.response(&params, rh_sample, temp_c, jw(tone.freq_hz))).collect();
-                cached = Some((rh_sample.to_bits(), responses));
+                // The current a tone at the mains line would give: the pickup's scale.
+                let at_line = mains.as_ref().map_or(0.0, |m| current_response(&params, jw(m.line_hz)).norm() * tone_amplitude_m);
+                cached = Some((rh_sample.to_bits(), responses, at_line));
             }
-            let responses = &cached.as_ref().expect("filled above").1;
+            let (_, responses, at_line) = cached.as_ref().expect("filled above");
             let (mut base, mut tip, mut cur) = (0.0, 0.0, 0.0);
             for (tone, (tr, cr)) in tones.iter().zip(responses) {
                 let w = 2.0 * std::f64::consts::PI * tone.freq_hz * t + tone.phase;
                 base += tone.amplitude_m * w.sin();
                 tip += tr.norm() * tone.amplitude_m * (w + tr.arg()).sin();
                 cur += cr.norm() * tone.amplitude_m * (w + cr.arg()).sin();
+            }
+            for (f_line, rel, phase) in mains.iter().flat_map(Mains::harmonics) {
+                cur += rel * at_line * (2.0 * std::f64::consts::PI * f_line * t + phase).sin();
             }
             cur += rng.gauss(n.current_a);
             tip += rng.gauss(n.tip_m);
