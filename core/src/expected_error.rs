@@ -14,19 +14,21 @@
 //! The front end's noise (density S) adds N² = ∫_band S/|H₀|² df of displacement, which relative
 //! to a signal of mean square P is N²/P; P is the estimate's own in the band, smoothed over about
 //! a second. "In the band": the double integration leaves the estimate a low-frequency wander
-//! (offset and noise) far above the signal, so P is measured after two first-order high-passes
-//! at half the band's lower edge.
+//! (offset and noise) far above the signal (50× on the external recordings), so P is measured
+//! after [`HP_SECTIONS`] first-order high-passes at the band's lower edge, and divided by their
+//! mean power gain over the band (what they take from a signal spread evenly over it). Two
+//! sections at half the edge left the wander at twice the signal and the noise term at half.
 //!
 //! The exact model costs far more than a retune may spend on the MCU, and v and N² depend on the
 //! humidity and the calibration only: they are tabulated over the calibrated range on the host
 //! (the firmware's build script, the tool) in f64 and narrowed to f32, so both sides interpolate
 //! the same numbers per block, bit for bit.
 
+use crate::C;
 use crate::calibration::{Calibration, ParamName, Params};
 use crate::design::{DesignConfig, compensation_error, design_inverse_for};
 use crate::model::{current_response, jw};
 use crate::real::Real;
-use crate::{C, ComplexMath};
 
 /// Most table entries: 0–100 %RH at 1 %RH steps.
 pub const TABLE_LEN: usize = 101;
@@ -38,6 +40,8 @@ const RH_STEP_PCT: f64 = 0.05;
 /// Blocks over which the estimate's mean square is smoothed (about 1 s at 2 kHz and 32 samples
 /// a block): long enough to span the slowest in-band period many times over.
 pub const POWER_BLOCKS: usize = 64;
+/// First-order high-passes in front of the signal's mean square.
+pub const HP_SECTIONS: usize = 4;
 
 /// v and N² over the calibrated range, at evenly spaced humidities.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,7 +86,7 @@ pub fn terms_at(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, cfg: &DesignCo
         }
         // Trapezoid: the band's ends count half.
         let w = if i == 0 || i == BAND_POINTS - 1 { 0.5 } else { 1.0 };
-        noise += w * density * density / h0.cabs().powi(2) * df;
+        noise += w * density * density / h0.norm_sqr() * df;
     }
     let v = design_rms * design_rms + var / BAND_POINTS as f64;
     (v.is_finite() && noise.is_finite()).then_some((v, noise))
@@ -124,16 +128,27 @@ impl ErrorTable {
 pub struct BlockError<T> {
     table: ErrorTable,
     power_m2: Option<T>,
-    /// y ← k·(y + x − x₋₁) per high-pass, and the two sections' last input and output.
+    /// y ← k·(y + x − x₋₁) per high-pass, and each section's last input and output.
     k: T,
-    hp: [[T; 2]; 2],
+    hp: [[T; 2]; HP_SECTIONS],
+    /// The high-passes' mean power gain over the band.
+    band_gain: T,
 }
 
 impl<T: Real> BlockError<T> {
     /// For the estimates of designs made with `cfg`.
     pub fn new(table: &ErrorTable, cfg: &DesignConfig<T>) -> Self {
-        let wt = T::PI() * cfg.band_lo_hz / cfg.fs_hz;
-        BlockError { table: *table, power_m2: None, k: (T::one() + wt).recip(), hp: [[T::zero(); 2]; 2] }
+        let k = (T::one() + T::lit(2.0) * T::PI() * cfg.band_lo_hz / cfg.fs_hz).recip();
+        let one = C::new(T::one(), T::zero());
+        let mut band_gain = T::zero();
+        for i in 0..BAND_POINTS {
+            let f = cfg.band_lo_hz + (cfg.band_hi_hz - cfg.band_lo_hz) * T::lit(i as f64 / (BAND_POINTS - 1) as f64);
+            let zinv = crate::real::cis(-(T::lit(2.0) * T::PI() * f / cfg.fs_hz));
+            let g = ((one - zinv) * k / (one - zinv * k)).norm_sqr();
+            band_gain += g * g * g * g;
+        }
+        band_gain /= T::lit(BAND_POINTS as f64);
+        BlockError { table: *table, power_m2: None, k, hp: [[T::zero(); 2]; HP_SECTIONS], band_gain }
     }
 
     /// The expected relative rms error (a fraction) of `estimates`, made by the design at
@@ -150,7 +165,7 @@ impl<T: Real> BlockError<T> {
                 }
                 ms += v * v;
             }
-            ms /= T::lit(estimates.len() as f64);
+            ms /= T::lit(estimates.len() as f64) * self.band_gain;
             let p = match self.power_m2 {
                 None => ms,
                 Some(p) => p + (ms - p) / T::lit(POWER_BLOCKS as f64),
@@ -159,7 +174,7 @@ impl<T: Real> BlockError<T> {
             if p.is_finite() {
                 self.power_m2 = Some(p);
             } else {
-                self.hp = [[T::zero(); 2]; 2];
+                self.hp = [[T::zero(); 2]; HP_SECTIONS];
             }
         }
         let (v, noise) = self.table.at(design_rh_pct);
@@ -250,14 +265,18 @@ mod tests {
             }
             last
         };
-        // A 60 Hz tone of amplitude a has mean square a²/2, times |k(1 − z⁻¹)/(1 − kz⁻¹)|⁴ of
-        // the two high-passes.
-        let k = 1.0 / (1.0 + core::f64::consts::PI * 10.0 / 2000.0);
-        let zinv = crate::real::cis(-2.0 * core::f64::consts::PI * 60.0 / 2000.0);
+        // A 60 Hz tone of amplitude a has mean square a²/2, times |k(1 − z⁻¹)/(1 − kz⁻¹)|⁸ of
+        // the four high-passes, over their mean over the band.
+        let k = 1.0 / (1.0 + 2.0 * core::f64::consts::PI * 10.0 / 2000.0);
         let one = C::new(1.0, 0.0);
-        let gain2 = ((one - zinv) * k / (one - zinv * k)).norm_sqr();
+        let power = |f: f64| {
+            let zinv = crate::real::cis(-2.0 * core::f64::consts::PI * f / 2000.0);
+            ((one - zinv) * k / (one - zinv * k)).norm_sqr().powi(4)
+        };
+        let mean = (0..BAND_POINTS).map(|i| power(10.0 + 140.0 * i as f64 / (BAND_POINTS - 1) as f64)).sum::<f64>() / BAND_POINTS as f64;
+        assert!(mean > 0.6 && mean < 0.9, "{mean}");
         for a in [1e-6, 1e-8] {
-            let want = (v + n / (a * a / 2.0 * gain2 * gain2)).sqrt();
+            let want = (v + n / (a * a / 2.0 * power(60.0) / mean)).sqrt();
             let got = run(a, 0.0);
             assert!((got / want - 1.0).abs() < 2e-3, "amplitude {a}: {got} vs {want}");
             assert!((run(a, 1e3 * a) / got - 1.0).abs() < 1e-3, "an offset is no signal");

@@ -311,7 +311,7 @@ pub const INBAND_HP_HZ: f64 = 5.0;
 
 /// Zero-phase high-pass (a 2nd-order Butterworth biquad run forward and backward: 4th order,
 /// no phase shift) of `x` in place.
-pub fn highpass_zero_phase(x: &mut [f64], fc_hz: f64, fs_hz: f64) {
+fn highpass_zero_phase(x: &mut [f64], fc_hz: f64, fs_hz: f64) {
     let w0 = 2.0 * std::f64::consts::PI * fc_hz / fs_hz;
     let alpha = w0.sin() / (2.0 * std::f64::consts::FRAC_1_SQRT_2);
     let a0 = 1.0 + alpha;
