@@ -106,8 +106,8 @@ mod tests {
     fn repeats_whole_periods_and_keeps_bursts_apart() {
         let fs = 10.0;
         let mut ts = TimeSeries { fs_hz: fs, ..Default::default() };
-        // Two bursts of 2.5 periods of 4 samples; the second starts 1 s after the first.
-        for (t0, n) in [(0.0, 10), (1.0, 10)] {
+        // Two bursts of 2.5 periods of 4 samples; the second starts 3 s after the first.
+        for (t0, n) in [(0.0, 10), (3.0, 10)] {
             for k in 0..n {
                 ts.t_s.push(t0 + k as f64 / fs);
                 ts.current_a.push((k % 4) as f64 + t0);
@@ -121,8 +121,9 @@ mod tests {
         // 8 whole samples a burst, repeated to ≥ 20 samples: 24.
         assert_eq!((bursts[0].len(), bursts[1].len()), (24, 24));
         assert!(l.current_a[..24].iter().enumerate().all(|(k, &v)| v == (k % 4) as f64));
-        assert_eq!(l.base_m.as_ref().unwrap()[30], -(1.0 + 2.0));
+        assert_eq!(l.base_m.as_ref().unwrap()[30], -(3.0 + 2.0));
         assert_eq!(l.t_s[24], 2.4 + 1.0, "moved past the looped first burst");
+        assert_eq!(l.rh_pct[24], 43.0);
         assert_eq!(l.metadata.get(NOISE_KEY), Some("0"), "noiseless periods");
         assert!(loop_bursts(&ts, 0.45, 2.0).is_err(), "not whole samples");
         assert!(loop_bursts(&ts, 2.0, 2.0).is_err(), "longer than a burst");

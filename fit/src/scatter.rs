@@ -1,0 +1,59 @@
+//! How far a strip's levels stray from the humidity laws fitted through them: the calibration's
+//! `[uncertainty]` table, what the expected error of an estimate is made of
+//! (`ipmc_core::expected_error`).
+//!
+//! A level's value differs from its law by three things: the fit's own error (its standard
+//! error), the humidity reading's error moving the level along the law (|d ln p/dRH|·σ_RH), and
+//! the strip itself, which does not follow any smooth law exactly. Only the last is a parameter
+//! uncertainty; the reading's error is counted once, through the humidity term, and the fit's
+//! error belongs to the recording, not to the strip. So the table gets
+//! σ² = Σ r²/(n − k) − mean (SE/p)² − mean (d ln p/dRH)²·σ_RH², r = ln(p/law), k the law's
+//! coefficients, never below zero.
+
+use crate::identify::LevelFit;
+use crate::laws::law_degree;
+use ipmc_core::uncertainty::Uncertainty;
+use ipmc_core::{Calibration, ParamName};
+
+/// RH step [%] of the law's slope.
+const RH_STEP_PCT: f64 = 0.05;
+
+/// The relative standard deviation of `param` about `calib`'s law over `levels`; None when the
+/// levels that determined it do not overdetermine the law.
+pub fn relative_sd(calib: &Calibration, levels: &[LevelFit], param: ParamName, rh_sd_pct: f64) -> Option<f64> {
+    let law = calib.law(param)?;
+    let points: Vec<(f64, f64, f64)> = levels
+        .iter()
+        .filter(|l| param != ParamName::KappaE || l.kappa_e_measured)
+        .filter_map(|l| {
+            let e = l.estimate(param)?;
+            let se = e.se.filter(|s| s.is_finite())? / e.value;
+            Some((l.rh_pct, e.value, se))
+        })
+        .collect();
+    let dof = points.len().checked_sub(law_degree(param, points.len()) + 1).filter(|&d| d > 0)?;
+    let n = points.len() as f64;
+    let (mut resid, mut fit, mut reading) = (0.0, 0.0, 0.0);
+    for &(rh, value, se) in &points {
+        let at = |r: f64| -> f64 { law.eval(r) };
+        resid += (value / at(rh)).ln().powi(2);
+        fit += se * se;
+        let slope = (at(rh + RH_STEP_PCT) / at(rh - RH_STEP_PCT)).ln() / (2.0 * RH_STEP_PCT);
+        reading += slope * slope * rh_sd_pct * rh_sd_pct;
+    }
+    let var = resid / dof as f64 - fit / n - reading / n;
+    var.is_finite().then(|| var.max(0.0).sqrt())
+}
+
+/// `base` with every parameter the levels overdetermine replaced by its scatter about `calib`'s
+/// laws (the noise and the others kept).
+pub fn uncertainty(calib: &Calibration, levels: &[LevelFit], rh_sd_pct: f64, base: &Uncertainty) -> Uncertainty {
+    let mut u = *base;
+    let sd = |p| relative_sd(calib, levels, p, rh_sd_pct);
+    u.y = sd(ParamName::Y).unwrap_or(u.y);
+    u.cs = sd(ParamName::Cs).unwrap_or(u.cs);
+    u.ca = sd(ParamName::Ca).unwrap_or(u.ca);
+    u.kappa_e = sd(ParamName::KappaE).unwrap_or(u.kappa_e);
+    u.d = sd(ParamName::D).unwrap_or(u.d);
+    u
+}
