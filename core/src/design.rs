@@ -126,11 +126,6 @@ pub struct DesignConfig<T> {
     /// Corner of the regularizing high-pass [Hz].
     pub hp_hz: T,
     pub ionic: IonicOrder,
-    /// The current noise's power over the signal's in the band, S_n·B/P [A²/m²]: the preview
-    /// fits H·G → |H|²/(|H|² + this) instead of 1, the Wiener inverse for a signal spread evenly
-    /// over the band (where the strip's current is weak the estimate is mostly noise, and
-    /// shrinking it there lowers the expected error). 0: the exact nominal inverse.
-    pub noise_to_signal: T,
 }
 
 impl<T: Real> Default for DesignConfig<T> {
@@ -142,7 +137,6 @@ impl<T: Real> Default for DesignConfig<T> {
             max_delay_s: T::lit(0.002),
             hp_hz: T::lit(1.0),
             ionic: IonicOrder::Five,
-            noise_to_signal: T::zero(),
         }
     }
 }
@@ -300,8 +294,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
         let g0 = monic_response(&zd, &pd, zinv) * monic_response(&hzd, &hpd, zinv);
         // the pure-delay sections are part of G; the remaining phase target is d_fir samples
         let ahead = cis(w * T::lit(d_fir as f64));
-        let h = model.eval(jw(f));
-        let base = h * g0 * ahead;
+        let base = model.eval(jw(f)) * g0 * ahead;
         let mut zk = C::new(T::one(), T::zero());
         for k in 0..FIR_TAPS {
             let v = base * zk;
@@ -309,7 +302,7 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
             a[2 * i + 1][k] = v.im;
             zk *= zinv;
         }
-        b[2 * i] = if cfg.noise_to_signal > T::zero() { h.norm_sqr() / (h.norm_sqr() + cfg.noise_to_signal) } else { T::one() };
+        b[2 * i] = T::one();
         b[2 * i + 1] = T::zero();
     }
     let c = lstsq(&mut a, &mut b, 2 * GRID).ok_or(DesignError::Numerics)?;

@@ -181,11 +181,6 @@ impl<T: Real> BlockError<T> {
         let p = self.power_m2.unwrap_or(T::zero());
         (v + noise / p).sqrt()
     }
-
-    /// The estimate's smoothed in-band mean square [m²] (None before the first block).
-    pub fn power_m2(&self) -> Option<T> {
-        self.power_m2
-    }
 }
 
 #[cfg(test)]

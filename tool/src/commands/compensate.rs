@@ -61,11 +61,6 @@ pub struct Args {
     /// calibration's `[uncertainty]`.
     #[arg(long)]
     current_noise: Option<f64>,
-    /// The Wiener inverse instead of the exact nominal one (`DesignConfig::noise_to_signal`):
-    /// the signal's in-band power is measured on a first pass with the exact inverse, the noise
-    /// is the one the expected error uses. Not with --schedule (the firmware runs the exact one).
-    #[arg(long, conflicts_with = "schedule")]
-    wiener: bool,
 }
 
 /// The humidity reading's uncertainty the firmware of the default board assumes for `calib`.
@@ -130,7 +125,7 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
 /// Where the schedule has the firmware's readings and strip humidities, the strip's model is
 /// run here from the readings too and must give the firmware's values bit for bit.
 pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock], errors: &ErrorTable) -> Result<Estimates> {
-    let design = designer(calib, ts.fs_hz, 0.0);
+    let design = designer(calib, ts.fs_hz);
     let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() });
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
@@ -207,8 +202,6 @@ pub struct Estimates {
     pub rel_err: Vec<f32>,
     pub flags: Vec<u16>,
     pub retunes: usize,
-    /// Per block after each burst's settling: the estimate's smoothed in-band mean square [m²].
-    pub power_m2: Vec<f64>,
 }
 
 impl Estimates {
@@ -223,14 +216,13 @@ impl Estimates {
             rel_err: Vec::with_capacity(n),
             flags: Vec::with_capacity(n),
             retunes: 0,
-            power_m2: vec![],
         }
     }
 }
 
 /// The firmware's design chain (f32, default configuration at the recording's rate).
-fn designer(calib: &Calibration, fs_hz: f64, noise_to_signal: f32) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
-    let cfg = DesignConfig::<f32> { fs_hz: fs_hz as f32, noise_to_signal, ..DesignConfig::default() };
+fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
+    let cfg = DesignConfig::<f32> { fs_hz: fs_hz as f32, ..DesignConfig::default() };
     move |rh| design_inverse::<f32>(calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
 }
 
@@ -239,14 +231,8 @@ fn designer(calib: &Calibration, fs_hz: f64, noise_to_signal: f32) -> impl Fn(f3
 /// Each block's reading (its mean) goes through the calibration's humidity path as on the
 /// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
 /// between them.
-pub fn compensate(
-    calib: &Calibration,
-    ts: &TimeSeries,
-    fixed_rh: Option<f64>,
-    errors: &ErrorTable,
-    noise_to_signal: f32,
-) -> Result<Estimates> {
-    let design = designer(calib, ts.fs_hz, noise_to_signal);
+pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>, errors: &ErrorTable) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz);
     let n = ts.t_s.len();
     let mut est = Estimates::with_capacity(n);
     let bar = crate::progress::bar(n as u64, "samples");
@@ -300,9 +286,6 @@ pub fn compensate(
                 fl |= flags::BAD_SAMPLE;
             }
             let rel_err = error_bar.block(c.rh_pct(), &block);
-            if pos >= b0 + (SETTLE_S * ts.fs_hz) as usize {
-                est.power_m2.push(error_bar.power_m2().unwrap_or(0.0) as f64);
-            }
             let d = (c.delay_s() as f64 * ts.fs_hz).round() as usize;
             bar.inc(block.len() as u64);
             for v in block {
@@ -391,15 +374,7 @@ pub fn run(a: Args) -> Result<()> {
     let errors = error_table(&calib, ts.fs_hz, rh_uncertainty(&calib, a.rh_uncertainty))?;
     let est = match &a.schedule {
         Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors)?,
-        None if a.wiener => {
-            let first = compensate(&calib, &ts, a.fixed_rh, &errors, 0.0)?;
-            let p = first.power_m2.iter().sum::<f64>() / first.power_m2.len().max(1) as f64;
-            let cfg = DesignConfig::<f64>::default();
-            let k = calib.uncertainty.current_noise_a_per_rthz.powi(2) * (cfg.band_hi_hz - cfg.band_lo_hz) / p;
-            println!("Wiener inverse: in-band signal {:.3e} m rms (first pass), noise-to-signal {k:.3e} A²/m²", p.sqrt());
-            compensate(&calib, &ts, a.fixed_rh, &errors, k as f32)?
-        }
-        None => compensate(&calib, &ts, a.fixed_rh, &errors, 0.0)?,
+        None => compensate(&calib, &ts, a.fixed_rh, &errors)?,
     };
     let mut file = EstimateFile {
         t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
@@ -417,7 +392,6 @@ pub fn run(a: Args) -> Result<()> {
         match (&a.schedule, a.fixed_rh) {
             (Some(p), _) => format!("scheduled schedule={}", p.display()),
             (None, Some(r)) => format!("fixed rh_pct={r}"),
-            (None, None) if a.wiener => "compensated wiener".into(),
             (None, None) => "compensated".into(),
         },
     );
