@@ -348,45 +348,40 @@ mod tests {
         assert_eq!(p[32..34], CRC16.checksum(&p[..32]).to_le_bytes());
     }
 
-    /// A version-1 frame (one RH, the layout before this one) with a valid CRC is refused by
-    /// its version, with a message that says what to do.
-    #[test]
-    fn refuses_the_previous_version() {
-        let mut payload = [0u8; 1 + 4 + 4 + 2 + 1 + 4 + 2];
-        payload[0] = 1;
-        payload[1..5].copy_from_slice(&64u32.to_le_bytes());
-        payload[5..9].copy_from_slice(&46.5f32.to_le_bytes());
-        payload[11] = 1;
-        payload[12..16].copy_from_slice(&1.0f32.to_le_bytes());
-        let crc = CRC16.checksum(&payload[..16]);
-        payload[16..].copy_from_slice(&crc.to_le_bytes());
-        let mut encoded = [0u8; 32];
-        let n = cobs::encode(&payload, &mut encoded);
-        let e = decode(&mut encoded[..n]).unwrap_err();
-        assert_eq!(e, DecodeError::Version(1));
-        let shown = std::string::ToString::to_string(&e);
-        assert!(shown.contains("different releases"), "{shown}");
+    /// A frame of an older layout with a valid CRC: version, first sample 64, `n_rh` humidities
+    /// of 46.5 %, flags 0, one estimate of 1 m.
+    fn old_frame(version: u8, n_rh: usize, out: &mut [u8; 40]) -> usize {
+        let mut payload = [0u8; 40];
+        let mut at = 0;
+        let mut put = |bytes: &[u8]| {
+            payload[at..at + bytes.len()].copy_from_slice(bytes);
+            at += bytes.len();
+        };
+        put(&[version]);
+        put(&64u32.to_le_bytes());
+        for _ in 0..n_rh {
+            put(&46.5f32.to_le_bytes());
+        }
+        put(&0u16.to_le_bytes());
+        put(&[1]);
+        put(&1.0f32.to_le_bytes());
+        let crc = CRC16.checksum(&payload[..at]);
+        payload[at..at + 2].copy_from_slice(&crc.to_le_bytes());
+        cobs::encode(&payload[..at + 2], out)
     }
 
-    /// A version-2 frame (three humidities, no expected error) is refused the same way.
+    /// Frames of the layouts before this one (version 1: one RH; version 2: three humidities,
+    /// no expected error) are refused by their version, with a message that says what to do.
     #[test]
-    fn refuses_version_2() {
-        let mut payload = [0u8; 1 + 4 + 3 * 4 + 2 + 1 + 4 + 2];
-        payload[0] = 2;
-        payload[1..5].copy_from_slice(&64u32.to_le_bytes());
-        for k in 0..3 {
-            payload[5 + 4 * k..9 + 4 * k].copy_from_slice(&46.5f32.to_le_bytes());
+    fn refuses_the_previous_versions() {
+        for (version, n_rh) in [(1, 1), (2, 3)] {
+            let mut encoded = [0u8; 40];
+            let n = old_frame(version, n_rh, &mut encoded);
+            let e = decode(&mut encoded[..n]).unwrap_err();
+            assert_eq!(e, DecodeError::Version(version));
+            let shown = std::string::ToString::to_string(&e);
+            assert!(shown.contains("different releases") && shown.contains("reads version 3"), "{shown}");
         }
-        payload[19] = 1;
-        payload[20..24].copy_from_slice(&1.0f32.to_le_bytes());
-        let crc = CRC16.checksum(&payload[..24]);
-        payload[24..].copy_from_slice(&crc.to_le_bytes());
-        let mut encoded = [0u8; 40];
-        let n = cobs::encode(&payload, &mut encoded);
-        let e = decode(&mut encoded[..n]).unwrap_err();
-        assert_eq!(e, DecodeError::Version(2));
-        let shown = std::string::ToString::to_string(&e);
-        assert!(shown.contains("different releases") && shown.contains("version 3"), "{shown}");
     }
 
     #[test]
