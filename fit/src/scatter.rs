@@ -57,3 +57,82 @@ pub fn uncertainty(calib: &Calibration, levels: &[LevelFit], rh_sd_pct: f64, bas
     u.d = sd(ParamName::D).unwrap_or(u.d);
     u
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::Estimate;
+    use crate::lsq::Fit;
+    use ipmc_core::{Law, Params};
+    use nalgebra::DMatrix;
+
+    /// Levels whose Y is y0·e^(±s) about a flat law, each with relative SE q.
+    fn levels(n: usize, s: f64, q: f64) -> (Calibration, Vec<LevelFit>) {
+        let mut calib = Calibration::default_preset();
+        calib.y = Law::constant(1e9);
+        let level = |i: usize| {
+            let y = 1e9 * if i % 2 == 0 { s.exp() } else { (-s).exp() };
+            let fit = Fit {
+                names: vec!["Y".into()],
+                estimates: vec![y],
+                std_errors: vec![q * y],
+                covariance: DMatrix::zeros(1, 1),
+                correlation: DMatrix::identity(1, 1),
+                chi2: 0.0,
+                dof: 1,
+                residuals: vec![],
+                evaluations: 0,
+            };
+            let rh = 40.0 + 4.0 * i as f64;
+            let params: Params<f64> = calib.params_at(rh);
+            LevelFit {
+                rh_pct: rh,
+                fit,
+                fitted: vec![ParamName::Y],
+                kappa_e: Estimate { value: params.kappa_e, se: None },
+                kappa_e_measured: false,
+                params,
+                noise: vec![],
+                tip_points: 0,
+                current_points: 0,
+            }
+        };
+        (calib, (0..n).map(level).collect())
+    }
+
+    #[test]
+    fn the_scatter_beyond_the_fits_errors() {
+        let (calib, lv) = levels(10, 0.03, 0.0);
+        let want = 0.03 * (10.0f64 / 7.0).sqrt(); // three law coefficients fitted
+        assert!((relative_sd(&calib, &lv, ParamName::Y, 0.0).unwrap() - want).abs() < 1e-12);
+        let (calib, lv) = levels(10, 0.03, 0.02);
+        let got = relative_sd(&calib, &lv, ParamName::Y, 0.0).unwrap();
+        assert!((got - (want * want - 0.0004).sqrt()).abs() < 1e-12, "{got}");
+        let (calib, lv) = levels(10, 0.01, 0.05);
+        assert_eq!(relative_sd(&calib, &lv, ParamName::Y, 0.0), Some(0.0), "explained by the fits' errors");
+        // Cs was not fitted, three levels do not overdetermine a quadratic: the base's stand.
+        assert_eq!(relative_sd(&calib, &lv, ParamName::Cs, 0.0), None);
+        let (calib, lv) = levels(3, 0.03, 0.0);
+        assert_eq!(relative_sd(&calib, &lv, ParamName::Y, 0.0), None);
+        let u = uncertainty(&calib, &lv, 1.0, &Uncertainty::TYPICAL);
+        assert_eq!(u, Uncertainty::TYPICAL);
+    }
+
+    /// The reading's error moves a level along a sloped law: what it explains is taken out.
+    #[test]
+    fn the_reading_error_is_not_the_strips() {
+        let (mut calib, lv) = levels(10, 0.03, 0.0);
+        let flat = relative_sd(&calib, &lv, ParamName::Y, 0.0).unwrap();
+        // ln Y falling 1 % per %RH, with the levels' values moved onto it.
+        calib.y = Law::log_poly([1e9f64.ln() + 0.4, -0.01, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let lv: Vec<LevelFit> = lv
+            .into_iter()
+            .map(|mut l| {
+                l.fit.estimates[0] *= (0.4 - 0.01 * l.rh_pct).exp();
+                l
+            })
+            .collect();
+        let sloped = relative_sd(&calib, &lv, ParamName::Y, 2.0).unwrap();
+        assert!((sloped * sloped - (flat * flat - 0.0004)).abs() < 1e-9, "{sloped} vs {flat}");
+    }
+}
