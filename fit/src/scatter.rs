@@ -71,7 +71,7 @@ mod tests {
         let mut calib = Calibration::default_preset();
         calib.y = Law::constant(1e9);
         let level = |i: usize| {
-            let y = 1e9 * if i % 2 == 0 { s.exp() } else { (-s).exp() };
+            let y = 1e9 * if i.is_multiple_of(2) { s.exp() } else { (-s).exp() };
             let fit = Fit {
                 names: vec!["Y".into()],
                 estimates: vec![y],
