@@ -1,8 +1,9 @@
 //! The compensated estimate against the true base motion (and a baseline estimate, e.g. the
 //! humidity-independent fixed-RH design): a window of a few seconds on top, the error over the
 //! whole recording below (rms error / rms true base over 0.25 s windows, log scale), with the
-//! estimate's stated 1σ (its `rel_err` column) as a band under it: where the error line leaves
-//! the band, the estimate was off by more than it said.
+//! estimate's stated 1σ (its `rel_err` column) as a shaded band. The band speaks of the error in
+//! the design band only; the line is the broadband error, which the double integration's
+//! low-frequency wander can dominate (the in-band check is `ipmc score --coverage`).
 
 use super::{Figure, legend, pe};
 use anyhow::{Result, bail};
@@ -173,7 +174,7 @@ where
         chart
             .draw_series(band.iter().map(|&(t, v)| Rectangle::new([(t - half, floor), (t + half, v.max(floor))], c.mix(0.15).filled())))
             .map_err(pe)?
-            .label(format!("{}: stated 1σ", s.name))
+            .label(format!("{}: stated 1σ in band", s.name))
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], c.mix(0.15).filled()));
     }
     for (s, e) in series.iter().zip(errs) {
