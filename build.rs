@@ -15,8 +15,10 @@ use std::{
 };
 
 use ipmc_core::{
-    Calibration, Law, calibration_file,
+    Calibration, DesignConfig, Law, calibration_file,
+    expected_error::ErrorTable,
     humidity_path::{HumidityPath, SensorKind},
+    uncertainty::Uncertainty,
 };
 
 const CALIB_VAR: &str = "IPMC_CALIB";
@@ -42,8 +44,12 @@ fn main() -> ExitCode {
          /// Where the compiled-in calibration came from.\n\
          pub const CALIBRATION_SOURCE: &str = {source:?};\n\
          /// The calibration compiled into this firmware (validated at build time).\n\
-         pub const CALIBRATION: ipmc_core::Calibration = {};\n",
-        calibration_expr(&calibration)
+         pub const CALIBRATION: ipmc_core::Calibration = {};\n\
+         /// The expected error of its designs over humidity (`ipmc_core::expected_error`), for\n\
+         /// this firmware's humidity sensor.\n\
+         pub const ERROR_TABLE: ipmc_core::expected_error::ErrorTable = {};\n",
+        calibration_expr(&calibration),
+        error_table_expr(&calibration),
     );
     fs::write(out.join("calibration.rs"), generated).expect("OUT_DIR is writable");
     ExitCode::SUCCESS
@@ -81,10 +87,10 @@ fn load_calibration() -> Result<(Calibration, String), String> {
 /// A Rust constant expression equal to `c`. The destructuring names every field, so a field
 /// added to `Calibration` breaks this build script instead of being silently left out.
 fn calibration_expr(c: &Calibration) -> String {
-    let Calibration { faraday, r_gas, t_k, l, b, alpha0, c_minus, y, cs, ca, kappa_e, d, h, m, rh_min, rh_max, humidity } = c;
+    let Calibration { faraday, r_gas, t_k, l, b, alpha0, c_minus, y, cs, ca, kappa_e, d, h, m, rh_min, rh_max, humidity, uncertainty } = c;
     format!(
         "ipmc_core::Calibration {{ faraday: {}, r_gas: {}, t_k: {}, l: {}, b: {}, alpha0: {}, c_minus: {}, \
-         y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, h: {}, m: {}, rh_min: {}, rh_max: {}, humidity: {} }}",
+         y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, h: {}, m: {}, rh_min: {}, rh_max: {}, humidity: {}, uncertainty: {} }}",
         f64_expr(*faraday),
         f64_expr(*r_gas),
         f64_expr(*t_k),
@@ -102,6 +108,20 @@ fn calibration_expr(c: &Calibration) -> String {
         f64_expr(*rh_min),
         f64_expr(*rh_max),
         humidity_path_expr(humidity),
+        uncertainty_expr(uncertainty),
+    )
+}
+
+fn uncertainty_expr(u: &Uncertainty) -> String {
+    let Uncertainty { y, cs, ca, kappa_e, d, current_noise_a_per_rthz } = u;
+    format!(
+        "ipmc_core::uncertainty::Uncertainty {{ y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, current_noise_a_per_rthz: {} }}",
+        f64_expr(*y),
+        f64_expr(*cs),
+        f64_expr(*ca),
+        f64_expr(*kappa_e),
+        f64_expr(*d),
+        f64_expr(*current_noise_a_per_rthz),
     )
 }
 
@@ -116,6 +136,23 @@ fn humidity_path_expr(p: &HumidityPath) -> String {
         f64_expr(*gain),
         f64_expr(*tau_wet_s),
         f64_expr(*tau_dry_s),
+    )
+}
+
+/// The table as the host tool makes it for the same calibration and sensor; f32 by its bits.
+fn error_table_expr(c: &Calibration) -> String {
+    let rh_sd = c.humidity.uncertainty_pct_for(firmware_sensor());
+    // `check` designed at every 5 %RH of the range already; a failure between is as fatal.
+    let t = ErrorTable::new(c, rh_sd, &DesignConfig::firmware()).expect("the calibration designs over its range");
+    let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
+    format!(
+        "ipmc_core::expected_error::ErrorTable {{ rh0_pct: f32::from_bits({:#x}), step_pct: f32::from_bits({:#x}), n: {}, \
+         model_var: [{}], noise_m2: [{}] }}",
+        t.rh0_pct.to_bits(),
+        t.step_pct.to_bits(),
+        t.n,
+        bits(&t.model_var),
+        bits(&t.noise_m2)
     )
 }
 

@@ -27,9 +27,15 @@ mod current_conversion;
 
 use core::hint::black_box;
 
+/// The firmware's build-time tables (the error bars' `ERROR_TABLE`).
+#[allow(dead_code)]
+mod generated {
+    include!(concat!(env!("OUT_DIR"), "/calibration.rs"));
+}
+
 use biquad::{Biquad, Coefficients, DirectForm2Transposed};
 use cortex_m::peripheral::{SYST, syst::SystClkSource};
-use ipmc_core::{Calibration, Cascade, Compensator, DesignConfig, Inverse, design_inverse};
+use ipmc_core::{Calibration, Cascade, Compensator, DesignConfig, Inverse, design_inverse, expected_error::BlockError};
 use semihosting::println;
 // The device vector table cortex-m-rt links against.
 use stm32_metapac as _;
@@ -191,6 +197,16 @@ fn main() -> ! {
         blocks += 1;
     }
     let during = instr(since(t)) / (blocks as f64 * BLOCK_LEN as f64);
+
+    // The error bar of each block: table interpolation and the in-band power of 32 estimates.
+    let mut bar = BlockError::<f32>::new(&generated::ERROR_TABLE, &DesignConfig::firmware());
+    let mut est = [0.0f32; BLOCK_LEN];
+    let t = now();
+    for k in 0..BLOCKS {
+        est[(k as usize) % BLOCK_LEN] = 1e-5 * (k % 7) as f32;
+        black_box(bar.block(black_box(45.0 + (k % 100) as f32 * 0.1), black_box(&est)));
+    }
+    println!("instructions_per_block_error {}", instr(since(t)) / BLOCKS as f64);
 
     let sections = d45.n_sections;
     println!("block_len {}", BLOCK_LEN);

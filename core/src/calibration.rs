@@ -5,6 +5,7 @@
 
 use crate::humidity_path::{HumidityPath, PathError};
 use crate::real::Real;
+use crate::uncertainty::Uncertainty;
 
 /// Most coefficients a law may have (a sixth-order polynomial, as the paper prints for d).
 pub const MAX_LAW_COEFFS: usize = 7;
@@ -232,6 +233,10 @@ pub struct Calibration {
     /// table; without it, the reading as it is).
     #[cfg_attr(feature = "serde", serde(default))]
     pub humidity: HumidityPath,
+    /// How far the strip may be from the laws, and the front end's noise (the file's
+    /// `[uncertainty]` table; without it, [`Uncertainty::TYPICAL`]).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub uncertainty: Uncertainty,
 }
 
 /// Why a calibration cannot be used.
@@ -246,6 +251,8 @@ pub enum ValidationError {
     BadConstant { name: &'static str, value: f64 },
     /// The `[humidity]` table has a value no sensor or strip can have.
     Humidity(PathError),
+    /// The `[uncertainty]` table has a negative, non-finite or absurd entry.
+    Uncertainty { key: &'static str, value: f64 },
 }
 
 impl core::fmt::Display for ValidationError {
@@ -264,6 +271,11 @@ impl core::fmt::Display for ValidationError {
                 write!(f, "constant {name} is {value:e}: it must be positive and finite")
             }
             ValidationError::Humidity(e) => write!(f, "{e}"),
+            ValidationError::Uncertainty { key, value } => write!(
+                f,
+                "uncertainty.{key} = {value}: a relative standard deviation must be within 0–{}, a noise density ≥ 0",
+                crate::uncertainty::MAX_RELATIVE_SD
+            ),
         }
     }
 }
@@ -327,6 +339,7 @@ impl Calibration {
             rh_min: 38.0,
             rh_max: 80.0,
             humidity: HumidityPath::NONE,
+            uncertainty: Uncertainty::TYPICAL,
         }
     }
 
@@ -438,6 +451,9 @@ impl Calibration {
             }
         }
         self.humidity.validate().map_err(ValidationError::Humidity)?;
+        if let Some((key, value)) = self.uncertainty.invalid() {
+            return Err(ValidationError::Uncertainty { key, value });
+        }
         let steps = Real::ceil((hi - lo) * 10.0) as usize;
         for param in [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::KappaE, ParamName::D, ParamName::H, ParamName::M] {
             let law = self.law(param).expect("humidity law");

@@ -19,6 +19,7 @@ pub mod calibration;
 #[cfg(feature = "toml")]
 pub mod calibration_file;
 pub mod design;
+pub mod expected_error;
 pub mod extension;
 pub mod filter;
 pub mod humidity;
@@ -33,6 +34,7 @@ pub mod replay;
 pub mod roots;
 pub mod stream;
 pub mod stuck;
+pub mod uncertainty;
 
 pub use calibration::{Calibration, Law, LawKind, ParamName, Params, ValidationError};
 pub use design::{DesignConfig, DesignError, Inverse, MAX_SECTIONS, Sos, compensation_error, design_inverse};

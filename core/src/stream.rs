@@ -12,6 +12,8 @@
 //!   f32  RH [%] of the strip at the block: the reading through the calibration's humidity path
 //!        (sensor correction, hydration lag), before clamping to the calibrated range
 //!   f32  RH [%] as the humidity sensor read it
+//!   f32  expected relative rms error of the block's estimates in the band, 1σ (a fraction;
+//!        `ipmc_core::expected_error`)
 //!   u16  flags (bits: [`flags`])
 //!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
 //!   f32  × n  base displacement estimates [m], one per sample at the firmware's sample rate
@@ -67,10 +69,11 @@ pub mod flags {
 }
 
 /// Bumped whenever the payload layout changes; decoders refuse other versions. 2: the strip's
-/// humidity and the reading beside the design's (version 1 had one RH, the reading's).
-pub const FRAME_VERSION: u8 = 2;
-/// version + first sample + RH of the design, of the strip, as read + flags + count.
-pub const HEADER_LEN: usize = 1 + 4 + 3 * 4 + 2 + 1;
+/// humidity and the reading beside the design's (version 1 had one RH, the reading's). 3: the
+/// expected error after the humidities.
+pub const FRAME_VERSION: u8 = 3;
+/// version + first sample + RH of the design, of the strip, as read + expected error + flags + count.
+pub const HEADER_LEN: usize = 1 + 4 + 4 * 4 + 2 + 1;
 const CRC_LEN: usize = 2;
 /// The count is one byte.
 pub const MAX_ESTIMATES: usize = u8::MAX as usize;
@@ -103,6 +106,8 @@ pub struct Header {
     pub rh_strip_pct: f32,
     /// The humidity sensor's reading [%] (NaN before the first).
     pub rh_read_pct: f32,
+    /// The estimates' expected relative rms error in the band, 1σ (a fraction).
+    pub rel_err: f32,
     pub flags: u16,
 }
 
@@ -133,6 +138,7 @@ pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usiz
     put(&header.rh_pct.to_le_bytes())?;
     put(&header.rh_strip_pct.to_le_bytes())?;
     put(&header.rh_read_pct.to_le_bytes())?;
+    put(&header.rel_err.to_le_bytes())?;
     put(&header.flags.to_le_bytes())?;
     put(&[count])?;
     for v in estimates {
@@ -224,6 +230,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     let (rh_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rh_strip_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rh_read_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (rel_err, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (flags, rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
     let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
     let (estimate_bytes, tail) = rest.as_chunks::<4>();
@@ -236,6 +243,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
             rh_pct: f32::from_le_bytes(*rh_pct),
             rh_strip_pct: f32::from_le_bytes(*rh_strip_pct),
             rh_read_pct: f32::from_le_bytes(*rh_read_pct),
+            rel_err: f32::from_le_bytes(*rel_err),
             flags: u16::from_le_bytes(*flags),
         },
         estimate_bytes,
@@ -290,7 +298,7 @@ impl<const N: usize> Deframer<N> {
 mod tests {
     use super::*;
 
-    const H: Header = Header { first_sample: 64, rh_pct: 46.5, rh_strip_pct: 46.625, rh_read_pct: 49.25, flags: 0b1001 };
+    const H: Header = Header { first_sample: 64, rh_pct: 46.5, rh_strip_pct: 46.625, rh_read_pct: 49.25, rel_err: 0.0625, flags: 0b1001 };
 
     fn frame(header: &Header, est: &[f32]) -> ([u8; MAX_FRAME_LEN], usize) {
         let mut out = [0u8; MAX_FRAME_LEN];
@@ -332,31 +340,48 @@ mod tests {
         assert_eq!(p[5..9], 46.5f32.to_le_bytes());
         assert_eq!(p[9..13], 46.625f32.to_le_bytes());
         assert_eq!(p[13..17], 49.25f32.to_le_bytes());
-        assert_eq!(p[17..19], 9u16.to_le_bytes());
-        assert_eq!(p[19], 2);
-        assert_eq!(p[20..24], 1.0f32.to_le_bytes());
-        assert_eq!(p[24..28], (-2.0f32).to_le_bytes());
-        assert_eq!(p[28..30], CRC16.checksum(&p[..28]).to_le_bytes());
+        assert_eq!(p[17..21], 0.0625f32.to_le_bytes());
+        assert_eq!(p[21..23], 9u16.to_le_bytes());
+        assert_eq!(p[23], 2);
+        assert_eq!(p[24..28], 1.0f32.to_le_bytes());
+        assert_eq!(p[28..32], (-2.0f32).to_le_bytes());
+        assert_eq!(p[32..34], CRC16.checksum(&p[..32]).to_le_bytes());
     }
 
-    /// A version-1 frame (one RH, the layout before this one) with a valid CRC is refused by
-    /// its version, with a message that says what to do.
+    /// A frame of an older layout with a valid CRC: version, first sample 64, `n_rh` humidities
+    /// of 46.5 %, flags 0, one estimate of 1 m.
+    fn old_frame(version: u8, n_rh: usize, out: &mut [u8; 40]) -> usize {
+        let mut payload = [0u8; 40];
+        let mut at = 0;
+        let mut put = |bytes: &[u8]| {
+            payload[at..at + bytes.len()].copy_from_slice(bytes);
+            at += bytes.len();
+        };
+        put(&[version]);
+        put(&64u32.to_le_bytes());
+        for _ in 0..n_rh {
+            put(&46.5f32.to_le_bytes());
+        }
+        put(&0u16.to_le_bytes());
+        put(&[1]);
+        put(&1.0f32.to_le_bytes());
+        let crc = CRC16.checksum(&payload[..at]);
+        payload[at..at + 2].copy_from_slice(&crc.to_le_bytes());
+        cobs::encode(&payload[..at + 2], out)
+    }
+
+    /// Frames of the layouts before this one (version 1: one RH; version 2: three humidities,
+    /// no expected error) are refused by their version, with a message that says what to do.
     #[test]
-    fn refuses_the_previous_version() {
-        let mut payload = [0u8; 1 + 4 + 4 + 2 + 1 + 4 + 2];
-        payload[0] = 1;
-        payload[1..5].copy_from_slice(&64u32.to_le_bytes());
-        payload[5..9].copy_from_slice(&46.5f32.to_le_bytes());
-        payload[11] = 1;
-        payload[12..16].copy_from_slice(&1.0f32.to_le_bytes());
-        let crc = CRC16.checksum(&payload[..16]);
-        payload[16..].copy_from_slice(&crc.to_le_bytes());
-        let mut encoded = [0u8; 32];
-        let n = cobs::encode(&payload, &mut encoded);
-        let e = decode(&mut encoded[..n]).unwrap_err();
-        assert_eq!(e, DecodeError::Version(1));
-        let shown = std::string::ToString::to_string(&e);
-        assert!(shown.contains("different releases"), "{shown}");
+    fn refuses_the_previous_versions() {
+        for (version, n_rh) in [(1, 1), (2, 3)] {
+            let mut encoded = [0u8; 40];
+            let n = old_frame(version, n_rh, &mut encoded);
+            let e = decode(&mut encoded[..n]).unwrap_err();
+            assert_eq!(e, DecodeError::Version(version));
+            let shown = std::string::ToString::to_string(&e);
+            assert!(shown.contains("different releases") && shown.contains("reads version 3"), "{shown}");
+        }
     }
 
     #[test]

@@ -49,6 +49,7 @@ fn check_answer(text: &str, answer: &Result<Calibration, FileError>) -> Result<b
                 ValidationError::BadRange { .. } => prop_assert!(shown.contains("RH range"), "{shown}"),
                 ValidationError::BadConstant { name, .. } => prop_assert!(shown.contains(name), "{shown}"),
                 ValidationError::Humidity(p) => prop_assert!(shown.contains(&format!("humidity.{} ", p.key)), "{shown}"),
+                ValidationError::Uncertainty { key, .. } => prop_assert!(shown.contains(&format!("uncertainty.{key} ")), "{shown}"),
             }
             Ok(false)
         }

@@ -9,6 +9,7 @@
 //! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
 //! - [`laws`]: humidity laws through the levels, and the calibration they make.
+//! - [`scatter`]: how far the levels stray from those laws (the calibration's `[uncertainty]`).
 //!
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
@@ -18,3 +19,4 @@ pub mod lsq;
 pub mod multisine;
 pub mod noise;
 pub mod response;
+pub mod scatter;

@@ -1,11 +1,11 @@
-//! Estimate files (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags`): what `ipmc compensate` and the firmware
+//! Estimate files (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`): what `ipmc compensate` and the firmware
 //! (through `cargo xtask qemu`) write and `ipmc score`, the plot and the equivalence test read.
 //! The f32 columns are parsed as f32 directly so values the firmware printed compare bit for bit.
 
 use crate::{Error, Format, Metadata, Rule, Table, Warning};
 use std::fmt::Write as _;
 
-const COLUMNS: [&str; 6] = ["t_s", "base_est_m", "rh_pct", "rh_strip_pct", "rh_read_pct", "flags"];
+const COLUMNS: [&str; 7] = ["t_s", "base_est_m", "rh_pct", "rh_strip_pct", "rh_read_pct", "rel_err", "flags"];
 
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Estimates {
@@ -19,6 +19,9 @@ pub struct Estimates {
     pub rh_strip_pct: Option<Vec<f32>>,
     /// Per sample: the humidity sensor's reading as read [%], if written.
     pub rh_read_pct: Option<Vec<f32>>,
+    /// Per sample: the block's expected relative rms error in the band, 1σ (a fraction), if
+    /// written (files from before it have none).
+    pub rel_err: Option<Vec<f32>>,
     /// Per sample: the block's flag bits, if written.
     pub flags: Option<Vec<u16>>,
 }
@@ -35,9 +38,10 @@ impl Format for Estimates {
         let rh_pct = t.find("rh_pct").map(|c| t.parsed::<f32>(c, "a number")).transpose()?;
         let rh_strip_pct = t.find("rh_strip_pct").map(|c| t.parsed::<f32>(c, "a number")).transpose()?;
         let rh_read_pct = t.find("rh_read_pct").map(|c| t.parsed::<f32>(c, "a number")).transpose()?;
+        let rel_err = t.find("rel_err").map(|c| t.parsed::<f32>(c, "a number")).transpose()?;
         let flags = t.find("flags").map(|c| t.parsed::<u16>(c, "an integer 0..=65535")).transpose()?;
         Ok((
-            Estimates { metadata: t.metadata.clone(), t_s, base_est_m, rh_pct, rh_strip_pct, rh_read_pct, flags },
+            Estimates { metadata: t.metadata.clone(), t_s, base_est_m, rh_pct, rh_strip_pct, rh_read_pct, rel_err, flags },
             t.unknown_columns(&COLUMNS),
         ))
     }
@@ -52,6 +56,7 @@ impl Estimates {
             || self.rh_pct.as_ref().is_some_and(|v| bad(v.len()))
             || self.rh_strip_pct.as_ref().is_some_and(|v| bad(v.len()))
             || self.rh_read_pct.as_ref().is_some_and(|v| bad(v.len()))
+            || self.rel_err.as_ref().is_some_and(|v| bad(v.len()))
             || self.flags.as_ref().is_some_and(|v| bad(v.len()))
         {
             return Err(Error::file("(writer)", "columns of different lengths"));
@@ -68,6 +73,9 @@ impl Estimates {
         if self.rh_read_pct.is_some() {
             s.push_str(",rh_read_pct");
         }
+        if self.rel_err.is_some() {
+            s.push_str(",rel_err");
+        }
         if self.flags.is_some() {
             s.push_str(",flags");
         }
@@ -82,6 +90,9 @@ impl Estimates {
             }
             if let Some(v) = &self.rh_read_pct {
                 let _ = write!(s, ",{}", v[i]);
+            }
+            if let Some(v) = &self.rel_err {
+                let _ = write!(s, ",{:e}", v[i]);
             }
             if let Some(v) = &self.flags {
                 let _ = write!(s, ",{}", v[i]);
@@ -104,6 +115,7 @@ mod tests {
             rh_pct: Some(vec![40.35, 40.1f32.next_up()]),
             rh_strip_pct: Some(vec![f32::NAN, 40.2]),
             rh_read_pct: Some(vec![43.35, 43.1f32.next_down()]),
+            rel_err: Some(vec![0.0625, 0.1f32.next_up()]),
             flags: Some(vec![0, 8]),
             ..Default::default()
         };
@@ -115,6 +127,16 @@ mod tests {
         assert_eq!(bits(&back.rh_strip_pct), bits(&e.rh_strip_pct));
         let finite = |x: Estimates| Estimates { rh_strip_pct: None, ..x };
         assert_eq!(finite(back), finite(e));
+    }
+
+    /// Files from before the expected-error column still read, without it.
+    #[test]
+    fn files_without_the_error_column_read() {
+        let (e, w) = Estimates::parse("e.csv", "t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags\n0,1e-6,40,41,42,0\n").unwrap();
+        assert!(w.is_empty());
+        assert_eq!((e.rel_err, e.flags), (None, Some(vec![0])));
+        let err = Estimates::parse("e.csv", "t_s,base_est_m,rel_err\n0,1e-6,wide\n").unwrap_err();
+        assert!(err.to_string().contains("`rel_err`"), "{err}");
     }
 
     #[test]

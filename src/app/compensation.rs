@@ -1,11 +1,16 @@
 //! The seam to ipmc-core: every call into the physics/filter crate goes through here, so the
 //! tasks read as data flow and the core API is named in one place.
 
-use ipmc_core::{Calibration, Compensator, DesignConfig, DesignError, Inverse, design_inverse};
+use ipmc_core::{Calibration, Compensator, DesignConfig, DesignError, Inverse, design_inverse, expected_error::ErrorTable};
 
 /// The calibration compiled into this firmware (see `calibration`: chosen at build time).
 pub fn calibration() -> Calibration {
     super::calibration::CALIBRATION
+}
+
+/// The expected error of the calibration's designs over humidity, tabulated at build time.
+pub fn error_table() -> ErrorTable {
+    super::calibration::ERROR_TABLE
 }
 
 fn design_config() -> DesignConfig<f32> {

@@ -23,6 +23,8 @@ pub struct EstimateBlock {
     pub rh_pct: f32,
     pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
+    /// The estimates' expected relative error, 1σ (`ipmc_core::expected_error`).
+    pub rel_err: f32,
     pub flags: u16,
     pub base_est_m: [f32; BLOCK_LEN],
 }

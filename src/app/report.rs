@@ -32,6 +32,7 @@ pub async fn report_task(mut stream: Stream) {
                     rh_pct: block.rh_pct,
                     rh_strip_pct: block.rh_strip_pct,
                     rh_read_pct: block.rh_read_pct,
+                    rel_err: block.rel_err,
                     flags,
                 };
                 let sent = match stream::encode(&header, &block.base_est_m, &mut frame) {
@@ -48,9 +49,10 @@ pub async fn report_task(mut stream: Stream) {
                 }
                 if reported.is_multiple_of(LOG_EVERY_BLOCKS) {
                     defmt::info!(
-                        "sample {}: base {} m, RH {} % (design; strip {} %, read {} %), flags {=u16:#x}, {} frames dropped by the stream",
+                        "sample {}: base {} m ± {} %, RH {} % (design; strip {} %, read {} %), flags {=u16:#x}, {} frames dropped by the stream",
                         block.first_sample,
                         block.base_est_m[0],
+                        100.0 * block.rel_err,
                         block.rh_pct,
                         block.rh_strip_pct,
                         block.rh_read_pct,

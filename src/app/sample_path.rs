@@ -5,6 +5,7 @@
 
 use ipmc_core::{
     block_humidity::{BlockHumidity, span_s},
+    expected_error::BlockError,
     operating_point::needs_retune,
     stuck::StuckDetector,
 };
@@ -34,14 +35,22 @@ pub async fn sample_task(mut samples: Samples) {
     // One second of identical samples is no live front end (see ipmc_core::stuck).
     let mut stuck = StuckDetector::new(SAMPLE_RATE_HZ);
     let mut humidity = BlockHumidity::<f32>::new(&super::compensation::calibration());
+    let mut error_bar = BlockError::<f32>::new(&super::compensation::error_table(), &ipmc_core::DesignConfig::firmware());
     // RH of the active or already requested design.
     let mut design_rh = first.rh_pct;
     // Samples from the previous block's start to this one's (0 before the first: the strip
     // starts settled at the first reading).
     let mut since_last: u32 = 0;
     loop {
-        let mut block =
-            EstimateBlock { first_sample, rh_pct: 0.0, rh_strip_pct: f32::NAN, rh_read_pct: 0.0, flags: 0, base_est_m: [0.0; BLOCK_LEN] };
+        let mut block = EstimateBlock {
+            first_sample,
+            rh_pct: 0.0,
+            rh_strip_pct: f32::NAN,
+            rh_read_pct: 0.0,
+            rel_err: f32::NAN,
+            flags: 0,
+            base_est_m: [0.0; BLOCK_LEN],
+        };
         let source_flags = match samples.read_block(&mut block.base_est_m).await {
             SampleBlock::Ready { flags, lost_samples } => {
                 first_sample = first_sample.wrapping_add(lost_samples);
@@ -64,6 +73,7 @@ pub async fn sample_task(mut samples: Samples) {
         if filter.process(&mut block.base_est_m) {
             block.flags |= flags::BAD_SAMPLE;
         }
+        block.rel_err = error_bar.block(filter.rh_pct(), &block.base_est_m);
 
         block.rh_read_pct = LATEST_READ_RH_PCT.load();
         // No reading yet: the first design is the humidity task's fallback, and stays.

@@ -45,8 +45,12 @@ enum Command {
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
     Monitor(commands::monitor::Args),
-    /// Score an estimate against the true base motion of its recording (as `compensate` scores).
+    /// Score an estimate against the true base motion of its recording (as `compensate` scores),
+    /// and with --coverage how often its stated error bars contain the actual error.
     Score(commands::score::Args),
+    /// Repeat the whole periods of each burst of a periodic excitation: a recording long enough
+    /// for the compensation to settle, at each burst's humidity.
+    LoopBursts(commands::loop_bursts::Args),
     /// Capacitance and effective dielectric constant κe from a constant-voltage charging recording.
     Charging(commands::charging::Args),
     /// Figures (SVG and PNG): Bode plots against the model, parameters against humidity,
@@ -74,6 +78,7 @@ fn main() {
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),
+        Command::LoopBursts(a) => commands::loop_bursts::run(a),
         Command::Charging(a) => commands::charging::run(a),
         Command::Plot(a) => commands::plot::run(a),
         Command::Diagnose(a) => commands::diagnose::run(a),

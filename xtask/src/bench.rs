@@ -107,6 +107,12 @@ pub fn command(args: &[String]) -> Result<()> {
         verdict(retune <= TARGET_RETUNE),
         get("instructions_per_retune_75")?
     );
+    println!(
+        "error bar of a block (ipmc_core::expected_error: table at the design's RH, in-band power of {} estimates): {:.0} instructions, {:.1} per sample; none at a retune",
+        get("block_len")?,
+        get("instructions_per_block_error")?,
+        get("instructions_per_block_error")? / get("block_len")?
+    );
     println!("reference, biquad crate DF2T run() stage by stage over the same blocks: {bq:.2} instructions per section per sample");
     if json {
         println!(

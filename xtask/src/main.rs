@@ -9,6 +9,7 @@
 //! - `flash ELF`                               cargo runner: `probe-rs run` with probe-rs.toml
 
 mod bench;
+mod coverage;
 mod exec;
 mod firmware;
 mod flash;

@@ -1,5 +1,5 @@
 //! `cargo xtask qemu`: replays a recording through the QEMU build of the firmware and writes
-//! its estimates as EST.csv (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags`).
+//! its estimates as EST.csv (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`).
 
 use std::{
     fs,
@@ -236,6 +236,7 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
         rh_pct: Some(vec![]),
         rh_strip_pct: Some(vec![]),
         rh_read_pct: Some(vec![]),
+        rel_err: Some(vec![]),
         flags: Some(vec![]),
         ..Default::default()
     };
@@ -248,6 +249,7 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
             est.rh_pct.as_mut().expect("set above").push(b.rh_pct);
             est.rh_strip_pct.as_mut().expect("set above").push(b.rh_strip_pct);
             est.rh_read_pct.as_mut().expect("set above").push(b.rh_read_pct);
+            est.rel_err.as_mut().expect("set above").push(b.rel_err);
             est.flags.as_mut().expect("set above").push(b.flags);
         }
     }

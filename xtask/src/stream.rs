@@ -12,6 +12,8 @@ pub struct Block {
     pub rh_pct: f32,
     pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
+    /// The block's expected relative error, 1σ.
+    pub rel_err: f32,
     pub flags: u16,
     pub base_est_m: Vec<f32>,
 }
@@ -28,6 +30,7 @@ pub fn decode_all(bytes: &[u8]) -> Result<Vec<Block>> {
                 rh_pct: f.header.rh_pct,
                 rh_strip_pct: f.header.rh_strip_pct,
                 rh_read_pct: f.header.rh_read_pct,
+                rel_err: f.header.rel_err,
                 flags: f.header.flags,
                 base_est_m: f.estimates().collect(),
             }),
@@ -45,8 +48,8 @@ mod tests {
 
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
-        let n = encode(&Header { first_sample: first, rh_pct: rh, rh_strip_pct: rh + 0.5, rh_read_pct: rh + 1.5, flags }, est, &mut out)
-            .unwrap();
+        let header = Header { first_sample: first, rh_pct: rh, rh_strip_pct: rh + 0.5, rh_read_pct: rh + 1.5, rel_err: 0.125, flags };
+        let n = encode(&header, est, &mut out).unwrap();
         out.truncate(n);
         out
     }
@@ -59,7 +62,15 @@ mod tests {
         assert_eq!(blocks.len(), 2);
         assert_eq!(
             blocks[1],
-            Block { first_sample: 2, rh_pct: 46.0, rh_strip_pct: 46.5, rh_read_pct: 47.5, flags: 8, base_est_m: vec![2e-3, -1e-3] }
+            Block {
+                first_sample: 2,
+                rh_pct: 46.0,
+                rh_strip_pct: 46.5,
+                rh_read_pct: 47.5,
+                rel_err: 0.125,
+                flags: 8,
+                base_est_m: vec![2e-3, -1e-3]
+            }
         );
         let mut bad = frame(0, 45.0, 0, &[1.0]);
         bad[5] ^= 0x10;

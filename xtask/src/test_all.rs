@@ -510,6 +510,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("sensors tests (drivers and bus recovery against fake buses)", || cargo_test("sensors/Cargo.toml")),
         ("diagnose: ipmc prove (reduced)", diagnose_prove),
         ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
+        ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", crate::coverage::test_step),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
         ("firmware build (board-b-l475e, humidity-sht4x)", || firmware::build(Variant::HardwareSht4x).map(|_| ())),

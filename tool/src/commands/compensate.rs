@@ -1,7 +1,8 @@
 //! `ipmc compensate`: runs the firmware's compensation chain (f32 [`Compensator`], blocks of 32
 //! samples, retuned when the humidity moves) over a time-series recording on the host, and
-//! writes the base-motion estimates as `t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags`
-//! (the firmware's EST.csv). The recording's humidity goes through the calibration's humidity
+//! writes the base-motion estimates as `t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`
+//! (the firmware's EST.csv; `rel_err` the block's expected relative error, 1σ, as the firmware
+//! computes it: `ipmc_core::expected_error`). The recording's humidity goes through the calibration's humidity
 //! path block by block (sensor correction, the strip's hydration lag:
 //! `ipmc_core::block_humidity`) as on the device: `rh_pct` is the active design's humidity,
 //! `rh_strip_pct` the strip's, `rh_read_pct` the reading.
@@ -17,6 +18,8 @@ use crate::commands::write_atomically;
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::block_humidity::{BlockHumidity, span_s};
+use ipmc_core::expected_error::{BlockError, ErrorTable};
+use ipmc_core::humidity_path::SensorKind;
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::{Path, PathBuf};
@@ -48,6 +51,28 @@ pub struct Args {
     /// was built with (IPMC_CALIB; the default preset otherwise).
     #[arg(long)]
     calib: Option<String>,
+    /// Standard uncertainty of the humidity reading [%RH] for the expected error; by default the
+    /// calibration's `[humidity] uncertainty_pct`, else its sensor's datasheet accuracy, else the
+    /// HTS221's (the board's sensor, as the firmware assumes).
+    #[arg(long)]
+    rh_uncertainty: Option<f64>,
+    /// The current's noise density [A/√Hz] for the expected error; by default the recording's
+    /// `current_noise_a_per_rthz` metadata (`ipmc loop-bursts` measures it), else the
+    /// calibration's `[uncertainty]`.
+    #[arg(long)]
+    current_noise: Option<f64>,
+}
+
+/// The humidity reading's uncertainty the firmware of the default board assumes for `calib`.
+pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
+    given.unwrap_or_else(|| calib.humidity.uncertainty_pct_for(calib.humidity.sensor.unwrap_or(SensorKind::Hts221)))
+}
+
+/// The expected-error table of `calib`'s designs at the recording's rate (the firmware's build
+/// script makes the same one).
+pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64) -> Result<ErrorTable> {
+    let cfg = DesignConfig::<f64> { fs_hz, ..DesignConfig::default() };
+    ErrorTable::new(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
 }
 
 /// One firmware block of the retune schedule: where it starts, the RH it reports, its flags.
@@ -59,6 +84,8 @@ pub struct ScheduledBlock {
     /// has no such column).
     pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
+    /// The firmware's expected error of the block (NaN if the file has no such column).
+    pub rel_err: f32,
     pub flags: u16,
 }
 
@@ -77,8 +104,8 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
     for (row, (&rh, &fl)) in rh.iter().zip(fl).enumerate() {
         if row % BLOCK_LEN == 0 {
             let at = |c: &Option<Vec<f32>>| c.as_ref().and_then(|r| r.get(row).copied()).unwrap_or(f32::NAN);
-            let (rh_strip_pct, rh_read_pct) = (at(&est.rh_strip_pct), at(&est.rh_read_pct));
-            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, rh_strip_pct, rh_read_pct, flags: fl });
+            let (rh_strip_pct, rh_read_pct, rel_err) = (at(&est.rh_strip_pct), at(&est.rh_read_pct), at(&est.rel_err));
+            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, rh_strip_pct, rh_read_pct, rel_err, flags: fl });
         } else {
             let b = out.last().expect("a block was started");
             if b.flags != fl || b.rh_pct.to_bits() != rh.to_bits() {
@@ -97,8 +124,9 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
 /// exactly as the firmware processes them. Samples past the schedule are not processed.
 /// Where the schedule has the firmware's readings and strip humidities, the strip's model is
 /// run here from the readings too and must give the firmware's values bit for bit.
-pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock]) -> Result<Estimates> {
+pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock], errors: &ErrorTable) -> Result<Estimates> {
     let design = designer(calib, ts.fs_hz);
+    let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() });
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
     let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
@@ -128,6 +156,10 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
         }
         let mut block: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
         comp.process_block(&mut block);
+        let rel_err = error_bar.block(comp.rh_pct(), &block);
+        if !b.rel_err.is_nan() && rel_err.to_bits() != b.rel_err.to_bits() {
+            bail!("block at sample {pos}: the firmware's expected error is {}, the host's {rel_err}", b.rel_err);
+        }
         let d = (comp.delay_s() as f64 * ts.fs_hz).round() as usize;
         for v in block {
             est.base_est_m.push(v);
@@ -136,6 +168,7 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
             est.rh_pct.push(b.rh_pct);
             est.rh_strip_pct.push(b.rh_strip_pct);
             est.rh_read_pct.push(b.rh_read_pct);
+            est.rel_err.push(rel_err);
             est.flags.push(b.flags);
         }
     }
@@ -165,6 +198,8 @@ pub struct Estimates {
     pub rh_pct: Vec<f32>,
     pub rh_strip_pct: Vec<f32>,
     pub rh_read_pct: Vec<f32>,
+    /// Per sample: the block's expected relative error, 1σ.
+    pub rel_err: Vec<f32>,
     pub flags: Vec<u16>,
     pub retunes: usize,
 }
@@ -178,6 +213,7 @@ impl Estimates {
             rh_pct: Vec::with_capacity(n),
             rh_strip_pct: Vec::with_capacity(n),
             rh_read_pct: Vec::with_capacity(n),
+            rel_err: Vec::with_capacity(n),
             flags: Vec::with_capacity(n),
             retunes: 0,
         }
@@ -195,7 +231,7 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
 /// Each block's reading (its mean) goes through the calibration's humidity path as on the
 /// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
 /// between them.
-pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -> Result<Estimates> {
+pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>, errors: &ErrorTable) -> Result<Estimates> {
     let design = designer(calib, ts.fs_hz);
     let n = ts.t_s.len();
     let mut est = Estimates::with_capacity(n);
@@ -218,6 +254,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
     for burst in ts.bursts() {
         let (b0, b1) = (burst.start, burst.end);
         let mut comp: Option<Compensator<f32>> = fixed.as_ref().map(Compensator::new);
+        let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() });
         let mut pos = b0;
         while pos < b1 {
             let end = (pos + BLOCK_LEN).min(b1);
@@ -248,6 +285,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
             if c.bad_samples != bad_before {
                 fl |= flags::BAD_SAMPLE;
             }
+            let rel_err = error_bar.block(c.rh_pct(), &block);
             let d = (c.delay_s() as f64 * ts.fs_hz).round() as usize;
             bar.inc(block.len() as u64);
             for v in block {
@@ -257,6 +295,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
                 est.rh_pct.push(c.rh_pct());
                 est.rh_strip_pct.push(rh_strip);
                 est.rh_read_pct.push(rh_read);
+                est.rel_err.push(rel_err);
                 est.flags.push(fl);
             }
             pos = end;
@@ -325,11 +364,17 @@ pub fn relative_error(est: &[f32], delay: &[usize], burst_start: &[usize], base:
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
     let ts = read_time_series(&a.input)?;
+    let measured = ts.metadata.get(super::loop_bursts::NOISE_KEY).and_then(|v| v.parse::<f64>().ok());
+    if let Some(d) = a.current_noise.or(measured) {
+        calib.uncertainty.current_noise_a_per_rthz = d;
+        calib.validate().map_err(|e| anyhow!("the current's noise: {e}"))?;
+    }
+    let errors = error_table(&calib, ts.fs_hz, rh_uncertainty(&calib, a.rh_uncertainty))?;
     let est = match &a.schedule {
-        Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?)?,
-        None => compensate(&calib, &ts, a.fixed_rh)?,
+        Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors)?,
+        None => compensate(&calib, &ts, a.fixed_rh, &errors)?,
     };
     let mut file = EstimateFile {
         t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
@@ -337,6 +382,7 @@ pub fn run(a: Args) -> Result<()> {
         rh_pct: Some(est.rh_pct.clone()),
         rh_strip_pct: Some(est.rh_strip_pct.clone()),
         rh_read_pct: Some(est.rh_read_pct.clone()),
+        rel_err: Some(est.rel_err.clone()),
         flags: Some(est.flags.clone()),
         ..Default::default()
     };

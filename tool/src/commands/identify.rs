@@ -50,6 +50,10 @@ pub struct Args {
     /// with the fitted laws), as `ipmc plot bode` and `ipmc plot params` draw them.
     #[arg(long)]
     plots: Option<PathBuf>,
+    /// Standard uncertainty of the humidity readings [%RH]: the scatter it explains is not the
+    /// strip's (by default as `compensate` takes it from the base calibration).
+    #[arg(long)]
+    rh_uncertainty: Option<f64>,
 }
 
 /// κe of every charging recording, with the humidity it was taken at.
@@ -192,7 +196,18 @@ pub fn run(a: Args) -> Result<()> {
     }
     let rh_range = fits.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (l, _)| (lo.min(l.rh_range.0), hi.max(l.rh_range.1)));
     let level_fits: Vec<LevelFit> = fits.iter().map(|(_, f)| f.clone()).collect();
-    let (calib, laws) = calibration_from_levels(&base, &level_fits, rh_range).with_context(|| format!("{source}: calibration"))?;
+    let (mut calib, laws) = calibration_from_levels(&base, &level_fits, rh_range).with_context(|| format!("{source}: calibration"))?;
+    let rh_sd = super::compensate::rh_uncertainty(&base, a.rh_uncertainty);
+    calib.uncertainty = ipmc_fit::scatter::uncertainty(&calib, &level_fits, rh_sd, &base.uncertainty);
+    let u = calib.uncertainty;
+    println!(
+        "scatter about the laws, beyond the fits' errors and a {rh_sd} %RH reading error ([uncertainty]): Y {:.1} %, Cs {:.1} %, Ca {:.1} %, κe {:.1} %, d {:.1} %",
+        100.0 * u.y,
+        100.0 * u.cs,
+        100.0 * u.ca,
+        100.0 * u.kappa_e,
+        100.0 * u.d
+    );
 
     let json = Value::Array(fits.iter().map(|(l, f)| level_json(l, f)).collect());
     if let Some(path) = &a.levels {

@@ -22,9 +22,9 @@ const DEFAULT_FS_HZ: u32 = 2_000;
 pub struct Args {
     /// Serial port (e.g. /dev/ttyACM0, COM3), a captured stream file, or `-` for stdin.
     port: String,
-    /// Write every estimate to this CSV (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags`,
+    /// Write every estimate to this CSV (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`,
     /// `# fs_hz=` metadata; `rh_pct` the active design's humidity, `rh_strip_pct` the strip's,
-    /// `rh_read_pct` the sensor's reading).
+    /// `rh_read_pct` the sensor's reading, `rel_err` the block's expected relative error, 1σ).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Serial baud rate (ignored for files and stdin).
@@ -42,7 +42,7 @@ pub fn run(a: Args) -> Result<()> {
             let f = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
             let mut w = BufWriter::new(f);
             writeln!(w, "# fs_hz={}", a.fs_hz)?;
-            writeln!(w, "t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,flags")?;
+            writeln!(w, "t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags")?;
             Some(w)
         }
         None => None,
@@ -65,7 +65,11 @@ pub fn run(a: Args) -> Result<()> {
             }
             io_result = match event {
                 Event::Sample(s) => csv.as_mut().map_or(Ok(()), |w| {
-                    writeln!(w, "{},{:e},{},{},{},{}", s.t_s, s.base_est_m, s.rh_pct, s.rh_strip_pct, s.rh_read_pct, s.flags)
+                    writeln!(
+                        w,
+                        "{},{:e},{},{},{},{:e},{}",
+                        s.t_s, s.base_est_m, s.rh_pct, s.rh_strip_pct, s.rh_read_pct, s.rel_err, s.flags
+                    )
                 }),
                 Event::Status(line) => writeln!(stdout, "{line}"),
             };
@@ -119,6 +123,7 @@ pub struct Sample {
     pub rh_pct: f32,
     pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
+    pub rel_err: f32,
     pub flags: u16,
 }
 
@@ -183,8 +188,15 @@ impl Monitor {
         let base_index = self.index_offset + first as u64;
         for (k, &v) in f.estimates.iter().enumerate() {
             let t_s = (base_index + k as u64) as f64 / self.fs_hz;
-            let s =
-                Sample { t_s, base_est_m: v, rh_pct: f.rh_pct, rh_strip_pct: f.rh_strip_pct, rh_read_pct: f.rh_read_pct, flags: f.flags };
+            let s = Sample {
+                t_s,
+                base_est_m: v,
+                rh_pct: f.rh_pct,
+                rh_strip_pct: f.rh_strip_pct,
+                rh_read_pct: f.rh_read_pct,
+                rel_err: f.rel_err,
+                flags: f.flags,
+            };
             emit(Event::Sample(s));
             if t_s >= self.next_status_s {
                 self.next_status_s = t_s.floor() + 1.0;
@@ -195,9 +207,10 @@ impl Monitor {
 
     fn status_line(&self, s: &Sample) -> String {
         format!(
-            "t {:10.3} s  base {:+.4e} m  RH {:6.2} % (strip {:6.2} %, read {:6.2} %)  flags {:#06x}{}  (frames {}, bad {})",
+            "t {:10.3} s  base {:+.4e} m ± {:.1} %  RH {:6.2} % (strip {:6.2} %, read {:6.2} %)  flags {:#06x}{}  (frames {}, bad {})",
             s.t_s,
             s.base_est_m,
+            100.0 * s.rel_err,
             s.rh_pct,
             s.rh_strip_pct,
             s.rh_read_pct,
@@ -220,6 +233,7 @@ struct OwnedFrame {
     rh_pct: f32,
     rh_strip_pct: f32,
     rh_read_pct: f32,
+    rel_err: f32,
     flags: u16,
     estimates: Vec<f32>,
 }
@@ -231,6 +245,7 @@ impl From<&Frame<'_>> for OwnedFrame {
             rh_pct: f.header.rh_pct,
             rh_strip_pct: f.header.rh_strip_pct,
             rh_read_pct: f.header.rh_read_pct,
+            rel_err: f.header.rel_err,
             flags: f.header.flags,
             estimates: f.estimates().collect(),
         }
@@ -248,8 +263,12 @@ mod tests {
 
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
-        let n = encode(&Header { first_sample: first, rh_pct: rh, rh_strip_pct: rh + 1.0, rh_read_pct: rh + 2.0, flags }, est, &mut out)
-            .unwrap();
+        let n = encode(
+            &Header { first_sample: first, rh_pct: rh, rh_strip_pct: rh + 1.0, rh_read_pct: rh + 2.0, rel_err: 0.05, flags },
+            est,
+            &mut out,
+        )
+        .unwrap();
         out.truncate(n);
         out
     }
@@ -297,6 +316,8 @@ mod tests {
             assert_eq!(lines.len(), 4, "{lines:?}");
             assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
             assert!(lines[0].contains("RH  45.00 % (strip  46.00 %, read  47.00 %)"), "{}", lines[0]);
+            assert!(lines[0].contains("m ± 5.0 %"), "the expected error: {}", lines[0]);
+            assert!(samples.iter().all(|s| s.rel_err == 0.05));
             assert!(lines.iter().any(|l| l.contains("bad 2")));
         }
     }

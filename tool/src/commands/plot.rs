@@ -102,9 +102,10 @@ pub fn run(a: Args) -> Result<()> {
             let ts = checked(TimeSeries::read(&recording))?;
             let base = ts.base_m.as_ref().ok_or_else(|| anyhow::anyhow!("{}: no base_m column to plot against", recording.display()))?;
             let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
-            let mut series = vec![Series { name: label, color: RGBColor(0, 110, 220), est: est(&estimate)?, primary: true }];
+            let stated = checked(Estimates::read(&estimate))?.rel_err.map(|v| v.into_iter().map(f64::from).collect());
+            let mut series = vec![Series { name: label, color: RGBColor(0, 110, 220), est: est(&estimate)?, primary: true, stated }];
             if let Some(b) = &baseline {
-                series.push(Series { name: baseline_label, color: humidity_color(95.0), est: est(b)?, primary: false });
+                series.push(Series { name: baseline_label, color: humidity_color(95.0), est: est(b)?, primary: false, stated: None });
             }
             let delay = (delay_ms * 1e-3 * ts.fs_hz).round() as usize;
             render(&Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay)?, &out, (1200, 800))?

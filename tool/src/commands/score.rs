@@ -3,6 +3,7 @@
 //! including `cargo xtask qemu` for the firmware's estimates).
 
 use super::compensate::{INBAND_HP_HZ, SETTLE_S, read_time_series, relative_error};
+use super::coverage;
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
 use ipmc_recording::{Estimates, Format as _};
@@ -17,15 +18,25 @@ pub struct Args {
     /// Latency of the estimate [ms]: the design's preview delay (2 ms by default).
     #[arg(long, default_value_t = 2.0)]
     delay_ms: f64,
-    /// One JSON line `{"inband": …, "broadband": …}` (relative rms errors, fractions) for scripts.
+    /// One JSON line `{"inband": …, "broadband": …}` (relative rms errors, fractions) for scripts
+    /// (with --coverage also `coverage`, `windows`, `levels_covered`, `levels`).
     #[arg(long)]
     json: bool,
+    /// Also how often the estimate's stated 1σ (its `rel_err` column) contains the actual
+    /// in-band error: per burst (expected against actual) and over windows of this many seconds.
+    #[arg(long, value_name = "WINDOW_S")]
+    coverage: Option<f64>,
+    /// With --coverage: seconds skipped at the start of each burst (the chain's start-up, which
+    /// the expected error does not speak of; at least the scoring's 5 s).
+    #[arg(long, default_value_t = SETTLE_S)]
+    settle_s: f64,
 }
 
 pub fn run(a: Args) -> Result<()> {
     let ts = read_time_series(&a.recording)?;
     let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("{}: no base_m column to score against", a.recording.display()))?;
-    let est = checked(Estimates::read(&a.estimate))?.base_est_m;
+    let file = checked(Estimates::read(&a.estimate))?;
+    let est = file.base_est_m;
     if est.len() > base.len() {
         bail!("{} has {} estimates for {} samples in {}", a.estimate.display(), est.len(), base.len(), a.recording.display());
     }
@@ -34,8 +45,52 @@ pub fn run(a: Args) -> Result<()> {
     for burst in ts.bursts() {
         burst_start[burst.clone()].fill(burst.start);
     }
+    let covered = match a.coverage {
+        Some(window_s) => {
+            let rel_err = file.rel_err.as_ref().ok_or_else(|| {
+                anyhow!("{}: no `rel_err` column (written by this release's `ipmc compensate` and firmware)", a.estimate.display())
+            })?;
+            let bursts = coverage::score(&est, rel_err, base, &ts.rh_pct, &ts.bursts(), delay, ts.fs_hz, window_s, a.settle_s);
+            if !a.json {
+                println!("  RH [%]   expected 1σ [%]   actual [%]   windows within");
+                for b in &bursts {
+                    let inside = b.windows.iter().filter(|w| w.covered()).count();
+                    println!(
+                        "  {:6.2}   {:15.2}   {:10.2}   {inside}/{}",
+                        b.rh_pct,
+                        100.0 * b.whole.stated,
+                        100.0 * b.whole.actual,
+                        b.windows.len()
+                    );
+                }
+            }
+            Some(coverage::coverage(&bursts))
+        }
+        None => None,
+    };
+    let share = |(c, n): (usize, usize)| if n == 0 { f64::NAN } else { c as f64 / n as f64 };
+    if let (Some((w, b)), false) = (covered, a.json) {
+        println!(
+            "coverage: the actual in-band error is within the stated 1σ in {} of {} windows of {} s ({:.1} %), {} of {} bursts",
+            w.0,
+            w.1,
+            a.coverage.unwrap_or_default(),
+            100.0 * share(w),
+            b.0,
+            b.1
+        );
+    }
     match relative_error(&est, &vec![delay; est.len()], &burst_start, base, ts.fs_hz) {
-        Some((broad, inband)) if a.json => println!("{}", serde_json::json!({ "inband": inband, "broadband": broad })),
+        Some((broad, inband)) if a.json => {
+            let mut j = serde_json::json!({ "inband": inband, "broadband": broad });
+            if let Some((w, b)) = covered {
+                j["coverage"] = share(w).into();
+                j["windows"] = w.1.into();
+                j["levels_covered"] = b.0.into();
+                j["levels"] = b.1.into();
+            }
+            println!("{j}")
+        }
         None if a.json => bail!("not enough samples after settling to score"),
         Some((broad, inband)) => println!(
             "error vs true base (delayed {delay} samples, first {SETTLE_S} s skipped): in-band (>{INBAND_HP_HZ} Hz) {:.3} % rms, broadband {:.3} % rms",

@@ -1,6 +1,9 @@
 //! The compensated estimate against the true base motion (and a baseline estimate, e.g. the
 //! humidity-independent fixed-RH design): a window of a few seconds on top, the error over the
-//! whole recording below (rms error / rms true base over 0.25 s windows, log scale).
+//! whole recording below (rms error / rms true base over 0.25 s windows, log scale), with the
+//! estimate's stated 1σ (its `rel_err` column) as a shaded band. The band speaks of the error in
+//! the design band only; the line is the broadband error, which the double integration's
+//! low-frequency wander can dominate (the in-band check is `ipmc score --coverage`).
 
 use super::{Figure, legend, pe};
 use anyhow::{Result, bail};
@@ -38,6 +41,8 @@ pub struct Series {
     pub est: Vec<f64>,
     /// The estimate under test (drawn on top); otherwise a baseline.
     pub primary: bool,
+    /// Per sample: the expected relative error it was stated with (1σ), if known.
+    pub stated: Option<Vec<f64>>,
 }
 
 /// Estimates against the truth they should equal (the true base delayed by the design's delay).
@@ -63,6 +68,9 @@ impl Compensated {
         let truth: Vec<f64> = (0..n).map(|i| if i >= delay { base[i - delay] } else { 0.0 }).collect();
         for s in &mut series {
             s.est.resize(n, f64::NAN);
+            if let Some(v) = s.stated.as_mut() {
+                v.resize(n, f64::NAN);
+            }
         }
         let w0 = n.saturating_sub((seconds * fs).round() as usize).max(delay);
         Ok(Compensated { fs, truth, series, bursts, w0, w1: n })
@@ -125,7 +133,26 @@ where
     let settle = (SETTLE_S * fs).round() as usize;
     let win = (0.25 * fs).round() as usize;
     let errs: Vec<Vec<(f64, f64)>> = series.iter().map(|s| windowed_error(&s.est, truth, &fig.bursts, settle, win, fs)).collect();
-    let all = errs.iter().flatten().map(|p| p.1).filter(|v| *v > 0.0);
+    // The stated 1σ per window: rms of the per-sample figure, in %.
+    let bands: Vec<Option<Vec<(f64, f64)>>> = series
+        .iter()
+        .map(|s| {
+            let v = s.stated.as_ref()?;
+            let mut out = vec![];
+            for burst in &fig.bursts {
+                let mut i = burst.start + settle;
+                while i + win <= burst.end.min(v.len()) {
+                    let ms = v[i..i + win].iter().map(|x| x * x).sum::<f64>() / win as f64;
+                    if ms.is_finite() {
+                        out.push(((i + win / 2) as f64 / fs, 100.0 * ms.sqrt()));
+                    }
+                    i += win;
+                }
+            }
+            Some(out)
+        })
+        .collect();
+    let all = errs.iter().flatten().chain(bands.iter().flatten().flatten()).map(|p| p.1).filter(|v| *v > 0.0);
     let (lo, hi) = all.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
     if !lo.is_finite() {
         bail!("no error to plot after the first {SETTLE_S} s");
@@ -139,6 +166,17 @@ where
         .build_cartesian_2d(0.0..tmax, (lo / 2.0..hi * 2.0).log_scale())
         .map_err(pe)?;
     chart.configure_mesh().x_desc("t [s]").y_desc("error [%]").draw().map_err(pe)?;
+    for (s, band) in series.iter().zip(&bands) {
+        let Some(band) = band else { continue };
+        let c = s.color;
+        let floor = lo / 2.0;
+        let half = 0.5 * win as f64 / fs;
+        chart
+            .draw_series(band.iter().map(|&(t, v)| Rectangle::new([(t - half, floor), (t + half, v.max(floor))], c.mix(0.15).filled())))
+            .map_err(pe)?
+            .label(format!("{}: stated 1σ in band", s.name))
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], c.mix(0.15).filled()));
+    }
     for (s, e) in series.iter().zip(errs) {
         let c = s.color;
         let mean = if e.is_empty() { 0.0 } else { e.iter().map(|p| p.1).sum::<f64>() / e.len() as f64 };

@@ -1,0 +1,286 @@
+//! The expected relative error of the estimate in the band, for the design at a humidity: the
+//! 1σ a stream frame and an estimate file carry beside every block.
+//!
+//! First-order propagation through the exact model. The estimate is G·I with G ≈ 1/H₀ (the
+//! nominal strip at the design's humidity), the strip is H = H₀(1 + Σₖ sₖ·δₖ) with sₖ = ∂ln H/∂θₖ
+//! and δₖ independent, zero-mean, of standard deviation σₖ: the humidity reading's error (θ = RH,
+//! σ from the `[humidity]` table or the sensor's datasheet) and each parameter's scatter about
+//! its law (θ = ln p, σ from the `[uncertainty]` table). The relative error at f is then
+//! Σₖ sₖ(f)·δₖ + (H₀·G·e^{jωτ} − 1), the second term the design's own error, and its mean square
+//! over the band (a signal spread evenly over the band) is
+//!
+//!   v(RH) = mean_f |H₀Ge^{jωτ} − 1|² + Σₖ σₖ²·mean_f |sₖ(f)|².
+//!
+//! The front end's noise (density S) adds N² = ∫_band S/|H₀|² df of displacement, which relative
+//! to a signal of mean square P is N²/P; P is the estimate's own in the band, smoothed over about
+//! a second. "In the band": the double integration leaves the estimate a low-frequency wander
+//! (offset and noise) far above the signal (50× on the external recordings), so P is measured
+//! after [`HP_SECTIONS`] first-order high-passes at the band's lower edge, and divided by their
+//! mean power gain over the band (what they take from a signal spread evenly over it). Two
+//! sections at half the edge left the wander at twice the signal and the noise term at half.
+//!
+//! The exact model costs far more than a retune may spend on the MCU, and v and N² depend on the
+//! humidity and the calibration only: they are tabulated over the calibrated range on the host
+//! (the firmware's build script, the tool) in f64 and narrowed to f32, so both sides interpolate
+//! the same numbers per block, bit for bit.
+
+use crate::C;
+use crate::calibration::{Calibration, ParamName, Params};
+use crate::design::{DesignConfig, compensation_error, design_inverse_for};
+use crate::model::{current_response, jw};
+use crate::real::Real;
+
+/// Most table entries: 0–100 %RH at 1 %RH steps.
+pub const TABLE_LEN: usize = 101;
+/// Frequencies of the band averages.
+const BAND_POINTS: usize = 29;
+/// Central-difference steps: of ln p, and of RH [%].
+const LN_STEP: f64 = 1e-3;
+const RH_STEP_PCT: f64 = 0.05;
+/// Blocks over which the estimate's mean square is smoothed (about 1 s at 2 kHz and 32 samples
+/// a block): long enough to span the slowest in-band period many times over.
+pub const POWER_BLOCKS: usize = 64;
+/// First-order high-passes in front of the signal's mean square.
+pub const HP_SECTIONS: usize = 4;
+
+/// v and N² over the calibrated range, at evenly spaced humidities.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorTable {
+    /// RH of the first entry and the spacing [%].
+    pub rh0_pct: f32,
+    pub step_pct: f32,
+    pub n: usize,
+    /// Relative mean-square error from the humidity reading, the parameters and the design.
+    pub model_var: [f32; TABLE_LEN],
+    /// Mean-square noise displacement in the band [m²].
+    pub noise_m2: [f32; TABLE_LEN],
+}
+
+/// The two terms at one humidity, in f64 (None where the model or the design fails).
+pub fn terms_at(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<(f64, f64)> {
+    let p: Params<f64> = calib.params_at(rh_pct);
+    let inv = design_inverse_for(&p, rh_pct, cfg).ok()?;
+    let (design_rms, _) = compensation_error(&p, &inv, cfg.band_lo_hz, cfg.band_hi_hz, BAND_POINTS);
+    let (wet, dry): (Params<f64>, Params<f64>) = (calib.params_at(rh_pct + RH_STEP_PCT), calib.params_at(rh_pct - RH_STEP_PCT));
+    let perturbed = |name: ParamName, k: f64| {
+        let mut q = p;
+        q.set(name, p.get(name) * Real::exp(k * LN_STEP));
+        q
+    };
+    let density = calib.uncertainty.current_noise_a_per_rthz;
+    let df = (cfg.band_hi_hz - cfg.band_lo_hz) / (BAND_POINTS - 1) as f64;
+    let (mut var, mut noise) = (0.0, 0.0);
+    for i in 0..BAND_POINTS {
+        let f = cfg.band_lo_hz + df * i as f64;
+        let s = jw(f);
+        let h0 = current_response(&p, s);
+        let log_slope = |plus: &Params<f64>, minus: &Params<f64>, step: f64| -> f64 {
+            let d: C<f64> = (current_response(plus, s) - current_response(minus, s)) / (h0 * (2.0 * step));
+            d.norm_sqr()
+        };
+        var += rh_sd_pct * rh_sd_pct * log_slope(&wet, &dry, RH_STEP_PCT);
+        for (name, sd) in calib.uncertainty.relative_sds() {
+            if sd > 0.0 {
+                var += sd * sd * log_slope(&perturbed(name, 1.0), &perturbed(name, -1.0), LN_STEP);
+            }
+        }
+        // Trapezoid: the band's ends count half.
+        let w = if i == 0 || i == BAND_POINTS - 1 { 0.5 } else { 1.0 };
+        noise += w * density * density / h0.norm_sqr() * df;
+    }
+    let v = design_rms * design_rms + var / BAND_POINTS as f64;
+    (v.is_finite() && noise.is_finite()).then_some((v, noise))
+}
+
+impl ErrorTable {
+    /// Tabulates over the calibration's declared range at (at most) 1 %RH steps, with the
+    /// humidity reading's standard uncertainty `rh_sd_pct`. None if the design fails anywhere.
+    pub fn new(calib: &Calibration, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<ErrorTable> {
+        let span = calib.rh_max - calib.rh_min;
+        let n = ((Real::ceil(span) as usize) + 1).clamp(2, TABLE_LEN);
+        let step = span / (n - 1) as f64;
+        let mut t =
+            ErrorTable { rh0_pct: calib.rh_min as f32, step_pct: step as f32, n, model_var: [0.0; TABLE_LEN], noise_m2: [0.0; TABLE_LEN] };
+        for i in 0..n {
+            let rh = if i == n - 1 { calib.rh_max } else { calib.rh_min + step * i as f64 };
+            let (v, noise) = terms_at(calib, rh, rh_sd_pct, cfg)?;
+            t.model_var[i] = v as f32;
+            t.noise_m2[i] = noise as f32;
+        }
+        Some(t)
+    }
+
+    /// (v, N²) at `rh_pct`, linear between entries, the end entries beyond the range.
+    pub fn at<T: Real>(&self, rh_pct: T) -> (T, T) {
+        let x = (rh_pct - T::lit(self.rh0_pct as f64)) / T::lit(self.step_pct as f64);
+        let last = self.n - 1;
+        let x = if x.is_nan() || x < T::zero() { T::zero() } else { x.min(T::lit(last as f64)) };
+        let i = (x.floor().to_f64() as usize).min(last - 1);
+        let u = x - T::lit(i as f64);
+        let lerp = |a: &[f32; TABLE_LEN]| T::lit(a[i] as f64) + (T::lit(a[i + 1] as f64) - T::lit(a[i] as f64)) * u;
+        (lerp(&self.model_var), lerp(&self.noise_m2))
+    }
+}
+
+/// The 1σ of each block: the table at the active design's humidity and the estimate's smoothed
+/// mean square. One per compensator; the device and the host's replica run it on the same blocks.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockError<T> {
+    table: ErrorTable,
+    power_m2: Option<T>,
+    /// y ← k·(y + x − x₋₁) per high-pass, and each section's last input and output.
+    k: T,
+    hp: [[T; 2]; HP_SECTIONS],
+    /// The high-passes' mean power gain over the band.
+    band_gain: T,
+}
+
+impl<T: Real> BlockError<T> {
+    /// For the estimates of designs made with `cfg`.
+    pub fn new(table: &ErrorTable, cfg: &DesignConfig<T>) -> Self {
+        let k = (T::one() + T::lit(2.0) * T::PI() * cfg.band_lo_hz / cfg.fs_hz).recip();
+        let one = C::new(T::one(), T::zero());
+        let mut band_gain = T::zero();
+        for i in 0..BAND_POINTS {
+            let f = cfg.band_lo_hz + (cfg.band_hi_hz - cfg.band_lo_hz) * T::lit(i as f64 / (BAND_POINTS - 1) as f64);
+            let zinv = crate::real::cis(-(T::lit(2.0) * T::PI() * f / cfg.fs_hz));
+            let g = ((one - zinv) * k / (one - zinv * k)).norm_sqr();
+            band_gain += g * g * g * g;
+        }
+        band_gain /= T::lit(BAND_POINTS as f64);
+        BlockError { table: *table, power_m2: None, k, hp: [[T::zero(); 2]; HP_SECTIONS], band_gain }
+    }
+
+    /// The expected relative rms error (a fraction) of `estimates`, made by the design at
+    /// `design_rh_pct`. Infinite while the estimate is exactly zero (no signal to be relative to).
+    pub fn block(&mut self, design_rh_pct: T, estimates: &[T]) -> T {
+        if !estimates.is_empty() {
+            let mut ms = T::zero();
+            for &x in estimates {
+                let mut v = x;
+                for [last_in, out] in self.hp.iter_mut() {
+                    *out = self.k * (*out + v - *last_in);
+                    *last_in = v;
+                    v = *out;
+                }
+                ms += v * v;
+            }
+            ms /= T::lit(estimates.len() as f64) * self.band_gain;
+            let p = match self.power_m2 {
+                None => ms,
+                Some(p) => p + (ms - p) / T::lit(POWER_BLOCKS as f64),
+            };
+            // A non-finite block (a fault the compensator reports) must not poison the average.
+            if p.is_finite() {
+                self.power_m2 = Some(p);
+            } else {
+                self.hp = [[T::zero(); 2]; HP_SECTIONS];
+            }
+        }
+        let (v, noise) = self.table.at(design_rh_pct);
+        let p = self.power_m2.unwrap_or(T::zero());
+        (v + noise / p).sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::uncertainty::Uncertainty;
+
+    fn quiet() -> Calibration {
+        let none = Uncertainty { y: 0.0, cs: 0.0, ca: 0.0, kappa_e: 0.0, d: 0.0, current_noise_a_per_rthz: 0.0 };
+        Calibration { uncertainty: none, ..Calibration::default_preset() }
+    }
+
+    /// The humidity term is the design at RH against the model at RH + δ (what `ipmc design`
+    /// against `ipmc model` measures): for a small δ the error is |δ|·√(mean |∂ln H/∂RH|²).
+    #[test]
+    fn humidity_term_is_the_error_of_a_mismatched_design() {
+        let cfg = DesignConfig::<f64>::firmware();
+        let c = quiet();
+        for rh in [40.0, 60.0, 80.0] {
+            let (v0, _) = terms_at(&c, rh, 0.0, &cfg).unwrap();
+            let (v1, _) = terms_at(&c, rh, 0.2, &cfg).unwrap();
+            let per_pct = ((v1 - v0) / 0.04).sqrt();
+            let p: Params<f64> = c.params_at(rh + 0.2);
+            let inv = crate::design::design_inverse(&c, rh, &cfg).unwrap();
+            let (mismatched, _) = compensation_error(&p, &inv, cfg.band_lo_hz, cfg.band_hi_hz, BAND_POINTS);
+            let direct = (mismatched * mismatched - v0).sqrt() / 0.2;
+            assert!((per_pct / direct - 1.0).abs() < 0.05, "RH {rh}: {per_pct} vs {direct} per %RH");
+        }
+    }
+
+    #[test]
+    fn parameter_and_noise_terms_add_and_scale() {
+        let cfg = DesignConfig::<f64>::firmware();
+        let c = quiet();
+        let (v0, n0) = terms_at(&c, 50.0, 0.0, &cfg).unwrap();
+        assert_eq!(n0, 0.0);
+        let y = Calibration { uncertainty: Uncertainty { y: 0.02, ..c.uncertainty }, ..c };
+        let y2 = Calibration { uncertainty: Uncertainty { y: 0.04, ..c.uncertainty }, ..c };
+        let (vy, _) = terms_at(&y, 50.0, 0.0, &cfg).unwrap();
+        let (vy2, _) = terms_at(&y2, 50.0, 0.0, &cfg).unwrap();
+        assert!(vy > v0);
+        assert!(((vy2 - v0) / (vy - v0) - 4.0).abs() < 1e-9, "quadratic in the standard deviation");
+        let noisy = Calibration { uncertainty: Uncertainty { current_noise_a_per_rthz: 1e-11, ..c.uncertainty }, ..c };
+        let noisier = Calibration { uncertainty: Uncertainty { current_noise_a_per_rthz: 2e-11, ..c.uncertainty }, ..c };
+        let (_, n1) = terms_at(&noisy, 50.0, 0.0, &cfg).unwrap();
+        let (_, n2) = terms_at(&noisier, 50.0, 0.0, &cfg).unwrap();
+        assert!(n1 > 0.0 && ((n2 / n1) - 4.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn table_interpolates_its_entries_and_holds_its_ends() {
+        let c = Calibration::default_preset();
+        let cfg = DesignConfig::<f64>::firmware();
+        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        assert_eq!((t.n, t.rh0_pct, t.step_pct), (71, 20.0, 1.0));
+        let (v, _) = t.at(47.0f32);
+        assert_eq!(v, t.model_var[27]);
+        let (mid, _) = t.at(47.5f64);
+        assert!((mid - 0.5 * (t.model_var[27] as f64 + t.model_var[28] as f64)).abs() < 1e-9);
+        assert_eq!(t.at(5.0f32), t.at(20.0f32));
+        assert_eq!(t.at(f32::NAN), t.at(20.0f32));
+        assert_eq!(t.at(99.0f32).0, t.model_var[70]);
+        let (v, _) = terms_at(&c, 90.0, 1.0, &cfg).unwrap();
+        assert_eq!(t.model_var[70], v as f32);
+    }
+
+    /// The noise term is relative to the estimate's in-band power: a tone in the band counts
+    /// fully, an offset (the double integration's wander) not at all.
+    #[test]
+    fn block_error_follows_the_in_band_power() {
+        let c = Calibration::default_preset();
+        let cfg = DesignConfig::firmware();
+        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        let (v, n) = t.at(50.0f64);
+        let tone = |a: f64, k: usize| a * (2.0 * core::f64::consts::PI * 60.0 * k as f64 / 2000.0).sin();
+        let run = |a: f64, offset: f64| {
+            let mut b = BlockError::<f64>::new(&t, &cfg);
+            let mut last = 0.0;
+            for blk in 0..40 * POWER_BLOCKS {
+                let est: [f64; 32] = core::array::from_fn(|k| offset + tone(a, 32 * blk + k));
+                last = b.block(50.0, &est);
+            }
+            last
+        };
+        // A 60 Hz tone of amplitude a has mean square a²/2, times |k(1 − z⁻¹)/(1 − kz⁻¹)|⁸ of
+        // the four high-passes, over their mean over the band.
+        let k = 1.0 / (1.0 + 2.0 * core::f64::consts::PI * 10.0 / 2000.0);
+        let one = C::new(1.0, 0.0);
+        let power = |f: f64| {
+            let zinv = crate::real::cis(-2.0 * core::f64::consts::PI * f / 2000.0);
+            ((one - zinv) * k / (one - zinv * k)).norm_sqr().powi(4)
+        };
+        let mean = (0..BAND_POINTS).map(|i| power(10.0 + 140.0 * i as f64 / (BAND_POINTS - 1) as f64)).sum::<f64>() / BAND_POINTS as f64;
+        assert!(mean > 0.6 && mean < 0.9, "{mean}");
+        for a in [1e-6, 1e-8] {
+            let want = (v + n / (a * a / 2.0 * power(60.0) / mean)).sqrt();
+            let got = run(a, 0.0);
+            assert!((got / want - 1.0).abs() < 2e-3, "amplitude {a}: {got} vs {want}");
+            assert!((run(a, 1e3 * a) / got - 1.0).abs() < 1e-3, "an offset is no signal");
+        }
+        assert!(BlockError::<f32>::new(&t, &DesignConfig::firmware()).block(50.0, &[0.0; 4]).is_infinite());
+    }
+}

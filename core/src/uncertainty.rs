@@ -1,0 +1,69 @@
+//! What a calibration does not know about its strip: the `[uncertainty]` table of the file.
+//!
+//! The humidity laws give each parameter's value at a humidity; a real strip scatters about
+//! them from level to level (and the laws themselves are only as good as the levels they went
+//! through). Those relative standard deviations, and the front end's current noise, are what
+//! the expected error of an estimate is made of (`expected_error`); the humidity reading's own
+//! uncertainty is in the `[humidity]` table, where the reading is corrected.
+
+use crate::calibration::ParamName;
+
+/// Relative standard deviations (of ln p, so 0.03 is about 3 %) of the identified parameters
+/// about their laws, after the scatter the humidity reading error and the fit's own standard
+/// errors explain has been taken out (`ipmc identify` writes them), and the noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
+pub struct Uncertainty {
+    pub y: f64,
+    pub cs: f64,
+    pub ca: f64,
+    pub kappa_e: f64,
+    pub d: f64,
+    /// Current noise density of the front end, white over the band [A/√Hz].
+    pub current_noise_a_per_rthz: f64,
+}
+
+/// Largest relative standard deviation accepted: beyond it the law says nothing about the strip.
+pub const MAX_RELATIVE_SD: f64 = 2.0;
+
+/// The firmware's front end: the 12-bit ADC's quantization (3.3 V / 4095 codes through the
+/// 940 kΩ transimpedance, LSB/√12 per sample) spread white over 0–1 kHz at 2 kHz sampling.
+pub const FRONT_END_NOISE_A_PER_RTHZ: f64 = 3.3 / 4095.0 / 940_000.0 / 3.464_101_615_137_754_6 / 31.622_776_601_683_793;
+
+impl Uncertainty {
+    /// A calibration that states nothing: how far `ipmc identify` found two independently
+    /// simulated strips' levels from the paper's laws (the frequency responses of 26 levels,
+    /// 38–81 %RH; docs/calibrating.md, "Uncertainty"), after the 1 %RH reading error and the
+    /// fits' own standard errors are taken out, rounded up; κe is not identified by a frequency
+    /// response and gets none. A calibration identified from the user's own strip replaces it.
+    pub const TYPICAL: Uncertainty =
+        Uncertainty { y: 0.035, cs: 0.10, ca: 0.03, kappa_e: 0.0, d: 0.05, current_noise_a_per_rthz: FRONT_END_NOISE_A_PER_RTHZ };
+
+    /// The parameters the table speaks of, with their relative standard deviations.
+    pub fn relative_sds(&self) -> [(ParamName, f64); 5] {
+        [
+            (ParamName::Y, self.y),
+            (ParamName::Cs, self.cs),
+            (ParamName::Ca, self.ca),
+            (ParamName::KappaE, self.kappa_e),
+            (ParamName::D, self.d),
+        ]
+    }
+
+    /// The key (as the file spells it) and value of the first entry no strip can have.
+    pub fn invalid(&self) -> Option<(&'static str, f64)> {
+        let sds = [("y", self.y), ("cs", self.cs), ("ca", self.ca), ("kappa_e", self.kappa_e), ("d", self.d)];
+        sds.into_iter().find(|&(_, v)| !(v.is_finite() && (0.0..=MAX_RELATIVE_SD).contains(&v))).or(Some((
+            "current_noise_a_per_rthz",
+            self.current_noise_a_per_rthz,
+        ))
+        .filter(|&(_, v)| !(v.is_finite() && v >= 0.0)))
+    }
+}
+
+impl Default for Uncertainty {
+    fn default() -> Self {
+        Uncertainty::TYPICAL
+    }
+}
