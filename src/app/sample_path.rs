@@ -5,7 +5,7 @@
 
 use ipmc_core::{
     block_humidity::{BlockHumidity, span_s},
-    operating_point::needs_retune,
+    operating_point::{asks_for_design, reading_age_s},
     stuck::StuckDetector,
 };
 
@@ -33,7 +33,7 @@ pub async fn sample_task(mut samples: Samples) {
     let mut dropped_since_last = false;
     // One second of identical samples is no live front end (see ipmc_core::stuck).
     let mut stuck = StuckDetector::new(SAMPLE_RATE_HZ);
-    let mut humidity = BlockHumidity::<f32>::new(&super::compensation::calibration());
+    let mut humidity = BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s());
     // RH of the active or already requested design.
     let mut design_rh = first.rh_pct;
     // Samples from the previous block's start to this one's (0 before the first: the strip
@@ -72,7 +72,7 @@ pub async fn sample_task(mut samples: Samples) {
             if now.clamped {
                 block.flags |= flags::RH_CLAMPED;
             }
-            if needs_retune(design_rh, now.rh_pct) {
+            if asks_for_design(design_rh, now.rh_pct, filter.is_retuning()) {
                 design_rh = now.rh_pct;
                 RETUNE_REQUEST.signal(now.rh_pct);
             }

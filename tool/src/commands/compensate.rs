@@ -17,6 +17,7 @@ use crate::commands::write_atomically;
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::block_humidity::{BlockHumidity, span_s};
+use ipmc_core::operating_point::{asks_for_design, reading_age_s};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::{Path, PathBuf};
@@ -102,7 +103,11 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
     let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
-    let mut humidity = BlockHumidity::<f32>::new(calib);
+    let mut humidity = BlockHumidity::<f32>::new(calib, reading_age_s());
+    // The designs the sample path asked for, run here as it runs them (bits of their RH): every
+    // retune of the schedule must be one of them.
+    let mut design_rh = schedule[0].rh_pct;
+    let mut asked: Vec<u32> = vec![];
     let fs = whole_hz(ts.fs_hz)?;
     for (k, b) in schedule.iter().enumerate() {
         if b.first_sample != k * BLOCK_LEN {
@@ -112,8 +117,19 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
         if pos + BLOCK_LEN > ts.t_s.len() {
             break;
         }
+        if b.flags & flags::RETUNED != 0 {
+            if !b.rh_read_pct.is_nan() && !asked.contains(&b.rh_pct.to_bits()) {
+                bail!("block at sample {pos}: the firmware retuned to {} %, a humidity the trend run here from its readings never asked for", b.rh_pct);
+            }
+            comp.switch_to(&design(b.rh_pct)?);
+            est.retunes += 1;
+        }
+        let mut block: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
+        comp.process_block(&mut block);
         let dt = span_s(if k == 0 { 0 } else { BLOCK_LEN as u32 }, fs);
-        if humidity.advance(b.rh_read_pct, dt).is_some() && !b.rh_strip_pct.is_nan() {
+        if let Some(now) = humidity.advance(b.rh_read_pct, dt)
+            && !b.rh_strip_pct.is_nan()
+        {
             let here = humidity.strip_pct().expect("advanced");
             if here.to_bits() != b.rh_strip_pct.to_bits() {
                 bail!(
@@ -121,13 +137,11 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
                     b.rh_strip_pct
                 );
             }
+            if asks_for_design(design_rh, now.rh_pct, comp.is_retuning()) {
+                design_rh = now.rh_pct;
+                asked.push(now.rh_pct.to_bits());
+            }
         }
-        if b.flags & flags::RETUNED != 0 {
-            comp.switch_to(&design(b.rh_pct)?);
-            est.retunes += 1;
-        }
-        let mut block: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
-        comp.process_block(&mut block);
         let d = (comp.delay_s() as f64 * ts.fs_hz).round() as usize;
         for v in block {
             est.base_est_m.push(v);
@@ -191,7 +205,8 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
 }
 
 /// Runs the compensation over `ts`: a fresh compensator per burst, designed at the first
-/// block's RH (or `fixed_rh`), retuned per block when the RH moved more than the threshold.
+/// block's RH (or `fixed_rh`), retuned when the RH moved more than the threshold and no
+/// retune is under way (`asks_for_design`), to the humidity read ahead along its trend.
 /// Each block's reading (its mean) goes through the calibration's humidity path as on the
 /// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
 /// between them.
@@ -210,7 +225,8 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
         }
         None => None,
     };
-    let mut humidity = BlockHumidity::<f32>::new(calib);
+    // Each block's reading is its own mean: half a block old.
+    let mut humidity = BlockHumidity::<f32>::new(calib, BLOCK_LEN as f64 / 2.0 / ts.fs_hz);
     let fs = whole_hz(ts.fs_hz)?;
     // Where the previous block started (the strip's model steps by whole blocks inside a burst,
     // by the recording's clock between bursts).
@@ -234,7 +250,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>) -
             let mut fl = if now.clamped { flags::RH_CLAMPED } else { 0 };
             match comp.as_mut() {
                 None => comp = Some(Compensator::new(&design(rh)?)),
-                Some(c) if fixed.is_none() && ipmc_core::operating_point::needs_retune(c.rh_pct(), rh) => {
+                Some(c) if fixed.is_none() && asks_for_design(c.rh_pct(), rh, c.is_retuning()) => {
                     c.switch_to(&design(rh)?);
                     est.retunes += 1;
                     fl |= flags::RETUNED;
