@@ -1,9 +1,11 @@
 //! `ipmc`: the host tool of ipmc-sense.
 
+mod band;
 mod calibration_source;
 mod commands;
 mod conceal;
 mod diagnose;
+mod exact;
 mod input;
 mod overrides;
 mod plot;
@@ -45,6 +47,9 @@ enum Command {
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
     Monitor(commands::monitor::Args),
+    /// Per level of a periodic-excitation recording: the causal chain's error in the band, the
+    /// exact band-limited inverse's of the same model, and their ratio.
+    VsExact(commands::vs_exact::Args),
     /// Score an estimate against the true base motion of its recording (as `compensate` scores).
     Score(commands::score::Args),
     /// Capacitance and effective dielectric constant κe from a constant-voltage charging recording.
@@ -74,6 +79,7 @@ fn main() {
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),
+        Command::VsExact(a) => commands::vs_exact::run(a),
         Command::Charging(a) => commands::charging::run(a),
         Command::Plot(a) => commands::plot::run(a),
         Command::Diagnose(a) => commands::diagnose::run(a),

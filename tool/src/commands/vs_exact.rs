@@ -1,0 +1,120 @@
+//! `ipmc vs-exact`: what the causal f32 chain loses to its implementation, level by level. Each
+//! burst of a periodic-excitation recording is made into a recording of its own by repeating its
+//! whole periods (seamless in steady state, long enough for the filter to settle); on it the
+//! firmware's chain (`compensate`) and the exact band-limited inverse of the same nominal model
+//! at the same humidity reading (`exact`) are scored alike: in the design band, against the true
+//! `base_m`, on the same samples after the chain's settling (`compensate::band_error`).
+
+use super::compensate::{SETTLE_S, band_error, compensate, read_time_series};
+use crate::exact;
+use anyhow::{Result, anyhow, bail};
+use ipmc_core::DesignConfig;
+use ipmc_recording::TimeSeries;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Time-series recording of periodic excitation (t_s, current_a, rh_pct, base_m).
+    input: PathBuf,
+    /// Period of the excitation [s]; each burst must hold at least one whole period.
+    #[arg(long, default_value_t = 1.0)]
+    period_s: f64,
+    /// Seconds scored per level, after the chain's settling; a whole number of bursts' worth of
+    /// periods, so that the scored stretch is periodic and its band has no leakage.
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f64,
+    /// Calibration: `default`, `paper`, or a TOML file (the nominal model of the recording).
+    #[arg(long)]
+    calib: Option<String>,
+    /// Fail (exit status 1) when any level's ratio exceeds this.
+    #[arg(long)]
+    max_ratio: Option<f64>,
+}
+
+/// One level's figures: relative rms errors in the band, fractions.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Level {
+    pub rh_pct: f64,
+    pub causal: f64,
+    pub exact: f64,
+}
+
+/// The burst `range` of `ts` repeated whole periods at a time to `SETTLE_S + seconds`.
+fn tiled(ts: &TimeSeries, range: std::ops::Range<usize>, period: usize, seconds: f64) -> Result<TimeSeries> {
+    let periods = range.len() / period;
+    if periods == 0 {
+        bail!("burst at t = {} s is shorter than one period ({period} samples)", ts.t_s[range.start]);
+    }
+    let one = range.start..range.start + periods * period;
+    let n = ((SETTLE_S + seconds) * ts.fs_hz).round() as usize;
+    let tile = |v: &[f64]| -> Vec<f64> { v[one.clone()].iter().copied().cycle().take(n).collect() };
+    let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("no base_m column: nothing to score against"))?;
+    Ok(TimeSeries {
+        metadata: ts.metadata.clone(),
+        fs_hz: ts.fs_hz,
+        t_s: (0..n).map(|i| i as f64 / ts.fs_hz).collect(),
+        current_a: tile(&ts.current_a),
+        rh_pct: tile(&ts.rh_pct),
+        base_m: Some(tile(base)),
+        tip_m: None,
+        temp_c: None,
+    })
+}
+
+/// Per burst of `ts`: the chain's and the exact inverse's error in the design band.
+pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<Vec<Level>> {
+    let period = (period_s * ts.fs_hz).round() as usize;
+    if period == 0 || ((SETTLE_S + seconds) * ts.fs_hz).round() as usize % period != 0 {
+        bail!("{SETTLE_S} s of settling + {seconds} s scored must be a whole number of {period_s} s periods");
+    }
+    let cfg = DesignConfig::<f64>::default();
+    let band = (cfg.band_lo_hz, cfg.band_hi_hz);
+    let mut out = vec![];
+    for range in ts.bursts() {
+        let rec = tiled(ts, range, period, seconds)?;
+        let base = rec.base_m.as_ref().expect("tiled with base");
+        let n = rec.t_s.len();
+        let est = compensate(calib, &rec, None)?;
+        let causal = band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, band);
+        // The exact inverse at the humidity the chain's first design is for: the reading
+        // through the calibration's humidity path (a settled strip), clamped to the range.
+        let rh_read = rec.rh_pct.iter().sum::<f64>() / n as f64;
+        let (rh, _) = calib.clamp_rh(calib.humidity.correct(rh_read));
+        let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, band);
+        let exact = band_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz, band);
+        match (causal, exact) {
+            (Some(causal), Some(exact)) => out.push(Level { rh_pct: rh_read, causal, exact }),
+            _ => bail!("burst at {rh_read:.1} %RH: no base in the band to score against"),
+        }
+    }
+    Ok(out)
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let ts = read_time_series(&a.input)?;
+    let levels = levels(&calib, &ts, a.period_s, a.seconds)?;
+    let cfg = DesignConfig::<f64>::default();
+    println!(
+        "{}: error in {}–{} Hz against base_m, each burst repeated to {SETTLE_S} s + {} s, the last {} s scored",
+        a.input.display(),
+        cfg.band_lo_hz,
+        cfg.band_hi_hz,
+        a.seconds,
+        a.seconds
+    );
+    println!("{:>8} {:>10} {:>10} {:>7}", "RH %", "causal %", "exact %", "ratio");
+    let mut worst: f64 = 0.0;
+    for l in &levels {
+        let ratio = l.causal / l.exact;
+        worst = worst.max(ratio);
+        println!("{:>8.2} {:>10.3} {:>10.3} {:>7.3}", l.rh_pct, l.causal * 100.0, l.exact * 100.0, ratio);
+    }
+    println!("worst ratio {worst:.3}");
+    if let Some(max) = a.max_ratio
+        && worst > max
+    {
+        bail!("worst ratio {worst:.3} exceeds {max}");
+    }
+    Ok(())
+}
