@@ -311,7 +311,7 @@ fn highpass_zero_phase(x: &mut [f64], fc_hz: f64, fs_hz: f64) {
 /// rms(estimate − delayed true base) / rms(delayed true base). The estimate at sample n is
 /// compared with base[n − delay[n]]; the first [`SETTLE_S`] of each burst is skipped. The
 /// in-band figure high-passes the error at [`INBAND_HP_HZ`] first (per burst, zero-phase).
-pub fn relative_error(est: &[f32], delay: &[usize], burst_start: &[usize], base: &[f64], fs_hz: f64) -> Option<(f64, f64)> {
+pub fn relative_error<E: Copy + Into<f64>>(est: &[E], delay: &[usize], burst_start: &[usize], base: &[f64], fs_hz: f64) -> Option<(f64, f64)> {
     let (mut se, mut sh, mut sb) = (0.0f64, 0.0f64, 0.0f64);
     for (mut err, truth) in scored_bursts(est, delay, burst_start, base, fs_hz) {
         se += err.iter().map(|e| e * e).sum::<f64>();
@@ -322,23 +322,26 @@ pub fn relative_error(est: &[f32], delay: &[usize], burst_start: &[usize], base:
     (sb > 0.0).then(|| ((se / sb).sqrt(), (sh / sb).sqrt()))
 }
 
-/// Error of an estimate in the band `lo_hz`–`hi_hz` alone: the error's and the true base's
-/// content there (`band`, per burst, on the same samples as [`relative_error`]), as
-/// rms error / rms base. What the design is asked to get right, and nothing else: the exact
-/// band-limited inverse (`ipmc vs-exact`) is scored by it too.
+/// Error of an estimate in a band: the error's content in `band` over the true base's content
+/// in `reference` (each `(lo_hz, hi_hz)`; `band::energy`, per burst, on the same samples as
+/// [`relative_error`]), as a ratio of rms values. With both the design band: the error in the
+/// band the inverse is asked to get right, and nothing else, the figure the exact band-limited
+/// inverse is held to as well (`ipmc vs-exact`); with another `band`, what the estimate adds
+/// there, on the scale of the signal in the design band.
 pub fn band_error<E: Copy + Into<f64>>(
     est: &[E],
     delay: &[usize],
     burst_start: &[usize],
     base: &[f64],
     fs_hz: f64,
-    (lo_hz, hi_hz): (f64, f64),
+    band: (f64, f64),
+    reference: (f64, f64),
 ) -> Option<f64> {
     let (mut se, mut sb) = (0.0f64, 0.0f64);
     for (err, truth) in scored_bursts(est, delay, burst_start, base, fs_hz) {
         if err.len() > 2 {
-            se += crate::band::energy(&err, fs_hz, lo_hz, hi_hz);
-            sb += crate::band::energy(&truth, fs_hz, lo_hz, hi_hz);
+            se += crate::band::energy(&err, fs_hz, band.0, band.1);
+            sb += crate::band::energy(&truth, fs_hz, reference.0, reference.1);
         }
     }
     (sb > 0.0).then(|| (se / sb).sqrt())

@@ -5,7 +5,7 @@
 //! at the same humidity reading (`exact`) are scored alike: in the design band, against the true
 //! `base_m`, on the same samples after the chain's settling (`compensate::band_error`).
 
-use super::compensate::{SETTLE_S, band_error, compensate, read_time_series};
+use super::compensate::{INBAND_HP_HZ, SETTLE_S, band_error, compensate, read_time_series, relative_error};
 use crate::exact;
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::DesignConfig;
@@ -37,6 +37,14 @@ pub struct Level {
     pub rh_pct: f64,
     pub causal: f64,
     pub exact: f64,
+    /// The same two by `ipmc compensate`'s own in-band figure (error high-passed at 5 Hz):
+    /// what lies between 5 Hz and the band and above it counts too.
+    pub causal_above_5hz: f64,
+    pub exact_above_5hz: f64,
+    /// The chain's error from 5 Hz to the band's lower edge and from its upper edge to
+    /// Nyquist, on the scale of the base in the band: where `causal_above_5hz` comes from.
+    pub causal_below_band: f64,
+    pub causal_above_band: f64,
 }
 
 /// The burst `range` of `ts` repeated whole periods at a time to `SETTLE_S + seconds`.
@@ -75,15 +83,27 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
         let base = rec.base_m.as_ref().expect("tiled with base");
         let n = rec.t_s.len();
         let est = compensate(calib, &rec, None)?;
-        let causal = band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, band);
+        let causal_in = |b| band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, b, band);
+        let causal = causal_in(band);
+        let below = causal_in((INBAND_HP_HZ, band.0 - 1e-9));
+        let above = causal_in((band.1 + 1e-9, rec.fs_hz / 2.0));
         // The exact inverse at the humidity the chain's first design is for: the reading
         // through the calibration's humidity path (a settled strip), clamped to the range.
         let rh_read = rec.rh_pct.iter().sum::<f64>() / n as f64;
         let (rh, _) = calib.clamp_rh(calib.humidity.correct(rh_read));
         let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, band);
-        let exact = band_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz, band);
-        match (causal, exact) {
-            (Some(causal), Some(exact)) => out.push(Level { rh_pct: rh_read, causal, exact }),
+        let exact = band_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band);
+        let c5 = relative_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz);
+        let x5 = relative_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz);
+        match (causal, exact, c5, x5, below, above) {
+            (
+                Some(causal),
+                Some(exact),
+                Some((_, causal_above_5hz)),
+                Some((_, exact_above_5hz)),
+                Some(causal_below_band),
+                Some(causal_above_band),
+            ) => out.push(Level { rh_pct: rh_read, causal, exact, causal_above_5hz, exact_above_5hz, causal_below_band, causal_above_band }),
             _ => bail!("burst at {rh_read:.1} %RH: no base in the band to score against"),
         }
     }
@@ -103,12 +123,25 @@ pub fn run(a: Args) -> Result<()> {
         a.seconds,
         a.seconds
     );
-    println!("{:>8} {:>10} {:>10} {:>7}", "RH %", "causal %", "exact %", "ratio");
+    println!(
+        "{:>8} {:>10} {:>10} {:>7}   {:>12} {:>12}   {:>13} {:>13}",
+        "RH %", "causal %", "exact %", "ratio", "causal >5Hz", "exact >5Hz", "causal 5Hz-lo", "causal hi-Nyq"
+    );
     let mut worst: f64 = 0.0;
     for l in &levels {
         let ratio = l.causal / l.exact;
         worst = worst.max(ratio);
-        println!("{:>8.2} {:>10.3} {:>10.3} {:>7.3}", l.rh_pct, l.causal * 100.0, l.exact * 100.0, ratio);
+        println!(
+            "{:>8.2} {:>10.3} {:>10.3} {:>7.3}   {:>12.3} {:>12.3}   {:>13.3} {:>13.3}",
+            l.rh_pct,
+            l.causal * 100.0,
+            l.exact * 100.0,
+            ratio,
+            l.causal_above_5hz * 100.0,
+            l.exact_above_5hz * 100.0,
+            l.causal_below_band * 100.0,
+            l.causal_above_band * 100.0
+        );
     }
     println!("worst ratio {worst:.3}");
     if let Some(max) = a.max_ratio
