@@ -30,9 +30,7 @@ fn score(rec: &Path, calib: Option<&Path>, work: &Path, name: &str) -> Result<f6
         args.extend(["--calib".as_ref(), c.as_os_str()]);
     }
     ipmc(&args)?;
-    let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str(), "--json".as_ref()])?;
-    let v: serde_json::Value = serde_json::from_str(out.trim()).map_err(|e| format!("ipmc score --json: {e}: {out}"))?;
-    v["inband"].as_f64().ok_or_else(|| format!("ipmc score --json: no `inband` in {out}"))
+    crate::exec::score_inband(rec, &est)
 }
 
 /// Runs the loop in `work` (created): simulate, diagnose, compensate three times.

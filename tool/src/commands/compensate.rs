@@ -119,7 +119,10 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
         }
         if b.flags & flags::RETUNED != 0 {
             if !b.rh_read_pct.is_nan() && !asked.contains(&b.rh_pct.to_bits()) {
-                bail!("block at sample {pos}: the firmware retuned to {} %, a humidity the trend run here from its readings never asked for", b.rh_pct);
+                bail!(
+                    "block at sample {pos}: the firmware retuned to {} %, a humidity the trend run here from its readings never asked for",
+                    b.rh_pct
+                );
             }
             comp.switch_to(&design(b.rh_pct)?);
             est.retunes += 1;
@@ -311,7 +314,13 @@ fn highpass_zero_phase(x: &mut [f64], fc_hz: f64, fs_hz: f64) {
 /// rms(estimate − delayed true base) / rms(delayed true base). The estimate at sample n is
 /// compared with base[n − delay[n]]; the first [`SETTLE_S`] of each burst is skipped. The
 /// in-band figure high-passes the error at [`INBAND_HP_HZ`] first (per burst, zero-phase).
-pub fn relative_error<E: Copy + Into<f64>>(est: &[E], delay: &[usize], burst_start: &[usize], base: &[f64], fs_hz: f64) -> Option<(f64, f64)> {
+pub fn relative_error<E: Copy + Into<f64>>(
+    est: &[E],
+    delay: &[usize],
+    burst_start: &[usize],
+    base: &[f64],
+    fs_hz: f64,
+) -> Option<(f64, f64)> {
     let (mut se, mut sh, mut sb) = (0.0f64, 0.0f64, 0.0f64);
     for (mut err, truth) in scored_bursts(est, delay, burst_start, base, fs_hz) {
         se += err.iter().map(|e| e * e).sum::<f64>();

@@ -103,7 +103,9 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
                 Some((_, exact_above_5hz)),
                 Some(causal_below_band),
                 Some(causal_above_band),
-            ) => out.push(Level { rh_pct: rh_read, causal, exact, causal_above_5hz, exact_above_5hz, causal_below_band, causal_above_band }),
+            ) => {
+                out.push(Level { rh_pct: rh_read, causal, exact, causal_above_5hz, exact_above_5hz, causal_below_band, causal_above_band })
+            }
             _ => bail!("burst at {rh_read:.1} %RH: no base in the band to score against"),
         }
     }
@@ -150,4 +152,74 @@ pub fn run(a: Args) -> Result<()> {
         bail!("worst ratio {worst:.3} exceeds {max}");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_core::{C, Calibration, current_response};
+    use std::f64::consts::PI;
+
+    /// Two bursts of 2 s of a 1 s periodic multisine (lines on the 1 Hz grid, in the band and
+    /// above it) through the model, with white noise on the current, as the external
+    /// recordings are made.
+    fn periodic_recording(calib: &Calibration, levels: &[f64]) -> TimeSeries {
+        let fs = 2000.0;
+        let mut seed = 99u64;
+        let mut uniform = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let lines: Vec<(f64, f64, f64)> = [10.0, 13.0, 17.0, 23.0, 31.0, 42.0, 56.0, 75.0, 100.0, 133.0, 178.0, 237.0]
+            .iter()
+            .map(|&f| (f, 2e-5 * (10.0 / f), 2.0 * PI * uniform()))
+            .collect();
+        let mut ts = TimeSeries {
+            metadata: Default::default(),
+            fs_hz: fs,
+            t_s: vec![],
+            current_a: vec![],
+            rh_pct: vec![],
+            base_m: Some(vec![]),
+            tip_m: None,
+            temp_c: None,
+        };
+        for (b, &rh) in levels.iter().enumerate() {
+            let p = calib.params_at(rh);
+            let h: Vec<C<f64>> = lines.iter().map(|&(f, _, _)| current_response(&p, C::new(0.0, 2.0 * PI * f))).collect();
+            for i in 0..4000 {
+                let t = i as f64 / fs;
+                let (mut base, mut cur) = (0.0, 0.0);
+                for (&(f, a, ph), h) in lines.iter().zip(&h) {
+                    let phasor = C::from_polar(a, 2.0 * PI * f * t + ph);
+                    base += phasor.re;
+                    cur += (h * phasor).re;
+                }
+                ts.t_s.push(100.0 * b as f64 + t);
+                ts.current_a.push(cur);
+                ts.rh_pct.push(rh);
+                ts.base_m.as_mut().unwrap().push(base);
+            }
+            let rms = (ts.current_a[b * 4000..].iter().map(|c| c * c).sum::<f64>() / 4000.0).sqrt();
+            for c in &mut ts.current_a[b * 4000..] {
+                *c += 0.05 * rms * (uniform() + uniform() + uniform() - 1.5) * 2.0;
+            }
+        }
+        ts
+    }
+
+    #[test]
+    fn the_chain_loses_nothing_to_the_exact_inverse_in_the_band() {
+        let calib = Calibration::default_preset();
+        let ts = periodic_recording(&calib, &[40.0, 70.0]);
+        let found = levels(&calib, &ts, 1.0, 4.0).unwrap();
+        assert_eq!(found.len(), 2);
+        for l in &found {
+            let ratio = l.causal / l.exact;
+            assert!(ratio <= 1.1, "at {} %RH: chain {:.3} %, exact {:.3} %, ratio {ratio:.3}", l.rh_pct, l.causal * 100.0, l.exact * 100.0);
+            // The noise makes the floor: neither figure may be zero by construction.
+            assert!(l.exact > 1e-3, "{l:?}");
+        }
+        assert!(levels(&calib, &ts, 1.0, 4.5).unwrap_err().to_string().contains("whole number"));
+    }
 }
