@@ -11,6 +11,12 @@
 //! standard deviation σ once a second, the line read 1.8 s past the end of a 10 s window
 //! scatters by σ·√(1/n + 12(W/2 + h)²/(n·W²)) ≈ 0.8σ (n = 10 readings, W = 10 s, h = 1.8 s): the
 //! predicted humidity jitters less than the reading it replaces.
+//!
+//! What a line cannot follow is a step: read ahead, a step of Δ looks like a ramp and the
+//! prediction overshoots, to 1.57Δ about 6 s after it (W = 10 s, h = 1.75 s), back to Δ once
+//! the step has crossed the window. The strip's humidity does not step (a chamber or a room moves
+//! over tens of seconds, and the strip's own hydration smooths it further); a reading that jumps
+//! (a sensor fault, a door opened beside the sensor) is followed with that overshoot.
 
 use crate::real::Real;
 
