@@ -60,32 +60,42 @@ impl<T: Real> Trend<T> {
         }
     }
 
-    /// The fitted line `ahead_s` after the latest call (None before the first). With one point
-    /// (or all at one time) the level alone: no slope is known yet.
+    /// The fitted line `ahead_s` after the latest call (None before the first), through the
+    /// points of the last [`WINDOW_S`] (the newest always: after a gap in the readings, such as
+    /// between the bursts of a recording, the history before it says nothing of now). With one
+    /// point (or all at one time) the level alone: no slope is known yet.
     pub fn predict(&self, ahead_s: T) -> Option<T> {
         if self.len == 0 {
             return None;
         }
-        // Times relative to now, newest first; means first, then the centred sums, so that f32
-        // keeps the slope of a 0.1 %RH change on a 60 %RH level.
-        let mut t = -self.since_newest;
-        let (mut st, mut sy) = (T::zero(), T::zero());
-        for k in 0..self.len {
-            let i = (self.newest + ENTRIES - k) % ENTRIES;
+        // The points in the window, newest first, with their times relative to now.
+        let oldest = -T::lit(WINDOW_S);
+        let points = || {
+            let mut t = -self.since_newest;
+            (0..self.len)
+                .map(move |k| {
+                    let i = (self.newest + ENTRIES - k) % ENTRIES;
+                    let point = (t, self.values[i]);
+                    t -= self.gaps[i];
+                    point
+                })
+                .enumerate()
+                .take_while(move |&(k, (t, _))| k == 0 || t >= oldest)
+                .map(|(_, p)| p)
+        };
+        // Means first, then the centred sums, so that f32 keeps the slope of a 0.1 %RH change
+        // on a 60 %RH level.
+        let (mut n, mut st, mut sy) = (T::zero(), T::zero(), T::zero());
+        for (t, y) in points() {
+            n += T::one();
             st += t;
-            sy += self.values[i];
-            t -= self.gaps[i];
+            sy += y;
         }
-        let n = T::lit(self.len as f64);
         let (tm, ym) = (st / n, sy / n);
         let (mut stt, mut sty) = (T::zero(), T::zero());
-        let mut t = -self.since_newest;
-        for k in 0..self.len {
-            let i = (self.newest + ENTRIES - k) % ENTRIES;
-            let dt = t - tm;
-            stt += dt * dt;
-            sty += dt * (self.values[i] - ym);
-            t -= self.gaps[i];
+        for (t, y) in points() {
+            stt += (t - tm) * (t - tm);
+            sty += (t - tm) * (y - ym);
         }
         let slope = if stt > T::zero() { sty / stt } else { T::zero() };
         Some(ym + slope * (ahead_s - tm))
@@ -117,6 +127,22 @@ mod tests {
             t.observe(55.0, 0.016);
         }
         assert!((t.predict(1.5).unwrap() - 55.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_gap_starts_the_line_anew() {
+        // A burst at 40 %, a minute without readings, a burst at 70 %: the line through the
+        // second burst alone, not one from 40 to 70 % that would read far ahead of 70.
+        let mut t = Trend::<f64>::default();
+        t.observe(40.0, 0.0);
+        for _ in 0..300 {
+            t.observe(40.0, 0.016);
+        }
+        t.observe(70.0, 60.0);
+        for _ in 0..100 {
+            t.observe(70.0, 0.016);
+        }
+        assert_eq!(t.predict(1.75), Some(70.0));
     }
 
     #[test]

@@ -43,6 +43,9 @@ pub struct Args {
     /// retune schedule exactly instead of the host's 0.25 % policy. The first design is made at
     /// the first block's `rh_pct`; at every block flagged RETUNED the compensator switches to a
     /// design made at that block's `rh_pct` before processing it (src/app/sample_path.rs).
+    /// Where the file has the firmware's readings, the humidity path and the trend are rerun
+    /// from them: any strip humidity that differs, or a retune to a humidity the rerun never
+    /// asked for, is refused.
     #[arg(long)]
     schedule: Option<PathBuf>,
     /// Calibration: `default`, `paper`, or a TOML file. To compare with a firmware, the one it

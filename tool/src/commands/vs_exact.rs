@@ -72,7 +72,8 @@ fn tiled(ts: &TimeSeries, range: std::ops::Range<usize>, period: usize, seconds:
 /// Per burst of `ts`: the chain's and the exact inverse's error in the design band.
 pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<Vec<Level>> {
     let period = (period_s * ts.fs_hz).round() as usize;
-    if period == 0 || ((SETTLE_S + seconds) * ts.fs_hz).round() as usize % period != 0 {
+    let total = ((SETTLE_S + seconds) * ts.fs_hz).round() as usize;
+    if period == 0 || !total.is_multiple_of(period) {
         bail!("{SETTLE_S} s of settling + {seconds} s scored must be a whole number of {period_s} s periods");
     }
     let cfg = DesignConfig::<f64>::default();
