@@ -51,7 +51,7 @@ impl<T: Real> BlockHumidity<T> {
         BlockHumidity {
             path: calibration.humidity,
             strip: Hydration::new(&calibration.humidity),
-            trend: Trend::default(),
+            trend: Trend::new(2.0 * reading_age_s),
             lead_s: T::lit(design_lead_s(reading_age_s)),
             rh_min: calibration.rh_min,
             rh_max: calibration.rh_max,

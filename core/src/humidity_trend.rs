@@ -7,10 +7,17 @@
 //! strip's humidity, a straight line fitted by least squares, is read at the moment the design
 //! will stand for instead.
 //!
-//! The fit also averages the reading's noise. At constant humidity with independent readings of
-//! standard deviation σ once a second, the line read 1.8 s past the end of a 10 s window
-//! scatters by σ·√(1/n + 12(W/2 + h)²/(n·W²)) ≈ 0.8σ (n = 10 readings, W = 10 s, h = 1.8 s): the
-//! predicted humidity jitters less than the reading it replaces.
+//! The fit must not turn the reading's noise into design jitter. A slope fitted to noise, read
+//! 1.8 s ahead, moves the prediction by far more than the noise itself when the history is short
+//! (two readings σ apart, one second apart, are a slope of σ/s: 1.8σ ahead), and by
+//! σ·√(12/n)·(W/2 + h)/W ≈ 0.74σ even over a full window (n = 10 readings, W = 10 s). So the
+//! slope is used only for what of it stands out of its own uncertainty: its standard error,
+//! from the residuals of the fit and the number of independent readings in the window (one per
+//! reading period: the points between two readings repeat one value), is subtracted as
+//! b·(1 − 4·se²/b²), nothing when |b| < 2·se or fewer than four readings are in the window. A
+//! drift of 0.67 %RH/s, read once a second with its 0.67 %RH staircase as the residual, stands
+//! out from the fourth reading on and is followed nearly whole; at constant humidity nearly all
+//! of the noise's slope goes, and what is left is the level, the mean of about ten readings.
 //!
 //! What a line cannot follow is a step: read ahead, a step of Δ looks like a ramp and the
 //! prediction overshoots, to 1.57Δ about 6 s after it (W = 10 s, h = 1.75 s), back to Δ once
@@ -29,6 +36,13 @@ pub const ENTRIES: usize = 80;
 /// The window the line is fitted over [s].
 pub const WINDOW_S: f64 = ENTRY_S * ENTRIES as f64;
 
+/// A slope is used only for what of it stands out of this many standard errors (two: a 5 %
+/// chance that noise alone passes, and then only by its excess).
+const SIGNIFICANCE: f64 = 2.0;
+/// Fewest readings a slope is taken from: a line through two has no residual to judge it by,
+/// through three one degree of freedom, whose standard error lets noise through one time in three.
+const MIN_READINGS: f64 = 4.0;
+
 /// The recent history of a humidity on its own clock, and the line through it.
 #[derive(Clone, Copy, Debug)]
 pub struct Trend<T> {
@@ -39,15 +53,24 @@ pub struct Trend<T> {
     len: usize,
     newest: usize,
     since_newest: T,
-}
-
-impl<T: Real> Default for Trend<T> {
-    fn default() -> Self {
-        Trend { values: [T::zero(); ENTRIES], gaps: [T::zero(); ENTRIES], len: 0, newest: 0, since_newest: T::zero() }
-    }
+    /// Time over which the observed values are one independent reading [s].
+    reading_period_s: T,
 }
 
 impl<T: Real> Trend<T> {
+    /// A new reading comes every `reading_period_s` (the values observed in between repeat it);
+    /// 0 or less: every observation is a reading of its own.
+    pub fn new(reading_period_s: f64) -> Self {
+        Trend {
+            values: [T::zero(); ENTRIES],
+            gaps: [T::zero(); ENTRIES],
+            len: 0,
+            newest: 0,
+            since_newest: T::zero(),
+            reading_period_s: T::lit(reading_period_s.max(ENTRY_S)),
+        }
+    }
+
     /// `value` holds `dt_s` after the previous call (the first call starts the history).
     pub fn observe(&mut self, value: T, dt_s: T) {
         self.since_newest += dt_s.max(T::zero());
@@ -85,19 +108,32 @@ impl<T: Real> Trend<T> {
         };
         // Means first, then the centred sums, so that f32 keeps the slope of a 0.1 %RH change
         // on a 60 %RH level.
-        let (mut n, mut st, mut sy) = (T::zero(), T::zero(), T::zero());
+        let (mut n, mut st, mut sy, mut first) = (T::zero(), T::zero(), T::zero(), T::zero());
         for (t, y) in points() {
             n += T::one();
             st += t;
             sy += y;
+            first = t;
         }
         let (tm, ym) = (st / n, sy / n);
-        let (mut stt, mut sty) = (T::zero(), T::zero());
+        let (mut stt, mut sty, mut syy) = (T::zero(), T::zero(), T::zero());
         for (t, y) in points() {
             stt += (t - tm) * (t - tm);
             sty += (t - tm) * (y - ym);
+            syy += (y - ym) * (y - ym);
         }
-        let slope = if stt > T::zero() { sty / stt } else { T::zero() };
+        // Readings in the window, as opposed to points: the slope's standard error counts those,
+        // and its residuals say something of the noise only from four on (two degrees of freedom).
+        let readings = Real::floor((-self.since_newest - first) / self.reading_period_s) + T::one();
+        let slope = if stt > T::zero() && readings >= T::lit(MIN_READINGS) {
+            let b = sty / stt;
+            let residual = (syy - b * sty).max(T::zero()) / (n - T::lit(2.0)).max(T::one());
+            let se2 = residual / stt * n / readings;
+            let k = T::lit(SIGNIFICANCE * SIGNIFICANCE);
+            if b * b > k * se2 { b * (T::one() - k * se2 / (b * b)) } else { T::zero() }
+        } else {
+            T::zero()
+        };
         Some(ym + slope * (ahead_s - tm))
     }
 }
@@ -111,7 +147,7 @@ mod tests {
 
     #[test]
     fn a_ramp_is_read_ahead_and_a_level_stays() {
-        let mut t = Trend::<f64>::default();
+        let mut t = Trend::<f64>::new(0.0);
         assert_eq!(t.predict(1.0), None);
         t.observe(40.0, 0.0);
         assert_eq!(t.predict(1.0), Some(40.0), "one point: the level");
@@ -129,11 +165,45 @@ mod tests {
         assert!((t.predict(1.5).unwrap() - 55.0).abs() < 1e-9);
     }
 
+    /// A reading held for the blocks until the next, once a second, as the firmware sees them.
+    fn staircase(t: &mut Trend<f32>, readings: &[f32]) {
+        for (k, &r) in readings.iter().enumerate() {
+            for b in 0..62 {
+                t.observe(r, if k == 0 && b == 0 { 0.0 } else { DT });
+            }
+        }
+    }
+
+    #[test]
+    fn a_short_noisy_history_is_not_read_ahead() {
+        // Two readings 0.3 %RH apart: that is no trend yet, and nothing beyond them is predicted.
+        let mut t = Trend::<f32>::new(1.0);
+        staircase(&mut t, &[40.0, 40.3]);
+        let p = t.predict(1.75).unwrap();
+        assert!((40.0..=40.3).contains(&p), "{p}");
+    }
+
+    #[test]
+    fn a_drift_read_once_a_second_stands_out_within_seconds() {
+        // 0.67 %RH/s read once a second: the fitted line is the drift half a reading period late;
+        // after six readings it is read ahead (a level alone would be 3 %RH behind).
+        let drift = |k: usize| 40.0 + 0.67 * k as f32;
+        let mut t = Trend::<f32>::new(1.0);
+        let readings: Vec<f32> = (0..6).map(drift).collect();
+        staircase(&mut t, &readings);
+        let now = 6.0 * 62.0 * DT - DT;
+        let want = 40.0 + 0.67 * (now + 1.75 - 0.5);
+        let p = t.predict(1.75).unwrap();
+        assert!((p - want).abs() < 0.15, "{p} vs {want}");
+        let level_alone = readings.iter().sum::<f32>() / 6.0;
+        assert!(want - level_alone > 3.0);
+    }
+
     #[test]
     fn a_gap_starts_the_line_anew() {
         // A burst at 40 %, a minute without readings, a burst at 70 %: the line through the
         // second burst alone, not one from 40 to 70 % that would read far ahead of 70.
-        let mut t = Trend::<f64>::default();
+        let mut t = Trend::<f64>::new(0.0);
         t.observe(40.0, 0.0);
         for _ in 0..300 {
             t.observe(40.0, 0.016);
@@ -149,7 +219,7 @@ mod tests {
     fn the_reading_noise_is_not_amplified() {
         // Readings of ±1 %RH noise, one a second, held for the blocks between: the prediction
         // 1.8 s ahead must scatter less than the readings (0.8σ expected, see the module).
-        let mut t = Trend::<f32>::default();
+        let mut t = Trend::<f32>::new(1.0);
         let mut seed = 12345u32;
         let mut noise = || {
             // Sum of four uniforms: near-normal, unit variance.
