@@ -189,7 +189,7 @@ mod tests {
         // after six readings it is read ahead (a level alone would be 3 %RH behind).
         let drift = |k: usize| 40.0 + 0.67 * k as f32;
         let mut t = Trend::<f32>::new(1.0);
-        let readings: Vec<f32> = (0..6).map(drift).collect();
+        let readings: [f32; 6] = core::array::from_fn(drift);
         staircase(&mut t, &readings);
         let now = 6.0 * 62.0 * DT - DT;
         let want = 40.0 + 0.67 * (now + 1.75 - 0.5);
