@@ -29,7 +29,7 @@ pub struct BlockRh<T> {
     /// The strip's humidity when a design asked for now is in effect, clamped to the
     /// calibration's range: what the design is for [%].
     pub rh_pct: T,
-    /// Whether the clamp had to act.
+    /// Whether the clamp had to act, or the strip's humidity itself is beyond the range.
     pub clamped: bool,
 }
 
@@ -68,12 +68,15 @@ impl<T: Real> BlockHumidity<T> {
         self.trend.observe(strip, dt_s);
         let ahead = self.trend.predict(self.lead_s).unwrap_or(strip);
         let (lo, hi) = (T::lit(self.rh_min), T::lit(self.rh_max));
+        // The strip beyond the range is flagged at once, even while the trend, which averages
+        // over seconds, has not got there yet.
+        let strip_out = !(strip >= lo && strip <= hi);
         Some(if ahead < lo {
             BlockRh { rh_pct: lo, clamped: true }
         } else if ahead > hi {
             BlockRh { rh_pct: hi, clamped: true }
         } else {
-            BlockRh { rh_pct: ahead, clamped: false }
+            BlockRh { rh_pct: ahead, clamped: strip_out }
         })
     }
 
@@ -116,6 +119,14 @@ mod tests {
         let r = h.advance(97.0, 0.016).unwrap();
         assert_eq!(r, BlockRh { rh_pct: c.rh_max as f32, clamped: true });
         assert_eq!(h.strip_pct(), Some(97.0));
+        // A reading that jumps beyond the range is flagged at once, while the design the trend
+        // asks for is still inside it.
+        let mut h = BlockHumidity::<f32>::new(&calib(HumidityPath::NONE), 0.5);
+        for _ in 0..600 {
+            h.advance(50.0, 0.016);
+        }
+        let r = h.advance(97.0, 0.016).unwrap();
+        assert!(r.clamped && r.rh_pct < c.rh_max as f32, "{r:?}");
     }
 
     #[test]
