@@ -24,6 +24,7 @@ pub mod extension;
 pub mod filter;
 pub mod humidity;
 pub mod humidity_path;
+pub mod humidity_trend;
 pub mod lstsq;
 pub mod model;
 pub mod operating_point;

@@ -29,6 +29,22 @@ pub fn needs_retune(design_rh_pct: f32, rh_pct: f32) -> bool {
     design_rh_pct.is_nan() || (rh_pct - design_rh_pct).abs() > RETUNE_THRESHOLD_PCT
 }
 
+/// Whether the sample path asks for a design now: the humidity moved (`needs_retune`) and no
+/// retune is under way. A design asked for during one would wait for it to end, up to a whole
+/// retune later than the moment `block_humidity::design_lead_s` reads the humidity ahead for.
+pub fn asks_for_design(design_rh_pct: f32, rh_pct: f32, retuning: bool) -> bool {
+    !retuning && needs_retune(design_rh_pct, rh_pct)
+}
+
+/// Humidity polling period [ms] (the HTS221 runs at its 1 Hz output data rate). The firmware
+/// holds each reading until the next, so on average a block uses one half a period old.
+pub const HUMIDITY_PERIOD_MS: u64 = 1_000;
+
+/// Average age of the reading a firmware block uses [s] (see [`HUMIDITY_PERIOD_MS`]).
+pub fn reading_age_s() -> f64 {
+    HUMIDITY_PERIOD_MS as f64 / 2000.0
+}
+
 /// Samples the firmware's estimate lags the true base motion by: its design's preview
 /// (`max_delay_s`) at the firmware's rate.
 pub fn delay_samples() -> usize {

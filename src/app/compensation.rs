@@ -41,6 +41,10 @@ impl SamplePathFilter {
     pub fn rh_pct(&self) -> f32 {
         self.0.rh_pct()
     }
+    /// Whether a retune is still warming up or fading.
+    pub fn is_retuning(&self) -> bool {
+        self.0.is_retuning()
+    }
     /// Glitch-free crossfade to a new design.
     pub fn switch_to(&mut self, design: &Inverse<f32>) {
         self.0.switch_to(design)

@@ -10,8 +10,8 @@ pub use ipmc_core::operating_point::{BLOCK_LEN, SAMPLE_RATE_HZ};
 /// queue (8 blocks, 128 ms) must not fill behind it.
 pub const STREAM_STALL_LIMIT_MS: u64 = 16;
 
-/// Humidity polling period (the HTS221 runs at its 1 Hz output data rate).
-pub const HUMIDITY_PERIOD_MS: u64 = 1_000;
+/// Humidity polling period [ms]: the core's, whose trend prediction counts on it.
+pub const HUMIDITY_PERIOD_MS: u64 = ipmc_core::operating_point::HUMIDITY_PERIOD_MS;
 
 /// RH used for the first design if no humidity reading arrives in time at start-up.
 pub const RH_FALLBACK_PCT: f32 = 50.0;

@@ -4,7 +4,7 @@
 //! the first design itself: at the first reading, or at a fallback when the sensor is silent.
 
 use embassy_time::{Duration, Instant, Ticker, with_timeout};
-use ipmc_core::block_humidity::BlockHumidity;
+use ipmc_core::{block_humidity::BlockHumidity, operating_point::reading_age_s};
 
 use crate::board::Humidity;
 
@@ -46,7 +46,7 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 if !first_requested {
                     // The strip starts settled at the first reading: the sample path's first
                     // block will be at exactly this humidity.
-                    let first = BlockHumidity::<f32>::new(&super::compensation::calibration()).advance(raw, 0.0);
+                    let first = BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s()).advance(raw, 0.0);
                     if let Some(first) = first {
                         first_requested = true;
                         RETUNE_REQUEST.signal(first.rh_pct);

@@ -6,7 +6,7 @@
 use ipmc_core::{
     block_humidity::{BlockHumidity, span_s},
     expected_error::BlockError,
-    operating_point::needs_retune,
+    operating_point::{asks_for_design, reading_age_s},
     stuck::StuckDetector,
 };
 
@@ -34,7 +34,7 @@ pub async fn sample_task(mut samples: Samples) {
     let mut dropped_since_last = false;
     // One second of identical samples is no live front end (see ipmc_core::stuck).
     let mut stuck = StuckDetector::new(SAMPLE_RATE_HZ);
-    let mut humidity = BlockHumidity::<f32>::new(&super::compensation::calibration());
+    let mut humidity = BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s());
     let mut error_bar = BlockError::<f32>::new(&super::compensation::error_table(), &ipmc_core::DesignConfig::firmware());
     // RH of the active or already requested design.
     let mut design_rh = first.rh_pct;
@@ -82,7 +82,7 @@ pub async fn sample_task(mut samples: Samples) {
             if now.clamped {
                 block.flags |= flags::RH_CLAMPED;
             }
-            if needs_retune(design_rh, now.rh_pct) {
+            if asks_for_design(design_rh, now.rh_pct, filter.is_retuning()) {
                 design_rh = now.rh_pct;
                 RETUNE_REQUEST.signal(now.rh_pct);
             }

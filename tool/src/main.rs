@@ -1,9 +1,11 @@
 //! `ipmc`: the host tool of ipmc-sense.
 
+mod band;
 mod calibration_source;
 mod commands;
 mod diagnose;
 mod effect;
+mod exact;
 mod input;
 mod overrides;
 mod plot;
@@ -45,6 +47,9 @@ enum Command {
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
     Monitor(commands::monitor::Args),
+    /// Per level of a periodic-excitation recording: the causal chain's error in the band, the
+    /// exact band-limited inverse's of the same model, and their ratio.
+    VsExact(commands::vs_exact::Args),
     /// Score an estimate against the true base motion of its recording (as `compensate` scores),
     /// and with --coverage how often its stated error bars contain the actual error.
     Score(commands::score::Args),
@@ -79,6 +84,7 @@ fn main() {
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),
         Command::LoopBursts(a) => commands::loop_bursts::run(a),
+        Command::VsExact(a) => commands::vs_exact::run(a),
         Command::Charging(a) => commands::charging::run(a),
         Command::Plot(a) => commands::plot::run(a),
         Command::Diagnose(a) => commands::diagnose::run(a),

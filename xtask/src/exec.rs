@@ -32,6 +32,13 @@ pub fn describe(cmd: &Command) -> String {
 }
 
 /// Runs `cargo ipmc ARGS…` at the repository root and returns what it printed on stdout.
+/// `cargo ipmc score REC EST --json`: the estimate's in-band relative rms error (a fraction).
+pub fn score_inband(rec: &std::path::Path, est: &std::path::Path) -> Result<f64> {
+    let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str(), "--json".as_ref()])?;
+    let v: serde_json::Value = serde_json::from_str(out.trim()).map_err(|e| format!("ipmc score --json: {e}: {out}"))?;
+    v["inband"].as_f64().ok_or_else(|| format!("ipmc score --json: no `inband` in {out}"))
+}
+
 pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
     let mut cmd = cargo();
     cmd.current_dir(repo_root()).arg("ipmc").args(args);

@@ -33,14 +33,7 @@ fn compensate_and_score(rec: &Path, calib: Option<&Path>, work: &Path, name: &st
         args.extend(["--calib".as_ref(), c.as_os_str()]);
     }
     ipmc(&args)?;
-    score(rec, &est)
-}
-
-/// `ipmc score --json`'s in-band figure: host and firmware estimates are scored by one code.
-fn score(rec: &Path, est: &Path) -> Result<f64> {
-    let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str(), "--json".as_ref()])?;
-    let v: serde_json::Value = serde_json::from_str(out.trim()).map_err(|e| format!("ipmc score --json: {e}: {out}"))?;
-    v["inband"].as_f64().ok_or_else(|| format!("ipmc score --json: no `inband` in {out}"))
+    crate::exec::score_inband(rec, &est)
 }
 
 /// Runs the loop in `work` (created): simulate, diagnose, compensate three times.
@@ -88,7 +81,7 @@ pub fn run_loop(work: &Path) -> Result<Loop> {
     Ok(Loop {
         before: compensate_and_score(&ts, None, work, "before")?,
         after: compensate_and_score(&ts, Some(&calib), work, "after")?,
-        after_firmware: score(&ts, &firmware_est)?,
+        after_firmware: crate::exec::score_inband(&ts, &firmware_est)?,
         clean: compensate_and_score(&ts_clean, None, work, "clean")?,
         verdict,
         written,

@@ -259,11 +259,23 @@ fn qemu_replay_bundled() -> Result<()> {
         return Ok(());
     };
     let rec = crate::recording::time_series(&path)?;
-    let samples: Vec<Sample> =
-        rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &h)| Sample { current_a: i as f32, rh_pct: h as f32 }).collect();
-    let r = replay("bundled", &samples)?;
-    check_count(&r, samples.len())
+    let replay = Replay::of_recording(&rec);
+    let r = qemu::run_replay(&Variant::Qemu.elf(), &replay, &repo_root().join("target/qemu-test/bundled"))?;
+    check_count(&r, replay.samples.len())?;
+    // The sweep moves 0.67 %RH/s: the figure holds only if the active design describes the
+    // humidity of now (issue 13.4; 6.7 % when designs trailed the reading by a second).
+    let est = repo_root().join("target/qemu-test/bundled/EST.csv");
+    qemu::write_est_csv(&est, &rec.t_s, &r.blocks, &replay)?;
+    let inband = crate::exec::score_inband(&path, &est)?;
+    println!("bundled sweep under QEMU: in-band {:.3} % rms (bound {:.1} %)", inband * 100.0, SWEEP_BOUND * 100.0);
+    if inband > SWEEP_BOUND {
+        return Err(format!("in-band error {:.3} % on the bundled sweep exceeds {:.1} %", inband * 100.0, SWEEP_BOUND * 100.0));
+    }
+    Ok(())
 }
+
+/// In-band error allowed on the bundled 40 → 80 % sweep under QEMU (issue 13.4).
+const SWEEP_BOUND: f64 = 0.01;
 
 /// Relative rms difference allowed between the firmware's estimates under QEMU and the host's
 /// `ipmc compensate --schedule` on the same input (issue 4).
@@ -405,6 +417,35 @@ fn json_count(summary: &serde_json::Value, key: &str) -> Result<u64> {
 /// more): no clean control may be diagnosed with an effect, and every correct diagnosis must
 /// lower the held-out error. The share named correctly is printed (its target, 90 %, is not
 /// yet met: see the README).
+/// Largest ratio of the f32 chain's in-band error to the exact band-limited inverse's allowed
+/// at any humidity level (issue 13.1).
+const EXACT_RATIO_BOUND: &str = "1.1";
+
+/// The f32 chain against the exact band-limited inverse of the nominal model, level by level,
+/// on the independent simulator's clean recordings beside the repository (`../shared/external`;
+/// skipped without them). The tool's own test does the same on a recording it makes.
+fn vs_exact_external() -> Result<()> {
+    let dir = repo_root().join("../shared/external");
+    let calib = dir.join("nominal.toml");
+    if !calib.exists() {
+        println!("no {}: skipped", calib.display());
+        return Ok(());
+    }
+    for case in ["case09.csv", "case25.csv"] {
+        let rec = dir.join(case);
+        let out = ipmc(&[
+            "vs-exact".as_ref(),
+            rec.as_os_str(),
+            "--calib".as_ref(),
+            calib.as_os_str(),
+            "--max-ratio".as_ref(),
+            EXACT_RATIO_BOUND.as_ref(),
+        ])?;
+        print!("{out}");
+    }
+    Ok(())
+}
+
 fn diagnose_prove() -> Result<()> {
     // Both formats a lab brings: stepped-sine frequency responses and multisine time series.
     for format in ["fr", "ts"] {
@@ -509,6 +550,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("fit tests", || cargo_test("fit/Cargo.toml")),
         ("sensors tests (drivers and bus recovery against fake buses)", || cargo_test("sensors/Cargo.toml")),
         ("diagnose: ipmc prove (reduced)", diagnose_prove),
+        ("vs-exact: f32 chain within 1.1× the exact inverse in band (external recordings)", vs_exact_external),
         ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
         ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", crate::coverage::test_step),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),

@@ -20,6 +20,7 @@ use anyhow::{Result, anyhow, bail};
 use ipmc_core::block_humidity::{BlockHumidity, span_s};
 use ipmc_core::expected_error::{BlockError, ErrorTable};
 use ipmc_core::humidity_path::SensorKind;
+use ipmc_core::operating_point::{asks_for_design, reading_age_s};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::{Path, PathBuf};
@@ -45,6 +46,9 @@ pub struct Args {
     /// retune schedule exactly instead of the host's 0.25 % policy. The first design is made at
     /// the first block's `rh_pct`; at every block flagged RETUNED the compensator switches to a
     /// design made at that block's `rh_pct` before processing it (src/app/sample_path.rs).
+    /// Where the file has the firmware's readings, the humidity path and the trend are rerun
+    /// from them: any strip humidity that differs, or a retune to a humidity the rerun never
+    /// asked for, is refused.
     #[arg(long)]
     schedule: Option<PathBuf>,
     /// Calibration: `default`, `paper`, or a TOML file. To compare with a firmware, the one it
@@ -130,7 +134,11 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
     let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
-    let mut humidity = BlockHumidity::<f32>::new(calib);
+    let mut humidity = BlockHumidity::<f32>::new(calib, reading_age_s());
+    // The designs the sample path asked for, run here as it runs them (bits of their RH): every
+    // retune of the schedule must be one of them.
+    let mut design_rh = schedule[0].rh_pct;
+    let mut asked: Vec<u32> = vec![];
     let fs = whole_hz(ts.fs_hz)?;
     for (k, b) in schedule.iter().enumerate() {
         if b.first_sample != k * BLOCK_LEN {
@@ -140,17 +148,13 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
         if pos + BLOCK_LEN > ts.t_s.len() {
             break;
         }
-        let dt = span_s(if k == 0 { 0 } else { BLOCK_LEN as u32 }, fs);
-        if humidity.advance(b.rh_read_pct, dt).is_some() && !b.rh_strip_pct.is_nan() {
-            let here = humidity.strip_pct().expect("advanced");
-            if here.to_bits() != b.rh_strip_pct.to_bits() {
+        if b.flags & flags::RETUNED != 0 {
+            if !b.rh_read_pct.is_nan() && !asked.contains(&b.rh_pct.to_bits()) {
                 bail!(
-                    "block at sample {pos}: the firmware's strip humidity is {} %, the humidity path run here from its readings gives {here} %",
-                    b.rh_strip_pct
+                    "block at sample {pos}: the firmware retuned to {} %, a humidity the trend run here from its readings never asked for",
+                    b.rh_pct
                 );
             }
-        }
-        if b.flags & flags::RETUNED != 0 {
             comp.switch_to(&design(b.rh_pct)?);
             est.retunes += 1;
         }
@@ -159,6 +163,22 @@ pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[Sc
         let rel_err = error_bar.block(comp.rh_pct(), &block);
         if !b.rel_err.is_nan() && rel_err.to_bits() != b.rel_err.to_bits() {
             bail!("block at sample {pos}: the firmware's expected error is {}, the host's {rel_err}", b.rel_err);
+        }
+        let dt = span_s(if k == 0 { 0 } else { BLOCK_LEN as u32 }, fs);
+        if let Some(now) = humidity.advance(b.rh_read_pct, dt)
+            && !b.rh_strip_pct.is_nan()
+        {
+            let here = humidity.strip_pct().expect("advanced");
+            if here.to_bits() != b.rh_strip_pct.to_bits() {
+                bail!(
+                    "block at sample {pos}: the firmware's strip humidity is {} %, the humidity path run here from its readings gives {here} %",
+                    b.rh_strip_pct
+                );
+            }
+            if asks_for_design(design_rh, now.rh_pct, comp.is_retuning()) {
+                design_rh = now.rh_pct;
+                asked.push(now.rh_pct.to_bits());
+            }
         }
         let d = (comp.delay_s() as f64 * ts.fs_hz).round() as usize;
         for v in block {
@@ -227,7 +247,8 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
 }
 
 /// Runs the compensation over `ts`: a fresh compensator per burst, designed at the first
-/// block's RH (or `fixed_rh`), retuned per block when the RH moved more than the threshold.
+/// block's RH (or `fixed_rh`), retuned when the RH moved more than the threshold and no
+/// retune is under way (`asks_for_design`), to the humidity read ahead along its trend.
 /// Each block's reading (its mean) goes through the calibration's humidity path as on the
 /// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
 /// between them.
@@ -246,7 +267,8 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>, e
         }
         None => None,
     };
-    let mut humidity = BlockHumidity::<f32>::new(calib);
+    // Each block's reading is its own mean: half a block old.
+    let mut humidity = BlockHumidity::<f32>::new(calib, BLOCK_LEN as f64 / 2.0 / ts.fs_hz);
     let fs = whole_hz(ts.fs_hz)?;
     // Where the previous block started (the strip's model steps by whole blocks inside a burst,
     // by the recording's clock between bursts).
@@ -271,7 +293,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>, e
             let mut fl = if now.clamped { flags::RH_CLAMPED } else { 0 };
             match comp.as_mut() {
                 None => comp = Some(Compensator::new(&design(rh)?)),
-                Some(c) if fixed.is_none() && ipmc_core::operating_point::needs_retune(c.rh_pct(), rh) => {
+                Some(c) if fixed.is_none() && asks_for_design(c.rh_pct(), rh, c.is_retuning()) => {
                     c.switch_to(&design(rh)?);
                     est.retunes += 1;
                     fl |= flags::RETUNED;
@@ -334,10 +356,60 @@ fn highpass_zero_phase(x: &mut [f64], fc_hz: f64, fs_hz: f64) {
 /// rms(estimate − delayed true base) / rms(delayed true base). The estimate at sample n is
 /// compared with base[n − delay[n]]; the first [`SETTLE_S`] of each burst is skipped. The
 /// in-band figure high-passes the error at [`INBAND_HP_HZ`] first (per burst, zero-phase).
-pub fn relative_error(est: &[f32], delay: &[usize], burst_start: &[usize], base: &[f64], fs_hz: f64) -> Option<(f64, f64)> {
+pub fn relative_error<E: Copy + Into<f64>>(
+    est: &[E],
+    delay: &[usize],
+    burst_start: &[usize],
+    base: &[f64],
+    fs_hz: f64,
+) -> Option<(f64, f64)> {
+    let (mut se, mut sh, mut sb) = (0.0f64, 0.0f64, 0.0f64);
+    for (mut err, truth) in scored_bursts(est, delay, burst_start, base, fs_hz) {
+        se += err.iter().map(|e| e * e).sum::<f64>();
+        sb += truth.iter().map(|t| t * t).sum::<f64>();
+        highpass_zero_phase(&mut err, INBAND_HP_HZ, fs_hz);
+        sh += err.iter().map(|e| e * e).sum::<f64>();
+    }
+    (sb > 0.0).then(|| ((se / sb).sqrt(), (sh / sb).sqrt()))
+}
+
+/// Error of an estimate in a band: the error's content in `band` over the true base's content
+/// in `reference` (each `(lo_hz, hi_hz)`; `band::energy`, per burst, on the same samples as
+/// [`relative_error`]), as a ratio of rms values. With both the design band: the error in the
+/// band the inverse is asked to get right, and nothing else, the figure the exact band-limited
+/// inverse is held to as well (`ipmc vs-exact`); with another `band`, what the estimate adds
+/// there, on the scale of the signal in the design band.
+pub fn band_error<E: Copy + Into<f64>>(
+    est: &[E],
+    delay: &[usize],
+    burst_start: &[usize],
+    base: &[f64],
+    fs_hz: f64,
+    band: (f64, f64),
+    reference: (f64, f64),
+) -> Option<f64> {
+    let (mut se, mut sb) = (0.0f64, 0.0f64);
+    for (err, truth) in scored_bursts(est, delay, burst_start, base, fs_hz) {
+        if err.len() > 2 {
+            se += crate::band::energy(&err, fs_hz, band.0, band.1);
+            sb += crate::band::energy(&truth, fs_hz, reference.0, reference.1);
+        }
+    }
+    (sb > 0.0).then(|| (se / sb).sqrt())
+}
+
+/// Per burst, the samples scored: (estimate − delayed true base, delayed true base), after the
+/// first [`SETTLE_S`] of the burst.
+fn scored_bursts<E: Copy + Into<f64>>(
+    est: &[E],
+    delay: &[usize],
+    burst_start: &[usize],
+    base: &[f64],
+    fs_hz: f64,
+) -> Vec<(Vec<f64>, Vec<f64>)> {
     let settle = (SETTLE_S * fs_hz).round() as usize;
     let n = est.len().min(base.len()).min(delay.len()).min(burst_start.len());
-    let (mut se, mut sh, mut sb) = (0.0f64, 0.0f64, 0.0f64);
+    let mut out = vec![];
     let mut i = 0;
     while i < n {
         let b0 = burst_start[i];
@@ -351,16 +423,13 @@ pub fn relative_error(est: &[f32], delay: &[usize], burst_start: &[usize], base:
                 continue;
             }
             let t = base[k - delay[k]];
-            err.push(est[k] as f64 - t);
+            err.push(est[k].into() - t);
             truth.push(t);
         }
-        se += err.iter().map(|e| e * e).sum::<f64>();
-        sb += truth.iter().map(|t| t * t).sum::<f64>();
-        highpass_zero_phase(&mut err, INBAND_HP_HZ, fs_hz);
-        sh += err.iter().map(|e| e * e).sum::<f64>();
+        out.push((err, truth));
         i = j;
     }
-    (sb > 0.0).then(|| ((se / sb).sqrt(), (sh / sb).sqrt()))
+    out
 }
 
 pub fn run(a: Args) -> Result<()> {

@@ -14,5 +14,6 @@ pub mod prove;
 pub mod rh_sensitivity;
 pub mod score;
 pub mod simulate;
+pub mod vs_exact;
 
 pub use ipmc_recording::write_atomically;
