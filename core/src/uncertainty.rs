@@ -34,9 +34,10 @@ pub const FRONT_END_NOISE_A_PER_RTHZ: f64 = 3.3 / 4095.0 / 940_000.0 / 3.464_101
 impl Uncertainty {
     /// A calibration that states nothing: how far `ipmc identify` found two independently
     /// simulated strips' levels from the paper's laws (the frequency responses of 26 levels,
-    /// 38–81 %RH; docs/calibrating.md, "Uncertainty"), after the 1 %RH reading error and the
+    /// 38–81 %RH; docs/calibrating.md, "Error bars"), after the 1 %RH reading error and the
     /// fits' own standard errors are taken out, rounded up; κe is not identified by a frequency
-    /// response and gets none. A calibration identified from the user's own strip replaces it.
+    /// response and gets none. A calibration identified from the user's own strip replaces it,
+    /// and the coverage test uses such one, not these.
     pub const TYPICAL: Uncertainty =
         Uncertainty { y: 0.035, cs: 0.10, ca: 0.03, kappa_e: 0.0, d: 0.05, current_noise_a_per_rthz: FRONT_END_NOISE_A_PER_RTHZ };
 

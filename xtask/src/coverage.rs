@@ -2,7 +2,9 @@
 //! (`../shared/external`, beside the repository), each burst looped into a settled recording
 //! (`ipmc loop-bursts`), compensated with the lab's nominal calibration and the 1 %RH reading
 //! uncertainty the data's README states (`ipmc compensate`), and scored (`ipmc score
-//! --coverage`). Honest 1σ bars contain the actual error of about 68 % of the humidity levels;
+//! --coverage`). What the calibration does not know about the strip, its `[uncertainty]`, comes
+//! the way a lab gets it: `ipmc identify` on the same bench's clean frequency response (case01),
+//! beside the nominal laws. Honest 1σ bars contain the actual error of about 68 % of the humidity levels;
 //! the step fails when the share is further from 68 % than two binomial standard deviations of
 //! the number of levels (windows of one level are one draw: its error is systematic).
 
@@ -11,6 +13,8 @@ use crate::exec::{ipmc, repo_root};
 
 /// The clean (no concealed effect) time-series cases.
 const CASES: [&str; 2] = ["case09", "case25"];
+/// The same bench's clean frequency response, identified for the strip's `[uncertainty]`.
+const IDENTIFIED: &str = "case01";
 /// The reading uncertainty the external README gives ("~1 %RH humidity read error").
 const RH_UNCERTAINTY_PCT: &str = "1";
 /// Looped length, skipped start-up and window: 2 s windows are whole periods of a looped 2 s
@@ -28,13 +32,13 @@ pub fn test_step() -> Result<()> {
     }
     let work = repo_root().join("target/coverage");
     std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;
+    let calib = with_identified_uncertainty(&external, &work)?;
     let (mut covered, mut levels) = (0u64, 0u64);
     for case in CASES {
         let looped = work.join(format!("{case}-looped.csv"));
         let est = work.join(format!("{case}-est.csv"));
         let rec = external.join(format!("{case}.csv"));
         ipmc(&["loop-bursts".as_ref(), rec.as_os_str(), "--seconds".as_ref(), LOOP_S.as_ref(), "--out".as_ref(), looped.as_os_str()])?;
-        let calib = external.join("nominal.toml");
         ipmc(&[
             "compensate".as_ref(),
             looped.as_os_str(),
@@ -86,4 +90,31 @@ pub fn test_step() -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// nominal.toml with the `[uncertainty]` that `ipmc identify` finds on the bench's clean
+/// frequency response, written into `work`.
+fn with_identified_uncertainty(external: &std::path::Path, work: &std::path::Path) -> Result<std::path::PathBuf> {
+    let nominal = external.join("nominal.toml");
+    let identified = work.join(format!("{IDENTIFIED}-identified.toml"));
+    ipmc(&[
+        "identify".as_ref(),
+        external.join(format!("{IDENTIFIED}.csv")).as_os_str(),
+        "--calib".as_ref(),
+        nominal.as_os_str(),
+        "--rh-uncertainty".as_ref(),
+        RH_UNCERTAINTY_PCT.as_ref(),
+        "--out".as_ref(),
+        identified.as_os_str(),
+    ])?;
+    let read = |p: &std::path::Path| -> Result<ipmc_core::Calibration> {
+        let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        ipmc_core::calibration_file::parse(&text).map_err(|e| format!("{}: {e}", p.display()))
+    };
+    let mut calib = read(&nominal)?;
+    calib.uncertainty = read(&identified)?.uncertainty;
+    println!("[uncertainty] identified on {IDENTIFIED}: {:?}", calib.uncertainty);
+    let out = work.join("nominal-with-identified-uncertainty.toml");
+    std::fs::write(&out, ipmc_core::calibration_file::to_text(&calib)).map_err(|e| format!("{}: {e}", out.display()))?;
+    Ok(out)
 }
