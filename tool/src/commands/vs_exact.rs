@@ -75,9 +75,15 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
     let band = (cfg.band_lo_hz, cfg.band_hi_hz);
     let errors = error_table(calib, ts.fs_hz, rh_uncertainty(calib, None))?;
     let looped = loop_bursts(ts, period_s, SETTLE_S + seconds)?;
+    let settle = (SETTLE_S * ts.fs_hz).round() as usize;
     let mut out = vec![];
-    for range in looped.bursts() {
-        let rec = burst_of(&looped, range)?;
+    for (burst, range) in ts.bursts().into_iter().zip(looped.bursts()) {
+        // The loop repeats the burst's noise too, so the looped recording is periodic in the
+        // burst's whole periods, not in the excitation's: the scored stretch is a whole number
+        // of those, or the noise's lines between the excitation's leak into the band.
+        let unit = burst.len() / period * period;
+        let scored = (range.len().saturating_sub(settle)) / unit * unit;
+        let rec = burst_of(&looped, range.start..range.start + settle + scored)?;
         let base = rec.base_m.as_ref().expect("cut with base");
         let n = rec.t_s.len();
         let est = compensate(calib, &rec, None, &errors)?;
