@@ -8,12 +8,8 @@ use ipmc_core::{DesignConfig, Inverse, Params};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Sample rate [Hz].
-    #[arg(long, default_value_t = 2000.0)]
-    fs: f64,
-    /// Calibration: `default`, `paper`, or a TOML file written by the tool.
-    #[arg(long)]
-    calib: Option<String>,
+    #[command(flatten)]
+    design: super::DesignArgs,
     /// Humidity of the paper's fixed ("humidity-independent") model [%].
     #[arg(long, default_value_t = 45.0)]
     baseline_rh: f64,
@@ -23,19 +19,19 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let calib = calibration_source::load(a.calib.as_deref())?;
+    let calib = calibration_source::load(a.design.calib.as_deref())?;
     let ionic = match a.ionic_pairs {
         5 => IonicOrder::Five,
         4 => IonicOrder::Four,
         n => return Err(anyhow!("--ionic-pairs must be 4 or 5, not {n}")),
     };
-    let cfg = DesignConfig::<f32> { fs_hz: a.fs as f32, ionic, ..DesignConfig::default() };
+    let cfg = DesignConfig::<f32> { fs_hz: a.design.fs as f32, ionic, ..DesignConfig::default() };
     let (lo, hi) = (cfg.band_lo_hz as f64, cfg.band_hi_hz as f64);
     let design = |rh: f64| -> Result<Inverse<f64>> {
         Ok(design_inverse(&calib, rh as f32, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))?.cast())
     };
     let baseline = design(a.baseline_rh)?;
-    println!("fs = {} Hz, band {lo}–{hi} Hz, f32 designs evaluated against the exact H", a.fs);
+    println!("fs = {} Hz, band {lo}–{hi} Hz, f32 designs evaluated against the exact H", a.design.fs);
     println!(
         "{:>6} | {:>22} | {:>8} | {:>24} | {:>24}",
         "RH %", "rational approx (5–500)", "", "compensated |HGe^jωτ−1|", "fixed-45% baseline"

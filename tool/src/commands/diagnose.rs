@@ -148,7 +148,7 @@ mod tests {
             std::env::temp_dir().join(format!("ipmc-diagnose-figures-{}-{}", effect.map_or("clean", Effect::name), std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let rec = dir.join("REC.csv");
-        std::fs::write(&rec, make_case(&calib, effect, seed, Strength::At(0.9), Format::Fr).recording.to_csv().unwrap()).unwrap();
+        std::fs::write(&rec, make_case(&calib, effect, seed, Strength::At(0.9), Format::Fr).unwrap().recording.to_csv().unwrap()).unwrap();
         let report_dir = dir.join("report");
         run(Args { recordings: vec![rec], calib: None, report: report_dir.clone(), write_calib: None, humidity_sensor: None, quiet: true })
             .unwrap();

@@ -17,3 +17,14 @@ pub mod simulate;
 pub mod vs_exact;
 
 pub use ipmc_recording::write_atomically;
+
+/// The designs a command evaluates: at which sample rate, from which calibration.
+#[derive(clap::Args)]
+pub struct DesignArgs {
+    /// Sample rate [Hz].
+    #[arg(long, default_value_t = 2000.0)]
+    pub fs: f64,
+    /// Calibration: `default`, `paper`, or a TOML file written by the tool.
+    #[arg(long)]
+    pub calib: Option<String>,
+}

@@ -5,7 +5,7 @@
 //! counted; the stream goes on at the next delimiter.
 
 use anyhow::{Context, Result};
-use ipmc_core::stream::{DecodeError, Deframer, Frame, MAX_FRAME_LEN, flags};
+use ipmc_core::stream::{DecodeError, Deframer, Frame, Header, MAX_FRAME_LEN, flags};
 use std::{
     fs::File,
     io::{BufWriter, ErrorKind, Read, Write},
@@ -179,7 +179,8 @@ impl Monitor {
     }
 
     fn on_frame(&mut self, f: &OwnedFrame, emit: &mut impl FnMut(Event)) {
-        let first = f.first_sample;
+        let h = &f.header;
+        let first = h.first_sample;
         // A big step backwards is the u32 index wrapping, not a reordering (frames arrive in order).
         if self.last_first_sample.is_some_and(|last| first < last && last - first > u32::MAX / 2) {
             self.index_offset += 1 << 32;
@@ -191,11 +192,11 @@ impl Monitor {
             let s = Sample {
                 t_s,
                 base_est_m: v,
-                rh_pct: f.rh_pct,
-                rh_strip_pct: f.rh_strip_pct,
-                rh_read_pct: f.rh_read_pct,
-                rel_err: f.rel_err,
-                flags: f.flags,
+                rh_pct: h.rh_pct,
+                rh_strip_pct: h.rh_strip_pct,
+                rh_read_pct: h.rh_read_pct,
+                rel_err: h.rel_err,
+                flags: h.flags,
             };
             emit(Event::Sample(s));
             if t_s >= self.next_status_s {
@@ -229,26 +230,13 @@ impl Monitor {
 
 /// A frame copied out of the deframer's buffer, so the deframer can take the next byte.
 struct OwnedFrame {
-    first_sample: u32,
-    rh_pct: f32,
-    rh_strip_pct: f32,
-    rh_read_pct: f32,
-    rel_err: f32,
-    flags: u16,
+    header: Header,
     estimates: Vec<f32>,
 }
 
 impl From<&Frame<'_>> for OwnedFrame {
     fn from(f: &Frame<'_>) -> Self {
-        Self {
-            first_sample: f.header.first_sample,
-            rh_pct: f.header.rh_pct,
-            rh_strip_pct: f.header.rh_strip_pct,
-            rh_read_pct: f.header.rh_read_pct,
-            rel_err: f.header.rel_err,
-            flags: f.header.flags,
-            estimates: f.estimates().collect(),
-        }
+        Self { header: f.header, estimates: f.estimates().collect() }
     }
 }
 
@@ -259,7 +247,7 @@ fn flag_names(bits: u16) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipmc_core::stream::{Header, encode, max_frame_len};
+    use ipmc_core::stream::{encode, max_frame_len};
 
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];

@@ -85,7 +85,7 @@ pub fn run_cases(
     }
     plan.extend(std::iter::repeat_n(None, clean));
     let one = |i: usize, effect: Option<Effect>| -> Result<Outcome> {
-        let case = make_case(calib, effect, seed.wrapping_mul(10_007).wrapping_add(i as u64), strength, format);
+        let case = make_case(calib, effect, seed.wrapping_mul(10_007).wrapping_add(i as u64), strength, format)?;
         let truth = effect.map_or("none", Effect::name).to_string();
         let path = dir.join(format!("case-{i:03}-{truth}.csv"));
         let csv = case.recording.to_csv()?;

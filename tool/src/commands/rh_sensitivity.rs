@@ -15,17 +15,13 @@ const SHT45_ACCURACY_PCT: f64 = 1.0;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Sample rate [Hz].
-    #[arg(long, default_value_t = 2000.0)]
-    fs: f64,
-    /// Calibration: `default`, `paper`, or a TOML file written by the tool.
-    #[arg(long)]
-    calib: Option<String>,
+    #[command(flatten)]
+    design: super::DesignArgs,
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let calib = calibration_source::load(a.calib.as_deref())?;
-    let cfg = DesignConfig::<f32> { fs_hz: a.fs as f32, ..DesignConfig::default() };
+    let calib = calibration_source::load(a.design.calib.as_deref())?;
+    let cfg = DesignConfig::<f32> { fs_hz: a.design.fs as f32, ..DesignConfig::default() };
     let (lo, hi) = (cfg.band_lo_hz as f64, cfg.band_hi_hz as f64);
     let design = |rh: f64| -> Result<Inverse<f64>> {
         Ok(design_inverse(&calib, rh as f32, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))?.cast())
@@ -46,7 +42,7 @@ pub fn run(a: Args) -> Result<()> {
     println!(
         "fs = {} Hz, band {lo}–{hi} Hz: compensation error [% rms] when the design's RH is δ off the strip's, \
          rms of |H(RH)·G(RH+δ)·e^jωτ − 1|",
-        a.fs
+        a.design.fs
     );
     print!("{:>6} | {:>7} | {:>8} {:>8} {:>8} |", "RH %", "δ = 0", "δ = +1", "δ = −1", "per %RH");
     for (name, _) in &sensors {

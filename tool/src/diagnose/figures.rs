@@ -183,6 +183,7 @@ mod tests {
         let calib = ipmc_core::Calibration::default_preset();
         for effect in [Effect::TipMass, Effect::MainsInterference] {
             let data = Dataset::from_recordings(&[make_case(&calib, Some(effect), 3, Strength::At(0.9), Format::Fr)
+                .unwrap()
                 .frequency_response()
                 .unwrap()]);
             let d = engine::diagnose(&calib, &data, &|_| {}).unwrap();

@@ -65,7 +65,7 @@ impl Case {
 }
 
 /// Builds one session with `effect` (None: a clean control) at `strength` in its range.
-pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strength: Strength, format: Format) -> Case {
+pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strength: Strength, format: Format) -> anyhow::Result<Case> {
     let mut rng = SplitMix64(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0x5DEE_CE66);
     let p60: Params<f64> = calib.params_at(60.0);
     let effects::Drawn { sample: mut physics, bench, words: magnitude } = effects::draw(effect, &p60, strength, &mut rng);
@@ -150,10 +150,7 @@ pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strengt
     };
     let mut metadata = Metadata::default();
     metadata.set("generator", format!("ipmc prove seed={seed}"));
-    match simulate(calib, &session, &physics, metadata) {
-        Ok(recording) => Case { magnitude, recording },
-        Err(e) => panic!("prove's session does not simulate: {e}"),
-    }
+    Ok(Case { magnitude, recording: simulate(calib, &session, &physics, metadata)? })
 }
 
 #[cfg(test)]
@@ -168,7 +165,7 @@ mod tests {
 
     fn verdict(effect: Option<Effect>, seed: u64) -> String {
         let calib = Calibration::default_preset();
-        let case = make_case(&calib, effect, seed, Strength::At(0.8), Format::Fr);
+        let case = make_case(&calib, effect, seed, Strength::At(0.8), Format::Fr).unwrap();
         let csv = case.recording.to_csv().unwrap();
         let (fr, _) = FrequencyResponse::parse("case.csv", &csv).unwrap();
         let d = engine::diagnose(&calib, &Dataset::from_recordings(&[fr]), &|_| {}).unwrap();
@@ -189,7 +186,7 @@ mod tests {
     fn time_series_cases_are_diagnosed_from_the_file() {
         let calib = Calibration::default_preset();
         for (effect, seed) in [(Some(Effect::TipMass), 7), (None, 1)] {
-            let case = make_case(&calib, effect, seed, Strength::At(0.8), Format::Ts);
+            let case = make_case(&calib, effect, seed, Strength::At(0.8), Format::Ts).unwrap();
             assert!(matches!(case.recording, Recording::TimeSeries(..)));
             let path = std::env::temp_dir().join(format!("ipmc-concealed-ts-{seed}-{}.csv", std::process::id()));
             std::fs::write(&path, case.recording.to_csv().unwrap()).unwrap();

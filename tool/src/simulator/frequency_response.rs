@@ -22,11 +22,8 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mains = Mains::draw(n, &mut rng);
     let mut points = Vec::with_capacity(h.levels_pct.len() * freqs.len());
     let mut t = 0.0;
-    for (k, &level) in h.levels_pct.iter().enumerate() {
-        let setpoint = level + rng.gauss(h.level_error_pct);
-        if k > 0 || setpoint != level {
-            bench.set_target(setpoint);
-        }
+    for &level in &h.levels_pct {
+        bench.set_target(level + rng.gauss(h.level_error_pct));
         let dep = drift.at_level(&session.sample, &mut rng);
         let temp_level = level_temp_c(session, &mut rng);
         let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
