@@ -5,7 +5,7 @@
 //! recording, with the usual leakage otherwise.
 //!
 //! One implementation for the two uses that must agree on what "in band" means: scoring an
-//! estimate's error in the band (`compensate::band_error`) and the exact band-limited inverse
+//! estimate's error in the band (`scoring::band_error`) and the exact band-limited inverse
 //! (`exact`).
 
 use ipmc_core::C;

@@ -9,6 +9,11 @@ use std::collections::HashMap;
 use std::path::Path;
 
 /// The value of a recording reader, its warnings printed on stderr.
+/// A time-series recording, its warnings printed.
+pub fn read_time_series(path: &Path) -> anyhow::Result<TimeSeries> {
+    checked(TimeSeries::read(path))
+}
+
 pub fn checked<T>(read: Result<(T, Vec<Warning>), Error>) -> anyhow::Result<T> {
     let (value, warnings) = read?;
     for w in warnings {

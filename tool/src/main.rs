@@ -2,14 +2,18 @@
 
 mod band;
 mod calibration_source;
+mod chain;
+mod charging;
 mod commands;
 mod diagnose;
 mod effect;
 mod exact;
 mod input;
+mod looping;
 mod overrides;
 mod plot;
 mod progress;
+mod scoring;
 mod simulator;
 mod toml_file;
 

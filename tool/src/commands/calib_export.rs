@@ -6,7 +6,7 @@ use anyhow::Result;
 use ipmc_core::Calibration;
 use std::path::PathBuf;
 
-use super::write_atomically;
+use ipmc_recording::write_atomically;
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum Preset {

@@ -65,7 +65,7 @@ pub fn run(a: Args) -> Result<()> {
         }
     });
     let text = serde_json::to_string_pretty(&doc)? + "\n";
-    crate::commands::write_atomically(&a.out, text.as_bytes())?;
+    ipmc_recording::write_atomically(&a.out, text.as_bytes())?;
     println!(
         "RH {:.1} %, fs {} Hz: {} sections, delay {:.2} ms; |H·G·e^(jωτ) − 1| over {lo}–{hi} Hz: {:.3} % rms, {:.3} % max; rational approximation (order {}): {:.3} % / {:.3}° over 5–500 Hz",
         a.rh,

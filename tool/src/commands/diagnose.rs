@@ -2,11 +2,11 @@
 //! differ. Writes DIR/report.md, DIR/report.json and the figures (SVG and PNG; see
 //! `crate::diagnose`).
 
-use crate::commands::write_atomically;
 use crate::diagnose::{data::Dataset, engine, figures, report};
 use anyhow::{Context, Result};
 use ipmc_core::Calibration;
 use ipmc_core::humidity_path::{HumidityPath, SensorKind};
+use ipmc_recording::write_atomically;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]

@@ -7,7 +7,7 @@
 //! (`ipmc_fit::laws`). Outputs: the calibration (TOML, what `--calib` and `IPMC_CALIB` read) and
 //! every level's estimates with standard errors and correlations (JSON).
 
-use crate::commands::{charging, write_atomically};
+use crate::charging;
 use crate::plot::bode::{Bode, LevelModel};
 use crate::plot::params::{ParamsFigure, levels_series};
 use crate::plot::render;
@@ -18,6 +18,7 @@ use ipmc_core::ParamName;
 use ipmc_core::calibration_file;
 use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_levels};
 use ipmc_fit::laws::{LawFit, calibration_from_levels};
+use ipmc_recording::write_atomically;
 use ipmc_recording::{Charging, Format as _, LEVEL_SCATTER_PCT, Level};
 use serde_json::{Map, Value, json};
 use std::path::PathBuf;
@@ -197,7 +198,7 @@ pub fn run(a: Args) -> Result<()> {
     let rh_range = fits.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (l, _)| (lo.min(l.rh_range.0), hi.max(l.rh_range.1)));
     let level_fits: Vec<LevelFit> = fits.iter().map(|(_, f)| f.clone()).collect();
     let (mut calib, laws) = calibration_from_levels(&base, &level_fits, rh_range).with_context(|| format!("{source}: calibration"))?;
-    let rh_sd = super::compensate::rh_uncertainty(&base, a.rh_uncertainty);
+    let rh_sd = crate::chain::rh_uncertainty(&base, a.rh_uncertainty);
     calib.uncertainty = ipmc_fit::scatter::uncertainty(&calib, &level_fits, rh_sd, &base.uncertainty);
     let u = calib.uncertainty;
     println!(

@@ -1,17 +1,11 @@
-//! `ipmc loop-bursts`: a recording of short bursts of a periodic excitation in steady state
-//! made long enough for the compensation to settle, by repeating each burst's whole periods.
-//! A steady-state periodic signal repeated by whole periods is the same signal continued: no
-//! seam, every channel (current, true base, humidity) continued alike.
-//!
-//! Repeating also repeats each period's noise, which the compensation cannot tell from signal;
-//! the noise it hides is measured before, from the differences of consecutive periods (the
-//! signal cancels), and written as the metadata `current_noise_a_per_rthz`, which `ipmc
-//! compensate` states its expected error with.
+//! `ipmc loop-bursts`: each burst of a periodic excitation repeated by whole periods until it is
+//! long enough for the compensation to settle ([`crate::looping`]), with the current's noise
+//! density measured from period-to-period differences written as metadata.
 
-use crate::commands::write_atomically;
 use crate::input::checked;
-use anyhow::{Result, bail};
-use ipmc_recording::{Format as _, NumberFormat, TimeSeries};
+use crate::looping::loop_bursts;
+use anyhow::Result;
+use ipmc_recording::{Format as _, NumberFormat, TimeSeries, write_atomically};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -28,122 +22,10 @@ pub struct Args {
     out: PathBuf,
 }
 
-/// Metadata key of the current's noise density [A/√Hz].
-pub const NOISE_KEY: &str = "current_noise_a_per_rthz";
-
-/// The current's noise density [A/√Hz], white up to Nyquist, from the differences between
-/// consecutive whole periods of every burst (a difference of two periods has twice the noise
-/// variance). None when no burst holds two periods.
-pub fn noise_density(ts: &TimeSeries, per: usize) -> Option<f64> {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for b in ts.bursts() {
-        let x = &ts.current_a[b];
-        for k in per..x.len() / per * per {
-            sum += (x[k] - x[k - per]).powi(2);
-            n += 1;
-        }
-    }
-    (n > 0).then(|| (sum / n as f64 / 2.0 / (ts.fs_hz / 2.0)).sqrt())
-}
-
-/// Each burst's first whole periods, repeated to at least `seconds`; bursts keep their start
-/// times (moved later where a looped burst would reach the next one).
-pub fn loop_bursts(ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<TimeSeries> {
-    let per = period_s * ts.fs_hz;
-    if !(per >= 1.0 && (per - per.round()).abs() < 1e-6) {
-        bail!("a period of {period_s} s is not a whole number of samples at {} Hz", ts.fs_hz);
-    }
-    let per = per.round() as usize;
-    let mut out = TimeSeries { metadata: ts.metadata.clone(), fs_hz: ts.fs_hz, ..Default::default() };
-    let (mut base, mut tip, mut temp) = (vec![], vec![], vec![]);
-    let mut next_free = f64::NEG_INFINITY;
-    for burst in ts.bursts() {
-        let whole = burst.len() / per * per;
-        if whole == 0 {
-            bail!("the burst at t = {} s is shorter than one period ({period_s} s)", ts.t_s[burst.start]);
-        }
-        let n = (seconds * ts.fs_hz / whole as f64).ceil().max(1.0) as usize * whole;
-        let t0 = ts.t_s[burst.start].max(next_free);
-        for k in 0..n {
-            let i = burst.start + k % whole;
-            out.t_s.push(t0 + k as f64 / ts.fs_hz);
-            out.current_a.push(ts.current_a[i]);
-            out.rh_pct.push(ts.rh_pct[i]);
-            let copy = |from: &Option<Vec<f64>>, to: &mut Vec<f64>| {
-                if let Some(v) = from {
-                    to.push(v[i]);
-                }
-            };
-            copy(&ts.base_m, &mut base);
-            copy(&ts.tip_m, &mut tip);
-            copy(&ts.temp_c, &mut temp);
-        }
-        // A gap of a second keeps the bursts apart for every reader.
-        next_free = t0 + n as f64 / ts.fs_hz + 1.0;
-    }
-    out.base_m = ts.base_m.as_ref().map(|_| base);
-    out.tip_m = ts.tip_m.as_ref().map(|_| tip);
-    out.temp_c = ts.temp_c.as_ref().map(|_| temp);
-    if let Some(d) = noise_density(ts, per) {
-        out.metadata.set(NOISE_KEY, d);
-    }
-    Ok(out)
-}
-
 pub fn run(a: Args) -> Result<()> {
     let ts = checked(TimeSeries::read(&a.input))?;
     let looped = loop_bursts(&ts, a.period_s, a.seconds)?;
     write_atomically(&a.out, looped.to_csv(NumberFormat::Exact)?.as_bytes())?;
     println!("{} bursts, {} samples -> {}", looped.bursts().len(), looped.len(), a.out.display());
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn repeats_whole_periods_and_keeps_bursts_apart() {
-        let fs = 10.0;
-        let mut ts = TimeSeries { fs_hz: fs, ..Default::default() };
-        // Two bursts of 2.5 periods of 4 samples; the second starts 3 s after the first.
-        for (t0, n) in [(0.0, 10), (3.0, 10)] {
-            for k in 0..n {
-                ts.t_s.push(t0 + k as f64 / fs);
-                ts.current_a.push((k % 4) as f64 + t0);
-                ts.rh_pct.push(40.0 + t0);
-            }
-        }
-        ts.base_m = Some(ts.current_a.iter().map(|v| -v).collect());
-        let l = loop_bursts(&ts, 0.4, 2.0).unwrap();
-        let bursts = l.bursts();
-        assert_eq!(bursts.len(), 2);
-        // 8 whole samples a burst, repeated to ≥ 20 samples: 24.
-        assert_eq!((bursts[0].len(), bursts[1].len()), (24, 24));
-        assert!(l.current_a[..24].iter().enumerate().all(|(k, &v)| v == (k % 4) as f64));
-        assert_eq!(l.base_m.as_ref().unwrap()[30], -(3.0 + 2.0));
-        assert_eq!(l.t_s[24], 2.4 + 1.0, "moved past the looped first burst");
-        assert_eq!(l.rh_pct[24], 43.0);
-        assert_eq!(l.metadata.get(NOISE_KEY), Some("0"), "noiseless periods");
-        assert!(loop_bursts(&ts, 0.45, 2.0).is_err(), "not whole samples");
-        assert!(loop_bursts(&ts, 2.0, 2.0).is_err(), "longer than a burst");
-    }
-
-    #[test]
-    fn noise_density_of_white_noise() {
-        let fs = 1000.0;
-        let mut ts = TimeSeries { fs_hz: fs, ..Default::default() };
-        // A periodic signal plus white noise of rms 1e-9 A: density 1e-9/√500.
-        let mut state = 12345u64;
-        for k in 0..20_000 {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            let uniform = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            ts.t_s.push(k as f64 / fs);
-            ts.current_a.push((k % 100) as f64 * 1e-7 + uniform * 12f64.sqrt() * 1e-9);
-            ts.rh_pct.push(50.0);
-        }
-        let d = noise_density(&ts, 100).unwrap();
-        let want = 1e-9 / 500f64.sqrt();
-        assert!((d / want - 1.0).abs() < 0.03, "{d} vs {want}");
-    }
 }

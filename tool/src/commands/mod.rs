@@ -2,7 +2,6 @@ pub mod accuracy;
 pub mod calib_export;
 pub mod charging;
 pub mod compensate;
-pub mod coverage;
 pub mod design;
 pub mod diagnose;
 pub mod identify;
@@ -15,8 +14,6 @@ pub mod rh_sensitivity;
 pub mod score;
 pub mod simulate;
 pub mod vs_exact;
-
-pub use ipmc_recording::write_atomically;
 
 /// The designs a command evaluates: at which sample rate, from which calibration.
 #[derive(clap::Args)]

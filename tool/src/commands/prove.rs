@@ -89,7 +89,7 @@ pub fn run_cases(
         let truth = effect.map_or("none", Effect::name).to_string();
         let path = dir.join(format!("case-{i:03}-{truth}.csv"));
         let csv = case.recording.to_csv()?;
-        crate::commands::write_atomically(&path, csv.as_bytes())?;
+        ipmc_recording::write_atomically(&path, csv.as_bytes())?;
         // Blind: the diagnosis sees only the file.
         let data = read_dataset(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE)?;
         let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;

@@ -2,9 +2,8 @@
 //! from, scored exactly as `ipmc compensate` scores its own (one scoring for every caller,
 //! including `cargo xtask qemu` for the firmware's estimates).
 
-use super::compensate::{INBAND_HP_HZ, SETTLE_S, read_time_series, relative_error};
-use super::coverage;
-use crate::input::checked;
+use crate::input::{checked, read_time_series};
+use crate::scoring::{INBAND_HP_HZ, SETTLE_S, coverage, relative_error};
 use anyhow::{Result, anyhow, bail};
 use ipmc_recording::{Estimates, Format as _};
 use std::path::PathBuf;

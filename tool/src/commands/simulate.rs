@@ -9,12 +9,13 @@
 //! `amplitude_m`, random phases), the model's quasi-static current, numbers written compactly.
 
 use crate::calibration_source;
-use crate::commands::write_atomically;
 use crate::simulator::physics::ExactModel;
-use crate::simulator::session::{Frequencies, Humidity, Kind, Noise, Session, TimeSeriesPlan};
+use crate::simulator::session::Session;
+use crate::simulator::sweep::Sweep;
 use crate::simulator::{Recording, simulate};
 use anyhow::{Context, Result};
 use ipmc_recording::Metadata;
+use ipmc_recording::write_atomically;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -56,70 +57,59 @@ pub struct SweepArgs {
     #[arg(long)]
     out: PathBuf,
     /// Duration [s].
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = Sweep::default().seconds)]
     seconds: f64,
     /// Sample rate [Hz].
-    #[arg(long, default_value_t = 2000.0)]
+    #[arg(long, default_value_t = Sweep::default().fs_hz)]
     fs: f64,
     /// Relative humidity at the start of the run [%].
-    #[arg(long, default_value_t = 40.0)]
+    #[arg(long, default_value_t = Sweep::default().rh_from)]
     rh_from: f64,
     /// Relative humidity at the end of the run [%].
-    #[arg(long, default_value_t = 80.0)]
+    #[arg(long, default_value_t = Sweep::default().rh_to)]
     rh_to: f64,
     /// Seed of the tone phases (and of the noise).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = Sweep::default().seed)]
     seed: u64,
     /// Standard deviation of white Gaussian noise added to the current [A].
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = Sweep::default().noise_a)]
     noise_a: f64,
     /// Number of tones.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = Sweep::default().tones)]
     tones: usize,
     /// Lowest tone [Hz].
-    #[arg(long, default_value_t = 12.0)]
+    #[arg(long, default_value_t = Sweep::default().f_lo_hz)]
     f_lo: f64,
     /// Highest tone [Hz].
-    #[arg(long, default_value_t = 140.0)]
+    #[arg(long, default_value_t = Sweep::default().f_hi_hz)]
     f_hi: f64,
     /// Sum of the tone amplitudes [m].
-    #[arg(long, default_value_t = 20e-6)]
+    #[arg(long, default_value_t = Sweep::default().amplitude_m)]
     amplitude_m: f64,
     /// Calibration of the simulated sample: `default`, `paper`, or a TOML file.
     #[arg(long)]
     calib: Option<String>,
 }
 
-/// The sweep as a session: one time-series ramp between two levels, current noise only.
-fn sweep_session(a: &SweepArgs) -> Session {
-    Session {
-        kind: Kind::TimeSeries,
-        seed: a.seed,
-        temp_c: None,
-        temp_swing_k: 0.0,
-        temp_read_error_k: 0.0,
-        humidity: Humidity { levels_pct: vec![a.rh_from, a.rh_to], ..Humidity::default() },
-        sample: Default::default(),
-        frequencies: None::<Frequencies>,
-        time_series: Some(TimeSeriesPlan {
-            fs_hz: a.fs,
-            burst_s: a.seconds,
-            ramp: true,
-            tones: a.tones,
-            from_hz: a.f_lo,
-            to_hz: a.f_hi,
-            amplitude_m: a.amplitude_m,
-            record_tip: false,
-            compact: true,
-            tone_grid_hz: None,
-        }),
-        charging: None,
-        noise: Noise { current_a: a.noise_a, ..Noise::default() },
+impl SweepArgs {
+    fn sweep(&self) -> Sweep {
+        Sweep {
+            seconds: self.seconds,
+            fs_hz: self.fs,
+            rh_from: self.rh_from,
+            rh_to: self.rh_to,
+            seed: self.seed,
+            noise_a: self.noise_a,
+            tones: self.tones,
+            f_lo_hz: self.f_lo,
+            f_hi_hz: self.f_hi,
+            amplitude_m: self.amplitude_m,
+        }
     }
 }
 
 pub fn run_sweep(a: SweepArgs) -> Result<()> {
-    let session = sweep_session(&a);
+    let session = a.sweep().session();
     session.validate().context("simulate-sweep")?;
     let mut metadata = Metadata::default();
     metadata.set(
@@ -150,20 +140,4 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
         );
     }
     Ok(())
-}
-
-#[cfg(test)]
-pub mod tests_support {
-    use super::*;
-    use clap::Parser;
-
-    /// The session of `simulate-sweep --seconds 60` (how data/sweep-40-80.csv was made).
-    pub fn bundled_sweep_session() -> Session {
-        #[derive(clap::Parser)]
-        struct Cli {
-            #[command(flatten)]
-            a: SweepArgs,
-        }
-        sweep_session(&Cli::parse_from(["ipmc", "--seconds", "60", "--out", "unused.csv"]).a)
-    }
 }

@@ -3,11 +3,13 @@
 //! whole periods (seamless in steady state, long enough for the filter to settle); on it the
 //! firmware's chain (`compensate`) and the exact band-limited inverse of the same nominal model
 //! at the same humidity reading (`exact`) are scored alike: in the design band, against the true
-//! `base_m`, on the same samples after the chain's settling (`compensate::band_error`).
+//! `base_m`, on the same samples after the chain's settling (`scoring::band_error`).
 
-use super::compensate::{INBAND_HP_HZ, SETTLE_S, band_error, compensate, error_table, read_time_series, relative_error, rh_uncertainty};
-use super::loop_bursts::loop_bursts;
+use crate::chain::{compensate, error_table, rh_uncertainty};
 use crate::exact;
+use crate::input::read_time_series;
+use crate::looping::loop_bursts;
+use crate::scoring::{INBAND_HP_HZ, SETTLE_S, band_error, relative_error};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::DesignConfig;
 use ipmc_recording::TimeSeries;

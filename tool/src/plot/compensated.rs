@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use std::ops::Range;
 
 /// Skipped from the error plot: the 1 Hz high-pass settling [s] (as the scores skip it).
-const SETTLE_S: f64 = crate::commands::compensate::SETTLE_S;
+const SETTLE_S: f64 = crate::scoring::SETTLE_S;
 
 /// (t, rms(est − truth)/rms(truth) in %) per window of `win` samples, in each burst after its
 /// first `settle` samples (each burst starts a fresh compensator).

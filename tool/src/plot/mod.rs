@@ -6,8 +6,8 @@ pub mod compensated;
 pub mod params;
 pub mod residual_map;
 
-use crate::commands::write_atomically;
 use anyhow::{Context, Result, anyhow};
+use ipmc_recording::write_atomically;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};

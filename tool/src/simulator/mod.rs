@@ -12,6 +12,7 @@ pub mod random;
 pub mod session;
 #[cfg(test)]
 mod session_fuzz;
+pub mod sweep;
 mod time_series;
 
 use anyhow::Result;
@@ -340,7 +341,7 @@ mod tests {
     #[test]
     fn sweep_reproduces_the_bundled_recording() {
         let bundled = std::fs::read_to_string(repo().join("data/sweep-40-80.csv")).unwrap();
-        let session = crate::commands::simulate::tests_support::bundled_sweep_session();
+        let session = sweep::Sweep::bundled().session();
         let mut metadata = Metadata::default();
         metadata.set("generator", "ipmc simulate-sweep seed=1 rh_from=40 rh_to=80 seconds=60 noise_a=0");
         let made = simulate(&Calibration::default_preset(), &session, &ExactModel, metadata)

@@ -11,7 +11,7 @@
 //! periodic excitation with the chain settled (`ipmc loop-bursts` makes such recordings), and the
 //! DFT is taken as it is.
 
-use super::compensate::SETTLE_S;
+use super::SETTLE_S;
 use ipmc_core::DesignConfig;
 use std::ops::Range;
 

@@ -1,0 +1,298 @@
+//! The firmware's compensation chain run on the host: the f32 [`Compensator`] over blocks of
+//! [`BLOCK_LEN`] samples, retuned when the humidity moves, each block's humidity through the
+//! calibration's humidity path (sensor correction, the strip's hydration lag:
+//! `ipmc_core::block_humidity`) and its expected relative error (`ipmc_core::expected_error`),
+//! exactly as the firmware runs them; or the firmware's own retune schedule replayed bit for bit.
+
+use crate::input::checked;
+use anyhow::{Result, anyhow, bail};
+use ipmc_core::block_humidity::{BlockHumidity, span_s};
+use ipmc_core::expected_error::{BlockError, ErrorTable};
+use ipmc_core::humidity_path::SensorKind;
+use ipmc_core::operating_point::{asks_for_design, reading_age_s};
+use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
+use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
+use std::path::Path;
+
+pub use ipmc_core::filter::BLOCK_LEN;
+/// Flag bits, the firmware's (defined with the wire format).
+pub use ipmc_core::stream::flags;
+
+/// The humidity reading's uncertainty the firmware of the default board assumes for `calib`.
+pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
+    given.unwrap_or_else(|| calib.humidity.uncertainty_pct_for(calib.humidity.sensor.unwrap_or(SensorKind::Hts221)))
+}
+
+/// The expected-error table of `calib`'s designs at the recording's rate (the firmware's build
+/// script makes the same one).
+pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64) -> Result<ErrorTable> {
+    let cfg = DesignConfig::<f64> { fs_hz, ..DesignConfig::default() };
+    ErrorTable::new(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
+}
+
+/// One firmware block of the retune schedule: where it starts, the RH it reports, its flags.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScheduledBlock {
+    pub first_sample: usize,
+    pub rh_pct: f32,
+    /// The strip's humidity and the reading the firmware reported beside it (NaN if the file
+    /// has no such column).
+    pub rh_strip_pct: f32,
+    pub rh_read_pct: f32,
+    /// The firmware's expected error of the block (NaN if the file has no such column).
+    pub rel_err: f32,
+    pub flags: u16,
+}
+
+/// Reads the retune schedule from a firmware EST.csv: rows are samples in order from sample 0
+/// (as `cargo xtask qemu` writes them), every [`BLOCK_LEN`] rows one block with one `rh_pct` and
+/// one `flags`. `rh_pct` is read as f32 directly (the firmware prints the shortest f32 that
+/// round-trips), so the design RH is bit-exact.
+pub fn read_schedule(path: &Path) -> Result<Vec<ScheduledBlock>> {
+    schedule_of(&checked(EstimateFile::read(path))?, &path.display().to_string())
+}
+
+pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>> {
+    let rh = est.rh_pct.as_ref().ok_or_else(|| anyhow!("{name}: no `rh_pct` column (the schedule needs the firmware's block RH)"))?;
+    let fl = est.flags.as_ref().ok_or_else(|| anyhow!("{name}: no `flags` column (the schedule needs the RETUNED flags)"))?;
+    let mut out: Vec<ScheduledBlock> = vec![];
+    for (row, (&rh, &fl)) in rh.iter().zip(fl).enumerate() {
+        if row % BLOCK_LEN == 0 {
+            let at = |c: &Option<Vec<f32>>| c.as_ref().and_then(|r| r.get(row).copied()).unwrap_or(f32::NAN);
+            let (rh_strip_pct, rh_read_pct, rel_err) = (at(&est.rh_strip_pct), at(&est.rh_read_pct), at(&est.rel_err));
+            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, rh_strip_pct, rh_read_pct, rel_err, flags: fl });
+        } else {
+            let b = out.last().expect("a block was started");
+            if b.flags != fl || b.rh_pct.to_bits() != rh.to_bits() {
+                bail!("{name}: estimate {row}: rh_pct/flags change inside the block starting at sample {}", b.first_sample);
+            }
+        }
+    }
+    if out.is_empty() {
+        bail!("{name}: no estimates");
+    }
+    Ok(out)
+}
+
+/// Replays the firmware's schedule over `ts`: one compensator, designed at the first block's
+/// RH, switched at each RETUNED block to a design at that block's RH, blocks of [`BLOCK_LEN`]
+/// exactly as the firmware processes them. Samples past the schedule are not processed.
+/// Where the schedule has the firmware's readings and strip humidities, the strip's model is
+/// run here from the readings too and must give the firmware's values bit for bit.
+pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock], errors: &ErrorTable) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz);
+    let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() });
+    let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
+    let mut est = Estimates::with_capacity(n);
+    let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
+    let mut humidity = BlockHumidity::<f32>::new(calib, reading_age_s());
+    // The designs the sample path asked for, run here as it runs them (bits of their RH): every
+    // retune of the schedule must be one of them.
+    let mut design_rh = schedule[0].rh_pct;
+    let mut asked: Vec<u32> = vec![];
+    let fs = whole_hz(ts.fs_hz)?;
+    for (k, b) in schedule.iter().enumerate() {
+        if b.first_sample != k * BLOCK_LEN {
+            bail!("schedule block {k} starts at sample {}, expected {}", b.first_sample, k * BLOCK_LEN);
+        }
+        let pos = b.first_sample;
+        if pos + BLOCK_LEN > ts.t_s.len() {
+            break;
+        }
+        if b.flags & flags::RETUNED != 0 {
+            if !b.rh_read_pct.is_nan() && !asked.contains(&b.rh_pct.to_bits()) {
+                bail!(
+                    "block at sample {pos}: the firmware retuned to {} %, a humidity the trend run here from its readings never asked for",
+                    b.rh_pct
+                );
+            }
+            comp.switch_to(&design(b.rh_pct)?);
+            est.retunes += 1;
+        }
+        let mut block: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
+        comp.process_block(&mut block);
+        let rel_err = error_bar.block(comp.rh_pct(), &block);
+        if !b.rel_err.is_nan() && rel_err.to_bits() != b.rel_err.to_bits() {
+            bail!("block at sample {pos}: the firmware's expected error is {}, the host's {rel_err}", b.rel_err);
+        }
+        let dt = span_s(if k == 0 { 0 } else { BLOCK_LEN as u32 }, fs);
+        if let Some(now) = humidity.advance(b.rh_read_pct, dt)
+            && !b.rh_strip_pct.is_nan()
+        {
+            let here = humidity.strip_pct().expect("advanced");
+            if here.to_bits() != b.rh_strip_pct.to_bits() {
+                bail!(
+                    "block at sample {pos}: the firmware's strip humidity is {} %, the humidity path run here from its readings gives {here} %",
+                    b.rh_strip_pct
+                );
+            }
+            if asks_for_design(design_rh, now.rh_pct, comp.is_retuning()) {
+                design_rh = now.rh_pct;
+                asked.push(now.rh_pct.to_bits());
+            }
+        }
+        let d = (comp.delay_s() as f64 * ts.fs_hz).round() as usize;
+        for v in block {
+            est.base_est_m.push(v);
+            est.delay_samples.push(d);
+            est.burst_start.push(0);
+            est.rh_pct.push(b.rh_pct);
+            est.rh_strip_pct.push(b.rh_strip_pct);
+            est.rh_read_pct.push(b.rh_read_pct);
+            est.rel_err.push(rel_err);
+            est.flags.push(b.flags);
+        }
+    }
+    Ok(est)
+}
+
+/// The sample rate as the whole number of hertz the device runs at.
+fn whole_hz(fs_hz: f64) -> Result<u32> {
+    if fs_hz.fract() != 0.0 || !(1.0..=1e6).contains(&fs_hz) {
+        bail!("sample rate {fs_hz} Hz: the firmware's chain runs at a whole number of hertz");
+    }
+    Ok(fs_hz as u32)
+}
+
+/// The estimates of one run.
+pub struct Estimates {
+    pub base_est_m: Vec<f32>,
+    /// Per sample: the delay of the design that produced it [samples].
+    pub delay_samples: Vec<usize>,
+    /// Per sample: index of the first sample of its burst.
+    pub burst_start: Vec<usize>,
+    /// Per sample: the humidity of the block's active design, the strip's and the reading [%].
+    pub rh_pct: Vec<f32>,
+    pub rh_strip_pct: Vec<f32>,
+    pub rh_read_pct: Vec<f32>,
+    /// Per sample: the block's expected relative error, 1σ.
+    pub rel_err: Vec<f32>,
+    pub flags: Vec<u16>,
+    pub retunes: usize,
+}
+
+impl Estimates {
+    fn with_capacity(n: usize) -> Self {
+        Estimates {
+            base_est_m: Vec::with_capacity(n),
+            delay_samples: Vec::with_capacity(n),
+            burst_start: Vec::with_capacity(n),
+            rh_pct: Vec::with_capacity(n),
+            rh_strip_pct: Vec::with_capacity(n),
+            rh_read_pct: Vec::with_capacity(n),
+            rel_err: Vec::with_capacity(n),
+            flags: Vec::with_capacity(n),
+            retunes: 0,
+        }
+    }
+}
+
+/// The firmware's design chain (f32, default configuration at the recording's rate).
+fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
+    let cfg = DesignConfig::<f32> { fs_hz: fs_hz as f32, ..DesignConfig::default() };
+    move |rh| design_inverse::<f32>(calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
+}
+
+/// Runs the compensation over `ts`: a fresh compensator per burst, designed at the first
+/// block's RH (or `fixed_rh`), retuned when the RH moved more than the threshold and no
+/// retune is under way (`asks_for_design`), to the humidity read ahead along its trend.
+/// Each block's reading (its mean) goes through the calibration's humidity path as on the
+/// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
+/// between them.
+pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>, errors: &ErrorTable) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz);
+    let n = ts.t_s.len();
+    let mut est = Estimates::with_capacity(n);
+    let bar = crate::progress::bar(n as u64, "samples");
+    let fixed = match fixed_rh {
+        Some(r) => {
+            let (r, clamped) = calib.clamp_rh(r as f32);
+            if clamped {
+                eprintln!("warning: --fixed-rh clamped to {r} % (the calibration's range)");
+            }
+            Some(design(r)?)
+        }
+        None => None,
+    };
+    // Each block's reading is its own mean: half a block old.
+    let mut humidity = BlockHumidity::<f32>::new(calib, BLOCK_LEN as f64 / 2.0 / ts.fs_hz);
+    let fs = whole_hz(ts.fs_hz)?;
+    // Where the previous block started (the strip's model steps by whole blocks inside a burst,
+    // by the recording's clock between bursts).
+    let mut last: Option<(usize, f64)> = None;
+    for burst in ts.bursts() {
+        let (b0, b1) = (burst.start, burst.end);
+        let mut comp: Option<Compensator<f32>> = fixed.as_ref().map(Compensator::new);
+        let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() });
+        let mut pos = b0;
+        while pos < b1 {
+            let end = (pos + BLOCK_LEN).min(b1);
+            let rh_read = (ts.rh_pct[pos..end].iter().sum::<f64>() / (end - pos) as f64) as f32;
+            let dt_s = match last {
+                None => 0.0,
+                Some((p, _)) if p >= b0 => span_s((pos - p) as u32, fs),
+                Some((_, t)) => (ts.t_s[pos] - t) as f32,
+            };
+            last = Some((pos, ts.t_s[pos]));
+            let now = humidity.advance(rh_read, dt_s).ok_or_else(|| anyhow!("sample {pos}: no humidity reading (NaN rh_pct)"))?;
+            let rh_strip = humidity.strip_pct().expect("advanced");
+            let rh = now.rh_pct;
+            let mut fl = if now.clamped { flags::RH_CLAMPED } else { 0 };
+            match comp.as_mut() {
+                None => comp = Some(Compensator::new(&design(rh)?)),
+                Some(c) if fixed.is_none() && asks_for_design(c.rh_pct(), rh, c.is_retuning()) => {
+                    c.switch_to(&design(rh)?);
+                    est.retunes += 1;
+                    fl |= flags::RETUNED;
+                }
+                Some(_) => {}
+            }
+            let c = comp.as_mut().expect("compensator exists");
+            let mut block: Vec<f32> = ts.current_a[pos..end].iter().map(|&x| x as f32).collect();
+            let bad_before = c.bad_samples;
+            c.process_block(&mut block);
+            if c.bad_samples != bad_before {
+                fl |= flags::BAD_SAMPLE;
+            }
+            let rel_err = error_bar.block(c.rh_pct(), &block);
+            let d = (c.delay_s() as f64 * ts.fs_hz).round() as usize;
+            bar.inc(block.len() as u64);
+            for v in block {
+                est.base_est_m.push(v);
+                est.delay_samples.push(d);
+                est.burst_start.push(b0);
+                est.rh_pct.push(c.rh_pct());
+                est.rh_strip_pct.push(rh_strip);
+                est.rh_read_pct.push(rh_read);
+                est.rel_err.push(rel_err);
+                est.flags.push(fl);
+            }
+            pos = end;
+        }
+    }
+    bar.finish_and_clear();
+    Ok(est)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn schedule_reads_blocks_and_rejects_mixed_rows() {
+        let mut csv = String::from("# fs_hz=2000\nt_s,base_est_m,rh_pct,flags\n");
+        for i in 0..2 * BLOCK_LEN {
+            let (rh, fl) = if i < BLOCK_LEN { ("40.1", 0) } else { ("40.35", 8) };
+            csv += &format!("{},1e-6,{rh},{fl}\n", i as f64 / 2000.0);
+        }
+        let schedule = |csv: &str| schedule_of(&EstimateFile::parse("e.csv", csv).unwrap().0, "e.csv");
+        let s = schedule(&csv).unwrap();
+        assert_eq!(s.len(), 2);
+        assert_eq!(s[1].rh_pct, 40.35);
+        assert_eq!((s[1].first_sample, s[1].flags), (BLOCK_LEN, flags::RETUNED));
+        assert!(s[1].rh_read_pct.is_nan(), "no rh_read_pct column");
+        let bad = csv.replacen("40.1,0\n", "40.1,8\n", 1);
+        assert!(schedule(&bad).unwrap_err().to_string().contains("inside the block"));
+        assert!(schedule("t_s,base_est_m,flags\n0,1,0\n").unwrap_err().to_string().contains("`rh_pct`"));
+    }
+}
