@@ -16,11 +16,13 @@ mod flash;
 mod humidity_loop;
 mod install;
 mod qemu;
+mod qemu_scenarios;
 mod recording;
 mod replay;
 mod size;
 mod stream;
 mod test_all;
+mod tool_checks;
 
 use std::process::ExitCode;
 

@@ -1,0 +1,71 @@
+//! The steps of `cargo xtask test` that hold the tool to its figures on recordings: `ipmc
+//! prove` on the project's own concealed effects and `ipmc vs-exact` on the independent
+//! simulator's clean recordings.
+
+use crate::{Result, ipmc, repo_root};
+
+/// A count in `ipmc prove --json`'s summary object.
+fn json_count(summary: &serde_json::Value, key: &str) -> Result<u64> {
+    summary.get(key).and_then(serde_json::Value::as_u64).ok_or_else(|| format!("no count `{key}` in {summary}"))
+}
+
+/// Largest ratio of the f32 chain's in-band error to the exact band-limited inverse's allowed
+/// at any humidity level (issue 13.1).
+const EXACT_RATIO_BOUND: &str = "1.1";
+
+/// The f32 chain against the exact band-limited inverse of the nominal model, level by level,
+/// on the independent simulator's clean recordings beside the repository (`../shared/external`;
+/// skipped without them). The tool's own test does the same on a recording it makes.
+pub fn vs_exact_external() -> Result<()> {
+    let dir = repo_root().join("../shared/external");
+    let calib = dir.join("nominal.toml");
+    if !calib.exists() {
+        println!("no {}: skipped", calib.display());
+        return Ok(());
+    }
+    for case in ["case09.csv", "case25.csv"] {
+        let rec = dir.join(case);
+        let out = ipmc(&[
+            "vs-exact".as_ref(),
+            rec.as_os_str(),
+            "--calib".as_ref(),
+            calib.as_os_str(),
+            "--max-ratio".as_ref(),
+            EXACT_RATIO_BOUND.as_ref(),
+        ])?;
+        print!("{out}");
+    }
+    Ok(())
+}
+
+/// `ipmc prove` with one case per effect and three clean controls (the README's command runs
+/// more): no clean control may be diagnosed with an effect, and every correct diagnosis must
+/// lower the held-out error. The share named correctly is printed (its target, 90 %, is not
+/// yet met: see the README).
+pub fn diagnose_prove() -> Result<()> {
+    // Both formats a lab brings: stepped-sine frequency responses and multisine time series.
+    for format in ["fr", "ts"] {
+        let out = ipmc(&[
+            "prove".as_ref(),
+            "--per-effect".as_ref(),
+            "1".as_ref(),
+            "--clean".as_ref(),
+            "3".as_ref(),
+            "--format".as_ref(),
+            format.as_ref(),
+            "--json".as_ref(),
+        ])?;
+        print!("{out}");
+        let line = out.lines().last().ok_or("ipmc prove printed nothing")?;
+        let summary: serde_json::Value = serde_json::from_str(line).map_err(|e| format!("ipmc prove --json: {e}: {line}"))?;
+        let (fp, named, reduced) =
+            (json_count(&summary, "false_positives")?, json_count(&summary, "named_correctly")?, json_count(&summary, "heldout_reduced")?);
+        if fp > 0 {
+            return Err(format!("{format}: {fp} clean control(s) diagnosed with an effect"));
+        }
+        if reduced != named {
+            return Err(format!("{format}: held-out error reduced in only {reduced} of {named} correct diagnoses"));
+        }
+    }
+    Ok(())
+}
