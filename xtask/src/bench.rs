@@ -3,6 +3,7 @@
 //! core clock, SYST_CVR read around each region, ticks → instructions calibrated with loops of
 //! `nop`s of known length in the same run).
 
+use anyhow::{anyhow, bail};
 use std::{
     collections::BTreeMap,
     process::{Command, Stdio},
@@ -42,10 +43,10 @@ pub fn measure() -> Result<BTreeMap<String, f64>> {
         .arg(&elf)
         .stdin(Stdio::null());
     let what = describe(&cmd);
-    let out = cmd.output().map_err(|e| format!("cannot start {what}: {e}"))?;
+    let out = cmd.output().map_err(|e| anyhow!("cannot start {what}: {e}"))?;
     let text = String::from_utf8_lossy(&out.stdout);
     if !out.status.success() || !text.lines().any(|l| l.trim() == "done") {
-        return Err(format!("{what} failed ({}):\n{text}{}", out.status, String::from_utf8_lossy(&out.stderr)));
+        bail!("{what} failed ({}):\n{text}{}", out.status, String::from_utf8_lossy(&out.stderr));
     }
     let mut m = BTreeMap::new();
     for line in text.lines() {
@@ -59,16 +60,9 @@ pub fn measure() -> Result<BTreeMap<String, f64>> {
     Ok(m)
 }
 
-pub fn command(args: &[String]) -> Result<()> {
-    let mut json = false;
-    for a in args {
-        match a.as_str() {
-            "--json" => json = true,
-            other => return Err(format!("bench: unknown argument `{other}` (usage: cargo xtask bench [--json])")),
-        }
-    }
+pub fn command(json: bool) -> Result<()> {
     let m = measure()?;
-    let get = |k: &str| m.get(k).copied().ok_or_else(|| format!("the benchmark printed no `{k}`"));
+    let get = |k: &str| m.get(k).copied().ok_or_else(|| anyhow!("the benchmark printed no `{k}`"));
     let ipt = get("instructions_per_tick")?;
     let ips = get("instructions_per_sample")?;
     let sections = get("sections")?;

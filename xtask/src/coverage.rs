@@ -10,6 +10,7 @@
 
 use crate::Result;
 use crate::exec::{ipmc, repo_root};
+use anyhow::{Context, anyhow, bail};
 
 /// The clean (no concealed effect) time-series cases.
 const CASES: [&str; 2] = ["case09", "case25"];
@@ -28,10 +29,10 @@ const ONE_SIGMA: f64 = 0.6827;
 pub fn test_step() -> Result<()> {
     let external = repo_root().join("../shared/external");
     if !external.join("nominal.toml").is_file() {
-        return Err(format!("{}: the independent recordings are not there", external.display()));
+        bail!("{}: the independent recordings are not there", external.display());
     }
     let work = repo_root().join("target/coverage");
-    std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(&work)?;
     let calib = with_identified_uncertainty(&external, &work)?;
     let (mut covered, mut levels) = (0u64, 0u64);
     for case in CASES {
@@ -66,9 +67,9 @@ pub fn test_step() -> Result<()> {
         };
         print!("{case}:\n{}", score(false)?);
         let out = score(true)?;
-        let line = out.lines().last().ok_or("ipmc score printed nothing")?;
-        let j: serde_json::Value = serde_json::from_str(line).map_err(|e| format!("ipmc score --json: {e}: {line}"))?;
-        let count = |k: &str| j.get(k).and_then(serde_json::Value::as_u64).ok_or_else(|| format!("no `{k}` in {line}"));
+        let line = out.lines().last().context("ipmc score printed nothing")?;
+        let j: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc score --json: {e}: {line}"))?;
+        let count = |k: &str| j.get(k).and_then(serde_json::Value::as_u64).ok_or_else(|| anyhow!("no `{k}` in {line}"));
         covered += count("levels_covered")?;
         levels += count("levels")?;
     }
@@ -82,12 +83,12 @@ pub fn test_step() -> Result<()> {
         100.0 * band
     );
     if (share - ONE_SIGMA).abs() > band {
-        return Err(format!(
+        bail!(
             "the stated 1σ contains the actual error at {:.1} % of the levels, outside {:.1} ± {:.1} %",
             100.0 * share,
             100.0 * ONE_SIGMA,
             100.0 * band
-        ));
+        );
     }
     Ok(())
 }
@@ -108,13 +109,13 @@ fn with_identified_uncertainty(external: &std::path::Path, work: &std::path::Pat
         identified.as_os_str(),
     ])?;
     let read = |p: &std::path::Path| -> Result<ipmc_core::Calibration> {
-        let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        ipmc_core::calibration_file::parse(&text).map_err(|e| format!("{}: {e}", p.display()))
+        let text = std::fs::read_to_string(p).map_err(|e| anyhow!("{}: {e}", p.display()))?;
+        ipmc_core::calibration_file::parse(&text).map_err(|e| anyhow!("{}: {e}", p.display()))
     };
     let mut calib = read(&nominal)?;
     calib.uncertainty = read(&identified)?.uncertainty;
     println!("[uncertainty] identified on {IDENTIFIED}: {:?}", calib.uncertainty);
     let out = work.join("nominal-with-identified-uncertainty.toml");
-    std::fs::write(&out, ipmc_core::calibration_file::to_text(&calib)).map_err(|e| format!("{}: {e}", out.display()))?;
+    std::fs::write(&out, ipmc_core::calibration_file::to_text(&calib)).map_err(|e| anyhow!("{}: {e}", out.display()))?;
     Ok(out)
 }

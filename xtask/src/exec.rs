@@ -1,6 +1,7 @@
 //! Leaf helpers every task uses: where the repository is, and running commands (cargo, the
 //! host tool) with errors that name what failed. Nothing here imports another xtask module.
 
+use anyhow::{anyhow, bail};
 use std::{path::PathBuf, process::Command};
 
 use crate::Result;
@@ -17,8 +18,8 @@ pub fn cargo() -> Command {
 
 /// Runs a command to completion; an error names it if it fails or cannot start.
 pub fn run(cmd: &mut Command) -> Result<()> {
-    let status = cmd.status().map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
-    if status.success() { Ok(()) } else { Err(format!("{} failed ({status})", describe(cmd))) }
+    let status = cmd.status().map_err(|e| anyhow!("cannot start {:?}: {e}", cmd.get_program()))?;
+    if status.success() { Ok(()) } else { Err(anyhow!("{} failed ({status})", describe(cmd))) }
 }
 
 /// The command line, for messages.
@@ -35,17 +36,17 @@ pub fn describe(cmd: &Command) -> String {
 /// `cargo ipmc score REC EST --json`: the estimate's in-band relative rms error (a fraction).
 pub fn score_inband(rec: &std::path::Path, est: &std::path::Path) -> Result<f64> {
     let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str(), "--json".as_ref()])?;
-    let v: serde_json::Value = serde_json::from_str(out.trim()).map_err(|e| format!("ipmc score --json: {e}: {out}"))?;
-    v["inband"].as_f64().ok_or_else(|| format!("ipmc score --json: no `inband` in {out}"))
+    let v: serde_json::Value = serde_json::from_str(out.trim()).map_err(|e| anyhow!("ipmc score --json: {e}: {out}"))?;
+    v["inband"].as_f64().ok_or_else(|| anyhow!("ipmc score --json: no `inband` in {out}"))
 }
 
 pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
     let mut cmd = cargo();
     cmd.current_dir(repo_root()).arg("ipmc").args(args);
     let what = describe(&cmd);
-    let o = cmd.output().map_err(|e| format!("cannot run {what}: {e}"))?;
+    let o = cmd.output().map_err(|e| anyhow!("cannot run {what}: {e}"))?;
     if !o.status.success() {
-        return Err(format!("{what} failed:\n{}", String::from_utf8_lossy(&o.stderr)));
+        bail!("{what} failed:\n{}", String::from_utf8_lossy(&o.stderr));
     }
     Ok(String::from_utf8_lossy(&o.stdout).into_owned())
 }

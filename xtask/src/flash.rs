@@ -5,6 +5,8 @@
 //! `[presets.NAME]` tables of command-line flags), picks the preset named by
 //! `$PROBE_RS_CONFIG_PRESET` (default `default`) and passes it to `probe-rs run` as flags.
 
+use anyhow::{anyhow, bail};
+use std::path::Path;
 use std::process::Command;
 
 use crate::{Result, repo_root};
@@ -27,23 +29,22 @@ pub fn preset_flags(toml: &str, preset: &str) -> Result<Vec<String>> {
         if !in_preset || line.is_empty() {
             continue;
         }
-        let (key, value) = line.split_once('=').ok_or_else(|| format!("{CONFIG}:{}: expected key = value", i + 1))?;
+        let (key, value) = line.split_once('=').ok_or_else(|| anyhow!("{CONFIG}:{}: expected key = value", i + 1))?;
         let (key, value) = (key.trim(), value.trim());
         match value {
             "true" => flags.push(format!("--{key}")),
             "false" => {}
             v if v.starts_with('"') && v.ends_with('"') && v.len() >= 2 => flags.push(format!("--{key}={}", &v[1..v.len() - 1])),
             v if v.parse::<f64>().is_ok() => flags.push(format!("--{key}={v}")),
-            v => return Err(format!("{CONFIG}:{}: unsupported value `{v}`", i + 1)),
+            v => bail!("{CONFIG}:{}: unsupported value `{v}`", i + 1),
         }
     }
-    if found { Ok(flags) } else { Err(format!("{CONFIG} has no preset `{preset}`")) }
+    if found { Ok(flags) } else { Err(anyhow!("{CONFIG} has no preset `{preset}`")) }
 }
 
-pub fn command(args: &[String]) -> Result<()> {
-    let (elf, rest) = args.split_first().ok_or("flash: give the ELF file (cargo passes it as runner)")?;
+pub fn command(elf: &Path, rest: &[String]) -> Result<()> {
     let path = repo_root().join(CONFIG);
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(&path).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let preset = std::env::var("PROBE_RS_CONFIG_PRESET").unwrap_or_else(|_| "default".into());
     let flags = preset_flags(&text, &preset)?;
     let mut cmd = Command::new("probe-rs");
@@ -51,10 +52,10 @@ pub fn command(args: &[String]) -> Result<()> {
     println!("==> {}", crate::describe(&cmd));
     match cmd.status() {
         Ok(s) if s.success() => Ok(()),
-        Ok(s) => Err(format!("probe-rs exited with {s}")),
-        Err(_) => Err("probe-rs is not installed: `cargo install probe-rs-tools --locked` \
-                       (see docs/firmware.md, Flashing); CI does not need it"
-            .into()),
+        Ok(s) => Err(anyhow!("probe-rs exited with {s}")),
+        Err(_) => Err(anyhow!(
+            "probe-rs is not installed: `cargo install probe-rs-tools --locked` (see docs/firmware.md, Flashing); CI does not need it"
+        )),
     }
 }
 

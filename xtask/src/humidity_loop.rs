@@ -4,6 +4,7 @@
 //! it was and as diagnose wrote it, beside the same series without the bias and the lag; and the
 //! same series through the firmware under QEMU built with the written calibration.
 
+use anyhow::{anyhow, bail};
 use std::{ffi::OsStr, fs, path::Path};
 
 use crate::{Result, ipmc, qemu, repo_root};
@@ -38,7 +39,7 @@ fn compensate_and_score(rec: &Path, calib: Option<&Path>, work: &Path, name: &st
 
 /// Runs the loop in `work` (created): simulate, diagnose, compensate three times.
 pub fn run_loop(work: &Path) -> Result<Loop> {
-    fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
+    fs::create_dir_all(work).map_err(|e| anyhow!("{}: {e}", work.display()))?;
     let root = repo_root();
     let fr = work.join("FR-bias-lag.csv");
     let ts = work.join("TS-bias-lag.csv");
@@ -50,13 +51,13 @@ pub fn run_loop(work: &Path) -> Result<Loop> {
     session(&root.join(FR_SESSION), &fr)?;
     session(&root.join(TS_SESSION), &ts)?;
     // The clean series: the same session file (seed, levels, noise) without the two keys.
-    let text = fs::read_to_string(root.join(TS_SESSION)).map_err(|e| format!("{TS_SESSION}: {e}"))?;
+    let text = fs::read_to_string(root.join(TS_SESSION)).map_err(|e| anyhow!("{TS_SESSION}: {e}"))?;
     let kept: Vec<&str> = text.lines().filter(|l| !PATH_KEYS.iter().any(|k| l.trim_start().starts_with(k))).collect();
     if kept.len() + PATH_KEYS.len() != text.lines().count() {
-        return Err(format!("{TS_SESSION} should set each of {PATH_KEYS:?} once"));
+        bail!("{TS_SESSION} should set each of {PATH_KEYS:?} once");
     }
     let clean_session = work.join("ts-clean.toml");
-    fs::write(&clean_session, kept.join("\n") + "\n").map_err(|e| format!("{}: {e}", clean_session.display()))?;
+    fs::write(&clean_session, kept.join("\n") + "\n").map_err(|e| anyhow!("{}: {e}", clean_session.display()))?;
     session(&clean_session, &ts_clean)?;
 
     let _ = fs::remove_file(&calib);
@@ -73,7 +74,7 @@ pub fn run_loop(work: &Path) -> Result<Loop> {
     let verdict = said.lines().find_map(|l| l.strip_prefix("verdict: ")).unwrap_or("?").to_string();
     let written = said.lines().find(|l| l.starts_with("calibration -> ")).unwrap_or_default().to_string();
     if !calib.exists() {
-        return Err(format!("diagnose named `{verdict}` and wrote no calibration"));
+        bail!("diagnose named `{verdict}` and wrote no calibration");
     }
     let firmware_est = work.join("EST-firmware.csv");
     let replayed = qemu::replay_recording(&ts, &firmware_est, Some(&calib), &work.join("qemu"))?;
@@ -106,10 +107,7 @@ fn print(l: &Loop) {
     );
 }
 
-pub fn command(args: &[String]) -> Result<()> {
-    if !args.is_empty() {
-        return Err(format!("humidity-loop takes no arguments, got {args:?}"));
-    }
+pub fn command() -> Result<()> {
     let l = run_loop(&repo_root().join("target/humidity-loop"))?;
     print(&l);
     Ok(())
@@ -121,18 +119,18 @@ pub fn test_step() -> Result<()> {
     let l = run_loop(&repo_root().join("target/qemu-test/humidity-loop"))?;
     print(&l);
     if !matches!(l.verdict.as_str(), "hydration_lag" | "humidity_sensor_error") {
-        return Err(format!("verdict `{}`, expected a part of the humidity path", l.verdict));
+        bail!("verdict `{}`, expected a part of the humidity path", l.verdict);
     }
     if !l.written.contains("offset") {
-        return Err(format!("no [humidity] table reported written: {}", l.written));
+        bail!("no [humidity] table reported written: {}", l.written);
     }
     for (who, after) in [("the host", l.after), ("the firmware under QEMU", l.after_firmware)] {
         if !(after <= TARGET_RATIO * l.clean) {
-            return Err(format!(
+            bail!(
                 "{who} with the written calibration: {:.3} % rms, more than {TARGET_RATIO} × the clean series' {:.3} %",
                 after * 100.0,
                 l.clean * 100.0
-            ));
+            );
         }
     }
     Ok(())

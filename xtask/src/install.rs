@@ -1,6 +1,7 @@
 //! Installs what the commands need on a bare Debian machine (as root), or says exactly what
 //! to install.
 
+use anyhow::{anyhow, bail};
 use std::{fs, path::Path, process::Command};
 
 use crate::{Result, cargo, repo_root, run};
@@ -23,7 +24,7 @@ pub fn ensure_firmware_tools() -> Result<()> {
 
 /// Whether the firmware's Rust target is installed for the toolchain that builds here.
 pub fn firmware_target_installed() -> Result<bool> {
-    let out = Command::new("rustc").current_dir(repo_root()).args(["--print", "sysroot"]).output().map_err(|e| format!("rustc: {e}"))?;
+    let out = Command::new("rustc").current_dir(repo_root()).args(["--print", "sysroot"]).output().map_err(|e| anyhow!("rustc: {e}"))?;
     let sysroot = String::from_utf8_lossy(&out.stdout).trim().to_string();
     Ok(Path::new(&sysroot).join("lib/rustlib").join(FIRMWARE_TARGET).join("lib").is_dir())
 }
@@ -38,7 +39,7 @@ pub fn ensure_cargo_tool(bin: &str, krate: &str) -> Result<()> {
     println!("==> installing {krate} (cargo install --locked {krate})");
     // Outside the repository, so its .cargo/config.toml (firmware target) does not apply.
     run(cargo().current_dir(std::env::temp_dir()).args(["install", "--locked", krate]))?;
-    if on_path(bin) { Ok(()) } else { Err(format!("{bin} installed but not on PATH (add ~/.cargo/bin to PATH)")) }
+    if on_path(bin) { Ok(()) } else { Err(anyhow!("{bin} installed but not on PATH (add ~/.cargo/bin to PATH)")) }
 }
 
 fn qemu_has_machine() -> bool {
@@ -86,13 +87,13 @@ pub fn ensure_apt_package(package: &str, present: impl Fn() -> bool) -> Result<(
         return Ok(());
     }
     if !is_root() || !on_path("apt-get") {
-        return Err(format!("install the Debian package `{package}` (apt-get install {package})"));
+        bail!("install the Debian package `{package}` (apt-get install {package})");
     }
     println!("==> installing {package}");
     let apt = |args: &[&str]| run(Command::new("apt-get").args(args).env("DEBIAN_FRONTEND", "noninteractive"));
     apt(&["update", "-q"])?;
     apt(&["install", "-y", "-q", package])?;
-    if present() { Ok(()) } else { Err(format!("{package} installed but still not found")) }
+    if present() { Ok(()) } else { Err(anyhow!("{package} installed but still not found")) }
 }
 
 /// qemu-system-arm with the b-l475e-iot01a machine (QEMU ≥ 9).
@@ -107,17 +108,17 @@ pub fn ensure_qemu() -> Result<()> {
         return Ok(());
     }
     if !is_root() || !on_path("apt-get") {
-        return Err(QEMU_ADVICE.into());
+        bail!(QEMU_ADVICE);
     }
     let codename = os_codename().unwrap_or_default();
     let apt = |args: &[&str]| run(Command::new("apt-get").args(args).env("DEBIAN_FRONTEND", "noninteractive"));
     if codename == "bookworm" {
         if !Path::new(BACKPORTS_SOURCES).exists() {
-            let sources = fs::read_to_string(DEBIAN_SOURCES).map_err(|e| format!("{DEBIAN_SOURCES}: {e}\n{QEMU_ADVICE}"))?;
+            let sources = fs::read_to_string(DEBIAN_SOURCES).map_err(|e| anyhow!("{DEBIAN_SOURCES}: {e}\n{QEMU_ADVICE}"))?;
             let backports =
-                backports_stanzas(&sources, "bookworm").ok_or_else(|| format!("no bookworm suite in {DEBIAN_SOURCES}\n{QEMU_ADVICE}"))?;
+                backports_stanzas(&sources, "bookworm").ok_or_else(|| anyhow!("no bookworm suite in {DEBIAN_SOURCES}\n{QEMU_ADVICE}"))?;
             println!("==> adding bookworm-backports to apt ({BACKPORTS_SOURCES})");
-            fs::write(BACKPORTS_SOURCES, backports).map_err(|e| format!("{BACKPORTS_SOURCES}: {e}"))?;
+            fs::write(BACKPORTS_SOURCES, backports).map_err(|e| anyhow!("{BACKPORTS_SOURCES}: {e}"))?;
         }
         println!("==> installing qemu-system-arm from bookworm-backports");
         apt(&["update", "-q"])?;
@@ -127,7 +128,7 @@ pub fn ensure_qemu() -> Result<()> {
         apt(&["update", "-q"])?;
         apt(&["install", "-y", "-q", "qemu-system-arm"])?;
     }
-    if qemu_has_machine() { Ok(()) } else { Err(format!("installed qemu-system-arm lacks {QEMU_MACHINE}.\n{QEMU_ADVICE}")) }
+    if qemu_has_machine() { Ok(()) } else { Err(anyhow!("installed qemu-system-arm lacks {QEMU_MACHINE}.\n{QEMU_ADVICE}")) }
 }
 
 #[cfg(test)]

@@ -1,12 +1,9 @@
-//! `cargo xtask <command>`: host-side commands around the firmware.
+//! `cargo xtask <command>`: host-side commands around the firmware (`cargo xtask help`).
 //!
-//! - `qemu [--input REC.csv] [--out EST.csv]`  replay a recording through the QEMU firmware
-//! - `bench [--json]`                         instruction counts of the compute path under QEMU -icount
-//! - `humidity-loop`                          diagnose → --write-calib → compensate on a biased, lagging session
-//! - `build`                                   build every firmware variant (release)
-//! - `size`                                    flash/RAM of the release builds vs the budget
-//! - `test [STEP…]`                             every test of the repository (CI runs this), or the steps named
-//! - `flash ELF`                               cargo runner: `probe-rs run` with probe-rs.toml
+//! Leaves: `exec` (cargo, run, ipmc), `install` (what a bare machine lacks), `firmware` (the
+//! variants and their builds), `replay`/`stream`/`recording` (the formats). Above them the
+//! commands (`qemu`, `bench`, `humidity_loop`, `size`, `flash`) and the test steps
+//! (`qemu_scenarios`, `tool_checks`, `coverage`), listed by `test_all`.
 
 mod bench;
 mod coverage;
@@ -24,38 +21,70 @@ mod stream;
 mod test_all;
 mod tool_checks;
 
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 pub use exec::{cargo, describe, ipmc, repo_root, run};
 
-pub type Result<T> = std::result::Result<T, String>;
+pub use anyhow::Result;
 
-const USAGE: &str = "usage: cargo xtask <qemu [--input REC.csv] [--out EST.csv] | bench [--json] | humidity-loop | build | size | test [STEP…] | flash ELF>";
+#[derive(Parser)]
+#[command(name = "cargo xtask", bin_name = "cargo xtask", about = "Host-side commands around the IPMC firmware")]
+struct Cli {
+    #[command(subcommand)]
+    command: Task,
+}
+
+#[derive(Subcommand)]
+enum Task {
+    /// Replay a recording through the QEMU build of the firmware; its estimates as EST.csv.
+    Qemu {
+        /// Time-series recording (default: the bundled one under data/).
+        #[arg(long)]
+        input: Option<PathBuf>,
+        /// Output estimates (default: target/qemu-run/EST.csv).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Build the firmware with this calibration (TOML) instead of its default.
+        #[arg(long)]
+        calib: Option<PathBuf>,
+    },
+    /// Instruction counts of the compute path under QEMU -icount.
+    Bench {
+        #[arg(long)]
+        json: bool,
+    },
+    /// diagnose → --write-calib → compensate on a biased, lagging session.
+    HumidityLoop,
+    /// Build every firmware variant (release).
+    Build,
+    /// Flash and RAM of the release builds against the budget.
+    Size,
+    /// Every test of the repository (CI runs this), or the steps whose names contain a STEP.
+    Test { steps: Vec<String> },
+    /// Cargo runner: `probe-rs run` with probe-rs.toml's preset.
+    Flash {
+        elf: PathBuf,
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        rest: Vec<String>,
+    },
+}
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let Some((command, rest)) = args.split_first() else {
-        eprintln!("{USAGE}");
-        return ExitCode::from(2);
-    };
-    let result = match command.as_str() {
-        "qemu" => qemu::command(rest),
-        "bench" => bench::command(rest),
-        "humidity-loop" => humidity_loop::command(rest),
-        "build" => firmware::build_all().map(|_| ()),
-        "size" => size::command(),
-        "test" => test_all::command(rest),
-        "flash" => flash::command(rest),
-        "help" | "--help" | "-h" => {
-            println!("{USAGE}");
-            Ok(())
-        }
-        other => Err(format!("unknown command `{other}`\n{USAGE}")),
+    let result = match Cli::parse().command {
+        Task::Qemu { input, out, calib } => qemu::command(input, out, calib),
+        Task::Bench { json } => bench::command(json),
+        Task::HumidityLoop => humidity_loop::command(),
+        Task::Build => firmware::build_all().map(|_| ()),
+        Task::Size => size::command(),
+        Task::Test { steps } => test_all::command(&steps),
+        Task::Flash { elf, rest } => flash::command(&elf, &rest),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }
     }

@@ -1,6 +1,7 @@
 //! `cargo xtask qemu`: replays a recording through the QEMU build of the firmware and writes
 //! its estimates as EST.csv (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`).
 
+use anyhow::{Context, anyhow, bail};
 use std::{
     fs,
     path::{Path, PathBuf},
@@ -49,9 +50,9 @@ pub fn run_replay(elf: &Path, replay: &Replay, work: &Path) -> Result<Replayed> 
 pub fn run_replay_to(elf: &Path, replay: &Replay, work: &Path, serial: &str) -> Result<Replayed> {
     install::ensure_qemu()?;
     install::ensure_cargo_tool("defmt-print", "defmt-print")?;
-    fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
+    fs::create_dir_all(work).map_err(|e| anyhow!("{}: {e}", work.display()))?;
     fs::write(work.join(replay::FILE_NAME.to_str().expect("ASCII name")), replay.encode(FIRMWARE_FS_HZ))
-        .map_err(|e| format!("writing the replay file: {e}"))?;
+        .map_err(|e| anyhow!("writing the replay file: {e}"))?;
     let stream_path = work.join("stream.bin");
     let defmt_path = work.join("defmt.bin");
     let _ = fs::remove_file(&stream_path);
@@ -67,34 +68,34 @@ pub fn run_replay_to(elf: &Path, replay: &Replay, work: &Path, serial: &str) -> 
         .arg(if serial.is_empty() { format!("file:{}", stream_path.display()) } else { serial.to_string() })
         .arg("-kernel")
         .arg(elf)
-        .stdout(fs::File::create(&defmt_path).map_err(|e| format!("{}: {e}", defmt_path.display()))?)
+        .stdout(fs::File::create(&defmt_path).map_err(|e| anyhow!("{}: {e}", defmt_path.display()))?)
         .stdin(Stdio::null());
     let what = describe(&cmd);
-    let mut child = cmd.spawn().map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let mut child = cmd.spawn().map_err(|e| anyhow!("cannot start qemu-system-arm: {e}"))?;
     // Real-time pacing plus start-up and the board's wait at each gap, with a wide margin for a
     // loaded machine.
     let limit = Duration::from_secs(60 + 4 * replay.samples.len() as u64 / FIRMWARE_FS_HZ as u64 + 4 * replay.gaps.len() as u64);
     let started = Instant::now();
     let status = loop {
-        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+        if let Some(s) = child.try_wait()? {
             break s;
         }
         if started.elapsed() > limit {
             let _ = child.kill();
             let _ = child.wait();
-            return Err(format!("QEMU did not exit within {limit:?}: {what}"));
+            bail!("QEMU did not exit within {limit:?}: {what}");
         }
         std::thread::sleep(Duration::from_millis(20));
     };
 
     let log = decode_defmt(elf, &defmt_path)?;
     if !status.success() {
-        return Err(format!("firmware under QEMU exited with {status}; its log:\n{log}"));
+        bail!("firmware under QEMU exited with {status}; its log:\n{log}");
     }
     if !serial.is_empty() {
         return Ok(Replayed { blocks: Vec::new(), log });
     }
-    let bytes = fs::read(&stream_path).map_err(|e| format!("{}: {e}", stream_path.display()))?;
+    let bytes = fs::read(&stream_path).map_err(|e| anyhow!("{}: {e}", stream_path.display()))?;
     let blocks = stream::decode_all(&bytes)?;
     Ok(Replayed { blocks, log })
 }
@@ -103,28 +104,16 @@ fn decode_defmt(elf: &Path, raw: &Path) -> Result<String> {
     let out = Command::new("defmt-print")
         .arg("-e")
         .arg(elf)
-        .stdin(fs::File::open(raw).map_err(|e| e.to_string())?)
+        .stdin(fs::File::open(raw)?)
         .output()
-        .map_err(|e| format!("cannot run defmt-print: {e}"))?;
+        .map_err(|e| anyhow!("cannot run defmt-print: {e}"))?;
     Ok(String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
 }
 
-pub fn command(args: &[String]) -> Result<()> {
-    let mut input = None;
-    let mut out = None;
-    let mut calib = None;
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--input" => input = Some(PathBuf::from(it.next().ok_or("--input needs a file")?)),
-            "--out" => out = Some(PathBuf::from(it.next().ok_or("--out needs a file")?)),
-            "--calib" => calib = Some(PathBuf::from(it.next().ok_or("--calib needs a calibration file")?)),
-            other => return Err(format!("qemu: unknown argument `{other}`")),
-        }
-    }
+pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathBuf>) -> Result<()> {
     let input = match input {
         Some(p) => p,
-        None => recording::bundled().ok_or(
+        None => recording::bundled().context(
             "no --input given and no bundled time-series recording under data/ yet; \
              run `cargo xtask qemu --input REC.csv`",
         )?,
@@ -149,7 +138,7 @@ pub fn command(args: &[String]) -> Result<()> {
 pub fn replay_recording(input: &Path, out: &Path, calib: Option<&Path>, work: &Path) -> Result<Replayed> {
     let rec = recording::time_series(input)?;
     if (rec.fs_hz - FIRMWARE_FS_HZ as f64).abs() > 1e-6 * FIRMWARE_FS_HZ as f64 {
-        return Err(format!("{} is sampled at {} Hz; the firmware runs at {FIRMWARE_FS_HZ} Hz", input.display(), rec.fs_hz));
+        bail!("{} is sampled at {} Hz; the firmware runs at {FIRMWARE_FS_HZ} Hz", input.display(), rec.fs_hz);
     }
     let replay = Replay::of_recording(&rec);
     let elf = match calib {
@@ -174,7 +163,7 @@ fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<String> {
     let text = ipmc(args)?;
     text.lines()
         .find_map(|l| l.split_once("skipped): ").map(|(_, r)| r.to_string()))
-        .ok_or_else(|| format!("no figure in the output of cargo ipmc {args:?}: {text}"))
+        .ok_or_else(|| anyhow!("no figure in the output of cargo ipmc {args:?}: {text}"))
 }
 
 /// If the input recording carries the true `base_m`, prints the firmware's error against it
@@ -230,7 +219,7 @@ fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
 /// The firmware's estimates as EST.csv (the format `ipmc compensate` writes, one writer).
 pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay) -> Result<()> {
     if let Some(dir) = path.parent() {
-        fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+        fs::create_dir_all(dir)?;
     }
     let mut est = ipmc_recording::Estimates {
         rh_pct: Some(vec![]),
@@ -253,6 +242,6 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
             est.flags.as_mut().expect("set above").push(b.flags);
         }
     }
-    let text = est.to_csv().map_err(|e| e.to_string())?;
-    ipmc_recording::write_atomically(path, text.as_bytes()).map_err(|e| e.to_string())
+    let text = est.to_csv()?;
+    Ok(ipmc_recording::write_atomically(path, text.as_bytes())?)
 }

@@ -1,6 +1,7 @@
 //! The firmware's QEMU scenarios: replays through the QEMU build (synthetic, faulty, the bundled
 //! recording), each checking what the firmware must do, and the host ↔ QEMU equivalence.
 
+use anyhow::{Context, anyhow, bail};
 use std::f32::consts::PI;
 
 use crate::{
@@ -31,16 +32,16 @@ fn replay(name: &str, samples: &[Sample]) -> Result<Replayed> {
 fn check_count(r: &Replayed, samples: usize) -> Result<()> {
     let want = expected_estimates(samples);
     if r.estimates() != want {
-        return Err(format!("{} estimates for {samples} samples, expected {want}\n{}", r.estimates(), r.log));
+        bail!("{} estimates for {samples} samples, expected {want}\n{}", r.estimates(), r.log);
     }
     let mut next = 0u32;
     for b in &r.blocks {
         if b.first_sample != next {
-            return Err(format!("block starts at sample {}, expected {next}", b.first_sample));
+            bail!("block starts at sample {}, expected {next}", b.first_sample);
         }
         next += b.base_est_m.len() as u32;
         if b.base_est_m.iter().any(|v| !v.is_finite()) {
-            return Err(format!("non-finite estimate in the block at sample {}", b.first_sample));
+            bail!("non-finite estimate in the block at sample {}", b.first_sample);
         }
     }
     Ok(())
@@ -52,7 +53,7 @@ pub fn qemu_replay_counts_and_retunes() -> Result<()> {
     let r = replay("step", &samples)?;
     check_count(&r, samples.len())?;
     if r.blocks_with(flags::RETUNED) == 0 {
-        return Err(format!("RH stepped 45 → 60 % but no block is flagged RETUNED\n{}", r.log));
+        bail!("RH stepped 45 → 60 % but no block is flagged RETUNED\n{}", r.log);
     }
     println!("{} estimates, {} retune(s)", r.estimates(), r.blocks_with(flags::RETUNED));
     Ok(())
@@ -68,7 +69,7 @@ pub fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
     use host_tests::sine_drive::{FS, SETTLE, Source, U, design, glitch_bound, steady_error_on, truth};
     let (rh_a, rh_b) = (55.0, 55.5);
     if FS != FIRMWARE_FS_HZ as f64 {
-        return Err(format!("the scenario runs at {FS} Hz, the firmware at {FIRMWARE_FS_HZ} Hz"));
+        bail!("the scenario runs at {FS} Hz, the firmware at {FIRMWARE_FS_HZ} Hz");
     }
     let step = SETTLE;
     let n = step + 4 * FIRMWARE_FS_HZ as usize; // the poll (≤ 1 s), 0.5 s warm-up, 0.5 s fade, 2 s after
@@ -78,7 +79,7 @@ pub fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
     let r = replay("humidity-step", &samples)?;
     check_count(&r, samples.len())?;
     if !r.blocks.iter().any(|b| b.first_sample as usize >= step && b.flags & flags::RETUNED != 0) {
-        return Err(format!("RH stepped {rh_a} → {rh_b} % but no later block is flagged RETUNED\n{}", r.log));
+        bail!("RH stepped {rh_a} → {rh_b} % but no later block is flagged RETUNED\n{}", r.log);
     }
     let bound = glitch_bound(steady_error_on::<f32>(rh_a, rh_b), steady_error_on::<f32>(rh_b, rh_b));
     let delay_s = design(rh_b).delay_s as f64;
@@ -98,11 +99,7 @@ pub fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
         bound / U * 100.0
     );
     if !(worst <= bound) {
-        return Err(format!(
-            "deviation {:.3} % of U after the humidity step exceeds the glitch bound {:.3} %",
-            worst / U * 100.0,
-            bound / U * 100.0
-        ));
+        bail!("deviation {:.3} % of U after the humidity step exceeds the glitch bound {:.3} %", worst / U * 100.0, bound / U * 100.0);
     }
     Ok(())
 }
@@ -120,15 +117,15 @@ pub fn qemu_replay_faults() -> Result<()> {
     let r = replay("faults", &samples)?;
     check_count(&r, samples.len())?;
     let stale = r.blocks_with(flags::RH_STALE);
-    let last = r.blocks.last().ok_or("no blocks")?;
+    let last = r.blocks.last().context("no blocks")?;
     if stale == 0 {
-        return Err(format!("humidity source dead for 2 s but no block flagged RH_STALE\n{}", r.log));
+        bail!("humidity source dead for 2 s but no block flagged RH_STALE\n{}", r.log);
     }
     if last.flags & flags::RH_STALE != 0 {
-        return Err("humidity came back but the last block is still RH_STALE".into());
+        bail!("humidity came back but the last block is still RH_STALE");
     }
     if r.blocks_with(flags::CLIPPED) == 0 || r.blocks_with(flags::BAD_SAMPLE) == 0 {
-        return Err("saturated or NaN current not flagged (CLIPPED / BAD_SAMPLE)".into());
+        bail!("saturated or NaN current not flagged (CLIPPED / BAD_SAMPLE)");
     }
     println!("{stale} blocks with stale RH, recovered; clipping and bad samples flagged");
     Ok(())
@@ -164,21 +161,21 @@ pub fn qemu_replay_sensor_faults() -> Result<()> {
         r.blocks_with(flags::STUCK)
     );
     println!("{report}");
-    let last = r.blocks.last().ok_or("no blocks")?;
+    let last = r.blocks.last().context("no blocks")?;
     if flagged_in(flags::RH_STALE, 2.5, 4.0) == 0 || flagged_in(flags::RH_STALE, 6.0, 7.0) == 0 {
-        return Err(format!("slow or garbage humidity not flagged RH_STALE: {report}\n{}", r.log));
+        bail!("slow or garbage humidity not flagged RH_STALE: {report}\n{}", r.log);
     }
     if flagged_in(flags::RH_CLAMPED, 9.0, 10.0) == 0 {
-        return Err(format!("RH 97 % not flagged RH_CLAMPED: {report}"));
+        bail!("RH 97 % not flagged RH_CLAMPED: {report}");
     }
     // One second of identical samples is the detector's threshold: 0.5 s of the 1.5 s flagged.
     let stuck_blocks = r.blocks_with(flags::STUCK);
     let expect = (0.5 * fs) as usize / 32;
     if stuck_blocks + 2 < expect || stuck_blocks > expect + 2 {
-        return Err(format!("{stuck_blocks} blocks flagged STUCK, expected about {expect}: {report}"));
+        bail!("{stuck_blocks} blocks flagged STUCK, expected about {expect}: {report}");
     }
     if last.flags & (flags::RH_STALE | flags::RH_CLAMPED | flags::STUCK) != 0 {
-        return Err(format!("faults over, but the last block is still flagged {:#x}", last.flags));
+        bail!("faults over, but the last block is still flagged {:#x}", last.flags);
     }
     Ok(())
 }
@@ -197,13 +194,13 @@ pub fn qemu_replay_no_new_humidity() -> Result<()> {
     let (short, long) = (stale_in(0.0, 5.0), stale_in(9.0, 10.0));
     println!("RH_STALE blocks: {short} during 1.5 s without new data, {long} in the last second of 5 s without");
     if short != 0 {
-        return Err(format!("{short} blocks flagged RH_STALE while the sensor only had no new sample for 1.5 s"));
+        bail!("{short} blocks flagged RH_STALE while the sensor only had no new sample for 1.5 s");
     }
     if long == 0 {
-        return Err(format!("5 s without a new humidity sample, but no block flagged RH_STALE\n{}", r.log));
+        bail!("5 s without a new humidity sample, but no block flagged RH_STALE\n{}", r.log);
     }
-    if r.blocks.last().ok_or("no blocks")?.flags & flags::RH_STALE != 0 {
-        return Err("new humidity samples again, but the last block is still RH_STALE".into());
+    if r.blocks.last().context("no blocks")?.flags & flags::RH_STALE != 0 {
+        bail!("new humidity samples again, but the last block is still RH_STALE");
     }
     Ok(())
 }
@@ -218,7 +215,7 @@ pub fn qemu_replay_no_receiver() -> Result<()> {
     let line = r.log.lines().find(|l| l.contains("input ended")).unwrap_or_default().to_string();
     println!("{line}");
     if !line.contains(&format!("{want} blocks processed, {want} reported")) {
-        return Err(format!("expected {want} blocks processed and reported:\n{}", r.log));
+        bail!("expected {want} blocks processed and reported:\n{}", r.log);
     }
     Ok(())
 }
@@ -245,7 +242,7 @@ pub fn qemu_replay_bundled() -> Result<()> {
     let inband = crate::exec::score_inband(&path, &est)?;
     println!("bundled sweep under QEMU: in-band {:.3} % rms (bound {:.1} %)", inband * 100.0, SWEEP_BOUND * 100.0);
     if inband > SWEEP_BOUND {
-        return Err(format!("in-band error {:.3} % on the bundled sweep exceeds {:.1} %", inband * 100.0, SWEEP_BOUND * 100.0));
+        bail!("in-band error {:.3} % on the bundled sweep exceeds {:.1} %", inband * 100.0, SWEEP_BOUND * 100.0);
     }
     Ok(())
 }
@@ -287,10 +284,10 @@ fn calibration_with_humidity_path() -> ipmc_core::Calibration {
 /// the estimates must agree as without the path.
 pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
     let work = repo_root().join("target/qemu-test/humidity-path");
-    std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(&work)?;
     let calib = work.join("CALIB-with-path.toml");
     let text = ipmc_core::calibration_file::to_text(&calibration_with_humidity_path());
-    std::fs::write(&calib, text).map_err(|e| format!("{}: {e}", calib.display()))?;
+    std::fs::write(&calib, text).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
     let elf = firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(&calib))?;
     let blocks = host_equivalence_on_ramp("humidity-path", 10, 40, 50, &elf, Some(&calib))?;
     // Both parts must have acted: without the path the strip is the reading (0), with the
@@ -300,7 +297,7 @@ pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
     let mean = gap.iter().sum::<f64>() / gap.len() as f64;
     println!("strip − reading over {} blocks: mean {mean:+.3} %RH (no path: 0, the correction alone: ≈ +2.9)", gap.len());
     if !((mean - 0.0).abs() > 0.5 && (mean - 2.9).abs() > 0.5) {
-        return Err(format!("strip − reading {mean:+.3} %RH: the firmware did not apply both the correction and the lag"));
+        bail!("strip − reading {mean:+.3} %RH: the firmware did not apply both the correction and the lag");
     }
     Ok(())
 }
@@ -315,7 +312,7 @@ fn host_equivalence_on_ramp(
     calib: Option<&std::path::Path>,
 ) -> Result<Vec<crate::stream::Block>> {
     let work = repo_root().join("target/qemu-test").join(name);
-    std::fs::create_dir_all(&work).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(&work)?;
     let rec_path = work.join(format!("ramp-{rh_from}-{rh_to}.csv"));
     let (seconds, rh_from_s, rh_to_s) = (seconds.to_string(), rh_from.to_string(), rh_to.to_string());
     ipmc(&[
@@ -336,12 +333,12 @@ fn host_equivalence_on_ramp(
     let r = qemu::run_replay(elf, &replay, &work)?;
     println!("{} samples through the firmware under QEMU in {:.0} s", samples.len(), started.elapsed().as_secs_f64());
     if r.blocks_with(flags::REPORT_DROPPED) > 0 {
-        return Err(format!("{} blocks flagged REPORT_DROPPED", r.blocks_with(flags::REPORT_DROPPED)));
+        bail!("{} blocks flagged REPORT_DROPPED", r.blocks_with(flags::REPORT_DROPPED));
     }
     check_count(&r, samples.len())?;
     let retunes = r.blocks_with(flags::RETUNED);
     if retunes == 0 {
-        return Err(format!("RH ramps {rh_from} → {rh_to} % but the firmware never retuned\n{}", r.log));
+        bail!("RH ramps {rh_from} → {rh_to} % but the firmware never retuned\n{}", r.log);
     }
     let fw_path = work.join("EST-qemu.csv");
     qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks, &replay)?;
@@ -361,7 +358,7 @@ fn host_equivalence_on_ramp(
     let fw = crate::recording::estimates_m(&fw_path)?;
     let host = crate::recording::estimates_m(&host_path)?;
     if fw.len() != host.len() {
-        return Err(format!("{} firmware estimates, {} host estimates", fw.len(), host.len()));
+        bail!("{} firmware estimates, {} host estimates", fw.len(), host.len());
     }
     let (mut sd, mut sf, mut worst) = (0.0f64, 0.0f64, 0.0f64);
     for (a, b) in fw.iter().zip(&host) {
@@ -376,7 +373,7 @@ fn host_equivalence_on_ramp(
         (sf / fw.len() as f64).sqrt()
     );
     if !(rel <= EQUIVALENCE_TOL) {
-        return Err(format!("relative rms difference {rel:.3e} > {EQUIVALENCE_TOL:e} ({} vs {})", fw_path.display(), host_path.display()));
+        bail!("relative rms difference {rel:.3e} > {EQUIVALENCE_TOL:e} ({} vs {})", fw_path.display(), host_path.display());
     }
     Ok(r.blocks)
 }

@@ -8,7 +8,7 @@ use ipmc_recording::{Error, Estimates, Format as _, TimeSeries, Warning};
 use crate::Result;
 
 fn checked<T>(read: std::result::Result<(T, Vec<Warning>), Error>) -> Result<T> {
-    let (value, warnings) = read.map_err(|e| e.to_string())?;
+    let (value, warnings) = read?;
     for w in warnings {
         eprintln!("warning: {w}");
     }

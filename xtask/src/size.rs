@@ -1,5 +1,6 @@
 //! `cargo xtask size`: flash and static RAM of the release firmware, against the budget.
 
+use anyhow::anyhow;
 use object::{Object, ObjectSection, SectionKind};
 
 use crate::{Result, firmware};
@@ -21,7 +22,7 @@ pub struct Footprint {
 
 /// Flash = sections placed in flash + the flash copy of .data; RAM = sections placed in RAM.
 pub fn footprint(elf_bytes: &[u8]) -> Result<Footprint> {
-    let file = object::File::parse(elf_bytes).map_err(|e| format!("not an ELF file: {e}"))?;
+    let file = object::File::parse(elf_bytes).map_err(|e| anyhow!("not an ELF file: {e}"))?;
     let mut fp = Footprint { flash: 0, ram: 0 };
     for s in file.sections() {
         // Sections that are not loaded (debug info, defmt's symbol table) sit at address 0,
@@ -44,7 +45,7 @@ pub fn command() -> Result<()> {
     let mut over = Vec::new();
     for variant in firmware::Variant::ALL {
         let elf = firmware::build(variant)?;
-        let bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+        let bytes = std::fs::read(&elf).map_err(|e| anyhow!("{}: {e}", elf.display()))?;
         let fp = footprint(&bytes)?;
         let kib = |b: u64| b as f64 / 1024.0;
         println!(
@@ -62,5 +63,5 @@ pub fn command() -> Result<()> {
             over.push(variant.name());
         }
     }
-    if over.is_empty() { Ok(()) } else { Err(format!("over the size budget: {}", over.join(", "))) }
+    if over.is_empty() { Ok(()) } else { Err(anyhow!("over the size budget: {}", over.join(", "))) }
 }

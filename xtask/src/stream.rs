@@ -1,6 +1,7 @@
 //! Decodes a captured firmware stream (wire format: ipmc-core's `stream` module, the same code
 //! the firmware encodes with) into owned blocks for scoring and CSV output.
 
+use anyhow::bail;
 use ipmc_core::stream::{Deframer, MAX_FRAME_LEN};
 
 use crate::Result;
@@ -34,7 +35,7 @@ pub fn decode_all(bytes: &[u8]) -> Result<Vec<Block>> {
                 flags: f.header.flags,
                 base_est_m: f.estimates().collect(),
             }),
-            Some(Err(e)) => return Err(format!("stream frame {}: {e}", blocks.len())),
+            Some(Err(e)) => bail!("stream frame {}: {e}", blocks.len()),
             None => {}
         }
     }

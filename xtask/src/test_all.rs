@@ -12,6 +12,7 @@ use crate::{
     repo_root, run, size,
     tool_checks::{diagnose_prove, vs_exact_external},
 };
+use anyhow::{anyhow, bail};
 
 fn cargo_test(manifest: &str) -> Result<()> {
     cargo_test_with(manifest, &[])
@@ -20,18 +21,18 @@ fn cargo_test(manifest: &str) -> Result<()> {
 fn cargo_test_with(manifest: &str, extra: &[&str]) -> Result<()> {
     let manifest = repo_root().join(manifest);
     if !manifest.exists() {
-        return Err(format!("{} does not exist", manifest.display()));
+        bail!("{} does not exist", manifest.display());
     }
     run(cargo().current_dir(repo_root()).args(["test", "--target", "host-tuple", "--manifest-path"]).arg(manifest).args(extra))
 }
 
 fn size_within_budget() -> Result<()> {
     for v in Variant::ALL {
-        let bytes = std::fs::read(v.elf()).map_err(|e| format!("{} (build step failed?): {e}", v.elf().display()))?;
+        let bytes = std::fs::read(v.elf()).map_err(|e| anyhow!("{} (build step failed?): {e}", v.elf().display()))?;
         let fp = size::footprint(&bytes)?;
         println!("{}: flash {} B, RAM {} B", v.name(), fp.flash, fp.ram);
         if fp.flash > size::FLASH_BUDGET || fp.ram > size::RAM_BUDGET {
-            return Err(format!("{} over budget: {fp:?}", v.name()));
+            bail!("{} over budget: {fp:?}", v.name());
         }
     }
     Ok(())
@@ -78,14 +79,14 @@ fn lint() -> Result<()> {
 fn thumb_target_installs_on_use() -> Result<()> {
     use crate::install::{FIRMWARE_TARGET, firmware_target_installed};
     if std::process::Command::new("rustup").arg("--version").output().is_err() {
-        return Err("rustup is not on PATH: cannot check that the firmware target installs on use".into());
+        bail!("rustup is not on PATH: cannot check that the firmware target installs on use");
     }
     if firmware_target_installed()? {
         println!("removing {FIRMWARE_TARGET} to build as a fresh machine would");
         run(std::process::Command::new("rustup").current_dir(repo_root()).args(["target", "remove", FIRMWARE_TARGET]))?;
     }
     if firmware_target_installed()? {
-        return Err(format!("{FIRMWARE_TARGET} still installed after `rustup target remove`"));
+        bail!("{FIRMWARE_TARGET} still installed after `rustup target remove`");
     }
     let target_dir = repo_root().join("target/fresh-target");
     let built = run(cargo()
@@ -96,7 +97,7 @@ fn thumb_target_installs_on_use() -> Result<()> {
     if !firmware_target_installed()? {
         // Leave the machine as it was for the firmware steps that follow.
         crate::install::ensure_firmware_tools()?;
-        return Err(format!("a cargo build for {FIRMWARE_TARGET} did not install the target ({built:?})"));
+        bail!("a cargo build for {FIRMWARE_TARGET} did not install the target ({built:?})");
     }
     built
 }
@@ -147,7 +148,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         })
         .collect();
     if selected.is_empty() {
-        return Err(format!("no test step matches {filter:?}"));
+        bail!("no test step matches {filter:?}");
     }
     let steps = selected;
     let mut failed = Vec::new();
@@ -166,5 +167,5 @@ pub fn command(filter: &[String]) -> Result<()> {
         println!("  {} {name}", if failed.contains(name) { "FAILED" } else { "ok    " });
     }
     println!("{} passed, {} failed", steps.len() - failed.len(), failed.len());
-    if failed.is_empty() { Ok(()) } else { Err(format!("failed steps: {}", failed.join(", "))) }
+    if failed.is_empty() { Ok(()) } else { Err(anyhow!("failed steps: {}", failed.join(", "))) }
 }

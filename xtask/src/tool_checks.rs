@@ -3,10 +3,11 @@
 //! simulator's clean recordings.
 
 use crate::{Result, ipmc, repo_root};
+use anyhow::{Context, anyhow, bail};
 
 /// A count in `ipmc prove --json`'s summary object.
 fn json_count(summary: &serde_json::Value, key: &str) -> Result<u64> {
-    summary.get(key).and_then(serde_json::Value::as_u64).ok_or_else(|| format!("no count `{key}` in {summary}"))
+    summary.get(key).and_then(serde_json::Value::as_u64).ok_or_else(|| anyhow!("no count `{key}` in {summary}"))
 }
 
 /// Largest ratio of the f32 chain's in-band error to the exact band-limited inverse's allowed
@@ -56,15 +57,15 @@ pub fn diagnose_prove() -> Result<()> {
             "--json".as_ref(),
         ])?;
         print!("{out}");
-        let line = out.lines().last().ok_or("ipmc prove printed nothing")?;
-        let summary: serde_json::Value = serde_json::from_str(line).map_err(|e| format!("ipmc prove --json: {e}: {line}"))?;
+        let line = out.lines().last().context("ipmc prove printed nothing")?;
+        let summary: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc prove --json: {e}: {line}"))?;
         let (fp, named, reduced) =
             (json_count(&summary, "false_positives")?, json_count(&summary, "named_correctly")?, json_count(&summary, "heldout_reduced")?);
         if fp > 0 {
-            return Err(format!("{format}: {fp} clean control(s) diagnosed with an effect"));
+            bail!("{format}: {fp} clean control(s) diagnosed with an effect");
         }
         if reduced != named {
-            return Err(format!("{format}: held-out error reduced in only {reduced} of {named} correct diagnoses"));
+            bail!("{format}: held-out error reduced in only {reduced} of {named} correct diagnoses");
         }
     }
     Ok(())
