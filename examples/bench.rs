@@ -208,11 +208,11 @@ fn main() -> ! {
     }
     println!("instructions_per_block_error {}", instr(since(t)) / BLOCKS as f64);
 
-    let sections = d45.n_sections;
+    let sections = d45.sections().len();
     println!("block_len {}", BLOCK_LEN);
     println!("sample_rate_hz {}", SAMPLE_RATE_HZ);
     println!("sections {}", sections);
-    println!("head_sections {}", sections - d45.n_fixed);
+    println!("head_sections {}", sections - d45.tail().len());
     println!("instructions_per_sample {}", steady);
     println!("instructions_per_switch_to {}", switch);
     println!("retune_blocks {}", blocks);
@@ -222,8 +222,8 @@ fn main() -> ! {
     let mut bq: [DirectForm2Transposed<f32, f32>; ipmc_core::MAX_SECTIONS] =
         [DirectForm2Transposed::new(Coefficients { a1: 0.0, a2: 0.0, b0: 1.0, b1: 0.0, b2: 0.0 }); ipmc_core::MAX_SECTIONS];
     for (i, (q, s)) in bq.iter_mut().zip(d45.sections()).enumerate() {
-        let g = if i == 0 { d45.gain } else { 1.0 };
-        *q = DirectForm2Transposed::new(Coefficients { a1: s.a[1], a2: s.a[2], b0: g * s.b[0], b1: g * s.b[1], b2: g * s.b[2] });
+        let g = if i == 0 { d45.gain() } else { 1.0 };
+        *q = DirectForm2Transposed::new(Coefficients { a1: s.a()[1], a2: s.a()[2], b0: g * s.b()[0], b1: g * s.b()[1], b2: g * s.b()[2] });
     }
     let bq = &mut bq[..sections];
     let t = now();

@@ -52,10 +52,10 @@ const BUTTERWORTH5_POLES: [(f64, f64); 5] = [
 /// lose half of it.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Sos<T> {
-    pub b: [T; 3],
-    pub a: [T; 3],
-    pub beta: [T; 3],
-    pub alpha: [T; 2],
+    pub(crate) b: [T; 3],
+    pub(crate) a: [T; 3],
+    pub(crate) beta: [T; 3],
+    pub(crate) alpha: [T; 2],
 }
 
 /// A monic quadratic factor (1 − z₁z⁻¹)(1 − z₂z⁻¹), in both forms (see [`Sos`]).
@@ -79,6 +79,18 @@ impl<T: Real> Quad<T> {
 }
 
 impl<T: Real> Sos<T> {
+    /// Numerator, interchange form.
+    pub fn b(&self) -> [T; 3] {
+        self.b
+    }
+    /// Denominator, interchange form (a[0] = 1).
+    pub fn a(&self) -> [T; 3] {
+        self.a
+    }
+    /// The form the filter runs: (β, α) of the delta-operator section.
+    pub fn delta(&self) -> ([T; 3], [T; 2]) {
+        (self.beta, self.alpha)
+    }
     pub fn identity() -> Self {
         Sos::from_ba([T::one(), T::zero(), T::zero()], [T::one(), T::zero(), T::zero()])
     }
@@ -166,18 +178,33 @@ impl core::fmt::Display for DesignError {
 /// delayed by `delay_s`.
 #[derive(Clone, Copy, Debug)]
 pub struct Inverse<T> {
-    pub sections: [Sos<T>; MAX_SECTIONS],
-    pub n_sections: usize,
+    sections: [Sos<T>; MAX_SECTIONS],
+    n_sections: usize,
     /// The last `n_fixed` sections depend on the configuration only (the regularizing high-pass
     /// over the double integration): identical at every humidity, never retuned.
-    pub n_fixed: usize,
-    pub gain: T,
-    pub delay_s: T,
-    pub rh_pct: T,
-    pub fs_hz: T,
+    n_fixed: usize,
+    gain: T,
+    delay_s: T,
+    rh_pct: T,
+    fs_hz: T,
 }
 
 impl<T: Real> Inverse<T> {
+    /// Overall gain, applied before the first section.
+    pub fn gain(&self) -> T {
+        self.gain
+    }
+    /// The delay of the estimate behind the base motion [s].
+    pub fn delay_s(&self) -> T {
+        self.delay_s
+    }
+    /// The humidity the inverse was designed at [%].
+    pub fn rh_pct(&self) -> T {
+        self.rh_pct
+    }
+    pub fn fs_hz(&self) -> T {
+        self.fs_hz
+    }
     pub fn sections(&self) -> &[Sos<T>] {
         &self.sections[..self.n_sections]
     }

@@ -44,7 +44,7 @@ pub struct Cascade<T> {
 impl<T: Real> Cascade<T> {
     /// The whole inverse; its gain is folded into the first section (one multiply fewer per sample).
     pub fn new(inv: &Inverse<T>) -> Self {
-        Self::from_sections(inv.sections(), inv.gain)
+        Self::from_sections(inv.sections(), inv.gain())
     }
 
     /// A cascade of `sections` times `gain`.
@@ -190,19 +190,19 @@ pub const WARMUP_S: f64 = 0.5;
 
 impl<T: Real> Compensator<T> {
     pub fn new(inv: &Inverse<T>) -> Self {
-        let fs = inv.fs_hz.to_f64();
+        let fs = inv.fs_hz().to_f64();
         let warmup = Real::round(WARMUP_S * fs) as u32;
         let fade = Real::round(FADE_S * fs) as u32;
         Compensator {
-            active: Cascade::from_sections(inv.head(), inv.gain),
+            active: Cascade::from_sections(inv.head(), inv.gain()),
             tail: Cascade::from_sections(inv.tail(), T::one()),
             next: None,
             pending: None,
             transition: Transition::Idle,
             warmup_len: warmup.max(1),
             fade_len: fade.max(1),
-            rh_pct: inv.rh_pct,
-            delay_s: inv.delay_s,
+            rh_pct: inv.rh_pct(),
+            delay_s: inv.delay_s(),
             bad_samples: 0,
         }
     }
@@ -229,7 +229,7 @@ impl<T: Real> Compensator<T> {
     /// already running, this design waits (replacing any older waiting one) and starts when the
     /// running one completes, so at most two heads ever run.
     pub fn switch_to(&mut self, inv: &Inverse<T>) {
-        let mut head = Cascade::from_sections(inv.head(), inv.gain);
+        let mut head = Cascade::from_sections(inv.head(), inv.gain());
         head.take_state_from(&self.active);
         let tail = Cascade::from_sections(inv.tail(), T::one());
         if tail.sections() != self.tail.sections() {
@@ -238,8 +238,8 @@ impl<T: Real> Compensator<T> {
             t.take_state_from(&self.tail);
             self.tail = t;
         }
-        self.rh_pct = inv.rh_pct;
-        self.delay_s = inv.delay_s;
+        self.rh_pct = inv.rh_pct();
+        self.delay_s = inv.delay_s();
         if self.transition == Transition::Idle {
             self.next = Some(head);
             self.transition = Transition::WarmUp { remaining: self.warmup_len };

@@ -65,7 +65,10 @@ fn check_answer(text: &str, answer: &Result<Calibration, FileError>) -> Result<b
 fn designs(c: &Calibration) -> Result<(), String> {
     for rh in [c.rh_min, 0.5 * (c.rh_min + c.rh_max), c.rh_max] {
         let inv = design_inverse(c, rh as f32, &DesignConfig::<f32>::default()).map_err(|e| format!("RH {rh}: {e}"))?;
-        if !(inv.is_stable() && inv.gain.is_finite() && inv.sections().iter().all(|s| s.b.iter().chain(&s.beta).all(|v| v.is_finite()))) {
+        if !(inv.is_stable()
+            && inv.gain().is_finite()
+            && inv.sections().iter().all(|s| s.b().iter().chain(&s.delta().0).all(|v| v.is_finite())))
+        {
             return Err(format!("RH {rh}: non-finite or unstable design"));
         }
     }

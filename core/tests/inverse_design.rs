@@ -20,12 +20,12 @@ fn rhs() -> impl Iterator<Item = f64> {
 
 /// G(e^{jωT}) computed from the coefficients (gain × Π sections).
 fn cascade_response(inv: &Inverse<f64>, f: f64) -> C<f64> {
-    let w = 2.0 * std::f64::consts::PI * f / inv.fs_hz;
+    let w = 2.0 * std::f64::consts::PI * f / inv.fs_hz();
     let z1 = C::new(w.cos(), -w.sin()); // z⁻¹
-    let mut g = C::new(inv.gain, 0.0);
+    let mut g = C::new(inv.gain(), 0.0);
     for s in inv.sections() {
-        let num = C::new(s.b[0], 0.0) + z1 * s.b[1] + z1 * z1 * s.b[2];
-        let den = C::new(s.a[0], 0.0) + z1 * s.a[1] + z1 * z1 * s.a[2];
+        let num = C::new(s.b()[0], 0.0) + z1 * s.b()[1] + z1 * z1 * s.b()[2];
+        let den = C::new(s.a()[0], 0.0) + z1 * s.a()[1] + z1 * z1 * s.a()[2];
         g = g * num / den;
     }
     g
@@ -36,7 +36,7 @@ fn comp_error(p: &Params<f64>, inv: &Inverse<f64>, lo: f64, hi: f64) -> (f64, f6
     let (mut sum, mut max) = (0.0, 0.0f64);
     for i in 0..N_GRID {
         let f = lo + (hi - lo) * i as f64 / (N_GRID - 1) as f64;
-        let ph = 2.0 * std::f64::consts::PI * f * inv.delay_s;
+        let ph = 2.0 * std::f64::consts::PI * f * inv.delay_s();
         let e = (current_response(p, jw(f)) * cascade_response(inv, f) * C::new(ph.cos(), ph.sin()) - 1.0).norm();
         sum += e * e;
         max = max.max(e);
@@ -57,13 +57,13 @@ fn pole_radius(a1: f64, a2: f64) -> f64 {
 
 /// Checks every section: finite, monic, Jury-stable, pole radius < 1. Returns the largest radius.
 fn check_stable(inv: &Inverse<f64>, what: &str) -> f64 {
-    assert!(inv.n_sections >= 1 && inv.n_sections <= ipmc_core::MAX_SECTIONS, "{what}: {} sections", inv.n_sections);
-    assert!(inv.gain.is_finite() && inv.gain != 0.0, "{what}: gain {}", inv.gain);
+    assert!(!inv.sections().is_empty() && inv.sections().len() <= ipmc_core::MAX_SECTIONS, "{what}: {} sections", inv.sections().len());
+    assert!(inv.gain().is_finite() && inv.gain() != 0.0, "{what}: gain {}", inv.gain());
     let mut rmax = 0.0f64;
     for (i, s) in inv.sections().iter().enumerate() {
-        assert!(s.b.iter().chain(&s.a).all(|v| v.is_finite()), "{what}: section {i} not finite: {s:?}");
-        assert_eq!(s.a[0], 1.0, "{what}: section {i} not monic");
-        let (a1, a2) = (s.a[1], s.a[2]);
+        assert!(s.b().iter().chain(&s.a()).all(|v| v.is_finite()), "{what}: section {i} not finite: {s:?}");
+        assert_eq!(s.a()[0], 1.0, "{what}: section {i} not monic");
+        let (a1, a2) = (s.a()[1], s.a()[2]);
         let jury = a2.abs() < 1.0 && a1.abs() < 1.0 + a2;
         let r = pole_radius(a1, a2);
         assert!(jury && r < 1.0, "{what}: section {i} unstable (a1 {a1}, a2 {a2}, radius {r})");
@@ -94,12 +94,12 @@ fn fs_2khz_meets_the_target_at_every_rh_in_f64_and_f32() {
         for (k, (name, inv)) in [("f64", &d64), ("f32", &d32)].into_iter().enumerate() {
             let what = format!("{name} design at {rh} %");
             let rmax = check_stable(inv, &what);
-            assert!(inv.delay_s >= 0.0 && inv.delay_s <= 0.002 + 1e-9, "{what}: delay {} s", inv.delay_s);
+            assert!(inv.delay_s() >= 0.0 && inv.delay_s() <= 0.002 + 1e-9, "{what}: delay {} s", inv.delay_s());
             let (rms, max) = comp_error(&p, inv, 10.0, 150.0);
             println!(
                 "fs 2 kHz {name} RH {rh:>4} %: {} sections, delay {:.2} ms, max pole radius {rmax:.5}, error rms {:.3} % max {:.3} %",
-                inv.n_sections,
-                inv.delay_s * 1e3,
+                inv.sections().len(),
+                inv.delay_s() * 1e3,
                 rms * 100.0,
                 max * 100.0
             );
@@ -175,12 +175,12 @@ fn other_sample_rates_give_stable_inverses() {
                 };
                 ok += 1;
                 check_stable(&inv, &format!("fs {fs} RH {rh} {name}"));
-                assert!(inv.delay_s <= 0.002 + 1e-9);
+                assert!(inv.delay_s() <= 0.002 + 1e-9);
                 let (rms, max) = comp_error(&p, &inv, 10.0, 150.0);
                 assert!(rms.is_finite() && max.is_finite());
                 worst[k] = (worst[k].0.max(rms), worst[k].1.max(max));
-                n_sections = n_sections.max(inv.n_sections);
-                delay = delay.max(inv.delay_s);
+                n_sections = n_sections.max(inv.sections().len());
+                delay = delay.max(inv.delay_s());
             }
         }
         println!(

@@ -29,18 +29,18 @@ fn perturbed<T: Real>(rh: f64, factors: &[f64; N_PARAMS]) -> Params<T> {
 
 /// Jury's conditions, written out here, plus finiteness of every coefficient and of the gain.
 fn sections_ok<T: Real>(inv: &Inverse<T>) -> Result<(), String> {
-    if inv.n_sections == 0 || inv.n_sections > ipmc_core::MAX_SECTIONS {
-        return Err(format!("{} sections", inv.n_sections));
+    if inv.sections().is_empty() || inv.sections().len() > ipmc_core::MAX_SECTIONS {
+        return Err(format!("{} sections", inv.sections().len()));
     }
-    if !(inv.gain.is_finite() && inv.gain != T::zero()) {
-        return Err(format!("gain {:?}", inv.gain));
+    if !(inv.gain().is_finite() && inv.gain() != T::zero()) {
+        return Err(format!("gain {:?}", inv.gain()));
     }
     for (i, s) in inv.sections().iter().enumerate() {
-        if !s.b.iter().chain(&s.a).all(|v| v.is_finite()) {
+        if !s.b().iter().chain(&s.a()).all(|v| v.is_finite()) {
             return Err(format!("section {i} not finite: {s:?}"));
         }
-        let (a1, a2) = (s.a[1].to_f64(), s.a[2].to_f64());
-        if !(s.a[0] == T::one() && a2.abs() < 1.0 && a1.abs() < 1.0 + a2) {
+        let (a1, a2) = (s.a()[1].to_f64(), s.a()[2].to_f64());
+        if !(s.a()[0] == T::one() && a2.abs() < 1.0 && a1.abs() < 1.0 + a2) {
             return Err(format!("section {i} fails Jury: {s:?}"));
         }
     }

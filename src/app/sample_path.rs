@@ -26,7 +26,7 @@ pub async fn sample_task(mut samples: Samples) {
     // estimate comes from a real filter.
     let first = DESIGN_READY.wait().await;
     let mut filter = SamplePathFilter::new(&first);
-    defmt::info!("sampling starts, design for {} %RH", first.rh_pct);
+    defmt::info!("sampling starts, design for {} %RH", first.rh_pct());
 
     samples.start();
     let mut first_sample: u32 = 0;
@@ -37,7 +37,7 @@ pub async fn sample_task(mut samples: Samples) {
     let mut humidity = BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s());
     let mut error_bar = BlockError::<f32>::new(&super::compensation::error_table(), &ipmc_core::DesignConfig::firmware());
     // RH of the active or already requested design.
-    let mut design_rh = first.rh_pct;
+    let mut design_rh = first.rh_pct();
     // Samples from the previous block's start to this one's (0 before the first: the strip
     // starts settled at the first reading).
     let mut since_last: u32 = 0;

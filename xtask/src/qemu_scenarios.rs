@@ -82,7 +82,7 @@ pub fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
         bail!("RH stepped {rh_a} → {rh_b} % but no later block is flagged RETUNED\n{}", r.log);
     }
     let bound = glitch_bound(steady_error_on::<f32>(rh_a, rh_b), steady_error_on::<f32>(rh_b, rh_b));
-    let delay_s = design(rh_b).delay_s as f64;
+    let delay_s = design(rh_b).delay_s() as f64;
     let mut worst = 0.0f64;
     for b in &r.blocks {
         for (i, &y) in b.base_est_m.iter().enumerate() {

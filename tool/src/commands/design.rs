@@ -44,16 +44,16 @@ pub fn run(a: Args) -> Result<()> {
     let (mag, ph) = approximation_error(&p, &model, 5.0, 500.0, 400);
 
     let sections: Vec<_> =
-        inv.sections().iter().map(|s| json!({"b": s.b, "a": s.a, "delta": {"beta": s.beta, "alpha": s.alpha}})).collect();
+        inv.sections().iter().map(|s| json!({"b": s.b(), "a": s.a(), "delta": {"beta": s.delta().0, "alpha": s.delta().1}})).collect();
     let doc = json!({
         "fs_hz": a.fs,
         "rh_pct": a.rh,
-        "delay_s": inv.delay_s,
-        "gain": inv.gain,
+        "delay_s": inv.delay_s(),
+        "gain": inv.gain(),
         "sections": sections,
         // The firmware runs each section in delta-operator form (core/src/filter.rs); `b`/`a` are the
         // same sections in z⁻¹ form. The last `fixed_sections` never change with humidity.
-        "fixed_sections": inv.n_fixed,
+        "fixed_sections": inv.tail().len(),
         "error": {
             "band_hz": [lo, hi],
             "compensation_rms": rms,
@@ -70,8 +70,8 @@ pub fn run(a: Args) -> Result<()> {
         "RH {:.1} %, fs {} Hz: {} sections, delay {:.2} ms; |H·G·e^(jωτ) − 1| over {lo}–{hi} Hz: {:.3} % rms, {:.3} % max; rational approximation (order {}): {:.3} % / {:.3}° over 5–500 Hz",
         a.rh,
         a.fs,
-        inv.n_sections,
-        inv.delay_s * 1e3,
+        inv.sections().len(),
+        inv.delay_s() * 1e3,
         rms * 100.0,
         max * 100.0,
         model.order(),
