@@ -153,6 +153,13 @@ impl<T: Real> Default for DesignConfig<T> {
     }
 }
 
+impl<T: Real> DesignConfig<T> {
+    /// The default design at another sample rate (a recording's).
+    pub fn at_rate(fs_hz: T) -> Self {
+        DesignConfig { fs_hz, ..DesignConfig::default() }
+    }
+}
+
 /// Why no inverse could be designed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DesignError {

@@ -14,7 +14,7 @@ pub use crate::filter::BLOCK_LEN;
 impl<T: Real> DesignConfig<T> {
     /// The design the firmware runs: the default design at the firmware's sample rate.
     pub fn firmware() -> Self {
-        DesignConfig { fs_hz: T::lit(SAMPLE_RATE_HZ as f64), ..DesignConfig::default() }
+        DesignConfig::at_rate(T::lit(SAMPLE_RATE_HZ as f64))
     }
 }
 

@@ -74,10 +74,10 @@ fn check_stable(inv: &Inverse<f64>, what: &str) -> f64 {
 }
 
 fn cfg32(fs: f32) -> DesignConfig<f32> {
-    DesignConfig { fs_hz: fs, ..DesignConfig::default() }
+    DesignConfig::at_rate(fs)
 }
 fn cfg64(fs: f64) -> DesignConfig<f64> {
-    DesignConfig { fs_hz: fs, ..DesignConfig::default() }
+    DesignConfig::at_rate(fs)
 }
 
 #[test]

@@ -26,7 +26,7 @@ pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
 /// The expected-error table of `calib`'s designs at the recording's rate (the firmware's build
 /// script makes the same one).
 pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64) -> Result<ErrorTable> {
-    let cfg = DesignConfig::<f64> { fs_hz, ..DesignConfig::default() };
+    let cfg = DesignConfig::<f64>::at_rate(fs_hz);
     ErrorTable::new(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
 }
 
@@ -81,7 +81,7 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
 /// run here from the readings too and must give the firmware's values bit for bit.
 pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock], errors: &ErrorTable) -> Result<Estimates> {
     let design = designer(calib, ts.fs_hz);
-    let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() });
+    let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig::at_rate(ts.fs_hz as f32));
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
     let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
@@ -189,7 +189,7 @@ impl Estimates {
 
 /// The firmware's design chain (f32, default configuration at the recording's rate).
 fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
-    let cfg = DesignConfig::<f32> { fs_hz: fs_hz as f32, ..DesignConfig::default() };
+    let cfg = DesignConfig::<f32>::at_rate(fs_hz as f32);
     move |rh| design_inverse::<f32>(calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
 }
 
@@ -223,7 +223,7 @@ pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>, e
     for burst in ts.bursts() {
         let (b0, b1) = (burst.start, burst.end);
         let mut comp: Option<Compensator<f32>> = fixed.as_ref().map(Compensator::new);
-        let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() });
+        let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig::at_rate(ts.fs_hz as f32));
         let mut pos = b0;
         while pos < b1 {
             let end = (pos + BLOCK_LEN).min(b1);

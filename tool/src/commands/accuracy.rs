@@ -25,7 +25,7 @@ pub fn run(a: Args) -> Result<()> {
         4 => IonicOrder::Four,
         n => return Err(anyhow!("--ionic-pairs must be 4 or 5, not {n}")),
     };
-    let cfg = DesignConfig::<f32> { fs_hz: a.design.fs as f32, ionic, ..DesignConfig::default() };
+    let cfg = DesignConfig { ionic, ..DesignConfig::<f32>::at_rate(a.design.fs as f32) };
     let (lo, hi) = (cfg.band_lo_hz as f64, cfg.band_hi_hz as f64);
     let design = |rh: f64| -> Result<Inverse<f64>> {
         Ok(design_inverse(&calib, rh as f32, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))?.cast())

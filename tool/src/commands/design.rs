@@ -32,7 +32,7 @@ pub fn run(a: Args) -> Result<()> {
     // Exactly what the device runs: the f32 design chain.
     let mut p32: Params<f32> = calib.params_at(a.rh as f32);
     overrides::apply(&mut p32, &a.set);
-    let cfg = DesignConfig::<f32> { fs_hz: a.fs as f32, ..DesignConfig::default() };
+    let cfg = DesignConfig::<f32>::at_rate(a.fs as f32);
     let inv = design_inverse_for(&p32, a.rh as f32, &cfg).map_err(|e| anyhow!("design at RH {} %: {e}", a.rh))?;
 
     let mut p: Params<f64> = calib.params_at(a.rh);

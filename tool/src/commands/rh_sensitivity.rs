@@ -21,7 +21,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let calib = calibration_source::load(a.design.calib.as_deref())?;
-    let cfg = DesignConfig::<f32> { fs_hz: a.design.fs as f32, ..DesignConfig::default() };
+    let cfg = DesignConfig::<f32>::at_rate(a.design.fs as f32);
     let (lo, hi) = (cfg.band_lo_hz as f64, cfg.band_hi_hz as f64);
     let design = |rh: f64| -> Result<Inverse<f64>> {
         Ok(design_inverse(&calib, rh as f32, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))?.cast())
