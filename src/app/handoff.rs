@@ -5,6 +5,7 @@ use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
 
 use embassy_sync::{blocking_mutex::raw::CriticalSectionRawMutex, channel::Channel, signal::Signal};
 use ipmc_core::Inverse;
+use ipmc_core::stream::Header;
 
 use super::config::BLOCK_LEN;
 
@@ -17,15 +18,8 @@ pub static DESIGN_READY: Signal<CriticalSectionRawMutex, Inverse<f32>> = Signal:
 /// One block of estimates on its way to the report task.
 #[derive(Clone, Copy)]
 pub struct EstimateBlock {
-    /// Index of the first sample since acquisition started.
-    pub first_sample: u32,
-    /// RH of the active design, of the strip and as read [%] (`ipmc_core::stream::Header`).
-    pub rh_pct: f32,
-    pub rh_strip_pct: f32,
-    pub rh_read_pct: f32,
-    /// The estimates' expected relative error, 1σ (`ipmc_core::expected_error`).
-    pub rel_err: f32,
-    pub flags: u16,
+    /// What the frame will say about the block besides its estimates.
+    pub header: Header,
     pub base_est_m: [f32; BLOCK_LEN],
 }
 

@@ -26,15 +26,8 @@ pub async fn report_task(mut stream: Stream) {
         match REPORT_QUEUE.receive().await {
             ReportItem::Block(block) => {
                 // The receiver learns of frames the stream lost from the next frame that arrives.
-                let flags = block.flags | if dropped_since_last { REPORT_DROPPED } else { 0 };
-                let header = Header {
-                    first_sample: block.first_sample,
-                    rh_pct: block.rh_pct,
-                    rh_strip_pct: block.rh_strip_pct,
-                    rh_read_pct: block.rh_read_pct,
-                    rel_err: block.rel_err,
-                    flags,
-                };
+                let flags = block.header.flags | if dropped_since_last { REPORT_DROPPED } else { 0 };
+                let header = Header { flags, ..block.header };
                 let sent = match stream::encode(&header, &block.base_est_m, &mut frame) {
                     Ok(n) => stream.write_all(frame.get(..n).unwrap_or(&[])).await.is_ok(),
                     // Cannot happen with the buffer sized above; losing a frame beats stopping.
@@ -50,12 +43,12 @@ pub async fn report_task(mut stream: Stream) {
                 if reported.is_multiple_of(LOG_EVERY_BLOCKS) {
                     defmt::info!(
                         "sample {}: base {} m ± {} %, RH {} % (design; strip {} %, read {} %), flags {=u16:#x}, {} frames dropped by the stream",
-                        block.first_sample,
+                        block.header.first_sample,
                         block.base_est_m[0],
-                        100.0 * block.rel_err,
-                        block.rh_pct,
-                        block.rh_strip_pct,
-                        block.rh_read_pct,
+                        100.0 * block.header.rel_err,
+                        block.header.rh_pct,
+                        block.header.rh_strip_pct,
+                        block.header.rh_read_pct,
                         flags,
                         frames_dropped
                     );

@@ -7,6 +7,7 @@ use ipmc_core::{
     block_humidity::{BlockHumidity, span_s},
     expected_error::BlockError,
     operating_point::{asks_for_design, reading_age_s},
+    stream::Header,
     stuck::StuckDetector,
 };
 
@@ -43,44 +44,39 @@ pub async fn sample_task(mut samples: Samples) {
     let mut since_last: u32 = 0;
     loop {
         let mut block = EstimateBlock {
-            first_sample,
-            rh_pct: 0.0,
-            rh_strip_pct: f32::NAN,
-            rh_read_pct: 0.0,
-            rel_err: f32::NAN,
-            flags: 0,
+            header: Header { first_sample, rh_pct: 0.0, rh_strip_pct: f32::NAN, rh_read_pct: 0.0, rel_err: f32::NAN, flags: 0 },
             base_est_m: [0.0; BLOCK_LEN],
         };
         let source_flags = match samples.read_block(&mut block.base_est_m).await {
             SampleBlock::Ready { flags, lost_samples } => {
                 first_sample = first_sample.wrapping_add(lost_samples);
-                block.first_sample = first_sample;
+                block.header.first_sample = first_sample;
                 // The strip dried or wetted through the lost samples too.
                 since_last += lost_samples;
                 flags
             }
             SampleBlock::End => break,
         };
-        block.flags = source_flags | handoff::conditions();
+        block.header.flags = source_flags | handoff::conditions();
         if stuck.observe(&block.base_est_m) {
-            block.flags |= flags::STUCK;
+            block.header.flags |= flags::STUCK;
         }
 
         if let Some(design) = DESIGN_READY.try_take() {
             filter.switch_to(&design);
-            block.flags |= flags::RETUNED;
+            block.header.flags |= flags::RETUNED;
         }
         if filter.process(&mut block.base_est_m) {
-            block.flags |= flags::BAD_SAMPLE;
+            block.header.flags |= flags::BAD_SAMPLE;
         }
-        block.rel_err = error_bar.block(filter.rh_pct(), &block.base_est_m);
+        block.header.rel_err = error_bar.block(filter.rh_pct(), &block.base_est_m);
 
-        block.rh_read_pct = LATEST_READ_RH_PCT.load();
+        block.header.rh_read_pct = LATEST_READ_RH_PCT.load();
         // No reading yet: the first design is the humidity task's fallback, and stays.
-        if let Some(now) = humidity.advance(block.rh_read_pct, span_s(since_last, SAMPLE_RATE_HZ)) {
-            block.rh_strip_pct = humidity.strip_pct().unwrap_or(now.rh_pct);
+        if let Some(now) = humidity.advance(block.header.rh_read_pct, span_s(since_last, SAMPLE_RATE_HZ)) {
+            block.header.rh_strip_pct = humidity.strip_pct().unwrap_or(now.rh_pct);
             if now.clamped {
-                block.flags |= flags::RH_CLAMPED;
+                block.header.flags |= flags::RH_CLAMPED;
             }
             if asks_for_design(design_rh, now.rh_pct, filter.is_retuning()) {
                 design_rh = now.rh_pct;
@@ -88,9 +84,9 @@ pub async fn sample_task(mut samples: Samples) {
             }
         }
         since_last = BLOCK_LEN as u32;
-        block.rh_pct = filter.rh_pct();
+        block.header.rh_pct = filter.rh_pct();
         if dropped_since_last {
-            block.flags |= flags::REPORT_DROPPED;
+            block.header.flags |= flags::REPORT_DROPPED;
         }
         dropped_since_last = REPORT_QUEUE.try_send(ReportItem::Block(block)).is_err();
 

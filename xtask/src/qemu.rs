@@ -33,7 +33,7 @@ impl Replayed {
         self.blocks.iter().map(|b| b.base_est_m.len()).sum()
     }
     pub fn blocks_with(&self, flag: u16) -> usize {
-        self.blocks.iter().filter(|b| b.flags & flag != 0).count()
+        self.blocks.iter().filter(|b| b.header.flags & flag != 0).count()
     }
 }
 
@@ -232,14 +232,14 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
     est.metadata.set("fs_hz", FIRMWARE_FS_HZ);
     for b in blocks {
         for (k, &v) in b.base_est_m.iter().enumerate() {
-            let i = replay.sample_of(b.first_sample) + k;
+            let i = replay.sample_of(b.header.first_sample) + k;
             est.t_s.push(t_s.get(i).copied().unwrap_or(i as f64 / FIRMWARE_FS_HZ as f64));
             est.base_est_m.push(v);
-            est.rh_pct.as_mut().expect("set above").push(b.rh_pct);
-            est.rh_strip_pct.as_mut().expect("set above").push(b.rh_strip_pct);
-            est.rh_read_pct.as_mut().expect("set above").push(b.rh_read_pct);
-            est.rel_err.as_mut().expect("set above").push(b.rel_err);
-            est.flags.as_mut().expect("set above").push(b.flags);
+            est.rh_pct.as_mut().expect("set above").push(b.header.rh_pct);
+            est.rh_strip_pct.as_mut().expect("set above").push(b.header.rh_strip_pct);
+            est.rh_read_pct.as_mut().expect("set above").push(b.header.rh_read_pct);
+            est.rel_err.as_mut().expect("set above").push(b.header.rel_err);
+            est.flags.as_mut().expect("set above").push(b.header.flags);
         }
     }
     let text = est.to_csv()?;

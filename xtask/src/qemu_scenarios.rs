@@ -36,12 +36,12 @@ fn check_count(r: &Replayed, samples: usize) -> Result<()> {
     }
     let mut next = 0u32;
     for b in &r.blocks {
-        if b.first_sample != next {
-            bail!("block starts at sample {}, expected {next}", b.first_sample);
+        if b.header.first_sample != next {
+            bail!("block starts at sample {}, expected {next}", b.header.first_sample);
         }
         next += b.base_est_m.len() as u32;
         if b.base_est_m.iter().any(|v| !v.is_finite()) {
-            bail!("non-finite estimate in the block at sample {}", b.first_sample);
+            bail!("non-finite estimate in the block at sample {}", b.header.first_sample);
         }
     }
     Ok(())
@@ -78,7 +78,7 @@ pub fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
         (0..n).map(|k| Sample { current_a: src.at::<f32>(k), rh_pct: if k < step { rh_a as f32 } else { rh_b as f32 } }).collect();
     let r = replay("humidity-step", &samples)?;
     check_count(&r, samples.len())?;
-    if !r.blocks.iter().any(|b| b.first_sample as usize >= step && b.flags & flags::RETUNED != 0) {
+    if !r.blocks.iter().any(|b| b.header.first_sample as usize >= step && b.header.flags & flags::RETUNED != 0) {
         bail!("RH stepped {rh_a} → {rh_b} % but no later block is flagged RETUNED\n{}", r.log);
     }
     let bound = glitch_bound(steady_error_on::<f32>(rh_a, rh_b), steady_error_on::<f32>(rh_b, rh_b));
@@ -86,7 +86,7 @@ pub fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
     let mut worst = 0.0f64;
     for b in &r.blocks {
         for (i, &y) in b.base_est_m.iter().enumerate() {
-            let k = b.first_sample as usize + i;
+            let k = b.header.first_sample as usize + i;
             if k >= step {
                 worst = worst.max((y as f64 - truth(k, delay_s)).abs());
             }
@@ -121,7 +121,7 @@ pub fn qemu_replay_faults() -> Result<()> {
     if stale == 0 {
         bail!("humidity source dead for 2 s but no block flagged RH_STALE\n{}", r.log);
     }
-    if last.flags & flags::RH_STALE != 0 {
+    if last.header.flags & flags::RH_STALE != 0 {
         bail!("humidity came back but the last block is still RH_STALE");
     }
     if r.blocks_with(flags::CLIPPED) == 0 || r.blocks_with(flags::BAD_SAMPLE) == 0 {
@@ -151,7 +151,7 @@ pub fn qemu_replay_sensor_faults() -> Result<()> {
     check_count(&r, samples.len())?;
     // Blocks whose first sample lies in [from, to) s.
     let flagged_in = |flag: u16, from: f32, to: f32| {
-        r.blocks.iter().filter(|b| (from * fs..to * fs).contains(&(b.first_sample as f32)) && b.flags & flag != 0).count()
+        r.blocks.iter().filter(|b| (from * fs..to * fs).contains(&(b.header.first_sample as f32)) && b.header.flags & flag != 0).count()
     };
     let report = format!(
         "RH_STALE while slow {} / while garbage {}, RH_CLAMPED beyond range {}, STUCK {}",
@@ -174,8 +174,8 @@ pub fn qemu_replay_sensor_faults() -> Result<()> {
     if stuck_blocks + 2 < expect || stuck_blocks > expect + 2 {
         bail!("{stuck_blocks} blocks flagged STUCK, expected about {expect}: {report}");
     }
-    if last.flags & (flags::RH_STALE | flags::RH_CLAMPED | flags::STUCK) != 0 {
-        bail!("faults over, but the last block is still flagged {:#x}", last.flags);
+    if last.header.flags & (flags::RH_STALE | flags::RH_CLAMPED | flags::STUCK) != 0 {
+        bail!("faults over, but the last block is still flagged {:#x}", last.header.flags);
     }
     Ok(())
 }
@@ -189,7 +189,10 @@ pub fn qemu_replay_no_new_humidity() -> Result<()> {
     let r = replay("no-new-humidity", &samples)?;
     check_count(&r, samples.len())?;
     let stale_in = |from: f32, to: f32| {
-        r.blocks.iter().filter(|b| (from * fs..to * fs).contains(&(b.first_sample as f32)) && b.flags & flags::RH_STALE != 0).count()
+        r.blocks
+            .iter()
+            .filter(|b| (from * fs..to * fs).contains(&(b.header.first_sample as f32)) && b.header.flags & flags::RH_STALE != 0)
+            .count()
     };
     let (short, long) = (stale_in(0.0, 5.0), stale_in(9.0, 10.0));
     println!("RH_STALE blocks: {short} during 1.5 s without new data, {long} in the last second of 5 s without");
@@ -199,7 +202,7 @@ pub fn qemu_replay_no_new_humidity() -> Result<()> {
     if long == 0 {
         bail!("5 s without a new humidity sample, but no block flagged RH_STALE\n{}", r.log);
     }
-    if r.blocks.last().context("no blocks")?.flags & flags::RH_STALE != 0 {
+    if r.blocks.last().context("no blocks")?.header.flags & flags::RH_STALE != 0 {
         bail!("new humidity samples again, but the last block is still RH_STALE");
     }
     Ok(())
@@ -293,7 +296,7 @@ pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
     // Both parts must have acted: without the path the strip is the reading (0), with the
     // correction alone it is +2 + 0.02·RH ≈ +2.9 %RH above it, and the lag on the rising ramp
     // (1 %RH/s, τ 1 s) takes about 1 %RH of that back.
-    let gap: Vec<f64> = blocks.iter().map(|b| (b.rh_strip_pct - b.rh_read_pct) as f64).collect();
+    let gap: Vec<f64> = blocks.iter().map(|b| (b.header.rh_strip_pct - b.header.rh_read_pct) as f64).collect();
     let mean = gap.iter().sum::<f64>() / gap.len() as f64;
     println!("strip − reading over {} blocks: mean {mean:+.3} %RH (no path: 0, the correction alone: ≈ +2.9)", gap.len());
     if !((mean - 0.0).abs() > 0.5 && (mean - 2.9).abs() > 0.5) {

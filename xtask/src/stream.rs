@@ -2,20 +2,13 @@
 //! the firmware encodes with) into owned blocks for scoring and CSV output.
 
 use anyhow::bail;
-use ipmc_core::stream::{Deframer, MAX_FRAME_LEN};
+use ipmc_core::stream::{Deframer, Header, MAX_FRAME_LEN};
 
 use crate::Result;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Block {
-    pub first_sample: u32,
-    /// RH of the active design, of the strip and as read [%] (`ipmc_core::stream::Header`).
-    pub rh_pct: f32,
-    pub rh_strip_pct: f32,
-    pub rh_read_pct: f32,
-    /// The block's expected relative error, 1σ.
-    pub rel_err: f32,
-    pub flags: u16,
+    pub header: Header,
     pub base_est_m: Vec<f32>,
 }
 
@@ -26,15 +19,7 @@ pub fn decode_all(bytes: &[u8]) -> Result<Vec<Block>> {
     let mut blocks = Vec::new();
     for &b in bytes {
         match deframer.push(b) {
-            Some(Ok(f)) => blocks.push(Block {
-                first_sample: f.header.first_sample,
-                rh_pct: f.header.rh_pct,
-                rh_strip_pct: f.header.rh_strip_pct,
-                rh_read_pct: f.header.rh_read_pct,
-                rel_err: f.header.rel_err,
-                flags: f.header.flags,
-                base_est_m: f.estimates().collect(),
-            }),
+            Some(Ok(f)) => blocks.push(Block { header: f.header, base_est_m: f.estimates().collect() }),
             Some(Err(e)) => bail!("stream frame {}: {e}", blocks.len()),
             None => {}
         }
@@ -64,12 +49,7 @@ mod tests {
         assert_eq!(
             blocks[1],
             Block {
-                first_sample: 2,
-                rh_pct: 46.0,
-                rh_strip_pct: 46.5,
-                rh_read_pct: 47.5,
-                rel_err: 0.125,
-                flags: 8,
+                header: Header { first_sample: 2, rh_pct: 46.0, rh_strip_pct: 46.5, rh_read_pct: 47.5, rel_err: 0.125, flags: 8 },
                 base_est_m: vec![2e-3, -1e-3]
             }
         );
