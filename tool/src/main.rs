@@ -4,7 +4,6 @@ mod band;
 mod calibration_source;
 mod commands;
 mod diagnose;
-mod effect;
 mod exact;
 mod input;
 mod overrides;

@@ -1,12 +1,13 @@
 //! `ipmc diagnose REC.csv... [--calib CALIB] --report DIR`: why simulation and recordings
 //! differ. Writes DIR/report.md, DIR/report.json and the figures (SVG and PNG; see
-//! `crate::diagnose`).
+//! `ipmc_diagnose`; the figures are `crate::diagnose::figures`).
 
 use crate::commands::write_atomically;
-use crate::diagnose::{data::Dataset, engine, figures, report};
+use crate::diagnose::figures;
 use anyhow::{Context, Result};
 use ipmc_core::Calibration;
 use ipmc_core::humidity_path::{HumidityPath, SensorKind};
+use ipmc_diagnose::{data::Dataset, engine, report};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -62,19 +63,6 @@ fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
     }
 }
 
-/// Reads the recordings into the levels a diagnosis fits, at the humidity `path` says the strip
-/// felt (the calibration's `[humidity]`).
-pub fn read_dataset(paths: &[PathBuf], path: &HumidityPath) -> Result<Dataset> {
-    let mut recs = Vec::with_capacity(paths.len());
-    let mut bursts = Vec::with_capacity(paths.len());
-    for p in paths {
-        let r = crate::input::responses(p)?;
-        recs.push(r.response);
-        bursts.push(r.bursts.unwrap_or_default());
-    }
-    Ok(Dataset { bursts, ..Dataset::felt(&recs, path) })
-}
-
 pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let drawn = figures::draw(dir, d, data)?;
@@ -86,11 +74,11 @@ pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &
 
 pub fn run(a: Args) -> Result<()> {
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
-    let data = read_dataset(&a.recordings, &calib.humidity)?;
+    let data = Dataset::read(&a.recordings, &calib.humidity)?;
     for (path, bursts) in a.recordings.iter().zip(&data.bursts).filter(|(_, b)| !b.is_empty()) {
         println!("{}: {}", path.display(), crate::input::summary(bursts));
     }
-    let steps = 2 + crate::diagnose::candidates::LIBRARY.len() as u64;
+    let steps = 2 + ipmc_diagnose::candidates::LIBRARY.len() as u64;
     let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { crate::progress::bar(steps, "diagnosing") };
     let d = engine::diagnose(&calib, &data, &|step| {
         bar.inc(1);
@@ -136,8 +124,8 @@ pub fn run(a: Args) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effect::Effect;
     use crate::simulator::concealed::{Format, Strength, make_case};
+    use ipmc_diagnose::Effect;
 
     /// Runs the command on a generated case and checks every figure report.json lists: present
     /// as SVG and PNG, each a valid non-empty file of its kind, linked from report.md; the

@@ -53,7 +53,6 @@ fn complex(r: &Option<Response>) -> Option<C<f64>> {
 impl Dataset {
     /// Groups every recording into levels (the recording crate's grouping) and keeps each
     /// session's humidity history. Points with a zero gain carry no phase and are dropped.
-    #[cfg(test)]
     pub fn from_recordings(recs: &[FrequencyResponse]) -> Self {
         Self::felt(recs, &HumidityPath::NONE)
     }
@@ -67,8 +66,8 @@ impl Dataset {
             let first = out.levels.len();
             let source = format!("recording {}", session + 1);
             let mut levels = rec.levels();
-            crate::input::levels_felt(rec, &mut levels, path, &source);
-            let strip = crate::input::strip_rh(rec, path, &source);
+            crate::recordings::levels_felt(rec, &mut levels, path, &source);
+            let strip = crate::recordings::strip_rh(rec, path, &source);
             for level in levels {
                 let n = level.points.len() as f64;
                 let mean = |f: &dyn Fn(&ipmc_recording::FrPoint) -> Option<f64>| -> Option<f64> {
@@ -99,6 +98,19 @@ impl Dataset {
             out.histories.push(RhHistory { t_s: timed.iter().map(|x| x.0).collect(), rh_pct: timed.iter().map(|x| x.1).collect() });
         }
         out
+    }
+
+    /// Reads the recording files into the levels a diagnosis fits, at the humidity `path` says
+    /// the strip felt (the calibration's `[humidity]`).
+    pub fn read(paths: &[std::path::PathBuf], path: &HumidityPath) -> anyhow::Result<Self> {
+        let mut recs = Vec::with_capacity(paths.len());
+        let mut bursts = Vec::with_capacity(paths.len());
+        for p in paths {
+            let r = crate::recordings::responses(p)?;
+            recs.push(r.response);
+            bursts.push(r.bursts.unwrap_or_default());
+        }
+        Ok(Dataset { bursts, ..Dataset::felt(&recs, path) })
     }
 
     pub fn has_times(&self) -> bool {

@@ -558,7 +558,10 @@ mod tests {
         p.cs *= 0.8;
         p.ca *= 1.3;
         p.d *= 1.5;
-        let freqs: Vec<f64> = crate::simulator::concealed::FREQS.to_vec();
+        let freqs: Vec<f64> = vec![
+            10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 25.0, 28.0, 30.0, 32.0, 34.0, 35.0, 36.0, 38.0, 40.0, 45.0, 50.0, 55.0, 60.0, 70.0,
+            80.0, 90.0, 100.0, 110.0, 120.0, 130.0, 140.0, 150.0,
+        ];
         let level = LevelData {
             session: 0,
             rh_pct: rh,

@@ -2,11 +2,17 @@
 
 use super::candidates::by_name;
 use super::engine::Diagnosis;
-use super::figures::Drawn;
 use serde_json::json;
 use std::fmt::Write as _;
 
-pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]) -> serde_json::Value {
+/// One figure of the report (drawn by the caller): its title and the stem of its .svg and .png
+/// in the report directory.
+pub struct Figure {
+    pub title: String,
+    pub stem: String,
+}
+
+pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -> serde_json::Value {
     json!({
         "verdict": d.verdict,
         "indistinguishable": d.indistinguishable,
@@ -35,7 +41,7 @@ fn fmt_value(v: f64) -> String {
     if v == 0.0 || (1e-3..1e4).contains(&v.abs()) { format!("{v:.4}") } else { format!("{v:.3e}") }
 }
 
-pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]) -> String {
+pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Diagnosis\n");
     let _ = writeln!(s, "Recordings: {}  \nCalibration: {calib}\n", inputs.join(", "));
