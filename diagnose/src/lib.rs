@@ -9,17 +9,33 @@
 //! - [`fits`]: per-level base fits, the noise from neighbouring points, joint candidate fits.
 //! - [`laws`]: humidity laws over levels (held-out prediction, humidity-acting candidates).
 //! - [`locate`]: where the mismatch lives and how significant it is.
-//! - [`engine`]: the diagnosis itself and its decision rule.
+//! - [`context`]: what every candidate is scored from (base fits, noise, law weights).
+//! - [`held_out`]: held-out scores of levels and their paired comparison.
+//! - [`scorers`]: one scorer per kind of candidate behind one interface.
+//! - [`remap`]: candidates acting through the humidity (sensor error, hydration lag).
+//! - [`humidity_path`]: the whole humidity path fitted at once for the calibration.
+//! - [`decide`]: the decision rule and its thresholds.
+//! - [`types`]: what a diagnosis reports.
+//! - [`engine`]: the diagnosis in order.
 //! - [`report`]: report.json and report.md.
 
 pub mod candidates;
+mod context;
 pub mod data;
+pub mod decide;
 pub mod effect;
 pub mod engine;
 pub mod fits;
+mod held_out;
+mod humidity_path;
 pub mod laws;
 pub mod locate;
 pub mod recordings;
+mod remap;
 pub mod report;
+mod scorers;
+pub mod types;
 
 pub use effect::Effect;
+pub use engine::diagnose;
+pub use types::{Diagnosis, HeldOutModel, Verdict};

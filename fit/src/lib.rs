@@ -10,6 +10,7 @@
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
 //! - [`laws`]: humidity laws through the levels, and the calibration they make.
 //! - [`scatter`]: how far the levels stray from those laws (the calibration's `[uncertainty]`).
+//! - [`scalar`]: minimizing a function of one positive scalar over decades.
 //!
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
@@ -19,4 +20,5 @@ pub mod lsq;
 pub mod multisine;
 pub mod noise;
 pub mod response;
+pub mod scalar;
 pub mod scatter;

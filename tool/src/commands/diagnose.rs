@@ -41,7 +41,7 @@ pub struct Args {
 /// calibration's own (the mean delays of lags in series add) and its sensor correction applied
 /// after the calibration's own (it was found on readings already corrected by it). None for
 /// any other verdict.
-pub fn calibration_with(calib: &Calibration, d: &engine::Diagnosis, sensor: SensorKind) -> Option<Calibration> {
+pub fn calibration_with(calib: &Calibration, d: &ipmc_diagnose::Diagnosis, sensor: SensorKind) -> Option<Calibration> {
     let found = d.humidity_path?;
     let old = calib.humidity;
     let mut out = *calib;
@@ -63,7 +63,7 @@ fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
     }
 }
 
-pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
+pub fn write_report(dir: &Path, d: &ipmc_diagnose::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let drawn = figures::draw(dir, d, data)?;
     let json = report::json(d, inputs, calib, &drawn);

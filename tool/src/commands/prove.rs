@@ -96,7 +96,7 @@ pub fn run_cases(
         Ok(Outcome {
             truth,
             magnitude: case.magnitude,
-            verdict: d.verdict,
+            verdict: d.verdict.to_string(),
             heldout_before: d.heldout_before,
             heldout_after: d.heldout_after,
         })
@@ -276,8 +276,8 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()
         let bic_of = |name: &str| d.candidates.iter().find(|c| c.name == name && c.applicable).map(|c| c.delta_bic);
         let o = ExternalOutcome {
             case: case.clone(),
-            verdict: d.verdict.clone(),
-            delta_bic: bic_of(&d.verdict).unwrap_or(f64::NAN),
+            verdict: d.verdict.to_string(),
+            delta_bic: bic_of(d.verdict.as_str()).unwrap_or(f64::NAN),
             indistinguishable: d.indistinguishable.iter().map(|a| (a.name.clone(), a.delta_bic)).collect(),
             truth_delta_bic: bic_of(&truth),
             truth,

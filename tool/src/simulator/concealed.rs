@@ -172,7 +172,7 @@ mod tests {
         if d.verdict != "none" && d.verdict != "unexplained" {
             assert!(d.heldout_after < d.heldout_before, "{}: held-out {} → {}", d.verdict, d.heldout_before, d.heldout_after);
         }
-        d.verdict
+        d.verdict.to_string()
     }
 
     fn found(effect: Effect) {
