@@ -10,10 +10,10 @@ use ipmc_core::model::jw;
 use ipmc_core::{C, Calibration, ParamName, Params};
 use ipmc_fit::lsq::{self, Blocks, Bound, Fit, Param, Reach, Tolerance};
 use ipmc_fit::noise::{self, ChannelNoise};
-use ipmc_fit::response::{Channel, Point, Sigma, log_ratio};
+use ipmc_fit::response::{Channel, Misfit, Point, Sigma, log_ratio};
 
 /// The base parameters refitted at every level: the four the paper identifies per level.
-pub const BASE: [ParamName; 4] = [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::D];
+pub const BASE: [ParamName; 4] = ipmc_fit::identify::FITTED;
 
 /// ln of the base parameters at one level.
 pub type Theta = [f64; 4];
@@ -90,9 +90,7 @@ pub fn write_residuals(level: &LevelData, sig: &LevelSigmas, mask: &Mask, p: &Pa
         let (t, c) = responses(p, x, jw(f));
         for (value, model, s, on) in [(level.tip[i], t, sig.tip[i], mask.tip[i]), (level.current[i], c, sig.current[i], mask.current[i])] {
             if let (Some(m), true) = (value, on) {
-                let z = log_ratio(m, model);
-                out[k] = z.re / s.ln_gain;
-                out[k + 1] = z.im / s.phase;
+                out[k..k + 2].copy_from_slice(&s.weigh(Misfit::LogRatio.of(m, model)));
                 k += 2;
             }
         }
