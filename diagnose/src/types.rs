@@ -4,8 +4,9 @@
 use crate::effect::Effect;
 use crate::fits::{Mask, Noise};
 use crate::locate::Located;
+use ipmc_core::Calibration;
 use ipmc_core::extension::Extension;
-use ipmc_core::humidity_path::HumidityPath;
+use ipmc_core::humidity_path::{HumidityPath, SensorKind};
 use std::fmt;
 
 /// What the diagnosis concludes.
@@ -198,4 +199,23 @@ pub struct Diagnosis {
     /// path fitted at once (see [`crate::humidity_path::fit`]), relative to the humidity the levels are
     /// at (the readings through the calibration's own path).
     pub humidity_path: Option<HumidityPath>,
+}
+
+impl Diagnosis {
+    /// `calib` with what the diagnosis found and belongs in a calibration when its verdict is a
+    /// part of the humidity path: the path fitted as a whole (`humidity_path`), its lag added to
+    /// the calibration's own (the mean delays of lags in series add) and its sensor correction
+    /// applied after the calibration's own (it was found on readings already corrected by it).
+    /// None for any other verdict.
+    pub fn calibration_with(&self, calib: &Calibration, sensor: SensorKind) -> Option<Calibration> {
+        let found = self.humidity_path?;
+        let old = calib.humidity;
+        let mut out = *calib;
+        out.humidity =
+            HumidityPath { tau_wet_s: old.tau_wet_s + found.tau_wet_s, tau_dry_s: old.tau_dry_s + found.tau_dry_s, ..found.after(&old) };
+        if found.gain != 1.0 || found.offset_pct != 0.0 {
+            out.humidity.sensor = Some(sensor);
+        }
+        Some(out)
+    }
 }

@@ -6,7 +6,7 @@ use crate::commands::write_atomically;
 use crate::diagnose::figures;
 use anyhow::{Context, Result};
 use ipmc_core::Calibration;
-use ipmc_core::humidity_path::{HumidityPath, SensorKind};
+use ipmc_core::humidity_path::SensorKind;
 use ipmc_diagnose::{data::Dataset, engine, report};
 use std::path::{Path, PathBuf};
 
@@ -34,23 +34,6 @@ pub struct Args {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
-}
-
-/// `calib` with what `d` found and belongs in a calibration when its verdict is a part of the
-/// humidity path: the path fitted as a whole (`Diagnosis::humidity_path`), its lag added to the
-/// calibration's own (the mean delays of lags in series add) and its sensor correction applied
-/// after the calibration's own (it was found on readings already corrected by it). None for
-/// any other verdict.
-pub fn calibration_with(calib: &Calibration, d: &ipmc_diagnose::Diagnosis, sensor: SensorKind) -> Option<Calibration> {
-    let found = d.humidity_path?;
-    let old = calib.humidity;
-    let mut out = *calib;
-    out.humidity =
-        HumidityPath { tau_wet_s: old.tau_wet_s + found.tau_wet_s, tau_dry_s: old.tau_dry_s + found.tau_dry_s, ..found.after(&old) };
-    if found.gain != 1.0 || found.offset_pct != 0.0 {
-        out.humidity.sensor = Some(sensor);
-    }
-    Some(out)
 }
 
 fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
@@ -94,7 +77,7 @@ pub fn run(a: Args) -> Result<()> {
     println!("held-out χ²/residual: {:.3} → {:.3}", d.heldout_before, d.heldout_after);
     println!("report: {}", a.report.join("report.md").display());
     if let Some(out) = &a.write_calib {
-        match calibration_with(&calib, &d, sensor_kind(a.humidity_sensor.as_deref(), &calib)?) {
+        match d.calibration_with(&calib, sensor_kind(a.humidity_sensor.as_deref(), &calib)?) {
             Some(c) => {
                 ipmc_core::calibration_file::check(&c)
                     .map_err(|e| anyhow::anyhow!("the calibration with the finding is not usable: {e}"))?;
