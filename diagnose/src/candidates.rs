@@ -19,7 +19,6 @@ pub struct Spec {
     /// Where fits start (a small but visible effect).
     pub start: f64,
     /// The value at which the candidate is absent (the library's nesting test checks it).
-    #[cfg_attr(not(test), allow(dead_code))]
     pub absent: f64,
 }
 
