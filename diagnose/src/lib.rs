@@ -20,20 +20,20 @@
 //! - [`report`]: report.json and report.md.
 
 pub mod candidates;
-mod context;
+pub mod context;
 pub mod data;
 pub mod decide;
 pub mod effect;
 pub mod engine;
 pub mod fits;
-mod held_out;
-mod humidity_path;
+pub mod held_out;
+pub mod humidity_path;
 pub mod laws;
 pub mod locate;
 pub mod recordings;
-mod remap;
+pub mod remap;
 pub mod report;
-mod scorers;
+pub mod scorers;
 pub mod types;
 
 pub use effect::Effect;
