@@ -1,31 +1,12 @@
 //! The recordings as `diagnose` fits them: humidity levels of complex responses per frequency,
 //! each with the time, temperature and session it was measured in.
 
-use ipmc_core::C;
 use ipmc_core::humidity_path::HumidityPath;
-use ipmc_recording::{FrequencyResponse, Response};
+use ipmc_recording::FrequencyResponse;
 
-/// One visit of one humidity level.
-#[derive(Clone, Debug)]
-pub struct LevelData {
-    /// Which recording (session) the level comes from.
-    pub session: usize,
-    /// Mean humidity reading [%].
-    pub rh_pct: f64,
-    /// Mean temperature [°C], when recorded.
-    pub temp_c: Option<f64>,
-    /// Mean measurement time [s] from the session's start, when recorded.
-    pub time_s: Option<f64>,
-    /// First and last measurement time [s], when recorded.
-    pub time_span: Option<(f64, f64)>,
-    /// Index (into the same `Vec<LevelData>`) of the earlier visit of this humidity.
-    pub revisit_of: Option<usize>,
-    /// Frequencies [Hz], ascending.
-    pub freqs: Vec<f64>,
-    /// Measured W(L)/U and I/U per frequency (None where the channel was not recorded).
-    pub tip: Vec<Option<C<f64>>>,
-    pub current: Vec<Option<C<f64>>>,
-}
+/// One visit of one humidity level: fit's, which every fit takes (its `revisit_of` indexes the
+/// dataset's levels).
+pub use ipmc_fit::level::LevelData;
 
 /// Every humidity reading of one session in time order: what the polymer's water content
 /// followed (hydration lag).
@@ -44,10 +25,6 @@ pub struct Dataset {
     /// response): each line's noise and the current's spectrum between the lines
     /// (`BetweenLines`, where mains and its harmonics show).
     pub bursts: Vec<Vec<ipmc_fit::multisine::Burst>>,
-}
-
-fn complex(r: &Option<Response>) -> Option<C<f64>> {
-    r.as_ref().map(|r| C::from_polar(r.gain, r.phase_deg.to_radians()))
 }
 
 impl Dataset {
@@ -69,29 +46,10 @@ impl Dataset {
             crate::recordings::levels_felt(rec, &mut levels, path, &source);
             let strip = crate::recordings::strip_rh(rec, path, &source);
             for level in levels {
-                let n = level.points.len() as f64;
-                let mean = |f: &dyn Fn(&ipmc_recording::FrPoint) -> Option<f64>| -> Option<f64> {
-                    let v: Option<Vec<f64>> = level.points.iter().map(f).collect();
-                    v.map(|v| v.iter().sum::<f64>() / n)
-                };
-                let usable = |r: &Option<Response>| r.as_ref().is_some_and(|r| r.gain > 0.0);
-                let pts: Vec<_> = level.points.iter().filter(|p| usable(&p.tip) || usable(&p.current)).collect();
-                out.levels.push(LevelData {
-                    session,
-                    rh_pct: level.rh_pct,
-                    temp_c: mean(&|p| p.temp_c),
-                    time_s: mean(&|p| p.time_s),
-                    time_span: level
-                        .points
-                        .iter()
-                        .map(|p| p.time_s)
-                        .collect::<Option<Vec<f64>>>()
-                        .map(|t| (t.iter().cloned().fold(f64::INFINITY, f64::min), t.iter().cloned().fold(f64::NEG_INFINITY, f64::max))),
-                    revisit_of: level.revisit_of.map(|i| first + i),
-                    freqs: pts.iter().map(|p| p.freq_hz).collect(),
-                    tip: pts.iter().map(|p| if usable(&p.tip) { complex(&p.tip) } else { None }).collect(),
-                    current: pts.iter().map(|p| if usable(&p.current) { complex(&p.current) } else { None }).collect(),
-                });
+                let (mut l, _) = LevelData::from_level(&level, None);
+                l.session = session;
+                l.revisit_of = l.revisit_of.map(|i| first + i);
+                out.levels.push(l);
             }
             let mut timed: Vec<(f64, f64)> = rec.points.iter().zip(&strip).filter_map(|(p, &rh)| p.time_s.map(|t| (t, rh))).collect();
             timed.sort_by(|a, b| a.0.total_cmp(&b.0));

@@ -570,6 +570,7 @@ mod tests {
             tip: freqs.iter().map(|&f| Some(ipmc_core::tip_response(&p, jw(f)))).collect(),
             current: freqs.iter().map(|&f| Some(ipmc_core::current_response(&p, jw(f)))).collect(),
             freqs,
+            kappa_e: None,
         };
         let sig =
             LevelSigmas { tip: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29], current: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29] };

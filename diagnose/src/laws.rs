@@ -236,6 +236,7 @@ mod tests {
             freqs: vec![],
             tip: vec![],
             current: vec![],
+            kappa_e: None,
         };
         let got = lagged_rh(&[lvl(60.0, 60.0)], &[hist], 50.0)[0];
         // the chamber steps right after the last reading at 40 %, at 9 s

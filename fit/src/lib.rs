@@ -7,6 +7,7 @@
 //! - [`multisine`]: tip/base and current/base responses, their noise and the between-line
 //!   spectrum estimated from a time-series recording's multisine bursts.
 //! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
+//! - [`level`]: one humidity level's measured responses, as every fit takes them.
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
 //! - [`laws`]: humidity laws through the levels, and the calibration they make.
 //! - [`scatter`]: how far the levels stray from those laws (the calibration's `[uncertainty]`).
@@ -16,6 +17,7 @@
 
 pub mod identify;
 pub mod laws;
+pub mod level;
 pub mod lsq;
 pub mod multisine;
 pub mod noise;
