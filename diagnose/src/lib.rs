@@ -6,7 +6,8 @@
 //! - [`data`]: the recordings as levels of complex responses with time, temperature, session.
 //! - [`effect`]: the effects the model leaves out, by name (shared with the tool's simulator).
 //! - [`candidates`]: the library of candidate physics (what, how it shows, its parameters).
-//! - [`fits`]: per-level base fits, the noise from neighbouring points, joint candidate fits.
+//! - [`fits`] (`ipmc_fit::refit`): per-level base fits with an extension and a mask, the noise
+//!   from neighbouring points, joint candidate fits.
 //! - [`laws`]: humidity laws over levels (held-out prediction, humidity-acting candidates).
 //! - [`locate`]: where the mismatch lives and how significant it is.
 //! - [`context`]: what every candidate is scored from (base fits, noise, law weights).
@@ -25,7 +26,6 @@ pub mod data;
 pub mod decide;
 pub mod effect;
 pub mod engine;
-pub mod fits;
 pub mod held_out;
 pub mod humidity_path;
 pub mod laws;
@@ -38,4 +38,6 @@ pub mod types;
 
 pub use effect::Effect;
 pub use engine::diagnose;
+/// The per-level refits, noise and joint fits a diagnosis makes are the identification library's.
+pub use ipmc_fit::refit as fits;
 pub use types::{Diagnosis, HeldOutModel, Verdict};

@@ -19,7 +19,8 @@ impl Scorer for ModelScorer {
     fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial> {
         let (levels, ext) = (&ctx.data.levels, self.0);
         let start: Vec<f64> = cand.params.iter().map(|s| s.start).collect();
-        let j = fits::fit_joint(ctx.calib, levels, &ctx.sig, &ctx.all, cand.params, ext, &ctx.base.theta, &start)?;
+        let specs: Vec<Param> = cand.params.iter().map(|s| Param::new(s.name, s.bound)).collect();
+        let j = fits::fit_joint(ctx.calib, levels, &ctx.sig, &ctx.all, &specs, ext, &ctx.base.theta, &start)?;
         let exts: Vec<Extension<f64>> =
             (0..levels.len()).map(|l| ext(&j.phi, &fits::level_params(ctx.calib, &levels[l], &j.theta[l]))).collect();
         let chi2: f64 = j.chi2.iter().sum();
