@@ -3,7 +3,7 @@
 //! criterion, and report (`ipmc diagnose`, proved by `ipmc prove`; the tool draws the figures).
 //!
 //! - [`recordings`]: recording files read as frequency responses at the strip's humidity.
-//! - [`data`]: the recordings as levels of complex responses with time, temperature, session.
+//! - [`data`]: the recordings as a dataset of `ipmc_fit` levels with the humidity histories.
 //! - [`effect`]: the effects the model leaves out, by name (shared with the tool's simulator).
 //! - [`candidates`]: the library of candidate physics (what, how it shows, its parameters).
 //! - [`fits`] (`ipmc_fit::refit`): per-level base fits with an extension and a mask, the noise

@@ -1,6 +1,7 @@
 //! Scoring one candidate: its kind's scorer fits it and gives its held-out models; here the
 //! information criterion, the held-out scores and the gates every kind shares. A new kind of
-//! candidate is a file here implementing [`Scorer`] and its row in [`scorer_for`].
+//! candidate is a file here implementing [`Scorer`], its variant of [`Kind`] and its row in
+//! [`scorer_for`].
 
 mod hydration_lag;
 mod mains;
