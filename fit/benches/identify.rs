@@ -35,7 +35,7 @@ fn main() {
     let levels = rec.levels();
     let read_ms = t.elapsed().as_secs_f64() * 1e3;
     let data: Vec<LevelData> = levels.iter().map(|l| LevelData::from_level(l, None).0).collect();
-    let points: usize = data.iter().map(|d| d.points.len()).sum();
+    let points: usize = data.iter().map(|d| d.points().len()).sum();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!("{} levels, {points} points (tip and current), read and grouped in {read_ms:.2} ms", data.len());
     for threads in [1, cores] {

@@ -12,6 +12,7 @@
 //!
 //! When a level has no tip channel the mechanics are fitted on the current with d free.
 
+pub use crate::level::LevelData;
 use crate::lsq::{self, Fit, FitError, Tolerance};
 use crate::noise::{self, ChannelNoise};
 use crate::response::{Channel, Misfit, Point, ResponseProblem, Sigma, model_values};
@@ -23,36 +24,6 @@ pub struct Estimate {
     pub value: f64,
     /// Standard error; `None` when the source gives none (κe taken from the base calibration).
     pub se: Option<f64>,
-}
-
-/// One level's data.
-#[derive(Clone, Debug)]
-pub struct LevelData {
-    pub rh_pct: f64,
-    pub points: Vec<Point>,
-    /// κe from a charging recording at this level; otherwise the base calibration's.
-    pub kappa_e: Option<Estimate>,
-}
-
-impl LevelData {
-    /// The fit's points of one recorded level: both channels at every frequency that has them.
-    /// A zero gain has no logarithm and no phase; such points are left out and their lines
-    /// returned.
-    pub fn from_level(level: &ipmc_recording::Level, kappa_e: Option<Estimate>) -> (LevelData, Vec<usize>) {
-        let mut points = Vec::with_capacity(2 * level.points.len());
-        let mut left_out = Vec::new();
-        for p in &level.points {
-            for (channel, response) in [(Channel::Tip, p.tip), (Channel::Current, p.current)] {
-                let Some(r) = response else { continue };
-                if r.gain > 0.0 {
-                    points.push(Point::new(p.freq_hz, channel, r.gain, r.phase_deg));
-                } else {
-                    left_out.push(p.line);
-                }
-            }
-        }
-        (LevelData { rh_pct: level.rh_pct, points, kappa_e }, left_out)
-    }
 }
 
 /// One level's identified parameters.
@@ -165,14 +136,15 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
     let kappa_e = level.kappa_e.unwrap_or(Estimate { value: p0.kappa_e, se: None });
     p0.kappa_e = kappa_e.value;
 
-    let tip: Vec<Point> = level.points.iter().copied().filter(|p| p.channel == Channel::Tip).collect();
-    let current: Vec<Point> = level.points.iter().copied().filter(|p| p.channel == Channel::Current).collect();
+    let points = level.points();
+    let tip: Vec<Point> = points.iter().copied().filter(|p| p.channel == Channel::Tip).collect();
+    let current: Vec<Point> = points.iter().copied().filter(|p| p.channel == Channel::Current).collect();
     let has_current = !current.is_empty();
     let fitted: Vec<ParamName> = if has_current { FITTED.to_vec() } else { FITTED[..3].to_vec() };
     // Two residuals per point; at least one degree of freedom per fitted parameter to spare.
     let needed = fitted.len();
-    if level.points.len() < needed {
-        return Err(IdentifyError::TooFewPoints { rh_pct: rh, points: level.points.len(), needed });
+    if points.len() < needed {
+        return Err(IdentifyError::TooFewPoints { rh_pct: rh, points: points.len(), needed });
     }
 
     // Stages 1–2 on the channel that carries the mechanics alone (the tip), else on the current
@@ -215,9 +187,9 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
     }
 
     // Stage 4: everything together, each point weighted by its own noise.
-    let gains: Vec<f64> = model_values(&p3, &level.points).iter().map(|g| g.norm()).collect();
-    let sigmas = noise::sigmas(&level.points, &gains, &noise);
-    let joint = ResponseProblem::new(p3, &fitted, &level.points, &sigmas, Misfit::Relative);
+    let gains: Vec<f64> = model_values(&p3, &points).iter().map(|g| g.norm()).collect();
+    let sigmas = noise::sigmas(&points, &gains, &noise);
+    let joint = ResponseProblem::new(p3, &fitted, &points, &sigmas, Misfit::Relative);
     let fit = lsq::fit(&joint.lsq_params(), &[joint.start()], joint.n_residuals(), |v, out| joint.residuals(v, out))
         .map_err(|error| IdentifyError::Fit { rh_pct: rh, stage: "joint fit", error })?;
     let params = joint.params(&fit.estimates);
@@ -229,8 +201,8 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
         kappa_e_measured,
         params,
         noise,
-        tip_points: level.points.iter().filter(|p| p.channel == Channel::Tip).count(),
-        current_points: level.points.iter().filter(|p| p.channel == Channel::Current).count(),
+        tip_points: points.iter().filter(|p| p.channel == Channel::Tip).count(),
+        current_points: points.iter().filter(|p| p.channel == Channel::Current).count(),
     })
 }
 

@@ -48,24 +48,50 @@ impl core::fmt::Display for LawError {
 
 impl std::error::Error for LawError {}
 
+/// How [`weighted_least_squares`] treats a design that does not determine every coefficient.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Singular {
+    /// No fit: a law written into a calibration must be determined by its levels.
+    Refuse,
+    /// Directions with a singular value under 1e-10 are left out (minimum-norm solution): a
+    /// prediction from the levels at hand is still wanted.
+    Truncate,
+}
+
+/// Weighted linear least squares: the coefficients c minimizing Σ wᵢ (yᵢ − rowsᵢ·c)², by SVD of
+/// the weighted design. `None` with fewer rows than coefficients, or when singular and refused.
+pub fn weighted_least_squares(rows: &[Vec<f64>], y: &[f64], w: &[f64], singular: Singular) -> Option<Vec<f64>> {
+    let (n, k) = (rows.len(), rows.first()?.len());
+    if n < k {
+        return None;
+    }
+    let a = DMatrix::from_fn(n, k, |i, j| rows[i][j] * w[i].sqrt());
+    let b = DVector::from_fn(n, |i, _| y[i] * w[i].sqrt());
+    let svd = a.svd(true, true);
+    let eps = match singular {
+        Singular::Refuse => {
+            let smax = svd.singular_values.max();
+            // (NaN singular values fail the comparison too)
+            if !svd.singular_values.iter().all(|&s| s > smax * 1e-12) {
+                return None;
+            }
+            0.0
+        }
+        Singular::Truncate => 1e-10,
+    };
+    svd.solve(&b, eps).ok().map(|c| c.iter().copied().collect())
+}
+
 /// Weighted least-squares polynomial in RH, returned in ascending powers of RH itself (the
 /// calibration's form). Fitted in the centred, scaled variable u = (RH − c)/w so the normal
 /// matrix stays well conditioned, then expanded back.
 fn poly_fit(rh: &[f64], y: &[f64], w: &[f64], degree: usize) -> Option<[f64; MAX_LAW_COEFFS]> {
-    let n = rh.len();
     let (lo, hi) = rh.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &r| (a.min(r), b.max(r)));
     let c = 0.5 * (lo + hi);
     let half = (0.5 * (hi - lo)).max(1.0);
     let k = degree + 1;
-    let a = DMatrix::from_fn(n, k, |i, j| w[i].sqrt() * ((rh[i] - c) / half).powi(j as i32));
-    let b = DVector::from_fn(n, |i, _| w[i].sqrt() * y[i]);
-    let svd = a.svd(true, true);
-    let smax = svd.singular_values.max();
-    // (NaN singular values fail the comparison too)
-    if !svd.singular_values.iter().all(|&s| s > smax * 1e-12) {
-        return None;
-    }
-    let coef_u = svd.solve(&b, 0.0).ok()?;
+    let rows: Vec<Vec<f64>> = rh.iter().map(|&r| (0..k).map(|j| ((r - c) / half).powi(j as i32)).collect()).collect();
+    let coef_u = weighted_least_squares(&rows, y, w, Singular::Refuse)?;
     // Σ a_j ((RH − c)/half)^j  →  Σ b_m RH^m
     let mut out = [0.0; MAX_LAW_COEFFS];
     for j in 0..k {

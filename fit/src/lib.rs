@@ -7,16 +7,23 @@
 //! - [`multisine`]: tip/base and current/base responses, their noise and the between-line
 //!   spectrum estimated from a time-series recording's multisine bursts.
 //! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
+//! - [`level`]: one humidity level's measured responses, as every fit takes them.
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
+//! - [`refit`]: levels refitted near a calibration with an extension held and a mask, the
+//!   noise from neighbouring points, joint fits of an extension with every level.
 //! - [`laws`]: humidity laws through the levels, and the calibration they make.
 //! - [`scatter`]: how far the levels stray from those laws (the calibration's `[uncertainty]`).
+//! - [`scalar`]: minimizing a function of one positive scalar over decades.
 //!
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
 pub mod identify;
 pub mod laws;
+pub mod level;
 pub mod lsq;
 pub mod multisine;
 pub mod noise;
+pub mod refit;
 pub mod response;
+pub mod scalar;
 pub mod scatter;

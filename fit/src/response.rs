@@ -84,6 +84,12 @@ pub struct Sigma {
 impl Sigma {
     /// Equal relative weight everywhere: what a first fit uses before the noise is known.
     pub const UNIT: Sigma = Sigma { ln_gain: 1.0, phase: 1.0 };
+
+    /// The two weighted residuals of a misfit `z`: its real part (gain) over σ of ln gain, its
+    /// imaginary part (phase) over σ of the phase.
+    pub fn weigh(self, z: C<f64>) -> [f64; 2] {
+        [z.re / self.ln_gain, z.im / self.phase]
+    }
 }
 
 /// ln(measured / model): real part the log-gain error, imaginary part the phase error in (−π, π].
@@ -95,9 +101,7 @@ pub fn log_ratio(measured: C<f64>, model: C<f64>) -> C<f64> {
 /// model's value at each point.
 pub fn weighted_residuals(points: &[Point], sigmas: &[Sigma], misfit: Misfit, model: &[C<f64>], out: &mut [f64]) {
     for (((pt, s), m), r) in points.iter().zip(sigmas).zip(model).zip(out.chunks_exact_mut(2)) {
-        let z = misfit.of(pt.value, *m);
-        r[0] = z.re / s.ln_gain;
-        r[1] = z.im / s.phase;
+        r.copy_from_slice(&s.weigh(misfit.of(pt.value, *m)));
     }
 }
 

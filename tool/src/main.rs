@@ -6,7 +6,6 @@ mod chain;
 mod charging;
 mod commands;
 mod diagnose;
-mod effect;
 mod exact;
 mod input;
 mod looping;

@@ -1,11 +1,12 @@
 //! `ipmc diagnose REC.csv... [--calib CALIB] --report DIR`: why simulation and recordings
 //! differ. Writes DIR/report.md, DIR/report.json and the figures (SVG and PNG; see
-//! `crate::diagnose`).
+//! `ipmc_diagnose`; the figures are `crate::diagnose::figures`).
 
-use crate::diagnose::{data::Dataset, engine, figures, report};
+use crate::diagnose::figures;
 use anyhow::{Context, Result};
 use ipmc_core::Calibration;
-use ipmc_core::humidity_path::{HumidityPath, SensorKind};
+use ipmc_core::humidity_path::SensorKind;
+use ipmc_diagnose::{data::Dataset, engine, report};
 use ipmc_recording::write_atomically;
 use std::path::{Path, PathBuf};
 
@@ -35,23 +36,6 @@ pub struct Args {
     quiet: bool,
 }
 
-/// `calib` with what `d` found and belongs in a calibration when its verdict is a part of the
-/// humidity path: the path fitted as a whole (`Diagnosis::humidity_path`), its lag added to the
-/// calibration's own (the mean delays of lags in series add) and its sensor correction applied
-/// after the calibration's own (it was found on readings already corrected by it). None for
-/// any other verdict.
-pub fn calibration_with(calib: &Calibration, d: &engine::Diagnosis, sensor: SensorKind) -> Option<Calibration> {
-    let found = d.humidity_path?;
-    let old = calib.humidity;
-    let mut out = *calib;
-    out.humidity =
-        HumidityPath { tau_wet_s: old.tau_wet_s + found.tau_wet_s, tau_dry_s: old.tau_dry_s + found.tau_dry_s, ..found.after(&old) };
-    if found.gain != 1.0 || found.offset_pct != 0.0 {
-        out.humidity.sensor = Some(sensor);
-    }
-    Some(out)
-}
-
 fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
     match arg {
         None => Ok(calib.humidity.sensor.unwrap_or(SensorKind::Hts221)),
@@ -62,20 +46,7 @@ fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
     }
 }
 
-/// Reads the recordings into the levels a diagnosis fits, at the humidity `path` says the strip
-/// felt (the calibration's `[humidity]`).
-pub fn read_dataset(paths: &[PathBuf], path: &HumidityPath) -> Result<Dataset> {
-    let mut recs = Vec::with_capacity(paths.len());
-    let mut bursts = Vec::with_capacity(paths.len());
-    for p in paths {
-        let r = crate::input::responses(p)?;
-        recs.push(r.response);
-        bursts.push(r.bursts.unwrap_or_default());
-    }
-    Ok(Dataset { bursts, ..Dataset::felt(&recs, path) })
-}
-
-pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
+pub fn write_report(dir: &Path, d: &ipmc_diagnose::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let drawn = figures::draw(dir, d, data)?;
     let json = report::json(d, inputs, calib, &drawn);
@@ -86,11 +57,11 @@ pub fn write_report(dir: &Path, d: &engine::Diagnosis, data: &Dataset, inputs: &
 
 pub fn run(a: Args) -> Result<()> {
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
-    let data = read_dataset(&a.recordings, &calib.humidity)?;
+    let data = Dataset::read(&a.recordings, &calib.humidity)?;
     for (path, bursts) in a.recordings.iter().zip(&data.bursts).filter(|(_, b)| !b.is_empty()) {
         println!("{}: {}", path.display(), crate::input::summary(bursts));
     }
-    let steps = 2 + crate::diagnose::candidates::LIBRARY.len() as u64;
+    let steps = 2 + ipmc_diagnose::candidates::LIBRARY.len() as u64;
     let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { crate::progress::bar(steps, "diagnosing") };
     let d = engine::diagnose(&calib, &data, &|step| {
         bar.inc(1);
@@ -106,7 +77,7 @@ pub fn run(a: Args) -> Result<()> {
     println!("held-out χ²/residual: {:.3} → {:.3}", d.heldout_before, d.heldout_after);
     println!("report: {}", a.report.join("report.md").display());
     if let Some(out) = &a.write_calib {
-        match calibration_with(&calib, &d, sensor_kind(a.humidity_sensor.as_deref(), &calib)?) {
+        match d.calibration_with(&calib, sensor_kind(a.humidity_sensor.as_deref(), &calib)?) {
             Some(c) => {
                 ipmc_core::calibration_file::check(&c)
                     .map_err(|e| anyhow::anyhow!("the calibration with the finding is not usable: {e}"))?;
@@ -136,8 +107,8 @@ pub fn run(a: Args) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effect::Effect;
     use crate::simulator::concealed::{Format, Strength, make_case};
+    use ipmc_diagnose::Effect;
 
     /// Runs the command on a generated case and checks every figure report.json lists: present
     /// as SVG and PNG, each a valid non-empty file of its kind, linked from report.md; the

@@ -8,11 +8,10 @@
 //! (DIR/caseNN.csv, one at a time, each timed) against DIR/truths.json and prints the same
 //! table with each case's indistinguishable set, evidence and wall time.
 
-use crate::commands::diagnose::read_dataset;
-use crate::diagnose::engine;
-use crate::effect::Effect;
 use crate::simulator::concealed::{Format, Strength, make_case};
 use anyhow::{Context, Result};
+use ipmc_diagnose::data::Dataset;
+use ipmc_diagnose::{Effect, engine};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -91,13 +90,13 @@ pub fn run_cases(
         let csv = case.recording.to_csv()?;
         ipmc_recording::write_atomically(&path, csv.as_bytes())?;
         // Blind: the diagnosis sees only the file.
-        let data = read_dataset(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE)?;
+        let data = Dataset::read(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE)?;
         let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;
         progress(&format!("case {i}: {truth}"));
         Ok(Outcome {
             truth,
             magnitude: case.magnitude,
-            verdict: d.verdict,
+            verdict: d.verdict.to_string(),
             heldout_before: d.heldout_before,
             heldout_after: d.heldout_after,
         })
@@ -271,14 +270,14 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()
         let effect = t.get("effect").and_then(|e| e.as_str()).unwrap_or("none");
         let truth = candidate_of_external(effect, t.get("effect_params").unwrap_or(&serde_json::Value::Null));
         let t0 = std::time::Instant::now();
-        let data = read_dataset(std::slice::from_ref(&path), &calib.humidity)?;
+        let data = Dataset::read(std::slice::from_ref(&path), &calib.humidity)?;
         let d = engine::diagnose(&calib, &data, &|_| {}).with_context(|| format!("{case} ({truth})"))?;
         let seconds = t0.elapsed().as_secs_f64();
         let bic_of = |name: &str| d.candidates.iter().find(|c| c.name == name && c.applicable).map(|c| c.delta_bic);
         let o = ExternalOutcome {
             case: case.clone(),
-            verdict: d.verdict.clone(),
-            delta_bic: bic_of(&d.verdict).unwrap_or(f64::NAN),
+            verdict: d.verdict.to_string(),
+            delta_bic: bic_of(d.verdict.as_str()).unwrap_or(f64::NAN),
             indistinguishable: d.indistinguishable.iter().map(|a| (a.name.clone(), a.delta_bic)).collect(),
             truth_delta_bic: bic_of(&truth),
             truth,

@@ -4,15 +4,16 @@
 //! after the augmentation at a few representative levels, and residual maps over frequency ×
 //! humidity before and after.
 
-use super::data::{Dataset, LevelData};
-use super::engine::{Diagnosis, HeldOutModel};
-use super::fits;
 use crate::plot::bode::{Bode, LevelModel, ModelLine};
 use crate::plot::render;
 use crate::plot::residual_map::{Panel, ResidualMap, Row};
 use anyhow::Result;
 use ipmc_core::extension::Extension;
 use ipmc_core::{C, Params};
+use ipmc_diagnose::data::{Dataset, LevelData};
+use ipmc_diagnose::fits;
+pub use ipmc_diagnose::report::Figure as Drawn;
+use ipmc_diagnose::{Diagnosis, HeldOutModel};
 use ipmc_recording::{FrPoint, Level, Response, unwrap_degrees};
 use plotters::style::RGBColor;
 use std::path::Path;
@@ -21,12 +22,6 @@ const SIMULATION_COLOR: RGBColor = RGBColor(120, 120, 120);
 const REFIT_COLOR: RGBColor = RGBColor(110, 170, 230);
 const BEFORE_COLOR: RGBColor = RGBColor(30, 90, 200);
 const AUGMENTED_COLOR: RGBColor = RGBColor(200, 30, 30);
-
-/// One drawn figure: its title and the stem of its .svg and .png in the report directory.
-pub struct Drawn {
-    pub title: String,
-    pub stem: String,
-}
 
 /// The level as a recording's level (phases unwrapped along frequency), for the Bode figure.
 fn as_recorded(level: &LevelData) -> Level {
@@ -162,9 +157,9 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diagnose::engine;
-    use crate::effect::Effect;
     use crate::simulator::concealed::{Format, Strength, make_case};
+    use ipmc_diagnose::Effect;
+    use ipmc_diagnose::engine;
 
     /// The held-out score a level's drawn residuals give: their Σ z² with the inflated
     /// variance's normalization, over their number.

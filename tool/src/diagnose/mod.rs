@@ -1,21 +1,4 @@
-//! Diagnosis of the mismatch between the model and recordings: compare, locate, name the
-//! missing physics from a library of candidates, decide on held-out levels and an information
-//! criterion, and report (`ipmc diagnose`, proved by `ipmc prove`).
-//!
-//! - [`data`]: the recordings as levels of complex responses with time, temperature, session.
-//! - [`candidates`]: the library of candidate physics (what, how it shows, its parameters).
-//! - [`fits`]: per-level base fits, the noise from neighbouring points, joint candidate fits.
-//! - [`laws`]: humidity laws over levels (held-out prediction, humidity-acting candidates).
-//! - [`locate`]: where the mismatch lives and how significant it is.
-//! - [`engine`]: the diagnosis itself and its decision rule.
-//! - [`report`]: report.json and report.md.
-//! - [`figures`]: Bode overlays and residual maps for the report.
+//! The diagnosis's figures: the library (`ipmc-diagnose`) decides and reports, the tool draws,
+//! so that plotting stays out of the library.
 
-pub mod candidates;
-pub mod data;
-pub mod engine;
 pub mod figures;
-pub mod fits;
-pub mod laws;
-pub mod locate;
-pub mod report;

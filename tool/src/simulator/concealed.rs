@@ -20,9 +20,9 @@ use super::effects::{self, ROOM_C};
 use super::random::SplitMix64;
 use super::session::{Frequencies, Humidity, Kind, Noise, Sample, Session, TimeSeriesPlan};
 use super::{Recording, simulate};
-use crate::effect::Effect;
 use ipmc_core::model::{current_response, jw, tip_response};
 use ipmc_core::{Calibration, Params};
+use ipmc_diagnose::Effect;
 use ipmc_recording::Metadata;
 
 /// The stepped-sine frequencies [Hz]: denser around the first resonance (30–38 Hz over the
@@ -159,8 +159,8 @@ mod tests {
     //! log scale), and nothing found in clean sessions. The recording goes through the
     //! interchange format's writer and reader, as `prove` does.
     use super::*;
-    use crate::diagnose::{data::Dataset, engine};
     use ipmc_core::Calibration;
+    use ipmc_diagnose::{data::Dataset, engine};
     use ipmc_recording::{Format as _, FrequencyResponse};
 
     fn verdict(effect: Option<Effect>, seed: u64) -> String {
@@ -172,7 +172,7 @@ mod tests {
         if d.verdict != "none" && d.verdict != "unexplained" {
             assert!(d.heldout_after < d.heldout_before, "{}: held-out {} → {}", d.verdict, d.heldout_before, d.heldout_after);
         }
-        d.verdict
+        d.verdict.to_string()
     }
 
     fn found(effect: Effect) {
@@ -190,7 +190,7 @@ mod tests {
             assert!(matches!(case.recording, Recording::TimeSeries(..)));
             let path = std::env::temp_dir().join(format!("ipmc-concealed-ts-{seed}-{}.csv", std::process::id()));
             std::fs::write(&path, case.recording.to_csv().unwrap()).unwrap();
-            let data = crate::commands::diagnose::read_dataset(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE);
+            let data = Dataset::read(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE);
             std::fs::remove_file(&path).unwrap();
             let d = engine::diagnose(&calib, &data.unwrap(), &|_| {}).unwrap();
             assert_eq!(d.verdict, effect.map_or("none", Effect::name));

@@ -12,10 +12,10 @@
 
 use super::physics::Physics;
 use super::random::SplitMix64;
-use crate::effect::Effect;
 use ipmc_core::extension::{Extension, responses};
 use ipmc_core::model::capacitance;
 use ipmc_core::{C, Params};
+use ipmc_diagnose::Effect;
 
 /// The room temperature the sample's laws hold at [°C]; a temperature effect moves away from it.
 pub const ROOM_C: f64 = 20.0;

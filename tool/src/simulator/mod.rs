@@ -224,10 +224,10 @@ mod tests {
     /// The sample lags the chamber: a revisited level is not where the first visit was.
     /// `diagnose` on this simulator's sessions, a generator `prove` does not use: what each
     /// session simulates is what the diagnosis names.
-    fn diagnosis_of(s: &Session) -> crate::diagnose::engine::Diagnosis {
+    fn diagnosis_of(s: &Session) -> ipmc_diagnose::Diagnosis {
         let (fr, _) = FrequencyResponse::parse("sim.csv", &csv(s)).unwrap();
-        let data = crate::diagnose::data::Dataset::from_recordings(&[fr]);
-        crate::diagnose::engine::diagnose(&Calibration::default_preset(), &data, &|_| {}).unwrap()
+        let data = ipmc_diagnose::data::Dataset::from_recordings(&[fr]);
+        ipmc_diagnose::engine::diagnose(&Calibration::default_preset(), &data, &|_| {}).unwrap()
     }
 
     #[test]

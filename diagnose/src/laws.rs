@@ -11,7 +11,7 @@
 use super::data::{LevelData, RhHistory};
 use super::fits::{BASE, Theta};
 use ipmc_core::humidity_path::{HumidityPath, Hydration};
-use nalgebra::{DMatrix, DVector};
+use ipmc_fit::laws::{Singular, weighted_least_squares};
 
 /// The humidity each level's parameters follow, and optional extra regressors.
 #[derive(Clone, Debug)]
@@ -23,16 +23,10 @@ pub struct Regressors {
     pub temperature: Option<Vec<f64>>,
 }
 
-/// Weighted least squares of y on the rows; `None` when singular.
+/// The laws' weighted fit: a law that cannot be determined from the training levels still
+/// predicts (minimum-norm), as a held-out level needs a prediction.
 fn wls(rows: &[Vec<f64>], y: &[f64], w: &[f64]) -> Option<Vec<f64>> {
-    let (n, k) = (rows.len(), rows.first()?.len());
-    if n < k {
-        return None;
-    }
-    let a = DMatrix::from_fn(n, k, |i, j| rows[i][j] * w[i].sqrt());
-    let b = DVector::from_fn(n, |i, _| y[i] * w[i].sqrt());
-    let svd = a.svd(true, true);
-    svd.solve(&b, 1e-10).ok().map(|c| c.iter().copied().collect())
+    weighted_least_squares(rows, y, w, Singular::Truncate)
 }
 
 fn row(reg: &Regressors, l: usize, j: usize, degree: usize) -> Vec<f64> {
@@ -242,6 +236,7 @@ mod tests {
             freqs: vec![],
             tip: vec![],
             current: vec![],
+            kappa_e: None,
         };
         let got = lagged_rh(&[lvl(60.0, 60.0)], &[hist], 50.0)[0];
         // the chamber steps right after the last reading at 40 %, at 9 s

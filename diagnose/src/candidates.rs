@@ -19,16 +19,18 @@ pub struct Spec {
     /// Where fits start (a small but visible effect).
     pub start: f64,
     /// The value at which the candidate is absent (the library's nesting test checks it).
-    #[cfg_attr(not(test), allow(dead_code))]
     pub absent: f64,
 }
+
+/// Global parameters and a level's own parameters → the extension of the core's model.
+pub type ExtFn = fn(&[f64], &Params<f64>) -> Extension<f64>;
 
 /// How a candidate enters the data.
 #[derive(Clone, Copy, Debug)]
 pub enum Kind {
     /// Global parameters of the extended model, the same at every level; the level's own
     /// parameters are passed for terms that scale with them.
-    Model(fn(&[f64], &Params<f64>) -> Extension<f64>),
+    Model(ExtFn),
     /// The humidity (and temperature) the parameters follow is not the one read: the per-level
     /// parameters follow their laws in an effective humidity.
     Humidity(HumidityMap),
@@ -45,7 +47,8 @@ pub enum HumidityMap {
 
 #[derive(Clone, Copy, Debug)]
 pub struct Candidate {
-    pub name: &'static str,
+    /// The effect the candidate names.
+    pub effect: Effect,
     pub family: &'static str,
     pub doc: &'static str,
     pub params: &'static [Spec],
@@ -58,7 +61,7 @@ const fn spec(name: &'static str, unit: &'static str, bound: Bound, start: f64, 
 
 pub const LIBRARY: &[Candidate] = &[
     Candidate {
-        name: Effect::ClampCompliance.name(),
+        effect: Effect::ClampCompliance,
         family: "mechanical: boundary condition",
         doc: "The clamp is not rigid: it turns by c_θ·M under the root bending moment M, so the \
               beam sits on a rotational spring whose compliance is a property of the clamp, the \
@@ -72,7 +75,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { clamp_compliance: v[0], ..Default::default() }),
     },
     Candidate {
-        name: Effect::TipMass.name(),
+        effect: Effect::TipMass,
         family: "mechanical: added mass",
         doc: "A body at the tip (glue, a reflector for the laser, a lead wire): a point mass M_t \
               at z = L. Parameter: M_t in mg. Lowers the first resonance as \
@@ -83,7 +86,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { tip_mass: v[0] * 1e-6, ..Default::default() }),
     },
     Candidate {
-        name: Effect::AirLoading.name(),
+        effect: Effect::AirLoading,
         family: "mechanical: air loading",
         doc: "The surrounding air is dragged along: it adds mass per length and dissipates in an \
               oscillating boundary layer whose force grows like √ω (Stokes), unlike the paper's \
@@ -96,7 +99,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { stokes: v[0] * 1e-3, ..Default::default() }),
     },
     Candidate {
-        name: Effect::ViscoelasticRelaxation.name(),
+        effect: Effect::ViscoelasticRelaxation,
         family: "mechanical: viscoelastic law",
         doc: "The polymer is a standard linear solid rather than Kelvin–Voigt: a relaxation branch \
               of modulus ΔY and time τ stiffens the beam above 1/(2πτ) and dissipates most near \
@@ -114,7 +117,7 @@ pub const LIBRARY: &[Candidate] = &[
         }),
     },
     Candidate {
-        name: Effect::HystereticDamping.name(),
+        effect: Effect::HystereticDamping,
         family: "mechanical: viscoelastic law",
         doc: "Structural (hysteretic) damping: a loss factor η that does not depend on frequency, \
               E* = Y(1 + iη), as many polymers and clamps show, instead of damping growing with \
@@ -125,7 +128,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { loss_factor: v[0], ..Default::default() }),
     },
     Candidate {
-        name: Effect::ElectrodeResistance.name(),
+        effect: Effect::ElectrodeResistance,
         family: "electrical: electrode resistance",
         doc: "The electrodes' surface resistance R_e with the polymer's capacitance \
               C = κe·b·L/(2h) forms a distributed RC line (Chen & Tan, IEEE/ASME TMech 2008; \
@@ -141,7 +144,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, p| Extension { electrode_tau_distributed: v[0] * ipmc_core::model::capacitance(p), ..Default::default() }),
     },
     Candidate {
-        name: Effect::AmplifierBandwidth.name(),
+        effect: Effect::AmplifierBandwidth,
         family: "electrical: measurement amplifier",
         doc: "The transimpedance amplifier is not flat: its feedback capacitance and the second \
               stage give a pole at f_a. Parameter: τ_a = 1/(2πf_a) [µs]. Shows in the current \
@@ -151,7 +154,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { amp_tau: [v[0] * 1e-6, 0.0], ..Default::default() }),
     },
     Candidate {
-        name: Effect::CurrentTiming.name(),
+        effect: Effect::CurrentTiming,
         family: "instrumentation: timing between channels",
         doc: "The current is not sampled at the same instant as the base (a multiplexed ADC, a \
               filter's group delay): a delay Δt multiplies it by e^(−jωΔt). Parameter: Δt [µs]. \
@@ -161,7 +164,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { skew_current: v[0] * 1e-6, ..Default::default() }),
     },
     Candidate {
-        name: Effect::TipTiming.name(),
+        effect: Effect::TipTiming,
         family: "instrumentation: timing between channels",
         doc: "The tip displacement is not sampled at the same instant as the base (the laser \
               sensors' response time, close to 1 ms in the paper's set-up): e^(−jωΔt) on the tip \
@@ -171,7 +174,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { skew_tip: v[0] * 1e-6, ..Default::default() }),
     },
     Candidate {
-        name: Effect::CapacitiveFeedthrough.name(),
+        effect: Effect::CapacitiveFeedthrough,
         family: "electrical: feedthrough",
         doc: "The shaker drive couples capacitively into the high-impedance current input: a \
               current ∝ base velocity, g·s·U, adds to the IPMC's. Parameter: g [nA·s/m]. Shows in \
@@ -182,7 +185,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Model(|v, _| Extension { feedthrough: v[0] * 1e-9, ..Default::default() }),
     },
     Candidate {
-        name: Effect::MainsInterference.name(),
+        effect: Effect::MainsInterference,
         family: "interference",
         doc: "Pickup from the mains (50 or 60 Hz and its harmonics) adds, at points measured near \
               a line, a current of its own with a phase unrelated to the excitation. Fitted as a \
@@ -194,7 +197,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Mains,
     },
     Candidate {
-        name: Effect::HydrationLag.name(),
+        effect: Effect::HydrationLag,
         family: "ionic: hydration dynamics",
         doc: "The polymer's water content follows the ambient humidity through a first-order lag \
               τ_h (diffusion of water into the membrane): every parameter takes the value of its \
@@ -206,7 +209,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Humidity(HumidityMap::HydrationLag),
     },
     Candidate {
-        name: Effect::HumiditySensorError.name(),
+        effect: Effect::HumiditySensorError,
         family: "instrumentation: humidity sensor",
         doc: "The humidity reading is offset or mis-scaled (a drifted or mis-calibrated sensor, \
               the HIH-4030's temperature correction): the sample lives at RH_true = RH_read + o + \
@@ -217,7 +220,7 @@ pub const LIBRARY: &[Candidate] = &[
         kind: Kind::Humidity(HumidityMap::SensorError),
     },
     Candidate {
-        name: Effect::Temperature.name(),
+        effect: Effect::Temperature,
         family: "environmental: temperature",
         doc: "The paper held the strip at 20 °C; a room that drifts during the session changes \
               the polymer at every point at once. Ion transport is thermally activated: \
@@ -245,8 +248,18 @@ pub const LIBRARY: &[Candidate] = &[
     },
 ];
 
+impl Candidate {
+    pub fn name(&self) -> &'static str {
+        self.effect.name()
+    }
+}
+
+pub fn by_effect(effect: Effect) -> Option<&'static Candidate> {
+    LIBRARY.iter().find(|c| c.effect == effect)
+}
+
 pub fn by_name(name: &str) -> Option<&'static Candidate> {
-    LIBRARY.iter().find(|c| c.name == name)
+    name.parse().ok().and_then(by_effect)
 }
 
 #[cfg(test)]
@@ -260,14 +273,14 @@ mod tests {
     fn model_candidates_nest_the_plain_model() {
         let p: Params<f64> = Calibration::default_preset().params_at(55.0);
         for c in LIBRARY {
-            assert_eq!(c.params.iter().filter(|s| s.bound.admits(s.start)).count(), c.params.len(), "{}", c.name);
+            assert_eq!(c.params.iter().filter(|s| s.bound.admits(s.start)).count(), c.params.len(), "{}", c.name());
             if let Kind::Model(f) = c.kind {
                 let absent: Vec<f64> = c.params.iter().map(|s| s.absent).collect();
                 let x = f(&absent, &p);
                 let s = ipmc_core::model::jw(40.0);
                 let (t, i) = ipmc_core::extension::responses(&p, &x, s);
-                assert!((t - ipmc_core::tip_response(&p, s)).norm() < 1e-9 * t.norm(), "{}", c.name);
-                assert!((i - ipmc_core::current_response(&p, s)).norm() < 1e-9 * i.norm(), "{}", c.name);
+                assert!((t - ipmc_core::tip_response(&p, s)).norm() < 1e-9 * t.norm(), "{}", c.name());
+                assert!((i - ipmc_core::current_response(&p, s)).norm() < 1e-9 * i.norm(), "{}", c.name());
             }
         }
         assert!(LIBRARY.len() >= 10);
@@ -280,7 +293,7 @@ mod tests {
         for e in Effect::ALL {
             assert!(by_name(e.name()).is_some(), "{e}");
         }
-        let mut names: Vec<&str> = LIBRARY.iter().map(|c| c.name).collect();
+        let mut names: Vec<&str> = LIBRARY.iter().map(|c| c.name()).collect();
         names.sort();
         names.dedup();
         assert_eq!(names.len(), LIBRARY.len());

@@ -1,19 +1,40 @@
-//! The fits a diagnosis makes, all through `ipmc_fit::lsq`: the base model per humidity level
-//! (Y, Cs, Ca, d free at each level, so that calibration drift and scatter between levels are
-//! absorbed), the noise of each channel from the scatter between neighbouring points, and the
-//! joint fit of a model candidate's global parameters with every level's base parameters.
+//! Refits near a calibration, with a model extension held and a mask of the values that take
+//! part: the base model per humidity level (Y, Cs, Ca, d free at each level, so that calibration
+//! drift and scatter between levels are absorbed), the noise of each channel from the scatter
+//! between neighbouring points, and the joint fit of an extension's global parameters with every
+//! level's base parameters (what a diagnosis fits; [`crate::identify`] identifies a level from
+//! scratch instead).
 
-use super::data::LevelData;
-use anyhow::{Result, anyhow};
+use crate::level::LevelData;
+use crate::lsq::{self, Blocks, Bound, Fit, FitError, Param, Reach, Tolerance};
+use crate::noise::{self, ChannelNoise};
+use crate::response::{Channel, Misfit, Point, Sigma, log_ratio};
 use ipmc_core::extension::{Extension, responses};
 use ipmc_core::model::jw;
 use ipmc_core::{C, Calibration, ParamName, Params};
-use ipmc_fit::lsq::{self, Blocks, Bound, Fit, Param, Reach, Tolerance};
-use ipmc_fit::noise::{self, ChannelNoise};
-use ipmc_fit::response::{Channel, Point, Sigma, log_ratio};
+
+/// Why a refit failed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RefitError {
+    Level { rh_pct: f64, error: FitError },
+    Joint(FitError),
+}
+
+impl core::fmt::Display for RefitError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            RefitError::Level { rh_pct, error } => write!(f, "level at {rh_pct:.1} %RH: {error}"),
+            RefitError::Joint(error) => write!(f, "joint fit: {error}"),
+        }
+    }
+}
+
+impl std::error::Error for RefitError {}
+
+type Result<T> = core::result::Result<T, RefitError>;
 
 /// The base parameters refitted at every level: the four the paper identifies per level.
-pub const BASE: [ParamName; 4] = [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::D];
+pub const BASE: [ParamName; 4] = crate::identify::FITTED;
 
 /// ln of the base parameters at one level.
 pub type Theta = [f64; 4];
@@ -90,9 +111,7 @@ pub fn write_residuals(level: &LevelData, sig: &LevelSigmas, mask: &Mask, p: &Pa
         let (t, c) = responses(p, x, jw(f));
         for (value, model, s, on) in [(level.tip[i], t, sig.tip[i], mask.tip[i]), (level.current[i], c, sig.current[i], mask.current[i])] {
             if let (Some(m), true) = (value, on) {
-                let z = log_ratio(m, model);
-                out[k] = z.re / s.ln_gain;
-                out[k + 1] = z.im / s.phase;
+                out[k..k + 2].copy_from_slice(&s.weigh(Misfit::LogRatio.of(m, model)));
                 k += 2;
             }
         }
@@ -207,7 +226,7 @@ fn fit_level_once(
         let p = level_params(calib, level, &theta_of(v));
         write_residuals(level, sig, mask, &p, x, out);
     })
-    .map_err(|e| anyhow!("level at {:.1} %RH: {e}", level.rh_pct))?;
+    .map_err(|error| RefitError::Level { rh_pct: level.rh_pct, error })?;
     Ok((theta_of(&fit.estimates), fit))
 }
 
@@ -330,7 +349,7 @@ pub struct JointFit {
     pub chi2: Vec<f64>,
 }
 
-/// Joint fit of `specs` (global, mapped to an extension by `ext`) and every level's base
+/// Joint fit of the global parameters `specs` (mapped to an extension by `ext`) and every level's base
 /// parameters: block coordinates first (the global parameters with the levels' held, then each
 /// level with the global ones held, until χ² stops falling by 0.1, at most 6 sweeps), which
 /// brings every level into its resonance's valley cheaply, then [`polish_joint`]. The sweeps
@@ -343,7 +362,7 @@ pub fn fit_joint(
     levels: &[LevelData],
     sig: &[LevelSigmas],
     masks: &[Mask],
-    specs: &[super::candidates::Spec],
+    specs: &[Param],
     ext: fn(&[f64], &Params<f64>) -> Extension<f64>,
     base: &[Theta],
     phi_start: &[f64],
@@ -351,7 +370,7 @@ pub fn fit_joint(
     // The global step carries one common change of ln Y at every level along with the
     // candidate's parameters: a tip mass or a compliant clamp lowers the resonance at every
     // level, and Y must follow it at once or the step sees only the mismatch it creates.
-    let mut params: Vec<Param> = specs.iter().map(|s| Param::new(s.name, s.bound)).collect();
+    let mut params: Vec<Param> = specs.to_vec();
     params.push(Param::new("common dlnY", Bound::Between(-0.7, 0.7)));
     let k = specs.len();
     let counts: Vec<usize> = masks.iter().map(|m| m.count()).collect();
@@ -375,7 +394,7 @@ pub fn fit_joint(
                 at += counts[l];
             }
         })
-        .map_err(|e| anyhow!("joint fit: {e}"))?;
+        .map_err(RefitError::Joint)?;
         phi = global.estimates[..k].to_vec();
         phi_se = global.std_errors[..k].to_vec();
         for th in theta.iter_mut() {
@@ -427,13 +446,13 @@ fn polish_joint(
     levels: &[LevelData],
     sig: &[LevelSigmas],
     masks: &[Mask],
-    specs: &[super::candidates::Spec],
+    specs: &[Param],
     ext: fn(&[f64], &Params<f64>) -> Extension<f64>,
     j: JointFit,
 ) -> Result<JointFit> {
     let k = specs.len();
     let free: Vec<Vec<usize>> = levels.iter().map(fitted_base).collect();
-    let mut params: Vec<Param> = specs.iter().map(|s| Param::new(s.name, s.bound)).collect();
+    let mut params: Vec<Param> = specs.to_vec();
     let mut start: Vec<f64> = specs.iter().zip(&j.phi).map(|(s, &v)| inside_tight(s.bound, v)).collect();
     for (l, level) in levels.iter().enumerate() {
         for &b in &free[l] {
@@ -558,7 +577,10 @@ mod tests {
         p.cs *= 0.8;
         p.ca *= 1.3;
         p.d *= 1.5;
-        let freqs: Vec<f64> = crate::simulator::concealed::FREQS.to_vec();
+        let freqs: Vec<f64> = vec![
+            10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 25.0, 28.0, 30.0, 32.0, 34.0, 35.0, 36.0, 38.0, 40.0, 45.0, 50.0, 55.0, 60.0, 70.0,
+            80.0, 90.0, 100.0, 110.0, 120.0, 130.0, 140.0, 150.0,
+        ];
         let level = LevelData {
             session: 0,
             rh_pct: rh,
@@ -569,6 +591,7 @@ mod tests {
             tip: freqs.iter().map(|&f| Some(ipmc_core::tip_response(&p, jw(f)))).collect(),
             current: freqs.iter().map(|&f| Some(ipmc_core::current_response(&p, jw(f)))).collect(),
             freqs,
+            kappa_e: None,
         };
         let sig =
             LevelSigmas { tip: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29], current: vec![Sigma { ln_gain: 0.01, phase: 0.01 }; 29] };

@@ -1,16 +1,22 @@
 //! The diagnosis as report.json (for programs) and report.md (for people).
 
-use super::candidates::by_name;
-use super::engine::Diagnosis;
-use super::figures::Drawn;
+use crate::candidates::by_effect;
+use crate::types::{Diagnosis, Verdict};
 use serde_json::json;
 use std::fmt::Write as _;
 
-pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]) -> serde_json::Value {
+/// One figure of the report (drawn by the caller): its title and the stem of its .svg and .png
+/// in the report directory.
+pub struct Figure {
+    pub title: String,
+    pub stem: String,
+}
+
+pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -> serde_json::Value {
     json!({
         "verdict": d.verdict,
         "indistinguishable": d.indistinguishable,
-        "indistinguishable_rule": format!("passing candidates whose ΔBIC is within {} of the verdict's", super::engine::INDISTINGUISHABLE_BIC),
+        "indistinguishable_rule": format!("passing candidates whose ΔBIC is within {} of the verdict's", crate::decide::INDISTINGUISHABLE_BIC),
         "overdispersion": d.overdispersion,
         "family": d.family,
         "explanation": d.explanation,
@@ -35,14 +41,14 @@ fn fmt_value(v: f64) -> String {
     if v == 0.0 || (1e-3..1e4).contains(&v.abs()) { format!("{v:.4}") } else { format!("{v:.3e}") }
 }
 
-pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]) -> String {
+pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# Diagnosis\n");
     let _ = writeln!(s, "Recordings: {}  \nCalibration: {calib}\n", inputs.join(", "));
-    let verdict = match d.verdict.as_str() {
-        "none" => "**No missing physics above the noise.**".to_string(),
-        "unexplained" => format!("**Unexplained:** {}.", d.explanation),
-        v => format!("**{v}** ({}): {}.", d.family, d.explanation),
+    let verdict = match d.verdict {
+        Verdict::None => "**No missing physics above the noise.**".to_string(),
+        Verdict::Unexplained => format!("**Unexplained:** {}.", d.explanation),
+        Verdict::Named(v) => format!("**{v}** ({}): {}.", d.family, d.explanation),
     };
     let _ = writeln!(s, "## Verdict\n\n{verdict}\n");
     if !d.indistinguishable.is_empty() {
@@ -50,7 +56,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
             s,
             "**The data cannot separate {} from:** (passing candidates whose ΔBIC is within {} of its, less than very strong evidence on Kass & Raftery's scale)\n",
             d.verdict,
-            super::engine::INDISTINGUISHABLE_BIC
+            crate::decide::INDISTINGUISHABLE_BIC
         );
         let _ = writeln!(
             s,
@@ -63,7 +69,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
         }
         let _ = writeln!(s);
     }
-    if let Some(c) = by_name(&d.verdict) {
+    if let Some(c) = d.verdict.effect().and_then(by_effect) {
         let _ = writeln!(s, "{}\n", c.doc);
         let _ = writeln!(s, "| parameter | value | standard error | unit |\n|---|---|---|---|");
         for p in &d.params {
@@ -112,8 +118,8 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Drawn]
     let _ = writeln!(
         s,
         "Passing needs ΔBIC ≥ {} against no extension and a held-out improvement with paired z ≥ {}. ΔBIC on the data are quasi-likelihood: Δχ² divided by the overdispersion ĉ = {:.2} (the best-fitting model's χ² per degree of freedom, at least 1).\n",
-        super::engine::MIN_DELTA_BIC,
-        super::engine::MIN_HELDOUT_Z,
+        crate::decide::MIN_DELTA_BIC,
+        crate::decide::MIN_HELDOUT_Z,
         d.overdispersion
     );
     let _ = writeln!(s, "| candidate | family | ΔBIC | held-out | z | parameters | note |\n|---|---|---|---|---|---|---|");

@@ -1,0 +1,76 @@
+//! What every candidate's scorer starts from: the calibration and data, the noise's σ, the
+//! per-level base fits of the plain model and the humidity laws' weights.
+
+use crate::data::Dataset;
+use crate::fits::{self, BaseFits, LevelSigmas, Mask, Theta};
+use crate::laws::{LawWeights, Regressors};
+use anyhow::Result;
+use ipmc_core::Calibration;
+use ipmc_core::extension::Extension;
+
+pub(crate) struct Ctx<'a> {
+    pub calib: &'a Calibration,
+    pub data: &'a Dataset,
+    pub sig: Vec<LevelSigmas>,
+    /// Every measured value of each level.
+    pub all: Vec<Mask>,
+    /// The plain model refitted at every level with the noise's σ.
+    pub base: BaseFits,
+    /// The humidity as read, the regressor of the plain laws.
+    pub read: Regressors,
+    pub weights: LawWeights,
+}
+
+/// Per-level outcome of a candidate, what held-out scoring needs.
+pub(crate) struct Fitted {
+    pub theta: Vec<Theta>,
+    pub se: Vec<Theta>,
+    pub ext: Vec<Extension<f64>>,
+    pub masks: Vec<Mask>,
+    pub regressors: Regressors,
+}
+
+impl<'a> Ctx<'a> {
+    /// The per-level refit and noise of the plain model: a first fit with σ = 1, the noise from
+    /// its neighbouring-point scatter, the fit again with that noise. Also returns the
+    /// calibration's θ at each level, where the first fit started.
+    pub fn new(calib: &'a Calibration, data: &'a Dataset) -> Result<(Self, fits::Noise, Vec<Theta>)> {
+        let levels = &data.levels;
+        let none = Extension::default();
+        let all: Vec<Mask> = levels.iter().map(Mask::all).collect();
+        let cal_theta: Vec<Theta> = levels.iter().map(|l| fits::calibration_theta(calib, l.rh_pct)).collect();
+        let unit: Vec<LevelSigmas> = levels.iter().map(fits::unit_sigmas).collect();
+        let first = fits::fit_levels(calib, levels, &unit, &all, &none, &cal_theta)?;
+        let noise = fits::estimate_noise(calib, levels, &first.theta);
+        let sig: Vec<LevelSigmas> = levels.iter().map(|l| fits::sigmas(l, &noise)).collect();
+        let base = fits::fit_levels(calib, levels, &sig, &all, &none, &first.theta)?;
+        let read = Regressors { x: levels.iter().map(|l| l.rh_pct).collect(), temperature: None };
+        let weights = LawWeights::estimate(&read, &base.theta, &base.se);
+        Ok((Ctx { calib, data, sig, all, base, read, weights }, noise, cal_theta))
+    }
+
+    /// The plain model's per-level fits as a candidate's outcome.
+    pub fn plain(&self) -> Fitted {
+        let n = self.data.levels.len();
+        Fitted {
+            theta: self.base.theta.clone(),
+            se: self.base.se.clone(),
+            ext: vec![Extension::default(); n],
+            masks: self.all.clone(),
+            regressors: self.read.clone(),
+        }
+    }
+
+    /// The humidity each level was read at.
+    pub fn read_rh(&self) -> Vec<f64> {
+        self.data.levels.iter().map(|l| l.rh_pct).collect()
+    }
+
+    pub fn n_levels(&self) -> usize {
+        self.data.levels.len()
+    }
+}
+
+pub(crate) fn total_residuals(masks: &[Mask]) -> usize {
+    masks.iter().map(|m| m.count()).sum()
+}

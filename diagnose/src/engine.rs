@@ -1,0 +1,158 @@
+//! The diagnosis in order: refit the plain model per level and estimate the noise, locate the
+//! mismatch, score every candidate of the library, decide, and gather what the report and its
+//! figures show.
+//!
+//! **Held out.** Each level in turn is left out, and the score is its χ² per residual (1 = at
+//! the noise), each candidate against its own null (its kind's scorer, [`crate::scorers`]):
+//! - a model candidate's global parameters are fitted on the other levels (their base
+//!   parameters held where the joint fit put them) and the held-out level's own four base
+//!   parameters are refitted with them, as the plain model's are: the level's drift from the
+//!   calibration is not the candidate's business, and judging the candidate by humidity laws
+//!   would bury a small effect under the scatter of the parameters between levels;
+//! - mains interference: the level refitted without its line points, which are scored by the
+//!   interference power the other levels show;
+//! - hydration lag, humidity sensor error and temperature: the level's base parameters from
+//!   the calibration at the remapped humidity (τ, or offset and gain, from the other levels) or
+//!   with the level's temperature acting (its coefficients from the other levels), plus the
+//!   other levels' mean drift from it, against the calibration at the humidity as read plus
+//!   that drift.
+//!
+//! With no effect named, the numbers and figures are the per-level refit's.
+//!
+//! **Information criterion.** BIC differences ΔBIC = Δχ² − Δk·ln N on the data (model and mains
+//! candidates) or on the per-level parameters (candidates acting through humidity).
+//!
+//! **Decision.** [`crate::decide`].
+
+use crate::candidates::LIBRARY;
+use crate::context::Ctx;
+use crate::data::Dataset;
+use crate::decide::decide;
+use crate::fits;
+use crate::held_out::{REFIT_NULL_IS, per_level_scores};
+use crate::laws;
+use crate::locate;
+use crate::scorers::{self, Baseline};
+use crate::types::{Diagnosis, LevelModels, LevelSummary};
+use anyhow::Result;
+use ipmc_core::Calibration;
+use ipmc_core::extension::Extension;
+
+/// Runs the whole diagnosis. `progress` is told each step's name.
+pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) -> Result<Diagnosis> {
+    let levels = &data.levels;
+    anyhow::ensure!(levels.len() >= 3, "a diagnosis needs at least three humidity levels, the recordings have {}", levels.len());
+    for l in levels {
+        anyhow::ensure!(l.freqs.len() >= 5, "the level at {:.1} %RH has only {} frequencies (at least 5 needed)", l.rh_pct, l.freqs.len());
+    }
+    progress("per-level refit and noise");
+    let (ctx, noise, cal_theta) = Ctx::new(calib, data)?;
+    let n_levels = levels.len();
+    let counts: Vec<f64> = ctx.all.iter().map(|m| m.count() as f64).collect();
+    let simulation: Vec<f64> = (0..n_levels)
+        .map(|l| {
+            let p = fits::level_params(calib, &levels[l], &cal_theta[l]);
+            fits::chi2(&levels[l], &ctx.sig[l], &ctx.all[l], &p, &Extension::default()) / counts[l]
+        })
+        .collect();
+    let (law_pred_0, law_k_0) = laws::fitted(&ctx.read, &ctx.base.theta, &ctx.base.se);
+    let base = Baseline {
+        heldout_before: crate::held_out::weighted_mean(&per_level_scores(&ctx.law_heldout(&ctx.plain())), &counts),
+        n_data: crate::context::total_residuals(&ctx.all) as f64,
+        chi2_0: ctx.base.chi2.iter().sum(),
+        law0: (laws::nll(&law_pred_0, &ctx.base.theta, &ctx.base.se), law_k_0),
+        n_theta: ctx.base.se.iter().flatten().filter(|s| !s.is_nan()).count() as f64,
+        counts,
+    };
+    let trace = std::env::var_os("IPMC_TRACE").is_some();
+    if trace {
+        eprintln!("base fits and noise done");
+    }
+    progress("locating the mismatch");
+    let located = locate::locate(ctx.calib, data, &ctx.sig, &ctx.base, &cal_theta, &simulation)?;
+
+    let mut scores = Vec::new();
+    let mut fitted_of = Vec::new();
+    let mut heldout_of = Vec::new();
+    for cand in LIBRARY {
+        progress(cand.name());
+        let t0 = std::time::Instant::now();
+        let s = scorers::score(&ctx, cand, &base)?;
+        if trace {
+            let sc = &s.score;
+            eprintln!(
+                "{}: {:.2} s dBIC {:.1} heldout {:.3} null {:.3} z {:.1} {:?}",
+                cand.name(),
+                t0.elapsed().as_secs_f64(),
+                sc.delta_bic,
+                sc.heldout,
+                sc.heldout_null,
+                sc.heldout_z,
+                sc.params.iter().map(|p| p.value).collect::<Vec<_>>()
+            );
+        }
+        scores.push(s.score);
+        fitted_of.push(s.fitted);
+        heldout_of.push(s.held);
+    }
+    let decision = decide(&ctx, LIBRARY, &mut scores, &fitted_of, &base, &located.summary);
+
+    // The held-out models the numbers score: the winner's and its null's, or the per-level refit
+    // when no effect is named (the model candidates' null: the humidity laws' would report the
+    // scatter of the parameters between levels, tens of σ, beside "no missing physics").
+    let (before_models, before_is, after_models, after_is) = match decision.winner.and_then(|w| heldout_of[w].take()) {
+        Some(h) => (h.null, h.null_is, Some(h.candidate), Some(h.candidate_is)),
+        None => (ctx.refit_null(), REFIT_NULL_IS.to_string(), None, None),
+    };
+    let before_per_level = per_level_scores(&before_models);
+    let after_per_level = after_models.as_deref().map_or_else(|| before_per_level.clone(), per_level_scores);
+    let summaries = (0..n_levels)
+        .map(|l| LevelSummary {
+            rh_pct: levels[l].rh_pct,
+            time_s: levels[l].time_s,
+            temp_c: levels[l].temp_c,
+            revisit_of: levels[l].revisit_of,
+            simulation_chi2_per_residual: simulation[l],
+            refit_chi2_per_residual: ctx.base.chi2[l] / base.counts[l],
+            heldout_before: before_per_level[l],
+            heldout_after: after_per_level[l],
+        })
+        .collect();
+    let mut after_models = after_models.map(Vec::into_iter);
+    let models = before_models
+        .into_iter()
+        .enumerate()
+        .map(|(l, before)| LevelModels {
+            simulation: fits::level_params(calib, &levels[l], &cal_theta[l]),
+            refit: fits::level_params(calib, &levels[l], &ctx.base.theta[l]),
+            before,
+            after: after_models.as_mut().and_then(Iterator::next),
+        })
+        .collect();
+    let mut ranked = scores;
+    // Held-out scores of different candidates have different nulls: rank by the evidence.
+    ranked.sort_by(|a, b| b.passes.cmp(&a.passes).then(b.applicable.cmp(&a.applicable)).then(b.delta_bic.total_cmp(&a.delta_bic)));
+    let humidity_path = decision
+        .verdict
+        .effect()
+        .filter(|e| matches!(e, crate::Effect::HydrationLag | crate::Effect::HumiditySensorError))
+        .map(|_| crate::humidity_path::fit(&ctx, decision.overdispersion));
+    Ok(Diagnosis {
+        verdict: decision.verdict,
+        indistinguishable: decision.alternatives,
+        overdispersion: decision.overdispersion,
+        family: decision.family,
+        explanation: decision.explanation,
+        params: decision.params,
+        heldout_before: decision.heldout.0,
+        heldout_after: decision.heldout.1,
+        located,
+        candidates: ranked,
+        levels: summaries,
+        noise,
+        models,
+        heldout_before_is: before_is,
+        heldout_after_is: after_is,
+        humidity_path,
+    })
+}

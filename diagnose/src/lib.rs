@@ -1,0 +1,43 @@
+//! Diagnosis of the mismatch between the model and recordings: compare, locate, name the
+//! missing physics from a library of candidates, decide on held-out levels and an information
+//! criterion, and report (`ipmc diagnose`, proved by `ipmc prove`; the tool draws the figures).
+//!
+//! - [`recordings`]: recording files read as frequency responses at the strip's humidity.
+//! - [`data`]: the recordings as a dataset of `ipmc_fit` levels with the humidity histories.
+//! - [`effect`]: the effects the model leaves out, by name (shared with the tool's simulator).
+//! - [`candidates`]: the library of candidate physics (what, how it shows, its parameters).
+//! - [`fits`] (`ipmc_fit::refit`): per-level base fits with an extension and a mask, the noise
+//!   from neighbouring points, joint candidate fits.
+//! - [`laws`]: humidity laws over levels (held-out prediction, humidity-acting candidates).
+//! - [`locate`]: where the mismatch lives and how significant it is.
+//! - [`context`]: what every candidate is scored from (base fits, noise, law weights).
+//! - [`held_out`]: held-out scores of levels and their paired comparison.
+//! - [`scorers`]: one scorer per kind of candidate behind one interface.
+//! - [`remap`]: candidates acting through the humidity (sensor error, hydration lag).
+//! - [`humidity_path`]: the whole humidity path fitted at once for the calibration.
+//! - [`decide`]: the decision rule and its thresholds.
+//! - [`types`]: what a diagnosis reports.
+//! - [`engine`]: the diagnosis in order.
+//! - [`report`]: report.json and report.md.
+
+pub mod candidates;
+pub mod context;
+pub mod data;
+pub mod decide;
+pub mod effect;
+pub mod engine;
+pub mod held_out;
+pub mod humidity_path;
+pub mod laws;
+pub mod locate;
+pub mod recordings;
+pub mod remap;
+pub mod report;
+pub mod scorers;
+pub mod types;
+
+pub use effect::Effect;
+pub use engine::diagnose;
+/// The per-level refits, noise and joint fits a diagnosis makes are the identification library's.
+pub use ipmc_fit::refit as fits;
+pub use types::{Diagnosis, HeldOutModel, Verdict};

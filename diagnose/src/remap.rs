@@ -1,0 +1,189 @@
+//! Candidates that act through the humidity: the calibration at a remapped humidity (read
+//! through a sensor error, or behind a hydration lag) plus a constant drift per parameter,
+//! against the calibration at the humidity as read plus that drift. The fits of the sensor's
+//! offset and gain and of the lag, and the scores such a remap gets.
+
+use crate::context::{Ctx, Fitted};
+use crate::fits::{self, Theta};
+use crate::held_out::{ANCHORED_NULL_IS, HeldOut};
+use crate::laws;
+use crate::types::HeldOutModel;
+use ipmc_fit::lsq::{self, Bound, Param};
+use ipmc_fit::scalar::minimize_log;
+
+/// Smallest humidity shift [%RH] a sensor error or hydration lag must cause at some level to
+/// be named: a tenth of a percent is within one reading's scatter and of no use to anyone,
+/// while the sensors this product reads (HTS221, HIH-4030) are specified to ±3.5 %RH.
+pub const MIN_RH_SHIFT_PCT: f64 = 1.0;
+
+/// The calibration at humidities `rh` plus a constant drift per parameter, the drift the
+/// weighted mean over the levels `train` of θ − calibration: the per-level θ a humidity remap
+/// predicts (the null when `rh` is the humidity read).
+pub(crate) fn anchored(ctx: &Ctx, rh: &[f64], train: &[usize]) -> Vec<Theta> {
+    with_drift(ctx, rh.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect(), train)
+}
+
+/// `cal` plus the weighted mean over the levels `train` of θ − `cal` per parameter.
+pub(crate) fn with_drift(ctx: &Ctx, cal: Vec<Theta>, train: &[usize]) -> Vec<Theta> {
+    let mut delta = [0.0; 4];
+    for (j, d) in delta.iter_mut().enumerate() {
+        let (mut sw, mut s) = (0.0, 0.0);
+        for &l in train {
+            let w = ctx.weights.weight(&ctx.base.se[l], j);
+            s += w * (ctx.base.theta[l][j] - cal[l][j]);
+            sw += w;
+        }
+        *d = if sw > 0.0 { s / sw } else { 0.0 };
+    }
+    cal.iter().map(|c| [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2], c[3] + delta[3]]).collect()
+}
+
+/// −2 ln L of the levels `train`'s θ under [`anchored`] at humidities `rh`.
+pub(crate) fn anchored_nll(ctx: &Ctx, rh: &[f64], train: &[usize]) -> f64 {
+    let pred = anchored(ctx, rh, train);
+    let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
+    laws::nll(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se))
+}
+
+/// The hydration lag τ [s] that best maps the levels `train` onto the calibration, and its −2 ln L.
+pub(crate) fn fit_lag(ctx: &Ctx, train: &[usize]) -> (f64, f64) {
+    minimize_log(|tau| anchored_nll(ctx, &laws::lagged_rh(&ctx.data.levels, &ctx.data.histories, tau), train), 1.0, 1e5)
+}
+
+/// A sensor's offset and gain fitted to levels.
+pub(crate) struct SensorFit {
+    pub offset: f64,
+    pub gain: f64,
+    /// Standard errors of the offset and the gain (0 for a gain held at 1).
+    pub se: Vec<f64>,
+    /// −2 ln L of the fit (infinite when it failed).
+    pub nll: f64,
+}
+
+/// RH_true = mapped(RH_read; o, g) with a constant drift of each ln θ_j, fitted to the levels
+/// `train` at the humidity read.
+pub(crate) fn fit_sensor(ctx: &Ctx, train: &[usize]) -> SensorFit {
+    fit_sensor_with(ctx, train, &ctx.read_rh(), true, true)
+}
+
+/// The sensor's offset and gain (or the offset alone, the gain 1: `free_gain` false) that map
+/// the levels `train` at humidities `read` onto the calibration, with a free drift per parameter
+/// (`drift`) or none, and the fit's −2 ln L.
+pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: bool, free_gain: bool) -> SensorFit {
+    let base = &ctx.base;
+    let mut params = vec![Param::new("rh_offset_pct", Bound::Between(-25.0, 25.0))];
+    if free_gain {
+        params.push(Param::new("rh_gain", Bound::Between(0.6, 1.4)));
+    }
+    let first_drift = params.len();
+    if drift {
+        params.extend(["dY", "dCs", "dCa", "dd"].map(|n| Param::new(n, Bound::Free)));
+    }
+    let gain_of = |v: &[f64]| if free_gain { v[1] } else { 1.0 };
+    let resid = |v: &[f64], out: &mut [f64]| {
+        let mut k = 0;
+        for &l in train {
+            let pred = fits::calibration_theta(ctx.calib, laws::mapped_rh(read[l], v[0], gain_of(v)));
+            for j in 0..4 {
+                let w = ctx.weights.weight(&base.se[l], j);
+                let d = if drift { v[first_drift + j] } else { 0.0 };
+                out[k] = if w > 0.0 { (base.theta[l][j] - pred[j] - d) * w.sqrt() } else { 0.0 };
+                k += 1;
+            }
+        }
+    };
+    let starts: Vec<Vec<f64>> = [-8.0, 0.0, 8.0]
+        .iter()
+        .map(|&o| {
+            let mut v = vec![o];
+            if free_gain {
+                v.push(1.0);
+            }
+            v.resize(params.len(), 0.0);
+            v
+        })
+        .collect();
+    match lsq::fit(&params, &starts, 4 * train.len(), resid) {
+        Ok(f) => {
+            let (o, g) = (f.estimates[0], gain_of(&f.estimates));
+            let mapped: Vec<f64> = read.iter().map(|&r| laws::mapped_rh(r, o, g)).collect();
+            let nll = if drift {
+                anchored_nll(ctx, &mapped, train)
+            } else {
+                let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
+                let pred: Vec<Theta> = mapped.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
+                laws::nll(&pick(&pred), &pick(&base.theta), &pick(&base.se))
+            };
+            let se_gain = if free_gain { f.std_errors[1] } else { 0.0 };
+            SensorFit { offset: o, gain: g, se: vec![f.std_errors[0], se_gain], nll }
+        }
+        Err(_) => SensorFit { offset: 0.0, gain: 1.0, se: vec![f64::NAN; 2], nll: f64::INFINITY },
+    }
+}
+
+/// A humidity error or lag that moves no level by [`MIN_RH_SHIFT_PCT`] is not reported.
+fn shift_floor(rh: &[f64], read: &[f64]) -> Option<String> {
+    let largest = rh.iter().zip(read).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    (largest < MIN_RH_SHIFT_PCT).then(|| format!("moves no level by {MIN_RH_SHIFT_PCT} %RH (largest {largest:.2} %RH)"))
+}
+
+/// What a humidity remap scores, against the calibration as read with its drift.
+pub(crate) struct RemapScore {
+    pub fitted: Fitted,
+    /// −2 ln L gained over the null; 0 when the remap does worse than free humidity laws (by
+    /// BIC): then the levels' parameters follow the calibration's laws at no humidity, and their
+    /// drift is not a humidity error.
+    pub delta_chi2: f64,
+    pub note: String,
+    pub floor: Option<String>,
+    pub held: HeldOut,
+}
+
+/// A humidity remap as a candidate: the humidities it puts the levels at, its own parameter
+/// count, and how to refit it on training levels for the held-out scores.
+pub(crate) struct Remap<'a> {
+    pub rh: Vec<f64>,
+    pub k: usize,
+    /// How the note names the remapped model ("at the lagged humidity").
+    pub mapped: &'a str,
+    pub candidate_is: &'a str,
+    pub remap_of: &'a dyn Fn(&[usize]) -> Vec<f64>,
+}
+
+/// Scores `remap` (with the four drifts besides its own parameters); `law0` is the −2 ln L of
+/// free humidity laws and their parameter count, `n_theta` the number of level parameters.
+pub(crate) fn score_remap(ctx: &Ctx, remap: &Remap, law0: (f64, usize), n_theta: f64) -> RemapScore {
+    let everyone: Vec<usize> = (0..ctx.n_levels()).collect();
+    let nll_null = anchored_nll(ctx, &ctx.read_rh(), &everyone);
+    let nll_alt = anchored_nll(ctx, &remap.rh, &everyone);
+    let bic_alt = nll_alt + (remap.k + 4) as f64 * n_theta.ln();
+    let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
+    let fitted = Fitted { theta: anchored(ctx, &remap.rh, &everyone), ..ctx.plain() };
+    let (null, candidate) = heldout_anchored(ctx, &fitted, remap.remap_of);
+    RemapScore {
+        delta_chi2: if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 },
+        note: format!(
+            "calibration + drift as read: −2lnL {nll_null:.1}; {} {nll_alt:.1}; free laws {:.1} ({} parameters)",
+            remap.mapped, law0.0, law0.1
+        ),
+        floor: shift_floor(&remap.rh, &ctx.read_rh()),
+        held: HeldOut { null, null_is: ANCHORED_NULL_IS.into(), candidate, candidate_is: remap.candidate_is.into() },
+        fitted,
+    }
+}
+
+/// Held-out models of a humidity remap and of its null, per level: the remap (`remap_of` the
+/// training levels gives every level's humidity) and the drift from the other levels, against
+/// the calibration as read with the drift from the other levels.
+fn heldout_anchored(ctx: &Ctx, f: &Fitted, remap_of: &dyn Fn(&[usize]) -> Vec<f64>) -> (Vec<HeldOutModel>, Vec<HeldOutModel>) {
+    let levels = &ctx.data.levels;
+    let n = levels.len();
+    let score = |held: usize, th: &Theta| ctx.scored(held, fits::level_params(ctx.calib, &levels[held], th), f.ext[held]);
+    (0..n)
+        .map(|held| {
+            let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();
+            let null = score(held, &anchored(ctx, &ctx.read_rh(), &train)[held]);
+            (null, score(held, &anchored(ctx, &(remap_of)(&train), &train)[held]))
+        })
+        .unzip()
+}

@@ -1,0 +1,54 @@
+//! Hydration lag: the levels' parameters follow the calibration at the humidity behind a
+//! first-order lag τ of the readings; held out, τ fitted on the other levels.
+
+use super::{Baseline, Candidacy, Scorer, Trial, estimates};
+use crate::candidates::Candidate;
+use crate::context::Ctx;
+use crate::laws;
+use crate::remap::{self, Remap, anchored_nll, fit_lag};
+use crate::types::Space;
+use anyhow::Result;
+
+pub(super) struct HydrationLagScorer;
+
+impl Scorer for HydrationLagScorer {
+    fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial> {
+        if !ctx.data.has_times() {
+            return Ok(Trial::NotTestable("the recordings have no time_s"));
+        }
+        let (levels, histories) = (&ctx.data.levels, &ctx.data.histories);
+        // The calibration's laws at the lagged humidity (with a drift per parameter), not free
+        // laws: free laws are blind to the humidity's scale, so a lag far longer than the
+        // session (the lagged humidity a scaled integral of the readings) would pass as a
+        // change of the laws' shape.
+        let everyone: Vec<usize> = (0..levels.len()).collect();
+        let (tau, nll_alt) = fit_lag(ctx, &everyone);
+        let score_tau = |tau: f64| anchored_nll(ctx, &laws::lagged_rh(levels, histories, tau), &everyone);
+        // Uncertainty of τ from the χ² curvature in ln τ.
+        let h = 0.1f64;
+        let curv = (score_tau(tau * h.exp()) - 2.0 * nll_alt + score_tau(tau * (-h).exp())) / (h * h);
+        let se = if curv > 0.0 { tau * (2.0 / curv).sqrt() } else { f64::INFINITY };
+        let r = remap::score_remap(
+            ctx,
+            &Remap {
+                rh: laws::lagged_rh(levels, histories, tau),
+                k: 1,
+                mapped: "at the lagged humidity",
+                candidate_is: "the calibration at the humidity lagged by the τ fitted on the other levels, plus their mean drift from it",
+                remap_of: &|train| laws::lagged_rh(levels, histories, fit_lag(ctx, train).0),
+            },
+            base.law0,
+            base.n_theta,
+        );
+        Ok(Trial::Fitted(Box::new(Candidacy {
+            fitted: r.fitted,
+            delta_chi2: r.delta_chi2,
+            extra_params: 1,
+            space: Space::LevelParameters,
+            params: estimates(cand, &[tau], &[se]),
+            note: r.note,
+            floor: r.floor,
+            held: r.held,
+        })))
+    }
+}

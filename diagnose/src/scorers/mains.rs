@@ -1,0 +1,178 @@
+//! Mains interference: the current's values at 50 or 60 Hz and their harmonics are left out of
+//! the per-level refit and scored as a random-phase interference of one power; held out, each
+//! level refitted without its line points, those scored by the interference power the other
+//! levels show.
+
+use super::{Baseline, Candidacy, Scorer, Trial};
+use crate::candidates::Candidate;
+use crate::context::{Ctx, Fitted, total_residuals};
+use crate::fits::{self, Mask};
+use crate::held_out::{HeldOut, REFIT_NULL_IS};
+use crate::types::{Estimate, HeldOutModel, Space};
+use anyhow::Result;
+use ipmc_core::extension::Extension;
+
+/// How much worse than their neighbours in frequency the values at the mains lines must fit
+/// for interference to be named (z): a broadband misfit raises both alike.
+pub const MIN_LINE_Z: f64 = 3.0;
+
+pub(super) struct MainsScorer;
+
+/// The fit without one mains frequency's lines.
+struct LineFit {
+    delta_chi2: f64,
+    fitted: Fitted,
+    /// Current values at lines.
+    excluded: usize,
+    line_hz: f64,
+    /// The interference power [σ²] at the lines.
+    power: f64,
+    /// z of the lines against their neighbours.
+    specific: f64,
+}
+
+impl Scorer for MainsScorer {
+    fn trial(&self, ctx: &Ctx, _cand: &Candidate, base: &Baseline) -> Result<Trial> {
+        let mut best: Option<LineFit> = None;
+        for line in [50.0, 60.0] {
+            let Some(f) = fit_without_lines(ctx, line, base.chi2_0)? else { continue };
+            if best.as_ref().is_none_or(|b| f.delta_chi2 > b.delta_chi2) {
+                best = Some(f);
+            }
+        }
+        let Some(LineFit { delta_chi2, fitted, excluded, line_hz, power, specific }) = best else {
+            return Ok(Trial::NotTestable("no frequency near 50/60 Hz or their harmonics"));
+        };
+        let floor =
+            (specific < MIN_LINE_Z).then(|| format!("the values at the lines are no worse than their neighbours (z = {specific:.1})"));
+        let amplitude = power.sqrt();
+        let held = HeldOut {
+            null: ctx.refit_null(),
+            null_is: REFIT_NULL_IS.into(),
+            candidate: heldout(ctx, &fitted),
+            candidate_is: "the base model refitted at the level without its line points, those scored with σ² × (1 + the interference power of the other levels)".into(),
+        };
+        let params = vec![
+            Estimate { name: "line_hz".into(), unit: "Hz".into(), value: line_hz, std_error: 0.0 },
+            Estimate {
+                name: "interference_rms".into(),
+                unit: "σ".into(),
+                value: amplitude,
+                std_error: amplitude / (2.0 * excluded as f64).sqrt(),
+            },
+        ];
+        Ok(Trial::Fitted(Box::new(Candidacy {
+            fitted,
+            delta_chi2,
+            extra_params: 1,
+            space: Space::Data,
+            params,
+            note: format!("{excluded} current values at lines, z = {specific:.1} against their neighbours"),
+            floor,
+            held,
+        })))
+    }
+}
+
+/// The per-level refit without the current's values at `line` Hz and its harmonics (None when
+/// no frequency is near them), its −2 ln L gained over `chi2_0` with the lines scored as
+/// interference, and how specific to the lines the misfit is.
+fn fit_without_lines(ctx: &Ctx, line: f64, chi2_0: f64) -> Result<Option<LineFit>> {
+    let levels = &ctx.data.levels;
+    let n = levels.len();
+    let masks: Vec<Mask> = levels
+        .iter()
+        .zip(&ctx.all)
+        .map(|(l, m)| {
+            let mut m = m.clone();
+            for (on, &f) in m.current.iter_mut().zip(&l.freqs) {
+                let k = (f / line).round();
+                if (1.0..=4.0).contains(&k) && (f - k * line).abs() <= (0.01 * f).max(0.5) {
+                    *on = false;
+                }
+            }
+            m
+        })
+        .collect();
+    let excluded = (total_residuals(&ctx.all) - total_residuals(&masks)) / 2;
+    if excluded == 0 {
+        return Ok(None);
+    }
+    let b = fits::fit_levels(ctx.calib, levels, &ctx.sig, &masks, &Extension::default(), &ctx.base.theta)?;
+    let chi2: f64 = b.chi2.iter().sum();
+    // χ² per current value under the fit without the lines; each line value against its
+    // neighbours in frequency that are not lines themselves: with no interference it is the
+    // worst of k + 1 values with probability 1/(k + 1), a sign test that a smooth misfit (which
+    // raises neighbours alike) cannot pass, however heavy its tails.
+    let mut at_lines = Vec::new();
+    let (mut worst, mut expected, mut variance) = (0.0, 0.0, 0.0);
+    for l in 0..n {
+        let p = fits::level_params(ctx.calib, &levels[l], &b.theta[l]);
+        let (_, cur) = fits::log_ratios(&levels[l], &p, &Extension::default());
+        let chi2_at =
+            |i: usize| cur[i].map(|z| (z.re / ctx.sig[l].current[i].ln_gain).powi(2) + (z.im / ctx.sig[l].current[i].phase).powi(2));
+        for i in 0..cur.len() {
+            if !(ctx.all[l].current[i] && !masks[l].current[i]) {
+                continue;
+            }
+            let Some(here) = chi2_at(i) else { continue };
+            at_lines.push(here);
+            let beside: Vec<f64> =
+                [i.wrapping_sub(1), i + 1].into_iter().filter(|&j| j < cur.len() && masks[l].current[j]).filter_map(chi2_at).collect();
+            if !beside.is_empty() {
+                let p = 1.0 / (beside.len() + 1) as f64;
+                expected += p;
+                variance += p * (1.0 - p);
+                if beside.iter().all(|&b| here > b) {
+                    worst += 1.0;
+                }
+            }
+        }
+    }
+    // The interference as a random-phase current at the lines: each of their values scattered
+    // with variance σ²(1 + P) per component, P by maximum likelihood; one parameter, where a
+    // free value per point would cost two each.
+    let m = 2.0 * at_lines.len() as f64;
+    let r2: f64 = at_lines.iter().sum();
+    let power = (r2 / m - 1.0).max(0.0);
+    let nll = chi2 + r2 / (1.0 + power) + m * (1.0 + power).ln();
+    let specific = if variance > 0.0 { (worst - expected) / variance.sqrt() } else { 0.0 };
+    let fitted = Fitted { theta: b.theta, se: b.se, ext: vec![Extension::default(); n], masks, regressors: ctx.read.clone() };
+    Ok(Some(LineFit { delta_chi2: chi2_0 - nll, fitted, excluded, line_hz: line, power, specific }))
+}
+
+/// Per level: its refit without the line points plus those points scored with the predictive
+/// variance σ²(1 + P) per component, P being the interference power [σ²] the other levels
+/// show at their lines.
+fn heldout(ctx: &Ctx, f: &Fitted) -> Vec<HeldOutModel> {
+    let levels = &ctx.data.levels;
+    let n = levels.len();
+    let lines: Vec<(f64, Mask)> = (0..n)
+        .map(|l| {
+            let mut lines = ctx.all[l].clone();
+            for (on, keep) in lines.current.iter_mut().zip(&f.masks[l].current) {
+                *on = *on && !keep;
+            }
+            lines.tip.iter_mut().for_each(|b| *b = false);
+            let p = fits::level_params(ctx.calib, &levels[l], &f.theta[l]);
+            (fits::chi2(&levels[l], &ctx.sig[l], &lines, &p, &f.ext[l]), lines)
+        })
+        .collect();
+    (0..n)
+        .map(|held| {
+            let (r2, m): (f64, usize) = (0..n).filter(|&l| l != held).fold((0.0, 0), |(a, b), l| (a + lines[l].0, b + lines[l].1.count()));
+            let power = if m > 0 { (r2 / m as f64 - 1.0).max(0.0) } else { 0.0 };
+            let p = fits::level_params(ctx.calib, &levels[held], &f.theta[held]);
+            let kept = fits::chi2(&levels[held], &ctx.sig[held], &f.masks[held], &p, &f.ext[held]);
+            let (r2, held_lines) = &lines[held];
+            let mut model = HeldOutModel {
+                params: p,
+                extension: f.ext[held],
+                inflated: Some((held_lines.clone(), 1.0 + power)),
+                chi2_per_residual: 0.0,
+            };
+            model.chi2_per_residual = (kept + r2 / (1.0 + power) + model.normalization()) / ctx.all[held].count() as f64;
+            model
+        })
+        .collect()
+}

@@ -1,0 +1,151 @@
+//! Scoring one candidate: its kind's scorer fits it and gives its held-out models; here the
+//! information criterion, the held-out scores and the gates every kind shares. A new kind of
+//! candidate is a file here implementing [`Scorer`], its variant of [`Kind`] and its row in
+//! [`scorer_for`].
+
+mod hydration_lag;
+mod mains;
+mod model;
+mod sensor_error;
+mod temperature;
+
+use crate::candidates::{Candidate, HumidityMap, Kind};
+use crate::context::{Ctx, Fitted};
+use crate::decide::{MIN_DELTA_BIC, MIN_HELDOUT_Z};
+use crate::held_out::{HeldOut, paired_z, per_level_scores, weighted_mean};
+use crate::types::{Estimate, Score, Space};
+use anyhow::Result;
+
+/// What every candidate is scored against: the plain model's fits and the counts the
+/// information criterion needs.
+pub(crate) struct Baseline {
+    /// Residuals per level (the weights of per-level means).
+    pub counts: Vec<f64>,
+    /// Residuals in all.
+    pub n_data: f64,
+    /// χ² of the per-level refit of the plain model.
+    pub chi2_0: f64,
+    /// −2 ln L of free humidity laws through the levels' parameters, and their parameter count.
+    pub law0: (f64, usize),
+    /// Number of level parameters the fits determined.
+    pub n_theta: f64,
+    /// Held-out score of the plain humidity laws: a candidate that cannot be tested keeps it.
+    pub heldout_before: f64,
+}
+
+/// A candidate fitted: what its kind's scorer found.
+pub(crate) struct Candidacy {
+    pub fitted: Fitted,
+    /// −2 ln L (χ² on the data) gained over the candidate's null.
+    pub delta_chi2: f64,
+    pub extra_params: usize,
+    pub space: Space,
+    pub params: Vec<Estimate>,
+    pub note: String,
+    /// Why a candidate that fits cannot be named (a humidity remap too small to matter, lines
+    /// no worse than their neighbours).
+    pub floor: Option<String>,
+    pub held: HeldOut,
+}
+
+pub(crate) enum Trial {
+    Fitted(Box<Candidacy>),
+    /// The data do not allow testing it (no times for a lag, constant temperature…): why.
+    NotTestable(&'static str),
+}
+
+/// How one kind of candidate is fitted and held out.
+pub(crate) trait Scorer {
+    fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial>;
+}
+
+fn scorer_for(kind: Kind) -> Box<dyn Scorer> {
+    match kind {
+        Kind::Model(ext) => Box::new(model::ModelScorer(ext)),
+        Kind::Mains => Box::new(mains::MainsScorer),
+        Kind::Humidity(HumidityMap::HydrationLag) => Box::new(hydration_lag::HydrationLagScorer),
+        Kind::Humidity(HumidityMap::SensorError) => Box::new(sensor_error::SensorErrorScorer),
+        Kind::Humidity(HumidityMap::Temperature) => Box::new(temperature::TemperatureScorer),
+    }
+}
+
+/// A candidate's scores, and for one that was tested its fits and held-out models.
+pub(crate) struct Scored {
+    pub score: Score,
+    pub fitted: Option<Fitted>,
+    pub held: Option<HeldOut>,
+}
+
+/// The candidate's parameters as estimates, in the order of its specs.
+pub(crate) fn estimates(cand: &Candidate, values: &[f64], ses: &[f64]) -> Vec<Estimate> {
+    cand.params
+        .iter()
+        .zip(values.iter().zip(ses))
+        .map(|(s, (v, e))| Estimate { name: s.name.into(), unit: s.unit.into(), value: *v, std_error: *e })
+        .collect()
+}
+
+/// Fits and scores `cand`. ΔBIC on the data is provisional: the decision corrects it for
+/// overdispersion once every candidate is fitted.
+pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scored> {
+    let c = match scorer_for(cand.kind).trial(ctx, cand, base)? {
+        Trial::Fitted(c) => *c,
+        Trial::NotTestable(why) => return Ok(Scored { score: not_applicable(cand, why, base.heldout_before), fitted: None, held: None }),
+    };
+    let n_ic = if c.space == Space::Data { base.n_data } else { base.n_theta };
+    let delta_bic = c.delta_chi2 - c.extra_params as f64 * n_ic.ln();
+    let (null_per_level, per_level) = (per_level_scores(&c.held.null), per_level_scores(&c.held.candidate));
+    let heldout = weighted_mean(&per_level, &base.counts);
+    let heldout_null = weighted_mean(&null_per_level, &base.counts);
+    let z = paired_z(&null_per_level, &per_level, &base.counts);
+    let other_gates = z >= MIN_HELDOUT_Z && heldout < heldout_null && c.floor.is_none();
+    let passes = delta_bic >= MIN_DELTA_BIC && other_gates;
+    let note = match c.floor {
+        Some(why) if c.note.is_empty() => why,
+        Some(why) => format!("{}; {why}", c.note),
+        None => c.note,
+    };
+    Ok(Scored {
+        score: Score {
+            name: cand.name().into(),
+            family: cand.family.into(),
+            applicable: true,
+            params: c.params,
+            delta_chi2: c.delta_chi2,
+            extra_params: c.extra_params,
+            delta_bic,
+            space: c.space,
+            heldout,
+            heldout_per_level: per_level,
+            heldout_null,
+            heldout_null_per_level: null_per_level,
+            heldout_z: z,
+            passes,
+            note,
+            other_gates,
+        },
+        fitted: Some(c.fitted),
+        held: Some(c.held),
+    })
+}
+
+fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
+    Score {
+        name: cand.name().into(),
+        family: cand.family.into(),
+        applicable: false,
+        params: vec![],
+        delta_chi2: 0.0,
+        extra_params: 0,
+        delta_bic: 0.0,
+        space: Space::NotTested,
+        heldout: before,
+        heldout_per_level: vec![],
+        heldout_null: before,
+        heldout_null_per_level: vec![],
+        heldout_z: 0.0,
+        passes: false,
+        note: note.into(),
+        other_gates: false,
+    }
+}

@@ -1,0 +1,75 @@
+//! Candidates of the extended model (global parameters, the same at every level): fitted
+//! jointly with every level's base parameters; held out by refitting their parameters on the
+//! other levels and the held-out level's base parameters with them, against the plain model's
+//! per-level refit.
+
+use super::{Baseline, Candidacy, Scorer, Trial, estimates};
+use crate::candidates::{Candidate, ExtFn};
+use crate::context::{Ctx, Fitted};
+use crate::fits;
+use crate::held_out::{HeldOut, REFIT_NULL_IS};
+use crate::types::{HeldOutModel, Space};
+use anyhow::Result;
+use ipmc_core::extension::Extension;
+use ipmc_fit::lsq::{self, Param, Tolerance};
+
+pub(super) struct ModelScorer(pub ExtFn);
+
+impl Scorer for ModelScorer {
+    fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial> {
+        let (levels, ext) = (&ctx.data.levels, self.0);
+        let start: Vec<f64> = cand.params.iter().map(|s| s.start).collect();
+        let specs: Vec<Param> = cand.params.iter().map(|s| Param::new(s.name, s.bound)).collect();
+        let j = fits::fit_joint(ctx.calib, levels, &ctx.sig, &ctx.all, &specs, ext, &ctx.base.theta, &start)?;
+        let exts: Vec<Extension<f64>> =
+            (0..levels.len()).map(|l| ext(&j.phi, &fits::level_params(ctx.calib, &levels[l], &j.theta[l]))).collect();
+        let chi2: f64 = j.chi2.iter().sum();
+        let fitted = Fitted { theta: j.theta, se: j.se, ext: exts, masks: ctx.all.clone(), regressors: ctx.read.clone() };
+        let held = HeldOut {
+            null: ctx.refit_null(),
+            null_is: REFIT_NULL_IS.into(),
+            candidate: refit_heldout(ctx, cand, ext, &j.phi, &fitted),
+            candidate_is: format!("the level's base parameters refitted with {}'s parameters fitted on the other levels", cand.name()),
+        };
+        Ok(Trial::Fitted(Box::new(Candidacy {
+            fitted,
+            delta_chi2: base.chi2_0 - chi2,
+            extra_params: cand.params.len(),
+            space: Space::Data,
+            params: estimates(cand, &j.phi, &j.phi_se),
+            note: String::new(),
+            floor: None,
+            held,
+        })))
+    }
+}
+
+/// Per level, the candidate's parameters `phi` refitted on the other levels (their base
+/// parameters held where the joint fit put them), then the level's base parameters with them.
+fn refit_heldout(ctx: &Ctx, cand: &Candidate, ext: ExtFn, phi: &[f64], f: &Fitted) -> Vec<HeldOutModel> {
+    let levels = &ctx.data.levels;
+    let n = levels.len();
+    let params: Vec<Param> = cand.params.iter().map(|s| Param::new(s.name, s.bound)).collect();
+    let start = vec![cand.params.iter().zip(phi).map(|(s, &v)| fits::inside_tight(s.bound, v)).collect::<Vec<f64>>()];
+    let p_joint: Vec<ipmc_core::Params<f64>> = (0..n).map(|l| fits::level_params(ctx.calib, &levels[l], &f.theta[l])).collect();
+    (0..n)
+        .map(|held| {
+            let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();
+            let counts: Vec<usize> = train.iter().map(|&l| ctx.all[l].count()).collect();
+            let phi_train = lsq::minimize(Tolerance::REPORT, &params, &start, counts.iter().sum(), |v, out| {
+                let mut at = 0;
+                for (&l, &c) in train.iter().zip(&counts) {
+                    fits::write_residuals(&levels[l], &ctx.sig[l], &ctx.all[l], &p_joint[l], &ext(v, &p_joint[l]), &mut out[at..at + c]);
+                    at += c;
+                }
+            })
+            .map_or_else(|_| phi.to_vec(), |(v, _)| v);
+            let x = ext(&phi_train, &p_joint[held]);
+            let (params, chi2) = match fits::fit_level(ctx.calib, &levels[held], &ctx.sig[held], &ctx.all[held], &x, &f.theta[held]) {
+                Ok((theta, fit)) => (fits::level_params(ctx.calib, &levels[held], &theta), fit.chi2),
+                Err(_) => (p_joint[held], fits::chi2(&levels[held], &ctx.sig[held], &ctx.all[held], &p_joint[held], &x)),
+            };
+            HeldOutModel { params, extension: x, inflated: None, chi2_per_residual: chi2 / ctx.all[held].count() as f64 }
+        })
+        .collect()
+}

@@ -1,0 +1,221 @@
+//! What a diagnosis reports: the verdict, each candidate's scores, the alternatives the data
+//! cannot separate from the verdict, per-level summaries and the models the figures draw.
+
+use crate::effect::Effect;
+use crate::fits::{Mask, Noise};
+use crate::locate::Located;
+use ipmc_core::Calibration;
+use ipmc_core::extension::Extension;
+use ipmc_core::humidity_path::{HumidityPath, SensorKind};
+use std::fmt;
+
+/// What the diagnosis concludes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// No missing physics above the noise.
+    None,
+    /// A structured residual no candidate explains.
+    Unexplained,
+    /// The candidate for this effect explains the mismatch.
+    Named(Effect),
+}
+
+impl Verdict {
+    /// As report.json and the command line spell it: `none`, `unexplained` or the effect's name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::None => "none",
+            Verdict::Unexplained => "unexplained",
+            Verdict::Named(e) => e.name(),
+        }
+    }
+
+    pub fn effect(self) -> Option<Effect> {
+        match self {
+            Verdict::Named(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for Verdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl PartialEq<&str> for Verdict {
+    fn eq(&self, other: &&str) -> bool {
+        self.as_str() == *other
+    }
+}
+
+impl PartialEq<str> for Verdict {
+    fn eq(&self, other: &str) -> bool {
+        self.as_str() == other
+    }
+}
+
+impl serde::Serialize for Verdict {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+/// What a candidate's χ² and BIC are computed on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Space {
+    /// The measured values (model and mains candidates).
+    #[serde(rename = "data")]
+    Data,
+    /// The per-level base parameters (candidates acting through the humidity).
+    #[serde(rename = "level parameters")]
+    LevelParameters,
+    /// The candidate could not be tested on these recordings.
+    #[serde(rename = "")]
+    NotTested,
+}
+
+/// One candidate's fitted parameter.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Estimate {
+    pub name: String,
+    pub unit: String,
+    pub value: f64,
+    pub std_error: f64,
+}
+
+/// A candidate's scores.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Score {
+    pub name: String,
+    pub family: String,
+    /// Whether the data allow testing it (times for hydration, varying temperature…).
+    pub applicable: bool,
+    pub params: Vec<Estimate>,
+    /// χ² improvement over no extension (data or per-level parameters, see `space`).
+    pub delta_chi2: f64,
+    pub extra_params: usize,
+    pub delta_bic: f64,
+    pub space: Space,
+    pub heldout: f64,
+    pub heldout_per_level: Vec<f64>,
+    /// The same held-out score of the candidate's null (no extension, the humidity as read).
+    pub heldout_null: f64,
+    pub heldout_null_per_level: Vec<f64>,
+    pub heldout_z: f64,
+    pub passes: bool,
+    pub note: String,
+    /// Every gate but the information criterion passed (held-out, floors): `passes` is this and
+    /// ΔBIC ≥ [`crate::decide::MIN_DELTA_BIC`] once ΔBIC is corrected for overdispersion.
+    #[serde(skip)]
+    pub(crate) other_gates: bool,
+}
+
+/// A candidate the data cannot separate from the verdict, with the evidence.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Alternative {
+    pub name: String,
+    pub delta_bic: f64,
+    /// The verdict's ΔBIC minus this one's (< [`crate::decide::INDISTINGUISHABLE_BIC`]).
+    pub delta_bic_gap: f64,
+    pub heldout: f64,
+    pub heldout_z: f64,
+    /// Paired z over levels of the verdict's held-out χ² against this one's (positive: the
+    /// verdict predicts held-out levels better), where both share a null.
+    pub heldout_z_vs_verdict: Option<f64>,
+    /// What measurement would separate the two.
+    pub separate_by: String,
+}
+
+/// Per-level view for the report and its figures.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LevelSummary {
+    pub rh_pct: f64,
+    pub time_s: Option<f64>,
+    pub temp_c: Option<f64>,
+    pub revisit_of: Option<usize>,
+    pub simulation_chi2_per_residual: f64,
+    pub refit_chi2_per_residual: f64,
+    pub heldout_before: f64,
+    pub heldout_after: f64,
+}
+
+/// The model that scored one level held out (see the module's doc for each kind of candidate).
+#[derive(Clone, Debug)]
+pub struct HeldOutModel {
+    pub params: ipmc_core::Params<f64>,
+    pub extension: Extension<f64>,
+    /// Values scored with their variance σ² multiplied by the factor: the mains candidate's line
+    /// points, by 1 + the interference power of the other levels.
+    pub inflated: Option<(Mask, f64)>,
+    /// The level's held-out score: (Σ (residual/σ)² over all its values, σ inflated where
+    /// `inflated` says, + [`HeldOutModel::normalization`]) / number of residuals.
+    pub chi2_per_residual: f64,
+}
+
+impl HeldOutModel {
+    /// The inflated variance's share of −2 ln L (m ln factor for m inflated residuals): without
+    /// it, inflating σ would lower the score for free.
+    pub fn normalization(&self) -> f64 {
+        self.inflated.as_ref().map_or(0.0, |(mask, factor)| mask.count() as f64 * factor.ln())
+    }
+}
+
+/// The models a level's figures draw.
+#[derive(Clone, Debug)]
+pub struct LevelModels {
+    /// The calibration at the level's humidity (the "simulation").
+    pub simulation: ipmc_core::Params<f64>,
+    /// The base model refitted at the level (in sample).
+    pub refit: ipmc_core::Params<f64>,
+    /// The held-out null the level's `heldout_before` scores.
+    pub before: HeldOutModel,
+    /// The winner held out, the level's `heldout_after` (None when the verdict names no effect).
+    pub after: Option<HeldOutModel>,
+}
+
+pub struct Diagnosis {
+    pub verdict: Verdict,
+    /// Passing candidates within [`crate::decide::INDISTINGUISHABLE_BIC`] of the verdict.
+    pub indistinguishable: Vec<Alternative>,
+    /// Overdispersion ĉ of the data's χ² (see [`crate::decide::overdispersion`]) that data-space ΔBIC are divided by.
+    pub overdispersion: f64,
+    pub family: String,
+    pub explanation: String,
+    pub params: Vec<Estimate>,
+    pub heldout_before: f64,
+    pub heldout_after: f64,
+    pub located: Located,
+    pub candidates: Vec<Score>,
+    pub levels: Vec<LevelSummary>,
+    pub noise: Noise,
+    /// Per level, in the order of the dataset's levels.
+    pub models: Vec<LevelModels>,
+    /// What the held-out models before and after are (after: None when no effect is named).
+    pub heldout_before_is: String,
+    pub heldout_after_is: Option<String>,
+    /// When the verdict is a part of the humidity path (hydration lag, sensor error): the whole
+    /// path fitted at once (see [`crate::humidity_path::fit`]), relative to the humidity the levels are
+    /// at (the readings through the calibration's own path).
+    pub humidity_path: Option<HumidityPath>,
+}
+
+impl Diagnosis {
+    /// `calib` with what the diagnosis found and belongs in a calibration when its verdict is a
+    /// part of the humidity path: the path fitted as a whole (`humidity_path`), its lag added to
+    /// the calibration's own (the mean delays of lags in series add) and its sensor correction
+    /// applied after the calibration's own (it was found on readings already corrected by it).
+    /// None for any other verdict.
+    pub fn calibration_with(&self, calib: &Calibration, sensor: SensorKind) -> Option<Calibration> {
+        let found = self.humidity_path?;
+        let old = calib.humidity;
+        let mut out = *calib;
+        out.humidity =
+            HumidityPath { tau_wet_s: old.tau_wet_s + found.tau_wet_s, tau_dry_s: old.tau_dry_s + found.tau_dry_s, ..found.after(&old) };
+        if found.gain != 1.0 || found.offset_pct != 0.0 {
+            out.humidity.sensor = Some(sensor);
+        }
+        Some(out)
+    }
+}
