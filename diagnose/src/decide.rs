@@ -234,6 +234,7 @@ mod tests {
             heldout_null: 1.0,
             heldout_null_per_level: vec![],
             heldout_z: 1.0,
+            heldout_between_lines: false,
             passes: other_gates && delta_bic >= MIN_DELTA_BIC,
             note: String::new(),
             other_gates,

@@ -10,6 +10,7 @@
 //!   from neighbouring points, joint candidate fits.
 //! - [`laws`]: humidity laws over levels (held-out prediction, humidity-acting candidates).
 //! - [`locate`]: where the mismatch lives and how significant it is.
+//! - [`mains_between_lines`]: mains interference in a time series' spectrum between its lines.
 //! - [`context`]: what every candidate is scored from (base fits, noise, law weights).
 //! - [`held_out`]: held-out scores of levels and their paired comparison.
 //! - [`scorers`]: one scorer per kind of candidate behind one interface.
@@ -30,6 +31,7 @@ pub mod held_out;
 pub mod humidity_path;
 pub mod laws;
 pub mod locate;
+pub mod mains_between_lines;
 pub mod recordings;
 pub mod remap;
 pub mod report;

@@ -104,6 +104,9 @@ pub struct Score {
     pub heldout_null: f64,
     pub heldout_null_per_level: Vec<f64>,
     pub heldout_z: f64,
+    /// `heldout_z` is of a held-out test of the candidate's own outside the levels' responses
+    /// (mains between a time series' lines, burst by burst); the levels' held-out χ² need not fall.
+    pub heldout_between_lines: bool,
     pub passes: bool,
     pub note: String,
     /// Every gate but the information criterion passed (held-out, floors): `passes` is this and
@@ -202,6 +205,17 @@ pub struct Diagnosis {
 }
 
 impl Diagnosis {
+    /// Whether naming the verdict improved prediction of data held out: the levels' held-out χ²
+    /// fell, or the winner's own held-out test (between the lines) passed.
+    pub fn heldout_lowered(&self) -> bool {
+        let own = self
+            .candidates
+            .iter()
+            .find(|s| self.verdict.effect().is_some_and(|e| e.name() == s.name))
+            .is_some_and(|s| s.heldout_between_lines && s.passes);
+        self.heldout_after < self.heldout_before || own
+    }
+
     /// `calib` with what the diagnosis found and belongs in a calibration when its verdict is a
     /// part of the humidity path: the path fitted as a whole (`humidity_path`), its lag added to
     /// the calibration's own (the mean delays of lags in series add) and its sensor correction

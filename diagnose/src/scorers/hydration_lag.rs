@@ -49,6 +49,7 @@ impl Scorer for HydrationLagScorer {
             note: r.note,
             floor: r.floor,
             held: r.held,
+            own_heldout_z: None,
         })))
     }
 }

@@ -1,16 +1,19 @@
 //! Mains interference: the current's values at 50 or 60 Hz and their harmonics are left out of
 //! the per-level refit and scored as a random-phase interference of one power; held out, each
 //! level refitted without its line points, those scored by the interference power the other
-//! levels show.
+//! levels show. A time series also shows mains between its lines, wherever it falls
+//! ([`crate::mains_between_lines`]); that evidence adds its ΔBIC and is held out burst by burst.
 
 use super::{Baseline, Candidacy, Scorer, Trial};
 use crate::candidates::Candidate;
 use crate::context::{Ctx, Fitted, total_residuals};
 use crate::fits::{self, Mask};
 use crate::held_out::{HeldOut, REFIT_NULL_IS};
+use crate::mains_between_lines::{MainsEvidence, between_line_mains};
 use crate::types::{Estimate, HeldOutModel, Space};
 use anyhow::Result;
 use ipmc_core::extension::Extension;
+use ipmc_fit::multisine::Burst;
 
 /// How much worse than their neighbours in frequency the values at the mains lines must fit
 /// for interference to be named (z): a broadband misfit raises both alike.
@@ -33,6 +36,8 @@ struct LineFit {
 
 impl Scorer for MainsScorer {
     fn trial(&self, ctx: &Ctx, _cand: &Candidate, base: &Baseline) -> Result<Trial> {
+        let bursts: Vec<Burst> = ctx.data.bursts.iter().flatten().cloned().collect();
+        let between = between_line_mains(&bursts).filter(|e| e.delta_bic > 0.0);
         let mut best: Option<LineFit> = None;
         for line in [50.0, 60.0] {
             let Some(f) = fit_without_lines(ctx, line, base.chi2_0)? else { continue };
@@ -41,10 +46,14 @@ impl Scorer for MainsScorer {
             }
         }
         let Some(LineFit { delta_chi2, fitted, excluded, line_hz, power, specific }) = best else {
-            return Ok(Trial::NotTestable("no frequency near 50/60 Hz or their harmonics"));
+            return Ok(match between {
+                Some(e) => Trial::Fitted(Box::new(seen_between_lines_only(ctx, &e))),
+                None => Trial::NotTestable("no frequency near 50/60 Hz or their harmonics, and none between a time series' lines"),
+            });
         };
-        let floor =
-            (specific < MIN_LINE_Z).then(|| format!("the values at the lines are no worse than their neighbours (z = {specific:.1})"));
+        // Seen between the lines, the interference needs no help from the lines' specificity.
+        let floor = (specific < MIN_LINE_Z && between.is_none())
+            .then(|| format!("the values at the lines are no worse than their neighbours (z = {specific:.1})"));
         let amplitude = power.sqrt();
         let held = HeldOut {
             null: ctx.refit_null(),
@@ -52,7 +61,7 @@ impl Scorer for MainsScorer {
             candidate: heldout(ctx, &fitted),
             candidate_is: "the base model refitted at the level without its line points, those scored with σ² × (1 + the interference power of the other levels)".into(),
         };
-        let params = vec![
+        let mut params = vec![
             Estimate { name: "line_hz".into(), unit: "Hz".into(), value: line_hz, std_error: 0.0 },
             Estimate {
                 name: "interference_rms".into(),
@@ -61,17 +70,64 @@ impl Scorer for MainsScorer {
                 std_error: amplitude / (2.0 * excluded as f64).sqrt(),
             },
         ];
+        let mut note = format!("{excluded} current values at lines, z = {specific:.1} against their neighbours");
+        if let Some(e) = &between {
+            params.extend(between_params(e));
+            note += &format!("; {}", between_note(e));
+        }
         Ok(Trial::Fitted(Box::new(Candidacy {
             fitted,
-            delta_chi2,
+            // The between-line ΔBIC has paid for its harmonics already.
+            delta_chi2: delta_chi2 + between.as_ref().map_or(0.0, |e| e.delta_bic),
             extra_params: 1,
             space: Space::Data,
             params,
-            note: format!("{excluded} current values at lines, z = {specific:.1} against their neighbours"),
+            note,
             floor,
+            own_heldout_z: between.as_ref().map(|e| e.heldout_z),
             held,
         })))
     }
+}
+
+/// Mains seen only between a time series' lines: the levels' responses are as without it.
+fn seen_between_lines_only(ctx: &Ctx, e: &MainsEvidence) -> Candidacy {
+    let null = ctx.refit_null();
+    Candidacy {
+        fitted: ctx.plain(),
+        delta_chi2: e.delta_bic,
+        extra_params: 0,
+        space: Space::Data,
+        params: between_params(e),
+        note: between_note(e),
+        floor: None,
+        own_heldout_z: Some(e.heldout_z),
+        held: HeldOut {
+            candidate: null.clone(),
+            null,
+            null_is: REFIT_NULL_IS.into(),
+            candidate_is: "the levels' responses as without interference; held out burst by burst between the lines".into(),
+        },
+    }
+}
+
+fn between_params(e: &MainsEvidence) -> Vec<Estimate> {
+    let mut p = vec![Estimate { name: "mains_hz".into(), unit: "Hz".into(), value: e.family_hz, std_error: 0.0 }];
+    for h in &e.harmonics {
+        p.push(Estimate { name: format!("excess_power_{:.0}hz", h.freq_hz), unit: "×".into(), value: h.excess, std_error: 0.0 });
+    }
+    p
+}
+
+fn between_note(e: &MainsEvidence) -> String {
+    format!(
+        "between the lines: {} Hz family, power at {} over the local floor, ΔBIC {:.0} (ĉ {:.2}), held out burst by burst z = {:.1}",
+        e.family_hz,
+        e.harmonics.iter().map(|h| format!("{:.0} Hz ×{:.1}", h.freq_hz, h.excess)).collect::<Vec<_>>().join(", "),
+        e.delta_bic,
+        e.c_hat,
+        e.heldout_z
+    )
 }
 
 /// The per-level refit without the current's values at `line` Hz and its harmonics (None when

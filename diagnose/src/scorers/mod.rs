@@ -46,6 +46,10 @@ pub(crate) struct Candidacy {
     /// no worse than their neighbours).
     pub floor: Option<String>,
     pub held: HeldOut,
+    /// A held-out test of its own where the evidence lies outside the levels' responses (mains
+    /// between a time series' lines, held out burst by burst): its paired z replaces the
+    /// levels' and the held-out χ² need not fall.
+    pub own_heldout_z: Option<f64>,
 }
 
 pub(crate) enum Trial {
@@ -97,8 +101,11 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
     let (null_per_level, per_level) = (per_level_scores(&c.held.null), per_level_scores(&c.held.candidate));
     let heldout = weighted_mean(&per_level, &base.counts);
     let heldout_null = weighted_mean(&null_per_level, &base.counts);
-    let z = paired_z(&null_per_level, &per_level, &base.counts);
-    let other_gates = z >= MIN_HELDOUT_Z && heldout < heldout_null && c.floor.is_none();
+    let (z, lowered) = match c.own_heldout_z {
+        Some(z) => (z, true),
+        None => (paired_z(&null_per_level, &per_level, &base.counts), heldout < heldout_null),
+    };
+    let other_gates = z >= MIN_HELDOUT_Z && lowered && c.floor.is_none();
     let passes = delta_bic >= MIN_DELTA_BIC && other_gates;
     let note = match c.floor {
         Some(why) if c.note.is_empty() => why,
@@ -120,6 +127,7 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
             heldout_null,
             heldout_null_per_level: null_per_level,
             heldout_z: z,
+            heldout_between_lines: c.own_heldout_z.is_some(),
             passes,
             note,
             other_gates,
@@ -144,6 +152,7 @@ fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
         heldout_null: before,
         heldout_null_per_level: vec![],
         heldout_z: 0.0,
+        heldout_between_lines: false,
         passes: false,
         note: note.into(),
         other_gates: false,

@@ -40,6 +40,7 @@ impl Scorer for ModelScorer {
             note: String::new(),
             floor: None,
             held,
+            own_heldout_z: None,
         })))
     }
 }

@@ -41,6 +41,7 @@ impl Scorer for SensorErrorScorer {
             note: r.note,
             floor: r.floor,
             held: r.held,
+            own_heldout_z: None,
         })))
     }
 }

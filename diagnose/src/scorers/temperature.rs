@@ -61,6 +61,7 @@ impl Scorer for TemperatureScorer {
             note,
             floor: None,
             held,
+            own_heldout_z: None,
         })))
     }
 }

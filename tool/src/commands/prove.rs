@@ -57,6 +57,8 @@ pub struct Outcome {
     pub verdict: String,
     pub heldout_before: f64,
     pub heldout_after: f64,
+    /// Naming the verdict improved the prediction of held-out data (`Diagnosis::heldout_lowered`).
+    pub heldout_lowered: bool,
 }
 
 /// What a run makes: `per_effect` cases of every effect and `clean` controls, each recorded as
@@ -99,6 +101,7 @@ pub fn run_cases(
             verdict: d.verdict.to_string(),
             heldout_before: d.heldout_before,
             heldout_after: d.heldout_after,
+            heldout_lowered: d.heldout_lowered(),
         })
     };
     let next = AtomicUsize::new(0);
@@ -150,8 +153,7 @@ pub fn run(a: Args) -> Result<()> {
     let correct = outcomes.iter().filter(|o| o.verdict == o.truth).count();
     let clean: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth == "none").collect();
     let false_positives = clean.iter().filter(|o| o.verdict != "none").count();
-    let improved =
-        outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").filter(|o| o.heldout_after < o.heldout_before).count();
+    let improved = outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").filter(|o| o.heldout_lowered).count();
     let named = outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").count();
     println!(
         "\n{correct}/{} correct ({:.0} %), {false_positives} false positive(s) on {} clean controls, held-out error reduced in {improved}/{named} correct diagnoses",
@@ -311,6 +313,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()
             verdict: o.verdict.clone(),
             heldout_before: 0.0,
             heldout_after: 0.0,
+            heldout_lowered: false,
         })
         .collect();
     let full = table(&as_outcomes);
