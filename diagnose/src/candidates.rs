@@ -55,6 +55,9 @@ pub struct Candidate {
     pub kind: Kind,
 }
 
+/// The capacitance the electrode's resistance is stated at (a strip's order of magnitude).
+const ELECTRODE_C_REF_F: f64 = 1e-4;
+
 const fn spec(name: &'static str, unit: &'static str, bound: Bound, start: f64, absent: f64) -> Spec {
     Spec { name, unit, bound, start, absent }
 }
@@ -134,14 +137,24 @@ pub const LIBRARY: &[Candidate] = &[
               C = κe·b·L/(2h) forms a distributed RC line (Chen & Tan, IEEE/ASME TMech 2008; \
               Punning et al., Sens. Actuators A 133, 2007, measured platinum-electrode IPMC \
               surface resistances of a few to tens of Ω per square, rising with bending): the \
-              current collected at the clamp is multiplied by tanh√(sτ)/√(sτ) with τ = R_e·C, \
-              a time constant that follows the capacitance, which grows with humidity. \
-              Parameter: R_e [Ω], the end-to-end resistance. Shows in the current only: a \
-              phase lag growing with frequency and with humidity, tending to −45° (a line, not \
-              a pole's −90°) once ωτ ≫ 1, a gain roll-off at high frequency; the tip is \
-              untouched.",
-        params: &[spec("r_electrode_ohm", "Ω", Bound::Between(0.0, 50.0), 0.1, 0.0)],
-        kind: Kind::Model(|v, p| Extension { electrode_tau_distributed: v[0] * ipmc_core::model::capacitance(p), ..Default::default() }),
+              current collected at the clamp is multiplied by tanh√(sτ)/√(sτ), τ = R_e·C. \
+              Shows in the current only: a \
+              phase lag tending to −45° (a line, not a pole's −90°) once ωτ ≫ 1, a gain \
+              roll-off at high frequency; the tip is untouched. R_e need not hold still while C \
+              grows: the electrode's particles part as the membrane dries and swells (cracked \
+              electrodes conduct worse dry; Bar-Cohen et al., Proc. SPIE 3987, 2000; Punning \
+              et al.), so τ = R_e·C_ref·(C/C_ref)^γ with γ between 0 (R_e falling as C \
+              rises, τ constant) and 1 (R_e constant, τ following C), C_ref = 100 µF. \
+              Parameters: R_e at C_ref [Ω], γ. Its line shape (tanh√x/√x) is what tells it \
+              from an amplifier pole; at γ > 0 also its growth with humidity.",
+        params: &[
+            spec("r_electrode_ohm", "Ω", Bound::Between(0.0, 50.0), 0.1, 0.0),
+            spec("capacitance_exponent", "1", Bound::Between(0.0, 1.0), 0.5, 1.0),
+        ],
+        kind: Kind::Model(|v, p| Extension {
+            electrode_tau_distributed: v[0] * ELECTRODE_C_REF_F * (ipmc_core::model::capacitance(p) / ELECTRODE_C_REF_F).powf(v[1]),
+            ..Default::default()
+        }),
     },
     Candidate {
         effect: Effect::AmplifierBandwidth,

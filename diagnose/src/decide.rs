@@ -78,15 +78,38 @@ pub(crate) fn decide(
     });
     let Some(w) = order.first().copied().filter(|&i| scores[i].passes) else {
         let refit = weighted_mean(&per_level_scores(&ctx.refit_null()), &base.counts);
-        let (verdict, explanation) = if structured {
+        let (verdict, mut explanation) = if structured {
             (Verdict::Unexplained, format!("a structured residual ({located}) that no candidate explains"))
         } else {
             (Verdict::None, "no missing physics above the noise".to_string())
         };
+        // "No extension" is the verdict with ΔBIC 0: the ambiguity rule against it lists every
+        // candidate the data favour over it (ΔBIC > 0, held-out gates passed) without the
+        // evidence naming needs.
+        let alternatives: Vec<Alternative> = order
+            .iter()
+            .map(|&i| &scores[i])
+            .filter(|b| leans_over_none(b))
+            .map(|b| Alternative {
+                name: b.name.clone(),
+                delta_bic: b.delta_bic,
+                delta_bic_gap: -b.delta_bic,
+                heldout: b.heldout,
+                heldout_z: b.heldout_z,
+                heldout_z_vs_verdict: None,
+                separate_by: separating_measurement(verdict.as_str(), &b.name),
+            })
+            .collect();
+        if !alternatives.is_empty() {
+            explanation += &format!(
+                "; the data lean to {} without the evidence to name it",
+                alternatives.iter().map(|a| format!("{} (ΔBIC {:.1})", a.name, a.delta_bic)).collect::<Vec<_>>().join(", ")
+            );
+        }
         return Decision {
             verdict,
             winner: None,
-            alternatives: vec![],
+            alternatives,
             overdispersion: c_hat,
             family: String::new(),
             explanation,
@@ -167,6 +190,13 @@ fn indistinguishable(a: &Score, b: &Score) -> bool {
     b.applicable && b.other_gates && a.delta_bic - b.delta_bic < INDISTINGUISHABLE_BIC
 }
 
+/// The ambiguity rule with "no extension" as the verdict (ΔBIC 0, held-out unchanged): `b`
+/// passes every gate but the information criterion's and the data favour it over no extension
+/// at all (ΔBIC > 0). With no candidate named, every such one is below the naming threshold.
+fn leans_over_none(b: &Score) -> bool {
+    b.applicable && b.other_gates && b.delta_bic > 0.0
+}
+
 /// Overdispersion ĉ ≥ 1 of the data's χ²: the best-fitting model's χ² per degree of freedom
 /// (no extension, or a candidate acting on the data). Residuals scattered more than the noise
 /// estimated from neighbouring points (level-to-level calibration errors, a law slightly off)
@@ -190,7 +220,7 @@ pub fn separating_measurement(a: &str, b: &str) -> String {
     let s = if pair("current_timing", "amplifier_bandwidth") {
         "sweep to ≥ 1 kHz (a pole rolls the current's gain off and its phase bends away from a line in f, a delay's does not), or measure the amplifier's response with a test current"
     } else if pair("electrode_resistance", "amplifier_bandwidth") || pair("electrode_resistance", "current_timing") {
-        "record levels far apart in humidity (the electrodes' RC follows the strip's capacitance, which grows with humidity; an amplifier or a delay does not), measure the electrodes' surface resistance (four-point probe), or the amplifier with a test current"
+        "measure the amplifier with a test current through a known capacitor (its pole stays, the electrodes' line goes), or the electrodes' surface resistance (four-point probe); sweeping past 1/(2πτ) separates them too (an RC line's phase tends to −45°, a pole's to −90°)"
     } else if pair("viscoelastic_relaxation", "air_loading") {
         "record in vacuum or at reduced pressure (air loading goes, the polymer's law stays), or sweep to 400 Hz to see the second mode"
     } else if has("tip_mass")
@@ -256,6 +286,16 @@ mod tests {
             assert_eq!(separating_measurement(a, b), separating_measurement(b, a));
         }
         assert!(separating_measurement("current_timing", "amplifier_bandwidth").contains("1 kHz"));
+    }
+
+    /// With nothing named, the candidates the data favour over no extension that pass the
+    /// held-out gates are reported; one the data do not favour, or failing those gates, is not.
+    #[test]
+    fn leaning_over_none() {
+        assert!(leans_over_none(&score("a", 0.0, 6.9, true)));
+        assert!(!leans_over_none(&score("b", 0.0, -0.1, true)));
+        assert!(!leans_over_none(&score("c", 0.0, 6.9, false)));
+        assert!(separating_measurement("none", "temperature").contains("temperature"));
     }
 
     /// ĉ is the best-fitting model's χ²/dof, never below 1.

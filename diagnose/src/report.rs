@@ -16,7 +16,7 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -
     json!({
         "verdict": d.verdict,
         "indistinguishable": d.indistinguishable,
-        "indistinguishable_rule": format!("passing candidates whose ΔBIC is within {} of the verdict's", crate::decide::INDISTINGUISHABLE_BIC),
+        "indistinguishable_rule": format!("passing candidates whose ΔBIC is within {} of the verdict's (none's: 0, and above it)", crate::decide::INDISTINGUISHABLE_BIC),
         "overdispersion": d.overdispersion,
         "family": d.family,
         "explanation": d.explanation,
@@ -52,12 +52,19 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     };
     let _ = writeln!(s, "## Verdict\n\n{verdict}\n");
     if !d.indistinguishable.is_empty() {
-        let _ = writeln!(
-            s,
-            "**The data cannot separate {} from:** (passing candidates whose ΔBIC is within {} of its, less than very strong evidence on Kass & Raftery's scale)\n",
-            d.verdict,
-            crate::decide::INDISTINGUISHABLE_BIC
-        );
+        let _ = match d.verdict.effect() {
+            Some(_) => writeln!(
+                s,
+                "**The data cannot separate {} from:** (passing candidates whose ΔBIC is within {} of its, less than very strong evidence on Kass & Raftery's scale)\n",
+                d.verdict,
+                crate::decide::INDISTINGUISHABLE_BIC
+            ),
+            None => writeln!(
+                s,
+                "**The data lean to these, without the evidence to name one:** (candidates that pass the held-out gates with ΔBIC above 0, no extension's, and below {}; \"behind by\" is negative: ahead of no extension)\n",
+                crate::decide::MIN_DELTA_BIC
+            ),
+        };
         let _ = writeln!(
             s,
             "| candidate | ΔBIC | behind by | held-out | held-out z vs verdict | measurement that would separate them |\n|---|---|---|---|---|---|"

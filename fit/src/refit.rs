@@ -382,7 +382,8 @@ pub fn fit_joint(
     let mut phi_se = vec![f64::NAN; phi.len()];
     let mut last = f64::INFINITY;
     for _sweep in 0..6 {
-        let mut start = phi.clone();
+        // A parameter that reached its bound stays just inside it: the fit starts inside its bounds.
+        let mut start: Vec<f64> = phi.iter().zip(&params).map(|(&v, p)| inside_tight(p.bound, v)).collect();
         start.push(0.0);
         let global = lsq::fit(&params, &[start], total, |v, out| {
             let mut at = 0;
