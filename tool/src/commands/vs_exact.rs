@@ -27,6 +27,10 @@ pub struct Args {
     /// Calibration: `default`, `paper`, or a TOML file (the nominal model of the recording).
     #[arg(long)]
     calib: Option<String>,
+    /// Standard uncertainty of the humidity reading [%RH]: the expected error and the robust
+    /// inverses; by default as for `ipmc compensate`.
+    #[arg(long)]
+    rh_uncertainty: Option<f64>,
     /// Fail (exit status 1) when any level's ratio exceeds this.
     #[arg(long)]
     max_ratio: Option<f64>,
@@ -38,6 +42,9 @@ pub struct Level {
     pub rh_pct: f64,
     pub causal: f64,
     pub exact: f64,
+    /// The non-causal per-bin inverse of least expected error, E[H*]/E[|H|²] over the
+    /// calibration's uncertainty (`exact::robust_inverse`).
+    pub ideal_robust: f64,
     /// The same two by `ipmc compensate`'s own in-band figure (error high-passed at 5 Hz):
     /// what lies between 5 Hz and the band and above it counts too.
     pub causal_above_5hz: f64,
@@ -47,6 +54,9 @@ pub struct Level {
     pub causal_below_band: f64,
     pub causal_above_band: f64,
 }
+
+/// Draws of the strip for the expectations of the ideal robust inverse.
+const ROBUST_DRAWS: usize = 200;
 
 /// The burst `range` of `ts` as a recording of its own, starting at t = 0.
 fn burst_of(ts: &TimeSeries, range: std::ops::Range<usize>) -> Result<TimeSeries> {
@@ -65,7 +75,7 @@ fn burst_of(ts: &TimeSeries, range: std::ops::Range<usize>) -> Result<TimeSeries
 }
 
 /// Per burst of `ts`: the chain's and the exact inverse's error in the design band.
-pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<Vec<Level>> {
+pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, seconds: f64, rh_sd_pct: f64) -> Result<Vec<Level>> {
     let period = (period_s * ts.fs_hz).round() as usize;
     let total = ((SETTLE_S + seconds) * ts.fs_hz).round() as usize;
     if period == 0 || !total.is_multiple_of(period) {
@@ -73,7 +83,7 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
     }
     let cfg = DesignConfig::<f64>::default();
     let band = (cfg.band_lo_hz, cfg.band_hi_hz);
-    let errors = error_table(calib, ts.fs_hz, rh_uncertainty(calib, None))?;
+    let errors = error_table(calib, ts.fs_hz, rh_sd_pct)?;
     let looped = loop_bursts(ts, period_s, SETTLE_S + seconds)?;
     let settle = (SETTLE_S * ts.fs_hz).round() as usize;
     let mut out = vec![];
@@ -97,6 +107,8 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
         let (rh, _) = calib.clamp_rh(calib.humidity.correct(rh_read));
         let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, band);
         let exact = band_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band);
+        let xr = exact::robust_inverse(calib, rh, rh_sd_pct, ROBUST_DRAWS, &rec.current_a, rec.fs_hz, band);
+        let ideal_robust = band_error(&xr, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band).unwrap_or(f64::NAN);
         let c5 = relative_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz);
         let x5 = relative_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz);
         match (causal, exact, c5, x5, below, above) {
@@ -107,9 +119,16 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
                 Some((_, exact_above_5hz)),
                 Some(causal_below_band),
                 Some(causal_above_band),
-            ) => {
-                out.push(Level { rh_pct: rh_read, causal, exact, causal_above_5hz, exact_above_5hz, causal_below_band, causal_above_band })
-            }
+            ) => out.push(Level {
+                rh_pct: rh_read,
+                causal,
+                exact,
+                ideal_robust,
+                causal_above_5hz,
+                exact_above_5hz,
+                causal_below_band,
+                causal_above_band,
+            }),
             _ => bail!("burst at {rh_read:.1} %RH: no base in the band to score against"),
         }
     }
@@ -119,7 +138,7 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
 pub fn run(a: Args) -> Result<()> {
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
     let ts = read_time_series(&a.input)?;
-    let levels = levels(&calib, &ts, a.period_s, a.seconds)?;
+    let levels = levels(&calib, &ts, a.period_s, a.seconds, rh_uncertainty(&calib, a.rh_uncertainty))?;
     let cfg = DesignConfig::<f64>::default();
     println!(
         "{}: error in {}–{} Hz against base_m, each burst repeated to at least {SETTLE_S} s + {} s, all but the first {SETTLE_S} s scored",
@@ -129,19 +148,20 @@ pub fn run(a: Args) -> Result<()> {
         a.seconds
     );
     println!(
-        "{:>8} {:>10} {:>10} {:>7}   {:>12} {:>12}   {:>13} {:>13}",
-        "RH %", "causal %", "exact %", "ratio", "causal >5Hz", "exact >5Hz", "causal 5Hz-lo", "causal hi-Nyq"
+        "{:>8} {:>10} {:>10} {:>7} {:>9}   {:>12} {:>12}   {:>13} {:>13}",
+        "RH %", "causal %", "exact %", "ratio", "ideal %", "causal >5Hz", "exact >5Hz", "causal 5Hz-lo", "causal hi-Nyq"
     );
     let mut worst: f64 = 0.0;
     for l in &levels {
         let ratio = l.causal / l.exact;
         worst = worst.max(ratio);
         println!(
-            "{:>8.2} {:>10.3} {:>10.3} {:>7.3}   {:>12.3} {:>12.3}   {:>13.3} {:>13.3}",
+            "{:>8.2} {:>10.3} {:>10.3} {:>7.3} {:>9.3}   {:>12.3} {:>12.3}   {:>13.3} {:>13.3}",
             l.rh_pct,
             l.causal * 100.0,
             l.exact * 100.0,
             ratio,
+            l.ideal_robust * 100.0,
             l.causal_above_5hz * 100.0,
             l.exact_above_5hz * 100.0,
             l.causal_below_band * 100.0,
@@ -215,7 +235,7 @@ mod tests {
     fn the_chain_loses_nothing_to_the_exact_inverse_in_the_band() {
         let calib = Calibration::default_preset();
         let ts = periodic_recording(&calib, &[40.0, 70.0]);
-        let found = levels(&calib, &ts, 1.0, 4.0).unwrap();
+        let found = levels(&calib, &ts, 1.0, 4.0, 1.0).unwrap();
         assert_eq!(found.len(), 2);
         for l in &found {
             let ratio = l.causal / l.exact;
@@ -223,6 +243,6 @@ mod tests {
             // The noise makes the floor: neither figure may be zero by construction.
             assert!(l.exact > 1e-3, "{l:?}");
         }
-        assert!(levels(&calib, &ts, 1.0, 4.5).unwrap_err().to_string().contains("whole number"));
+        assert!(levels(&calib, &ts, 1.0, 4.5, 1.0).unwrap_err().to_string().contains("whole number"));
     }
 }
