@@ -255,13 +255,13 @@ pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfi
     match cfg.kind {
         InverseKind::Exact => design_inverse_for(&p, rh_pct, cfg),
         InverseKind::Robust { rh_sd_pct } => {
-            let mut moments = [(C::new(T::one(), T::zero()), T::one()); GRID];
-            for (i, m) in moments.iter_mut().enumerate() {
+            let mut spread = Spread { moments: [(C::new(T::one(), T::zero()), T::one()); GRID] };
+            for (i, m) in spread.moments.iter_mut().enumerate() {
                 let f = grid_hz(cfg, i).to_f64();
                 let (mean, power) = crate::expected_error::response_moments(calib, rh_pct.to_f64(), rh_sd_pct.to_f64(), f);
                 *m = (C::new(T::lit(mean.re), T::lit(mean.im)), T::lit(power));
             }
-            design_inverse_with(&p, rh_pct, cfg, Some(&moments))
+            design_inverse_with(&p, rh_pct, cfg, Some(&spread))
         }
     }
 }
@@ -275,14 +275,20 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     design_inverse_with(p, rh_pct, cfg, None)
 }
 
-/// The inverse of least expected error when the strip's response relative to the nominal one at
-/// the grid frequencies ([`grid_hz`]) has the moments (E[r], E|r|²) `moments`
-/// (`expected_error::response_moments`; None: the nominal inverse).
+/// What the robust design knows of the strip's spread about the nominal model.
+#[derive(Clone, Copy, Debug)]
+pub struct Spread<T> {
+    /// (E[r], E|r|²) of r = H/H₀ at the grid frequencies ([`grid_hz`];
+    /// `expected_error::response_moments`).
+    pub moments: [(C<T>, T); GRID],
+}
+
+/// The inverse of least expected error over `spread` (None: the nominal inverse).
 pub fn design_inverse_with<T: Real>(
     p: &Params<T>,
     rh_pct: T,
     cfg: &DesignConfig<T>,
-    moments: Option<&[(C<T>, T); GRID]>,
+    spread: Option<&Spread<T>>,
 ) -> Result<Inverse<T>, DesignError> {
     let fs = cfg.fs_hz;
     if !(fs >= T::lit(1000.0) && fs <= T::lit(10000.0))
@@ -351,11 +357,16 @@ pub fn design_inverse_with<T: Real>(
         let g0 = monic_response(&zd, &pd, zinv) * monic_response(&hzd, &hpd, zinv);
         // the pure-delay sections are part of G; the remaining phase target is d_fir samples
         let ahead = cis(w * T::lit(d_fir as f64));
-        // E|r·y − 1|² = E|r|²·|y − E[r*]/E|r|²|² + const: the row scaled by √E|r|², aimed at
-        // E[r*]/√E|r|².
-        let (mean, power) = moments.map_or((C::new(T::one(), T::zero()), T::one()), |m| m[i]);
-        let weight = power.sqrt();
-        let base = model.eval(jw(f)) * g0 * ahead * weight;
+        let mut base = model.eval(jw(f)) * g0 * ahead;
+        let mut target = C::new(T::one(), T::zero());
+        if let Some(sp) = spread {
+            // E|r·y − 1|² = E|r|²·|y − E[r*]/E|r|²|² + const: the row scaled by √E|r|², aimed
+            // at E[r*]/√E|r|².
+            let (mean, power) = sp.moments[i];
+            let weight = power.sqrt();
+            base = base * weight;
+            target = mean.conj() / weight;
+        }
         let mut zk = C::new(T::one(), T::zero());
         for k in 0..FIR_TAPS {
             let v = base * zk;
@@ -363,8 +374,8 @@ pub fn design_inverse_with<T: Real>(
             a[2 * i + 1][k] = v.im;
             zk *= zinv;
         }
-        b[2 * i] = mean.re / weight;
-        b[2 * i + 1] = -mean.im / weight;
+        b[2 * i] = target.re;
+        b[2 * i + 1] = target.im;
     }
     let c = lstsq(&mut a, &mut b, 2 * GRID).ok_or(DesignError::Numerics)?;
     if c[0] == T::zero() || !c.iter().all(|v| v.is_finite()) {

@@ -7,6 +7,7 @@ mod diagnose;
 mod effect;
 mod exact;
 mod input;
+mod inverse_choice;
 mod overrides;
 mod plot;
 mod progress;

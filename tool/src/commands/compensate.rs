@@ -16,12 +16,13 @@
 
 use crate::commands::write_atomically;
 use crate::input::checked;
+use crate::inverse_choice::InverseChoice;
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::block_humidity::{BlockHumidity, span_s};
 use ipmc_core::expected_error::{BlockError, ErrorTable};
 use ipmc_core::humidity_path::SensorKind;
 use ipmc_core::operating_point::{asks_for_design, reading_age_s};
-use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
+use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, InverseKind, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::{Path, PathBuf};
 
@@ -65,6 +66,10 @@ pub struct Args {
     /// calibration's `[uncertainty]`.
     #[arg(long)]
     current_noise: Option<f64>,
+    /// The inverse designed: the nominal strip's (the firmware's), or the one of least expected
+    /// error over the reading's uncertainty and the calibration's `[uncertainty]`.
+    #[arg(long, value_enum, default_value = "exact")]
+    inverse: InverseChoice,
 }
 
 /// The humidity reading's uncertainty the firmware of the default board assumes for `calib`.
@@ -74,8 +79,8 @@ pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
 
 /// The expected-error table of `calib`'s designs at the recording's rate (the firmware's build
 /// script makes the same one).
-pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64) -> Result<ErrorTable> {
-    let cfg = DesignConfig::<f64> { fs_hz, ..DesignConfig::default() };
+pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64, kind: InverseKind<f64>) -> Result<ErrorTable> {
+    let cfg = DesignConfig::<f64> { fs_hz, kind, ..DesignConfig::default() };
     ErrorTable::new(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
 }
 
@@ -128,8 +133,14 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
 /// exactly as the firmware processes them. Samples past the schedule are not processed.
 /// Where the schedule has the firmware's readings and strip humidities, the strip's model is
 /// run here from the readings too and must give the firmware's values bit for bit.
-pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock], errors: &ErrorTable) -> Result<Estimates> {
-    let design = designer(calib, ts.fs_hz);
+pub fn compensate_scheduled(
+    calib: &Calibration,
+    ts: &TimeSeries,
+    schedule: &[ScheduledBlock],
+    errors: &ErrorTable,
+    kind: InverseKind<f32>,
+) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz, kind);
     let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig { fs_hz: ts.fs_hz as f32, ..DesignConfig::default() });
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
@@ -241,8 +252,8 @@ impl Estimates {
 }
 
 /// The firmware's design chain (f32, default configuration at the recording's rate).
-fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
-    let cfg = DesignConfig::<f32> { fs_hz: fs_hz as f32, ..DesignConfig::default() };
+fn designer(calib: &Calibration, fs_hz: f64, kind: InverseKind<f32>) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
+    let cfg = DesignConfig::<f32> { fs_hz: fs_hz as f32, kind, ..DesignConfig::default() };
     move |rh| design_inverse::<f32>(calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
 }
 
@@ -252,8 +263,14 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
 /// Each block's reading (its mean) goes through the calibration's humidity path as on the
 /// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
 /// between them.
-pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>, errors: &ErrorTable) -> Result<Estimates> {
-    let design = designer(calib, ts.fs_hz);
+pub fn compensate(
+    calib: &Calibration,
+    ts: &TimeSeries,
+    fixed_rh: Option<f64>,
+    errors: &ErrorTable,
+    kind: InverseKind<f32>,
+) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz, kind);
     let n = ts.t_s.len();
     let mut est = Estimates::with_capacity(n);
     let bar = crate::progress::bar(n as u64, "samples");
@@ -440,10 +457,11 @@ pub fn run(a: Args) -> Result<()> {
         calib.uncertainty.current_noise_a_per_rthz = d;
         calib.validate().map_err(|e| anyhow!("the current's noise: {e}"))?;
     }
-    let errors = error_table(&calib, ts.fs_hz, rh_uncertainty(&calib, a.rh_uncertainty))?;
+    let rh_sd = rh_uncertainty(&calib, a.rh_uncertainty);
+    let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
     let est = match &a.schedule {
-        Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors)?,
-        None => compensate(&calib, &ts, a.fixed_rh, &errors)?,
+        Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,
+        None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd))?,
     };
     let mut file = EstimateFile {
         t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
