@@ -1,15 +1,19 @@
 //! The expected relative error of the estimate in the band, for the design at a humidity: the
 //! 1σ a stream frame and an estimate file carry beside every block.
 //!
-//! First-order propagation through the exact model. The estimate is G·I with G ≈ 1/H₀ (the
-//! nominal strip at the design's humidity), the strip is H = H₀(1 + Σₖ sₖ·δₖ) with sₖ = ∂ln H/∂θₖ
-//! and δₖ independent, zero-mean, of standard deviation σₖ: the humidity reading's error (θ = RH,
-//! σ from the `[humidity]` table or the sensor's datasheet) and each parameter's scatter about
-//! its law (θ = ln p, σ from the `[uncertainty]` table). The relative error at f is then
-//! Σₖ sₖ(f)·δₖ + (H₀·G·e^{jωτ} − 1), the second term the design's own error, and its mean square
-//! over the band (a signal spread evenly over the band) is
+//! Propagation through the exact model. The strip is H = H₀·r (H₀ the nominal strip at the
+//! design's humidity), r spread by independent, zero-mean causes of standard deviation σₖ: the
+//! humidity reading's error (σ from the `[humidity]` table or the sensor's datasheet) and each
+//! parameter's scatter about its law (in ln p, σ from the `[uncertainty]` table). With
+//! y = H₀·G·e^{jωτ} the relative error at f has the mean square E|r·y − 1|² =
+//! E|r|²·|y|² − 2 Re(E[r]·y) + 1, and over the band (a signal spread evenly over it)
 //!
-//!   v(RH) = mean_f |H₀Ge^{jωτ} − 1|² + Σₖ σₖ²·mean_f |sₖ(f)|².
+//!   v(RH) = mean_f E|r(f)·y(f) − 1|².
+//!
+//! E[r] and E|r|² come from [`response_moments`], exact to second order. To first order
+//! (r = 1 + Σₖ sₖδₖ, sₖ = ∂ln H/∂θₖ) this is mean_f |y − 1|² + Σₖ σₖ²·mean_f |sₖ|², the design's
+//! own error plus the causes' (what it was before the robust design needed the second order:
+//! near a resonance the curvature of H puts a bias into E[r] of the size of the gain sought).
 //!
 //! The front end's noise (density S) adds N² = ∫_band S/|H₀|² df of displacement, which relative
 //! to a signal of mean square P is N²/P; P is the estimate's own in the band, smoothed over about
