@@ -364,7 +364,7 @@ pub fn design_inverse_with<T: Real>(
             // at E[r*]/√E|r|².
             let (mean, power) = sp.moments[i];
             let weight = power.sqrt();
-            base = base * weight;
+            base *= weight;
             target = mean.conj() / weight;
         }
         let mut zk = C::new(T::one(), T::zero());
