@@ -249,7 +249,8 @@ impl<T: Real> Inverse<T> {
 
 /// Designs the inverse at `rh_pct` (laws evaluated as given: clamping is the caller's policy),
 /// of the kind `cfg.kind` asks for. The robust kind evaluates the exact model at every grid
-/// frequency (`expected_error::relative_variance`): a host's design, not a retune's.
+/// frequency (`expected_error::response_moments`, 520 evaluations in f64): a host's design, not a
+/// retune's (the firmware designs `Exact` only; its constant configuration leaves the rest unlinked).
 pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfig<T>) -> Result<Inverse<T>, DesignError> {
     let p: Params<T> = calib.params_at(rh_pct);
     match cfg.kind {
