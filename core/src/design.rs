@@ -13,6 +13,15 @@
 //! - **Roll-off above the band** is free: H_r grows faster than s² above the band, so 1/H_r is
 //!   strictly proper by three orders.
 //!
+//! **Robust kind** ([`InverseKind::Robust`]): the strip is not the nominal model but H = H₀·r,
+//! r spread by the humidity reading's error and the parameters' scatter
+//! (`expected_error::response_moments`: E[r], E|r|²). The error of an estimate at f is then
+//! E|r·y − 1|² = E|r|²·|y − E[r*]/E|r|²|² + 1 − |E r|²/E|r|², y = H₀·G·e^{jωτ}: the inverse of
+//! least expected error is G = E[H*]/E[|H|²], and the preview's least squares gets as close to it
+//! as its five taps can by weighting each row with √E|r|² and aiming it at E[r*]/√E|r|², at no
+//! cost beyond the moments. Its gain over the exact inverse is second order in the uncertainty
+//! (docs/core.md, "Designing for the uncertainty").
+//!
 //! Poles and zeros are mapped by z = e^{sT} (matched pole-zero), which preserves the resonance
 //! frequencies exactly where bilinear would warp them by 2 % at 150 Hz.
 
@@ -29,7 +38,7 @@ pub const MAX_SECTIONS: usize = 20;
 /// FIR taps of the preview/all-pass correction P(z).
 pub const FIR_TAPS: usize = 5;
 /// Frequencies of the least-squares grid.
-const GRID: usize = 40;
+pub const GRID: usize = 40;
 /// The 5th-order Butterworth's poles e^(iπ(2k + 6)/10), k = 0..4, for ω_c = 1: cos and sin of
 /// multiples of π/5 in closed form ((√5 ∓ 1)/4, √((5 ± √5)/8)), so no retune spends
 /// trigonometry on them and the real pole is exactly real.
@@ -138,6 +147,24 @@ pub struct DesignConfig<T> {
     /// Corner of the regularizing high-pass [Hz].
     pub hp_hz: T,
     pub ionic: IonicOrder,
+    /// What the inverse inverts: the nominal strip, or the strip as the calibration knows it.
+    pub kind: InverseKind<T>,
+}
+
+/// Which inverse to design.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum InverseKind<T> {
+    /// The nominal model's inverse: |H₀·G·e^{jωτ} − 1| as small as the structure allows.
+    #[default]
+    Exact,
+    /// The inverse of least expected error over what the calibration does not know (its
+    /// `[uncertainty]` table and a humidity reading of standard uncertainty `rh_sd_pct`).
+    Robust { rh_sd_pct: T },
+}
+
+/// The i-th frequency of the preview's least-squares grid [Hz], evenly over the band.
+pub fn grid_hz<T: Real>(cfg: &DesignConfig<T>, i: usize) -> T {
+    cfg.band_lo_hz + (cfg.band_hi_hz - cfg.band_lo_hz) * T::lit(i as f64 / (GRID - 1) as f64)
 }
 
 impl<T: Real> Default for DesignConfig<T> {
@@ -149,6 +176,7 @@ impl<T: Real> Default for DesignConfig<T> {
             max_delay_s: T::lit(0.002),
             hp_hz: T::lit(1.0),
             ionic: IonicOrder::Five,
+            kind: InverseKind::Exact,
         }
     }
 }
@@ -253,14 +281,50 @@ impl<T: Real> Inverse<T> {
     }
 }
 
-/// Designs the inverse at `rh_pct` (laws evaluated as given: clamping is the caller's policy).
+/// Designs the inverse at `rh_pct` (laws evaluated as given: clamping is the caller's policy),
+/// of the kind `cfg.kind` asks for. The robust kind evaluates the exact model at every grid
+/// frequency (`expected_error::response_moments`, 520 evaluations in f64): a host's design, not a
+/// retune's (the firmware designs `Exact` only; its constant configuration leaves the rest unlinked).
 pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfig<T>) -> Result<Inverse<T>, DesignError> {
     let p: Params<T> = calib.params_at(rh_pct);
-    design_inverse_for(&p, rh_pct, cfg)
+    match cfg.kind {
+        InverseKind::Exact => design_inverse_for(&p, rh_pct, cfg),
+        InverseKind::Robust { rh_sd_pct } => {
+            let mut spread = Spread { moments: [(C::new(T::one(), T::zero()), T::one()); GRID] };
+            for (i, m) in spread.moments.iter_mut().enumerate() {
+                let f = grid_hz(cfg, i).to_f64();
+                let (mean, power) = crate::expected_error::response_moments(calib, rh_pct.to_f64(), rh_sd_pct.to_f64(), f);
+                *m = (C::new(T::lit(mean.re), T::lit(mean.im)), T::lit(power));
+            }
+            design_inverse_with(&p, rh_pct, cfg, Some(&spread))
+        }
+    }
 }
 
-/// The same for explicit parameters (overrides, perturbations).
+/// The nominal inverse for explicit parameters (overrides, perturbations); `cfg.kind` must be
+/// [`InverseKind::Exact`] (the robust kind needs the calibration's laws: [`design_inverse`]).
 pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<T>) -> Result<Inverse<T>, DesignError> {
+    if cfg.kind != InverseKind::Exact {
+        return Err(DesignError::Config);
+    }
+    design_inverse_with(p, rh_pct, cfg, None)
+}
+
+/// What the robust design knows of the strip's spread about the nominal model.
+#[derive(Clone, Copy, Debug)]
+pub struct Spread<T> {
+    /// (E[r], E|r|²) of r = H/H₀ at the grid frequencies ([`grid_hz`];
+    /// `expected_error::response_moments`).
+    pub moments: [(C<T>, T); GRID],
+}
+
+/// The inverse of least expected error over `spread` (None: the nominal inverse).
+pub fn design_inverse_with<T: Real>(
+    p: &Params<T>,
+    rh_pct: T,
+    cfg: &DesignConfig<T>,
+    spread: Option<&Spread<T>>,
+) -> Result<Inverse<T>, DesignError> {
     let fs = cfg.fs_hz;
     if !(fs >= T::lit(1000.0) && fs <= T::lit(10000.0))
         || !(cfg.band_lo_hz > cfg.hp_hz && cfg.band_hi_hz > cfg.band_lo_hz && cfg.band_hi_hz < fs * T::lit(0.45))
@@ -322,13 +386,22 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
     let mut b = [T::zero(); 2 * GRID];
     let two_pi = T::lit(2.0) * T::PI();
     for i in 0..GRID {
-        let f = cfg.band_lo_hz + (cfg.band_hi_hz - cfg.band_lo_hz) * T::lit(i as f64 / (GRID - 1) as f64);
+        let f = grid_hz(cfg, i);
         let w = two_pi * f * t; // rad/sample
         let zinv = cis(-w);
         let g0 = monic_response(&zd, &pd, zinv) * monic_response(&hzd, &hpd, zinv);
         // the pure-delay sections are part of G; the remaining phase target is d_fir samples
         let ahead = cis(w * T::lit(d_fir as f64));
-        let base = model.eval(jw(f)) * g0 * ahead;
+        let mut base = model.eval(jw(f)) * g0 * ahead;
+        let mut target = C::new(T::one(), T::zero());
+        if let Some(sp) = spread {
+            // E|r·y − 1|² = E|r|²·|y − E[r*]/E|r|²|² + const: the row scaled by √E|r|², aimed
+            // at E[r*]/√E|r|².
+            let (mean, power) = sp.moments[i];
+            let weight = power.sqrt();
+            base *= weight;
+            target = mean.conj() / weight;
+        }
         let mut zk = C::new(T::one(), T::zero());
         for k in 0..FIR_TAPS {
             let v = base * zk;
@@ -336,8 +409,8 @@ pub fn design_inverse_for<T: Real>(p: &Params<T>, rh_pct: T, cfg: &DesignConfig<
             a[2 * i + 1][k] = v.im;
             zk *= zinv;
         }
-        b[2 * i] = T::one();
-        b[2 * i + 1] = T::zero();
+        b[2 * i] = target.re;
+        b[2 * i + 1] = target.im;
     }
     let c = lstsq(&mut a, &mut b, 2 * GRID).ok_or(DesignError::Numerics)?;
     if c[0] == T::zero() || !c.iter().all(|v| v.is_finite()) {

@@ -38,7 +38,7 @@ pub mod stuck;
 pub mod uncertainty;
 
 pub use calibration::{Calibration, Law, LawKind, ParamName, Params, ValidationError};
-pub use design::{DesignConfig, DesignError, Inverse, MAX_SECTIONS, Sos, compensation_error, design_inverse};
+pub use design::{DesignConfig, DesignError, Inverse, InverseKind, MAX_SECTIONS, Sos, compensation_error, design_inverse};
 pub use filter::{Cascade, Compensator};
 pub use model::{current_response, tip_response};
 pub use rational::RationalModel;

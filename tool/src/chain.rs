@@ -10,7 +10,7 @@ use ipmc_core::block_humidity::{BlockHumidity, span_s};
 use ipmc_core::expected_error::{BlockError, ErrorTable};
 use ipmc_core::humidity_path::SensorKind;
 use ipmc_core::operating_point::{asks_for_design, reading_age_s};
-use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
+use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, InverseKind, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::Path;
 
@@ -25,8 +25,8 @@ pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
 
 /// The expected-error table of `calib`'s designs at the recording's rate (the firmware's build
 /// script makes the same one).
-pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64) -> Result<ErrorTable> {
-    let cfg = DesignConfig::<f64>::at_rate(fs_hz);
+pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64, kind: InverseKind<f64>) -> Result<ErrorTable> {
+    let cfg = DesignConfig { kind, ..DesignConfig::<f64>::at_rate(fs_hz) };
     ErrorTable::new(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
 }
 
@@ -79,8 +79,14 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
 /// exactly as the firmware processes them. Samples past the schedule are not processed.
 /// Where the schedule has the firmware's readings and strip humidities, the strip's model is
 /// run here from the readings too and must give the firmware's values bit for bit.
-pub fn compensate_scheduled(calib: &Calibration, ts: &TimeSeries, schedule: &[ScheduledBlock], errors: &ErrorTable) -> Result<Estimates> {
-    let design = designer(calib, ts.fs_hz);
+pub fn compensate_scheduled(
+    calib: &Calibration,
+    ts: &TimeSeries,
+    schedule: &[ScheduledBlock],
+    errors: &ErrorTable,
+    kind: InverseKind<f32>,
+) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz, kind);
     let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig::at_rate(ts.fs_hz as f32));
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
@@ -188,8 +194,8 @@ impl Estimates {
 }
 
 /// The firmware's design chain (f32, default configuration at the recording's rate).
-fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
-    let cfg = DesignConfig::<f32>::at_rate(fs_hz as f32);
+fn designer(calib: &Calibration, fs_hz: f64, kind: InverseKind<f32>) -> impl Fn(f32) -> Result<Inverse<f32>> + '_ {
+    let cfg = DesignConfig { kind, ..DesignConfig::<f32>::at_rate(fs_hz as f32) };
     move |rh| design_inverse::<f32>(calib, rh, &cfg).map_err(|e| anyhow!("design at RH {rh} %: {e}"))
 }
 
@@ -199,8 +205,14 @@ fn designer(calib: &Calibration, fs_hz: f64) -> impl Fn(f32) -> Result<Inverse<f
 /// Each block's reading (its mean) goes through the calibration's humidity path as on the
 /// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
 /// between them.
-pub fn compensate(calib: &Calibration, ts: &TimeSeries, fixed_rh: Option<f64>, errors: &ErrorTable) -> Result<Estimates> {
-    let design = designer(calib, ts.fs_hz);
+pub fn compensate(
+    calib: &Calibration,
+    ts: &TimeSeries,
+    fixed_rh: Option<f64>,
+    errors: &ErrorTable,
+    kind: InverseKind<f32>,
+) -> Result<Estimates> {
+    let design = designer(calib, ts.fs_hz, kind);
     let n = ts.t_s.len();
     let mut est = Estimates::with_capacity(n);
     let bar = crate::progress::bar(n as u64, "samples");

@@ -22,6 +22,57 @@ pub fn inverse(calib: &Calibration, rh_pct: f64, current_a: &[f64], fs_hz: f64, 
     band::synthesize(&base, ks, n)
 }
 
+/// The inverse that minimizes the expected squared error over what the calibration does not
+/// know, per DFT bin: G = E[H*]/E[|H|²] (the bin's error E|H·G − 1|² is least there), the
+/// expectation over the humidity reading's error (σ `rh_sd_pct`) and each parameter's scatter
+/// about its law (the `[uncertainty]` table, log-normal), by `draws` pseudo-random draws.
+/// Non-causal like [`inverse`]: what a robust design could at best reach.
+pub fn robust_inverse(
+    calib: &Calibration,
+    rh_pct: f64,
+    rh_sd_pct: f64,
+    draws: usize,
+    current_a: &[f64],
+    fs_hz: f64,
+    (lo_hz, hi_hz): (f64, f64),
+) -> Vec<f64> {
+    let n = current_a.len();
+    let ks = band::bins(n, fs_hz, lo_hz, hi_hz);
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut normal = || {
+        let mut u = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let (a, b) = (u(), u());
+        (-2.0 * a.ln()).sqrt() * (2.0 * PI * b).cos()
+    };
+    let strips: Vec<ipmc_core::Params<f64>> = (0..draws)
+        .map(|_| {
+            let mut p = calib.params_at(rh_pct + rh_sd_pct * normal());
+            for (name, sd) in calib.uncertainty.relative_sds() {
+                p.set(name, p.get(name) * (sd * normal()).exp());
+            }
+            p
+        })
+        .collect();
+    let base: Vec<C<f64>> = band::dft(current_a, ks.clone())
+        .into_iter()
+        .zip(ks.clone())
+        .map(|(i, k)| {
+            let s = C::new(0.0, 2.0 * PI * k as f64 * fs_hz / n as f64);
+            let (mut mean, mut power) = (C::new(0.0, 0.0), 0.0);
+            for p in &strips {
+                let h = current_response(p, s);
+                mean += h;
+                power += h.norm_sqr();
+            }
+            i * mean.conj() / power
+        })
+        .collect();
+    band::synthesize(&base, ks, n)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

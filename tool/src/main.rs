@@ -8,6 +8,7 @@ mod commands;
 mod diagnose;
 mod exact;
 mod input;
+mod inverse_choice;
 mod looping;
 mod overrides;
 mod plot;

@@ -13,6 +13,7 @@
 
 use crate::chain::{compensate, compensate_scheduled, error_table, read_schedule, rh_uncertainty};
 use crate::input::read_time_series;
+use crate::inverse_choice::InverseChoice;
 use crate::scoring::{INBAND_HP_HZ, SETTLE_S, relative_error};
 use anyhow::{Result, anyhow};
 use ipmc_recording::{Estimates as EstimateFile, write_atomically};
@@ -51,6 +52,10 @@ pub struct Args {
     /// calibration's `[uncertainty]`.
     #[arg(long)]
     current_noise: Option<f64>,
+    /// The inverse designed: the nominal strip's (the firmware's), or the one of least expected
+    /// error over the reading's uncertainty and the calibration's `[uncertainty]`.
+    #[arg(long, value_enum, default_value = "exact")]
+    inverse: InverseChoice,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -61,10 +66,11 @@ pub fn run(a: Args) -> Result<()> {
         calib.uncertainty.current_noise_a_per_rthz = d;
         calib.validate().map_err(|e| anyhow!("the current's noise: {e}"))?;
     }
-    let errors = error_table(&calib, ts.fs_hz, rh_uncertainty(&calib, a.rh_uncertainty))?;
+    let rh_sd = rh_uncertainty(&calib, a.rh_uncertainty);
+    let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
     let est = match &a.schedule {
-        Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors)?,
-        None => compensate(&calib, &ts, a.fixed_rh, &errors)?,
+        Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,
+        None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd))?,
     };
     let mut file = EstimateFile {
         t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
