@@ -38,15 +38,8 @@ pub fn robust_inverse(
 ) -> Vec<f64> {
     let n = current_a.len();
     let ks = band::bins(n, fs_hz, lo_hz, hi_hz);
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut normal = || {
-        let mut u = || {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
-        let (a, b) = (u(), u());
-        (-2.0 * a.ln()).sqrt() * (2.0 * PI * b).cos()
-    };
+    let mut rng = crate::simulator::random::SplitMix64(0x9e37_79b9_7f4a_7c15u64);
+    let mut normal = || rng.normal();
     let strips: Vec<ipmc_core::Params<f64>> = (0..draws)
         .map(|_| {
             let mut p = calib.params_at(rh_pct + rh_sd_pct * normal());

@@ -286,15 +286,8 @@ mod tests {
         let uncertainty = Uncertainty { y: 0.05, cs: 0.15, ca: 0.05, kappa_e: 0.0, d: 0.05, current_noise_a_per_rthz: 0.0 };
         let calib = Calibration { uncertainty, ..Calibration::default_preset() };
         let rh_sd = 2.0;
-        let mut seed = 5u64;
-        let mut normal = || {
-            let mut u = || {
-                seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-                ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            let (a, b) = (u(), u());
-            (-2.0 * a.ln()).sqrt() * (2.0 * PI * b).cos()
-        };
+        let mut rng = crate::simulator::random::SplitMix64(5u64);
+        let mut normal = || rng.normal();
         let mut strips = vec![];
         for rh in [45.0, 75.0] {
             for _ in 0..2 {
