@@ -43,8 +43,8 @@ impl Dataset {
             let first = out.levels.len();
             let source = format!("recording {}", session + 1);
             let mut levels = rec.levels();
-            crate::recordings::levels_felt(rec, &mut levels, path, &source);
-            let strip = crate::recordings::strip_rh(rec, path, &source);
+            ipmc_fit::recordings::levels_felt(rec, &mut levels, path, &source);
+            let strip = ipmc_fit::recordings::strip_rh(rec, path, &source);
             for level in levels {
                 let (mut l, _) = LevelData::from_level(&level, None);
                 l.session = session;
@@ -64,7 +64,7 @@ impl Dataset {
         let mut recs = Vec::with_capacity(paths.len());
         let mut bursts = Vec::with_capacity(paths.len());
         for p in paths {
-            let r = crate::recordings::responses(p)?;
+            let r = ipmc_fit::recordings::responses(p)?;
             recs.push(r.response);
             bursts.push(r.bursts.unwrap_or_default());
         }

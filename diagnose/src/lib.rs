@@ -2,7 +2,6 @@
 //! missing physics from a library of candidates, decide on held-out levels and an information
 //! criterion, and report (`ipmc diagnose`, proved by `ipmc prove`; the tool draws the figures).
 //!
-//! - [`recordings`]: recording files read as frequency responses at the strip's humidity.
 //! - [`data`]: the recordings as a dataset of `ipmc_fit` levels with the humidity histories.
 //! - [`effect`]: the effects the model leaves out, by name (shared with the tool's simulator).
 //! - [`candidates`]: the library of candidate physics (what, how it shows, its parameters).
@@ -32,7 +31,6 @@ pub mod humidity_path;
 pub mod laws;
 pub mod locate;
 pub mod mains_between_lines;
-pub mod recordings;
 pub mod remap;
 pub mod report;
 pub mod scorers;

@@ -6,6 +6,7 @@
 //!   (`ipmc_core::model`), with any subset of the model's parameters fitted by their `--set` names.
 //! - [`multisine`]: tip/base and current/base responses, their noise and the between-line
 //!   spectrum estimated from a time-series recording's multisine bursts.
+//! - [`recordings`]: recording files read as frequency responses at the strip's humidity.
 //! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
 //! - [`level`]: one humidity level's measured responses, as every fit takes them.
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
@@ -23,6 +24,7 @@ pub mod level;
 pub mod lsq;
 pub mod multisine;
 pub mod noise;
+pub mod recordings;
 pub mod refit;
 pub mod response;
 pub mod scalar;

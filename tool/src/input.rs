@@ -1,8 +1,7 @@
-//! Reading recordings for the commands: the reader lives in the diagnosis library
-//! (`ipmc_diagnose::recordings`), which reads the recordings a diagnosis fits; the commands use
-//! it from here.
+//! Reading recordings for the commands: the reader is the identification library's
+//! (`ipmc_fit::recordings`), which every command that fits reads through.
 
-pub use ipmc_diagnose::recordings::*;
+pub use ipmc_fit::recordings::*;
 
 /// A time-series recording, its warnings printed.
 pub fn read_time_series(path: &std::path::Path) -> anyhow::Result<ipmc_recording::TimeSeries> {
