@@ -6,7 +6,8 @@
 //! the expected error of an estimate is made of (`expected_error`); the humidity reading's own
 //! uncertainty is in the `[humidity]` table, where the reading is corrected.
 
-use crate::calibration::ParamName;
+use crate::calibration::{ParamName, Params};
+use crate::real::Real;
 
 /// Relative standard deviations (of ln p, so 0.03 is about 3 %) of the identified parameters
 /// about their laws, after the scatter the humidity reading error and the fit's own standard
@@ -50,6 +51,17 @@ impl Uncertainty {
             (ParamName::KappaE, self.kappa_e),
             (ParamName::D, self.d),
         ]
+    }
+
+    /// A strip as this table describes it: `p` (the laws' values where the strip is) with each
+    /// parameter `z` of its standard deviations off its law, log-normally (`z` in the order of
+    /// [`Self::relative_sds`]). The one place the scatter's shape is written: the expected
+    /// error's quadrature and the tool's draws both go through it.
+    pub fn scattered(&self, mut p: Params<f64>, z: &[f64; 5]) -> Params<f64> {
+        for ((name, sd), &k) in self.relative_sds().into_iter().zip(z) {
+            p.set(name, p.get(name) * Real::exp(k * sd));
+        }
+        p
     }
 
     /// The key (as the file spells it) and value of the first entry no strip can have.

@@ -42,11 +42,8 @@ pub fn robust_inverse(
     let mut normal = || rng.normal();
     let strips: Vec<ipmc_core::Params<f64>> = (0..draws)
         .map(|_| {
-            let mut p = calib.params_at(rh_pct + rh_sd_pct * normal());
-            for (name, sd) in calib.uncertainty.relative_sds() {
-                p.set(name, p.get(name) * (sd * normal()).exp());
-            }
-            p
+            let p = calib.params_at(rh_pct + rh_sd_pct * normal());
+            calib.uncertainty.scattered(p, &std::array::from_fn(|_| normal()))
         })
         .collect();
     let base: Vec<C<f64>> = band::dft(current_a, ks.clone())

@@ -292,12 +292,9 @@ mod tests {
         for rh in [45.0, 75.0] {
             for _ in 0..2 {
                 let d_rh = rh_sd * normal();
-                let d: Vec<f64> = (0..5).map(|_| normal()).collect();
+                let d: [f64; 5] = std::array::from_fn(|_| normal());
                 for sign in [1.0, -1.0] {
-                    let mut p = calib.params_at(rh + sign * d_rh);
-                    for ((name, sd), dk) in uncertainty.relative_sds().into_iter().zip(&d) {
-                        p.set(name, p.get(name) * (sign * sd * dk).exp());
-                    }
+                    let p = uncertainty.scattered(calib.params_at(rh + sign * d_rh), &d.map(|dk| sign * dk));
                     strips.push((rh, p));
                 }
             }
