@@ -19,6 +19,8 @@ pub(crate) struct Ctx<'a> {
     /// The humidity as read, the regressor of the plain laws.
     pub read: Regressors,
     pub weights: LawWeights,
+    /// ∂θ/∂RH of the calibration at each level's reading ([`crate::laws::read_gradient`]).
+    pub read_gradient: Vec<Theta>,
 }
 
 /// Per-level outcome of a candidate, what held-out scoring needs.
@@ -46,7 +48,8 @@ impl<'a> Ctx<'a> {
         let base = fits::fit_levels(calib, levels, &sig, &all, &none, &first.theta)?;
         let read = Regressors { x: levels.iter().map(|l| l.rh_pct).collect(), temperature: None };
         let weights = LawWeights::estimate(&read, &base.theta, &base.se);
-        Ok((Ctx { calib, data, sig, all, base, read, weights }, noise, cal_theta))
+        let read_gradient = crate::laws::read_gradient(calib, &read.x);
+        Ok((Ctx { calib, data, sig, all, base, read, weights, read_gradient }, noise, cal_theta))
     }
 
     /// The plain model's per-level fits as a candidate's outcome.

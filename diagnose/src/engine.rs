@@ -60,7 +60,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         heldout_before: crate::held_out::weighted_mean(&per_level_scores(&ctx.law_heldout(&ctx.plain())), &counts),
         n_data: crate::context::total_residuals(&ctx.all) as f64,
         chi2_0: ctx.base.chi2.iter().sum(),
-        law0: (laws::nll(&law_pred_0, &ctx.base.theta, &ctx.base.se), law_k_0),
+        law0: (laws::nll(&law_pred_0, &ctx.base.theta, &ctx.base.se, &ctx.read_gradient), law_k_0),
         n_theta: ctx.base.se.iter().flatten().filter(|s| !s.is_nan()).count() as f64,
         counts,
     };

@@ -7,7 +7,7 @@
 use crate::context::Ctx;
 use crate::fits;
 use crate::laws::{self, LawWeights, Regressors};
-use crate::remap::{SensorFit, fit_sensor_with};
+use crate::remap::{SensorFit, fit_sensor_parsimonious};
 use ipmc_core::extension::Extension;
 use ipmc_core::humidity_path::HumidityPath;
 use ipmc_fit::scalar::minimize_log;
@@ -40,7 +40,7 @@ pub(crate) fn fit(ctx: &Ctx, c_hat: f64) -> HumidityPath {
         let at_strip = Regressors { x: strip, temperature: None };
         let weights = LawWeights::estimate(&at_strip, &base.theta, &base.se);
         let refitted =
-            Ctx { calib: ctx.calib, data: ctx.data, sig: ctx.sig.clone(), all: ctx.all.clone(), base, read: ctx.read.clone(), weights };
+            Ctx { calib: ctx.calib, data: ctx.data, sig: ctx.sig.clone(), all: ctx.all.clone(), base, read: ctx.read.clone(), weights, read_gradient: ctx.read_gradient.clone() };
         path = fit_once(&refitted, c_hat);
     }
     path
@@ -61,11 +61,7 @@ fn fit_once(ctx: &Ctx, c_hat: f64) -> HumidityPath {
     let read = ctx.read_rh();
     // The sensor's gain only where the data ask for it: a gain the levels cannot pin down
     // trades off against the offset and the lag and moves the humidity at the range's ends.
-    let sensor = |read: &[f64]| -> SensorFit {
-        let free = fit_sensor_with(ctx, &everyone, read, PATH_FIT_DRIFT, true);
-        let unit = fit_sensor_with(ctx, &everyone, read, PATH_FIT_DRIFT, false);
-        if unit.nll - free.nll > penalty { free } else { unit }
-    };
+    let sensor = |read: &[f64]| -> SensorFit { fit_sensor_parsimonious(ctx, &everyone, read, PATH_FIT_DRIFT, penalty) };
     if !ctx.data.has_times() {
         let s = sensor(&read);
         return laws::sensor_correction(s.offset, s.gain);

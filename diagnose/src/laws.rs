@@ -12,6 +12,7 @@ use super::data::{LevelData, RhHistory};
 use super::fits::{BASE, Theta};
 use ipmc_core::humidity_path::{HumidityPath, Hydration};
 use ipmc_fit::laws::{Singular, weighted_least_squares};
+use ipmc_fit::scalar::minimize_log;
 
 /// The humidity each level's parameters follow, and optional extra regressors.
 #[derive(Clone, Debug)]
@@ -134,7 +135,7 @@ pub fn chi2(reg: &Regressors, theta: &[Theta], se: &[Theta], w: &LawWeights) -> 
 
 /// RH where the sensor-error candidate pivots its gain [%]: the middle of the range, so that
 /// offset and gain are nearly uncorrelated.
-const SENSOR_PIVOT_PCT: f64 = 60.0;
+pub const SENSOR_PIVOT_PCT: f64 = 60.0;
 
 /// RH_true = RH_read + o + (g − 1)(RH_read − 60), as the calibration's sensor correction
 /// (RH_true = gain·RH_read + offset_pct).
@@ -195,26 +196,67 @@ pub fn fitted(reg: &Regressors, theta: &[Theta], se: &[Theta]) -> (Vec<Theta>, u
 }
 
 /// −2 log-likelihood (up to a constant) of the levels' θ around predictions, each component
-/// with its own scatter between levels τ_j² estimated from these residuals: Σ r²/v + ln v with
-/// v = SE² + τ_j². Unlike a χ² at fixed weights, it lets a model that explains the scatter
-/// (temperature, hydration) show it.
-pub fn nll(pred: &[Theta], theta: &[Theta], se: &[Theta]) -> f64 {
-    let mut total = 0.0;
-    for j in 0..4 {
-        let rows: Vec<usize> = (0..theta.len()).filter(|&l| !se[l][j].is_nan() && pred[l][j].is_finite()).collect();
+/// with its own scatter between levels τ_j² estimated from these residuals, and the humidity
+/// read error of each level as a random effect shared by the four: a level read σ_h off sits
+/// where every parameter's law says it would at the true humidity, so its residuals move
+/// together along `grad` (∂θ/∂RH of the calibration at the level). v = SE² + τ_j² alone
+/// would count such coherent scatter as independent evidence four times over, and a
+/// remap (an offset, a lag) would be rewarded for fitting what is only the sensor's noise.
+/// σ_h² is profiled (0 included), τ_j² by moments given it. Unlike a χ² at fixed weights, it
+/// lets a model that explains the scatter (temperature, hydration) show it.
+pub fn nll(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta]) -> f64 {
+    let at = |s2: f64| nll_at(pred, theta, se, grad, s2);
+    let none = at(0.0);
+    let (_, best) = minimize_log(at, READ_VARIANCE_RANGE.0, READ_VARIANCE_RANGE.1);
+    none.min(best)
+}
+
+/// Where the per-level humidity read variance is profiled [%RH²]: 0.03–5 %RH standard
+/// deviation, from a sensor's repeatability to the ±3.5 %RH an HTS221 is specified to.
+const READ_VARIANCE_RANGE: (f64, f64) = (1e-3, 25.0);
+
+/// [`nll`] at a read variance `s2` [%RH²].
+fn nll_at(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta], s2: f64) -> f64 {
+    let valid = |l: usize, j: usize| !se[l][j].is_nan() && pred[l][j].is_finite();
+    let own = |l: usize, j: usize| se[l][j].min(1.0).powi(2);
+    let mut tau2 = [0.0; 4];
+    for (j, t) in tau2.iter_mut().enumerate() {
+        let rows: Vec<usize> = (0..theta.len()).filter(|&l| valid(l, j)).collect();
         if rows.is_empty() {
             continue;
         }
         let n = rows.len() as f64;
-        let ms = rows.iter().map(|&l| (theta[l][j] - pred[l][j]).powi(2)).sum::<f64>() / n;
-        let own = rows.iter().map(|&l| se[l][j].min(1.0).powi(2)).sum::<f64>() / n;
-        let tau2 = (ms - own).max(1e-8);
-        for &l in &rows {
-            let v = se[l][j].min(1.0).powi(2) + tau2;
-            total += (theta[l][j] - pred[l][j]).powi(2) / v + v.ln();
+        let mean = |f: &dyn Fn(usize) -> f64| rows.iter().map(|&l| f(l)).sum::<f64>() / n;
+        let ms = mean(&|l| (theta[l][j] - pred[l][j]).powi(2));
+        *t = (ms - mean(&|l| own(l, j)) - s2 * mean(&|l| grad[l][j].powi(2))).max(1e-8);
+    }
+    let mut total = 0.0;
+    for l in 0..theta.len() {
+        // Σ = D + s2·g·gᵀ: Sherman–Morrison for the quadratic form and the determinant.
+        let (mut q, mut logdet, mut rg, mut gg) = (0.0, 0.0, 0.0, 0.0);
+        for j in (0..4).filter(|&j| valid(l, j)) {
+            let d = own(l, j) + tau2[j];
+            let r = theta[l][j] - pred[l][j];
+            q += r * r / d;
+            logdet += d.ln();
+            rg += r * grad[l][j] / d;
+            gg += grad[l][j].powi(2) / d;
         }
+        total += q - s2 * rg * rg / (1.0 + s2 * gg) + logdet + (1.0 + s2 * gg).ln();
     }
     total
+}
+
+/// ∂θ/∂RH of the calibration at each humidity [per %RH]: the direction a level's parameters
+/// move in when its humidity is read wrong.
+pub fn read_gradient(calib: &ipmc_core::Calibration, rh: &[f64]) -> Vec<Theta> {
+    const STEP: f64 = 0.5;
+    rh.iter()
+        .map(|&h| {
+            let (a, b) = (super::fits::calibration_theta(calib, h + STEP), super::fits::calibration_theta(calib, h - STEP));
+            std::array::from_fn(|j| (a[j] - b[j]) / (2.0 * STEP))
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -42,12 +42,54 @@ pub(crate) fn with_drift(ctx: &Ctx, cal: Vec<Theta>, train: &[usize]) -> Vec<The
 pub(crate) fn anchored_nll(ctx: &Ctx, rh: &[f64], train: &[usize]) -> f64 {
     let pred = anchored(ctx, rh, train);
     let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
-    laws::nll(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se))
+    laws::nll(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se), &pick(&ctx.read_gradient))
 }
 
 /// The hydration lag τ [s] that best maps the levels `train` onto the calibration, and its −2 ln L.
 pub(crate) fn fit_lag(ctx: &Ctx, train: &[usize]) -> (f64, f64) {
     minimize_log(|tau| anchored_nll(ctx, &laws::lagged_rh(&ctx.data.levels, &ctx.data.histories, tau), train), 1.0, 1e5)
+}
+
+/// −2 ln L of the calibration plus a drift per parameter, the parameters in `moved` shifted
+/// along their own laws by one common humidity error (linearized; an offset, and with `gain`
+/// also a slope about [`laws::SENSOR_PIVOT_PCT`]): with every parameter moved, a sensor error;
+/// with one, that parameter's law being off in the shape a sensor error would give it.
+pub(crate) fn law_shift_nll(ctx: &Ctx, train: &[usize], moved: [bool; 4], gain: bool) -> f64 {
+    let base = &ctx.base;
+    let read = ctx.read_rh();
+    let cal: Vec<Theta> = read.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
+    let mut params = vec![Param::new("offset", Bound::Between(-25.0, 25.0)), Param::new("slope", Bound::Between(-0.4, 0.4))];
+    params.extend(["dY", "dCs", "dCa", "dd"].map(|n| Param::new(n, Bound::Free)));
+    let shift = |v: &[f64], l: usize| v[0] + if gain { v[1] * (read[l] - laws::SENSOR_PIVOT_PCT) } else { 0.0 };
+    let shifted = |v: &[f64], l: usize, j: usize| cal[l][j] + v[2 + j] + if moved[j] { shift(v, l) * ctx.read_gradient[l][j] } else { 0.0 };
+    let resid = |v: &[f64], out: &mut [f64]| {
+        let mut k = 0;
+        for &l in train {
+            for j in 0..4 {
+                let w = ctx.weights.weight(&base.se[l], j);
+                out[k] = if w > 0.0 { (base.theta[l][j] - shifted(v, l, j)) * w.sqrt() } else { 0.0 };
+                k += 1;
+            }
+        }
+    };
+    let Ok(f) = lsq::fit(&params, &[vec![0.0; 6]], 4 * train.len(), resid) else { return f64::INFINITY };
+    let pred: Vec<Theta> = train.iter().map(|&l| std::array::from_fn(|j| shifted(&f.estimates, l, j))).collect();
+    let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
+    laws::nll(&pred, &pick(&base.theta), &pick(&base.se), &pick(&ctx.read_gradient))
+}
+
+/// How much better one humidity error common to all four parameters explains the levels than
+/// the same error confined to the one parameter it helps most (−2 ln L, equal parameter
+/// counts), and that parameter. A sensor error moves every parameter along its law at once;
+/// a strip whose calibration is off in one law (most often d, the steepest) moves one.
+pub(crate) fn coherence(ctx: &Ctx, gain: bool) -> (f64, usize) {
+    let everyone: Vec<usize> = (0..ctx.n_levels()).collect();
+    let all = law_shift_nll(ctx, &everyone, [true; 4], gain);
+    let (best, j) = (0..4)
+        .map(|j| (law_shift_nll(ctx, &everyone, std::array::from_fn(|k| k == j), gain), j))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .expect("four parameters");
+    (best - all, j)
 }
 
 /// A sensor's offset and gain fitted to levels.
@@ -56,14 +98,28 @@ pub(crate) struct SensorFit {
     pub gain: f64,
     /// Standard errors of the offset and the gain (0 for a gain held at 1).
     pub se: Vec<f64>,
+    /// Whether the gain was fitted (else held at 1).
+    pub free_gain: bool,
     /// −2 ln L of the fit (infinite when it failed).
     pub nll: f64,
 }
 
 /// RH_true = mapped(RH_read; o, g) with a constant drift of each ln θ_j, fitted to the levels
-/// `train` at the humidity read.
+/// `train` at the humidity read, the gain freed only where it earns BIC's price on these levels.
 pub(crate) fn fit_sensor(ctx: &Ctx, train: &[usize]) -> SensorFit {
-    fit_sensor_with(ctx, train, &ctx.read_rh(), true, true)
+    let price = (4.0 * train.len() as f64).ln();
+    fit_sensor_parsimonious(ctx, train, &ctx.read_rh(), true, price)
+}
+
+/// The sensor's offset, and its gain only where freeing it lowers −2 ln L by more than `price`.
+/// A gain is what a strip whose laws are steeper or flatter than the calibration's looks like
+/// through a humidity remap (with linear laws the two are the same model), so it has to earn
+/// its place; an offset moves every parameter along its own law at once, which no drift of
+/// the calibration does.
+pub(crate) fn fit_sensor_parsimonious(ctx: &Ctx, train: &[usize], read: &[f64], drift: bool, price: f64) -> SensorFit {
+    let unit = fit_sensor_with(ctx, train, read, drift, false);
+    let free = fit_sensor_with(ctx, train, read, drift, true);
+    if unit.nll - free.nll > price { free } else { unit }
 }
 
 /// The sensor's offset and gain (or the offset alone, the gain 1: `free_gain` false) that map
@@ -112,12 +168,12 @@ pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: b
             } else {
                 let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
                 let pred: Vec<Theta> = mapped.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
-                laws::nll(&pick(&pred), &pick(&base.theta), &pick(&base.se))
+                laws::nll(&pick(&pred), &pick(&base.theta), &pick(&base.se), &pick(&ctx.read_gradient))
             };
             let se_gain = if free_gain { f.std_errors[1] } else { 0.0 };
-            SensorFit { offset: o, gain: g, se: vec![f.std_errors[0], se_gain], nll }
+            SensorFit { offset: o, gain: g, se: vec![f.std_errors[0], se_gain], nll, free_gain }
         }
-        Err(_) => SensorFit { offset: 0.0, gain: 1.0, se: vec![f64::NAN; 2], nll: f64::INFINITY },
+        Err(_) => SensorFit { offset: 0.0, gain: 1.0, se: vec![f64::NAN; 2], nll: f64::INFINITY, free_gain },
     }
 }
 

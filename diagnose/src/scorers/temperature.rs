@@ -27,7 +27,7 @@ impl Scorer for TemperatureScorer {
         let pred = thermal(ctx, &phi, &everyone);
         let nll_null = anchored_nll(ctx, &ctx.read_rh(), &everyone);
         let pick = |v: &[Theta]| everyone.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
-        let nll_alt = laws::nll(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se));
+        let nll_alt = laws::nll(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se), &pick(&ctx.read_gradient));
         // As for the humidity remaps: when free humidity laws beat the calibration with
         // temperature (by BIC), the levels do not follow the calibration's laws at any
         // temperature, and their drift is not the temperature's.
