@@ -15,6 +15,10 @@ use ipmc_fit::scalar::minimize_log;
 /// be named: a tenth of a percent is within one reading's scatter and of no use to anyone,
 /// while the sensors this product reads (HTS221, HIH-4030) are specified to ±3.5 %RH.
 pub const MIN_RH_SHIFT_PCT: f64 = 1.0;
+/// The shift must clear [`MIN_RH_SHIFT_PCT`] at the near end of its interval, this many
+/// standard errors toward no shift: a fit whose shift could as well be under the floor has not
+/// shown a sensor or a lag that matters, only a reading's scatter that happens to lean.
+pub const SHIFT_FLOOR_SE: f64 = 2.0;
 
 /// The calibration at humidities `rh` plus a constant drift per parameter, the drift the
 /// weighted mean over the levels `train` of θ − calibration: the per-level θ a humidity remap
@@ -48,48 +52,6 @@ pub(crate) fn anchored_nll(ctx: &Ctx, rh: &[f64], train: &[usize]) -> f64 {
 /// The hydration lag τ [s] that best maps the levels `train` onto the calibration, and its −2 ln L.
 pub(crate) fn fit_lag(ctx: &Ctx, train: &[usize]) -> (f64, f64) {
     minimize_log(|tau| anchored_nll(ctx, &laws::lagged_rh(&ctx.data.levels, &ctx.data.histories, tau), train), 1.0, 1e5)
-}
-
-/// −2 ln L of the calibration plus a drift per parameter, the parameters in `moved` shifted
-/// along their own laws by one common humidity error (linearized; an offset, and with `gain`
-/// also a slope about [`laws::SENSOR_PIVOT_PCT`]): with every parameter moved, a sensor error;
-/// with one, that parameter's law being off in the shape a sensor error would give it.
-pub(crate) fn law_shift_nll(ctx: &Ctx, train: &[usize], moved: [bool; 4], gain: bool) -> f64 {
-    let base = &ctx.base;
-    let read = ctx.read_rh();
-    let cal: Vec<Theta> = read.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
-    let mut params = vec![Param::new("offset", Bound::Between(-25.0, 25.0)), Param::new("slope", Bound::Between(-0.4, 0.4))];
-    params.extend(["dY", "dCs", "dCa", "dd"].map(|n| Param::new(n, Bound::Free)));
-    let shift = |v: &[f64], l: usize| v[0] + if gain { v[1] * (read[l] - laws::SENSOR_PIVOT_PCT) } else { 0.0 };
-    let shifted = |v: &[f64], l: usize, j: usize| cal[l][j] + v[2 + j] + if moved[j] { shift(v, l) * ctx.read_gradient[l][j] } else { 0.0 };
-    let resid = |v: &[f64], out: &mut [f64]| {
-        let mut k = 0;
-        for &l in train {
-            for j in 0..4 {
-                let w = ctx.weights.weight(&base.se[l], j);
-                out[k] = if w > 0.0 { (base.theta[l][j] - shifted(v, l, j)) * w.sqrt() } else { 0.0 };
-                k += 1;
-            }
-        }
-    };
-    let Ok(f) = lsq::fit(&params, &[vec![0.0; 6]], 4 * train.len(), resid) else { return f64::INFINITY };
-    let pred: Vec<Theta> = train.iter().map(|&l| std::array::from_fn(|j| shifted(&f.estimates, l, j))).collect();
-    let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
-    laws::nll(&pred, &pick(&base.theta), &pick(&base.se), &pick(&ctx.read_gradient))
-}
-
-/// How much better one humidity error common to all four parameters explains the levels than
-/// the same error confined to the one parameter it helps most (−2 ln L, equal parameter
-/// counts), and that parameter. A sensor error moves every parameter along its law at once;
-/// a strip whose calibration is off in one law (most often d, the steepest) moves one.
-pub(crate) fn coherence(ctx: &Ctx, gain: bool) -> (f64, usize) {
-    let everyone: Vec<usize> = (0..ctx.n_levels()).collect();
-    let all = law_shift_nll(ctx, &everyone, [true; 4], gain);
-    let (best, j) = (0..4)
-        .map(|j| (law_shift_nll(ctx, &everyone, std::array::from_fn(|k| k == j), gain), j))
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .expect("four parameters");
-    (best - all, j)
 }
 
 /// A sensor's offset and gain fitted to levels.
@@ -177,10 +139,16 @@ pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: b
     }
 }
 
-/// A humidity error or lag that moves no level by [`MIN_RH_SHIFT_PCT`] is not reported.
-fn shift_floor(rh: &[f64], read: &[f64]) -> Option<String> {
-    let largest = rh.iter().zip(read).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-    (largest < MIN_RH_SHIFT_PCT).then(|| format!("moves no level by {MIN_RH_SHIFT_PCT} %RH (largest {largest:.2} %RH)"))
+/// A humidity error or lag that moves no level by [`MIN_RH_SHIFT_PCT`] at the near end of its
+/// interval (`near`, the humidities there) is not reported.
+fn shift_floor(rh: &[f64], near: &[f64], read: &[f64]) -> Option<String> {
+    let largest = |v: &[f64]| v.iter().zip(read).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let (at_fit, at_near) = (largest(rh), largest(near));
+    (at_near < MIN_RH_SHIFT_PCT).then(|| {
+        format!(
+            "moves no level by {MIN_RH_SHIFT_PCT} %RH {SHIFT_FLOOR_SE} standard errors toward none (largest {at_near:.2} %RH there, {at_fit:.2} %RH at the fit)"
+        )
+    })
 }
 
 /// What a humidity remap scores, against the calibration as read with its drift.
@@ -199,6 +167,8 @@ pub(crate) struct RemapScore {
 /// count, and how to refit it on training levels for the held-out scores.
 pub(crate) struct Remap<'a> {
     pub rh: Vec<f64>,
+    /// The humidities at the near end of the remap's interval ([`SHIFT_FLOOR_SE`] toward none).
+    pub rh_near: Vec<f64>,
     pub k: usize,
     /// How the note names the remapped model ("at the lagged humidity").
     pub mapped: &'a str,
@@ -222,7 +192,7 @@ pub(crate) fn score_remap(ctx: &Ctx, remap: &Remap, law0: (f64, usize), n_theta:
             "calibration + drift as read: −2lnL {nll_null:.1}; {} {nll_alt:.1}; free laws {:.1} ({} parameters)",
             remap.mapped, law0.0, law0.1
         ),
-        floor: shift_floor(&remap.rh, &ctx.read_rh()),
+        floor: shift_floor(&remap.rh, &remap.rh_near, &ctx.read_rh()),
         held: HeldOut { null, null_is: ANCHORED_NULL_IS.into(), candidate, candidate_is: remap.candidate_is.into() },
         fitted,
     }

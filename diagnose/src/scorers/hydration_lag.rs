@@ -32,6 +32,8 @@ impl Scorer for HydrationLagScorer {
             ctx,
             &Remap {
                 rh: laws::lagged_rh(levels, histories, tau),
+                // τ's interval in ln τ; the shift grows with τ.
+                rh_near: laws::lagged_rh(levels, histories, tau * (-remap::SHIFT_FLOOR_SE * se / tau).exp()),
                 k: 1,
                 mapped: "at the lagged humidity",
                 candidate_is: "the calibration at the humidity lagged by the τ fitted on the other levels, plus their mean drift from it",
@@ -50,6 +52,7 @@ impl Scorer for HydrationLagScorer {
             floor: r.floor,
             held: r.held,
             own_heldout_z: None,
+            occam: None,
         })))
     }
 }

@@ -85,6 +85,7 @@ impl Scorer for MainsScorer {
             note,
             floor,
             own_heldout_z: between.as_ref().map(|e| e.heldout_z),
+            occam: None,
             held,
         })))
     }
@@ -102,6 +103,7 @@ fn seen_between_lines_only(ctx: &Ctx, e: &MainsEvidence) -> Candidacy {
         note: between_note(e),
         floor: None,
         own_heldout_z: Some(e.heldout_z),
+        occam: None,
         held: HeldOut {
             candidate: null.clone(),
             null,

@@ -50,6 +50,10 @@ pub(crate) struct Candidacy {
     /// between a time series' lines, held out burst by burst): its paired z replaces the
     /// levels' and the held-out χ² need not fall.
     pub own_heldout_z: Option<f64>,
+    /// −2 ln of the Occam factor of a candidate whose parameters have an informative prior
+    /// from the literature (the Laplace approximation of its evidence): it replaces BIC's price
+    /// k·ln N, which stands for a prior as wide as one datum's worth of information.
+    pub occam: Option<f64>,
 }
 
 pub(crate) enum Trial {
@@ -97,7 +101,7 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
         Trial::NotTestable(why) => return Ok(Scored { score: not_applicable(cand, why, base.heldout_before), fitted: None, held: None }),
     };
     let n_ic = if c.space == Space::Data { base.n_data } else { base.n_theta };
-    let delta_bic = c.delta_chi2 - c.extra_params as f64 * n_ic.ln();
+    let delta_bic = c.delta_chi2 - c.occam.unwrap_or(c.extra_params as f64 * n_ic.ln());
     let (null_per_level, per_level) = (per_level_scores(&c.held.null), per_level_scores(&c.held.candidate));
     let heldout = weighted_mean(&per_level, &base.counts);
     let heldout_null = weighted_mean(&null_per_level, &base.counts);

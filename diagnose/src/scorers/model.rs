@@ -41,6 +41,7 @@ impl Scorer for ModelScorer {
             floor: None,
             held,
             own_heldout_z: None,
+            occam: None,
         })))
     }
 }

@@ -6,8 +6,6 @@ use crate::candidates::Candidate;
 use crate::context::Ctx;
 use crate::laws;
 use crate::remap::{self, Remap, fit_sensor};
-use crate::decide::INDISTINGUISHABLE_BIC;
-use crate::fits::BASE;
 use crate::types::Space;
 use anyhow::Result;
 
@@ -18,21 +16,19 @@ impl Scorer for SensorErrorScorer {
         let levels = &ctx.data.levels;
         let everyone: Vec<usize> = (0..levels.len()).collect();
         let s = fit_sensor(ctx, &everyone);
-        // The signature that tells a sensor from a stale calibration: the shift shows in every
-        // parameter at once. Evidence for it over one law off must be what telling any two
-        // candidates apart takes.
-        let (coherent, alone) = remap::coherence(ctx, s.free_gain);
-        let incoherent = (coherent < INDISTINGUISHABLE_BIC).then(|| {
-            format!(
-                "the shift is carried by {} alone (one humidity error for all four parameters beats it there by −2lnL {coherent:.1} < {INDISTINGUISHABLE_BIC}): that law of the calibration off, not the sensor",
-                BASE[alone].as_str()
-            )
-        });
         let mapped = |o: f64, g: f64| levels.iter().map(|l| laws::mapped_rh(l.rh_pct, o, g)).collect::<Vec<f64>>();
         let r = remap::score_remap(
             ctx,
             &Remap {
                 rh: mapped(s.offset, s.gain),
+                rh_near: levels
+                    .iter()
+                    .map(|l| {
+                        let shift = laws::mapped_rh(l.rh_pct, s.offset, s.gain) - l.rh_pct;
+                        let se = s.se[0].hypot(s.se[1] * (l.rh_pct - laws::SENSOR_PIVOT_PCT));
+                        l.rh_pct + shift.signum() * (shift.abs() - remap::SHIFT_FLOOR_SE * se).max(0.0)
+                    })
+                    .collect(),
                 k: 1 + usize::from(s.free_gain),
                 mapped: "with the humidity mapped",
                 candidate_is: "the calibration at the humidity mapped by the offset and gain fitted on the other levels, plus their mean drift from it",
@@ -51,9 +47,10 @@ impl Scorer for SensorErrorScorer {
             space: Space::LevelParameters,
             params: estimates(cand, &[s.offset, s.gain], &s.se),
             note: r.note,
-            floor: r.floor.or(incoherent),
+            floor: r.floor,
             held: r.held,
             own_heldout_z: None,
+            occam: None,
         })))
     }
 }

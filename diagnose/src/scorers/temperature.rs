@@ -15,6 +15,14 @@ use ipmc_fit::lsq::{self, Bound, Param};
 
 pub(super) struct TemperatureScorer;
 
+/// What the literature says of the two coefficients before any data (the candidate's
+/// paragraph in [`crate::candidates`] gives the sources): E_a of ion transport in hydrated
+/// Nafion 10–20 kJ/mol (water self-diffusion 18–20, proton conduction 8–15), as a normal
+/// prior of mean 15 and σ 5 kJ/mol; the modulus softening α 0–2 %/K (Nafion 1–2 %/K, an
+/// IPMC's electrodes lowering it), mean 1 %/K and σ 1 %/K.
+const PRIOR_MEAN: [f64; 2] = [15.0, 0.01];
+const PRIOR_SD: [f64; 2] = [5.0, 0.01];
+
 impl Scorer for TemperatureScorer {
     fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial> {
         if ctx.data.temperature_span() < 1.0 {
@@ -23,15 +31,15 @@ impl Scorer for TemperatureScorer {
         let (levels, (law_nll, law_k)) = (&ctx.data.levels, base.law0);
         let n = levels.len();
         let everyone: Vec<usize> = (0..n).collect();
-        let (phi, se_phi) = fit_thermal(ctx, &everyone);
-        let pred = thermal(ctx, &phi, &everyone);
+        let fit = fit_thermal(ctx, &everyone);
+        let pred = thermal(ctx, &fit.phi, &everyone);
         let nll_null = anchored_nll(ctx, &ctx.read_rh(), &everyone);
         let pick = |v: &[Theta]| everyone.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
         let nll_alt = laws::nll(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se), &pick(&ctx.read_gradient));
         // As for the humidity remaps: when free humidity laws beat the calibration with
-        // temperature (by BIC), the levels do not follow the calibration's laws at any
-        // temperature, and their drift is not the temperature's.
-        let bic_alt = nll_alt + 6.0 * base.n_theta.ln();
+        // temperature (by BIC, the drifts at BIC's price), the levels do not follow the
+        // calibration's laws at any temperature, and their drift is not the temperature's.
+        let bic_alt = nll_alt + fit.occam + 4.0 * base.n_theta.ln();
         let bic_laws = law_nll + law_k as f64 * base.n_theta.ln();
         let delta = if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 };
         let fitted = Fitted { theta: pred, ..ctx.plain() };
@@ -39,7 +47,7 @@ impl Scorer for TemperatureScorer {
             .map(|held| {
                 let train: Vec<usize> = (0..n).filter(|&k| k != held).collect();
                 let score = |th: &Theta| ctx.scored(held, fits::level_params(ctx.calib, &levels[held], th), fitted.ext[held]);
-                let (phi_train, _) = fit_thermal(ctx, &train);
+                let phi_train = fit_thermal(ctx, &train).phi;
                 (score(&anchored(ctx, &ctx.read_rh(), &train)[held]), score(&thermal(ctx, &phi_train, &train)[held]))
             })
             .unzip();
@@ -47,21 +55,23 @@ impl Scorer for TemperatureScorer {
             null,
             null_is: ANCHORED_NULL_IS.into(),
             candidate,
-            candidate_is: "the calibration at the humidity as read with the level's temperature acting on d (Arrhenius) and Y, the activation energy and modulus slope fitted on the other levels, plus their mean drift from it".into(),
+            candidate_is: "the calibration at the humidity as read with the level's temperature acting on d (Arrhenius) and Y, the activation energy and modulus slope fitted on the other levels (with the literature's prior), plus their mean drift from it".into(),
         };
         let note = format!(
-            "calibration + drift as read: −2lnL {nll_null:.1}; with temperature {nll_alt:.1}; free laws {law_nll:.1} ({law_k} parameters)"
+            "calibration + drift as read: −2lnL {nll_null:.1}; with temperature {nll_alt:.1} (Occam factor under the literature's prior {:.1}); free laws {law_nll:.1} ({law_k} parameters)",
+            fit.occam
         );
         Ok(Trial::Fitted(Box::new(Candidacy {
             fitted,
             delta_chi2: delta,
             extra_params: 2,
             space: Space::LevelParameters,
-            params: estimates(cand, &phi, &se_phi),
+            params: estimates(cand, &fit.phi, &fit.se),
             note,
             floor: None,
             held,
             own_heldout_z: None,
+            occam: Some(fit.occam),
         })))
     }
 }
@@ -75,13 +85,23 @@ fn thermal(ctx: &Ctx, phi: &[f64], train: &[usize]) -> Vec<Theta> {
     with_drift(ctx, thermal_raw(ctx, phi), train)
 }
 
-/// E_a [kJ/mol] and α [1/K] of [`thermal`] fitted to the levels `train` (with a free drift per
-/// parameter), and their standard errors.
-fn fit_thermal(ctx: &Ctx, train: &[usize]) -> (Vec<f64>, Vec<f64>) {
+/// The coefficients' posterior mode and what it costs.
+struct ThermalFit {
+    /// E_a [kJ/mol] and α [1/K].
+    phi: Vec<f64>,
+    se: Vec<f64>,
+    /// −2 ln of the Occam factor (Laplace): (φ − μ)ᵀP⁻¹(φ − μ) + ln|P| − ln|C|, P the prior's
+    /// covariance and C the posterior's, for the two coefficients.
+    occam: f64,
+}
+
+/// E_a and α of [`thermal`] fitted to the levels `train` (with a free drift per parameter) at
+/// the mode of their posterior under [`PRIOR_MEAN`] and [`PRIOR_SD`].
+fn fit_thermal(ctx: &Ctx, train: &[usize]) -> ThermalFit {
     let base = &ctx.base;
     let params = vec![
-        Param::new("ea_kj_per_mol", Bound::Between(0.0, 80.0)),
-        Param::new("alpha_y_per_k", Bound::Between(-0.05, 0.05)),
+        Param::new("ea_kj_per_mol", Bound::Free),
+        Param::new("alpha_y_per_k", Bound::Free),
         Param::new("dY", Bound::Free),
         Param::new("dCs", Bound::Free),
         Param::new("dCa", Bound::Free),
@@ -97,11 +117,21 @@ fn fit_thermal(ctx: &Ctx, train: &[usize]) -> (Vec<f64>, Vec<f64>) {
                 k += 1;
             }
         }
+        for i in 0..2 {
+            out[k + i] = (v[i] - PRIOR_MEAN[i]) / PRIOR_SD[i];
+        }
     };
-    let starts = vec![vec![15.0, 0.003, 0.0, 0.0, 0.0, 0.0]];
-    match lsq::fit(&params, &starts, 4 * train.len(), resid) {
-        Ok(f) => (f.estimates[..2].to_vec(), f.std_errors[..2].to_vec()),
-        Err(_) => (vec![0.0, 0.0], vec![f64::NAN, f64::NAN]),
+    let starts = vec![vec![PRIOR_MEAN[0], PRIOR_MEAN[1], 0.0, 0.0, 0.0, 0.0]];
+    match lsq::fit(&params, &starts, 4 * train.len() + 2, resid) {
+        Ok(f) => {
+            let c = f.covariance.view((0, 0), (2, 2));
+            let det_c = c[(0, 0)] * c[(1, 1)] - c[(0, 1)] * c[(1, 0)];
+            let mismatch: f64 = (0..2).map(|i| ((f.estimates[i] - PRIOR_MEAN[i]) / PRIOR_SD[i]).powi(2)).sum();
+            let ln_det_p: f64 = PRIOR_SD.iter().map(|s| 2.0 * s.ln()).sum();
+            let occam = if det_c > 0.0 { mismatch + ln_det_p - det_c.ln() } else { f64::INFINITY };
+            ThermalFit { phi: f.estimates[..2].to_vec(), se: f.std_errors[..2].to_vec(), occam }
+        }
+        Err(_) => ThermalFit { phi: vec![0.0, 0.0], se: vec![f64::NAN, f64::NAN], occam: f64::INFINITY },
     }
 }
 
