@@ -226,7 +226,10 @@ pub const LIBRARY: &[Candidate] = &[
         family: "instrumentation: humidity sensor",
         doc: "The humidity reading is offset or mis-scaled (a drifted or mis-calibrated sensor, \
               the HIH-4030's temperature correction): the sample lives at RH_true = RH_read + o + \
-              (g − 1)·(RH_read − 60). Parameters: o [%RH] and g. Shows as levels whose every \
+              (g − 1)·(RH_read − 60). Parameters: o [%RH] and g, g held at 1 unless freeing it pays \
+              BIC's price (a gain is also what laws steeper than the calibration's look like). \
+              Named only when the shift clears 1 %RH at some level two standard errors toward \
+              none (each level's reading scatters on its own: that is noise, not an error). Shows as levels whose every \
               fitted parameter (Y, Cs, Ca, d together) matches the calibration at a shifted \
               humidity, where plain calibration drift moves the parameters independently.",
         params: &[spec("rh_offset_pct", "%RH", Bound::Free, 0.0, 0.0), spec("rh_gain", "1", Bound::Free, 1.0, 1.0)],
@@ -248,7 +251,10 @@ pub const LIBRARY: &[Candidate] = &[
               the temperature read, always). Parameters: E_a [kJ/mol] and α [1/K], fitted on \
               the levels' Y and d at the mean temperature of each level (the `temp_c` column, \
               per point or per level: a slow drift within a session is enough), the calibration \
-              at the humidity read plus a drift per parameter. Testable only when the levels' \
+              at the humidity read plus a drift per parameter. The ranges above are the \
+              coefficients' prior (E_a 15 ± 5 kJ/mol, α 1 ± 1 %/K): the fit is their posterior \
+              mode and the evidence pays the Laplace Occam factor of that prior, not BIC's \
+              price of a parameter no one knew anything about. Testable only when the levels' \
               temperatures span ≥ 1 K; shows as levels whose d (current gain ∝ √d) and \
               resonance depart from their humidity laws in step with their temperature, the \
               same humidity visited warm and cold disagreeing in the direction of T (where a \

@@ -6,7 +6,7 @@
 use super::physics::Physics;
 use super::random::SplitMix64;
 use super::session::Session;
-use super::{Departure, level_temp_c, sample_at};
+use super::{Departure, Room, sample_at};
 use anyhow::{Result, bail};
 use ipmc_core::Calibration;
 use ipmc_recording::{Charging, Metadata};
@@ -19,10 +19,12 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let leakage_a = plan.leakage_ohm.map_or(0.0, |r| plan.voltage_v / r);
     let mut out = vec![];
     let drift = Departure::drift(&session.sample, &mut rng);
+    let room = Room::draw(session, &mut rng);
     // Each level is charged from a discharged, settled sample: hydration lag plays no part.
-    for &level in &h.levels_pct {
+    for (k, &level) in h.levels_pct.iter().enumerate() {
         let dep = drift.at_level(&session.sample, &mut rng);
-        let (params, temp_c) = sample_at(calib, level, dep, level_temp_c(session, &mut rng));
+        // One charge per level, one after the other.
+        let (params, temp_c) = sample_at(calib, level, dep, room.at(k as f64 * plan.duration_s));
         let mut rec = Charging { metadata: metadata.clone(), voltage_v: plan.voltage_v, ..Charging::default() };
         for k in 0..samples {
             let t = k as f64 / plan.fs_hz;

@@ -35,7 +35,8 @@ pub struct SampleEffect {
     ext: Extension<f64>,
     /// Electrode resistance [Ω]: the line's τ follows each level's capacitance.
     electrode_ohm: f64,
-    /// d ln Y/dT and d ln Cs/dT [1/K] away from [`ROOM_C`].
+    /// The modulus's d ln Y/dT [1/K] and the ion transport's activation energy [J/mol], acting
+    /// away from [`ROOM_C`].
     temperature_coeffs: Option<(f64, f64)>,
     /// Capacitive feedthrough [A/m of base displacement, per rad/s], set by the session.
     pub feedthrough: f64,
@@ -186,11 +187,14 @@ pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: 
         }
         Some(Effect::Temperature) => {
             let swing = d.uniform(3.0, 6.0);
-            let ay = -d.log_uniform(0.012, 0.03);
-            let acs = -d.log_uniform(0.005, 0.02);
+            // The literature's ranges (the temperature candidate's paragraph gives the sources):
+            // hydrated Nafion softens by 1–2 %/K, an IPMC's electrodes lower that; ion
+            // transport is activated with 8–20 kJ/mol.
+            let ay = -d.log_uniform(0.003, 0.02);
+            let ea = d.uniform(8e3, 20e3);
             b.temperature_swing_k = swing;
-            s.temperature_coeffs = Some((ay, acs));
-            format!("±{swing:.1} K between levels, dlnY/dT = {ay:.4}/K, dlnCs/dT = {acs:.4}/K")
+            s.temperature_coeffs = Some((ay, ea));
+            format!("±{swing:.1} K between levels, dlnY/dT = {ay:.4}/K, E_a = {:.1} kJ/mol", ea / 1e3)
         }
     };
     Drawn { sample: s, bench: b, words }
@@ -199,9 +203,11 @@ pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: 
 impl Physics for SampleEffect {
     fn response(&self, params: &Params<f64>, _rh_pct: f64, temp_c: f64, s: C<f64>) -> (C<f64>, C<f64>) {
         let mut p = *params;
-        if let Some((ay, acs)) = self.temperature_coeffs {
+        if let Some((ay, ea)) = self.temperature_coeffs {
             p.y *= (ay * (temp_c - ROOM_C)).exp();
-            p.cs *= (acs * (temp_c - ROOM_C)).exp();
+            // Arrhenius: d ∝ exp(−E_a/RT), at the room's temperature the law's.
+            let kelvin = |c: f64| c + 273.15;
+            p.d *= (-ea / p.r_gas * (1.0 / kelvin(temp_c) - 1.0 / kelvin(ROOM_C))).exp();
         }
         let mut ext = self.ext;
         if self.electrode_ohm > 0.0 {

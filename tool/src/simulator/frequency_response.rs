@@ -6,7 +6,7 @@ use super::bench::Bench;
 use super::physics::Physics;
 use super::random::SplitMix64;
 use super::session::Session;
-use super::{Departure, Mains, level_temp_c, sample_at};
+use super::{Departure, Mains, Room, sample_at};
 use anyhow::{Result, bail};
 use ipmc_core::model::{current_response, jw};
 use ipmc_core::{C, Calibration};
@@ -20,15 +20,16 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mut bench = Bench::settled(h.levels_pct[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
     let mains = Mains::draw(n, &mut rng);
+    let room = Room::draw(session, &mut rng);
     let mut points = Vec::with_capacity(h.levels_pct.len() * freqs.len());
     let mut t = 0.0;
     for &level in &h.levels_pct {
         bench.set_target(level + rng.gauss(h.level_error_pct));
         let dep = drift.at_level(&session.sample, &mut rng);
-        let temp_level = level_temp_c(session, &mut rng);
         let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
         bench.advance(wait, &mut rng);
         t += wait;
+        let temp_level = room.at(t);
         for &f in &freqs {
             let rh_sample = bench.sample();
             let (params, temp_c) = sample_at(calib, rh_sample, dep, temp_level);

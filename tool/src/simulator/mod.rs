@@ -131,9 +131,27 @@ impl Mains {
     }
 }
 
-/// The room's temperature for one level: the session's, swung (draws nothing without a swing).
-fn level_temp_c(session: &Session, rng: &mut random::SplitMix64) -> Option<f64> {
-    session.temp_c.map(|t| if session.temp_swing_k > 0.0 { t + session.temp_swing_k * (2.0 * rng.uniform() - 1.0) } else { t })
+/// The room's temperature over a session: the session's, drifting by ±`temp_swing_k` in a slow
+/// cycle (an air-conditioning cycle to a morning's warming: 1–3 h), its period and phase drawn
+/// once (nothing drawn without a swing, so other sessions' draws are unchanged).
+struct Room {
+    temp_c: Option<f64>,
+    swing_k: f64,
+    period_s: f64,
+    phase: f64,
+}
+
+impl Room {
+    fn draw(session: &Session, rng: &mut random::SplitMix64) -> Self {
+        let swings = session.temp_c.is_some() && session.temp_swing_k > 0.0;
+        let (period_s, phase) = if swings { (3600.0 * (1.0 + 2.0 * rng.uniform()), 2.0 * std::f64::consts::PI * rng.uniform()) } else { (1.0, 0.0) };
+        Room { temp_c: session.temp_c, swing_k: if swings { session.temp_swing_k } else { 0.0 }, period_s, phase }
+    }
+
+    /// The temperature at `t_s` into the session.
+    fn at(&self, t_s: f64) -> Option<f64> {
+        self.temp_c.map(|t| t + self.swing_k * (2.0 * std::f64::consts::PI * t_s / self.period_s + self.phase).sin())
+    }
 }
 
 /// The sample at humidity `rh_pct`: the calibration's laws there, departed by `dep`, at the

@@ -30,8 +30,9 @@ pub struct Session {
     pub seed: u64,
     /// Temperature [°C]; absent: the calibration's T, and no `temp_c` column.
     pub temp_c: Option<f64>,
-    /// The room's swing between levels [K]: each level is at `temp_c` plus a uniform draw in
-    /// ±swing (levels measured at different times of day). Needs `temp_c`.
+    /// The room's drift [K]: the temperature swings by ±this about `temp_c` in a slow cycle of
+    /// 1–3 h (period and phase drawn from the seed), each level at the temperature when it is
+    /// measured. Needs `temp_c`.
     #[serde(default)]
     pub temp_swing_k: f64,
     /// Standard deviation of the thermometer's error, per reading [K].

@@ -15,7 +15,7 @@ use super::bench::Bench;
 use super::physics::Physics;
 use super::random::SplitMix64;
 use super::session::Session;
-use super::{Departure, Mains, level_temp_c, sample_at};
+use super::{Departure, Mains, Room, sample_at};
 use anyhow::{Result, bail};
 use ipmc_core::model::{current_response, jw};
 use ipmc_core::{C, Calibration};
@@ -56,8 +56,9 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mut bench = Bench::settled(levels[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
     let mains = Mains::draw(n, &mut rng);
+    let room = Room::draw(session, &mut rng);
     let tone_amplitude_m = tones.first().map_or(0.0, |t| t.amplitude_m);
-    let (mut dep, mut temp_level) = (drift, session.temp_c);
+    let (mut dep, mut temp_level) = (drift, room.at(0.0));
     // Responses per tone at the last humidity the sample was at: a constant level costs one
     // model evaluation per tone, not one per sample.
     type TipAndCurrent = (C<f64>, C<f64>);
@@ -67,7 +68,6 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
         if !plan.ramp {
             let setpoint = levels[leg] + rng.gauss(h.level_error_pct);
             dep = drift.at_level(&session.sample, &mut rng);
-            temp_level = level_temp_c(session, &mut rng);
             cached = None;
             if leg > 0 {
                 let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
@@ -78,6 +78,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
                 bench.set_target(setpoint);
                 bench.advance(h.settle_s, &mut rng);
             }
+            temp_level = room.at(burst_t0);
         }
         let last_leg = leg + 1 == legs;
         for i in 0..per_burst {
