@@ -144,7 +144,9 @@ pub fn run(a: Args) -> Result<()> {
     }
     let strength = a.at.map_or(Strength::Random, Strength::At);
     let plan = Plan { seed: a.seed, per_effect: a.per_effect, clean: a.clean, strength, format: a.format };
+    let started = std::time::Instant::now();
     let outcomes = run_cases(&calib, &plan, &dir, &|_| bar.inc(1))?;
+    let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     if a.keep.is_none() {
         let _ = std::fs::remove_dir_all(&dir);
@@ -156,7 +158,7 @@ pub fn run(a: Args) -> Result<()> {
     let improved = outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").filter(|o| o.heldout_lowered).count();
     let named = outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").count();
     println!(
-        "\n{correct}/{} correct ({:.0} %), {false_positives} false positive(s) on {} clean controls, held-out error reduced in {improved}/{named} correct diagnoses",
+        "\n{correct}/{} correct ({:.0} %), {false_positives} false positive(s) on {} clean controls, held-out error reduced in {improved}/{named} correct diagnoses; wall time {wall_s:.1} s (making and diagnosing every case)",
         outcomes.len(),
         100.0 * correct as f64 / outcomes.len() as f64,
         clean.len()
@@ -171,6 +173,7 @@ pub fn run(a: Args) -> Result<()> {
                 "clean_cases": clean.len(),
                 "heldout_reduced": improved,
                 "named_correctly": named,
+                "wall_time_s": wall_s,
             })
         );
     }
