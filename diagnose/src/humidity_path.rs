@@ -39,8 +39,16 @@ pub(crate) fn fit(ctx: &Ctx, c_hat: f64) -> HumidityPath {
         // parameters that show them most as if they were noise.
         let at_strip = Regressors { x: strip, temperature: None };
         let weights = LawWeights::estimate(&at_strip, &base.theta, &base.se);
-        let refitted =
-            Ctx { calib: ctx.calib, data: ctx.data, sig: ctx.sig.clone(), all: ctx.all.clone(), base, read: ctx.read.clone(), weights, read_gradient: ctx.read_gradient.clone() };
+        let refitted = Ctx {
+            calib: ctx.calib,
+            data: ctx.data,
+            sig: ctx.sig.clone(),
+            all: ctx.all.clone(),
+            base,
+            read: ctx.read.clone(),
+            weights,
+            read_gradient: ctx.read_gradient.clone(),
+        };
         path = fit_once(&refitted, c_hat);
     }
     path

@@ -295,9 +295,8 @@ mod tests {
         // Deterministic spread of read errors in ±2 %RH and a small independent scatter.
         let err: Vec<f64> = (0..n).map(|l| 2.0 * (((l * 7919) % 97) as f64 / 48.0 - 1.0)).collect();
         let grad: Vec<Theta> = (0..n).map(|l| [0.01, 0.004, -0.02, 0.11 + 0.001 * l as f64]).collect();
-        let theta: Vec<Theta> = (0..n)
-            .map(|l| std::array::from_fn(|j| grad[l][j] * err[l] + 1e-3 * ((((l + 3 * j) * 31) % 11) as f64 / 5.0 - 1.0)))
-            .collect();
+        let theta: Vec<Theta> =
+            (0..n).map(|l| std::array::from_fn(|j| grad[l][j] * err[l] + 1e-3 * ((((l + 3 * j) * 31) % 11) as f64 / 5.0 - 1.0))).collect();
         let (pred, se) = (vec![[0.0; 4]; n], vec![[1e-3; 4]; n]);
         let coherent = nll(&pred, &theta, &se, &grad);
         let independent = nll(&pred, &theta, &se, &vec![[0.0; 4]; n]);

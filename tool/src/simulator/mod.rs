@@ -144,7 +144,8 @@ struct Room {
 impl Room {
     fn draw(session: &Session, rng: &mut random::SplitMix64) -> Self {
         let swings = session.temp_c.is_some() && session.temp_swing_k > 0.0;
-        let (period_s, phase) = if swings { (3600.0 * (1.0 + 2.0 * rng.uniform()), 2.0 * std::f64::consts::PI * rng.uniform()) } else { (1.0, 0.0) };
+        let (period_s, phase) =
+            if swings { (3600.0 * (1.0 + 2.0 * rng.uniform()), 2.0 * std::f64::consts::PI * rng.uniform()) } else { (1.0, 0.0) };
         Room { temp_c: session.temp_c, swing_k: if swings { session.temp_swing_k } else { 0.0 }, period_s, phase }
     }
 
