@@ -35,6 +35,7 @@ pub mod replay;
 pub mod roots;
 pub mod stream;
 pub mod stuck;
+pub mod thermal;
 pub mod uncertainty;
 
 pub use calibration::{Calibration, Law, LawKind, ParamName, Params, ValidationError};

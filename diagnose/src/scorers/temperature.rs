@@ -11,6 +11,7 @@ use crate::laws;
 use crate::remap::{anchored, anchored_nll, with_drift};
 use crate::types::{HeldOutModel, Space};
 use anyhow::Result;
+use ipmc_core::thermal::Thermal;
 use ipmc_fit::lsq::{self, Bound, Param};
 
 pub(super) struct TemperatureScorer;
@@ -77,10 +78,10 @@ impl Scorer for TemperatureScorer {
 }
 
 /// The levels' θ under temperature: the calibration at the humidity read, with the level's
-/// absolute temperature T (its mean `temp_c`) acting on the ionic transport by Arrhenius,
-/// ln d += −(E_a/R)(1/T − 1/T_c), and on the modulus, ln Y += −α(T − T_c) (T_c the
-/// calibration's temperature; K's own 1/T is in every level's parameters already, see
-/// [`fits::level_params`]), plus the mean drift over `train`. `phi` = [E_a in kJ/mol, α in 1/K].
+/// absolute temperature T (its mean `temp_c`) acting on Y and d by the core's
+/// [`Thermal`] law against the calibration's T_c (K's own 1/T is in every level's parameters
+/// already, see [`fits::level_params`]), plus the mean drift over `train`.
+/// `phi` = [E_a in kJ/mol, α in 1/K].
 fn thermal(ctx: &Ctx, phi: &[f64], train: &[usize]) -> Vec<Theta> {
     with_drift(ctx, thermal_raw(ctx, phi), train)
 }
@@ -144,9 +145,10 @@ fn thermal_raw(ctx: &Ctx, phi: &[f64]) -> Vec<Theta> {
         .map(|l| {
             let mut c = fits::calibration_theta(ctx.calib, l.rh_pct);
             if let Some(t) = l.temp_c {
-                let t = t + 273.15;
-                c[0] -= phi[1] * (t - t_c);
-                c[3] -= phi[0] * 1e3 / ctx.calib.r_gas * (1.0 / t - 1.0 / t_c);
+                let (ln_y, ln_d) =
+                    Thermal { ea_j_per_mol: phi[0] * 1e3, alpha_y_per_k: phi[1] }.ln_factors(t + 273.15, t_c, ctx.calib.r_gas);
+                c[0] += ln_y;
+                c[3] += ln_d;
             }
             c
         })

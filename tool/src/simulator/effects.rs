@@ -14,6 +14,7 @@ use super::physics::Physics;
 use super::random::SplitMix64;
 use ipmc_core::extension::{Extension, responses};
 use ipmc_core::model::capacitance;
+use ipmc_core::thermal::Thermal;
 use ipmc_core::{C, Params};
 use ipmc_diagnose::Effect;
 
@@ -35,9 +36,8 @@ pub struct SampleEffect {
     ext: Extension<f64>,
     /// Electrode resistance [Ω]: the line's τ follows each level's capacitance.
     electrode_ohm: f64,
-    /// The modulus's d ln Y/dT [1/K] and the ion transport's activation energy [J/mol], acting
-    /// away from [`ROOM_C`].
-    temperature_coeffs: Option<(f64, f64)>,
+    /// How the polymer follows the temperature away from [`ROOM_C`].
+    thermal: Option<Thermal<f64>>,
     /// Capacitive feedthrough [A/m of base displacement, per rad/s], set by the session.
     pub feedthrough: f64,
 }
@@ -190,11 +190,10 @@ pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: 
             // The literature's ranges (the temperature candidate's paragraph gives the sources):
             // hydrated Nafion softens by 1–2 %/K, an IPMC's electrodes lower that; ion
             // transport is activated with 8–20 kJ/mol.
-            let ay = -d.log_uniform(0.003, 0.02);
-            let ea = d.uniform(8e3, 20e3);
+            let thermal = Thermal { alpha_y_per_k: d.log_uniform(0.003, 0.02), ea_j_per_mol: d.uniform(8e3, 20e3) };
             b.temperature_swing_k = swing;
-            s.temperature_coeffs = Some((ay, ea));
-            format!("±{swing:.1} K between levels, dlnY/dT = {ay:.4}/K, E_a = {:.1} kJ/mol", ea / 1e3)
+            s.thermal = Some(thermal);
+            format!("±{swing:.1} K drift, dlnY/dT = {:.4}/K, E_a = {:.1} kJ/mol", -thermal.alpha_y_per_k, thermal.ea_j_per_mol / 1e3)
         }
     };
     Drawn { sample: s, bench: b, words }
@@ -203,11 +202,10 @@ pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: 
 impl Physics for SampleEffect {
     fn response(&self, params: &Params<f64>, _rh_pct: f64, temp_c: f64, s: C<f64>) -> (C<f64>, C<f64>) {
         let mut p = *params;
-        if let Some((ay, ea)) = self.temperature_coeffs {
-            p.y *= (ay * (temp_c - ROOM_C)).exp();
-            // Arrhenius: d ∝ exp(−E_a/RT), at the room's temperature the law's.
-            let kelvin = |c: f64| c + 273.15;
-            p.d *= (-ea / p.r_gas * (1.0 / kelvin(temp_c) - 1.0 / kelvin(ROOM_C))).exp();
+        if let Some(thermal) = self.thermal {
+            let (ln_y, ln_d) = thermal.ln_factors(temp_c + 273.15, ROOM_C + 273.15, p.r_gas);
+            p.y *= ln_y.exp();
+            p.d *= ln_d.exp();
         }
         let mut ext = self.ext;
         if self.electrode_ohm > 0.0 {
