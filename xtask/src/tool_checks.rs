@@ -41,8 +41,8 @@ pub fn vs_exact_external() -> Result<()> {
 
 /// `ipmc prove` with one case per effect and three clean controls (the README's command runs
 /// more): no clean control may be diagnosed with an effect, and every correct diagnosis must
-/// lower the held-out error. The share named correctly is printed (its target, 90 %, is not
-/// yet met: see the README).
+/// lower the held-out error. The share named correctly is printed; its target (90 %) is held
+/// by the README's run over three seeds of 34 cases, too many for every CI run.
 pub fn diagnose_prove() -> Result<()> {
     // Both formats a lab brings: stepped-sine frequency responses and multisine time series.
     for format in ["fr", "ts"] {
