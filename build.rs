@@ -15,9 +15,13 @@ use std::{
 };
 
 use ipmc_core::{
-    Calibration, DesignConfig, Law, calibration_file,
+    Calibration, DesignConfig, Law,
+    band::Band,
+    calibration_file,
+    departures::Departures,
     expected_error::ErrorTable,
     humidity_path::{HumidityPath, SensorKind},
+    instrument::Instrument,
     uncertainty::Uncertainty,
 };
 
@@ -87,10 +91,33 @@ fn load_calibration() -> Result<(Calibration, String), String> {
 /// A Rust constant expression equal to `c`. The destructuring names every field, so a field
 /// added to `Calibration` breaks this build script instead of being silently left out.
 fn calibration_expr(c: &Calibration) -> String {
-    let Calibration { faraday, r_gas, t_k, l, b, alpha0, c_minus, y, cs, ca, kappa_e, d, h, m, rh_min, rh_max, humidity, uncertainty } = c;
+    let Calibration {
+        faraday,
+        r_gas,
+        t_k,
+        l,
+        b,
+        alpha0,
+        c_minus,
+        y,
+        cs,
+        ca,
+        kappa_e,
+        d,
+        h,
+        m,
+        rh_min,
+        rh_max,
+        humidity,
+        uncertainty,
+        band,
+        departures,
+        instrument,
+    } = c;
     format!(
         "ipmc_core::Calibration {{ faraday: {}, r_gas: {}, t_k: {}, l: {}, b: {}, alpha0: {}, c_minus: {}, \
-         y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, h: {}, m: {}, rh_min: {}, rh_max: {}, humidity: {}, uncertainty: {} }}",
+         y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, h: {}, m: {}, rh_min: {}, rh_max: {}, humidity: {}, uncertainty: {}, \
+         band: {}, departures: {}, instrument: {} }}",
         f64_expr(*faraday),
         f64_expr(*r_gas),
         f64_expr(*t_k),
@@ -109,6 +136,34 @@ fn calibration_expr(c: &Calibration) -> String {
         f64_expr(*rh_max),
         humidity_path_expr(humidity),
         uncertainty_expr(uncertainty),
+        band_expr(band),
+        departures_expr(departures),
+        instrument_expr(instrument),
+    )
+}
+
+fn band_expr(band: &Band) -> String {
+    let Band { low_hz, high_hz } = band;
+    format!("ipmc_core::band::Band {{ low_hz: {}, high_hz: {} }}", f64_expr(*low_hz), f64_expr(*high_hz))
+}
+
+fn departures_expr(t: &Departures) -> String {
+    let Departures { n, rh_pct, ln } = t;
+    let array = |a: &[f64]| format!("[{}]", a.iter().map(|&v| f64_expr(v)).collect::<Vec<_>>().join(", "));
+    let ln: Vec<String> = ln.iter().map(|row| array(row)).collect();
+    format!("ipmc_core::departures::Departures {{ n: {n}, rh_pct: {}, ln: [{}] }}", array(rh_pct), ln.join(", "))
+}
+
+fn instrument_expr(i: &Instrument) -> String {
+    let Instrument { tip_gain, tip_gain_tolerance_pct, base_gain_tolerance_pct, current_gain_tolerance_pct, acquisition_delay_us } = i;
+    format!(
+        "ipmc_core::instrument::Instrument {{ tip_gain: {}, tip_gain_tolerance_pct: {}, base_gain_tolerance_pct: {}, \
+         current_gain_tolerance_pct: {}, acquisition_delay_us: {} }}",
+        f64_expr(*tip_gain),
+        f64_expr(*tip_gain_tolerance_pct),
+        f64_expr(*base_gain_tolerance_pct),
+        f64_expr(*current_gain_tolerance_pct),
+        f64_expr(*acquisition_delay_us),
     )
 }
 
@@ -126,12 +181,13 @@ fn uncertainty_expr(u: &Uncertainty) -> String {
 }
 
 fn humidity_path_expr(p: &HumidityPath) -> String {
-    let HumidityPath { sensor, offset_pct, gain, tau_wet_s, tau_dry_s, uncertainty_pct } = p;
+    let HumidityPath { sensor, offset_pct, gain, tau_wet_s, tau_dry_s, uncertainty_pct, sensor_lag_s, mode } = p;
     let sensor = sensor.map_or("None".into(), |k| format!("Some(ipmc_core::humidity_path::SensorKind::{k:?})"));
     let uncertainty = uncertainty_pct.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
+    let lag = sensor_lag_s.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
     format!(
         "ipmc_core::humidity_path::HumidityPath {{ sensor: {sensor}, offset_pct: {}, gain: {}, tau_wet_s: {}, tau_dry_s: {}, \
-         uncertainty_pct: {uncertainty} }}",
+         uncertainty_pct: {uncertainty}, sensor_lag_s: {lag}, mode: ipmc_core::humidity_path::HumidityMode::{mode:?} }}",
         f64_expr(*offset_pct),
         f64_expr(*gain),
         f64_expr(*tau_wet_s),

@@ -3,7 +3,10 @@
 //! A calibration is plain f64 data (so it can be a `const` in the firmware and a TOML file on the
 //! host); [`Calibration::params_at`] narrows it to the working precision at one humidity.
 
+use crate::band::Band;
+use crate::departures::{Departures, TableError};
 use crate::humidity_path::{HumidityPath, PathError};
+use crate::instrument::Instrument;
 use crate::real::Real;
 use crate::uncertainty::Uncertainty;
 
@@ -237,6 +240,18 @@ pub struct Calibration {
     /// `[uncertainty]` table; without it, [`Uncertainty::TYPICAL`]).
     #[cfg_attr(feature = "serde", serde(default))]
     pub uncertainty: Uncertainty,
+    /// The band the estimate is kept in and scored in (the file's `[band]` table; without it,
+    /// [`Band::DEFAULT`]).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub band: Band,
+    /// The strip's departures from the laws that its own levels show (the file's
+    /// `[departures]` table; without it, none).
+    #[cfg_attr(feature = "serde", serde(default, skip_serializing_if = "Departures::is_none"))]
+    pub departures: Departures,
+    /// The channels' tolerances and the tip channel's identified gain (the file's
+    /// `[instrument]` table; without it, [`Instrument::DATASHEET`]).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub instrument: Instrument,
 }
 
 /// Why a calibration cannot be used.
@@ -253,6 +268,12 @@ pub enum ValidationError {
     Humidity(PathError),
     /// The `[uncertainty]` table has a negative, non-finite or absurd entry.
     Uncertainty { key: &'static str, value: f64 },
+    /// The `[band]` table's edges are not a band.
+    Band { key: &'static str, value: f64 },
+    /// The `[departures]` table is malformed.
+    Departures(TableError),
+    /// The `[instrument]` table has a value no channel can have.
+    Instrument { key: &'static str, value: f64 },
 }
 
 impl core::fmt::Display for ValidationError {
@@ -275,6 +296,16 @@ impl core::fmt::Display for ValidationError {
                 f,
                 "uncertainty.{key} = {value}: a relative standard deviation must be within 0–{}, a noise density ≥ 0",
                 crate::uncertainty::MAX_RELATIVE_SD
+            ),
+            ValidationError::Band { key, value } => {
+                write!(f, "band.{key} = {value}: the band's edges must be finite, positive and low_hz < high_hz")
+            }
+            ValidationError::Departures(e) => write!(f, "{e}"),
+            ValidationError::Instrument { key, value } => write!(
+                f,
+                "instrument.{key} = {value}: a gain must be within 0.5–2, a tolerance within 0–{} %, a delay within 0–{} µs",
+                crate::instrument::MAX_TOLERANCE_PCT,
+                crate::instrument::MAX_DELAY_US
             ),
         }
     }
@@ -340,6 +371,9 @@ impl Calibration {
             rh_max: 80.0,
             humidity: HumidityPath::NONE,
             uncertainty: Uncertainty::TYPICAL,
+            band: Band::DEFAULT,
+            departures: Departures::NONE,
+            instrument: Instrument::DATASHEET,
         }
     }
 
@@ -386,9 +420,21 @@ impl Calibration {
         }
     }
 
-    /// Every parameter at `rh_pct`, evaluated as the laws say (no clamping: callers that must
-    /// stay inside the declared range clamp with [`Calibration::clamp_rh`] and flag it).
+    /// Every parameter at `rh_pct`: the laws with the strip's departures from them (no
+    /// clamping: callers that must stay inside the declared range clamp with
+    /// [`Calibration::clamp_rh`] and flag it).
     pub fn params_at<T: Real>(&self, rh_pct: T) -> Params<T> {
+        let mut p = self.laws_at(rh_pct);
+        if !self.departures.is_none() {
+            for (name, ln) in crate::departures::DEPARTING.into_iter().zip(self.departures.ln_at(rh_pct)) {
+                p.set(name, p.get(name) * ln.exp());
+            }
+        }
+        p
+    }
+
+    /// Every parameter at `rh_pct` as the smooth laws alone say, without `[departures]`.
+    pub fn laws_at<T: Real>(&self, rh_pct: T) -> Params<T> {
         Params {
             y: self.y.eval(rh_pct),
             cs: self.cs.eval(rh_pct),
@@ -453,6 +499,13 @@ impl Calibration {
         self.humidity.validate().map_err(ValidationError::Humidity)?;
         if let Some((key, value)) = self.uncertainty.invalid() {
             return Err(ValidationError::Uncertainty { key, value });
+        }
+        if let Some((key, value)) = self.band.invalid() {
+            return Err(ValidationError::Band { key, value });
+        }
+        self.departures.check().map_err(ValidationError::Departures)?;
+        if let Some((key, value)) = self.instrument.invalid() {
+            return Err(ValidationError::Instrument { key, value });
         }
         let steps = Real::ceil((hi - lo) * 10.0) as usize;
         for param in [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::KappaE, ParamName::D, ParamName::H, ParamName::M] {

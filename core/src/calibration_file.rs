@@ -147,6 +147,8 @@ mod tests {
             tau_wet_s: 600.0,
             tau_dry_s: 900.0,
             uncertainty_pct: Some(1.2),
+            sensor_lag_s: Some(4.0),
+            mode: crate::humidity_path::HumidityMode::Fused,
         };
         let text = to_text(&c);
         assert!(text.contains("[humidity]") && text.contains("sensor = \"hts221\""), "{text}");
@@ -162,6 +164,38 @@ mod tests {
         }
         let e = parse(&format!("{old}\n[humidity]\nsensor = \"dht22\"\n")).unwrap_err();
         assert!(matches!(e, FileError::Syntax { .. }), "{e}");
+    }
+
+    #[test]
+    fn band_departures_and_instrument_are_optional_checked_and_kept() {
+        use crate::band::Band;
+        use crate::departures::Departures;
+        use crate::instrument::Instrument;
+        let plain = to_text(&Calibration::default_preset());
+        assert!(!plain.contains("[departures]"), "no table, no key: {plain}");
+        let old = plain.split("[humidity]").next().unwrap().to_string();
+        let c = parse(&old).unwrap();
+        assert_eq!((c.band, c.departures, c.instrument), (Band::DEFAULT, Departures::NONE, Instrument::DATASHEET));
+        let mut c = Calibration::default_preset();
+        c.band = Band { low_hz: 5.0, high_hz: 200.0 };
+        c.instrument.tip_gain = 1.006;
+        c.departures = Departures::new(&[40.0, 60.0], [&[0.05, -0.02], &[0.0, 0.1], &[0.0, 0.0], &[-0.1, 0.2]]).unwrap();
+        let text = to_text(&c);
+        assert!(text.contains("[departures]") && text.contains("[band]") && text.contains("[instrument]"), "{text}");
+        let back = parse(&text).unwrap();
+        assert_eq!(back, c);
+        let moved = |p: &Calibration| p.params_at(60.0_f64).cs / p.laws_at(60.0_f64).cs;
+        assert!((moved(&back) - 0.1_f64.exp()).abs() < 1e-12, "the table reaches params_at");
+        for (table, bad, key) in [
+            ("band", "low_hz = 200.0\nhigh_hz = 100.0", "band.high_hz"),
+            ("instrument", "tip_gain = 3.0", "instrument.tip_gain"),
+            ("instrument", "acquisition_delay_us = -1.0", "instrument.acquisition_delay_us"),
+            ("departures", "rh_pct = [40.0, 50.0]\ny = [0.0, 0.0]\ncs = [0.0]\nca = [0.0, 0.0]\nd = [0.0, 0.0]", "departures.cs"),
+            ("departures", "rh_pct = [50.0, 40.0]\ny = [0.0, 0.0]\ncs = [0.0, 0.0]\nca = [0.0, 0.0]\nd = [0.0, 0.0]", "departures.rh_pct"),
+        ] {
+            let e = parse(&format!("{old}\n[{table}]\n{bad}\n")).unwrap_err().to_string();
+            assert!(e.contains(key), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -46,6 +46,32 @@ impl SensorKind {
     }
 }
 
+impl SensorKind {
+    /// The sensor's response time τ63 to a step of humidity from its datasheet [s], the
+    /// reading's lag when the calibration gives none: HTS221 10 s (DocID026384, table 2),
+    /// SHT4x 4 s (Sensirion SHT4x datasheet, section 2.1), HIH-4030 5 s in slowly moving air
+    /// (Honeywell HIH-4030/31 datasheet, table 1).
+    pub const fn datasheet_lag_s(self) -> f64 {
+        match self {
+            SensorKind::Hts221 => 10.0,
+            SensorKind::Sht4x => 4.0,
+            SensorKind::Hih4030 => 5.0,
+        }
+    }
+}
+
+/// Which humidity the inverse is designed at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum HumidityMode {
+    /// The sensor's reading, corrected and through the hydration lag.
+    #[default]
+    Reading,
+    /// The reading fused with the humidity the strip's own current says it is at.
+    Fused,
+}
+
 /// Largest sensor offset accepted [%RH]: beyond it the "sensor" is broken or is another
 /// quantity, not a humidity sensor in need of a correction.
 pub const MAX_OFFSET_PCT: f64 = 20.0;
@@ -73,6 +99,10 @@ pub struct HumidityPath {
     pub tau_dry_s: f64,
     /// Standard uncertainty of a corrected reading [%RH]; none: the sensor's datasheet accuracy.
     pub uncertainty_pct: Option<f64>,
+    /// The sensor's response time τ63 [s]; none: the sensor's datasheet figure.
+    pub sensor_lag_s: Option<f64>,
+    /// Which humidity the inverse is designed at; files without it: the reading.
+    pub mode: HumidityMode,
 }
 
 impl Default for HumidityPath {
@@ -97,8 +127,16 @@ impl core::fmt::Display for PathError {
 
 impl HumidityPath {
     /// The reading as it is, no lag, uncertainty from the sensor.
-    pub const NONE: HumidityPath =
-        HumidityPath { sensor: None, offset_pct: 0.0, gain: 1.0, tau_wet_s: 0.0, tau_dry_s: 0.0, uncertainty_pct: None };
+    pub const NONE: HumidityPath = HumidityPath {
+        sensor: None,
+        offset_pct: 0.0,
+        gain: 1.0,
+        tau_wet_s: 0.0,
+        tau_dry_s: 0.0,
+        uncertainty_pct: None,
+        sensor_lag_s: None,
+        mode: HumidityMode::Reading,
+    };
 
     /// RH of the air at the strip for a reading [%RH].
     pub fn correct<T: Real>(&self, rh_read_pct: T) -> T {
@@ -140,6 +178,11 @@ impl HumidityPath {
         {
             return bad("uncertainty_pct", u, "the reading's uncertainty must be within 0–20 %RH");
         }
+        if let Some(lag) = self.sensor_lag_s
+            && !(lag.is_finite() && lag >= 0.0)
+        {
+            return bad("sensor_lag_s", lag, "a sensor's response time must be finite and ≥ 0");
+        }
         Ok(())
     }
 
@@ -148,6 +191,11 @@ impl HumidityPath {
     /// sensor's datasheet accuracy.
     pub fn uncertainty_pct_for(&self, kind: SensorKind) -> f64 {
         self.uncertainty_pct.unwrap_or(kind.datasheet_accuracy_pct())
+    }
+
+    /// Response time τ63 of a `kind` sensor [s]: the table's `sensor_lag_s`, else the datasheet's.
+    pub fn sensor_lag_s_for(&self, kind: SensorKind) -> f64 {
+        self.sensor_lag_s.unwrap_or(kind.datasheet_lag_s())
     }
 }
 

@@ -14,10 +14,12 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod band;
 pub mod block_humidity;
 pub mod calibration;
 #[cfg(feature = "toml")]
 pub mod calibration_file;
+pub mod departures;
 pub mod design;
 pub mod expected_error;
 pub mod extension;
@@ -25,6 +27,7 @@ pub mod filter;
 pub mod humidity;
 pub mod humidity_path;
 pub mod humidity_trend;
+pub mod instrument;
 pub mod lstsq;
 pub mod model;
 pub mod operating_point;
