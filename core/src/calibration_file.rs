@@ -177,7 +177,7 @@ mod tests {
         let c = parse(&old).unwrap();
         assert_eq!((c.band, c.departures, c.instrument), (Band::DEFAULT, Departures::NONE, Instrument::DATASHEET));
         let mut c = Calibration::default_preset();
-        c.band = Band { low_hz: 5.0, high_hz: 200.0 };
+        c.band = Band { low_hz: 12.0, high_hz: 200.0 };
         c.instrument.tip_gain = 1.006;
         c.departures = Departures::new(&[40.0, 60.0], [&[0.05, -0.02], &[0.0, 0.1], &[0.0, 0.0], &[-0.1, 0.2]]).unwrap();
         let text = to_text(&c);

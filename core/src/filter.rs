@@ -12,6 +12,7 @@
 //! signal, which is what makes state transfer on a retune meaningful.
 
 use crate::Real;
+use crate::band_limit::BandLimit;
 use crate::design::{Inverse, MAX_SECTIONS, Sos};
 
 /// Duration of a retune's crossfade [s]. Measured on a 0.25 % step during a steady 40 Hz sine
@@ -180,6 +181,9 @@ pub struct Compensator<T = f32> {
     /// RH of the most recently requested design.
     rh_pct: T,
     delay_s: T,
+    /// The estimate's band, kept by a linear-phase FIR after the inverse (`band_limit`).
+    band: Option<BandLimit<T>>,
+    fs_hz: T,
     /// Samples replaced because they were not finite or beyond [`INPUT_LIMIT_A`], since construction.
     pub bad_samples: u32,
 }
@@ -203,6 +207,10 @@ impl<T: Real> Compensator<T> {
             fade_len: fade.max(1),
             rh_pct: inv.rh_pct(),
             delay_s: inv.delay_s(),
+            // A calibration's band is one the firmware's rate keeps; at a far higher rate a low
+            // edge may need more taps than the filter has ([`Compensator::keeps_band`]).
+            band: BandLimit::new(&inv.band(), fs).ok(),
+            fs_hz: inv.fs_hz(),
             bad_samples: 0,
         }
     }
@@ -210,8 +218,16 @@ impl<T: Real> Compensator<T> {
     pub fn rh_pct(&self) -> T {
         self.rh_pct
     }
+    /// Whether the estimate is limited to the inverse's band (false only where the band's FIR
+    /// would need more than `band_limit::MAX_TAPS` taps at this rate).
+    pub fn keeps_band(&self) -> bool {
+        self.band.is_some()
+    }
+
+    /// The estimate's delay behind the base motion [s]: the inverse's preview and the band's FIR.
     pub fn delay_s(&self) -> T {
-        self.delay_s
+        let fir = self.band.as_ref().map_or(0, BandLimit::delay_samples);
+        self.delay_s + T::lit(fir as f64) / self.fs_hz
     }
     /// Largest |state value| of the running sections (active head, incoming head, tail): what
     /// long runs and fault tests watch for growth and poisoning.
@@ -265,11 +281,18 @@ impl<T: Real> Compensator<T> {
         for chunk in block.chunks_mut(CHUNK) {
             self.process_head(chunk);
             self.tail.process_block(chunk);
+            if let Some(band) = self.band.as_mut() {
+                band.process_block(chunk);
+            }
         }
         if self.active.is_poisoned() || self.tail.is_poisoned() {
             // A finite but huge sample can overflow the state; start clean rather than output inf.
+            // The band's FIR took the same overflow in: it starts clean too.
             self.active.reset();
             self.tail.reset();
+            if let Some(band) = self.band.as_mut() {
+                band.reset();
+            }
             for v in block.iter_mut() {
                 if !v.is_finite() {
                     *v = T::zero();

@@ -15,6 +15,7 @@
 extern crate std;
 
 pub mod band;
+pub mod band_limit;
 pub mod block_humidity;
 pub mod calibration;
 #[cfg(feature = "toml")]
