@@ -45,11 +45,21 @@ pub fn reading_age_s() -> f64 {
     HUMIDITY_PERIOD_MS as f64 / 2000.0
 }
 
-/// Samples the firmware's estimate lags the true base motion by: its design's preview
-/// (`max_delay_s`) at the firmware's rate.
-pub fn delay_samples() -> usize {
+/// Settling skipped at the start of each burst when an estimate is scored [s]. The regularizing
+/// high-pass's start-up rings at ~1 Hz, decaying as e^(−1.94 t) (its Butterworth poles' least
+/// damped pair), from an amplitude of the 1/ω² double integration's, thousands of times the
+/// signal; the band's FIR takes 40 dB off its ~1 Hz content, but the tail of its spectrum
+/// reaches into the band and measured 3–15 % of a clean sweep for 4 s. By 5 s it is 6·10⁻⁵
+/// of its start.
+pub const SETTLE_S: f64 = 5.0;
+
+/// Samples the firmware's estimate lags the true base motion by, keeping `band`: its design's
+/// preview (`max_delay_s`) and the band's linear-phase FIR (`band_limit`) at the firmware's
+/// rate (a band the firmware cannot keep is refused when its calibration loads).
+pub fn delay_samples(band: &crate::band::Band) -> usize {
     let c = DesignConfig::<f64>::firmware();
-    (c.max_delay_s * c.fs_hz).round() as usize
+    let fir = crate::band_limit::check(band, c.fs_hz).map_or(0, |n| (n - 1) / 2);
+    (c.max_delay_s * c.fs_hz).round() as usize + fir
 }
 
 /// Samples lost in a gap of `gap_us` between the arrivals of two blocks (an ADC overrun: the
@@ -79,7 +89,9 @@ mod tests {
     #[test]
     fn the_preview_is_whole_samples() {
         let c = crate::DesignConfig::<f64>::firmware();
-        assert_eq!(super::delay_samples() as f64, c.max_delay_s * c.fs_hz);
-        assert_eq!(super::delay_samples(), 4);
+        let band = crate::band::Band::DEFAULT;
+        let fir = crate::band_limit::Taps::design(&band, c.fs_hz).unwrap().delay_samples();
+        assert_eq!((super::delay_samples(&band) - fir) as f64, c.max_delay_s * c.fs_hz);
+        assert_eq!(super::delay_samples(&band), 4 + 395);
     }
 }

@@ -7,6 +7,7 @@
 
 mod bench;
 mod coverage;
+mod doc_commands;
 mod exec;
 mod firmware;
 mod flash;

@@ -61,9 +61,10 @@ enum Figure {
         label: String,
         #[arg(long, default_value = "baseline")]
         baseline_label: String,
-        /// Latency of the estimates [ms]: the design's preview delay.
-        #[arg(long, default_value_t = 2.0)]
-        delay_ms: f64,
+        /// Latency of the estimates [ms]; by default the estimate file's `delay_samples` (the
+        /// chain's preview and band filter).
+        #[arg(long)]
+        delay_ms: Option<f64>,
         /// Length of the detail window at the end of the run [s].
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
@@ -102,13 +103,24 @@ pub fn run(a: Args) -> Result<()> {
             let ts = checked(TimeSeries::read(&recording))?;
             let base = ts.base_m.as_ref().ok_or_else(|| anyhow::anyhow!("{}: no base_m column to plot against", recording.display()))?;
             let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
-            let stated = checked(Estimates::read(&estimate))?.rel_err.map(|v| v.into_iter().map(f64::from).collect());
+            let file = checked(Estimates::read(&estimate))?;
+            let delay = match (delay_ms, file.metadata.get("delay_samples")) {
+                (Some(ms), _) => (ms * 1e-3 * ts.fs_hz).round() as usize,
+                (None, Some(d)) => {
+                    d.parse().map_err(|_| anyhow::anyhow!("{}: delay_samples={d} is not a whole number", estimate.display()))?
+                }
+                (None, None) => bail!("{}: the file does not say its delay (no `# delay_samples=`): give --delay-ms", estimate.display()),
+            };
+            let band = match file.metadata.get("band_hz") {
+                Some(b) => crate::commands::score::parse_band(b)?,
+                None => (ipmc_core::band::Band::DEFAULT.low_hz, ipmc_core::band::Band::DEFAULT.high_hz),
+            };
+            let stated = file.rel_err.map(|v| v.into_iter().map(f64::from).collect());
             let mut series = vec![Series { name: label, color: RGBColor(0, 110, 220), est: est(&estimate)?, primary: true, stated }];
             if let Some(b) = &baseline {
                 series.push(Series { name: baseline_label, color: humidity_color(95.0), est: est(b)?, primary: false, stated: None });
             }
-            let delay = (delay_ms * 1e-3 * ts.fs_hz).round() as usize;
-            render(&Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay)?, &out, (1200, 800))?
+            render(&Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay, band)?, &out, (1400, 800))?
         }
     };
     println!("plot: {}\nplot: {}", svg.display(), png.display());
