@@ -7,6 +7,7 @@ use ipmc_core::{
     block_humidity::{BlockHumidity, span_s},
     expected_error::BlockError,
     operating_point::{asks_for_design, reading_age_s},
+    startup::Request,
     stream::Header,
     stuck::StuckDetector,
 };
@@ -80,7 +81,7 @@ pub async fn sample_task(mut samples: Samples) {
             }
             if asks_for_design(design_rh, now.rh_pct, filter.is_retuning()) {
                 design_rh = now.rh_pct;
-                RETUNE_REQUEST.signal(now.rh_pct);
+                RETUNE_REQUEST.signal(Request { rh_pct: now.rh_pct, fallback: false });
             }
         }
         since_last = BLOCK_LEN as u32;
