@@ -32,7 +32,7 @@ use {defmt_rtt as _, panic_probe as _};
 
 use super::Board;
 use crate::app::{
-    config::{BLOCK_LEN, STREAM_STALL_LIMIT_MS},
+    config::{ADC_VREF_V, BLOCK_LEN, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
     ports::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
@@ -295,7 +295,7 @@ pub fn init() -> Board {
     // trigger (VREFINT is on ADC1 only). Two reads: the first after calibration may be wrong
     // (erratum below); 640.5 cycles is 8 µs, above VREFINT's 4 µs minimum sampling time.
     let mut adc = Adc::new(p.ADC1);
-    let front_end = {
+    let vdda_v = {
         let mut vrefint = adc.enable_vrefint();
         let _ = adc.blocking_read(&mut vrefint, SampleTime::CYCLES640_5);
         let code = adc.blocking_read(&mut vrefint, SampleTime::CYCLES640_5);
@@ -304,14 +304,15 @@ pub fn init() -> Board {
         match ipmc_sensors::vrefint::vdda_v(code, cal) {
             Some(v) => {
                 defmt::info!("ADC reference VDDA = {} V (VREFINT {} counts, factory {})", v, code, cal);
-                current_conversion::FrontEnd::with_vref(v)
+                v
             }
             None => {
                 defmt::warn!("VREFINT {} counts (factory {}) is no reference: assuming VDDA = 3.3 V", code, cal);
-                current_conversion::FrontEnd::NOMINAL
+                ADC_VREF_V
             }
         }
     };
+    let front_end = current_conversion::FrontEnd::with_vref(vdda_v);
     // Current: ADC1 converts once per TIM6 update; DMA writes a circular buffer.
     let mut adc = adc.into_ring_buffered(
         p.DMA1_CH1,
@@ -366,7 +367,7 @@ pub fn init() -> Board {
     };
     // ADC1 belongs to the timer-triggered current ring buffer; the humidity gets ADC2.
     #[cfg(feature = "humidity-hih4030")]
-    let humidity = Humidity { adc: Adc::new(p.ADC2), pin: p.PC4.degrade_adc() };
+    let humidity = Humidity { adc: Adc::new(p.ADC2), pin: p.PC4.degrade_adc(), vdda_v };
 
     let mut uart_config = usart::Config::default();
     uart_config.baudrate = STREAM_BAUD;
@@ -616,6 +617,8 @@ impl embedded_hal::digital::InputPin for RegisterPin {
 pub struct Humidity {
     adc: Adc<'static, ADC2>,
     pin: AnyAdcChannel<'static, ADC2>,
+    /// ADC2 shares ADC1's reference, measured at start-up.
+    vdda_v: f32,
 }
 
 #[cfg(feature = "humidity-hih4030")]
@@ -624,7 +627,7 @@ impl HumiditySource for Humidity {
         // 640.5 cycles (8 µs at 80 MHz) lets the ADC's sampling capacitor charge through the
         // divider's 67 kΩ; blocking that long once a second costs the I/O executor nothing.
         let code = self.adc.blocking_read(&mut self.pin, SampleTime::CYCLES640_5);
-        crate::app::analog_humidity::rh_pct_from_code(code)
+        crate::app::analog_humidity::rh_pct_from_code(code, self.vdda_v)
     }
 }
 

@@ -277,6 +277,7 @@ fn calibration_with_humidity_path() -> ipmc_core::Calibration {
         tau_wet_s: 1.0,
         tau_dry_s: 2.0,
         uncertainty_pct: None,
+        supply_v: None,
     };
     ipmc_core::Calibration { humidity, ..ipmc_core::Calibration::default_preset() }
 }
