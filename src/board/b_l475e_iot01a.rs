@@ -153,8 +153,9 @@ fn clocks(crystal: bool) -> (Config, u64) {
     if crystal {
         // MSI → PLL (×40 /2) → SYSCLK. With the crystal on LSE, embassy puts MSI in PLL mode
         // (MSIPLLEN): MSI locks to 122 × 32 768 Hz, so SYSCLK is 79.954 MHz, and the sample
-        // rate's mean follows the crystal (±20 ppm at 25 °C) instead of HSI16 (±1 % over
-        // temperature); MSI PLL mode itself is ±0.25 % from period to period (datasheet).
+        // rate's mean follows the crystal's own tolerance (once TIM6's period is counted from the
+        // real SYSCLK, below) instead of HSI16's ±1 % over temperature; MSI PLL mode itself is
+        // only guaranteed to ±0.25 % (datasheet), from period to period.
         // LSI too: the crystal's clock security system runs on it (RM0351, CSS on LSE).
         config.rcc.ls = rcc::LsConfig { lsi: true, ..rcc::LsConfig::default_lse() };
         config.rcc.msi = Some(rcc::MSIRange::RANGE4M);
@@ -624,8 +625,10 @@ pub struct Humidity {
 #[cfg(feature = "humidity-hih4030")]
 impl HumiditySource for Humidity {
     async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
-        // 640.5 cycles (8 µs at 80 MHz) lets the ADC's sampling capacitor charge through the
-        // divider's 67 kΩ; blocking that long once a second costs the I/O executor nothing.
+        // The divider's 67 kΩ is more than even 640.5 cycles (8 µs) may be driven from: the
+        // 100 nF at A1 (docs/firmware.md) supplies the sampling capacitor's charge, and the
+        // longest sampling time keeps what is left of the error smallest. Blocking 8 µs once a
+        // second costs the I/O executor nothing.
         let code = self.adc.blocking_read(&mut self.pin, SampleTime::CYCLES640_5);
         crate::app::analog_humidity::rh_pct_from_code(code, self.vdda_v)
     }
