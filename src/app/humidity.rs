@@ -30,9 +30,8 @@ const NO_NEW_DATA_PERIODS: u64 = 3;
 #[embassy_executor::task]
 pub async fn humidity_task(mut sensor: Humidity) {
     let mut ticker = Ticker::every(Duration::from_millis(HUMIDITY_PERIOD_MS));
-    let calibration = super::compensation::calibration();
     // Later designs come from the sample path.
-    let mut startup = Startup::new(&calibration, RH_FALLBACK_PCT);
+    let mut startup = Startup::new(&super::compensation::calibration(), RH_FALLBACK_PCT);
     let mut failures: u32 = 0;
     let mut last_new = Instant::now();
     loop {
@@ -51,7 +50,8 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 handoff::set_condition(flags::RH_STALE, false);
                 // The strip starts settled at the first reading: the sample path's first block
                 // will be at exactly this humidity.
-                match BlockHumidity::<f32>::new(&calibration, reading_age_s()).advance(raw, 0.0) {
+                // (The calibration is not held across the awaits: it would stay in the task's RAM.)
+                match BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s()).advance(raw, 0.0) {
                     Some(first) => Poll::Reading(first.rh_pct),
                     None => Poll::Failed,
                 }
