@@ -256,7 +256,7 @@ fn crystal_failed() -> bool {
 fn report_reset_cause() {
     let csr = pac::RCC.csr().read();
     let cause = if csr.iwdgrstf() {
-        "independent watchdog (the sample path had stopped)"
+        "independent watchdog (the start-up or the sample path had stopped)"
     } else if csr.wwdgrstf() {
         "window watchdog"
     } else if csr.sftrstf() {
