@@ -212,11 +212,11 @@ impl core::fmt::Display for DesignError {
 }
 
 /// The inverse: `gain` × cascade of `sections` maps current [A] to base displacement [m],
-/// delayed by `delay_s`.
-#[derive(Clone, Copy, Debug)]
+/// delayed by `delay_s`. Not `Copy`: a design is handed over (the retune's signal to the sample
+/// path), never duplicated.
+#[derive(Clone, Debug)]
 pub struct Inverse<T> {
-    sections: [Sos<T>; MAX_SECTIONS],
-    n_sections: usize,
+    sections: heapless::Vec<Sos<T>, MAX_SECTIONS>,
     /// The last `n_fixed` sections depend on the configuration only (the regularizing high-pass
     /// over the double integration): identical at every humidity, never retuned.
     n_fixed: usize,
@@ -249,15 +249,15 @@ impl<T: Real> Inverse<T> {
         self.fs_hz
     }
     pub fn sections(&self) -> &[Sos<T>] {
-        &self.sections[..self.n_sections]
+        &self.sections
     }
     /// The humidity-dependent head of the cascade (the overall gain applies to it).
     pub fn head(&self) -> &[Sos<T>] {
-        &self.sections[..self.n_sections - self.n_fixed]
+        &self.sections[..self.sections.len() - self.n_fixed]
     }
     /// The configuration-only tail.
     pub fn tail(&self) -> &[Sos<T>] {
-        &self.sections[self.n_sections - self.n_fixed..self.n_sections]
+        &self.sections[self.sections.len() - self.n_fixed..]
     }
     /// G(e^{jωT}) at `freq_hz`.
     pub fn response(&self, freq_hz: T) -> C<T> {
@@ -270,16 +270,18 @@ impl<T: Real> Inverse<T> {
     }
     /// Narrows (or widens) the coefficients: the device runs f32 sections designed in any precision.
     pub fn cast<U: Real>(&self) -> Inverse<U> {
-        let mut sections = [Sos::<U>::identity(); MAX_SECTIONS];
-        for (d, s) in sections.iter_mut().zip(self.sections()) {
-            d.b = s.b.map(|v| U::lit(v.to_f64()));
-            d.a = s.a.map(|v| U::lit(v.to_f64()));
-            d.beta = s.beta.map(|v| U::lit(v.to_f64()));
-            d.alpha = s.alpha.map(|v| U::lit(v.to_f64()));
-        }
+        let sections = self
+            .sections()
+            .iter()
+            .map(|s| Sos {
+                b: s.b.map(|v| U::lit(v.to_f64())),
+                a: s.a.map(|v| U::lit(v.to_f64())),
+                beta: s.beta.map(|v| U::lit(v.to_f64())),
+                alpha: s.alpha.map(|v| U::lit(v.to_f64())),
+            })
+            .collect();
         Inverse {
             sections,
-            n_sections: self.n_sections,
             n_fixed: self.n_fixed,
             gain: U::lit(self.gain.to_f64()),
             delay_s: U::lit(self.delay_s.to_f64()),
@@ -442,8 +444,7 @@ pub fn design_inverse_with<T: Real>(
     all_zeros[..zd.n].copy_from_slice(zd.as_slice());
     all_zeros[zd.n..nz].copy_from_slice(&fir_roots);
 
-    let mut inv =
-        Inverse { sections: [Sos::identity(); MAX_SECTIONS], n_sections: 0, n_fixed: 0, gain: c[0], delay_s: tau, rh_pct, fs_hz: fs, band };
+    let mut inv = Inverse { sections: heapless::Vec::new(), n_fixed: 0, gain: c[0], delay_s: tau, rh_pct, fs_hz: fs, band };
     pair_into_sections(&mut inv, &mut all_zeros[..nz], pd.as_slice())?;
     for _ in 0..d_pure / 2 {
         push_section(&mut inv, Sos::from_ba([T::zero(), T::zero(), T::one()], [T::one(), T::zero(), T::zero()]))?;
@@ -451,16 +452,16 @@ pub fn design_inverse_with<T: Real>(
     if d_pure % 2 == 1 {
         push_section(&mut inv, Sos::from_ba([T::zero(), T::one(), T::zero()], [T::one(), T::zero(), T::zero()]))?;
     }
-    let n_head = inv.n_sections;
+    let n_head = inv.sections.len();
     let mut hz = [C::new(T::zero(), T::zero()); 3];
     hz.copy_from_slice(hzd.as_slice());
     pair_into_sections(&mut inv, &mut hz, hpd.as_slice())?;
-    inv.n_fixed = inv.n_sections - n_head;
+    inv.n_fixed = inv.sections.len() - n_head;
     // Unit gain per section at mid-band keeps every intermediate signal at the scale of the input.
     let f_mid = (cfg.band_lo_hz * cfg.band_hi_hz).sqrt();
     let w = two_pi * f_mid * t;
     let zinv = C::new(w.cos(), -w.sin());
-    for s in inv.sections[..inv.n_sections].iter_mut() {
+    for s in inv.sections.iter_mut() {
         let m = s.response(zinv).cabs();
         if !(m > T::zero() && m.is_finite()) {
             return Err(DesignError::Numerics);
@@ -489,12 +490,7 @@ fn monic_response<T: Real>(zeros: &Roots<T>, poles: &Roots<T>, zinv: C<T>) -> C<
 }
 
 fn push_section<T: Real>(inv: &mut Inverse<T>, s: Sos<T>) -> Result<(), DesignError> {
-    if inv.n_sections >= MAX_SECTIONS {
-        return Err(DesignError::Numerics);
-    }
-    inv.sections[inv.n_sections] = s;
-    inv.n_sections += 1;
-    Ok(())
+    inv.sections.push(s).map_err(|_| DesignError::Numerics)
 }
 
 /// Groups roots (closed under conjugation) into real quadratic factors: conjugate pairs first,

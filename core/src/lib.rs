@@ -37,6 +37,7 @@ pub mod rational_tables;
 pub mod real;
 pub mod replay;
 pub mod roots;
+pub mod startup;
 pub mod stream;
 pub mod stuck;
 pub mod thermal;
