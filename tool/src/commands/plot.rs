@@ -215,7 +215,7 @@ mod tests {
         let est = dir.join("EST.csv");
         crate::commands::compensate::run(parse(&[&rec, "--out", &est.display().to_string()])).unwrap();
         run_plot(&["compensated", &rec, &est.display().to_string(), "--out", &dir.join("comp").display().to_string()]).unwrap();
-        assert!(std::fs::read_to_string(dir.join("comp.svg")).unwrap().contains("Error over time"));
+        assert!(std::fs::read_to_string(dir.join("comp.svg")).unwrap().contains("Error in 10–150 Hz over time"));
         std::fs::remove_dir_all(&dir).ok();
     }
 }

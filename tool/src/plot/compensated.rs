@@ -220,7 +220,15 @@ where
         bottom_entries.push((format!("{}: stated 1σ", s.name), c, Mark::Shade));
     }
     for ((s, e), score) in series.iter().zip(errs).zip(&fig.scores) {
-        chart.draw_series(LineSeries::new(e, s.color.stroke_width(2))).map_err(pe)?;
+        // One line per burst: nothing was measured between them.
+        let step = 1.5 * win as f64 / fs;
+        let mut from = 0;
+        for k in 1..=e.len() {
+            if k == e.len() || e[k].0 - e[k - 1].0 > step {
+                chart.draw_series(LineSeries::new(e[from..k].iter().copied(), s.color.stroke_width(2))).map_err(pe)?;
+                from = k;
+            }
+        }
         let figure = score.map_or_else(|| "not scored".to_string(), |v| format!("{:.2} % over the run", 100.0 * v));
         bottom_entries.push((format!("{}: {figure}", s.name), s.color, Mark::Line(2)));
     }
