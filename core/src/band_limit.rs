@@ -20,8 +20,9 @@ use crate::real::Real;
 /// transition reduced about 10⁴ in power (−39 dB at worst).
 pub const ATTENUATION_DB: f64 = 42.0;
 /// Most taps (odd: a type I filter, delay a whole number of samples): at 2 kHz a lower band
-/// edge down to 6.6 Hz; its history is 9.6 KB of the firmware's RAM in f32.
-pub const MAX_TAPS: usize = 1201;
+/// edge down to 9.9 Hz (the default band's 10 Hz needs 793). Its history, kept both ways round,
+/// is 12.8 KB of the firmware's RAM in f32.
+pub const MAX_TAPS: usize = 801;
 const MAX_HALF: usize = MAX_TAPS / 2 + 1;
 
 /// Width of each transition [Hz]: from the lower edge down to 0.4 of it, where the noise the
@@ -148,6 +149,9 @@ pub struct BandLimit<T> {
     /// The last `n` inputs, stored twice so that the newest `n` are always contiguous.
     hist: [T; 2 * MAX_TAPS],
     pos: usize,
+    /// The same, newest first.
+    rhist: [T; 2 * MAX_TAPS],
+    rpos: usize,
 }
 
 impl<T: Real> BandLimit<T> {
@@ -161,7 +165,7 @@ impl<T: Real> BandLimit<T> {
         for (h, &v) in half.iter_mut().zip(&t.half[..=t.delay_samples()]) {
             *h = T::lit(v);
         }
-        BandLimit { half, n: t.n, hist: [T::zero(); 2 * MAX_TAPS], pos: 0 }
+        BandLimit { half, n: t.n, hist: [T::zero(); 2 * MAX_TAPS], pos: 0, rhist: [T::zero(); 2 * MAX_TAPS], rpos: 0 }
     }
 
     /// Number of taps.
@@ -178,6 +182,8 @@ impl<T: Real> BandLimit<T> {
     pub fn reset(&mut self) {
         self.hist = [T::zero(); 2 * MAX_TAPS];
         self.pos = 0;
+        self.rhist = [T::zero(); 2 * MAX_TAPS];
+        self.rpos = 0;
     }
 
     /// Filters `buf` in place.
@@ -188,10 +194,16 @@ impl<T: Real> BandLimit<T> {
             self.hist[self.pos] = *v;
             self.hist[self.pos + n] = *v;
             self.pos = if self.pos + 1 == n { 0 } else { self.pos + 1 };
-            let w = &self.hist[self.pos..self.pos + n];
-            let mut acc = self.half[m] * w[m];
-            for k in 0..m {
-                acc += self.half[k] * (w[k] + w[n - 1 - k]);
+            // The same window newest first: a ring run backwards, so that both halves of the
+            // symmetric sum are read forwards (zipped slices: no bounds checks in the loop).
+            self.rpos = if self.rpos == 0 { n - 1 } else { self.rpos - 1 };
+            self.rhist[self.rpos] = *v;
+            self.rhist[self.rpos + n] = *v;
+            let older = &self.hist[self.pos..self.pos + m];
+            let newer = &self.rhist[self.rpos..self.rpos + m];
+            let mut acc = self.half[m] * self.hist[self.pos + m];
+            for ((h, a), b) in self.half[..m].iter().zip(older).zip(newer) {
+                acc += *h * (*a + *b);
             }
             *v = acc;
         }
