@@ -38,12 +38,15 @@ pub fn your_data() -> Result<()> {
         bail!("{}: {} `cargo ipmc` lines in its sh blocks, expected the whole workflow", page_path.display(), lines.len());
     }
     std::fs::create_dir_all(repo_root().join(SCRATCH).join("my-strip"))?;
+    let mut all = String::new();
     for args in &lines {
         println!("==> cargo ipmc {}", args.join(" "));
         let os: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
-        print!("{}", ipmc(&os)?);
+        let out = ipmc(&os)?;
+        print!("{out}");
+        all += &out;
     }
-    Ok(())
+    crate::readme_figures::save("your-data", &all)
 }
 
 #[cfg(test)]

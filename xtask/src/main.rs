@@ -15,6 +15,7 @@ mod humidity_loop;
 mod install;
 mod qemu;
 mod qemu_scenarios;
+mod readme_figures;
 mod recording;
 mod replay;
 mod size;

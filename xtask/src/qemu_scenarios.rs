@@ -243,6 +243,7 @@ pub fn qemu_replay_bundled() -> Result<()> {
     let est = repo_root().join("target/qemu-test/bundled/EST.csv");
     qemu::write_est_csv(&est, &rec.t_s, &r.blocks, &replay, &ipmc_core::band::Band::DEFAULT)?;
     let inband = crate::exec::score_inband(&path, &est)?;
+    crate::readme_figures::save("sweep", &crate::ipmc(&["score".as_ref(), path.as_os_str(), est.as_os_str()])?)?;
     println!("bundled sweep under QEMU: in-band {:.3} % rms (bound {:.1} %)", inband * 100.0, SWEEP_BOUND * 100.0);
     if inband > SWEEP_BOUND {
         bail!("in-band error {:.3} % on the bundled sweep exceeds {:.1} %", inband * 100.0, SWEEP_BOUND * 100.0);

@@ -139,6 +139,8 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),
         ("qemu replay: humidity sensor with no new data", qemu_replay_no_new_humidity),
+        // Last: it reads what the steps above printed.
+        ("README: the headline figures are what their commands print", crate::readme_figures::test_step),
         (OPT_IN_QEMU_LONG, qemu_long_run),
     ];
     // Opt-in steps run only when a filter names them.

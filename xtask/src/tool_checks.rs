@@ -24,6 +24,7 @@ pub fn vs_exact_external() -> Result<()> {
         println!("no {}: skipped", calib.display());
         return Ok(());
     }
+    let mut all = String::new();
     for case in ["case09.csv", "case25.csv"] {
         let rec = dir.join(case);
         let out = ipmc(&[
@@ -35,8 +36,9 @@ pub fn vs_exact_external() -> Result<()> {
             EXACT_RATIO_BOUND.as_ref(),
         ])?;
         print!("{out}");
+        all += &out;
     }
-    Ok(())
+    crate::readme_figures::save("vs-exact", &all)
 }
 
 /// `ipmc prove` with one case per effect and three clean controls (the README's command runs
