@@ -89,7 +89,7 @@ pub fn run(a: Args) -> Result<()> {
                 models.push(LevelModel::new(level, params));
             }
             let source = if levels.is_some() { "identified parameters" } else { "calibration" };
-            let title = format!("{}: measured (dots) vs model from the {source} (lines)", file_name(&recording));
+            let title = format!("{}: measured (markers) vs model from the {source} (lines)", file_name(&recording));
             render(&Bode { title, levels: models }, &out.join("bode"), (1600, 1000))?
         }
         Figure::Params { levels, calib, out } => {
