@@ -397,3 +397,44 @@ where
     area.draw(&Rectangle::new([(2, top), (w as i32 - 4, y + 4)], BLACK.stroke_width(1))).map_err(pe)?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Log ticks read as numbers and reach the data's end; units scale to a prefix a reader knows.
+    #[test]
+    fn ticks_and_units_read_as_a_physicist_writes_them() {
+        let labels = |t: Vec<f64>| t.into_iter().map(tick_label).collect::<Vec<_>>();
+        assert_eq!(labels(log_ticks(10.0, 150.0)), ["10", "15", "20", "30", "50", "70", "100", "150"]);
+        let f400 = log_axis(9.4, 424.0, &[10.0, 400.0]);
+        let ticks = labels(f400.bold_points().to_vec());
+        assert_eq!(ticks.first().map(String::as_str), Some("10"));
+        assert_eq!(ticks.last().map(String::as_str), Some("400"), "{ticks:?}");
+        assert_eq!(labels(log_ticks(0.6, 40.0)), ["1", "2", "5", "10", "20"]);
+        assert_eq!(tick_label(0.95), "0.95");
+        assert_eq!(tick_label(-180.0), "-180");
+        assert_eq!(log_tick_label(1e-5, 5e-6, 2e-2), "10⁻⁵");
+        assert_eq!(log_tick_label(5e-4, 1e-5, 4e-3), "5×10⁻⁴");
+        assert_eq!(log_tick_label(0.002, 1e-5, 4e-3), "2×10⁻³");
+        assert_eq!(scaled_unit(9.5e8, "Pa"), (1e6, "MPa".to_string()));
+        assert_eq!(scaled_unit(7e4, "Pa·s"), (1e3, "kPa·s".to_string()));
+        assert_eq!(scaled_unit(1.7e-3, "F/m"), (1e-3, "mF/m".to_string()));
+        assert_eq!(scaled_unit(3e-15, "m²/s"), (1e-15, "10⁻¹⁵ m²/s".to_string()));
+    }
+
+    /// Over a sweep's span, levels 5 %RH apart differ clearly in colour (the fixed scale gave
+    /// near-identical greens), and the order dry → wet is kept.
+    #[test]
+    fn neighbouring_humidities_differ_in_colour() {
+        let dist = |a: RGBColor, b: RGBColor| {
+            ((a.0 as f64 - b.0 as f64).powi(2) + (a.1 as f64 - b.1 as f64).powi(2) + (a.2 as f64 - b.2 as f64).powi(2)).sqrt()
+        };
+        let rh: Vec<f64> = (0..9).map(|k| 39.0 + 5.2 * k as f64).collect();
+        for w in rh.windows(2) {
+            let (a, b) = (humidity_color_in(w[0], rh[0], rh[8]), humidity_color_in(w[1], rh[0], rh[8]));
+            assert!(dist(a, b) > 60.0, "{} and {} %RH: {a:?} vs {b:?}", w[0], w[1]);
+        }
+        assert!(dist(humidity_color(45.0), humidity_color(50.0)) < 60.0, "the fixed scale is no longer the problem this solves");
+    }
+}

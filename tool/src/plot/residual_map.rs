@@ -126,3 +126,32 @@ impl Figure for ResidualMap {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every row of a map of 19 levels is labelled with its number and humidity, the hottest too.
+    #[test]
+    fn every_row_is_labelled() {
+        let rows: Vec<Row> = (0..19)
+            .map(|i| Row {
+                rh_pct: 35.0 + 2.5 * i as f64,
+                cells: [10.0, 20.0, 50.0, 150.0].iter().map(|&f| (f, Some(if i == 9 { 9.0 } else { 1.0 }))).collect(),
+            })
+            .collect();
+        let map = ResidualMap { title: "test".into(), panels: vec![Panel { title: "before".into(), rows }] };
+        super::super::register_font().unwrap();
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (1600, 800)).into_drawing_area();
+            map.draw(&root).unwrap();
+            root.present().unwrap();
+        }
+        for i in 0..19 {
+            let label = format!("#{}  {:.1} %", i + 1, 35.0 + 2.5 * i as f64);
+            assert!(svg.contains(&label), "row {} unlabelled ({label})", i + 1);
+        }
+        assert!(svg.contains(">\n150\n<") || svg.contains(">150<"), "no tick at the data's end");
+    }
+}
