@@ -371,7 +371,7 @@ where
         area.draw(&Text::new(t.to_string(), (x0, y), ("sans-serif", LEGEND_FONT + 1).into_font())).map_err(pe)?;
         y += 26;
     }
-    let step = (((h as i32 - y - 20) / entries.len().max(1) as i32).clamp(12, 24)) as i32;
+    let step = ((h as i32 - y - 20) / entries.len().max(1) as i32).clamp(12, 24);
     let top = y - 8;
     for e in entries {
         let mid = y + LEGEND_FONT as i32 / 2;
