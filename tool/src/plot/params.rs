@@ -196,7 +196,7 @@ impl Figure for ParamsFigure {
                     chart.draw_series(identified.iter().map(|p| point_marker!((p.rh_pct, p.value), p.revisit))).map_err(pe)?;
                     if let Some(source) = copied.first().and_then(|p| p.copied_from.as_deref()) {
                         let note = if identified.is_empty() {
-                            format!("copied from the {source} (no charging recording), not identified")
+                            format!("copied from the {source}, not identified")
                         } else {
                             format!("{} of {} levels copied from the {source} (not drawn)", copied.len(), s.points.len())
                         };
