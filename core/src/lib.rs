@@ -26,6 +26,7 @@ pub mod extension;
 pub mod fft;
 pub mod filter;
 pub mod humidity;
+pub mod humidity_fusion;
 pub mod humidity_path;
 pub mod humidity_trend;
 pub mod instrument;

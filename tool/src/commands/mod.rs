@@ -4,6 +4,7 @@ pub mod charging;
 pub mod compensate;
 pub mod design;
 pub mod diagnose;
+pub mod field_table;
 pub mod identify;
 pub mod loop_bursts;
 pub mod model;
