@@ -17,8 +17,7 @@ pub const FIT_PERIOD_S: f64 = 1.0;
 #[derive(Clone, Copy, Debug)]
 pub struct Second {
     pub t_s: f64,
-    /// The reading, and the reading through the humidity path with its uncertainty.
-    pub read_pct: f64,
+    /// The reading through the humidity path, with its uncertainty.
     pub reading: Estimate<f64>,
     /// The reading path averaged with the spectrum's weights: what the strip's estimate is
     /// compared with.

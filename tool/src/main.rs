@@ -51,6 +51,9 @@ enum Command {
     /// For a field recording with its truths: the compensation's error with the reading, the
     /// fused humidity and a perfect hygrometer, and the strip's own humidity estimate's coverage.
     FieldTable(commands::field_table::Args),
+    /// Field recording from the simulator's field mode: a strip in service, unknown broadband
+    /// motion, drifting humidity, a sensor with its errors.
+    SimulateField(commands::simulate_field::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
@@ -89,6 +92,7 @@ fn main() {
         Command::Identify(a) => commands::identify::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
         Command::FieldTable(a) => commands::field_table::run(a),
+        Command::SimulateField(a) => commands::simulate_field::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),

@@ -63,7 +63,7 @@ fn band_limited(x: &[f64], fs: f64) -> Vec<f64> {
 }
 
 /// rms(estimate − base delayed) / rms(base delayed) in the band, at the best delay [%].
-fn score(est: &[f32], base: &[f64], fs: f64) -> f64 {
+pub(crate) fn score(est: &[f32], base: &[f64], fs: f64) -> f64 {
     let e = band_limited(&est.iter().map(|&v| v as f64).collect::<Vec<_>>(), fs);
     let b = band_limited(base, fs);
     let start = (SKIP_S * fs) as usize;
@@ -80,7 +80,7 @@ fn score(est: &[f32], base: &[f64], fs: f64) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<f64> {
+pub(crate) fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<f64> {
     let rh_sd = rh_uncertainty(calib, None);
     let kind = InverseChoice::Exact.kind(rh_sd);
     let errors = error_table(calib, ts.fs_hz, rh_sd, kind)?;
