@@ -30,7 +30,10 @@ pub fn reading_sd<T: Real>(accuracy_pct: T, lag_s: T, rate_pct_per_s: T) -> T {
 /// moved to now).
 pub fn fuse<T: Real>(reading: Estimate<T>, strip: Option<Estimate<T>>) -> Estimate<T> {
     match strip {
-        Some(s) if s.sd_pct > T::zero() && s.sd_pct.is_finite() && s.rh_pct.is_finite() => {
+        // Only an estimate more certain than the reading: where the strip's likelihood is as flat
+        // as that, its linearized 1σ is least trustworthy (an alias can win there), and the
+        // reading would keep most of the weight anyway.
+        Some(s) if s.sd_pct > T::zero() && s.sd_pct < reading.sd_pct && s.rh_pct.is_finite() => {
             let (vr, vs) = (reading.sd_pct * reading.sd_pct, s.sd_pct * s.sd_pct);
             let gain = vr / (vr + vs);
             Estimate { rh_pct: reading.rh_pct + gain * (s.rh_pct - reading.rh_pct), sd_pct: (vr * vs / (vr + vs)).sqrt() }
@@ -49,8 +52,9 @@ mod tests {
         assert_eq!(fuse(r, None), r);
         let precise = fuse(r, Some(Estimate { rh_pct: 78.5, sd_pct: 0.1 }));
         assert!((precise.rh_pct - 78.5).abs() < 0.01 && precise.sd_pct < 0.1, "{precise:?}");
-        let vague = fuse(r, Some(Estimate { rh_pct: 70.0, sd_pct: 20.0 }));
-        assert!((vague.rh_pct - 80.0).abs() < 0.1 && vague.sd_pct <= r.sd_pct, "{vague:?}");
+        let vague = fuse(r, Some(Estimate { rh_pct: 70.0, sd_pct: 1.7 }));
+        assert!(vague.rh_pct < 80.0 && vague.rh_pct > 72.0 && vague.sd_pct <= r.sd_pct, "{vague:?}");
+        assert_eq!(fuse(r, Some(Estimate { rh_pct: 57.0, sd_pct: 4.4 })), r, "less certain than the reading: not used");
         let nan = fuse(r, Some(Estimate { rh_pct: f64::NAN, sd_pct: 0.1 }));
         assert_eq!(nan, r);
         assert!((reading_sd(1.8, 4.0, 0.0) - 1.8).abs() < 1e-12);

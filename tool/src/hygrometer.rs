@@ -63,7 +63,7 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
         // without `tau_wet_s` does not know.
         let age = reading_sd(0.0, AVERAGING_S, rate);
         let behind = strip.ok().map(|s| Estimate { rh_pct: s.rh_pct, sd_pct: (s.sd_pct * s.sd_pct + age * age).sqrt() });
-        out.push(Second { t_s: ts.t_s[pos + step - 1], read_pct: read, reading, reading_avg_pct, strip, fused: fuse(reading, behind) });
+        out.push(Second { t_s: ts.t_s[pos + step - 1], reading, reading_avg_pct, strip, fused: fuse(reading, behind) });
         pos += step;
     }
     out

@@ -179,16 +179,20 @@ mod tests {
         let mut calib = Calibration::default_preset();
         // The paper's fitted range, where the laws are more than extrapolations.
         (calib.rh_min, calib.rh_max) = (38.0, 85.0);
-        // Twelve strips: the calibration's part of the 1σ is a spread over strips, so coverage
-        // needs several of them, not many seconds of one.
+        // 32 strips: the calibration's part of the 1σ is a spread over strips, so coverage needs
+        // many of them (±8 points of binomial scatter), not many seconds of one.
         let levels = [(66.0, SensorKind::Sht4x), (72.0, SensorKind::Hts221), (76.0, SensorKind::Sht4x), (80.0, SensorKind::Hts221)];
-        let cases: Vec<(f64, SensorKind)> = (0..3).flat_map(|_| levels).collect();
+        let cases: Vec<(f64, SensorKind)> = (0..8).flat_map(|_| levels).collect();
+        let only: Option<usize> = std::env::var("FIELD_CASE").ok().and_then(|v| v.parse().ok());
         let (mut sq_read, mut sq_fused) = (0.0, 0.0);
         let (mut covered, mut judged, mut wet, mut wet_with) = (0, 0, 0, 0);
         for (i, &(rh, sensor)) in cases.iter().enumerate() {
+            if only.is_some_and(|o| o != i) {
+                continue;
+            }
             let plan = FieldPlan {
                 seed: 2600 + i as u64,
-                seconds: 60.0,
+                seconds: 45.0,
                 fs_hz: 2000.0,
                 rh_level_pct: rh,
                 wander_pct: 0.8,
@@ -211,6 +215,16 @@ mod tests {
             let mut avg: Option<f64> = None;
             for (k, s) in seconds.iter().enumerate() {
                 let truth = field.strip_pct[k.min(field.strip_pct.len() - 1)];
+                if std::env::var("FIELD_DEBUG").is_ok() && k % 10 == 5 {
+                    println!(
+                        "  t {:.0} truth {truth:.2} reading {:.2} ± {:.2} strip {:?} fused {:.2}",
+                        s.t_s,
+                        s.reading.rh_pct,
+                        s.reading.sd_pct,
+                        s.strip.map(|e| (e.rh_pct, e.sd_pct)),
+                        s.fused.rh_pct
+                    );
+                }
                 avg = Some(avg.map_or(truth, |v| v + (truth - v) / AVERAGING_S));
                 if s.t_s < 20.0 {
                     continue;
