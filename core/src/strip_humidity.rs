@@ -559,7 +559,7 @@ mod tests {
             let e = match strip_rh(&c, &view(&psd, 40), 0.0) {
                 // Near the modulus's peak (35 %RH) the mode barely moves, and near the range's top an
                 // alias in the range competes: refusals there are right.
-                Err(Refusal::Ambiguous) | Err(Refusal::OutOfRange) if rh < 60.0 || rh > 80.0 => {
+                Err(Refusal::Ambiguous) | Err(Refusal::OutOfRange) if !(60.0..=80.0).contains(&rh) => {
                     ambiguous += 1;
                     continue;
                 }
