@@ -7,6 +7,7 @@ mod charging;
 mod commands;
 mod diagnose;
 mod exact;
+mod hygrometer;
 mod input;
 mod inverse_choice;
 mod looping;
@@ -47,6 +48,12 @@ enum Command {
     Identify(commands::identify::Args),
     /// Run the firmware's f32 compensation chain over a time-series recording on the host.
     Compensate(commands::compensate::Args),
+    /// For a field recording with its truths: the compensation's error with the reading, the
+    /// fused humidity and a perfect hygrometer, and the strip's own humidity estimate's coverage.
+    FieldTable(commands::field_table::Args),
+    /// Field recording from the simulator's field mode: a strip in service, unknown broadband
+    /// motion, drifting humidity, a sensor with its errors.
+    SimulateField(commands::simulate_field::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
@@ -84,6 +91,8 @@ fn main() {
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Identify(a) => commands::identify::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
+        Command::FieldTable(a) => commands::field_table::run(a),
+        Command::SimulateField(a) => commands::simulate_field::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),

@@ -122,6 +122,9 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
         ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", crate::coverage::test_step),
         ("docs/your-data.md: every command of the page, as written", crate::doc_commands::your_data),
+        ("hygrometer: field mode — fused no worse than 1.05× the reading, the strip's 1σ covers 68 ± 10 %", || {
+            cargo_test_with("tool/Cargo.toml", &["--release", "field_mode", "--", "--ignored", "--nocapture"])
+        }),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
         ("firmware build (board-b-l475e, humidity-sht4x)", || firmware::build(Variant::HardwareSht4x).map(|_| ())),

@@ -18,6 +18,7 @@ use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
 use crate::scoring::band_score;
 use anyhow::{Result, anyhow};
+use ipmc_core::humidity_path::{HumidityMode, HumidityPath};
 use ipmc_recording::{Estimates as EstimateFile, write_atomically};
 use std::path::PathBuf;
 
@@ -58,6 +59,17 @@ pub struct Args {
     /// error over the reading's uncertainty and the calibration's `[uncertainty]`.
     #[arg(long, value_enum, default_value = "exact")]
     inverse: InverseChoice,
+    /// The humidity the designs are made at: the reading through the humidity path, or that
+    /// fused with the humidity the strip's own current says it is at (`ipmc field-table`
+    /// measures both); by default the calibration's `[humidity] mode`.
+    #[arg(long, value_enum, conflicts_with_all = ["schedule", "fixed_rh"])]
+    humidity: Option<HumidityChoice>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum HumidityChoice {
+    Reading,
+    Fused,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -68,12 +80,34 @@ pub fn run(a: Args) -> Result<()> {
         calib.uncertainty.current_noise_a_per_rthz = d;
         calib.validate().map_err(|e| anyhow!("the current's noise: {e}"))?;
     }
+    let fused = match a.humidity {
+        Some(h) => h == HumidityChoice::Fused,
+        None => calib.humidity.mode == HumidityMode::Fused && a.schedule.is_none() && a.fixed_rh.is_none(),
+    };
+    // Fused: the designs follow the fused strip humidity, which is past the path already.
+    let read = ts.rh_pct.clone();
+    let (calib, ts) = if fused {
+        let seconds = crate::hygrometer::run(&calib, &ts);
+        let ts = crate::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
+        let mut at_strip = calib;
+        at_strip.humidity =
+            HumidityPath { sensor: calib.humidity.sensor, uncertainty_pct: calib.humidity.uncertainty_pct, ..HumidityPath::NONE };
+        (at_strip, ts)
+    } else {
+        (calib, ts)
+    };
     let rh_sd = rh_uncertainty(&calib, a.rh_uncertainty);
     let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
-    let est = match &a.schedule {
+    let mut est = match &a.schedule {
         Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,
         None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd))?,
     };
+    if fused {
+        // The chain saw the fused humidity as its reading: the file keeps the sensor's.
+        for (block, out) in read.chunks(crate::chain::BLOCK_LEN).zip(est.rh_read_pct.chunks_mut(crate::chain::BLOCK_LEN)) {
+            out.fill((block.iter().sum::<f64>() / block.len() as f64) as f32);
+        }
+    }
     let mut file = EstimateFile {
         t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
         base_est_m: est.base_est_m.clone(),
@@ -93,6 +127,7 @@ pub fn run(a: Args) -> Result<()> {
         match (&a.schedule, a.fixed_rh) {
             (Some(p), _) => format!("scheduled schedule={}", p.display()),
             (None, Some(r)) => format!("fixed rh_pct={r}"),
+            (None, None) if fused => "compensated humidity=fused".into(),
             (None, None) => "compensated".into(),
         },
     );
