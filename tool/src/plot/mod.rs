@@ -77,17 +77,6 @@ pub fn render(fig: &impl Figure, prefix: &Path, size: (u32, u32)) -> Result<(Pat
     Ok((svg_path, png_path))
 }
 
-/// The legend of `chart`'s labelled series, boxed on a translucent white at `position`.
-pub fn legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
-    chart: &mut ChartContext<'a, DB, CT>,
-    position: SeriesLabelPosition,
-) -> Result<()>
-where
-    DB::ErrorType: 'static,
-{
-    chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).position(position).draw().map_err(pe)
-}
-
 /// Colour of humidity `rh_pct`: blue when dry through green to red when wet, so every figure
 /// colours levels alike.
 pub fn humidity_color(rh_pct: f64) -> RGBColor {
