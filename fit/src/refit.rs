@@ -340,6 +340,9 @@ pub fn sigmas(level: &LevelData, noise: &Noise) -> LevelSigmas {
     }
 }
 
+/// A candidate's extension from its global parameters and a level's parameters.
+pub type Extend = dyn Fn(&[f64], &Params<f64>) -> Extension<f64>;
+
 /// A model candidate fitted jointly with every level's base parameters.
 pub struct JointFit {
     pub phi: Vec<f64>,
@@ -367,7 +370,7 @@ pub fn fit_joint(
     sig: &[LevelSigmas],
     masks: &[Mask],
     specs: &[Param],
-    ext: &dyn Fn(&[f64], &Params<f64>) -> Extension<f64>,
+    ext: &Extend,
     base: &[Theta],
     phi_start: &[f64],
     instrument: Option<&ChannelPrior>,
@@ -449,13 +452,14 @@ const POLISH_RUNS: usize = 10;
 /// the descent and gives standard errors that carry those correlations. The fit is by blocks
 /// ([`lsq::fit_blocks`]): a level's parameters move only its residuals, so their forward
 /// differences evaluate that level alone.
+#[allow(clippy::too_many_arguments)]
 fn polish_joint(
     calib: &Calibration,
     levels: &[LevelData],
     sig: &[LevelSigmas],
     masks: &[Mask],
     specs: &[Param],
-    ext: &dyn Fn(&[f64], &Params<f64>) -> Extension<f64>,
+    ext: &Extend,
     j: JointFit,
     instrument: Option<&ChannelPrior>,
 ) -> Result<JointFit> {

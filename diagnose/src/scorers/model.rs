@@ -58,7 +58,7 @@ fn refit_heldout(
     ctx: &Ctx,
     levels: &[ipmc_fit::level::LevelData],
     specs: &[Param],
-    ext: &dyn Fn(&[f64], &ipmc_core::Params<f64>) -> Extension<f64>,
+    ext: &fits::Extend,
     phi: &[f64],
     f: &Fitted,
 ) -> Vec<HeldOutModel> {

@@ -406,7 +406,7 @@ impl ExternalOutcome {
         self.verdict == self.truth
     }
     pub fn truth_in_set(&self) -> bool {
-        self.set.iter().any(|n| *n == self.truth)
+        self.set.contains(&self.truth)
     }
     pub fn class(&self) -> Class {
         Class::of(&self.truth, &self.verdict, &self.set)
