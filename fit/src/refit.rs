@@ -908,4 +908,53 @@ mod tests {
         let want = BASE.map(|n| p.get(n).ln());
         assert!(fit.chi2 < 1e-6, "χ² {} at {theta:?}, want {want:?}", fit.chi2);
     }
+
+    /// Levels made by the model, recorded through a tip channel reading 0.6 % high: the
+    /// instrument's fit finds the gain (the tip follows the base below resonance, which no
+    /// level's Y, Cs, Ca or d can bend), leaves the delay alone, and the recordings corrected
+    /// by it are the model's again.
+    #[test]
+    fn the_instrument_fit_finds_a_tip_channel_off_its_scale() {
+        let calib = Calibration::default_preset();
+        let freqs: Vec<f64> = (0..30).map(|i| 10.0 * 15f64.powf(i as f64 / 29.0)).collect();
+        let levels: Vec<LevelData> = [40.0, 55.0, 70.0]
+            .iter()
+            .map(|&rh| {
+                let p: Params<f64> = calib.params_at(rh);
+                LevelData {
+                    session: 0,
+                    rh_pct: rh,
+                    temp_c: None,
+                    time_s: None,
+                    time_span: None,
+                    revisit_of: None,
+                    tip: freqs.iter().map(|&f| Some(ipmc_core::tip_response(&p, jw(f)) * 1.006)).collect(),
+                    current: freqs.iter().map(|&f| Some(ipmc_core::current_response(&p, jw(f)))).collect(),
+                    freqs: freqs.clone(),
+                    kappa_e: None,
+                }
+            })
+            .collect();
+        let sig: Vec<LevelSigmas> = levels
+            .iter()
+            .map(|l| LevelSigmas {
+                tip: vec![Sigma { ln_gain: 0.001, phase: 0.001 }; l.freqs.len()],
+                current: vec![Sigma { ln_gain: 0.001, phase: 0.001 }; l.freqs.len()],
+            })
+            .collect();
+        let masks: Vec<Mask> = levels.iter().map(Mask::all).collect();
+        let start: Vec<Theta> = levels.iter().map(|l| calibration_theta(&calib, l.rh_pct)).collect();
+        // Where a per-level refit would start the fit: near the truth, not on it.
+        let start: Vec<Theta> = start.iter().map(|t| t.map(|v| v + 0.01)).collect();
+        let fit = fit_instrument(&calib, &levels, &sig, &masks, &ipmc_core::instrument::Instrument::DATASHEET, &start).unwrap();
+        let ch = fit.channels;
+        assert!((ch.ln_tip - 1.006f64.ln()).abs() < 3e-4, "{ch:?}");
+        // The current's gain is not asserted: it trades off against each level's d and Ca (the
+        // issue's "degenerate with κe and d"), and only its prior holds it.
+        assert!(ch.delay_s.abs() < 2e-6, "{ch:?}");
+        let corrected = ch.corrected(&levels[1]);
+        let p: Params<f64> = calib.params_at(55.0);
+        let r = (corrected.tip[0].unwrap() / ipmc_core::tip_response(&p, jw(freqs[0]))).norm();
+        assert!((r - 1.0).abs() < 5e-4, "{r}");
+    }
 }
