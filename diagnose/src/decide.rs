@@ -70,16 +70,15 @@ pub(crate) struct Decision {
 pub const NONE: &str = "none";
 
 /// The probability of each hypothesis: `none` (ΔBIC 0) and every applicable candidate that
-/// passes the held-out gates (a candidate that does not predict held-out levels better is not
-/// supported, whatever its ΔBIC; one under its kind's floor is, but cannot be named), from the
-/// prior ([`PRIOR_NONE`], the rest shared
+/// passes the held-out gates and its floor (a candidate that does not predict held-out levels
+/// better is not supported, whatever its ΔBIC), from the prior ([`PRIOR_NONE`], the rest shared
 /// by `n_candidates`) and the evidence exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of
 /// the marginal likelihood, Kass & Raftery 1995; on the data ΔBIC is divided by the
 /// overdispersion). Most probable first.
 pub fn posterior(scores: &[Score], n_candidates: usize) -> Vec<Probability> {
     let ln_prior_cand = ((1.0 - PRIOR_NONE) / n_candidates.max(1) as f64).ln();
     let mut ln: Vec<(String, f64)> = vec![(NONE.to_string(), PRIOR_NONE.ln())];
-    for sc in scores.iter().filter(|s| s.applicable && s.supported && s.delta_bic.is_finite()) {
+    for sc in scores.iter().filter(|s| s.applicable && s.other_gates && s.delta_bic.is_finite()) {
         ln.push((sc.name.clone(), ln_prior_cand + sc.delta_bic / (2.0 * EVIDENCE_SCALE)));
     }
     let top = ln.iter().map(|(_, v)| *v).fold(f64::NEG_INFINITY, f64::max);
@@ -397,7 +396,6 @@ mod tests {
             passes: other_gates && delta_bic >= MIN_DELTA_BIC,
             note: String::new(),
             other_gates,
-            supported: other_gates,
         }
     }
 

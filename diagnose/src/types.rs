@@ -117,11 +117,6 @@ pub struct Score {
     /// ΔBIC ≥ [`crate::decide::MIN_DELTA_BIC`] once ΔBIC is corrected for overdispersion.
     #[serde(skip)]
     pub(crate) other_gates: bool,
-    /// It predicts held-out data better than its null: it holds probability
-    /// ([`crate::decide::posterior`]) even under its kind's floor, which only keeps it from
-    /// being named (a humidity shift that could be under 1 %RH may still be there).
-    #[serde(skip)]
-    pub(crate) supported: bool,
 }
 
 /// A candidate the data cannot separate from the verdict, with the evidence.

@@ -109,8 +109,7 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
         Some(z) => (z, true),
         None => (paired_z(&null_per_level, &per_level, &base.counts), heldout < heldout_null),
     };
-    let supported = z >= MIN_HELDOUT_Z && lowered;
-    let other_gates = supported && c.floor.is_none();
+    let other_gates = z >= MIN_HELDOUT_Z && lowered && c.floor.is_none();
     let passes = delta_bic >= MIN_DELTA_BIC && other_gates;
     let note = match c.floor {
         Some(why) if c.note.is_empty() => why,
@@ -136,7 +135,6 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
             passes,
             note,
             other_gates,
-            supported,
         },
         fitted: Some(c.fitted),
         held: Some(c.held),
@@ -162,6 +160,5 @@ fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
         passes: false,
         note: note.into(),
         other_gates: false,
-        supported: false,
     }
 }
