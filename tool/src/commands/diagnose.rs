@@ -178,8 +178,16 @@ mod tests {
         let rec = dir.join("REC.csv");
         std::fs::write(&rec, make_case(&calib, effect, seed, Strength::At(0.9), Format::Fr).unwrap().recording.to_csv().unwrap()).unwrap();
         let report_dir = dir.join("report");
-        run(Args { recordings: vec![rec], calib: None, report: report_dir.clone(), write_calib: None, humidity_sensor: None, instrument: InstrumentArgs::default(), quiet: true })
-            .unwrap();
+        run(Args {
+            recordings: vec![rec],
+            calib: None,
+            report: report_dir.clone(),
+            write_calib: None,
+            humidity_sensor: None,
+            instrument: InstrumentArgs::default(),
+            quiet: true,
+        })
+        .unwrap();
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(report_dir.join("report.json")).unwrap()).unwrap();
         let md = std::fs::read_to_string(report_dir.join("report.md")).unwrap();
         let names: Vec<&str> = json["figures"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
