@@ -156,6 +156,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         .map(|_| crate::humidity_path::fit(&ctx, decision.overdispersion));
     Ok(Diagnosis {
         instrument: crate::types::InstrumentReport::of(&instrument, &calib.instrument),
+        channels: instrument.channels,
         verdict: decision.verdict,
         probabilities: decision.probabilities,
         set: decision.set,

@@ -267,6 +267,9 @@ pub struct Diagnosis {
     pub separation: Option<Separation>,
     /// The instrument's channels fitted with the plain model, their tolerances as priors.
     pub instrument: InstrumentReport,
+    /// Those channels: every number and model here is of the recordings with them taken out
+    /// ([`crate::fits::Channels::corrected`]), and a figure draws those recordings.
+    pub channels: crate::fits::Channels,
     /// The candidates in [`Diagnosis::set`] other than the verdict.
     pub indistinguishable: Vec<Alternative>,
     /// Overdispersion ĉ of the data's χ² (see [`crate::decide::overdispersion`]) that data-space ΔBIC are divided by.
