@@ -66,9 +66,34 @@ pub fn diagnose_prove() -> Result<()> {
         if fp > 0 {
             bail!("{format}: {fp} clean control(s) diagnosed with an effect");
         }
+        // Confident wrong names are printed in the outcome table, not held here: the project's
+        // own tip mass with rotary inertia is still named as the polymer's relaxation (see
+        // docs/diagnosis.md), and the external step holds the rule on recordings made elsewhere.
         if reduced != named {
             bail!("{format}: held-out error reduced in only {reduced} of {named} correct diagnoses");
         }
+    }
+    Ok(())
+}
+
+/// `ipmc prove --external` on the independent simulator's recordings beside the repository
+/// (`../shared/external`; skipped without them): no recording may be given a wrong name alone
+/// (a confident wrong name) and no clean one a name (a false alarm). The counts named, in the
+/// stated set and missed are printed, not held: the recordings are a sample, and a threshold
+/// chosen to get them right would say nothing of the next ones.
+pub fn diagnose_prove_external() -> Result<()> {
+    let dir = repo_root().join("../shared/external");
+    if !dir.join("truths.json").exists() {
+        println!("no {}: skipped", dir.join("truths.json").display());
+        return Ok(());
+    }
+    let out = ipmc(&["prove".as_ref(), "--external".as_ref(), dir.as_os_str(), "--json".as_ref()])?;
+    print!("{out}");
+    let line = out.lines().last().context("ipmc prove printed nothing")?;
+    let summary: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc prove --json: {e}: {line}"))?;
+    let (wrong, alarms) = (json_count(&summary, "confident_wrong")?, json_count(&summary, "false_alarms")?);
+    if wrong > 0 || alarms > 0 {
+        bail!("external recordings: {wrong} confident wrong name(s), {alarms} false alarm(s)");
     }
     Ok(())
 }

@@ -46,6 +46,11 @@ fn as_recorded(level: &LevelData) -> Level {
     Level { rh_pct: level.rh_pct, rh_range: (level.rh_pct, level.rh_pct), start_time_s: None, revisit_of: level.revisit_of, points }
 }
 
+/// `data` with the instrument's channels the diagnosis found taken out.
+fn as_scored(d: &Diagnosis, data: &Dataset) -> Dataset {
+    Dataset { levels: data.levels.iter().map(|l| d.channels.corrected(l)).collect(), ..data.clone() }
+}
+
 /// The levels worth a Bode overlay: the worst held-out mismatch before, the one the
 /// augmentation improves most, and the driest and wettest, without repeats.
 fn representative_levels(d: &Diagnosis) -> Vec<usize> {
@@ -96,6 +101,8 @@ fn residual_row(level: &LevelData, sig: &fits::LevelSigmas, m: &HeldOutModel) ->
 
 /// Draws every figure into `dir` as SVG and PNG.
 pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
+    // The recordings as the diagnosis scored them: the instrument's channels taken out.
+    let data = &as_scored(d, data);
     let mut drawn = Vec::new();
     for l in representative_levels(d) {
         let m = &d.models[l];
@@ -183,6 +190,7 @@ mod tests {
                 .unwrap()]);
             let d = engine::diagnose(&calib, &data, &|_| {}).unwrap();
             assert_eq!(d.verdict, effect.name());
+            let data = as_scored(&d, &data);
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
             let (mut sums, mut n) = ([0.0; 2], 0.0);
             for (l, level) in data.levels.iter().enumerate() {
