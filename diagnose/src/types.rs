@@ -232,6 +232,10 @@ pub struct HeldOutModel {
     /// The level's held-out score: (Σ (residual/σ)² over all its values, σ inflated where
     /// `inflated` says, + [`HeldOutModel::normalization`]) / number of residuals.
     pub chi2_per_residual: f64,
+    /// The instrument's channels as the candidate moved them beside its own fit, on top of
+    /// those every candidate is scored with: the level this model scores is the recording with
+    /// them taken out too (None: no move).
+    pub channels: Option<crate::fits::Channels>,
 }
 
 impl HeldOutModel {

@@ -25,8 +25,8 @@ impl Scorer for ModelScorer {
         let j = fits::fit_joint(ctx.calib, &ctx.data.levels, &ctx.sig, &ctx.all, &specs, &ext, &ctx.base.theta, &start, prior)?;
         // The candidate is judged with the instrument refitted beside it, held out too: without
         // its channels a tip mass fails the held-out gate its own fit passes (external case22
-        // became `air_loading`). The figures draw the plain model's channels taken out, so the
-        // drawn "after" residuals differ from these by the candidate's channel move.
+        // became `air_loading`). Its held-out models carry that move, so the figures draw the
+        // level as it was scored.
         let levels: Vec<ipmc_fit::level::LevelData> = ctx.data.levels.iter().map(|l| j.channels.corrected(l)).collect();
         let levels = &levels;
         let exts: Vec<Extension<f64>> =
@@ -36,7 +36,7 @@ impl Scorer for ModelScorer {
         let held = HeldOut {
             null: ctx.refit_null(),
             null_is: REFIT_NULL_IS.into(),
-            candidate: refit_heldout(ctx, levels, &specs, &ext, &j.phi, &fitted),
+            candidate: refit_heldout(ctx, levels, &specs, &ext, &j.phi, &fitted, j.channels),
             candidate_is: format!("the level's base parameters refitted with {}'s parameters fitted on the other levels", cand.name()),
         };
         Ok(Trial::Fitted(Box::new(Candidacy {
@@ -63,7 +63,9 @@ fn refit_heldout(
     ext: &fits::Extend,
     phi: &[f64],
     f: &Fitted,
+    moved: fits::Channels,
 ) -> Vec<HeldOutModel> {
+    let channels = (moved != fits::Channels::default()).then_some(moved);
     let n = levels.len();
     let params = specs;
     let start = vec![specs.iter().zip(phi).map(|(s, &v)| fits::inside_tight(s.bound, v)).collect::<Vec<f64>>()];
@@ -85,7 +87,7 @@ fn refit_heldout(
                 Ok((theta, fit)) => (fits::level_params(ctx.calib, &levels[held], &theta), fit.chi2),
                 Err(_) => (p_joint[held], fits::chi2(&levels[held], &ctx.sig[held], &ctx.all[held], &p_joint[held], &x)),
             };
-            HeldOutModel { params, extension: x, inflated: None, chi2_per_residual: chi2 / ctx.all[held].count() as f64 }
+            HeldOutModel { params, extension: x, inflated: None, chi2_per_residual: chi2 / ctx.all[held].count() as f64, channels }
         })
         .collect()
 }

@@ -75,6 +75,9 @@ fn representative_levels(d: &Diagnosis) -> Vec<usize> {
 /// Per frequency, residual/σ of the level's measured values under a held-out model (ln gain and
 /// phase of each channel; σ inflated where the model was scored so).
 pub fn heldout_residuals(level: &LevelData, sig: &fits::LevelSigmas, m: &HeldOutModel) -> Vec<Vec<f64>> {
+    // The level as this model scored it: with the candidate's own channel move taken out too.
+    let moved = m.channels.map(|c| c.corrected(level));
+    let level = moved.as_ref().unwrap_or(level);
     let (tip, current) = fits::log_ratios(level, &m.params, &m.extension);
     let inflation = |on: &dyn Fn(&fits::Mask) -> bool| m.inflated.as_ref().filter(|(mask, _)| on(mask)).map_or(1.0, |(_, f)| f.sqrt());
     (0..level.freqs.len())
@@ -220,7 +223,13 @@ mod tests {
                 d.heldout_after
             );
             let in_sample = data.levels.iter().zip(&d.models).map(|(level, m)| {
-                let refit = HeldOutModel { params: m.refit, extension: Extension::default(), inflated: None, chi2_per_residual: f64::NAN };
+                let refit = HeldOutModel {
+                    params: m.refit,
+                    extension: Extension::default(),
+                    inflated: None,
+                    chi2_per_residual: f64::NAN,
+                    channels: None,
+                };
                 drawn_score(level, &fits::sigmas(level, &d.noise), &refit)
             });
             let in_sample = in_sample.map(|(s, c)| s * c as f64).sum::<f64>() / n;
