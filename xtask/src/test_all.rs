@@ -118,7 +118,10 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("diagnose library tests", || cargo_test("diagnose/Cargo.toml")),
         ("sensors tests (drivers and bus recovery against fake buses)", || cargo_test("sensors/Cargo.toml")),
         ("diagnose: ipmc prove (reduced)", diagnose_prove),
-        "diagnose: ipmc prove --external, no false alarm and no more confident wrong names than today's (external recordings)", diagnose_prove_external),
+        (
+            "diagnose: ipmc prove --external, no false alarm and no more confident wrong names than today's (external recordings)",
+            diagnose_prove_external,
+        ),
         ("vs-exact: f32 chain within 1.1× the exact inverse in band (external recordings)", vs_exact_external),
         ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
         ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", crate::coverage::test_step),
