@@ -151,7 +151,46 @@ fn print_summary(fits: &[LevelFit], laws: &[LawFit]) {
     for l in laws {
         let chi2 = l.chi2.map_or("".into(), |c| format!(", χ² {c:.1} on {} levels", l.levels));
         println!("law {}: {} degree {}{chi2}{}", l.param, l.kind, l.degree, l.note.as_ref().map_or(String::new(), |n| format!(" ({n})")));
+        let dof = l.levels.saturating_sub(l.degree + 1);
+        if let Some(c) = l.chi2
+            && dof > 0
+            && chi2_exceedance(c, dof) < LAW_MISFIT_P
+        {
+            println!(
+                "warning: law {}: χ² {c:.1} on {dof} degrees of freedom (p = {:.1e}): the levels depart from a smooth law by more \
+                 than their standard errors (the strip's own departures, a level's reading off, or the errors too small)",
+                l.param,
+                chi2_exceedance(c, dof)
+            );
+        }
     }
+}
+
+/// A law's χ² is called a misfit when a law that described the levels would exceed it this
+/// rarely: one identification in a thousand warns by chance.
+const LAW_MISFIT_P: f64 = 1e-3;
+
+/// P(χ²_k > x), by the Wilson–Hilferty cube root (within 10⁻³ of the exact tail for k ≥ 1 at
+/// the small probabilities it is used for here).
+fn chi2_exceedance(x: f64, k: usize) -> f64 {
+    let k = k as f64;
+    let v = 2.0 / (9.0 * k);
+    let z = ((x / k).cbrt() - (1.0 - v)) / v.sqrt();
+    0.5 * erfc(z / std::f64::consts::SQRT_2)
+}
+
+/// The complementary error function (Numerical Recipes' erfcc, relative error < 1.2·10⁻⁷).
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let poly = -z * z - 1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07 + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    let r = t * poly.exp();
+    if x >= 0.0 { r } else { 2.0 - r }
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -199,6 +238,13 @@ pub fn run(a: Args) -> Result<()> {
     let level_fits: Vec<LevelFit> = fits.iter().map(|(_, f)| f.clone()).collect();
     let (mut calib, laws) = calibration_from_levels(&base, &level_fits, rh_range).with_context(|| format!("{source}: calibration"))?;
     let rh_sd = crate::chain::rh_uncertainty(&base, a.rh_uncertainty);
+    if a.rh_uncertainty.is_none() {
+        // A bench with a reference hygrometer is ten times better than the board's sensor.
+        println!(
+            "note: the bench's humidity readings taken as {rh_sd} %RH uncertain (the base calibration's sensor, or the board's \
+             HTS221): give --rh-uncertainty for your hygrometer"
+        );
+    }
     calib.uncertainty = ipmc_fit::scatter::uncertainty(&calib, &level_fits, rh_sd, &base.uncertainty);
     let u = calib.uncertainty;
     println!(
@@ -226,7 +272,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     if let Some(dir) = &a.plots {
         let models = fits.iter().map(|(l, f)| LevelModel::new((*l).clone(), f.params)).collect();
-        let title = format!("{source}: measured (dots) vs identified model (lines)");
+        let title = format!("{source}: measured (markers) vs identified model (lines)");
         let bode = render(&Bode { title, levels: models }, &dir.join("bode"), (1600, 1000))?;
         let title = format!("{source}: identified parameters vs humidity, laws of {}", a.out.display());
         let params = render(&ParamsFigure { title, series: levels_series(&source, &json)?, calib }, &dir.join("params"), (1600, 1100))?;
@@ -235,4 +281,18 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_tail_matches_known_quantiles() {
+        // χ²_10 exceeds 29.59 with probability 0.001, 18.31 with 0.05; χ²_7 exceeds 24.32 with 0.001.
+        assert!((chi2_exceedance(29.59, 10) / 1e-3 - 1.0).abs() < 0.15, "{}", chi2_exceedance(29.59, 10));
+        assert!((chi2_exceedance(18.31, 10) - 0.05).abs() < 0.003, "{}", chi2_exceedance(18.31, 10));
+        assert!((chi2_exceedance(24.32, 7) / 1e-3 - 1.0).abs() < 0.15, "{}", chi2_exceedance(24.32, 7));
+        assert!(chi2_exceedance(5.0, 10) > 0.8);
+    }
 }
