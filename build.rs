@@ -22,6 +22,9 @@ use ipmc_core::{
     expected_error::ErrorTable,
     humidity_path::{HumidityPath, SensorKind},
     instrument::Instrument,
+    operating_point::SAMPLE_RATE_HZ,
+    running_spectrum::BinGeometry,
+    strip_humidity::{fill_table, table_nodes},
     uncertainty::Uncertainty,
 };
 
@@ -51,9 +54,11 @@ fn main() -> ExitCode {
          pub const CALIBRATION: ipmc_core::Calibration = {};\n\
          /// The expected error of its designs over humidity (`ipmc_core::expected_error`), for\n\
          /// this firmware's humidity sensor.\n\
-         pub const ERROR_TABLE: ipmc_core::expected_error::ErrorTable = {};\n",
+         pub const ERROR_TABLE: ipmc_core::expected_error::ErrorTable = {};\n\
+         {}",
         calibration_expr(&calibration),
         error_table_expr(&calibration),
+        model_table_items(&calibration),
     );
     fs::write(out.join("calibration.rs"), generated).expect("OUT_DIR is writable");
     ExitCode::SUCCESS
@@ -211,6 +216,32 @@ fn error_table_expr(c: &Calibration) -> String {
         t.n,
         bits(&t.model_var),
         bits(&t.noise_m2)
+    )
+}
+
+/// The strip's model at the running spectrum's bins for the firmware's rate
+/// (`ipmc_core::strip_humidity::ModelTable`), as the host tool fills its own: f32 by its bits.
+fn model_table_items(c: &Calibration) -> String {
+    let g = BinGeometry::new(SAMPLE_RATE_HZ as f64, &c.band);
+    let nodes = table_nodes(c);
+    let (mut ln_gain, mut sd_cal) = (vec![0.0f32; nodes * g.bins], vec![0.0f32; nodes]);
+    fill_table(c, &g, &mut ln_gain, &mut sd_cal);
+    let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
+    let BinGeometry { decimation, first_bin, bins, df_hz } = g;
+    format!(
+        "/// ln|H|² of the calibration at the running spectrum's bins, node after node.\n\
+         static STRIP_LN_GAIN: [f32; {}] = [{}];\n\
+         static STRIP_SD_CAL: [f32; {nodes}] = [{}];\n\
+         /// The strip's model for its own hygrometer's fit.\n\
+         pub const STRIP_TABLE: ipmc_core::strip_humidity::ModelTable<'static, f32> = ipmc_core::strip_humidity::ModelTable {{ \
+         rh_min: {}, rh_max: {}, geometry: ipmc_core::running_spectrum::BinGeometry {{ decimation: {decimation}, \
+         first_bin: {first_bin}, bins: {bins}, df_hz: {} }}, ln_gain: &STRIP_LN_GAIN, sd_cal: &STRIP_SD_CAL }};\n",
+        ln_gain.len(),
+        bits(&ln_gain),
+        bits(&sd_cal),
+        f64_expr(c.rh_min),
+        f64_expr(c.rh_max),
+        f64_expr(df_hz),
     )
 }
 

@@ -257,8 +257,67 @@ fn main() -> ! {
     println!("conversion_per_sample {}", conv);
     println!("biquad_df2t_per_sample {}", bq_total);
     println!("biquad_df2t_per_section {}", (bq_total - conv) / sections as f64);
+    hygrometer(instr);
     println!("done");
     semihosting::process::exit(0)
+}
+
+/// A deterministic generator, uniform in (0, 1).
+struct Lcg(u32);
+impl Lcg {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        ((self.0 >> 8) as f32 + 0.5) / (1u32 << 24) as f32
+    }
+}
+
+/// The strip's own hygrometer: the running spectrum per sample (the firmware pushes every block
+/// of current into it), and one fit of the strip's humidity to a spectrum that has the strip's
+/// resonance in it (the calibration's |H|² at 75 %RH under a smooth excitation, with the scatter
+/// of an average of 40 periodograms), as the fit task runs it.
+#[inline(never)]
+fn hygrometer(instr: impl Fn(u32) -> f64) {
+    use ipmc_core::running_spectrum::{MAX_BINS, RunningSpectrum, SpectrumView};
+    let calib = generated::CALIBRATION;
+    let mut spectrum = RunningSpectrum::<f32>::new(SAMPLE_RATE_HZ as f64, &calib.band);
+    let mut rng = Lcg(1);
+    let blocks = 2_500u32;
+    let mut segments = 0;
+    let mut block = [0.0f32; BLOCK_LEN];
+    let mut ticks = 0u32;
+    for _ in 0..blocks {
+        for v in block.iter_mut() {
+            *v = 1e-7 * (rng.next() - 0.5);
+        }
+        let t = now();
+        segments += black_box(spectrum.push(black_box(&block)));
+        ticks += since(t);
+    }
+    println!("spectrum_segments {}", segments);
+    println!("spectrum_per_sample {}", instr(ticks) / (blocks as f64 * BLOCK_LEN as f64));
+
+    let v = spectrum.view();
+    let params = calib.params_at(75.0f32);
+    let mut psd = [0.0f32; MAX_BINS];
+    for (k, p) in psd.iter_mut().enumerate().take(v.psd.len()) {
+        let f = v.first_hz + v.df_hz * k as f32;
+        let w = f / 35.0;
+        let accel = 1.0 / ((1.0 - w * w) * (1.0 - w * w) + (w / 2.0) * (w / 2.0));
+        let su = accel / (ipmc_core::Real::powf(2.0 * core::f32::consts::PI * f, 4.0));
+        let chi: f32 = (0..40).map(|_| -ipmc_core::Real::ln(rng.next())).sum::<f32>() / 40.0;
+        *p = ipmc_core::model::current_response(&params, ipmc_core::model::jw(f)).norm_sqr() * su * chi;
+    }
+    let view = SpectrumView { psd: &psd[..v.psd.len()], segments: 40.0, ..v };
+    let t = now();
+    let fit = black_box(ipmc_core::strip_humidity::strip_rh(&calib, black_box(&view), 0.0));
+    println!("instructions_per_fit {}", instr(since(t)));
+    match fit {
+        Ok(e) => println!("fit_rh_pct {}", e.rh_pct),
+        Err(r) => println!("fit_refused {}", r.as_str()),
+    }
+    let t = now();
+    black_box(ipmc_core::model::current_response(&params, ipmc_core::model::jw(black_box(31.0f32))));
+    println!("instructions_per_model_point {}", instr(since(t)));
 }
 
 #[panic_handler]

@@ -17,6 +17,7 @@ extern crate std;
 pub mod band;
 pub mod band_limit;
 pub mod block_humidity;
+pub mod block_hygrometer;
 pub mod calibration;
 #[cfg(feature = "toml")]
 pub mod calibration_file;

@@ -46,6 +46,32 @@ pub struct SpectrumView<'a, T> {
     pub segments: T,
 }
 
+/// Where the band's bins of the average lie, for a rate and a band: what the spectrum keeps
+/// and what the fit's model table ([`crate::strip_humidity::ModelTable`]) is tabulated at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BinGeometry {
+    pub decimation: usize,
+    pub first_bin: usize,
+    pub bins: usize,
+    pub df_hz: f64,
+}
+
+impl BinGeometry {
+    pub fn new(fs_hz: f64, band: &Band) -> Self {
+        let decimation = decimation(fs_hz, band);
+        let df_hz = fs_hz / decimation as f64 / SEGMENT as f64;
+        let first_bin = ((band.low_hz / df_hz).ceil() as usize).max(1);
+        let last_bin = ((band.high_hz / df_hz).floor() as usize).min(SEGMENT / 2 - 1);
+        let bins = (last_bin + 1).saturating_sub(first_bin).min(MAX_BINS);
+        BinGeometry { decimation, first_bin, bins, df_hz }
+    }
+
+    /// Frequency of bin `k` of the band [Hz].
+    pub fn hz(&self, k: usize) -> f64 {
+        (self.first_bin + k) as f64 * self.df_hz
+    }
+}
+
 pub struct RunningSpectrum<T> {
     fft: Fft<T, SEGMENT>,
     window: [T; SEGMENT],
@@ -70,12 +96,8 @@ pub struct RunningSpectrum<T> {
 
 impl<T: Real> RunningSpectrum<T> {
     pub fn new(fs_hz: f64, band: &Band) -> Self {
-        let decimation = decimation(fs_hz, band);
+        let BinGeometry { decimation, first_bin, bins, df_hz: df } = BinGeometry::new(fs_hz, band);
         let fs_dec = fs_hz / decimation as f64;
-        let df = fs_dec / SEGMENT as f64;
-        let first_bin = ((band.low_hz / df).ceil() as usize).max(1);
-        let last_bin = ((band.high_hz / df).floor() as usize).min(SEGMENT / 2 - 1);
-        let bins = (last_bin + 1).saturating_sub(first_bin).min(MAX_BINS);
         let mut window = [T::zero(); SEGMENT];
         let mut power = 0.0;
         for (n, w) in window.iter_mut().enumerate() {

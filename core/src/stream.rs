@@ -14,6 +14,13 @@
 //!   f32  RH [%] as the humidity sensor read it
 //!   f32  expected relative rms error of the block's estimates in the band, 1σ (a fraction;
 //!        `ipmc_core::expected_error`)
+//!   f32  1σ of the reading through the humidity path [%RH] (`ipmc_core::block_hygrometer`)
+//!   f32  RH [%] of the strip from its own current, its last fit (NaN: none), and its 1σ
+//!   f32
+//!   u8   why the strip's own estimate is missing: 0 it is there, else the refusal's code
+//!        (`ipmc_core::strip_humidity::Refusal::code`), 255 before the first fit
+//!   f32  RH [%] of the reading and the strip's estimate fused, and its 1σ
+//!   f32
 //!   u16  flags (bits: [`flags`])
 //!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
 //!   f32  × n  base displacement estimates [m], one per sample at the firmware's sample rate
@@ -62,9 +69,16 @@ pub mod flags {
     /// (its clock security system tripped; MSI runs free). The sample rate, and with it every
     /// designed frequency and time stamp, is off by up to that much. Stays until reset.
     pub const CLOCK_FAULT: u16 = 1 << 10;
+    /// The strip's own humidity estimate is missing: its last fit refused (the frame says why)
+    /// or none has finished yet. The fused humidity is the reading's.
+    pub const OWN_REFUSED: u16 = 1 << 11;
+    /// The spectrum as it stood after this block's current went to the fit.
+    pub const FIT_STARTED: u16 = 1 << 12;
+    /// The fit's result was taken at this block, before its current went into the spectrum.
+    pub const FIT_DONE: u16 = 1 << 13;
 
     /// Every bit with its name, lowest first (for host displays).
-    pub const NAMES: [(u16, &str); 11] = [
+    pub const NAMES: [(u16, &str); 14] = [
         (CLIPPED, "CLIPPED"),
         (RH_STALE, "RH_STALE"),
         (RH_CLAMPED, "RH_CLAMPED"),
@@ -76,15 +90,21 @@ pub mod flags {
         (STUCK, "STUCK"),
         (RH_FALLBACK, "RH_FALLBACK"),
         (CLOCK_FAULT, "CLOCK_FAULT"),
+        (OWN_REFUSED, "OWN_REFUSED"),
+        (FIT_STARTED, "FIT_STARTED"),
+        (FIT_DONE, "FIT_DONE"),
     ];
 }
 
 /// Bumped whenever the payload layout changes; decoders refuse other versions. 2: the strip's
 /// humidity and the reading beside the design's (version 1 had one RH, the reading's). 3: the
-/// expected error after the humidities.
-pub const FRAME_VERSION: u8 = 3;
-/// version + first sample + RH of the design, of the strip, as read + expected error + flags + count.
-pub const HEADER_LEN: usize = 1 + 4 + 4 * 4 + 2 + 1;
+/// expected error after the humidities. 4: the strip's own hygrometer (the reading's 1σ, the
+/// strip's estimate and the fused humidity with theirs).
+pub const FRAME_VERSION: u8 = 4;
+/// version + first sample + RH of the design, of the strip, as read + expected error +
+/// the hygrometer's + flags + count.
+pub const HEADER_LEN: usize = 1 + 4 + 4 * 4 + HYGROMETER_LEN + 2 + 1;
+const HYGROMETER_LEN: usize = 5 * 4 + 1;
 const CRC_LEN: usize = 2;
 /// The count is one byte.
 pub const MAX_ESTIMATES: usize = u8::MAX as usize;
@@ -119,7 +139,36 @@ pub struct Header {
     pub rh_read_pct: f32,
     /// The estimates' expected relative rms error in the band, 1σ (a fraction).
     pub rel_err: f32,
+    pub hygrometer: Hygrometer,
     pub flags: u16,
+}
+
+/// The strip's own hygrometer at the block [%RH].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hygrometer {
+    /// 1σ of the reading through the humidity path (`Header::rh_strip_pct`).
+    pub read_sd_pct: f32,
+    /// The strip's humidity from its own current, and its 1σ (NaN: no estimate).
+    pub own_pct: f32,
+    pub own_sd_pct: f32,
+    /// 0: there is an estimate; else why not (`Refusal::code`); [`Hygrometer::NO_FIT_YET`].
+    pub own_refusal: u8,
+    /// The design humidity of a `fused` calibration, and its 1σ.
+    pub fused_pct: f32,
+    pub fused_sd_pct: f32,
+}
+
+impl Hygrometer {
+    pub const NO_FIT_YET: u8 = u8::MAX;
+    /// Before the first reading.
+    pub const NONE: Hygrometer = Hygrometer {
+        read_sd_pct: f32::NAN,
+        own_pct: f32::NAN,
+        own_sd_pct: f32::NAN,
+        own_refusal: Self::NO_FIT_YET,
+        fused_pct: f32::NAN,
+        fused_sd_pct: f32::NAN,
+    };
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -150,6 +199,13 @@ pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usiz
     put(&header.rh_strip_pct.to_le_bytes())?;
     put(&header.rh_read_pct.to_le_bytes())?;
     put(&header.rel_err.to_le_bytes())?;
+    let h = &header.hygrometer;
+    put(&h.read_sd_pct.to_le_bytes())?;
+    put(&h.own_pct.to_le_bytes())?;
+    put(&h.own_sd_pct.to_le_bytes())?;
+    put(&[h.own_refusal])?;
+    put(&h.fused_pct.to_le_bytes())?;
+    put(&h.fused_sd_pct.to_le_bytes())?;
     put(&header.flags.to_le_bytes())?;
     put(&[count])?;
     for v in estimates {
@@ -242,6 +298,20 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     let (rh_strip_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rh_read_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rel_err, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let mut f32_field = |rest: &mut &[u8]| -> Result<f32, DecodeError> {
+        let (v, r) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+        *rest = r;
+        Ok(f32::from_le_bytes(*v))
+    };
+    let mut rest = rest;
+    let read_sd_pct = f32_field(&mut rest)?;
+    let own_pct = f32_field(&mut rest)?;
+    let own_sd_pct = f32_field(&mut rest)?;
+    let (&[own_refusal], r) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
+    rest = r;
+    let fused_pct = f32_field(&mut rest)?;
+    let fused_sd_pct = f32_field(&mut rest)?;
+    let hygrometer = Hygrometer { read_sd_pct, own_pct, own_sd_pct, own_refusal, fused_pct, fused_sd_pct };
     let (flags, rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
     let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
     let (estimate_bytes, tail) = rest.as_chunks::<4>();
@@ -255,6 +325,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
             rh_strip_pct: f32::from_le_bytes(*rh_strip_pct),
             rh_read_pct: f32::from_le_bytes(*rh_read_pct),
             rel_err: f32::from_le_bytes(*rel_err),
+            hygrometer,
             flags: u16::from_le_bytes(*flags),
         },
         estimate_bytes,
@@ -309,7 +380,22 @@ impl<const N: usize> Deframer<N> {
 mod tests {
     use super::*;
 
-    const H: Header = Header { first_sample: 64, rh_pct: 46.5, rh_strip_pct: 46.625, rh_read_pct: 49.25, rel_err: 0.0625, flags: 0b1001 };
+    const H: Header = Header {
+        first_sample: 64,
+        rh_pct: 46.5,
+        rh_strip_pct: 46.625,
+        rh_read_pct: 49.25,
+        rel_err: 0.0625,
+        hygrometer: Hygrometer {
+            read_sd_pct: 1.5,
+            own_pct: 45.75,
+            own_sd_pct: 0.25,
+            own_refusal: 0,
+            fused_pct: 45.875,
+            fused_sd_pct: 0.125,
+        },
+        flags: 0b1001,
+    };
 
     fn frame(header: &Header, est: &[f32]) -> ([u8; MAX_FRAME_LEN], usize) {
         let mut out = [0u8; MAX_FRAME_LEN];
@@ -352,11 +438,17 @@ mod tests {
         assert_eq!(p[9..13], 46.625f32.to_le_bytes());
         assert_eq!(p[13..17], 49.25f32.to_le_bytes());
         assert_eq!(p[17..21], 0.0625f32.to_le_bytes());
-        assert_eq!(p[21..23], 9u16.to_le_bytes());
-        assert_eq!(p[23], 2);
-        assert_eq!(p[24..28], 1.0f32.to_le_bytes());
-        assert_eq!(p[28..32], (-2.0f32).to_le_bytes());
-        assert_eq!(p[32..34], CRC16.checksum(&p[..32]).to_le_bytes());
+        assert_eq!(p[21..25], 1.5f32.to_le_bytes());
+        assert_eq!(p[25..29], 45.75f32.to_le_bytes());
+        assert_eq!(p[29..33], 0.25f32.to_le_bytes());
+        assert_eq!(p[33], 0);
+        assert_eq!(p[34..38], 45.875f32.to_le_bytes());
+        assert_eq!(p[38..42], 0.125f32.to_le_bytes());
+        assert_eq!(p[42..44], 9u16.to_le_bytes());
+        assert_eq!(p[44], 2);
+        assert_eq!(p[45..49], 1.0f32.to_le_bytes());
+        assert_eq!(p[49..53], (-2.0f32).to_le_bytes());
+        assert_eq!(p[53..55], CRC16.checksum(&p[..53]).to_le_bytes());
     }
 
     /// A frame of an older layout with a valid CRC: version, first sample 64, `n_rh` humidities
@@ -382,16 +474,17 @@ mod tests {
     }
 
     /// Frames of the layouts before this one (version 1: one RH; version 2: three humidities,
-    /// no expected error) are refused by their version, with a message that says what to do.
+    /// no expected error; version 3: no hygrometer) are refused by their version, with a
+    /// message that says what to do.
     #[test]
     fn refuses_the_previous_versions() {
-        for (version, n_rh) in [(1, 1), (2, 3)] {
+        for (version, n_rh) in [(1, 1), (2, 3), (3, 4)] {
             let mut encoded = [0u8; 40];
             let n = old_frame(version, n_rh, &mut encoded);
             let e = decode(&mut encoded[..n]).unwrap_err();
             assert_eq!(e, DecodeError::Version(version));
             let shown = std::string::ToString::to_string(&e);
-            assert!(shown.contains("different releases") && shown.contains("reads version 3"), "{shown}");
+            assert!(shown.contains("different releases") && shown.contains("reads version 4"), "{shown}");
         }
     }
 

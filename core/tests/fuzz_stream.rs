@@ -65,6 +65,7 @@ fn valid_stream(blocks: usize, n: usize) -> Vec<u8> {
             rh_strip_pct: 40.5 + k as f32,
             rh_read_pct: 41.5 + k as f32,
             rel_err: 0.01 * k as f32,
+            hygrometer: stream::Hygrometer { own_pct: 39.0 + k as f32, own_refusal: (k % 7) as u8, ..stream::Hygrometer::NONE },
             flags: (k % 256) as u16,
         };
         let len = stream::encode(&h, &est, &mut buf).expect("valid frame encodes");

@@ -34,7 +34,15 @@ mod tests {
 
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
-        let header = Header { first_sample: first, rh_pct: rh, rh_strip_pct: rh + 0.5, rh_read_pct: rh + 1.5, rel_err: 0.125, flags };
+        let header = Header {
+            first_sample: first,
+            rh_pct: rh,
+            rh_strip_pct: rh + 0.5,
+            rh_read_pct: rh + 1.5,
+            rel_err: 0.125,
+            hygrometer: ipmc_core::stream::Hygrometer::NONE,
+            flags,
+        };
         let n = encode(&header, est, &mut out).unwrap();
         out.truncate(n);
         out
@@ -49,7 +57,15 @@ mod tests {
         assert_eq!(
             blocks[1],
             Block {
-                header: Header { first_sample: 2, rh_pct: 46.0, rh_strip_pct: 46.5, rh_read_pct: 47.5, rel_err: 0.125, flags: 8 },
+                header: Header {
+                    first_sample: 2,
+                    rh_pct: 46.0,
+                    rh_strip_pct: 46.5,
+                    rh_read_pct: 47.5,
+                    rel_err: 0.125,
+                    hygrometer: ipmc_core::stream::Hygrometer::NONE,
+                    flags: 8
+                },
                 base_est_m: vec![2e-3, -1e-3]
             }
         );

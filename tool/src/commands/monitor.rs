@@ -252,7 +252,15 @@ mod tests {
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
         let n = encode(
-            &Header { first_sample: first, rh_pct: rh, rh_strip_pct: rh + 1.0, rh_read_pct: rh + 2.0, rel_err: 0.05, flags },
+            &Header {
+                first_sample: first,
+                rh_pct: rh,
+                rh_strip_pct: rh + 1.0,
+                rh_read_pct: rh + 2.0,
+                rel_err: 0.05,
+                hygrometer: ipmc_core::stream::Hygrometer::NONE,
+                flags,
+            },
             est,
             &mut out,
         )
