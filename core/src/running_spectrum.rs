@@ -9,12 +9,13 @@
 //! host.
 
 use crate::band::Band;
-use crate::fft::Fft;
+use crate::fft::RealFft;
 use crate::{C, Real};
 
 /// Decimated samples per segment: with the decimated rate near 3× the band's top, bins of about
 /// 1 Hz, several across the strip's first resonance (28–35 Hz, Q ≈ 10–15: 2–3 Hz wide).
 pub const SEGMENT: usize = 512;
+const _: () = assert!(SEGMENT % 4 == 0, "segments complete at an even head");
 /// Most bins of the band kept.
 pub const MAX_BINS: usize = 192;
 /// Time constant of the average [s]: long enough for the log-spectrum's scatter to be small
@@ -73,7 +74,7 @@ impl BinGeometry {
 }
 
 pub struct RunningSpectrum<T> {
-    fft: Fft<T, SEGMENT>,
+    fft: RealFft<T, { SEGMENT / 2 }>,
     window: [T; SEGMENT],
     /// The last SEGMENT decimated samples, a ring.
     ring: [T; SEGMENT],
@@ -107,7 +108,7 @@ impl<T: Real> RunningSpectrum<T> {
         }
         let hop_s = (SEGMENT / 2) as f64 / fs_dec;
         RunningSpectrum {
-            fft: Fft::new(),
+            fft: RealFft::new(),
             window,
             ring: [T::zero(); SEGMENT],
             head: 0,
@@ -129,46 +130,56 @@ impl<T: Real> RunningSpectrum<T> {
     /// Takes the current's samples [A]; returns how many segments were completed.
     pub fn push(&mut self, samples: &[T]) -> usize {
         let mut done = 0;
+        // The boxcar's sum in registers: the per-sample work is the addition alone.
+        let (mut acc, mut n) = (self.acc, self.acc_n);
         for &x in samples {
-            self.acc += x;
-            self.acc_n += 1;
-            if self.acc_n < self.decimation {
-                continue;
-            }
-            let v = self.acc / T::lit(self.decimation as f64);
-            self.acc = T::zero();
-            self.acc_n = 0;
-            self.ring[self.head] = v;
-            self.head = (self.head + 1) % SEGMENT;
-            self.filled = (self.filled + 1).min(SEGMENT);
-            self.since_hop += 1;
-            if self.filled == SEGMENT && self.since_hop >= SEGMENT / 2 {
-                self.since_hop = 0;
-                self.segment();
-                done += 1;
+            acc += x;
+            n += 1;
+            if n == self.decimation {
+                done += self.decimated(acc / T::lit(self.decimation as f64));
+                (acc, n) = (T::zero(), 0);
             }
         }
+        (self.acc, self.acc_n) = (acc, n);
         done
     }
 
+    /// One decimated sample; 1 if it completed a segment.
+    fn decimated(&mut self, v: T) -> usize {
+        self.ring[self.head] = v;
+        self.head = (self.head + 1) % SEGMENT;
+        self.filled = (self.filled + 1).min(SEGMENT);
+        self.since_hop += 1;
+        if self.filled == SEGMENT && self.since_hop >= SEGMENT / 2 {
+            self.since_hop = 0;
+            self.segment();
+            1
+        } else {
+            0
+        }
+    }
+
     fn segment(&mut self) {
-        let mut x = [C::new(T::zero(), T::zero()); SEGMENT];
         let mut mean = T::zero();
         for v in self.ring.iter() {
             mean += *v;
         }
         mean /= T::lit(SEGMENT as f64);
-        for (n, slot) in x.iter_mut().enumerate() {
-            let v = self.ring[(self.head + n) % SEGMENT];
-            *slot = C::new((v - mean) * self.window[n], T::zero());
+        let mut z = [C::new(T::zero(), T::zero()); SEGMENT / 2];
+        // Oldest first; a segment completes every half segment, so the ring's head is even
+        // then and no pair straddles its end.
+        let (newer, older) = self.ring.split_at(self.head);
+        let ordered = older.chunks_exact(2).chain(newer.chunks_exact(2));
+        for ((slot, x), w) in z.iter_mut().zip(ordered).zip(self.window.chunks_exact(2)) {
+            *slot = C::new((x[0] - mean) * w[0], (x[1] - mean) * w[1]);
         }
-        self.fft.forward(&mut x);
+        self.fft.transform(&mut z);
         self.count = self.count.saturating_add(1);
         // A plain mean until the forgetting factor is reached, then exponential.
         let a = T::one() / T::lit(self.count as f64);
         let a = if a > self.alpha { a } else { self.alpha };
         for (k, avg) in self.average.iter_mut().enumerate().take(self.bins) {
-            let p = x[self.first_bin + k].norm_sqr() * self.scale;
+            let p = self.fft.bin(&z, self.first_bin + k).norm_sqr() * self.scale;
             *avg += a * (p - *avg);
         }
     }

@@ -450,8 +450,8 @@ impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
         out
     }
 
-    /// The best RH: the nodes, then golden sections in the best cell.
-    fn best_rh(&self) -> T {
+    /// The best RH: the nodes, then golden sections in the best cell; and the nodes' costs.
+    fn best_rh(&self) -> (T, [T; MAX_GRID]) {
         let costs = self.grid_costs();
         let last = self.table.nodes() - 1;
         let mut best = (0, T::infinity());
@@ -480,7 +480,7 @@ impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
                 c2 = self.cost(x2).0;
             }
         }
-        (a + b) / T::lit(2.0)
+        ((a + b) / T::lit(2.0), costs)
     }
 
     /// (I − P)·∂h/∂RH at `rh`.
@@ -531,7 +531,7 @@ pub fn strip_rh<T: Real>(table: &ModelTable<'_, T>, s: &SpectrumView<'_, T>, noi
     if !p.proj.ok || p.proj.used_count() < basis + 4 {
         return Err(Refusal::Weak);
     }
-    let mut rh = p.best_rh();
+    let (mut rh, mut costs) = p.best_rh();
     // Tones: positive outliers, left out with their main lobe, until none is left.
     for _ in 0..4 {
         let (_, r) = p.cost(rh);
@@ -552,7 +552,7 @@ pub fn strip_rh<T: Real>(table: &ModelTable<'_, T>, s: &SpectrumView<'_, T>, noi
         if !p.proj.ok || p.proj.used_count() < basis + 4 {
             return Err(Refusal::Tonal);
         }
-        rh = p.best_rh();
+        (rh, costs) = p.best_rh();
     }
     // How much of the humidity's information the left-out bins took.
     let information = |p: &mut Problem<'_, '_, T>, used: [bool; MAX_BINS]| {
@@ -602,9 +602,9 @@ pub fn strip_rh<T: Real>(table: &ModelTable<'_, T>, s: &SpectrumView<'_, T>, noi
     }
     let gsg = gsg.max(gg * T::lit(0.1));
     let sd_stat = (s2 * gsg / (gg * gg)).sqrt();
-    // Δχ² of the nodes against the best, with the bins' correlation.
+    // Δχ² of the nodes against the best, with the bins' correlation (the nodes' costs are the
+    // last search's: the bins used have not changed since).
     let unit = s2 * gsg / gg;
-    let costs = p.grid_costs();
     let last = table.nodes() - 1;
     for (i, &c) in costs.iter().enumerate().take(last + 1) {
         let at = table.node_rh(i);

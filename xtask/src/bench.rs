@@ -16,6 +16,9 @@ const TARGET_PER_SECTION: f64 = 12.0;
 const STRETCH_PER_SECTION: f64 = 7.4;
 const TARGET_RETUNE: f64 = 500_000.0;
 const STRETCH_RETUNE: f64 = 100_000.0;
+/// Issue 26: the strip's own hygrometer.
+const TARGET_SPECTRUM_PER_SAMPLE: f64 = 30.0;
+const TARGET_FIT: f64 = 5_000_000.0;
 /// The design's fixed preview [ms] (core DesignConfig::max_delay_s at 2 kHz: 4 samples).
 const DESIGN_DELAY_MS: f64 = 2.0;
 
@@ -108,6 +111,20 @@ pub fn command(json: bool) -> Result<()> {
         get("instructions_per_block_error")? / get("block_len")?
     );
     println!("reference, biquad crate DF2T run() stage by stage over the same blocks: {bq:.2} instructions per section per sample");
+    let spectrum = get("spectrum_per_sample")?;
+    let fit = get("instructions_per_fit")?;
+    println!(
+        "the strip's own hygrometer: running spectrum {spectrum:.1} instructions per sample on average (target ≤ {TARGET_SPECTRUM_PER_SAMPLE}: {}; \
+         of a segment, the packed FFT {:.0} and the band's bins {:.0})",
+        verdict(spectrum <= TARGET_SPECTRUM_PER_SAMPLE),
+        get("spectrum_fft_transform")?,
+        get("spectrum_fft_bins")?
+    );
+    println!(
+        "  a fit of the strip's humidity (model table, search over the calibrated range): {fit:.0} instructions (target ≤ {TARGET_FIT}: {}); one point of the exact model {:.0}",
+        verdict(fit <= TARGET_FIT),
+        get("instructions_per_model_point")?
+    );
     if json {
         println!(
             "{{\"instructions_per_sample\":{ips:.2},\"sections\":{sections},\"instructions_per_retune\":{retune:.0},\"biquad_df2t_per_section\":{bq:.2}}}"
