@@ -224,24 +224,27 @@ fn error_table_expr(c: &Calibration) -> String {
 fn model_table_items(c: &Calibration) -> String {
     let g = BinGeometry::new(SAMPLE_RATE_HZ as f64, &c.band);
     let nodes = table_nodes(c);
-    let (mut ln_gain, mut sd_cal) = (vec![0.0f32; nodes * g.bins], vec![0.0f32; nodes]);
-    fill_table(c, &g, &mut ln_gain, &mut sd_cal);
+    let (mut ln_gain, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![0.0f32; nodes]);
+    let scale = fill_table(c, &g, &mut ln_gain, &mut sd_cal);
     let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
+    let codes = ln_gain.iter().map(|q| q.to_string()).collect::<Vec<_>>().join(",");
     let BinGeometry { decimation, first_bin, bins, df_hz } = g;
     format!(
         "/// ln|H|² of the calibration at the running spectrum's bins, node after node.\n\
-         static STRIP_LN_GAIN: [f32; {}] = [{}];\n\
+         static STRIP_LN_GAIN: [u16; {}] = [{codes}];\n\
          static STRIP_SD_CAL: [f32; {nodes}] = [{}];\n\
          /// The strip's model for its own hygrometer's fit.\n\
          pub const STRIP_TABLE: ipmc_core::strip_humidity::ModelTable<'static, f32> = ipmc_core::strip_humidity::ModelTable {{ \
          rh_min: {}, rh_max: {}, geometry: ipmc_core::running_spectrum::BinGeometry {{ decimation: {decimation}, \
-         first_bin: {first_bin}, bins: {bins}, df_hz: {} }}, ln_gain: &STRIP_LN_GAIN, sd_cal: &STRIP_SD_CAL }};\n",
+         first_bin: {first_bin}, bins: {bins}, df_hz: {} }}, ln_offset: {}, ln_step: {}, ln_gain: &STRIP_LN_GAIN, \
+         sd_cal: &STRIP_SD_CAL }};\n",
         ln_gain.len(),
-        bits(&ln_gain),
         bits(&sd_cal),
         f64_expr(c.rh_min),
         f64_expr(c.rh_max),
         f64_expr(df_hz),
+        f64_expr(scale.ln_offset),
+        f64_expr(scale.ln_step),
     )
 }
 

@@ -7,7 +7,8 @@
 //! Three priority levels, highest first:
 //! - sample executor (interrupt): per-block compensation, never waits on anything slower;
 //! - I/O executor (interrupt): humidity polling and the report stream;
-//! - thread mode: filter retunes (`design_inverse` is slow and may take many blocks).
+//! - thread mode: filter retunes (`design_inverse` is slow and may take many blocks) and the
+//!   strip's own hygrometer's fits (once a second at most).
 
 #![no_std]
 #![no_main]
@@ -46,5 +47,6 @@ fn main() -> ! {
 
     RETUNE_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(app::retune::retune_task().expect("retune task spawns once"));
+        spawner.spawn(app::hygrometer::fit_task().expect("fit task spawns once"));
     })
 }

@@ -13,6 +13,7 @@ use crate::humidity_fusion::{Estimate, fuse, reading_sd};
 use crate::humidity_path::SensorKind;
 use crate::real::Real;
 use crate::running_spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
+use crate::stream::Hygrometer;
 use crate::strip_humidity::{Refusal, StripRh};
 
 /// Fits at most this often [s].
@@ -43,6 +44,25 @@ pub struct Humidities<T> {
     pub strip: Option<Result<StripRh<T>, Refusal>>,
     /// Both combined: what a `fused` calibration designs at.
     pub fused: Estimate<T>,
+}
+
+impl Humidities<f32> {
+    /// As the stream carries them.
+    pub fn to_wire(&self) -> Hygrometer {
+        let (own_pct, own_sd_pct, own_refusal) = match self.strip {
+            Some(Ok(e)) => (e.rh_pct, e.sd_pct, 0),
+            Some(Err(r)) => (f32::NAN, f32::NAN, r.code()),
+            None => (f32::NAN, f32::NAN, Hygrometer::NO_FIT_YET),
+        };
+        Hygrometer {
+            read_sd_pct: self.reading.sd_pct,
+            own_pct,
+            own_sd_pct,
+            own_refusal,
+            fused_pct: self.fused.rh_pct,
+            fused_sd_pct: self.fused.sd_pct,
+        }
+    }
 }
 
 pub struct BlockHygrometer<T> {
@@ -88,7 +108,11 @@ impl<T: Real> BlockHygrometer<T> {
     /// a snapshot when a fit is due: a second of samples since the last one, and no fit
     /// outstanding.
     pub fn push(&mut self, current: &[T], path_pct: Option<T>) -> Option<Snapshot<T>> {
-        self.spectrum.push(current);
+        // A sample that is no measurement would stay in the average for good: its block is left
+        // out of the spectrum (its time still counts).
+        if current.iter().all(|v| v.is_finite()) {
+            self.spectrum.push(current);
+        }
         self.since_snapshot = self.since_snapshot.saturating_add(current.len() as u32);
         if self.pending || self.since_snapshot < self.period {
             return None;

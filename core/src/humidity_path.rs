@@ -146,6 +146,12 @@ impl HumidityPath {
         supply_v: None,
     };
 
+    /// The path of a humidity that is the strip's already (the fused one): no correction and no
+    /// lag, the sensor and its uncertainty kept for the expected error.
+    pub const fn at_strip(&self) -> HumidityPath {
+        HumidityPath { sensor: self.sensor, uncertainty_pct: self.uncertainty_pct, ..HumidityPath::NONE }
+    }
+
     /// RH of the air at the strip for a reading [%RH].
     pub fn correct<T: Real>(&self, rh_read_pct: T) -> T {
         T::lit(self.gain) * rh_read_pct + T::lit(self.offset_pct)

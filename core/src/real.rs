@@ -21,6 +21,9 @@ use num_traits::{FloatConst, Num, NumAssign};
 pub trait Real: Num + NumAssign + Copy + PartialOrd + Neg<Output = Self> + FloatConst + Default + Debug + 'static {
     /// Converts a literal or an f64 datum; constants are kept in f64 and narrowed once here.
     fn lit(x: f64) -> Self;
+    /// A table's 16-bit code, converted in the type itself (no detour through f64, which the
+    /// device does in software).
+    fn from_u16(x: u16) -> Self;
     /// Widens for reporting.
     fn to_f64(self) -> f64;
 
@@ -59,6 +62,10 @@ macro_rules! real_via_libm {
         impl Real for $t {
             #[inline(always)]
             fn lit(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn from_u16(x: u16) -> Self {
                 x as $t
             }
             #[inline(always)]

@@ -298,7 +298,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     let (rh_strip_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rh_read_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
     let (rel_err, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
-    let mut f32_field = |rest: &mut &[u8]| -> Result<f32, DecodeError> {
+    let f32_field = |rest: &mut &[u8]| -> Result<f32, DecodeError> {
         let (v, r) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
         *rest = r;
         Ok(f32::from_le_bytes(*v))

@@ -11,7 +11,9 @@
 //! and shape carry the humidity even though the motion is unknown.
 //!
 //! The model is tabulated: ln|H(f; RH)|² at the spectrum's bins on a grid of humidities over the
-//! declared range ([`ModelTable`], made by [`fill_table`] in f64 and narrowed once), and
+//! declared range ([`ModelTable`], made by [`fill_table`] in f64 and stored in 16 bits: steps of
+//! about 3e-4 over its range, far below the interpolation's own error and the log-periodogram's
+//! scatter, at half the flash of f32), and
 //! interpolated between its nodes by cubic Hermite polynomials. One model point costs the device
 //! about as much as a whole fit may (the exact model is a beam of complex wave numbers); the
 //! table makes the search a matter of sums, on the device and on the host alike, and both
@@ -126,16 +128,25 @@ pub struct StripRh<T> {
 }
 
 /// The calibration's model at the spectrum's bins: ln|H(f_k; RH_i)|² at the nodes RH_i of the
-/// declared range, node after node, and per node the calibration's `[uncertainty]` carried
-/// through it [%RH]. The firmware's is baked by build.rs; the host fills its own with the same
-/// [`fill_table`], so both hold the same numbers.
+/// declared range, node after node, as `ln_offset + ln_step · code`, and per node the
+/// calibration's `[uncertainty]` carried through it [%RH]. The firmware's is baked by build.rs;
+/// the host fills its own with the same [`fill_table`], so both hold the same numbers.
 #[derive(Clone, Copy, Debug)]
 pub struct ModelTable<'a, T> {
     pub rh_min: f64,
     pub rh_max: f64,
     pub geometry: BinGeometry,
-    pub ln_gain: &'a [T],
+    pub ln_offset: f64,
+    pub ln_step: f64,
+    pub ln_gain: &'a [u16],
     pub sd_cal: &'a [T],
+}
+
+/// How [`fill_table`] coded ln|H|².
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TableScale {
+    pub ln_offset: f64,
+    pub ln_step: f64,
 }
 
 /// Nodes of the table over `calib`'s declared range.
@@ -160,11 +171,18 @@ fn exact_ln_gain(calib: &Calibration, g: &BinGeometry, rh: f64, scale: Option<(c
     h
 }
 
-/// Fills `ln_gain` (`table_nodes` × `g.bins`) and `sd_cal` (`table_nodes`) for `calib` at the
-/// bins of `g`: computed in f64, narrowed once.
-pub fn fill_table<T: Real>(calib: &Calibration, g: &BinGeometry, ln_gain: &mut [T], sd_cal: &mut [T]) {
+/// Fills `ln_gain` (`table_nodes` × `g.bins` codes) and `sd_cal` (`table_nodes`) for `calib` at
+/// the bins of `g`, computed in f64; returns the codes' scale.
+pub fn fill_table<T: Real>(calib: &Calibration, g: &BinGeometry, ln_gain: &mut [u16], sd_cal: &mut [T]) -> TableScale {
     let nodes = table_nodes(calib);
     assert!(ln_gain.len() == nodes * g.bins && sd_cal.len() == nodes, "the table's size is table_nodes × bins");
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for i in 0..nodes {
+        for &v in exact_ln_gain(calib, g, node_rh(calib.rh_min, calib.rh_max, nodes, i), None).iter().take(g.bins) {
+            (lo, hi) = (lo.min(v), hi.max(v));
+        }
+    }
+    let scale = TableScale { ln_offset: lo, ln_step: (hi - lo).max(f64::MIN_POSITIVE) / u16::MAX as f64 };
     let mut f = [0.0; MAX_BINS];
     for (k, v) in f.iter_mut().enumerate().take(g.bins) {
         *v = g.hz(k);
@@ -175,7 +193,7 @@ pub fn fill_table<T: Real>(calib: &Calibration, g: &BinGeometry, ln_gain: &mut [
         let rh = node_rh(calib.rh_min, calib.rh_max, nodes, i);
         let h = exact_ln_gain(calib, g, rh, None);
         for (slot, &v) in ln_gain[i * g.bins..(i + 1) * g.bins].iter_mut().zip(&h) {
-            *slot = T::lit(v);
+            *slot = libm::round((v - scale.ln_offset) / scale.ln_step).clamp(0.0, u16::MAX as f64) as u16;
         }
         let (up, down) = (exact_ln_gain(calib, g, rh + DERIVATIVE_STEP_PCT, None), exact_ln_gain(calib, g, rh - DERIVATIVE_STEP_PCT, None));
         let mut d = [0.0; MAX_BINS];
@@ -198,6 +216,7 @@ pub fn fill_table<T: Real>(calib: &Calibration, g: &BinGeometry, ln_gain: &mut [
         }
         sd_cal[i] = T::lit(libm::sqrt(var));
     }
+    scale
 }
 
 impl<T: Real> ModelTable<'_, T> {
@@ -218,7 +237,7 @@ impl<T: Real> ModelTable<'_, T> {
         (i, x - T::lit(i as f64))
     }
 
-    fn row(&self, i: usize) -> &[T] {
+    fn row(&self, i: usize) -> &[u16] {
         let n = self.geometry.bins;
         &self.ln_gain[i * n..(i + 1) * n]
     }
@@ -228,9 +247,12 @@ impl<T: Real> ModelTable<'_, T> {
     fn ln_gain(&self, rh: T) -> [T; MAX_BINS] {
         let n = self.geometry.bins;
         let (i, t) = self.locate(rh);
+        let (offset, step) = (T::lit(self.ln_offset), T::lit(self.ln_step));
         let mut h = [T::zero(); MAX_BINS];
         if t == T::zero() || self.nodes() < 2 {
-            h[..n].copy_from_slice(self.row(i));
+            for (v, &q) in h.iter_mut().zip(self.row(i)) {
+                *v = offset + step * T::from_u16(q);
+            }
             return h;
         }
         let last = self.nodes() - 1;
@@ -243,10 +265,12 @@ impl<T: Real> ModelTable<'_, T> {
             half * (T::lit(-3.0) * t3 + T::lit(4.0) * t2 + t),
             half * (t3 - t2),
         ];
+        let two = T::lit(2.0);
         for k in 0..n {
-            let a = if i > 0 { self.row(i - 1)[k] } else { b[k] + b[k] - c[k] };
-            let d = if i + 1 < last { self.row(i + 2)[k] } else { c[k] + c[k] - b[k] };
-            h[k] = w[0] * a + w[1] * b[k] + w[2] * c[k] + w[3] * d;
+            let (bk, ck) = (T::from_u16(b[k]), T::from_u16(c[k]));
+            let a = if i > 0 { T::from_u16(self.row(i - 1)[k]) } else { two * bk - ck };
+            let d = if i + 1 < last { T::from_u16(self.row(i + 2)[k]) } else { two * ck - bk };
+            h[k] = offset + step * (w[0] * a + w[1] * bk + w[2] * ck + w[3] * d);
         }
         h
     }
@@ -676,9 +700,10 @@ mod tests {
     fn fit<T: Real>(c: &Calibration, v: &SpectrumView<'_, T>, noise: T) -> Result<StripRh<T>, Refusal> {
         let g = BinGeometry::new(2000.0, &crate::band::Band::DEFAULT);
         let nodes = table_nodes(c);
-        let (mut ln_gain, mut sd_cal) = (vec![T::zero(); nodes * g.bins], vec![T::zero(); nodes]);
-        fill_table(c, &g, &mut ln_gain, &mut sd_cal);
-        strip_rh(&ModelTable { rh_min: c.rh_min, rh_max: c.rh_max, geometry: g, ln_gain: &ln_gain, sd_cal: &sd_cal }, v, noise)
+        let (mut ln_gain, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![T::zero(); nodes]);
+        let TableScale { ln_offset, ln_step } = fill_table(c, &g, &mut ln_gain, &mut sd_cal);
+        let table = ModelTable { rh_min: c.rh_min, rh_max: c.rh_max, geometry: g, ln_offset, ln_step, ln_gain: &ln_gain, sd_cal: &sd_cal };
+        strip_rh(&table, v, noise)
     }
 
     #[test]

@@ -1,7 +1,13 @@
 //! The seam to ipmc-core: every call into the physics/filter crate goes through here, so the
 //! tasks read as data flow and the core API is named in one place.
 
-use ipmc_core::{Calibration, Compensator, DesignConfig, DesignError, Inverse, design_inverse, expected_error::ErrorTable};
+use ipmc_core::{
+    Calibration, Compensator, DesignConfig, DesignError, Inverse,
+    block_hygrometer::Snapshot,
+    design_inverse,
+    expected_error::ErrorTable,
+    strip_humidity::{Refusal, StripRh, strip_rh},
+};
 
 /// The calibration compiled into this firmware (see `calibration`: chosen at build time).
 pub fn calibration() -> Calibration {
@@ -11,6 +17,13 @@ pub fn calibration() -> Calibration {
 /// The expected error of the calibration's designs over humidity, tabulated at build time.
 pub fn error_table() -> ErrorTable {
     super::calibration::ERROR_TABLE
+}
+
+/// The strip's humidity from a snapshot of its current's spectrum, with the model table baked
+/// for this calibration. Slow: runs in the fit task only.
+pub fn fit(snapshot: &Snapshot<f32>) -> Result<StripRh<f32>, Refusal> {
+    let noise = calibration().uncertainty.current_noise_a_per_rthz as f32;
+    strip_rh(&super::calibration::STRIP_TABLE, &snapshot.view(), noise * noise)
 }
 
 fn design_config() -> DesignConfig<f32> {

@@ -5,8 +5,10 @@ use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
 
 use embassy_sync::{blocking_mutex::raw::CriticalSectionRawMutex, channel::Channel, signal::Signal};
 use ipmc_core::Inverse;
+use ipmc_core::block_hygrometer::Snapshot;
 use ipmc_core::startup::{Designed, Request};
 use ipmc_core::stream::Header;
+use ipmc_core::strip_humidity::{Refusal, StripRh};
 
 use super::config::BLOCK_LEN;
 
@@ -18,6 +20,13 @@ pub static DESIGN_OUTCOME: Signal<CriticalSectionRawMutex, Designed> = Signal::n
 
 /// A finished design waiting for the sample path (latest design wins).
 pub static DESIGN_READY: Signal<CriticalSectionRawMutex, Inverse<f32>> = Signal::new();
+
+/// The current's spectrum for the hygrometer's fit (one at a time: the sample path takes no
+/// new snapshot while a fit is out).
+pub static FIT_REQUEST: Signal<CriticalSectionRawMutex, Snapshot<f32>> = Signal::new();
+
+/// The fit's result, for the sample path's next block.
+pub static FIT_RESULT: Signal<CriticalSectionRawMutex, Result<StripRh<f32>, Refusal>> = Signal::new();
 
 /// One block of estimates on its way to the report task.
 #[derive(Clone, Copy)]

@@ -9,6 +9,7 @@ pub mod current_conversion;
 pub mod flags;
 pub mod handoff;
 pub mod humidity;
+pub mod hygrometer;
 pub mod ports;
 pub mod report;
 pub mod retune;

@@ -1,14 +1,19 @@
 //! The per-sample path: current block → compensation → report queue. Runs at the highest
 //! priority; after start-up it never waits for anything but the next block of samples. Each
 //! block also advances the strip's humidity by its own duration (`ipmc_core::block_humidity`)
-//! and asks for a design when that moved away from the active one.
+//! and asks for a design when that moved away from the active one. Its current also feeds the
+//! strip's own hygrometer (`ipmc_core::block_hygrometer`: a spectrum here, the fit in the fit
+//! task); with a `fused` calibration the design follows the fused humidity instead of the
+//! reading's.
 
 use ipmc_core::{
     block_humidity::{BlockHumidity, span_s},
+    block_hygrometer::BlockHygrometer,
     expected_error::BlockError,
+    humidity_path::HumidityMode,
     operating_point::{asks_for_design, reading_age_s},
     startup::Request,
-    stream::Header,
+    stream::{Header, Hygrometer},
     stuck::StuckDetector,
 };
 
@@ -18,7 +23,7 @@ use super::{
     compensation::SamplePathFilter,
     config::{BLOCK_LEN, SAMPLE_RATE_HZ},
     flags,
-    handoff::{self, DESIGN_READY, EstimateBlock, LATEST_READ_RH_PCT, REPORT_QUEUE, RETUNE_REQUEST, ReportItem},
+    handoff::{self, DESIGN_READY, EstimateBlock, FIT_REQUEST, FIT_RESULT, LATEST_READ_RH_PCT, REPORT_QUEUE, RETUNE_REQUEST, ReportItem},
     ports::{CurrentSource, SampleBlock},
 };
 
@@ -36,7 +41,13 @@ pub async fn sample_task(mut samples: Samples) {
     let mut dropped_since_last = false;
     // One second of identical samples is no live front end (see ipmc_core::stuck).
     let mut stuck = StuckDetector::new(SAMPLE_RATE_HZ);
-    let mut humidity = BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s());
+    let calibration = super::compensation::calibration();
+    let mut humidity = BlockHumidity::<f32>::new(&calibration, reading_age_s());
+    let mut hygrometer = BlockHygrometer::<f32>::new(&calibration, SAMPLE_RATE_HZ as f64);
+    // Fused: the designs follow the fused humidity, the strip's already (no second correction).
+    let fused_mode = calibration.humidity.mode == HumidityMode::Fused;
+    let mut fused =
+        BlockHumidity::<f32>::new(&ipmc_core::Calibration { humidity: calibration.humidity.at_strip(), ..calibration }, reading_age_s());
     let mut error_bar = BlockError::<f32>::new(&super::compensation::error_table(), &ipmc_core::DesignConfig::firmware());
     // RH of the active or already requested design.
     let mut design_rh = first.rh_pct();
@@ -48,7 +59,15 @@ pub async fn sample_task(mut samples: Samples) {
     let mut since_last: u32 = 0;
     loop {
         let mut block = EstimateBlock {
-            header: Header { first_sample, rh_pct: 0.0, rh_strip_pct: f32::NAN, rh_read_pct: 0.0, rel_err: f32::NAN, flags: 0 },
+            header: Header {
+                first_sample,
+                rh_pct: 0.0,
+                rh_strip_pct: f32::NAN,
+                rh_read_pct: 0.0,
+                rel_err: f32::NAN,
+                hygrometer: Hygrometer::NONE,
+                flags: 0,
+            },
             base_est_m: [0.0; BLOCK_LEN],
         };
         let source_flags = match samples.read_block(&mut block.base_est_m).await {
@@ -66,6 +85,17 @@ pub async fn sample_task(mut samples: Samples) {
             block.header.flags |= flags::STUCK;
         }
 
+        // The hygrometer: a finished fit first, then this block's current into the spectrum (the
+        // order the host replays).
+        if let Some(result) = FIT_RESULT.try_take() {
+            hygrometer.complete(result);
+            block.header.flags |= flags::FIT_DONE;
+        }
+        if let Some(snapshot) = hygrometer.push(&block.base_est_m, humidity.strip_pct()) {
+            FIT_REQUEST.signal(snapshot);
+            block.header.flags |= flags::FIT_STARTED;
+        }
+
         if let Some(design) = DESIGN_READY.try_take() {
             filter.switch_to(&design);
             block.header.flags |= flags::RETUNED;
@@ -77,8 +107,15 @@ pub async fn sample_task(mut samples: Samples) {
 
         block.header.rh_read_pct = LATEST_READ_RH_PCT.load();
         // No reading yet: the first design is the humidity task's fallback, and stays.
-        if let Some(now) = humidity.advance(block.header.rh_read_pct, span_s(since_last, SAMPLE_RATE_HZ)) {
-            block.header.rh_strip_pct = humidity.strip_pct().unwrap_or(now.rh_pct);
+        let dt_s = span_s(since_last, SAMPLE_RATE_HZ);
+        if let Some(read) = humidity.advance(block.header.rh_read_pct, dt_s) {
+            block.header.rh_strip_pct = humidity.strip_pct().unwrap_or(read.rh_pct);
+            let h = hygrometer.humidities(block.header.rh_strip_pct);
+            block.header.hygrometer = h.to_wire();
+            if !matches!(h.strip, Some(Ok(_))) {
+                block.header.flags |= flags::OWN_REFUSED;
+            }
+            let now = if fused_mode { fused.advance(h.fused.rh_pct, dt_s).unwrap_or(read) } else { read };
             if now.clamped {
                 block.header.flags |= flags::RH_CLAMPED;
             }

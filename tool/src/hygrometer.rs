@@ -10,7 +10,7 @@ use ipmc_core::block_hygrometer::BlockHygrometer;
 use ipmc_core::filter::BLOCK_LEN;
 use ipmc_core::humidity_fusion::Estimate;
 use ipmc_core::running_spectrum::{AVERAGING_S, BinGeometry};
-use ipmc_core::strip_humidity::{ModelTable, Refusal, StripRh, fill_table, strip_rh, table_nodes};
+use ipmc_core::strip_humidity::{ModelTable, Refusal, StripRh, TableScale, fill_table, strip_rh, table_nodes};
 use ipmc_recording::TimeSeries;
 
 /// The fit's model table for `calib` at the rate `fs_hz`, owned.
@@ -18,7 +18,8 @@ pub struct Table<T> {
     rh_min: f64,
     rh_max: f64,
     geometry: BinGeometry,
-    ln_gain: Vec<T>,
+    scale: TableScale,
+    ln_gain: Vec<u16>,
     sd_cal: Vec<T>,
 }
 
@@ -26,13 +27,21 @@ impl<T: Real> Table<T> {
     pub fn new(calib: &Calibration, fs_hz: f64) -> Self {
         let geometry = BinGeometry::new(fs_hz, &calib.band);
         let nodes = table_nodes(calib);
-        let (mut ln_gain, mut sd_cal) = (vec![T::zero(); nodes * geometry.bins], vec![T::zero(); nodes]);
-        fill_table(calib, &geometry, &mut ln_gain, &mut sd_cal);
-        Table { rh_min: calib.rh_min, rh_max: calib.rh_max, geometry, ln_gain, sd_cal }
+        let (mut ln_gain, mut sd_cal) = (vec![0u16; nodes * geometry.bins], vec![T::zero(); nodes]);
+        let scale = fill_table(calib, &geometry, &mut ln_gain, &mut sd_cal);
+        Table { rh_min: calib.rh_min, rh_max: calib.rh_max, geometry, scale, ln_gain, sd_cal }
     }
 
     pub fn view(&self) -> ModelTable<'_, T> {
-        ModelTable { rh_min: self.rh_min, rh_max: self.rh_max, geometry: self.geometry, ln_gain: &self.ln_gain, sd_cal: &self.sd_cal }
+        ModelTable {
+            rh_min: self.rh_min,
+            rh_max: self.rh_max,
+            geometry: self.geometry,
+            ln_offset: self.scale.ln_offset,
+            ln_step: self.scale.ln_step,
+            ln_gain: &self.ln_gain,
+            sd_cal: &self.sd_cal,
+        }
     }
 }
 

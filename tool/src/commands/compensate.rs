@@ -18,7 +18,7 @@ use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
 use crate::scoring::band_score;
 use anyhow::{Result, anyhow};
-use ipmc_core::humidity_path::{HumidityMode, HumidityPath};
+use ipmc_core::humidity_path::HumidityMode;
 use ipmc_recording::{Estimates as EstimateFile, write_atomically};
 use std::path::PathBuf;
 
@@ -90,8 +90,7 @@ pub fn run(a: Args) -> Result<()> {
         let seconds = crate::hygrometer::run(&calib, &ts);
         let ts = crate::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
         let mut at_strip = calib;
-        at_strip.humidity =
-            HumidityPath { sensor: calib.humidity.sensor, uncertainty_pct: calib.humidity.uncertainty_pct, ..HumidityPath::NONE };
+        at_strip.humidity = calib.humidity.at_strip();
         (at_strip, ts)
     } else {
         (calib, ts)

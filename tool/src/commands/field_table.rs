@@ -13,7 +13,6 @@ use crate::hygrometer::{self, Second};
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
 use anyhow::{Context, Result, anyhow};
-use ipmc_core::humidity_path::HumidityPath;
 use ipmc_core::running_spectrum::AVERAGING_S;
 use ipmc_core::{Calibration, Cascade, Sos};
 use ipmc_recording::TimeSeries;
@@ -166,8 +165,7 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
     }
     // The fused and the perfect designs take the strip's humidity as it is: no second correction.
     let mut at_strip = calib;
-    at_strip.humidity =
-        HumidityPath { sensor: calib.humidity.sensor, uncertainty_pct: calib.humidity.uncertainty_pct, ..HumidityPath::NONE };
+    at_strip.humidity = calib.humidity.at_strip();
     let reading = compensated(&calib, &ts)?;
     let fused = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| s.fused.rh_pct))?;
     let perfect = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| strip_at(s.t_s)))?;
