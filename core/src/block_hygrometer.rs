@@ -19,6 +19,13 @@ use crate::strip_humidity::{Refusal, StripRh};
 /// Fits at most this often [s].
 pub const FIT_PERIOD_S: f64 = 1.0;
 
+/// The current's noise density the fit leaves weak bins out by [A²/Hz], from the calibration's
+/// `[uncertainty]`.
+pub fn noise_psd<T: Real>(calib: &Calibration) -> T {
+    let d = T::lit(calib.uncertainty.current_noise_a_per_rthz);
+    d * d
+}
+
 /// What the fit is given: the spectrum as it was when the snapshot was taken.
 #[derive(Clone, Copy, Debug)]
 pub struct Snapshot<T> {

@@ -3,7 +3,7 @@
 
 use ipmc_core::{
     Calibration, Compensator, DesignConfig, DesignError, Inverse,
-    block_hygrometer::Snapshot,
+    block_hygrometer::{Snapshot, noise_psd},
     design_inverse,
     expected_error::ErrorTable,
     strip_humidity::{Refusal, StripRh, strip_rh},
@@ -22,8 +22,7 @@ pub fn error_table() -> ErrorTable {
 /// The strip's humidity from a snapshot of its current's spectrum, with the model table baked
 /// for this calibration. Slow: runs in the fit task only.
 pub fn fit(snapshot: &Snapshot<f32>) -> Result<StripRh<f32>, Refusal> {
-    let noise = calibration().uncertainty.current_noise_a_per_rthz as f32;
-    strip_rh(&super::calibration::STRIP_TABLE, &snapshot.view(), noise * noise)
+    strip_rh(&super::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(&calibration()))
 }
 
 fn design_config() -> DesignConfig<f32> {

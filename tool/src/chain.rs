@@ -7,9 +7,12 @@
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::block_humidity::{BlockHumidity, span_s};
+use ipmc_core::block_hygrometer::{BlockHygrometer, noise_psd};
 use ipmc_core::expected_error::{BlockError, ErrorTable};
+use ipmc_core::humidity_path::HumidityMode;
 use ipmc_core::humidity_path::SensorKind;
 use ipmc_core::operating_point::{asks_for_design, reading_age_s};
+use ipmc_core::strip_humidity::{Refusal, StripRh, strip_rh};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, InverseKind, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::Path;
@@ -41,6 +44,9 @@ pub struct ScheduledBlock {
     pub rh_read_pct: f32,
     /// The firmware's expected error of the block (NaN if the file has no such column).
     pub rel_err: f32,
+    /// The strip's own hygrometer as the firmware reported it: the reading's 1σ, the strip's
+    /// estimate and its 1σ, the fused humidity and its 1σ (None if the file has no such columns).
+    pub hygrometer: Option<[f32; 5]>,
     pub flags: u16,
 }
 
@@ -60,7 +66,8 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
         if row % BLOCK_LEN == 0 {
             let at = |c: &Option<Vec<f32>>| c.as_ref().and_then(|r| r.get(row).copied()).unwrap_or(f32::NAN);
             let (rh_strip_pct, rh_read_pct, rel_err) = (at(&est.rh_strip_pct), at(&est.rh_read_pct), at(&est.rel_err));
-            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, rh_strip_pct, rh_read_pct, rel_err, flags: fl });
+            let hygrometer = est.hygrometer.as_ref().map(|h| h.columns().map(|c| c[row]));
+            out.push(ScheduledBlock { first_sample: row, rh_pct: rh, rh_strip_pct, rh_read_pct, rel_err, hygrometer, flags: fl });
         } else {
             let b = out.last().expect("a block was started");
             if b.flags != fl || b.rh_pct.to_bits() != rh.to_bits() {
@@ -92,6 +99,13 @@ pub fn compensate_scheduled(
     let mut est = Estimates::with_capacity(n);
     let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
     let mut humidity = BlockHumidity::<f32>::new(calib, reading_age_s());
+    // The strip's own hygrometer as the sample path runs it, its fits taken where the firmware's
+    // finished; with a `fused` calibration the designs follow the fused humidity.
+    let table = crate::hygrometer::Table::<f32>::new(calib, ts.fs_hz);
+    let mut hygrometer = BlockHygrometer::<f32>::new(calib, ts.fs_hz);
+    let mut fit_out: Option<Result<StripRh<f32>, Refusal>> = None;
+    let fused_mode = calib.humidity.mode == HumidityMode::Fused;
+    let mut fused = BlockHumidity::<f32>::new(&Calibration { humidity: calib.humidity.at_strip(), ..*calib }, reading_age_s());
     // The designs the sample path asked for, run here as it runs them (bits of their RH): every
     // retune of the schedule must be one of them.
     let mut design_rh = schedule[0].rh_pct;
@@ -105,6 +119,20 @@ pub fn compensate_scheduled(
         if pos + BLOCK_LEN > ts.t_s.len() {
             break;
         }
+        let raw: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
+        if b.flags & flags::FIT_DONE != 0 {
+            let result = fit_out.take().ok_or_else(|| anyhow!("block at sample {pos}: a fit finished that never started"))?;
+            hygrometer.complete(result);
+        }
+        match (hygrometer.push(&raw, humidity.strip_pct()), b.flags & flags::FIT_STARTED != 0) {
+            (Some(snapshot), true) => fit_out = Some(strip_rh(&table.view(), &snapshot.view(), noise_psd(calib))),
+            (None, false) => {}
+            (_, started) => bail!(
+                "block at sample {pos}: the firmware {} a fit here, the host's hygrometer would {}",
+                if started { "started" } else { "did not start" },
+                if started { "not" } else { "have" }
+            ),
+        }
         if b.flags & flags::RETUNED != 0 {
             if !b.rh_read_pct.is_nan() && !asked.contains(&b.rh_pct.to_bits()) {
                 bail!(
@@ -115,7 +143,7 @@ pub fn compensate_scheduled(
             comp.switch_to(&design(b.rh_pct)?);
             est.retunes += 1;
         }
-        let mut block: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
+        let mut block = raw;
         comp.process_block(&mut block);
         let rel_err = error_bar.block(comp.rh_pct(), &block);
         if !b.rel_err.is_nan() && rel_err.to_bits() != b.rel_err.to_bits() {
@@ -132,6 +160,17 @@ pub fn compensate_scheduled(
                     b.rh_strip_pct
                 );
             }
+            let h = hygrometer.humidities(here);
+            if let Some(theirs) = b.hygrometer {
+                let w = h.to_wire();
+                let ours = [w.read_sd_pct, w.own_pct, w.own_sd_pct, w.fused_pct, w.fused_sd_pct];
+                if ours.map(f32::to_bits) != theirs.map(f32::to_bits) {
+                    bail!(
+                        "block at sample {pos}: the firmware's hygrometer (reading 1σ, own ± 1σ, fused ± 1σ) is {theirs:?}, the host's replay {ours:?}"
+                    );
+                }
+            }
+            let now = if fused_mode { fused.advance(h.fused.rh_pct, dt).unwrap_or(now) } else { now };
             if asks_for_design(design_rh, now.rh_pct, comp.is_retuning()) {
                 design_rh = now.rh_pct;
                 asked.push(now.rh_pct.to_bits());

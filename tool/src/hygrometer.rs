@@ -6,7 +6,7 @@
 use ipmc_core::Calibration;
 use ipmc_core::Real;
 use ipmc_core::block_humidity::{BlockHumidity, span_s};
-use ipmc_core::block_hygrometer::BlockHygrometer;
+use ipmc_core::block_hygrometer::{BlockHygrometer, noise_psd};
 use ipmc_core::filter::BLOCK_LEN;
 use ipmc_core::humidity_fusion::Estimate;
 use ipmc_core::running_spectrum::{AVERAGING_S, BinGeometry};
@@ -63,7 +63,7 @@ pub struct Second {
 /// its mean, through the humidity path), one [`Second`] per fit.
 pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
     let table = Table::<f64>::new(calib, ts.fs_hz);
-    let noise_psd = calib.uncertainty.current_noise_a_per_rthz.powi(2);
+    let noise_psd = noise_psd(calib);
     let mut hygrometer = BlockHygrometer::<f64>::new(calib, ts.fs_hz);
     let mut humidity = BlockHumidity::<f64>::new(calib, BLOCK_LEN as f64 / 2.0 / ts.fs_hz);
     let dt = span_s::<f64>(BLOCK_LEN as u32, ts.fs_hz.round() as u32);

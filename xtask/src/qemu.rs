@@ -262,6 +262,7 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
         rh_read_pct: Some(vec![]),
         rel_err: Some(vec![]),
         flags: Some(vec![]),
+        hygrometer: Some(Default::default()),
         ..Default::default()
     };
     est.metadata.set("fs_hz", FIRMWARE_FS_HZ);
@@ -278,6 +279,11 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
             est.rh_read_pct.as_mut().expect("set above").push(b.header.rh_read_pct);
             est.rel_err.as_mut().expect("set above").push(b.header.rel_err);
             est.flags.as_mut().expect("set above").push(b.header.flags);
+            let h = &b.header.hygrometer;
+            let values = [h.read_sd_pct, h.own_pct, h.own_sd_pct, h.fused_pct, h.fused_sd_pct];
+            for (column, v) in est.hygrometer.as_mut().expect("set above").columns_mut().into_iter().zip(values) {
+                column.push(v);
+            }
         }
     }
     let text = est.to_csv()?;

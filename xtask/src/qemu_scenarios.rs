@@ -306,6 +306,54 @@ pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
     Ok(())
 }
 
+/// The equivalence with the strip's own hygrometer designing: a QEMU build with the humidity
+/// path's test calibration in `mode = "fused"`, on 30 s of the project's field mode at 75 %RH
+/// (unknown broadband base motion: what the strip's own estimate needs). The host replays the
+/// firmware's fits where they finished (`compensate --schedule` refuses any bit difference in
+/// the reading's 1σ, the strip's estimate, the fused humidity, or a retune to a humidity its own
+/// rerun never asked for), and the estimates must agree as without it. At least one fit must
+/// have given an estimate, or the fused path was never exercised.
+pub fn qemu_host_equivalence_fused() -> Result<()> {
+    use ipmc_core::humidity_path::HumidityMode;
+    let work = repo_root().join("target/qemu-test/fused");
+    std::fs::create_dir_all(&work)?;
+    let mut c = calibration_with_humidity_path();
+    c.humidity.mode = HumidityMode::Fused;
+    let calib = work.join("CALIB-fused.toml");
+    std::fs::write(&calib, ipmc_core::calibration_file::to_text(&c)).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
+    let elf = firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(&calib))?;
+    let rec_path = work.join("field-75.csv");
+    ipmc(&[
+        "simulate-field".as_ref(),
+        "--calib".as_ref(),
+        calib.as_os_str(),
+        "--rh".as_ref(),
+        "75".as_ref(),
+        "--seconds".as_ref(),
+        "30".as_ref(),
+        "--out".as_ref(),
+        rec_path.as_os_str(),
+    ])?;
+    let blocks = host_equivalence_on("fused", &rec_path, &elf, Some(&calib))?;
+    let fits = blocks.iter().filter(|b| b.header.flags & flags::FIT_DONE != 0).count();
+    let estimates = blocks.iter().filter(|b| b.header.flags & flags::FIT_DONE != 0 && b.header.hygrometer.own_refusal == 0).count();
+    let last = blocks.last().context("no blocks")?.header;
+    println!(
+        "{fits} fits finished, {estimates} with an estimate; at the end: reading path {:.2} ± {:.2} %RH, the strip's own {:.2} ± {:.2}, fused {:.2} ± {:.2}, design {:.2}",
+        last.rh_strip_pct,
+        last.hygrometer.read_sd_pct,
+        last.hygrometer.own_pct,
+        last.hygrometer.own_sd_pct,
+        last.hygrometer.fused_pct,
+        last.hygrometer.fused_sd_pct,
+        last.rh_pct
+    );
+    if estimates == 0 {
+        bail!("{fits} fits finished but none gave an estimate: the fused design was never exercised");
+    }
+    Ok(())
+}
+
 /// The same on `seconds` of a ramp `rh_from` → `rh_to` %, in target/qemu-test/`name`.
 fn host_equivalence_on_ramp(
     name: &str,
@@ -330,7 +378,23 @@ fn host_equivalence_on_ramp(
         "--out".as_ref(),
         rec_path.as_os_str(),
     ])?;
-    let rec = crate::recording::time_series(&rec_path)?;
+    let blocks = host_equivalence_on(name, &rec_path, elf, calib)?;
+    if !blocks.iter().any(|b| b.header.flags & flags::RETUNED != 0) {
+        bail!("RH ramps {rh_from} → {rh_to} % but the firmware never retuned");
+    }
+    Ok(blocks)
+}
+
+/// The firmware `elf` under QEMU and the host's replay of its schedule on the recording at
+/// `rec_path`, in target/qemu-test/`name`: their estimates must agree.
+fn host_equivalence_on(
+    name: &str,
+    rec_path: &std::path::Path,
+    elf: &std::path::Path,
+    calib: Option<&std::path::Path>,
+) -> Result<Vec<crate::stream::Block>> {
+    let work = repo_root().join("target/qemu-test").join(name);
+    let rec = crate::recording::time_series(rec_path)?;
     let replay = Replay::of_recording(&rec);
     let samples = &replay.samples;
     let started = std::time::Instant::now();
@@ -341,9 +405,6 @@ fn host_equivalence_on_ramp(
     }
     check_count(&r, samples.len())?;
     let retunes = r.blocks_with(flags::RETUNED);
-    if retunes == 0 {
-        bail!("RH ramps {rh_from} → {rh_to} % but the firmware never retuned\n{}", r.log);
-    }
     let fw_path = work.join("EST-qemu.csv");
     qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks, &replay, &qemu::band_of(calib)?)?;
     let host_path = work.join("EST-host.csv");

@@ -5,7 +5,7 @@ use crate::{
     Result, cargo,
     firmware::{self, Variant},
     qemu_scenarios::{
-        qemu_host_equivalence, qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_bundled,
+        qemu_host_equivalence, qemu_host_equivalence_fused, qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_bundled,
         qemu_replay_counts_and_retunes, qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_no_new_humidity,
         qemu_replay_no_receiver, qemu_replay_sensor_faults,
     },
@@ -142,6 +142,10 @@ pub fn command(filter: &[String]) -> Result<()> {
         (
             "qemu replay: host ↔ QEMU equivalence with a humidity path (correction and hydration lag)",
             qemu_host_equivalence_with_humidity_path,
+        ),
+        (
+            "qemu replay: host ↔ QEMU equivalence in mode fused (the strip's own hygrometer designs; field mode)",
+            qemu_host_equivalence_fused,
         ),
         ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),
