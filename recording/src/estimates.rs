@@ -21,7 +21,7 @@ const COLUMNS: [&str; 12] = [
     HYGROMETER_COLUMNS[4],
 ];
 /// In the order of [`Hygrometer::columns`].
-const HYGROMETER_COLUMNS: [&str; 5] = ["rh_strip_sd_pct", "rh_own_pct", "rh_own_sd_pct", "rh_fused_pct", "rh_fused_sd_pct"];
+pub const HYGROMETER_COLUMNS: [&str; 5] = ["rh_strip_sd_pct", "rh_own_pct", "rh_own_sd_pct", "rh_fused_pct", "rh_fused_sd_pct"];
 
 /// Per sample, the strip's own hygrometer at the block [%RH] (the stream's, version 4).
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -21,7 +21,7 @@ mod time_series;
 
 pub use charging::Charging;
 pub use error::{Error, FieldRef, Warning};
-pub use estimates::{Estimates, Hygrometer as HygrometerColumns};
+pub use estimates::{Estimates, HYGROMETER_COLUMNS, Hygrometer as HygrometerColumns};
 pub use frequency_response::{FrPoint, FrequencyResponse, LEVEL_SCATTER_PCT, Level, Response, unwrap_degrees};
 pub use metadata::Metadata;
 pub use output::{write_atomically, write_atomically_with};

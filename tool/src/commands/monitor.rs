@@ -5,7 +5,8 @@
 //! counted; the stream goes on at the next delimiter.
 
 use anyhow::{Context, Result};
-use ipmc_core::stream::{DecodeError, Deframer, Frame, Header, MAX_FRAME_LEN, flags};
+use ipmc_core::stream::{DecodeError, Deframer, Frame, Header, Hygrometer, MAX_FRAME_LEN, flags};
+use ipmc_core::strip_humidity::Refusal;
 use std::{
     fs::File,
     io::{BufWriter, ErrorKind, Read, Write},
@@ -22,9 +23,12 @@ const DEFAULT_FS_HZ: u32 = 2_000;
 pub struct Args {
     /// Serial port (e.g. /dev/ttyACM0, COM3), a captured stream file, or `-` for stdin.
     port: String,
-    /// Write every estimate to this CSV (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`,
-    /// `# fs_hz=` metadata; `rh_pct` the active design's humidity, `rh_strip_pct` the strip's,
-    /// `rh_read_pct` the sensor's reading, `rel_err` the block's expected relative error, 1σ).
+    /// Write every estimate to this CSV (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`
+    /// and the strip's own hygrometer's columns, `# fs_hz=` metadata; `rh_pct` the active design's
+    /// humidity, `rh_strip_pct` the reading through the humidity path, `rh_read_pct` the sensor's
+    /// reading, `rel_err` the block's expected relative error, 1σ; `rh_strip_sd_pct` the reading
+    /// path's 1σ, `rh_own_pct`/`rh_own_sd_pct` the strip's humidity from its own current,
+    /// `rh_fused_pct`/`rh_fused_sd_pct` the two fused: the estimate file `ipmc compensate` writes).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Serial baud rate (ignored for files and stdin).
@@ -42,7 +46,7 @@ pub fn run(a: Args) -> Result<()> {
             let f = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
             let mut w = BufWriter::new(f);
             writeln!(w, "# fs_hz={}", a.fs_hz)?;
-            writeln!(w, "t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags")?;
+            writeln!(w, "t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags,{}", ipmc_recording::HYGROMETER_COLUMNS.join(","))?;
             Some(w)
         }
         None => None,
@@ -65,10 +69,22 @@ pub fn run(a: Args) -> Result<()> {
             }
             io_result = match event {
                 Event::Sample(s) => csv.as_mut().map_or(Ok(()), |w| {
+                    let h = &s.hygrometer;
                     writeln!(
                         w,
-                        "{},{:e},{},{},{},{:e},{}",
-                        s.t_s, s.base_est_m, s.rh_pct, s.rh_strip_pct, s.rh_read_pct, s.rel_err, s.flags
+                        "{},{:e},{},{},{},{:e},{},{},{},{},{},{}",
+                        s.t_s,
+                        s.base_est_m,
+                        s.rh_pct,
+                        s.rh_strip_pct,
+                        s.rh_read_pct,
+                        s.rel_err,
+                        s.flags,
+                        h.read_sd_pct,
+                        h.own_pct,
+                        h.own_sd_pct,
+                        h.fused_pct,
+                        h.fused_sd_pct
                     )
                 }),
                 Event::Status(line) => writeln!(stdout, "{line}"),
@@ -124,6 +140,7 @@ pub struct Sample {
     pub rh_strip_pct: f32,
     pub rh_read_pct: f32,
     pub rel_err: f32,
+    pub hygrometer: Hygrometer,
     pub flags: u16,
 }
 
@@ -196,6 +213,7 @@ impl Monitor {
                 rh_strip_pct: h.rh_strip_pct,
                 rh_read_pct: h.rh_read_pct,
                 rel_err: h.rel_err,
+                hygrometer: h.hygrometer,
                 flags: h.flags,
             };
             emit(Event::Sample(s));
@@ -208,13 +226,17 @@ impl Monitor {
 
     fn status_line(&self, s: &Sample) -> String {
         format!(
-            "t {:10.3} s  base {:+.4e} m ± {:.1} %  RH {:6.2} % (strip {:6.2} %, read {:6.2} %)  flags {:#06x}{}  (frames {}, bad {})",
+            "t {:10.3} s  base {:+.4e} m ± {:.1} %  RH {:6.2} % (strip {:6.2} ± {:.2} %, read {:6.2} %; own {}, fused {:6.2} ± {:.2} %)  flags {:#06x}{}  (frames {}, bad {})",
             s.t_s,
             s.base_est_m,
             100.0 * s.rel_err,
             s.rh_pct,
             s.rh_strip_pct,
+            s.hygrometer.read_sd_pct,
             s.rh_read_pct,
+            own(&s.hygrometer),
+            s.hygrometer.fused_pct,
+            s.hygrometer.fused_sd_pct,
             s.flags,
             flag_names(s.flags),
             self.frames,
@@ -237,6 +259,15 @@ struct OwnedFrame {
 impl From<&Frame<'_>> for OwnedFrame {
     fn from(f: &Frame<'_>) -> Self {
         Self { header: f.header, estimates: f.estimates().collect() }
+    }
+}
+
+/// The strip's own estimate, or why there is none.
+fn own(h: &Hygrometer) -> String {
+    match h.own_refusal {
+        0 => format!("{:6.2} ± {:.2} %", h.own_pct, h.own_sd_pct),
+        Hygrometer::NO_FIT_YET => "no fit yet".into(),
+        code => Refusal::of_code(code).map_or_else(|| format!("refused ({code})"), |r| format!("refused: {}", r.as_str())),
     }
 }
 
