@@ -47,6 +47,11 @@ enum Command {
     Identify(commands::identify::Args),
     /// Run the firmware's f32 compensation chain over a time-series recording on the host.
     Compensate(commands::compensate::Args),
+    /// A strip's workflow end to end: identify its frequency response, compensate a time series
+    /// of the same strip from another session, and print per level the error with the strip's
+    /// own calibration beside the nominal one's, the identified model's exact inverse and a
+    /// perfect calibration's (`--truth`).
+    StripCheck(commands::strip_check::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
@@ -84,6 +89,7 @@ fn main() {
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Identify(a) => commands::identify::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
+        Command::StripCheck(a) => commands::strip_check::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),

@@ -239,7 +239,7 @@ fn charging_recordings_give_kappa_e_at_their_levels() {
         let rh = num(l, "rh_pct");
         let near = [28.0, 60.0, 90.0].iter().any(|c| (c - rh).abs() < 3.0);
         let source = l["kappa_e_source"].as_str().unwrap();
-        assert_eq!(source, if near { "charging" } else { "base calibration" }, "RH {rh}");
+        assert_eq!(source, if near { "charging" } else { "copied from the base calibration" }, "RH {rh}");
         if near {
             measured += 1;
             let (v, t) = (num(l, "kappa_e"), sample().params_at::<f64>(rh).kappa_e);
@@ -298,12 +298,19 @@ fn hand_written_edge_cases() {
     let err = ipmc_fails(&["identify", bad.to_str().unwrap(), "--out", calib.to_str().unwrap(), "--levels", levels.to_str().unwrap()]);
     assert!(err.contains("bad.csv:3:"), "{err}");
 
-    // A single level makes constant laws over its own humidity range.
+    // A single level scales the base's laws through it, over its own humidity range.
     let (mut rec, _) = FrequencyResponse::read(&full.recording).unwrap();
     rec.points.truncate(40);
     let one = dir.join("one-level.csv");
     std::fs::write(&one, rec.to_csv().unwrap()).unwrap();
-    assert_eq!(run(&one).len(), 1);
+    let out = run(&one);
+    assert_eq!(out.len(), 1);
     let c = calibration_file::parse(&std::fs::read_to_string(&calib).unwrap()).unwrap();
-    assert!(c.y.coeffs[1..].iter().all(|&k| k == 0.0), "one level: a constant Y law, got {:?}", c.y.coeffs);
+    let rh = num(&out[0], "rh_pct");
+    for p in [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::D] {
+        let (law, level): (f64, f64) = (c.params_at::<f64>(rh).get(p), num(&out[0], p.as_str()));
+        assert!((law / level - 1.0).abs() < 1e-3, "one level: {} law {law:e} vs the level's {level:e}", p.as_str());
+        let shape = |r: f64| c.law(p).unwrap().eval(r) / Calibration::default_preset().law(p).unwrap().eval(r);
+        assert!((shape(c.rh_min) / shape(c.rh_max) - 1.0).abs() < 1e-3, "one level: the base's shape of {}", p.as_str());
+    }
 }

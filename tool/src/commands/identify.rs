@@ -17,7 +17,7 @@ use ipmc_core::Calibration;
 use ipmc_core::ParamName;
 use ipmc_core::calibration_file;
 use ipmc_fit::departures::StripModel;
-use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, SessionTipGain, identify_session};
+use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_session};
 use ipmc_fit::laws::{LawFit, calibration_from_levels};
 use ipmc_recording::write_atomically;
 use ipmc_recording::{Charging, Format as _, LEVEL_SCATTER_PCT, Level};
@@ -230,9 +230,7 @@ pub struct Identified {
     pub calib: Calibration,
     /// The levels as grouped, each with its number (from 1) and fit.
     pub fits: Vec<(usize, Level, LevelFit)>,
-    pub laws: Vec<LawFit>,
     pub model: StripModel,
-    pub tip_gain: Option<SessionTipGain>,
     /// The calibration file's text (header comments and TOML).
     pub text: String,
 }
@@ -352,7 +350,7 @@ pub fn identify(recording: &Path, base: &Calibration, base_name: &str, charging:
     }
     header += "# [uncertainty]: what remains unknown of Y, Cs, Ca and d after the laws and departures (rms over the range).\n";
     let text = format!("{header}{}", calibration_file::to_text(&calib));
-    Ok(Identified { calib, fits, laws, model, tip_gain, text })
+    Ok(Identified { calib, fits, model, text })
 }
 
 /// The base calibration a command starts from, and its name; a missing `--calib` is said.

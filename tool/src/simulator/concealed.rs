@@ -97,7 +97,7 @@ pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strengt
             read_gain: bench.sensor_gain,
             read_bias_pct: bench.sensor_offset_pct,
         },
-        sample: Sample { drift_pct: [3.0, 15.0, 15.0, 15.0], scatter_pct: [1.0, 3.0, 6.0, 6.0] },
+        sample: Sample { drift_pct: [3.0, 15.0, 15.0, 15.0], scatter_pct: [1.0, 3.0, 6.0, 6.0], strip_seed: None },
         frequencies: None,
         time_series: None,
         charging: None,

@@ -19,6 +19,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mut rng = SplitMix64(session.seed);
     let mut bench = Bench::settled(h.levels_pct[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
+    let strip = super::Strip::of(&session.sample);
     let mains = Mains::draw(n, &mut rng);
     let room = Room::draw(session, &mut rng);
     let mut points = Vec::with_capacity(h.levels_pct.len() * freqs.len());
@@ -32,7 +33,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
         let temp_level = room.at(t);
         for &f in &freqs {
             let rh_sample = bench.sample();
-            let (params, temp_c) = sample_at(calib, rh_sample, dep, temp_level);
+            let (params, temp_c) = sample_at(calib, rh_sample, dep, strip.as_ref(), temp_level);
             let (tip, current) = physics.response(&params, rh_sample, temp_c, jw(f));
             if !(tip.is_finite() && current.is_finite()) {
                 bail!("the physics gave a non-finite response at {f} Hz, RH {rh_sample} %");

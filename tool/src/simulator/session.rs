@@ -116,7 +116,11 @@ fn unit() -> f64 {
 }
 
 /// How the sample differs from its calibration: a drift drawn once per session and a scatter
-/// drawn per level, each log-normal with these standard deviations [%] for Y, Cs, Ca and d.
+/// between levels, each log-normal with these standard deviations [%] for Y, Cs, Ca and d.
+/// Without `strip_seed` the scatter is drawn per level from the session's seed (each session its
+/// own strip); with it, the scatter is the strip's: a fixed function of the strip seed and the
+/// humidity the strip is at ([`crate::simulator::Strip`]), the same in every session naming it,
+/// so that a frequency response and a time series are of one strip.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Sample {
@@ -124,6 +128,8 @@ pub struct Sample {
     pub drift_pct: [f64; 4],
     #[serde(default)]
     pub scatter_pct: [f64; 4],
+    #[serde(default)]
+    pub strip_seed: Option<u64>,
 }
 
 /// Excitation frequencies of a frequency-response session: `list_hz`, or `points` log-spaced

@@ -55,6 +55,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     };
     let mut bench = Bench::settled(levels[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
+    let strip = super::Strip::of(&session.sample);
     let mains = Mains::draw(n, &mut rng);
     let room = Room::draw(session, &mut rng);
     let tone_amplitude_m = tones.first().map_or(0.0, |t| t.amplitude_m);
@@ -98,7 +99,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             }
             let rh_sample = bench.sample();
             if cached.as_ref().is_none_or(|(bits, ..)| *bits != rh_sample.to_bits()) {
-                let (params, temp_c) = sample_at(calib, rh_sample, dep, temp_level);
+                let (params, temp_c) = sample_at(calib, rh_sample, dep, strip.as_ref(), temp_level);
                 let responses = tones.iter().map(|tone| physics.response(&params, rh_sample, temp_c, jw(tone.freq_hz))).collect();
                 // The current a tone at the mains line would give: the pickup's scale.
                 let at_line = mains.as_ref().map_or(0.0, |m| current_response(&params, jw(m.line_hz)).norm() * tone_amplitude_m);
