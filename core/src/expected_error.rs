@@ -131,7 +131,13 @@ pub fn terms_at(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, cfg: &DesignCo
         for i in 0..NOISE_POINTS {
             let f = cfg.band_lo_hz + dn * i as f64;
             // Simpson: 1, 4, 2, 4, …, 4, 1 (× step/3).
-            let w = if i == 0 || i == NOISE_POINTS - 1 { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 };
+            let w = if i == 0 || i == NOISE_POINTS - 1 {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
             noise += w * density * density / current_response(&p, jw(f)).norm_sqr() * dn / 3.0;
         }
     }
@@ -433,7 +439,10 @@ mod tests {
     /// signal; together what a block states.
     #[test]
     fn parts_add_up_to_the_block_error() {
-        let c = Calibration { uncertainty: Uncertainty { current_noise_a_per_rthz: 1e-11, ..Uncertainty::TYPICAL }, ..Calibration::default_preset() };
+        let c = Calibration {
+            uncertainty: Uncertainty { current_noise_a_per_rthz: 1e-11, ..Uncertainty::TYPICAL },
+            ..Calibration::default_preset()
+        };
         let cfg = DesignConfig::firmware();
         let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
         let (v, n) = t.at(60.0f64);
@@ -443,7 +452,8 @@ mod tests {
         let mut b = BlockError::<f64>::new(&t, &cfg);
         let mut last = 0.0;
         for blk in 0..200 {
-            let est: [f64; 32] = core::array::from_fn(|k| 1e-5 * (2.0 * core::f64::consts::PI * 60.0 * (32 * blk + k) as f64 / 2000.0).sin());
+            let est: [f64; 32] =
+                core::array::from_fn(|k| 1e-5 * (2.0 * core::f64::consts::PI * 60.0 * (32 * blk + k) as f64 / 2000.0).sin());
             last = b.block(60.0, &est);
         }
         let (cal, noise) = b.parts(60.0);

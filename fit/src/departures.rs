@@ -12,11 +12,16 @@
 //!
 //! the base calibration's law shape times a smooth correction pₖ (a polynomial in RH, the
 //! "law") and the strip's own departure gₖ, a zero-mean Gaussian process over humidity with
-//! Matérn-3/2 covariance Aₖ²(1 + √3|Δ|/ℓₖ)e^(−√3|Δ|/ℓₖ) (departures that are continuous but not
-//! smooth; the four processes independent). Linearized in the read error,
-//! θᵢ = θ(rᵢ) − sᵢeᵢ + εᵢ with sᵢ = ∂θ/∂x the law's slope, so each level's four values carry the
-//! noise Σᵢ + σₑ²·sᵢsᵢᵀ: the read error moves all four along their laws together, which is how
-//! the levels tell it from the strip's departures (d, steep at high humidity, says most).
+//! squared-exponential covariance Aₖ²·e^(−Δ²/2ℓₖ²) (the four processes independent). The law is
+//! linearized in the read error, pₖ(xᵢ) = pₖ(rᵢ) − sₖᵢeᵢ with sᵢ = ∂θ/∂x its slope, so each
+//! level's four values carry the noise Σᵢ + σₑ²·sᵢsᵢᵀ: the read error moves all four along their
+//! laws together, which is how the levels tell it from the strip's departures (d, steep at high
+//! humidity, says most). The departure is taken at its uncertain humidity exactly: two levels'
+//! departures covary as the kernel averaged over both read errors,
+//! Aₖ²·√(ℓₖ²/(ℓₖ² + 2σₑ²))·e^(−Δ²/2(ℓₖ² + 2σₑ²)) (Girard et al., Gaussian processes with
+//! uncertain inputs), while each level's has the full Aₖ². So a departure that would have to
+//! change within the read error to follow the levels is no better than noise: a level read far
+//! off its setpoint (2 %RH from the next one) cannot make a spike of its neighbour's value.
 //!
 //! Aₖ, ℓₖ (and σₑ when the reading's uncertainty is not given) maximize the restricted (REML)
 //! marginal likelihood of all levels' values, the polynomial coefficients integrated out; then
@@ -119,9 +124,12 @@ impl core::fmt::Display for ModelError {
 
 impl std::error::Error for ModelError {}
 
-fn matern32(d: f64, amplitude: f64, length: f64) -> f64 {
-    let a = 3f64.sqrt() * d.abs() / length;
-    amplitude * amplitude * (1.0 + a) * (-a).exp()
+/// The departure's covariance between two humidities known up to read errors of variance
+/// `var_a` and `var_b` (0: known exactly): the squared-exponential A²·e^(−Δ²/2ℓ²) averaged over
+/// both read errors, A²·√(ℓ²/(ℓ² + v))·e^(−Δ²/2(ℓ² + v)), v = var_a + var_b.
+fn kernel(d: f64, amplitude: f64, length: f64, var: f64) -> f64 {
+    let l2 = length * length;
+    amplitude * amplitude * (l2 / (l2 + var)).sqrt() * (-0.5 * d * d / (l2 + var)).exp()
 }
 
 /// The fitted model: laws, departures and what remains.
@@ -138,8 +146,9 @@ pub struct StripModel {
     pub levels: [usize; 4],
     center: f64,
     half: f64,
-    /// Observations: (parameter, reading) in the order of the vectors below.
-    obs: Vec<(usize, f64)>,
+    /// Observations: (parameter, humidity, variance of the humidity) in the order of the
+    /// vectors below.
+    obs: Vec<(usize, f64, f64)>,
     /// Column of each parameter's first correction coefficient.
     col: [usize; 4],
     beta: DVector<f64>,
@@ -150,49 +159,116 @@ pub struct StripModel {
     hch_inv: DMatrix<f64>,
 }
 
-/// The problem at fixed slopes.
+/// The model's data at given level humidities.
+#[derive(Clone)]
 struct Problem<'a> {
+    base: &'a Calibration,
     levels: &'a [LevelTheta],
     /// (parameter, level)
     obs: Vec<(usize, usize)>,
+    degree: [Option<usize>; 4],
+    col: [usize; 4],
+    ncol: usize,
+    center: f64,
+    half: f64,
+    gp: [bool; 4],
+    /// Each level's humidity and its variance.
+    pos: Vec<f64>,
+    var: Vec<f64>,
     y: DVector<f64>,
     h: DMatrix<f64>,
     slopes: Vec<[f64; 4]>,
-    gp: [bool; 4],
-    col: [usize; 4],
 }
 
-impl Problem<'_> {
-    fn covariance(&self, amplitude: &[f64; 4], length: &[f64; 4], rh_sd: f64) -> DMatrix<f64> {
+/// What a posterior at fixed hyperparameters is made of.
+struct Posterior {
+    chol: Cholesky<f64, Dyn>,
+    beta: DVector<f64>,
+    alpha: DVector<f64>,
+    hch_inv: DMatrix<f64>,
+}
+
+impl<'a> Problem<'a> {
+    /// The levels at humidities `pos` with variances `var`: the offsets (the base's law there)
+    /// and the correction's basis.
+    fn place(&mut self, pos: Vec<f64>, var: Vec<f64>) -> Result<(), ModelError> {
+        let mut y = DVector::zeros(self.obs.len());
+        let mut h = DMatrix::zeros(self.obs.len(), self.ncol);
+        for (a, &(k, i)) in self.obs.iter().enumerate() {
+            let offset = ln_base(self.base, k, pos[i]);
+            if !offset.is_finite() {
+                return Err(ModelError::BaseNotPositive { param: DEPARTING[k], rh_pct: pos[i] });
+            }
+            y[a] = self.levels[i].ln[k].expect("observed") - offset;
+            for (j, v) in basis(pos[i], self.center, self.half, self.degree[k].expect("observed")).enumerate() {
+                h[(a, self.col[k] + j)] = v;
+            }
+        }
+        (self.pos, self.var, self.y, self.h) = (pos, var, y, h);
+        Ok(())
+    }
+
+    /// The law's ln at `x` with correction coefficients `beta`.
+    fn law_ln(&self, beta: &DVector<f64>, k: usize, x: f64) -> f64 {
+        ln_base(self.base, k, x)
+            + self.degree[k].map_or(0.0, |q| basis(x, self.center, self.half, q).enumerate().map(|(j, b)| b * beta[self.col[k] + j]).sum())
+    }
+
+    /// The laws' slopes at every level's humidity.
+    fn set_slopes(&mut self, beta: &DVector<f64>) {
+        self.slopes = self
+            .pos
+            .iter()
+            .map(|&x| {
+                core::array::from_fn(|k| {
+                    (self.law_ln(beta, k, x + SLOPE_STEP_PCT) - self.law_ln(beta, k, x - SLOPE_STEP_PCT)) / (2.0 * SLOPE_STEP_PCT)
+                })
+            })
+            .collect();
+    }
+
+    /// The observations' covariance: departures (each level's value at its uncertain
+    /// humidity), the levels' own errors, and the humidity's error along the laws.
+    fn covariance(&self, amplitude: &[f64; 4], length: &[f64; 4], var: &[f64]) -> DMatrix<f64> {
         let n = self.obs.len();
         DMatrix::from_fn(n, n, |a, b| {
             let ((ka, ia), (kb, ib)) = (self.obs[a], self.obs[b]);
             let mut c = 0.0;
             if ka == kb && self.gp[ka] {
-                c += matern32(self.levels[ia].rh_pct - self.levels[ib].rh_pct, amplitude[ka], length[ka]);
+                // One level's departure is one value (its read error moves it along nothing);
+                // two levels' are the departure at two humidities each read with its own error.
+                let v = if ia == ib { 0.0 } else { var[ia] + var[ib] };
+                c += kernel(self.pos[ia] - self.pos[ib], amplitude[ka], length[ka], v);
             }
             if ia == ib {
-                c += self.levels[ia].cov[ka][kb] + rh_sd * rh_sd * self.slopes[ia][ka] * self.slopes[ia][kb];
+                c += self.levels[ia].cov[ka][kb] + var[ia] * self.slopes[ia][ka] * self.slopes[ia][kb];
             }
             c
         })
     }
 
     /// −(restricted log likelihood) up to a constant, and the pieces of the posterior.
-    fn reml(&self, c: DMatrix<f64>) -> Option<(f64, Cholesky<f64, Dyn>, DVector<f64>, DMatrix<f64>)> {
-        let chol = c.cholesky()?;
-        let l = chol.l();
-        let logdet: f64 = 2.0 * l.diagonal().iter().map(|d| d.ln()).sum::<f64>();
-        let z = l.solve_lower_triangular(&self.h)?;
-        let w = l.solve_lower_triangular(&self.y)?;
-        let hch = z.transpose() * &z;
-        let hch_chol = hch.clone().cholesky()?;
-        let logdet_h: f64 = 2.0 * hch_chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
-        let beta = hch_chol.solve(&(z.transpose() * &w));
-        let r = &w - &z * &beta;
-        let v = 0.5 * (logdet + logdet_h + r.dot(&r));
-        v.is_finite().then(|| (v, chol, beta, hch_chol.inverse()))
+    fn reml(&self, c: DMatrix<f64>) -> Option<(f64, Posterior)> {
+        reml_of(c, &self.y, &self.h)
     }
+}
+
+/// −(restricted log likelihood) of `y` with covariance `c` and mean basis `h` (coefficients
+/// integrated out), and the posterior's pieces.
+fn reml_of(c: DMatrix<f64>, y: &DVector<f64>, h: &DMatrix<f64>) -> Option<(f64, Posterior)> {
+    let chol = c.cholesky()?;
+    let l = chol.l();
+    let logdet: f64 = 2.0 * l.diagonal().iter().map(|d| d.ln()).sum::<f64>();
+    let z = l.solve_lower_triangular(h)?;
+    let w = l.solve_lower_triangular(y)?;
+    let hch = z.transpose() * &z;
+    let hch_chol = hch.cholesky()?;
+    let logdet_h: f64 = 2.0 * hch_chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+    let beta = hch_chol.solve(&(z.transpose() * &w));
+    let r = &w - &z * &beta;
+    let v = 0.5 * (logdet + logdet_h + r.dot(&r));
+    let alpha = chol.solve(&(y - h * &beta));
+    v.is_finite().then(|| (v, Posterior { chol, beta, alpha, hch_inv: hch_chol.inverse() }))
 }
 
 /// The polynomial basis of a parameter's correction at `x`.
@@ -208,9 +284,12 @@ fn ln_base(base: &Calibration, k: usize, rh: f64) -> f64 {
 
 impl StripModel {
     /// Fits the model to `levels` on the shape of `base`'s laws. `rh_sd_pct`: the bench
-    /// reading's standard error when known; estimated from the levels otherwise.
+    /// reading's standard error when known; estimated from the levels otherwise. Every level
+    /// is at its reading, its humidity uncertain by σₑ; the law's slopes (for the read error's
+    /// noise) are those of the law found in a first pass.
     pub fn fit(base: &Calibration, levels: &[LevelTheta], rh_sd_pct: Option<f64>) -> Result<StripModel, ModelError> {
-        let obs: Vec<(usize, usize)> = (0..4).flat_map(|k| (0..levels.len()).filter(move |&i| levels[i].ln[k].is_some()).map(move |i| (k, i))).collect();
+        let obs: Vec<(usize, usize)> =
+            (0..4).flat_map(|k| (0..levels.len()).filter(move |&i| levels[i].ln[k].is_some()).map(move |i| (k, i))).collect();
         let count: [usize; 4] = core::array::from_fn(|k| obs.iter().filter(|o| o.0 == k).count());
         // A correction of degree q needs q + 1 levels; a departure process some to spare.
         let degree: [Option<usize>; 4] = count.map(|n| (n > 0).then(|| CORRECTION_DEGREE.min(n - 1)));
@@ -218,95 +297,97 @@ impl StripModel {
         let (lo, hi) = levels.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), l| (a.min(l.rh_pct), b.max(l.rh_pct)));
         let center = 0.5 * (lo + hi);
         let half = (0.5 * (hi - lo)).max(1.0);
+        // Departures longer than the levels' span are a law's business, not a departure's.
+        let max_length = (hi - lo).clamp(LENGTH_PCT.0, LENGTH_PCT.1);
         let mut col = [0usize; 4];
         let mut ncol = 0;
         for k in 0..4 {
             col[k] = ncol;
             ncol += degree[k].map_or(0, |q| q + 1);
         }
-        let mut y = DVector::zeros(obs.len());
-        let mut h = DMatrix::zeros(obs.len(), ncol);
-        for (a, &(k, i)) in obs.iter().enumerate() {
-            let r = levels[i].rh_pct;
-            let offset = ln_base(base, k, r);
-            if !offset.is_finite() {
-                return Err(ModelError::BaseNotPositive { param: DEPARTING[k], rh_pct: r });
-            }
-            y[a] = levels[i].ln[k].expect("observed") - offset;
-            for (j, v) in basis(r, center, half, degree[k].expect("observed")).enumerate() {
-                h[(a, col[k] + j)] = v;
-            }
-        }
-        let mut problem = Problem { levels, obs: obs.clone(), y, h, slopes: vec![[0.0; 4]; levels.len()], gp, col };
-        let slope_of = |beta: &DVector<f64>, k: usize, x: f64| -> f64 {
-            let at = |x: f64| {
-                ln_base(base, k, x) + degree[k].map_or(0.0, |q| basis(x, center, half, q).enumerate().map(|(j, b)| b * beta[col[k] + j]).sum())
-            };
-            (at(x + SLOPE_STEP_PCT) - at(x - SLOPE_STEP_PCT)) / (2.0 * SLOPE_STEP_PCT)
+        let mut problem = Problem {
+            base,
+            levels,
+            obs: obs.clone(),
+            degree,
+            col,
+            ncol,
+            center,
+            half,
+            gp,
+            pos: vec![],
+            var: vec![],
+            y: DVector::zeros(0),
+            h: DMatrix::zeros(0, 0),
+            slopes: vec![],
         };
-        // The hyperparameters as the search sees them: ln of each free one.
-        let estimate_sd = rh_sd_pct.is_none();
-        let unpack = |u: &[f64]| -> ([f64; 4], [f64; 4], f64) {
+        let readings: Vec<f64> = levels.iter().map(|l| l.rh_pct).collect();
+        problem.place(readings.clone(), vec![0.0; levels.len()])?;
+        let n_gp = gp.iter().filter(|&&g| g).count();
+        // The hyperparameters as the search sees them: ln of each free one; σₑ last when free.
+        let unpack = |u: &[f64], sd_free: bool, sd_fixed: f64| -> ([f64; 4], [f64; 4], f64) {
             let mut amplitude = [0.0; 4];
             let mut length = [1.0; 4];
             let mut m = 0;
             for k in 0..4 {
                 if gp[k] {
                     amplitude[k] = u[m].exp().clamp(AMPLITUDE.0, AMPLITUDE.1);
-                    length[k] = u[m + 1].exp().clamp(LENGTH_PCT.0, LENGTH_PCT.1);
+                    length[k] = u[m + 1].exp().clamp(LENGTH_PCT.0, max_length);
                     m += 2;
                 }
             }
-            let sd = if estimate_sd { u[m].exp().clamp(RH_SD_PCT.0, RH_SD_PCT.1) } else { rh_sd_pct.unwrap_or(0.0) };
+            let sd = if sd_free { u[m].exp().clamp(RH_SD_PCT.0, RH_SD_PCT.1) } else { sd_fixed };
             (amplitude, length, sd)
         };
-        let n_gp = gp.iter().filter(|&&g| g).count();
-        let start = |length: f64| -> Vec<f64> {
-            let mut u: Vec<f64> = (0..n_gp).flat_map(|_| [0.03f64.ln(), length.ln()]).collect();
-            if estimate_sd {
-                u.push(0.5f64.ln());
-            }
-            u
-        };
-        let mut best: Option<(Vec<f64>, f64)> = None;
-        let mut beta = DVector::zeros(ncol);
-        // Twice: the slopes of the law found the first time make the read error's noise the second.
-        for pass in 0..2 {
-            for (i, l) in levels.iter().enumerate() {
-                problem.slopes[i] = core::array::from_fn(|k| slope_of(&beta, k, l.rh_pct));
-            }
-            let objective = |u: &[f64]| -> f64 {
-                let (a, l, sd) = unpack(u);
-                problem.reml(problem.covariance(&a, &l, sd)).map_or(f64::INFINITY, |r| r.0)
-            };
-            let starts: Vec<Vec<f64>> = match (&best, pass) {
-                (Some((u, _)), 1) => vec![u.clone()],
-                _ => [1.5, 4.0, 12.0].map(start).to_vec(),
-            };
-            best = None;
+        let search = |objective: &dyn Fn(&[f64]) -> f64, starts: Vec<Vec<f64>>| -> (Vec<f64>, f64) {
             if starts[0].is_empty() {
-                best = Some((vec![], objective(&[])));
-            } else {
-                for s in starts {
-                    let (u, v) = nelder_mead(&objective, &s, 0.7, 1e-7, 4000);
-                    // Restarted once from its own optimum: a simplex can stall on a ridge.
-                    let (u, v) = if v.is_finite() { nelder_mead(&objective, &u, 0.3, 1e-8, 2000) } else { (u, v) };
-                    if best.as_ref().is_none_or(|b| v < b.1) {
-                        best = Some((u, v));
-                    }
+                return (vec![], objective(&[]));
+            }
+            let mut best: Option<(Vec<f64>, f64)> = None;
+            for s in starts {
+                let (u, v) = nelder_mead(objective, &s, 0.7, 1e-7, 4000);
+                // Restarted once from its own optimum: a simplex can stall on a ridge.
+                let (u, v) = if v.is_finite() { nelder_mead(objective, &u, 0.3, 1e-8, 2000) } else { (u, v) };
+                if best.as_ref().is_none_or(|b| v < b.1) {
+                    best = Some((u, v));
                 }
             }
-            let (u, _) = best.as_ref().expect("at least one start");
-            let (a, l, sd) = unpack(u);
-            let (_, _, b, _) = problem.reml(problem.covariance(&a, &l, sd)).ok_or(ModelError::Singular)?;
-            beta = b;
+            best.expect("at least one start")
+        };
+
+        let estimate_sd = rh_sd_pct.is_none();
+        let given_sd = rh_sd_pct.unwrap_or(0.0);
+        let mut beta = DVector::zeros(ncol);
+        let mut u_best: Vec<f64> = vec![];
+        // Twice: the slopes of the law found the first time make the read error's noise the second.
+        for pass in 0..2 {
+            problem.set_slopes(&beta);
+            let objective = |u: &[f64]| -> f64 {
+                let (a, l, sd) = unpack(u, estimate_sd, given_sd);
+                problem.reml(problem.covariance(&a, &l, &vec![sd * sd; levels.len()])).map_or(f64::INFINITY, |r| r.0)
+            };
+            let starts: Vec<Vec<f64>> = if pass == 1 {
+                vec![u_best.clone()]
+            } else {
+                [1.5, 4.0, 12.0]
+                    .map(|length: f64| {
+                        let mut u: Vec<f64> = (0..n_gp).flat_map(|_| [0.03f64.ln(), length.min(max_length).ln()]).collect();
+                        if estimate_sd {
+                            u.push(0.5f64.ln());
+                        }
+                        u
+                    })
+                    .to_vec()
+            };
+            u_best = search(&objective, starts).0;
+            let (a, l, sd) = unpack(&u_best, estimate_sd, given_sd);
+            beta = problem.reml(problem.covariance(&a, &l, &vec![sd * sd; levels.len()])).ok_or(ModelError::Singular)?.1.beta;
         }
-        let (u, _) = best.expect("fitted");
-        let (amplitude, length_pct, rh_sd) = unpack(&u);
-        let c = problem.covariance(&amplitude, &length_pct, rh_sd);
-        let (_, chol, beta, hch_inv) = problem.reml(c).ok_or(ModelError::Singular)?;
-        let alpha = chol.solve(&(&problem.y - &problem.h * &beta));
+        let (amplitude, length_pct, rh_sd) = unpack(&u_best, estimate_sd, given_sd);
         let law_tests = core::array::from_fn(|k| law_test(&problem, k, degree[k]?, rh_sd));
+
+        let var = vec![rh_sd * rh_sd; levels.len()];
+        let (_, post) = problem.reml(problem.covariance(&amplitude, &length_pct, &var)).ok_or(ModelError::Singular)?;
         let amplitude = core::array::from_fn(|k| if gp[k] { amplitude[k] } else { 0.0 });
         Ok(StripModel {
             base: *base,
@@ -317,27 +398,27 @@ impl StripModel {
             levels: count,
             center,
             half,
-            obs: obs.iter().map(|&(k, i)| (k, levels[i].rh_pct)).collect(),
+            obs: obs.iter().map(|&(k, i)| (k, problem.pos[i], var[i])).collect(),
             col,
-            beta,
-            alpha,
-            chol,
+            beta: post.beta,
+            alpha: post.alpha,
+            chol: post.chol,
             h: problem.h,
-            hch_inv,
+            hch_inv: post.hch_inv,
         })
     }
 
     /// The smooth law of parameter k (order of [`DEPARTING`]) at `x`, in ln.
     pub fn law_ln(&self, k: usize, x: f64) -> f64 {
-        ln_base(&self.base, k, x) + self.degree[k].map_or(0.0, |q| basis(x, self.center, self.half, q).enumerate().map(|(j, b)| b * self.beta[self.col[k] + j]).sum())
+        ln_base(&self.base, k, x)
+            + self.degree[k]
+                .map_or(0.0, |q| basis(x, self.center, self.half, q).enumerate().map(|(j, b)| b * self.beta[self.col[k] + j]).sum())
     }
 
-    /// The covariances of the departure of parameter k at `x` with every observation.
+    /// The covariances of the departure of parameter k at `x` (a humidity known exactly) with
+    /// every observation (each at a humidity known up to its variance).
     fn k_star(&self, k: usize, x: f64) -> DVector<f64> {
-        DVector::from_iterator(
-            self.obs.len(),
-            self.obs.iter().map(|&(kk, r)| if kk == k && self.has_departures[k] { matern32(x - r, self.hyper.amplitude[k], self.hyper.length_pct[k]) } else { 0.0 }),
-        )
+        k_star(&self.obs, self.has_departures[k], k, x, self.hyper.amplitude[k], self.hyper.length_pct[k])
     }
 
     /// The strip's departure from the law of parameter k at `x`, in ln (the posterior mean).
@@ -349,16 +430,35 @@ impl StripModel {
     pub fn posterior_sd(&self, k: usize, x: f64) -> f64 {
         let Some(q) = self.degree[k] else { return f64::NAN };
         let ks = self.k_star(k, x);
-        let cinv_k = self.chol.solve(&ks);
         let prior = if self.has_departures[k] { self.hyper.amplitude[k].powi(2) } else { 0.0 };
-        let mut hx = DVector::zeros(self.h.ncols());
-        for (j, b) in basis(x, self.center, self.half, q).enumerate() {
-            hx[self.col[k] + j] = b;
-        }
-        let r = hx - self.h.transpose() * &cinv_k;
-        let var = prior - ks.dot(&cinv_k) + r.dot(&(&self.hch_inv * &r));
-        var.max(0.0).sqrt()
+        posterior_var(&self.chol, &self.h, &self.hch_inv, &ks, prior, basis(x, self.center, self.half, q), self.col[k]).max(0.0).sqrt()
     }
+}
+
+/// Covariances of parameter k's departure at an exact `x` with observations `obs` (parameter,
+/// humidity, its variance).
+fn k_star(obs: &[(usize, f64, f64)], gp: bool, k: usize, x: f64, amplitude: f64, length: f64) -> DVector<f64> {
+    DVector::from_iterator(obs.len(), obs.iter().map(|&(kk, r, v)| if kk == k && gp { kernel(x - r, amplitude, length, v) } else { 0.0 }))
+}
+
+/// The posterior variance at a point with departure covariances `ks`, prior variance `prior`
+/// and correction basis `hx` (columns from `col`): the departure's and the law coefficients'.
+fn posterior_var(
+    chol: &Cholesky<f64, Dyn>,
+    h: &DMatrix<f64>,
+    hch_inv: &DMatrix<f64>,
+    ks: &DVector<f64>,
+    prior: f64,
+    hx: impl Iterator<Item = f64>,
+    col: usize,
+) -> f64 {
+    let cinv_k = chol.solve(ks);
+    let mut full = DVector::zeros(h.ncols());
+    for (j, b) in hx.enumerate() {
+        full[col + j] = b;
+    }
+    let r = full - h.transpose() * &cinv_k;
+    prior - ks.dot(&cinv_k) + r.dot(&(hch_inv * &r))
 }
 
 /// The law alone (no departures) against the levels of parameter k: generalized least squares
@@ -392,7 +492,9 @@ fn law_test(p: &Problem<'_>, k: usize, degree: usize, rh_sd: f64) -> Option<LawT
 pub fn table(model: &StripModel, rh_range: (f64, f64), law_misfit: &dyn Fn(usize, f64) -> f64) -> (Vec<f64>, [Vec<f64>; 4]) {
     let n = MAX_DEPARTURE_POINTS;
     let grid: Vec<f64> = (0..n).map(|i| rh_range.0 + (rh_range.1 - rh_range.0) * i as f64 / (n - 1) as f64).collect();
-    let ln = core::array::from_fn(|k| grid.iter().map(|&x| (model.departure(k, x) + law_misfit(k, x)).clamp(-MAX_LN_DEPARTURE, MAX_LN_DEPARTURE)).collect());
+    let ln = core::array::from_fn(|k| {
+        grid.iter().map(|&x| (model.departure(k, x) + law_misfit(k, x)).clamp(-MAX_LN_DEPARTURE, MAX_LN_DEPARTURE)).collect()
+    });
     (grid, ln)
 }
 
@@ -439,7 +541,10 @@ mod tests {
     /// setpoints, the law test says the law alone does not hold.
     #[test]
     fn departures_beyond_the_errors_are_kept() {
-        let sp: Vec<f64> = [38.0, 40.0, 45.0, 50.0, 55.0, 60.0, 65.0, 70.0, 75.0, 80.0].into_iter().chain([75.0, 70.0, 65.0, 60.0, 55.0, 50.0, 45.0, 40.0, 38.0]).collect();
+        let sp: Vec<f64> = [38.0, 40.0, 45.0, 50.0, 55.0, 60.0, 65.0, 70.0, 75.0, 80.0]
+            .into_iter()
+            .chain([75.0, 70.0, 65.0, 60.0, 55.0, 50.0, 45.0, 40.0, 38.0])
+            .collect();
         let dep = |k: usize, x: f64| if k == 0 { 0.05 * (x / 5.0).round().rem_euclid(3.0) - 0.05 } else { 0.0 };
         let e: Vec<f64> = (0..sp.len()).map(|i| 0.3 * ((i % 5) as f64 - 2.0) / 2.0).collect();
         let lv = levels(&sp, &e, 0.002, &dep);

@@ -171,11 +171,8 @@ pub fn identify_level_with(base: &Calibration, level: &LevelData, tip: TipGain) 
     p0.kappa_e = kappa_e.value;
 
     let divisor = tip.divisor();
-    let points: Vec<Point> = level
-        .points()
-        .into_iter()
-        .map(|p| if p.channel == Channel::Tip { Point { value: p.value / divisor, ..p } } else { p })
-        .collect();
+    let points: Vec<Point> =
+        level.points().into_iter().map(|p| if p.channel == Channel::Tip { Point { value: p.value / divisor, ..p } } else { p }).collect();
     let tip_mode = tip;
     let tip: Vec<Point> = points.iter().copied().filter(|p| p.channel == Channel::Tip).collect();
     let current: Vec<Point> = points.iter().copied().filter(|p| p.channel == Channel::Current).collect();
@@ -237,9 +234,8 @@ pub fn identify_level_with(base: &Calibration, level: &LevelData, tip: TipGain) 
     let fit = lsq::fit(&joint.lsq_params(), &[joint.start()], joint.n_residuals(), |v, out| joint.residuals(v, out))
         .map_err(|error| IdentifyError::Fit { rh_pct: rh, stage: "joint fit", error })?;
     let params = joint.params(&fit.estimates);
-    let tip_gain = tip_free
-        .then(|| fit.index(TIP_GAIN).map(|i| Estimate { value: fit.estimates[i], se: Some(fit.std_errors[i]) }))
-        .flatten();
+    let tip_gain =
+        tip_free.then(|| fit.index(TIP_GAIN).map(|i| Estimate { value: fit.estimates[i], se: Some(fit.std_errors[i]) })).flatten();
     Ok(LevelFit {
         rh_pct: rh,
         fit,

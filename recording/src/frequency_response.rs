@@ -332,7 +332,8 @@ mod tests {
         assert_eq!(lv.iter().map(|l| l.revisit_of).collect::<Vec<_>>(), vec![None, None, Some(0)]);
         // With times: a jump in time starts a level even at the same reading (a session's
         // settling between two setpoints that read alike).
-        let text = "time_s,rh_pct,freq_hz,tip_gain,tip_phase_deg\n0,40,10,1,0\n2,40.1,20,1,0\n4,40,30,1,0\n150,40.05,10,1,0\n152,40,20,1,0\n";
+        let text =
+            "time_s,rh_pct,freq_hz,tip_gain,tip_phase_deg\n0,40,10,1,0\n2,40.1,20,1,0\n4,40,30,1,0\n150,40.05,10,1,0\n152,40,20,1,0\n";
         let (fr, _) = FrequencyResponse::parse("l.csv", text).unwrap();
         assert_eq!(fr.levels().iter().map(|l| l.points.len()).collect::<Vec<_>>(), vec![3, 2]);
     }

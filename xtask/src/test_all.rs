@@ -121,6 +121,10 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("vs-exact: f32 chain within 1.1× the exact inverse in band (external recordings)", vs_exact_external),
         ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
         ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", crate::coverage::test_step),
+        (
+            "own strip: identify a frequency response, compensate a time series of the same strip; beats nominal, within 1.1× perfect",
+            crate::strip_workflow::test_step,
+        ),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
         ("firmware build (board-b-l475e, humidity-sht4x)", || firmware::build(Variant::HardwareSht4x).map(|_| ())),

@@ -147,7 +147,10 @@ fn level_json(number: usize, level: &Level, fit: &LevelFit) -> Value {
 
 /// The grouping into levels, numbered from 1 as every output numbers them.
 fn print_levels(levels: &[Level]) {
-    println!("levels: {} runs of consecutive points at one setpoint (a new level where the time jumps or the reading steps beyond its own noise)", levels.len());
+    println!(
+        "levels: {} runs of consecutive points at one setpoint (a new level where the time jumps or the reading steps beyond its own noise)",
+        levels.len()
+    );
     println!("  level  RH read %  readings %      points  time s          revisits");
     for (k, l) in levels.iter().enumerate() {
         let times: Option<Vec<f64>> = l.points.iter().map(|p| p.time_s).collect();
@@ -202,27 +205,48 @@ fn print_summary(fits: &[(usize, LevelFit)], laws: &[LawFit]) {
             _ => String::new(),
         };
         let kept = l.departure.map_or(String::new(), |(a, len)| {
-            if a > 1e-4 { format!("; departures kept: {:.1} % over {len:.1} %RH", 100.0 * a) } else { "; no departures beyond the errors".into() }
+            if a > 1e-4 {
+                format!("; departures kept: {:.1} % over {len:.1} %RH", 100.0 * a)
+            } else {
+                "; no departures beyond the errors".into()
+            }
         });
         let kind = if l.kind == "log_poly" { "polynomial in RH of ln" } else { "polynomial in RH" };
-        println!("law {}: {kind}, degree {}{test}{kept}{}", l.param, l.degree, l.note.as_ref().map_or(String::new(), |n| format!(" ({n})")));
+        println!(
+            "law {}: {kind}, degree {}{test}{kept}{}",
+            l.param,
+            l.degree,
+            l.note.as_ref().map_or(String::new(), |n| format!(" ({n})"))
+        );
     }
     for l in laws {
         if let (Some(c), Some(d), Some(p)) = (l.chi2, l.dof, l.p_value)
             && p < LAW_TEST_LEVEL
         {
             let what = match l.departure {
-                Some((a, _)) if a > 1e-4 => "the strip departs from any smooth law of this shape beyond its levels' errors; what the levels show is kept in [departures]",
+                Some((a, _)) if a > 1e-4 => {
+                    "the strip departs from any smooth law of this shape beyond its levels' errors; what the levels show is kept in [departures]"
+                }
                 _ => "the law's shape does not hold, or the levels' errors are too small",
             };
-            eprintln!("warning: law {}: χ² {c:.1} is far above its {d} degrees of freedom (p {} < {LAW_TEST_LEVEL}): {what}", l.param, p_text(p));
+            eprintln!(
+                "warning: law {}: χ² {c:.1} is far above its {d} degrees of freedom (p {} < {LAW_TEST_LEVEL}): {what}",
+                l.param,
+                p_text(p)
+            );
         }
     }
 }
 
 /// A probability as text: tiny ones as a bound.
 fn p_text(p: f64) -> String {
-    if p < 1e-300 { "< 1e-300".into() } else if p < 1e-3 { format!("= {p:.1e}") } else { format!("= {p:.3}") }
+    if p < 1e-300 {
+        "< 1e-300".into()
+    } else if p < 1e-3 {
+        format!("= {p:.1e}")
+    } else {
+        format!("= {p:.3}")
+    }
 }
 
 /// What `identify` made.
@@ -237,7 +261,13 @@ pub struct Identified {
 
 /// Identifies `recording` from `base` (named `base_name`), printing what it does; nothing is
 /// written.
-pub fn identify(recording: &Path, base: &Calibration, base_name: &str, charging: &[PathBuf], rh_uncertainty: Option<f64>) -> Result<Identified> {
+pub fn identify(
+    recording: &Path,
+    base: &Calibration,
+    base_name: &str,
+    charging: &[PathBuf],
+    rh_uncertainty: Option<f64>,
+) -> Result<Identified> {
     let source = recording.display().to_string();
     let input = crate::input::responses(recording)?;
     let recording_fr = input.response;
@@ -346,7 +376,11 @@ pub fn identify(recording: &Path, base: &Calibration, base_name: &str, charging:
     };
     header += "# The current channel's gain is not identifiable (it scales the current as κe and √d do): it is absorbed\n#   into the laws of κe and d. Use this calibration with the same current front end.\n";
     if let Some(g) = tip_gain {
-        header += &format!("# [instrument] tip_gain: the tip channel's gain identified from the session ({:.5} ± {:.5}).\n", g.value, g.se * g.value);
+        header += &format!(
+            "# [instrument] tip_gain: the tip channel's gain identified from the session ({:.5} ± {:.5}).\n",
+            g.value,
+            g.se * g.value
+        );
     }
     header += "# [uncertainty]: what remains unknown of Y, Cs, Ca and d after the laws and departures (rms over the range).\n";
     let text = format!("{header}{}", calibration_file::to_text(&calib));

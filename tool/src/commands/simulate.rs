@@ -44,6 +44,9 @@ pub fn run(a: Args) -> Result<()> {
     let mut metadata = Metadata::default();
     metadata.set("generator", format!("ipmc simulate session={} seed={}", a.session.display(), session.seed));
     metadata.set("calib", a.calib.as_deref().unwrap_or("default"));
+    if let Some(strip) = session.sample.strip_seed {
+        metadata.set("strip_seed", strip);
+    }
     let spin = crate::progress::spinner("simulating");
     let rec = simulate(&calib, &session, &ExactModel, metadata)?;
     spin.finish_and_clear();

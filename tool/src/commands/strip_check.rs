@@ -127,7 +127,8 @@ fn external_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibr
     let stem = ts_path.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
     let entry = all.get(stem).ok_or_else(|| anyhow!("{}: no entry `{stem}` (the time series' name)", path.display()))?;
     let factors = &entry["scatter_factors_at_levels"];
-    let setpoints: Vec<f64> = factors["levels"].as_array().context("scatter_factors_at_levels.levels")?.iter().filter_map(|v| v.as_f64()).collect();
+    let setpoints: Vec<f64> =
+        factors["levels"].as_array().context("scatter_factors_at_levels.levels")?.iter().filter_map(|v| v.as_f64()).collect();
     let plan = entry["session"]["plan"].as_array().context("session.plan")?;
     let mut out = vec![];
     for burst in ts.bursts() {

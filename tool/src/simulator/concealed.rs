@@ -96,6 +96,7 @@ pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strengt
             read_error_pct: 0.4,
             read_gain: bench.sensor_gain,
             read_bias_pct: bench.sensor_offset_pct,
+            level_read_error_pct: 0.0,
         },
         sample: Sample { drift_pct: [3.0, 15.0, 15.0, 15.0], scatter_pct: [1.0, 3.0, 6.0, 6.0], strip_seed: None },
         frequencies: None,

@@ -27,6 +27,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     for &level in &h.levels_pct {
         bench.set_target(level + rng.gauss(h.level_error_pct));
         let dep = drift.at_level(&session.sample, &mut rng);
+        let level_read = rng.gauss(h.level_read_error_pct);
         let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
         bench.advance(wait, &mut rng);
         t += wait;
@@ -62,7 +63,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             let current = floor(current, current_floor, &mut rng);
             let tip = measured(tip, n.tip_gain_pct, n.tip_phase_deg, &mut rng);
             let current = measured(current, n.current_gain_pct, n.current_phase_deg, &mut rng);
-            let rh_read = h.read_gain * bench.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct);
+            let rh_read = h.read_gain * bench.chamber() + h.read_bias_pct + level_read + rng.gauss(h.read_error_pct);
             points.push(FrPoint {
                 line: 0,
                 time_s: Some(t),

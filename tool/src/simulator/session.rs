@@ -74,6 +74,11 @@ pub struct Humidity {
     /// Constant offset of the humidity sensor [%RH].
     #[serde(default)]
     pub read_bias_pct: f64,
+    /// Standard deviation of the humidity sensor's error drawn once per level and held through
+    /// it [%RH]: a chamber sensor's absolute error, which a down sweep meets again with another
+    /// draw (`read_error_pct` is the reading-to-reading noise on top).
+    #[serde(default)]
+    pub level_read_error_pct: f64,
     /// Span of the humidity sensor: read = gain · chamber + bias + error.
     #[serde(default = "unit")]
     pub read_gain: f64,
@@ -101,6 +106,7 @@ impl Default for Humidity {
             hydration_tau_s: 0.0,
             read_error_pct: 0.0,
             read_bias_pct: 0.0,
+            level_read_error_pct: 0.0,
             read_gain: 1.0,
             hydration_tau_dry_s: None,
             chamber_tau_s: 0.0,
@@ -291,6 +297,7 @@ impl Session {
         non_negative("humidity.settle_s", h.settle_s)?;
         non_negative("humidity.hydration_tau_s", h.hydration_tau_s)?;
         non_negative("humidity.read_error_pct", h.read_error_pct)?;
+        non_negative("humidity.level_read_error_pct", h.level_read_error_pct)?;
         if !h.read_bias_pct.is_finite() {
             bail!("humidity.read_bias_pct must be finite");
         }

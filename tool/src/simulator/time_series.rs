@@ -60,6 +60,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let room = Room::draw(session, &mut rng);
     let tone_amplitude_m = tones.first().map_or(0.0, |t| t.amplitude_m);
     let (mut dep, mut temp_level) = (drift, room.at(0.0));
+    let mut level_read = 0.0;
     // Responses per tone at the last humidity the sample was at: a constant level costs one
     // model evaluation per tone, not one per sample.
     type TipAndCurrent = (C<f64>, C<f64>);
@@ -69,6 +70,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
         if !plan.ramp {
             let setpoint = levels[leg] + rng.gauss(h.level_error_pct);
             dep = drift.at_level(&session.sample, &mut rng);
+            level_read = rng.gauss(h.level_read_error_pct);
             cached = None;
             if leg > 0 {
                 let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
@@ -127,7 +129,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
                 v.push(tip);
             }
             ts.current_a.push(cur);
-            ts.rh_pct.push(h.read_gain * bench.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct));
+            ts.rh_pct.push(h.read_gain * bench.chamber() + h.read_bias_pct + level_read + rng.gauss(h.read_error_pct));
             if let (Some(v), Some(temp)) = (ts.temp_c.as_mut(), temp_level) {
                 v.push(temp + rng.gauss(session.temp_read_error_k));
             }
