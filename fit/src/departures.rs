@@ -525,7 +525,7 @@ mod tests {
     #[test]
     fn no_departures_no_table() {
         let sp: Vec<f64> = (0..12).map(|i| 36.0 + 4.0 * i as f64).collect();
-        let lv = levels(&sp, &vec![0.0; 12], 0.01, &|_, _| 0.0);
+        let lv = levels(&sp, &[0.0; 12], 0.01, &|_, _| 0.0);
         let m = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.1)).unwrap();
         for k in 0..4 {
             for x in [40.0, 57.0, 75.0] {

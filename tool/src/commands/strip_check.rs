@@ -86,7 +86,7 @@ struct Level {
 /// The strip's perfect calibration for each burst.
 enum Truth {
     /// One calibration for every burst (its laws and departures are the strip's).
-    Calibration(Calibration),
+    Calibration(Box<Calibration>),
     /// One per burst (an independent generator's strip: its factors at the burst's setpoint).
     PerBurst(Vec<Calibration>),
 }
@@ -135,8 +135,7 @@ fn external_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibr
         let t0 = ts.t_s[burst.start];
         let step = plan
             .iter()
-            .filter(|p| p["t_meas"].as_f64().is_some_and(|t| t <= t0 + 1e-6))
-            .next_back()
+            .rfind(|p| p["t_meas"].as_f64().is_some_and(|t| t <= t0 + 1e-6))
             .ok_or_else(|| anyhow!("{}: no plan entry measured before the burst at t = {t0} s", path.display()))?;
         let set = step["rh_set"].as_f64().context("plan.rh_set")?;
         let i = setpoints.iter().position(|&s| s == set).ok_or_else(|| anyhow!("{}: no factors at setpoint {set}", path.display()))?;
@@ -163,7 +162,7 @@ fn load_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibratio
     if path.extension().is_some_and(|e| e == "json") {
         return Ok(Truth::PerBurst(external_truth(path, ts_path, ts, nominal)?));
     }
-    Ok(Truth::Calibration(crate::calibration_source::load(path.to_str())?))
+    Ok(Truth::Calibration(Box::new(crate::calibration_source::load(path.to_str())?)))
 }
 
 /// The chain and the exact inverse with `calib` on one looped burst `rec`, scored in the band.
