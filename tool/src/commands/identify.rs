@@ -312,13 +312,26 @@ pub fn identify(
     }
     let rh_range = fits.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, l, _)| (lo.min(l.rh_range.0), hi.max(l.rh_range.1)));
     let level_fits: Vec<LevelFit> = fits.iter().map(|(_, _, f)| f.clone()).collect();
+    // The bench reading's error: given, else from the setpoints visited twice, else from the
+    // levels' values (weakly determined: the departures explain much of what it does).
+    let pairs: Vec<(f64, f64)> = fits.iter().filter_map(|(_, l, _)| Some((l.rh_pct, levels.get(l.revisit_of?)?.rh_pct))).collect();
+    let (rh_given, how) = match (rh_uncertainty, ipmc_fit::departures::rh_sd_from_revisits(&pairs)) {
+        (Some(v), _) => (Some(v), "as given by --rh-uncertainty".to_string()),
+        (None, Some(v)) => (
+            Some(v),
+            format!(
+                "from the {} setpoints the session read twice: each pair differs by two read errors; --rh-uncertainty sets it",
+                pairs.len()
+            ),
+        ),
+        (None, None) => {
+            (None, "estimated from the levels' values, weakly determined without revisited setpoints; --rh-uncertainty sets it".into())
+        }
+    };
     let (mut calib, laws, model) =
-        calibration_from_levels(base, &level_fits, rh_range, rh_uncertainty).with_context(|| format!("{source}: calibration"))?;
+        calibration_from_levels(base, &level_fits, rh_range, rh_given).with_context(|| format!("{source}: calibration"))?;
     let rh_sd = model.hyper.rh_sd_pct;
-    println!(
-        "bench reading uncertainty: {rh_sd:.2} %RH per level ({})",
-        if model.hyper.rh_sd_estimated { "estimated from the levels; --rh-uncertainty sets it" } else { "as given by --rh-uncertainty" }
-    );
+    println!("bench reading uncertainty: {rh_sd:.2} %RH per level ({how})");
     if let Some(g) = tip_gain {
         calib.instrument.tip_gain = g.value;
         println!(
