@@ -181,13 +181,15 @@ fn uncertainty_expr(u: &Uncertainty) -> String {
 }
 
 fn humidity_path_expr(p: &HumidityPath) -> String {
-    let HumidityPath { sensor, offset_pct, gain, tau_wet_s, tau_dry_s, uncertainty_pct, sensor_lag_s, mode } = p;
+    let HumidityPath { sensor, offset_pct, gain, tau_wet_s, tau_dry_s, uncertainty_pct, sensor_lag_s, mode, supply_v } = p;
     let sensor = sensor.map_or("None".into(), |k| format!("Some(ipmc_core::humidity_path::SensorKind::{k:?})"));
     let uncertainty = uncertainty_pct.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
     let lag = sensor_lag_s.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
+    let supply = supply_v.map_or("None".into(), |v| format!("Some({})", f64_expr(v)));
     format!(
         "ipmc_core::humidity_path::HumidityPath {{ sensor: {sensor}, offset_pct: {}, gain: {}, tau_wet_s: {}, tau_dry_s: {}, \
-         uncertainty_pct: {uncertainty}, sensor_lag_s: {lag}, mode: ipmc_core::humidity_path::HumidityMode::{mode:?} }}",
+         uncertainty_pct: {uncertainty}, sensor_lag_s: {lag}, mode: ipmc_core::humidity_path::HumidityMode::{mode:?}, \
+         supply_v: {supply} }}",
         f64_expr(*offset_pct),
         f64_expr(*gain),
         f64_expr(*tau_wet_s),

@@ -26,7 +26,12 @@ impl Band {
         if !(self.high_hz.is_finite() && self.high_hz > self.low_hz) {
             return Some(("high_hz", self.high_hz));
         }
-        None
+        // The firmware keeps the band at its own rate (`band_limit`).
+        match crate::band_limit::check(self, crate::operating_point::SAMPLE_RATE_HZ as f64) {
+            Ok(_) => None,
+            Err(crate::band_limit::BandLimitError::TooLow { .. }) => Some(("low_hz", self.low_hz)),
+            Err(crate::band_limit::BandLimitError::AboveNyquist) => Some(("high_hz", self.high_hz)),
+        }
     }
 }
 

@@ -298,7 +298,13 @@ impl core::fmt::Display for ValidationError {
                 crate::uncertainty::MAX_RELATIVE_SD
             ),
             ValidationError::Band { key, value } => {
-                write!(f, "band.{key} = {value}: the band's edges must be finite, positive and low_hz < high_hz")
+                write!(
+                    f,
+                    "band.{key} = {value}: the band's edges must be finite with 0 < low_hz < high_hz, and the firmware keeps \
+                     it at {} Hz only from a lower edge of {:.1} Hz and with the upper edge plus its transition below Nyquist",
+                    crate::operating_point::SAMPLE_RATE_HZ,
+                    crate::band_limit::lowest_low_hz(crate::operating_point::SAMPLE_RATE_HZ as f64)
+                )
             }
             ValidationError::Departures(e) => write!(f, "{e}"),
             ValidationError::Instrument { key, value } => write!(

@@ -149,16 +149,21 @@ mod tests {
             uncertainty_pct: Some(1.2),
             sensor_lag_s: Some(4.0),
             mode: crate::humidity_path::HumidityMode::Fused,
+            supply_v: Some(4.85),
         };
         let text = to_text(&c);
         assert!(text.contains("[humidity]") && text.contains("sensor = \"hts221\""), "{text}");
+        assert!(text.contains("supply_v = 4.85") && !plain.contains("supply_v"), "written when set only: {text}");
         assert_eq!(parse(&text), Ok(c));
         let only = old.clone() + "\n[humidity]\ntau_wet_s = 300.0\n";
         let p = parse(&only).unwrap().humidity;
         assert_eq!((p.tau_wet_s, p.tau_dry_s, p.gain, p.offset_pct), (300.0, 0.0, 1.0, 0.0), "unset keys keep their defaults");
-        for (bad, key) in
-            [("tau_wet_s = -5.0", "humidity.tau_wet_s"), ("gain = 0.0", "humidity.gain"), ("offset_pct = 25.0", "humidity.offset_pct")]
-        {
+        for (bad, key) in [
+            ("tau_wet_s = -5.0", "humidity.tau_wet_s"),
+            ("gain = 0.0", "humidity.gain"),
+            ("offset_pct = 25.0", "humidity.offset_pct"),
+            ("supply_v = 12.0", "humidity.supply_v"),
+        ] {
             let e = parse(&format!("{old}\n[humidity]\n{bad}\n")).unwrap_err().to_string();
             assert!(e.contains(key), "{bad}: {e}");
         }
@@ -177,7 +182,7 @@ mod tests {
         let c = parse(&old).unwrap();
         assert_eq!((c.band, c.departures, c.instrument), (Band::DEFAULT, Departures::NONE, Instrument::DATASHEET));
         let mut c = Calibration::default_preset();
-        c.band = Band { low_hz: 5.0, high_hz: 200.0 };
+        c.band = Band { low_hz: 12.0, high_hz: 200.0 };
         c.instrument.tip_gain = 1.006;
         c.departures = Departures::new(&[40.0, 60.0], [&[0.05, -0.02], &[0.0, 0.1], &[0.0, 0.0], &[-0.1, 0.2]]).unwrap();
         let text = to_text(&c);

@@ -25,6 +25,8 @@
 //! Poles and zeros are mapped by z = e^{sT} (matched pole-zero), which preserves the resonance
 //! frequencies exactly where bilinear would warp them by 2 % at 150 Hz.
 
+use crate::band::Band;
+use crate::band_limit;
 use crate::lstsq::lstsq;
 use crate::model::jw;
 use crate::rational::{IonicOrder, MAX_ROOTS, RationalModel, Roots};
@@ -210,11 +212,11 @@ impl core::fmt::Display for DesignError {
 }
 
 /// The inverse: `gain` × cascade of `sections` maps current [A] to base displacement [m],
-/// delayed by `delay_s`.
-#[derive(Clone, Copy, Debug)]
+/// delayed by `delay_s`. Not `Copy`: a design is handed over (the retune's signal to the sample
+/// path), never duplicated.
+#[derive(Clone, Debug)]
 pub struct Inverse<T> {
-    sections: [Sos<T>; MAX_SECTIONS],
-    n_sections: usize,
+    sections: heapless::Vec<Sos<T>, MAX_SECTIONS>,
     /// The last `n_fixed` sections depend on the configuration only (the regularizing high-pass
     /// over the double integration): identical at every humidity, never retuned.
     n_fixed: usize,
@@ -222,9 +224,15 @@ pub struct Inverse<T> {
     delay_s: T,
     rh_pct: T,
     fs_hz: T,
+    /// The band it was designed for, which the chain keeps ([`crate::band_limit`]).
+    band: Band,
 }
 
 impl<T: Real> Inverse<T> {
+    /// The band the inverse was designed for and the chain keeps of its estimate.
+    pub fn band(&self) -> Band {
+        self.band
+    }
     /// Overall gain, applied before the first section.
     pub fn gain(&self) -> T {
         self.gain
@@ -241,15 +249,15 @@ impl<T: Real> Inverse<T> {
         self.fs_hz
     }
     pub fn sections(&self) -> &[Sos<T>] {
-        &self.sections[..self.n_sections]
+        &self.sections
     }
     /// The humidity-dependent head of the cascade (the overall gain applies to it).
     pub fn head(&self) -> &[Sos<T>] {
-        &self.sections[..self.n_sections - self.n_fixed]
+        &self.sections[..self.sections.len() - self.n_fixed]
     }
     /// The configuration-only tail.
     pub fn tail(&self) -> &[Sos<T>] {
-        &self.sections[self.n_sections - self.n_fixed..self.n_sections]
+        &self.sections[self.sections.len() - self.n_fixed..]
     }
     /// G(e^{jωT}) at `freq_hz`.
     pub fn response(&self, freq_hz: T) -> C<T> {
@@ -262,30 +270,35 @@ impl<T: Real> Inverse<T> {
     }
     /// Narrows (or widens) the coefficients: the device runs f32 sections designed in any precision.
     pub fn cast<U: Real>(&self) -> Inverse<U> {
-        let mut sections = [Sos::<U>::identity(); MAX_SECTIONS];
-        for (d, s) in sections.iter_mut().zip(self.sections()) {
-            d.b = s.b.map(|v| U::lit(v.to_f64()));
-            d.a = s.a.map(|v| U::lit(v.to_f64()));
-            d.beta = s.beta.map(|v| U::lit(v.to_f64()));
-            d.alpha = s.alpha.map(|v| U::lit(v.to_f64()));
-        }
+        let sections = self
+            .sections()
+            .iter()
+            .map(|s| Sos {
+                b: s.b.map(|v| U::lit(v.to_f64())),
+                a: s.a.map(|v| U::lit(v.to_f64())),
+                beta: s.beta.map(|v| U::lit(v.to_f64())),
+                alpha: s.alpha.map(|v| U::lit(v.to_f64())),
+            })
+            .collect();
         Inverse {
             sections,
-            n_sections: self.n_sections,
             n_fixed: self.n_fixed,
             gain: U::lit(self.gain.to_f64()),
             delay_s: U::lit(self.delay_s.to_f64()),
             rh_pct: U::lit(self.rh_pct.to_f64()),
             fs_hz: U::lit(self.fs_hz.to_f64()),
+            band: self.band,
         }
     }
 }
 
 /// Designs the inverse at `rh_pct` (laws evaluated as given: clamping is the caller's policy),
-/// of the kind `cfg.kind` asks for. The robust kind evaluates the exact model at every grid
+/// of the kind `cfg.kind` asks for, over the calibration's `[band]` (it replaces `cfg`'s: the
+/// band a strip was calibrated in is the one its estimate is good in). The robust kind evaluates the exact model at every grid
 /// frequency (`expected_error::response_moments`, 520 evaluations in f64): a host's design, not a
 /// retune's (the firmware designs `Exact` only; its constant configuration leaves the rest unlinked).
 pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfig<T>) -> Result<Inverse<T>, DesignError> {
+    let cfg = &DesignConfig { band_lo_hz: T::lit(calib.band.low_hz), band_hi_hz: T::lit(calib.band.high_hz), ..*cfg };
     let p: Params<T> = calib.params_at(rh_pct);
     match cfg.kind {
         InverseKind::Exact => design_inverse_for(&p, rh_pct, cfg),
@@ -331,6 +344,7 @@ pub fn design_inverse_with<T: Real>(
     {
         return Err(DesignError::Config);
     }
+    let band = Band { low_hz: cfg.band_lo_hz.to_f64(), high_hz: cfg.band_hi_hz.to_f64() };
     let model = RationalModel::new(p, cfg.ionic).ok_or(DesignError::Model)?;
     let t = fs.recip();
 
@@ -430,8 +444,7 @@ pub fn design_inverse_with<T: Real>(
     all_zeros[..zd.n].copy_from_slice(zd.as_slice());
     all_zeros[zd.n..nz].copy_from_slice(&fir_roots);
 
-    let mut inv =
-        Inverse { sections: [Sos::identity(); MAX_SECTIONS], n_sections: 0, n_fixed: 0, gain: c[0], delay_s: tau, rh_pct, fs_hz: fs };
+    let mut inv = Inverse { sections: heapless::Vec::new(), n_fixed: 0, gain: c[0], delay_s: tau, rh_pct, fs_hz: fs, band };
     pair_into_sections(&mut inv, &mut all_zeros[..nz], pd.as_slice())?;
     for _ in 0..d_pure / 2 {
         push_section(&mut inv, Sos::from_ba([T::zero(), T::zero(), T::one()], [T::one(), T::zero(), T::zero()]))?;
@@ -439,16 +452,16 @@ pub fn design_inverse_with<T: Real>(
     if d_pure % 2 == 1 {
         push_section(&mut inv, Sos::from_ba([T::zero(), T::one(), T::zero()], [T::one(), T::zero(), T::zero()]))?;
     }
-    let n_head = inv.n_sections;
+    let n_head = inv.sections.len();
     let mut hz = [C::new(T::zero(), T::zero()); 3];
     hz.copy_from_slice(hzd.as_slice());
     pair_into_sections(&mut inv, &mut hz, hpd.as_slice())?;
-    inv.n_fixed = inv.n_sections - n_head;
+    inv.n_fixed = inv.sections.len() - n_head;
     // Unit gain per section at mid-band keeps every intermediate signal at the scale of the input.
     let f_mid = (cfg.band_lo_hz * cfg.band_hi_hz).sqrt();
     let w = two_pi * f_mid * t;
     let zinv = C::new(w.cos(), -w.sin());
-    for s in inv.sections[..inv.n_sections].iter_mut() {
+    for s in inv.sections.iter_mut() {
         let m = s.response(zinv).cabs();
         if !(m > T::zero() && m.is_finite()) {
             return Err(DesignError::Numerics);
@@ -477,12 +490,7 @@ fn monic_response<T: Real>(zeros: &Roots<T>, poles: &Roots<T>, zinv: C<T>) -> C<
 }
 
 fn push_section<T: Real>(inv: &mut Inverse<T>, s: Sos<T>) -> Result<(), DesignError> {
-    if inv.n_sections >= MAX_SECTIONS {
-        return Err(DesignError::Numerics);
-    }
-    inv.sections[inv.n_sections] = s;
-    inv.n_sections += 1;
-    Ok(())
+    inv.sections.push(s).map_err(|_| DesignError::Numerics)
 }
 
 /// Groups roots (closed under conjugation) into real quadratic factors: conjugate pairs first,
@@ -606,10 +614,12 @@ fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: 
 pub fn compensation_error<T: Real>(p: &Params<T>, inv: &Inverse<T>, lo_hz: T, hi_hz: T, n: usize) -> (T, T) {
     let mut sum = T::zero();
     let mut worst = T::zero();
+    let kept = band_limit::Taps::design(&inv.band, inv.fs_hz.to_f64()).ok();
     for i in 0..n {
         let f = lo_hz + (hi_hz - lo_hz) * T::lit(i as f64 / (n - 1) as f64);
         let w = T::lit(2.0) * T::PI() * f * inv.delay_s;
-        let e = (crate::model::current_response(p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) - T::one()).cabs();
+        let fir = T::lit(kept.as_ref().map_or(1.0, |t| t.response(f.to_f64(), inv.fs_hz.to_f64())));
+        let e = (crate::model::current_response(p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) * fir - T::one()).cabs();
         sum += e * e;
         worst = worst.max(e);
     }

@@ -115,21 +115,24 @@ pub fn terms_at(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, cfg: &DesignCo
     let p: Params<f64> = calib.params_at(rh_pct);
     let inv = design_inverse(calib, rh_pct, cfg).ok()?;
     let density = calib.uncertainty.current_noise_a_per_rthz;
-    let df = (cfg.band_hi_hz - cfg.band_lo_hz) / (BAND_POINTS - 1) as f64;
+    let band = inv.band();
+    // The chain keeps the band with a linear-phase FIR: its ripple is part of y.
+    let kept = crate::band_limit::Taps::design(&band, cfg.fs_hz).ok()?;
+    let df = (band.high_hz - band.low_hz) / (BAND_POINTS - 1) as f64;
     let mut var = 0.0;
     for i in 0..BAND_POINTS {
-        let f = cfg.band_lo_hz + df * i as f64;
+        let f = band.low_hz + df * i as f64;
         let h0 = current_response(&p, jw(f));
         let w = 2.0 * core::f64::consts::PI * f * inv.delay_s();
-        let y = h0 * inv.response(f) * C::new(Real::cos(w), Real::sin(w));
+        let y = h0 * inv.response(f) * C::new(Real::cos(w), Real::sin(w)) * kept.response(f, cfg.fs_hz);
         let (mean, power) = response_moments(calib, rh_pct, rh_sd_pct, f);
         var += power * y.norm_sqr() - 2.0 * (mean * y).re + 1.0;
     }
     let mut noise = 0.0;
     if density > 0.0 {
-        let dn = (cfg.band_hi_hz - cfg.band_lo_hz) / (NOISE_POINTS - 1) as f64;
+        let dn = (band.high_hz - band.low_hz) / (NOISE_POINTS - 1) as f64;
         for i in 0..NOISE_POINTS {
-            let f = cfg.band_lo_hz + dn * i as f64;
+            let f = band.low_hz + dn * i as f64;
             // Simpson: 1, 4, 2, 4, …, 4, 1 (× step/3).
             let w = if i == 0 || i == NOISE_POINTS - 1 {
                 1.0

@@ -12,6 +12,7 @@
 //! signal, which is what makes state transfer on a retune meaningful.
 
 use crate::Real;
+use crate::band_limit::BandLimit;
 use crate::design::{Inverse, MAX_SECTIONS, Sos};
 
 /// Duration of a retune's crossfade [s]. Measured on a 0.25 % step during a steady 40 Hz sine
@@ -33,12 +34,12 @@ pub const INPUT_LIMIT_A: f64 = 1e-3;
 /// Longest run processed at once during a crossfade (stack scratch).
 const CHUNK: usize = 64;
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Cascade<T> {
-    sections: [Sos<T>; MAX_SECTIONS],
+    /// At least one (an identity for an empty source).
+    sections: heapless::Vec<Sos<T>, MAX_SECTIONS>,
     /// s1, s2 per section (delta-operator TDF2 accumulators)
     state: [[T; 2]; MAX_SECTIONS],
-    n: usize,
 }
 
 impl<T: Real> Cascade<T> {
@@ -49,17 +50,20 @@ impl<T: Real> Cascade<T> {
 
     /// A cascade of `sections` times `gain`.
     pub fn from_sections(src: &[Sos<T>], gain: T) -> Self {
-        let mut sections = [Sos::identity(); MAX_SECTIONS];
-        let n = src.len().clamp(1, MAX_SECTIONS);
-        sections[..src.len().min(MAX_SECTIONS)].copy_from_slice(&src[..src.len().min(MAX_SECTIONS)]);
-        for v in sections[0].b.iter_mut().chain(sections[0].beta.iter_mut()) {
-            *v *= gain;
+        let mut sections: heapless::Vec<Sos<T>, MAX_SECTIONS> = src.iter().take(MAX_SECTIONS).copied().collect();
+        if sections.is_empty() {
+            sections.push(Sos::identity()).ok();
         }
-        Cascade { sections, state: [[T::zero(); 2]; MAX_SECTIONS], n }
+        if let Some(first) = sections.first_mut() {
+            for v in first.b.iter_mut().chain(first.beta.iter_mut()) {
+                *v *= gain;
+            }
+        }
+        Cascade { sections, state: [[T::zero(); 2]; MAX_SECTIONS] }
     }
 
     pub fn sections(&self) -> &[Sos<T>] {
-        &self.sections[..self.n]
+        &self.sections
     }
 
     pub fn reset(&mut self) {
@@ -69,7 +73,7 @@ impl<T: Real> Cascade<T> {
     /// Takes over another cascade's state. With equal section counts the sections correspond
     /// (the design orders them by frequency scale), so each keeps the history it would have had.
     pub fn take_state_from(&mut self, other: &Cascade<T>) {
-        if other.n == self.n {
+        if other.sections.len() == self.sections.len() {
             self.state = other.state;
         } else {
             self.reset();
@@ -80,8 +84,9 @@ impl<T: Real> Cascade<T> {
     /// the second in registers, and each pass loads and stores every sample once.
     #[inline]
     pub fn process_block(&mut self, buf: &mut [T]) {
+        let n = self.sections.len();
         let mut k = 0;
-        while k + 1 < self.n {
+        while k + 1 < n {
             let mut a = Stage::load(&self.sections[k], self.state[k]);
             let mut b = Stage::load(&self.sections[k + 1], self.state[k + 1]);
             for v in buf.iter_mut() {
@@ -91,7 +96,7 @@ impl<T: Real> Cascade<T> {
             self.state[k + 1] = b.state();
             k += 2;
         }
-        if k < self.n {
+        if k < n {
             let mut a = Stage::load(&self.sections[k], self.state[k]);
             for v in buf.iter_mut() {
                 *v = a.step(*v);
@@ -102,13 +107,16 @@ impl<T: Real> Cascade<T> {
 
     /// Largest |state value| (NaN if any is NaN).
     pub fn state_max_abs(&self) -> T {
-        self.state[..self.n].iter().flatten().fold(T::zero(), |m, v| if v.is_nan() || m.is_nan() { T::nan() } else { m.max(v.abs()) })
+        self.state[..self.sections.len()]
+            .iter()
+            .flatten()
+            .fold(T::zero(), |m, v| if v.is_nan() || m.is_nan() { T::nan() } else { m.max(v.abs()) })
     }
 
     /// Whether any state value is non-finite (or they are so large that their sum overflows).
     /// One add per value: a non-finite term makes the sum non-finite (inf − inf is NaN).
     pub fn is_poisoned(&self) -> bool {
-        !self.state[..self.n].iter().flatten().fold(T::zero(), |sum, &v| sum + v).is_finite()
+        !self.state[..self.sections.len()].iter().flatten().fold(T::zero(), |sum, &v| sum + v).is_finite()
     }
 }
 
@@ -167,7 +175,7 @@ enum Transition {
 /// memory. A retune replaces only the head: the new head runs beside the old one for a warm-up
 /// long enough for its start transient to die out, then the output crossfades to it; the tail
 /// keeps running untouched, so nothing slow is ever disturbed.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Compensator<T = f32> {
     active: Cascade<T>,
     tail: Cascade<T>,
@@ -180,6 +188,9 @@ pub struct Compensator<T = f32> {
     /// RH of the most recently requested design.
     rh_pct: T,
     delay_s: T,
+    /// The estimate's band, kept by a linear-phase FIR after the inverse (`band_limit`).
+    band: Option<BandLimit<T>>,
+    fs_hz: T,
     /// Samples replaced because they were not finite or beyond [`INPUT_LIMIT_A`], since construction.
     pub bad_samples: u32,
 }
@@ -203,6 +214,10 @@ impl<T: Real> Compensator<T> {
             fade_len: fade.max(1),
             rh_pct: inv.rh_pct(),
             delay_s: inv.delay_s(),
+            // A calibration's band is one the firmware's rate keeps; at a far higher rate a low
+            // edge may need more taps than the filter has ([`Compensator::keeps_band`]).
+            band: BandLimit::new(&inv.band(), fs).ok(),
+            fs_hz: inv.fs_hz(),
             bad_samples: 0,
         }
     }
@@ -210,8 +225,16 @@ impl<T: Real> Compensator<T> {
     pub fn rh_pct(&self) -> T {
         self.rh_pct
     }
+    /// Whether the estimate is limited to the inverse's band (false only where the band's FIR
+    /// would need more than `band_limit::MAX_TAPS` taps at this rate).
+    pub fn keeps_band(&self) -> bool {
+        self.band.is_some()
+    }
+
+    /// The estimate's delay behind the base motion [s]: the inverse's preview and the band's FIR.
     pub fn delay_s(&self) -> T {
-        self.delay_s
+        let fir = self.band.as_ref().map_or(0, BandLimit::delay_samples);
+        self.delay_s + T::lit(fir as f64) / self.fs_hz
     }
     /// Largest |state value| of the running sections (active head, incoming head, tail): what
     /// long runs and fault tests watch for growth and poisoning.
@@ -265,11 +288,18 @@ impl<T: Real> Compensator<T> {
         for chunk in block.chunks_mut(CHUNK) {
             self.process_head(chunk);
             self.tail.process_block(chunk);
+            if let Some(band) = self.band.as_mut() {
+                band.process_block(chunk);
+            }
         }
         if self.active.is_poisoned() || self.tail.is_poisoned() {
             // A finite but huge sample can overflow the state; start clean rather than output inf.
+            // The band's FIR took the same overflow in: it starts clean too.
             self.active.reset();
             self.tail.reset();
+            if let Some(band) = self.band.as_mut() {
+                band.reset();
+            }
             for v in block.iter_mut() {
                 if !v.is_finite() {
                     *v = T::zero();

@@ -71,6 +71,15 @@ pub fn hih4030_rh_pct(vout_over_vsupply: f32, temp_c: f32) -> Result<f32, Implau
     if (lo..=hi).contains(&rh) { Ok(rh.clamp(0.0, 100.0)) } else { Err(Implausible { rh_pct: rh }) }
 }
 
+/// True RH [%] from the voltage at the ADC pin, `v_pin` (the HIH-4030's output through a divider
+/// of ratio `divider` = V(pin) / V(out)), with the sensor supplied at `supply_v`. The pin's
+/// voltage comes from a conversion scaled by the measured VDDA, not the nominal 3.3 V, and the
+/// supply is the calibration's (`HumidityPath::supply_v`): each 1 % of error in either is 1 %
+/// of Vout/Vsupply, about 1 %RH at mid-range.
+pub fn hih4030_rh_pct_at_pin(v_pin: f32, divider: f32, supply_v: f32, temp_c: f32) -> Result<f32, Implausible> {
+    hih4030_rh_pct(v_pin / divider / supply_v, temp_c)
+}
+
 /// The SHT4x's checksum of each 16-bit word (Sensirion SHT4x datasheet, section 4.4): CRC-8,
 /// polynomial 0x31, initial value 0xFF, no reflection, no final XOR — the catalogue's
 /// CRC-8/NRSC-5.
@@ -156,6 +165,18 @@ mod tests {
         // Warmer air: the same output means more humidity (divisor 1.0546 − 0.00216·60 = 0.925).
         let warm = hih4030_rh_pct(0.0062 * 50.0 + 0.16, 60.0).unwrap();
         assert!(close(warm, 50.0 / 0.9250, 1e-3));
+    }
+
+    #[test]
+    fn hih4030_at_the_pin_takes_the_supply_and_the_divider() {
+        // 50 %RH at 25 °C from a 4.75 V USB rail (5 V − 5 %), through a 2/3 divider.
+        let (supply, divider) = (4.75f32, 2.0 / 3.0);
+        let v_pin = (0.0062 * 50.0 + 0.16) * supply * divider;
+        let rh = hih4030_rh_pct_at_pin(v_pin, divider, supply, 25.0).unwrap();
+        assert!(close(rh, 50.0 / 1.0006, 1e-3), "{rh}");
+        // The nominal 5 V for the same pin voltage is 3 %RH low.
+        let nominal = hih4030_rh_pct_at_pin(v_pin, divider, 5.0, 25.0).unwrap();
+        assert!(rh - nominal > 2.5, "{rh} vs {nominal}");
     }
 
     #[test]

@@ -80,6 +80,10 @@ pub const MAX_OFFSET_PCT: f64 = 20.0;
 pub const GAIN_RANGE: (f64, f64) = (0.5, 2.0);
 /// Largest reading uncertainty accepted [%RH].
 pub const MAX_UNCERTAINTY_PCT: f64 = 20.0;
+/// The HIH-4030's supply when the table gives none [V]: the board's 5 V pin, nominally.
+pub const HIH4030_NOMINAL_SUPPLY_V: f64 = 5.0;
+/// Supplies the HIH-4030 works from [V] (Honeywell HIH-4030/31 datasheet, table 1).
+pub const HIH4030_SUPPLY_RANGE_V: (f64, f64) = (4.0, 5.8);
 
 /// The `[humidity]` table of a calibration. Every field has a default that leaves the reading
 /// as it is, so calibration files without the table mean what they meant before.
@@ -103,6 +107,9 @@ pub struct HumidityPath {
     pub sensor_lag_s: Option<f64>,
     /// Which humidity the inverse is designed at; files without it: the reading.
     pub mode: HumidityMode,
+    /// The HIH-4030's supply as measured on the board [V] (its output is ratiometric, and the
+    /// board cannot measure its 5 V rail); none: [`HIH4030_NOMINAL_SUPPLY_V`].
+    pub supply_v: Option<f64>,
 }
 
 impl Default for HumidityPath {
@@ -136,6 +143,7 @@ impl HumidityPath {
         uncertainty_pct: None,
         sensor_lag_s: None,
         mode: HumidityMode::Reading,
+        supply_v: None,
     };
 
     /// RH of the air at the strip for a reading [%RH].
@@ -183,7 +191,17 @@ impl HumidityPath {
         {
             return bad("sensor_lag_s", lag, "a sensor's response time must be finite and ≥ 0");
         }
+        if let Some(v) = self.supply_v
+            && !(v >= HIH4030_SUPPLY_RANGE_V.0 && v <= HIH4030_SUPPLY_RANGE_V.1)
+        {
+            return bad("supply_v", v, "the HIH-4030's supply must be within 4–5.8 V");
+        }
         Ok(())
+    }
+
+    /// The HIH-4030's supply [V].
+    pub fn supply_v(&self) -> f64 {
+        self.supply_v.unwrap_or(HIH4030_NOMINAL_SUPPLY_V)
     }
 
     /// Uncertainty of a corrected reading from a `kind` sensor [%RH]: the table's
@@ -293,6 +311,9 @@ mod tests {
         assert_eq!(key(HumidityPath { offset_pct: 20.5, ..ok }), "offset_pct");
         assert_eq!(key(HumidityPath { offset_pct: -25.0, ..ok }), "offset_pct");
         assert_eq!(key(HumidityPath { uncertainty_pct: Some(-1.0), ..ok }), "uncertainty_pct");
+        assert_eq!(key(HumidityPath { supply_v: Some(3.3), ..ok }), "supply_v");
+        assert_eq!(HumidityPath { supply_v: Some(4.8), ..ok }.validate(), Ok(()));
+        assert_eq!((HumidityPath::NONE.supply_v(), HumidityPath { supply_v: Some(4.8), ..ok }.supply_v()), (5.0, 4.8));
         let shown = HumidityPath { tau_wet_s: -5.0, ..ok }.validate().unwrap_err();
         let shown = std::string::ToString::to_string(&shown);
         assert!(shown.starts_with("humidity.tau_wet_s = -5: "), "{shown}");

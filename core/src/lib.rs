@@ -15,6 +15,7 @@
 extern crate std;
 
 pub mod band;
+pub mod band_limit;
 pub mod block_humidity;
 pub mod calibration;
 #[cfg(feature = "toml")]
@@ -23,8 +24,10 @@ pub mod departures;
 pub mod design;
 pub mod expected_error;
 pub mod extension;
+pub mod fft;
 pub mod filter;
 pub mod humidity;
+pub mod humidity_fusion;
 pub mod humidity_path;
 pub mod humidity_trend;
 pub mod instrument;
@@ -36,7 +39,10 @@ pub mod rational_tables;
 pub mod real;
 pub mod replay;
 pub mod roots;
+pub mod running_spectrum;
+pub mod startup;
 pub mod stream;
+pub mod strip_humidity;
 pub mod stuck;
 pub mod thermal;
 pub mod uncertainty;

@@ -7,6 +7,15 @@ use crate::{DesignConfig, Real};
 /// Current sampling rate [Hz]. The board's trigger timer and the filter design both use it.
 pub const SAMPLE_RATE_HZ: u32 = 2_000;
 
+/// Clocks of a timer clocked at `timer_clock_hz` per sample: the nearest whole number to the
+/// real clock over the rate, so the rate is [`SAMPLE_RATE_HZ`] to within half a clock per period
+/// (12.5 ppm at most at 80 MHz, 1.0 ppm with the board's real clock) plus the clock's own error. A period computed from the clock's
+/// nominal frequency instead carries the difference between nominal and real into every
+/// designed frequency and every time stamp.
+pub const fn sample_period_clocks(timer_clock_hz: u64) -> u64 {
+    (timer_clock_hz + SAMPLE_RATE_HZ as u64 / 2) / SAMPLE_RATE_HZ as u64
+}
+
 /// Samples per processed block (one DMA half-buffer: 16 ms at 2 kHz), defined with the filter
 /// whose warm-up and fade count blocks.
 pub use crate::filter::BLOCK_LEN;
@@ -45,11 +54,21 @@ pub fn reading_age_s() -> f64 {
     HUMIDITY_PERIOD_MS as f64 / 2000.0
 }
 
-/// Samples the firmware's estimate lags the true base motion by: its design's preview
-/// (`max_delay_s`) at the firmware's rate.
-pub fn delay_samples() -> usize {
+/// Settling skipped at the start of each burst when an estimate is scored [s]. The regularizing
+/// high-pass's start-up rings at ~1 Hz, decaying as e^(−1.94 t) (its Butterworth poles' least
+/// damped pair), from an amplitude of the 1/ω² double integration's, thousands of times the
+/// signal; the band's FIR takes 40 dB off its ~1 Hz content, but the tail of its spectrum
+/// reaches into the band and measured 3–15 % of a clean sweep for 4 s. By 5 s it is 6·10⁻⁵
+/// of its start.
+pub const SETTLE_S: f64 = 5.0;
+
+/// Samples the firmware's estimate lags the true base motion by, keeping `band`: its design's
+/// preview (`max_delay_s`) and the band's linear-phase FIR (`band_limit`) at the firmware's
+/// rate (a band the firmware cannot keep is refused when its calibration loads).
+pub fn delay_samples(band: &crate::band::Band) -> usize {
     let c = DesignConfig::<f64>::firmware();
-    (c.max_delay_s * c.fs_hz).round() as usize
+    let fir = crate::band_limit::check(band, c.fs_hz).map_or(0, |n| (n - 1) / 2);
+    (c.max_delay_s * c.fs_hz).round() as usize + fir
 }
 
 /// Samples lost in a gap of `gap_us` between the arrivals of two blocks (an ADC overrun: the
@@ -77,9 +96,31 @@ mod tests {
     }
 
     #[test]
+    fn the_sample_period_is_set_from_the_real_clock() {
+        use super::{SAMPLE_RATE_HZ, sample_period_clocks};
+        let rate_error_ppm = |clock: u64, period: u64| (clock as f64 / period as f64 / SAMPLE_RATE_HZ as f64 - 1.0) * 1e6;
+        // MSI locked to the 32.768 kHz crystal (122 × LSE) × 40 / 2: 79 953 920 Hz, not 80 MHz.
+        let msi_pll = 122 * 32_768 * 40 / 2;
+        let period = sample_period_clocks(msi_pll);
+        assert_eq!(period, 39_977);
+        // 39 976.96 clocks rounded: −1.0 ppm, twenty times below the crystal's tolerance.
+        assert!((rate_error_ppm(msi_pll, period) + 1.0).abs() < 0.01, "{} ppm", rate_error_ppm(msi_pll, period));
+        // The period from the nominal 80 MHz would run the sampling 576 ppm slow.
+        assert!(rate_error_ppm(msi_pll, sample_period_clocks(80_000_000)) < -570.0);
+        // HSI16 × 10 / 2, the clock without the crystal: exactly 80 MHz nominal.
+        assert_eq!(sample_period_clocks(80_000_000), 40_000);
+        // Any clock from 10 MHz up: within half a clock per period.
+        for clock in [10_000_000u64, 16_000_000, 48_000_000, 79_953_920, 80_000_000, 120_000_000] {
+            assert!(rate_error_ppm(clock, sample_period_clocks(clock)).abs() <= 0.5e6 / (clock as f64 / SAMPLE_RATE_HZ as f64) + 1e-9);
+        }
+    }
+
+    #[test]
     fn the_preview_is_whole_samples() {
         let c = crate::DesignConfig::<f64>::firmware();
-        assert_eq!(super::delay_samples() as f64, c.max_delay_s * c.fs_hz);
-        assert_eq!(super::delay_samples(), 4);
+        let band = crate::band::Band::DEFAULT;
+        let fir = crate::band_limit::Taps::design(&band, c.fs_hz).unwrap().delay_samples();
+        assert_eq!((super::delay_samples(&band) - fir) as f64, c.max_delay_s * c.fs_hz);
+        assert_eq!(super::delay_samples(&band), 4 + fir, "the preview is 2 ms, 4 samples");
     }
 }

@@ -53,9 +53,18 @@ pub mod flags {
     /// amplifier stuck at a rail): the estimates are not of a live signal. Clears at the first
     /// changing sample.
     pub const STUCK: u16 = 1 << 8;
+    /// The active design is at the firmware's start-up fallback humidity (clamped into the
+    /// calibrated range): no humidity reading had arrived when sampling started. Clears when a
+    /// design at a reading takes over.
+    pub const RH_FALLBACK: u16 = 1 << 9;
+    /// The sample clock is not locked to the board's 32.768 kHz crystal: the crystal did not
+    /// start (the firmware runs from HSI16, ±1 % over temperature) or stopped while running
+    /// (its clock security system tripped; MSI runs free). The sample rate, and with it every
+    /// designed frequency and time stamp, is off by up to that much. Stays until reset.
+    pub const CLOCK_FAULT: u16 = 1 << 10;
 
     /// Every bit with its name, lowest first (for host displays).
-    pub const NAMES: [(u16, &str); 9] = [
+    pub const NAMES: [(u16, &str); 11] = [
         (CLIPPED, "CLIPPED"),
         (RH_STALE, "RH_STALE"),
         (RH_CLAMPED, "RH_CLAMPED"),
@@ -65,6 +74,8 @@ pub mod flags {
         (DESIGN_FAILED, "DESIGN_FAILED"),
         (BAD_SAMPLE, "BAD_SAMPLE"),
         (STUCK, "STUCK"),
+        (RH_FALLBACK, "RH_FALLBACK"),
+        (CLOCK_FAULT, "CLOCK_FAULT"),
     ];
 }
 

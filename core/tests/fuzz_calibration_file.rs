@@ -50,6 +50,9 @@ fn check_answer(text: &str, answer: &Result<Calibration, FileError>) -> Result<b
                 ValidationError::BadConstant { name, .. } => prop_assert!(shown.contains(name), "{shown}"),
                 ValidationError::Humidity(p) => prop_assert!(shown.contains(&format!("humidity.{} ", p.key)), "{shown}"),
                 ValidationError::Uncertainty { key, .. } => prop_assert!(shown.contains(&format!("uncertainty.{key} ")), "{shown}"),
+                ValidationError::Band { key, .. } => prop_assert!(shown.contains(&format!("band.{key} ")), "{shown}"),
+                ValidationError::Departures(t) => prop_assert!(shown.contains(&format!("departures.{}:", t.key)), "{shown}"),
+                ValidationError::Instrument { key, .. } => prop_assert!(shown.contains(&format!("instrument.{key} ")), "{shown}"),
             }
             Ok(false)
         }

@@ -1,34 +1,47 @@
 //! The decision: which candidate, if any, the evidence names, and which others the data cannot
 //! separate from it.
 //!
-//! A candidate must beat "no extension" by ΔBIC ≥ [`MIN_DELTA_BIC`] and lower the held-out χ²
-//! with a paired significance over levels z ≥ [`MIN_HELDOUT_Z`] (a weak gate: the held-out
-//! differences between levels are heavy-tailed, a few levels carry an effect that grows with
-//! humidity or temperature, so the strong gate is the information criterion), and pass its
-//! kind's floor (a humidity remap must move some level by [`crate::remap::MIN_RH_SHIFT_PCT`],
-//! mains lines must stand out from their neighbours). Among those
-//! the largest ΔBIC wins; every other candidate passing the held-out gates within
-//! [`INDISTINGUISHABLE_BIC`] of it is reported as indistinguishable. With none passing, the
-//! verdict is "none" if the per-level refit leaves no structured residual (neighbour
-//! correlation, [`fits::structure_z`]), "unexplained" if it does. A winner that removes less
-//! than half of a structured residual's neighbour correlation is still named (it passed both
-//! gates), with the remainder reported.
+//! Every hypothesis the evidence supports gets a probability ([`posterior`]): "none" (no
+//! extension) and each candidate that lowers the held-out χ² with a paired significance over
+//! levels z ≥ [`MIN_HELDOUT_Z`] (a weak gate: the held-out differences between levels are
+//! heavy-tailed, a few levels carry an effect that grows with humidity or temperature, so the
+//! strong evidence is the information criterion) and passes its kind's floor (a humidity remap
+//! must move some level by [`crate::remap::MIN_RH_SHIFT_PCT`], mains lines must stand out from
+//! their neighbours). A hypothesis is stated alone only when it holds [`CONFIDENCE`] of the
+//! probability (a candidate also needs ΔBIC ≥ [`MIN_DELTA_BIC`]); otherwise the verdict is
+//! `undecided`, with the smallest set holding it and the measurement that would separate its two
+//! most probable members. "None" stated alone is "unexplained" when the per-level refit leaves a
+//! structured residual (neighbour correlation, [`fits::structure_z`]). A winner that removes less
+//! than half of a structured residual's neighbour correlation is still named, with the
+//! remainder reported.
 
 use crate::candidates::Candidate;
 use crate::context::{Ctx, Fitted};
 use crate::fits;
 use crate::held_out::{per_level_scores, weighted_mean};
 use crate::scorers::Baseline;
-use crate::types::{Alternative, Estimate, Score, Space, Verdict};
+use crate::types::{Alternative, Estimate, Probability, Score, Separation, Space, Verdict};
 use ipmc_core::extension::Extension;
 
 /// Very strong evidence on Kass & Raftery's scale (ΔBIC > 10 ⇔ Bayes factor > 150).
 pub const MIN_DELTA_BIC: f64 = 10.0;
-/// Two candidates are told apart only when one beats the other by the evidence a candidate
-/// needs to be named at all ([`MIN_DELTA_BIC`], "very strong" on Kass & Raftery's scale):
-/// every passing candidate whose ΔBIC is within this of the best is reported as
-/// indistinguishable from it. A confident wrong name is worse than an honest pair.
-pub const INDISTINGUISHABLE_BIC: f64 = MIN_DELTA_BIC;
+/// A hypothesis is stated alone only when it holds this much of the probability; otherwise the
+/// verdict is `undecided` and the smallest set holding it is reported.
+pub const CONFIDENCE: f64 = 0.9;
+/// Prior probability that a strip brought to diagnosis has no missing physics at all; the rest
+/// is shared equally by the library's candidates (no effect is known to be commoner than
+/// another). With 14 candidates a candidate's prior odds against none are 1:14, so on its
+/// own it reaches [`CONFIDENCE`] at ΔBIC = 2 ln(9·14) ≈ 9.7: the same evidence
+/// [`MIN_DELTA_BIC`] asks for, from the other side.
+pub const PRIOR_NONE: f64 = 0.5;
+/// The scale of the evidence in the probabilities: ln p ∝ ΔBIC / (2·EVIDENCE_SCALE). ΔBIC is
+/// already a quasi-likelihood (divided by the overdispersion), but the candidates' likelihoods
+/// are of approximate models of each effect fitted on correlated residuals, so their ΔBIC
+/// differences overstate the odds. Calibrated on the project's own `prove` (docs/diagnosis.md,
+/// the reliability table): the value that maximizes the probability given to the concealed
+/// truth over those runs.
+pub const EVIDENCE_SCALE: f64 = 1.0;
+
 /// Paired improvement of the held-out χ² over levels, in standard errors.
 pub const MIN_HELDOUT_Z: f64 = 0.5;
 /// z of the neighbour correlation of residuals ([`fits::structure_z`]) above which a residual
@@ -48,6 +61,45 @@ pub(crate) struct Decision {
     pub params: Vec<Estimate>,
     /// Held-out χ² per residual before and after.
     pub heldout: (f64, f64),
+    pub probabilities: Vec<Probability>,
+    pub set: Vec<String>,
+    pub separation: Option<Separation>,
+}
+
+/// Name of the hypothesis "no extension" among the probabilities.
+pub const NONE: &str = "none";
+
+/// The probability of each hypothesis: `none` (ΔBIC 0) and every applicable candidate that
+/// passes the held-out gates and its floor (a candidate that does not predict held-out levels
+/// better is not supported, whatever its ΔBIC), from the prior ([`PRIOR_NONE`], the rest shared
+/// by `n_candidates`) and the evidence exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of
+/// the marginal likelihood, Kass & Raftery 1995; on the data ΔBIC is divided by the
+/// overdispersion). Most probable first.
+pub fn posterior(scores: &[Score], n_candidates: usize) -> Vec<Probability> {
+    let ln_prior_cand = ((1.0 - PRIOR_NONE) / n_candidates.max(1) as f64).ln();
+    let mut ln: Vec<(String, f64)> = vec![(NONE.to_string(), PRIOR_NONE.ln())];
+    for sc in scores.iter().filter(|s| s.applicable && s.other_gates && s.delta_bic.is_finite()) {
+        ln.push((sc.name.clone(), ln_prior_cand + sc.delta_bic / (2.0 * EVIDENCE_SCALE)));
+    }
+    let top = ln.iter().map(|(_, v)| *v).fold(f64::NEG_INFINITY, f64::max);
+    let total: f64 = ln.iter().map(|(_, v)| (v - top).exp()).sum();
+    let mut out: Vec<Probability> = ln.into_iter().map(|(name, v)| Probability { name, probability: (v - top).exp() / total }).collect();
+    out.sort_by(|a, b| b.probability.total_cmp(&a.probability));
+    out
+}
+
+/// The smallest set of hypotheses (most probable first) holding [`CONFIDENCE`].
+pub fn credible_set(probabilities: &[Probability]) -> Vec<String> {
+    let mut held = 0.0;
+    let mut out = Vec::new();
+    for p in probabilities {
+        if held >= CONFIDENCE {
+            break;
+        }
+        held += p.probability;
+        out.push(p.name.clone());
+    }
+    out
 }
 
 /// Corrects the data-space ΔBIC of `scores` (in the order of `candidates`) for overdispersion,
@@ -71,12 +123,62 @@ pub(crate) fn decide(
     let structure_before =
         fits::structure_z(ctx.calib, &ctx.data.levels, &ctx.sig, &ctx.all, &ctx.base.theta, &vec![Extension::default(); n_levels]);
     let structured = structure_before > STRUCTURED_Z;
+    let probabilities = posterior(scores, candidates.len());
+    let mut set = credible_set(&probabilities);
+    let top = &probabilities[0];
+    let probability_of = |name: &str| probabilities.iter().find(|p| p.name == name).map_or(0.0, |p| p.probability);
+    let named =
+        (top.probability >= CONFIDENCE && top.name != NONE).then(|| scores.iter().position(|s| s.name == top.name && s.passes)).flatten();
+    // A candidate holding the probability without the evidence naming needs (ΔBIC just under
+    // [`MIN_DELTA_BIC`], or a floor) is not stated alone: "none" stays beside it.
+    if top.name != NONE && top.probability >= CONFIDENCE && named.is_none() && !set.iter().any(|n| n == NONE) {
+        set.push(NONE.to_string());
+    }
+    let separation = (set.len() >= 2).then(|| separating(&set[0], &set[1]));
+    if set.len() >= 2 || (top.name != NONE && named.is_none()) {
+        let refit = weighted_mean(&per_level_scores(&ctx.refit_null()), &base.counts);
+        let lean: Vec<String> = set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
+        let measure = separation
+            .as_ref()
+            .map_or(String::new(), |m| format!("; {} ({}) would separate {} from {}", m.record, m.band, m.between[0], m.between[1]));
+        let alternatives = set
+            .iter()
+            .filter_map(|n| scores.iter().find(|s| &s.name == n))
+            .map(|b| Alternative {
+                name: b.name.clone(),
+                delta_bic: b.delta_bic,
+                delta_bic_gap: scores.iter().find(|s| s.name == top.name).map_or(0.0, |t| t.delta_bic) - b.delta_bic,
+                heldout: b.heldout,
+                heldout_z: b.heldout_z,
+                heldout_z_vs_verdict: None,
+                separate_by: separating_measurement(&top.name, &b.name),
+                probability: probability_of(&b.name),
+            })
+            .collect();
+        return Decision {
+            verdict: Verdict::Undecided,
+            winner: None,
+            alternatives,
+            overdispersion: c_hat,
+            family: String::new(),
+            explanation: format!(
+                "no hypothesis holds {:.0} % of the probability alone; the data lean to {}{measure}",
+                100.0 * CONFIDENCE,
+                lean.join(", ")
+            ),
+            params: vec![],
+            heldout: (refit, refit),
+            probabilities,
+            set,
+            separation,
+        };
+    }
     let mut order: Vec<usize> = (0..scores.len()).collect();
     order.sort_by(|&a, &b| {
         let (sa, sb) = (&scores[a], &scores[b]);
         sb.passes.cmp(&sa.passes).then(sb.delta_bic.total_cmp(&sa.delta_bic))
     });
-    let Some(w) = order.first().copied().filter(|&i| scores[i].passes) else {
+    let Some(w) = named else {
         let refit = weighted_mean(&per_level_scores(&ctx.refit_null()), &base.counts);
         let (verdict, mut explanation) = if structured {
             (Verdict::Unexplained, format!("a structured residual ({located}) that no candidate explains"))
@@ -89,7 +191,7 @@ pub(crate) fn decide(
         let alternatives: Vec<Alternative> = order
             .iter()
             .map(|&i| &scores[i])
-            .filter(|b| leans_over_none(b))
+            .filter(|b| set.contains(&b.name))
             .map(|b| Alternative {
                 name: b.name.clone(),
                 delta_bic: b.delta_bic,
@@ -98,6 +200,7 @@ pub(crate) fn decide(
                 heldout_z: b.heldout_z,
                 heldout_z_vs_verdict: None,
                 separate_by: separating_measurement(verdict.as_str(), &b.name),
+                probability: probability_of(&b.name),
             })
             .collect();
         if !alternatives.is_empty() {
@@ -115,13 +218,16 @@ pub(crate) fn decide(
             explanation,
             params: vec![],
             heldout: (refit, refit),
+            probabilities,
+            set,
+            separation,
         };
     };
     let s = &scores[w];
     let alternatives: Vec<Alternative> = order[1..]
         .iter()
         .map(|&i| &scores[i])
-        .filter(|b| indistinguishable(s, b))
+        .filter(|b| set.contains(&b.name))
         .map(|b| {
             let shared_null = s.space == b.space && s.heldout_null_per_level == b.heldout_null_per_level;
             Alternative {
@@ -133,6 +239,7 @@ pub(crate) fn decide(
                 heldout_z_vs_verdict: shared_null
                     .then(|| crate::held_out::paired_z(&b.heldout_per_level, &s.heldout_per_level, &base.counts)),
                 separate_by: separating_measurement(&s.name, &b.name),
+                probability: probability_of(&b.name),
             }
         })
         .collect();
@@ -155,46 +262,22 @@ pub(crate) fn decide(
     } else {
         String::new()
     };
-    let ties = if alternatives.is_empty() {
-        String::new()
-    } else {
-        format!(
-            "; the data cannot tell it from {} (ΔBIC within {INDISTINGUISHABLE_BIC})",
-            alternatives.iter().map(|a| format!("{} (ΔBIC {:.1})", a.name, a.delta_bic)).collect::<Vec<_>>().join(", ")
-        )
-    };
     Decision {
         verdict: Verdict::Named(candidates[w].effect),
         winner: Some(w),
         overdispersion: c_hat,
         family: s.family.clone(),
         explanation: format!(
-            "{} (ΔBIC {:.1}, held-out χ²/residual {:.3} → {:.3}, z = {:.1}){ties}{remainder}",
+            "{} (ΔBIC {:.1}, held-out χ²/residual {:.3} → {:.3}, z = {:.1}){remainder}",
             s.name, s.delta_bic, s.heldout_null, s.heldout, s.heldout_z
         ),
         params: s.params.clone(),
         heldout: (s.heldout_null, s.heldout),
         alternatives,
+        probabilities,
+        set,
+        separation,
     }
-}
-
-/// The one ambiguity rule: `b` passes every gate but the information criterion's (it lowers the
-/// held-out error; a floor does not stop it) and its ΔBIC is within [`INDISTINGUISHABLE_BIC`]
-/// of the verdict `a`'s: the evidence between them is less than what naming needs, so `b` is
-/// reported beside `a` even when `b` alone would not be named (a verdict barely past the
-/// threshold is not separated from a runner-up just under it). ΔBIC of candidates acting on
-/// the data and of those acting through the humidity are on different data (the values, the
-/// levels' parameters): they are compared all the same, each being the evidence against the
-/// same null.
-fn indistinguishable(a: &Score, b: &Score) -> bool {
-    b.applicable && b.other_gates && a.delta_bic - b.delta_bic < INDISTINGUISHABLE_BIC
-}
-
-/// The ambiguity rule with "no extension" as the verdict (ΔBIC 0, held-out unchanged): `b`
-/// passes every gate but the information criterion's and the data favour it over no extension
-/// at all (ΔBIC > 0). With no candidate named, every such one is below the naming threshold.
-fn leans_over_none(b: &Score) -> bool {
-    b.applicable && b.other_gates && b.delta_bic > 0.0
 }
 
 /// Overdispersion ĉ ≥ 1 of the data's χ²: the best-fitting model's χ² per degree of freedom
@@ -213,36 +296,81 @@ pub fn overdispersion(scores: &[Score], chi2_0: f64, dof_0: f64) -> f64 {
     best.max(1.0)
 }
 
-/// The measurement that would separate two candidates the data cannot tell apart.
-pub fn separating_measurement(a: &str, b: &str) -> String {
+/// The measurement that would separate two hypotheses the data cannot tell apart (`none` is
+/// one of them when the data lean to a candidate without the evidence to name it), as data.
+pub fn separating(a: &str, b: &str) -> Separation {
     let pair = |x: &str, y: &str| (a == x && b == y) || (a == y && b == x);
     let has = |x: &str| a == x || b == x;
-    let s = if pair("current_timing", "amplifier_bandwidth") {
-        "sweep to ≥ 1 kHz (a pole rolls the current's gain off and its phase bends away from a line in f, a delay's does not), or measure the amplifier's response with a test current"
+    let (record, band, because) = if pair("current_timing", "amplifier_bandwidth") {
+        (
+            "the current response, or the amplifier alone with a test current",
+            "to ≥ 1 kHz",
+            "a pole rolls the current's gain off and its phase bends away from a line in f; a delay's does not",
+        )
     } else if pair("electrode_resistance", "amplifier_bandwidth") || pair("electrode_resistance", "current_timing") {
-        "measure the amplifier with a test current through a known capacitor (its pole stays, the electrodes' line goes), or the electrodes' surface resistance (four-point probe); sweeping past 1/(2πτ) separates them too (an RC line's phase tends to −45°, a pole's to −90°)"
+        (
+            "the amplifier with a test current through a known capacitor, or the electrodes' surface resistance (four-point probe)",
+            "past 1/(2πτ), ≥ 1 kHz",
+            "the amplifier's pole stays with a capacitor, the electrodes' line goes; an RC line's phase tends to −45°, a pole's to −90°",
+        )
     } else if pair("viscoelastic_relaxation", "air_loading") {
-        "record in vacuum or at reduced pressure (air loading goes, the polymer's law stays), or sweep to 400 Hz to see the second mode"
+        (
+            "the same sweep in vacuum or at reduced pressure, or a sweep through the second mode",
+            "10–400 Hz",
+            "air loading goes with the air, the polymer's law stays; the two scale differently at the second mode",
+        )
     } else if has("tip_mass")
-        && (has("air_loading") || has("viscoelastic_relaxation") || has("clamp_compliance") || has("hysteretic_damping"))
+        && (has("air_loading") || has("viscoelastic_relaxation") || has("clamp_compliance") || has("hysteretic_damping") || has(NONE))
     {
-        "sweep through the second mode (≈ 6.3 f₁, ≥ 250 Hz: a tip mass lowers it far more than the first), or weigh what is at the tip"
+        (
+            "a sweep through the second mode, or the tip weighed",
+            "to ≥ 250 Hz (≈ 6.3 f₁)",
+            "a tip mass lowers the second mode far more than the first",
+        )
     } else if has("clamp_compliance") {
-        "sweep through the second mode, or measure the root's rotation (a clamp's compliance shows as root slope)"
+        ("a sweep through the second mode, or the root's rotation", "to ≥ 250 Hz (≈ 6.3 f₁)", "a clamp's compliance shows as root slope")
     } else if has("temperature") {
-        "record the temperature per point, or hold it constant (±0.5 K) over the session"
+        (
+            "the temperature per point, or the session held within ±0.5 K",
+            "every level",
+            "the humidity candidates and a drifting room move the same parameters",
+        )
     } else if pair("hydration_lag", "humidity_sensor_error") {
-        "revisit levels in both sweep directions with longer settling (a lag's error changes sign with direction, an offset does not), or check the sensor at a reference humidity (a saturated salt)"
+        (
+            "levels revisited in both sweep directions with a dwell of ≥ 3 lags, or the sensor at a saturated-salt reference",
+            "every level, both directions",
+            "a lag's error changes sign with the sweep's direction and fades with the dwell, an offset does neither",
+        )
+    } else if has("hydration_lag") {
+        (
+            "a down sweep after the up sweep (or levels revisited), each level with a dwell of ≥ 3 lags",
+            "every level, both directions",
+            "a lag shows as hysteresis between directions and as settling within a level's window",
+        )
+    } else if has("humidity_sensor_error") {
+        (
+            "the sensor at a saturated-salt reference (e.g. NaCl, 75.3 %RH) or beside a reference hygrometer",
+            "one or two humidities",
+            "an offset or gain of the reading is fixed by a known humidity; the strip cannot tell it from its laws alone",
+        )
     } else if has("tip_timing") {
-        "measure the tip sensor's delay against a reference (a step or an accelerometer at the tip)"
+        ("the tip sensor's delay against a reference (a step, or an accelerometer at the tip)", "to ≥ 1 kHz", "a delay's phase grows in f")
     } else if has("mains_interference") {
-        "record with the shaker off (mains lines stay), or shift the excitation lines off 50/60 Hz and their harmonics"
+        ("a recording with the shaker off, or the excitation lines moved off 50/60 Hz", "45–185 Hz", "mains lines stay without the drive")
     } else if has("capacitive_feedthrough") {
-        "record with the strip disconnected (feedthrough stays) or shield the current input"
+        ("a recording with the strip disconnected, or the current input shielded", "the same band", "feedthrough stays without the strip")
     } else {
-        "more humidity levels, a wider band, or a second session in the other sweep direction"
+        ("more humidity levels, a wider band, or a second session in the other sweep direction", "10–400 Hz", "more data")
     };
-    s.to_string()
+    let mut between = [a.to_string(), b.to_string()];
+    between.sort();
+    Separation { between, record: record.into(), band: band.into(), because: because.into() }
+}
+
+/// [`separating`] in words.
+pub fn separating_measurement(a: &str, b: &str) -> String {
+    let m = separating(a, b);
+    format!("{} ({}): {}", m.record, m.band, m.because)
 }
 
 #[cfg(test)]
@@ -271,31 +399,40 @@ mod tests {
         }
     }
 
-    /// One rule: a candidate that passes the held-out gates and is within INDISTINGUISHABLE_BIC
-    /// of the verdict is reported beside it, even below the naming threshold; one beyond it, or
-    /// failing the held-out gates, is not.
+    fn gated(name: &str, delta_bic: f64) -> Score {
+        score(name, 0.0, delta_bic, true)
+    }
+
+    /// Probabilities sum to one; a candidate failing the held-out gates gets none; the
+    /// separating measurement does not depend on the order of the pair.
     #[test]
-    fn indistinguishable_is_one_rule() {
-        let best = score("a", 0.0, 11.0, true);
-        assert!(indistinguishable(&best, &score("b", 0.0, 11.0 - INDISTINGUISHABLE_BIC + 0.1, true)));
-        assert!(!indistinguishable(&best, &score("c", 0.0, 11.0 - INDISTINGUISHABLE_BIC - 0.1, true)));
-        assert!(!indistinguishable(&best, &score("d", 0.0, 10.5, false)));
+    fn probabilities_cover_the_supported_hypotheses() {
+        let scores = [gated("a", 30.0), gated("b", 20.0), score("c", 0.0, 50.0, false)];
+        let p = posterior(&scores, 14);
+        assert_eq!(p.len(), 3);
+        assert!((p.iter().map(|p| p.probability).sum::<f64>() - 1.0).abs() < 1e-12);
+        assert_eq!(p[0].name, "a");
+        assert!(p.iter().all(|p| p.name != "c"));
         for (a, b) in
             [("current_timing", "amplifier_bandwidth"), ("viscoelastic_relaxation", "air_loading"), ("temperature", "hydration_lag")]
         {
-            assert_eq!(separating_measurement(a, b), separating_measurement(b, a));
+            assert_eq!(separating(a, b), separating(b, a));
         }
-        assert!(separating_measurement("current_timing", "amplifier_bandwidth").contains("1 kHz"));
+        assert!(separating("current_timing", "amplifier_bandwidth").band.contains("1 kHz"));
+        assert!(separating_measurement("none", "temperature").contains("temperature"));
     }
 
-    /// With nothing named, the candidates the data favour over no extension that pass the
-    /// held-out gates are reported; one the data do not favour, or failing those gates, is not.
+    /// The smallest set holding CONFIDENCE: one hypothesis far ahead stands alone; two a few
+    /// ΔBIC apart stand together; nothing supported leaves `none` alone.
     #[test]
-    fn leaning_over_none() {
-        assert!(leans_over_none(&score("a", 0.0, 6.9, true)));
-        assert!(!leans_over_none(&score("b", 0.0, -0.1, true)));
-        assert!(!leans_over_none(&score("c", 0.0, 6.9, false)));
-        assert!(separating_measurement("none", "temperature").contains("temperature"));
+    fn the_set_is_the_smallest_holding_the_confidence() {
+        assert_eq!(credible_set(&posterior(&[gated("a", 40.0), gated("b", 10.0)], 14)), ["a"]);
+        assert_eq!(credible_set(&posterior(&[gated("a", 40.0), gated("b", 38.0)], 14)), ["a", "b"]);
+        assert_eq!(credible_set(&posterior(&[gated("a", -3.0)], 14)), [NONE]);
+        // The prior's odds against one candidate (1:14) are met at ΔBIC ≈ 9.7 on its own.
+        let alone = |d: f64| posterior(&[gated("a", d)], 14)[0].clone();
+        assert!(alone(9.0).probability < CONFIDENCE || alone(9.0).name == NONE);
+        assert!(alone(10.5).name == "a" && alone(10.5).probability >= CONFIDENCE);
     }
 
     /// ĉ is the best-fitting model's χ²/dof, never below 1.

@@ -45,8 +45,25 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     for l in levels {
         anyhow::ensure!(l.freqs.len() >= 5, "the level at {:.1} %RH has only {} frequencies (at least 5 needed)", l.rh_pct, l.freqs.len());
     }
+    progress("the instrument's channels");
+    let instrument = {
+        let (plain, _, _) = Ctx::new(calib, data)?;
+        fits::fit_instrument(calib, levels, &plain.sig, &plain.all, &calib.instrument, &plain.base.theta)?
+    };
+    // Every candidate is scored on the recordings with the channels the plain model found taken
+    // out: what the instrument's tolerances explain is not missing physics. The channels are
+    // profiled at the plain model's optimum, not refitted with each candidate, which can only
+    // take evidence from a candidate (the channels took first what they could), never give it.
+    let corrected = Dataset {
+        levels: levels.iter().map(|l| instrument.channels.corrected(l)).collect(),
+        histories: data.histories.clone(),
+        bursts: data.bursts.clone(),
+    };
+    let data = &corrected;
+    let levels = &data.levels;
     progress("per-level refit and noise");
-    let (ctx, noise, cal_theta) = Ctx::new(calib, data)?;
+    let (mut ctx, noise, cal_theta) = Ctx::new(calib, data)?;
+    ctx.channel_prior = fits::ChannelPrior::new(&instrument, &calib.instrument);
     let n_levels = levels.len();
     let counts: Vec<f64> = ctx.all.iter().map(|m| m.count() as f64).collect();
     let simulation: Vec<f64> = (0..n_levels)
@@ -138,7 +155,12 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         .filter(|e| matches!(e, crate::Effect::HydrationLag | crate::Effect::HumiditySensorError))
         .map(|_| crate::humidity_path::fit(&ctx, decision.overdispersion));
     Ok(Diagnosis {
+        instrument: crate::types::InstrumentReport::of(&instrument, &calib.instrument),
+        channels: instrument.channels,
         verdict: decision.verdict,
+        probabilities: decision.probabilities,
+        set: decision.set,
+        separation: decision.separation,
         indistinguishable: decision.alternatives,
         overdispersion: decision.overdispersion,
         family: decision.family,

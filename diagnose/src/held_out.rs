@@ -27,7 +27,7 @@ impl Ctx<'_> {
     /// Level `l`'s held-out model scored on all its values.
     pub fn scored(&self, l: usize, params: ipmc_core::Params<f64>, extension: Extension<f64>) -> HeldOutModel {
         let chi2 = fits::chi2(&self.data.levels[l], &self.sig[l], &self.all[l], &params, &extension);
-        HeldOutModel { params, extension, inflated: None, chi2_per_residual: chi2 / self.all[l].count() as f64 }
+        HeldOutModel { params, extension, inflated: None, chi2_per_residual: chi2 / self.all[l].count() as f64, channels: None }
     }
 
     /// The held-out model of each level with its base parameters from humidity laws fitted on
@@ -59,6 +59,7 @@ impl Ctx<'_> {
                 extension: Extension::default(),
                 inflated: None,
                 chi2_per_residual: self.base.chi2[l] / self.all[l].count() as f64,
+                channels: None,
             })
             .collect()
     }

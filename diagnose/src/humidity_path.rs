@@ -48,6 +48,7 @@ pub(crate) fn fit(ctx: &Ctx, c_hat: f64) -> HumidityPath {
             read: ctx.read.clone(),
             weights,
             read_gradient: ctx.read_gradient.clone(),
+            channel_prior: ctx.channel_prior.clone(),
         };
         path = fit_once(&refitted, c_hat);
     }

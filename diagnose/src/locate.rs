@@ -208,8 +208,9 @@ pub fn locate(
     }
     narrow_lines.sort_by(|a, b| b.chi2.total_cmp(&a.chi2));
     narrow_lines.truncate(12);
-    let level_regions: Vec<Region> =
-        (0..levels.len()).map(|l| region(format!("{:.1} %RH", levels[l].rh_pct), base.chi2[l], base.residuals[l], dof_ratio)).collect();
+    let level_regions: Vec<Region> = (0..levels.len())
+        .map(|l| region(format!("level {} ({:.1} %RH)", l + 1, levels[l].rh_pct), base.chi2[l], base.residuals[l], dof_ratio))
+        .collect();
     let scatter = super::laws::LawWeights::estimate(
         &super::laws::Regressors { x: levels.iter().map(|l| l.rh_pct).collect(), temperature: None },
         &base.theta,

@@ -15,8 +15,12 @@ pub struct Figure {
 pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -> serde_json::Value {
     json!({
         "verdict": d.verdict,
+        "probabilities": d.probabilities,
+        "set": d.set,
+        "set_rule": format!("the smallest set of hypotheses holding {:.0} % of the probability; a name is stated only when it alone does (else the verdict is undecided)", 100.0 * crate::decide::CONFIDENCE),
+        "separating_measurement": d.separation,
         "indistinguishable": d.indistinguishable,
-        "indistinguishable_rule": format!("passing candidates whose ΔBIC is within {} of the verdict's (none's: 0, and above it)", crate::decide::INDISTINGUISHABLE_BIC),
+        "instrument": d.instrument,
         "overdispersion": d.overdispersion,
         "family": d.family,
         "explanation": d.explanation,
@@ -38,6 +42,9 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -
 }
 
 fn fmt_value(v: f64) -> String {
+    if !v.is_finite() {
+        return "not determined".into();
+    }
     if v == 0.0 || (1e-3..1e4).contains(&v.abs()) { format!("{v:.4}") } else { format!("{v:.3e}") }
 }
 
@@ -46,33 +53,35 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     let _ = writeln!(s, "# Diagnosis\n");
     let _ = writeln!(s, "Recordings: {}  \nCalibration: {calib}\n", inputs.join(", "));
     let verdict = match d.verdict {
-        Verdict::None => "**No missing physics above the noise.**".to_string(),
+        Verdict::None => format!("**No missing physics above the noise** (`none` holds {}).", percent(d, "none")),
         Verdict::Unexplained => format!("**Unexplained:** {}.", d.explanation),
-        Verdict::Named(v) => format!("**{v}** ({}): {}.", d.family, d.explanation),
+        Verdict::Undecided => format!("**Undecided:** {}.", d.explanation),
+        Verdict::Named(v) => format!("**{v}** ({}, probability {}): {}.", d.family, percent(d, v.name()), d.explanation),
     };
     let _ = writeln!(s, "## Verdict\n\n{verdict}\n");
+    let _ = writeln!(
+        s,
+        "Probabilities of the hypotheses the evidence supports (prior: half on no missing physics, the rest shared by the {} candidates; evidence: ΔBIC on Kass & Raftery's approximation); a name is stated only when it alone holds {:.0} %:\n",
+        crate::candidates::LIBRARY.len(),
+        100.0 * crate::decide::CONFIDENCE
+    );
+    let _ = writeln!(s, "| hypothesis | probability | in the set |\n|---|---|---|");
+    for p in &d.probabilities {
+        let _ = writeln!(s, "| {} | {:.1} % | {} |", p.name, 100.0 * p.probability, if d.set.contains(&p.name) { "yes" } else { "" });
+    }
+    let _ = writeln!(s);
+    if let Some(m) = &d.separation {
+        let _ = writeln!(s, "**What would separate {} from {}:** {} ({}): {}.\n", m.between[0], m.between[1], m.record, m.band, m.because);
+    }
     if !d.indistinguishable.is_empty() {
-        let _ = match d.verdict.effect() {
-            Some(_) => writeln!(
-                s,
-                "**The data cannot separate {} from:** (passing candidates whose ΔBIC is within {} of its, less than very strong evidence on Kass & Raftery's scale)\n",
-                d.verdict,
-                crate::decide::INDISTINGUISHABLE_BIC
-            ),
-            None => writeln!(
-                s,
-                "**The data lean to these, without the evidence to name one:** (candidates that pass the held-out gates with ΔBIC above 0, no extension's, and below {}; \"behind by\" is negative: ahead of no extension)\n",
-                crate::decide::MIN_DELTA_BIC
-            ),
-        };
+        let _ = writeln!(s, "**The candidates in the set:**\n");
         let _ = writeln!(
             s,
-            "| candidate | ΔBIC | behind by | held-out | held-out z vs verdict | measurement that would separate them |\n|---|---|---|---|---|---|"
+            "| candidate | probability | ΔBIC | held-out | measurement that would separate it from the most probable |\n|---|---|---|---|---|"
         );
         for a in &d.indistinguishable {
-            let z = a.heldout_z_vs_verdict.map_or("–".to_string(), |z| format!("{z:.1}"));
             let _ =
-                writeln!(s, "| {} | {:.1} | {:.1} | {:.3} | {z} | {} |", a.name, a.delta_bic, a.delta_bic_gap, a.heldout, a.separate_by);
+                writeln!(s, "| {} | {:.1} % | {:.1} | {:.3} | {} |", a.name, 100.0 * a.probability, a.delta_bic, a.heldout, a.separate_by);
         }
         let _ = writeln!(s);
     }
@@ -90,6 +99,27 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         "Held-out error (each humidity level in turn, scored by a model whose tested part was fitted on the other levels; χ² per residual, 1 = at the noise): **{:.3} before, {:.3} after**. Before: {}. After: {}.\n",
         d.heldout_before, d.heldout_after, d.heldout_before_is, after_is
     );
+    let _ = writeln!(s, "## The instrument\n");
+    let _ = writeln!(
+        s,
+        "Each channel's gain and a delay the acquisition shares, fitted with the plain model, their tolerances (`[instrument]`) as priors; every candidate is scored on the recordings with them taken out. Σ(departure/tolerance)² = {:.1} over {} channels.\n",
+        d.instrument.prior_chi2,
+        d.instrument.channels.len()
+    );
+    let _ = writeln!(s, "| channel | fitted | standard error | prior | unit |\n|---|---|---|---|---|");
+    for c in &d.instrument.channels {
+        let _ = writeln!(
+            s,
+            "| {} | {:+.3} | {} | {:+.2} ± {:.2} | {} |",
+            c.name,
+            c.value,
+            c.std_error.map_or("not determined".into(), |e| format!("{e:.3}")),
+            c.prior_mean,
+            c.prior_sd,
+            c.unit
+        );
+    }
+    let _ = writeln!(s);
     let c = &d.located.calibration;
     let _ = writeln!(s, "## Compare\n");
     let _ = writeln!(
@@ -103,7 +133,11 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     };
     let _ =
         writeln!(s, "Noise from neighbouring-point scatter: tip {}; current {}.\n", fmt_noise(&d.noise.tip), fmt_noise(&d.noise.current));
-    let _ = writeln!(s, "## Locate\n\n{}.\n", d.located.summary);
+    let _ = writeln!(
+        s,
+        "## Locate\n\nWhere the recordings depart from the plain model refitted per level, before any candidate is tried (a departure here is a place to look, not a finding: the verdict above says whether any candidate explains it better than the noise and the instrument do): {}.\n",
+        d.located.summary
+    );
     let _ = writeln!(s, "| where | residuals | χ²/residual | z |\n|---|---|---|---|");
     for r in d.located.channels.iter().chain(&d.located.frequency).chain(&d.located.levels) {
         let _ = writeln!(s, "| {} | {} | {:.2} | {:.1} |", r.name, r.residuals, r.chi2_per_residual, r.z);
@@ -114,8 +148,14 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         let _ = writeln!(s, "| {} | {} levels | | {:.1} |", t.name, t.residuals, t.z);
     }
     for h in &d.located.hysteresis {
-        let _ =
-            writeln!(s, "| revisit of {:.1} %RH (levels {} → {}) | | | {:.1} |", h.rh_pct, h.first_level, h.revisit_level, h.combined_z);
+        let _ = writeln!(
+            s,
+            "| revisit of {:.1} %RH (levels {} → {}) | | | {:.1} |",
+            h.rh_pct,
+            h.first_level + 1,
+            h.revisit_level + 1,
+            h.combined_z
+        );
     }
     for t in &d.located.trends {
         let _ = writeln!(s, "| trend of {} {} with ln f (ρ = {:.2}) | | | {:.1} |", t.channel, t.component, t.correlation, t.z);
@@ -136,13 +176,13 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         if c.applicable {
             let _ = writeln!(
                 s,
-                "| {}{} | {} | {:.1} | {:.3} | {:.1} | {} | {} |",
+                "| {}{} | {} | {} | {} | {} | {} | {} |",
                 c.name,
                 if c.passes { " ✔" } else { "" },
                 c.family,
-                c.delta_bic,
-                c.heldout,
-                c.heldout_z,
+                fixed(c.delta_bic, 1),
+                fixed(c.heldout, 3),
+                fixed(c.heldout_z, 1),
                 params.join("; "),
                 c.note
             );
@@ -170,4 +210,14 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         let _ = writeln!(s, "![{}]({}.svg)  \n[PNG]({}.png)\n", f.title, f.stem, f.stem);
     }
     s
+}
+
+/// The stated probability of a hypothesis, as a percentage.
+fn percent(d: &Diagnosis, name: &str) -> String {
+    d.probabilities.iter().find(|p| p.name == name).map_or("not determined".into(), |p| format!("{:.1} %", 100.0 * p.probability))
+}
+
+/// A number with `digits` decimals, or "not determined" where it is not finite.
+fn fixed(v: f64, digits: usize) -> String {
+    if v.is_finite() { format!("{v:.digits$}") } else { "not determined".into() }
 }

@@ -16,6 +16,9 @@ pub enum Verdict {
     None,
     /// A structured residual no candidate explains.
     Unexplained,
+    /// No hypothesis alone holds [`crate::decide::CONFIDENCE`] of the probability: the data lean
+    /// to a set of them ([`Diagnosis::set`]) and a measurement would separate it.
+    Undecided,
     /// The candidate for this effect explains the mismatch.
     Named(Effect),
 }
@@ -26,6 +29,7 @@ impl Verdict {
         match self {
             Verdict::None => "none",
             Verdict::Unexplained => "unexplained",
+            Verdict::Undecided => "undecided",
             Verdict::Named(e) => e.name(),
         }
     }
@@ -120,7 +124,7 @@ pub struct Score {
 pub struct Alternative {
     pub name: String,
     pub delta_bic: f64,
-    /// The verdict's ΔBIC minus this one's (< [`crate::decide::INDISTINGUISHABLE_BIC`]).
+    /// The most probable candidate's ΔBIC minus this one's.
     pub delta_bic_gap: f64,
     pub heldout: f64,
     pub heldout_z: f64,
@@ -129,6 +133,79 @@ pub struct Alternative {
     pub heldout_z_vs_verdict: Option<f64>,
     /// What measurement would separate the two.
     pub separate_by: String,
+    /// Its probability (see [`Diagnosis::probabilities`]).
+    pub probability: f64,
+}
+
+/// One hypothesis's probability given the evidence: `none` (no extension) or a candidate's name.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Probability {
+    pub name: String,
+    pub probability: f64,
+}
+
+/// The measurement that would separate two hypotheses the data cannot tell apart, as data.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Separation {
+    /// The two hypotheses it separates.
+    pub between: [String; 2],
+    /// What to record.
+    pub record: String,
+    /// Over which band or span.
+    pub band: String,
+    /// Why it separates them.
+    pub because: String,
+}
+
+/// One of the instrument's channels as the plain model fitted it, with the prior it had.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ChannelEstimate {
+    pub name: String,
+    pub unit: String,
+    pub value: f64,
+    /// None: held at its prior (a tolerance of zero) or not determined.
+    pub std_error: Option<f64>,
+    pub prior_mean: f64,
+    pub prior_sd: f64,
+}
+
+/// The instrument's nuisance parameters ([`crate::fits::fit_instrument`]).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct InstrumentReport {
+    pub channels: Vec<ChannelEstimate>,
+    /// Σ (departure from the prior mean / prior σ)²: well above the channels' count, the
+    /// instrument is outside its stated tolerances (or takes up what is the strip's).
+    pub prior_chi2: f64,
+}
+
+impl InstrumentReport {
+    pub fn of(fit: &crate::fits::InstrumentFit, prior: &ipmc_core::instrument::Instrument) -> Self {
+        let finite = |v: f64| Some(v).filter(|v| v.is_finite());
+        let gain = |i: usize, name: &str, mean: f64, sd: f64| ChannelEstimate {
+            name: name.into(),
+            unit: "%".into(),
+            value: 100.0 * (fit.values[i].exp() - 1.0),
+            std_error: finite(100.0 * fit.values[i].exp() * fit.std_errors[i]),
+            prior_mean: 100.0 * (mean - 1.0),
+            prior_sd: sd,
+        };
+        InstrumentReport {
+            channels: vec![
+                gain(0, "tip channel's gain departure", prior.tip_gain, prior.tip_gain_tolerance_pct),
+                gain(1, "base channel's gain departure", 1.0, prior.base_gain_tolerance_pct),
+                gain(2, "current channel's gain departure", 1.0, prior.current_gain_tolerance_pct),
+                ChannelEstimate {
+                    name: "acquisition delay (tip and current after base)".into(),
+                    unit: "µs".into(),
+                    value: fit.values[3],
+                    std_error: finite(fit.std_errors[3]),
+                    prior_mean: 0.0,
+                    prior_sd: prior.acquisition_delay_us,
+                },
+            ],
+            prior_chi2: fit.prior_chi2,
+        }
+    }
 }
 
 /// Per-level view for the report and its figures.
@@ -155,6 +232,10 @@ pub struct HeldOutModel {
     /// The level's held-out score: (Σ (residual/σ)² over all its values, σ inflated where
     /// `inflated` says, + [`HeldOutModel::normalization`]) / number of residuals.
     pub chi2_per_residual: f64,
+    /// The instrument's channels as the candidate moved them beside its own fit, on top of
+    /// those every candidate is scored with: the level this model scores is the recording with
+    /// them taken out too (None: no move).
+    pub channels: Option<crate::fits::Channels>,
 }
 
 impl HeldOutModel {
@@ -180,7 +261,20 @@ pub struct LevelModels {
 
 pub struct Diagnosis {
     pub verdict: Verdict,
-    /// Passing candidates within [`crate::decide::INDISTINGUISHABLE_BIC`] of the verdict.
+    /// Every hypothesis the evidence supports (`none` and each candidate passing the held-out
+    /// gates) with its probability, most probable first ([`crate::decide::posterior`]).
+    pub probabilities: Vec<Probability>,
+    /// The smallest set of hypotheses holding [`crate::decide::CONFIDENCE`] of the probability:
+    /// the verdict alone when it is named (or `none`).
+    pub set: Vec<String>,
+    /// What would separate the set's two most probable members (None when one alone holds it).
+    pub separation: Option<Separation>,
+    /// The instrument's channels fitted with the plain model, their tolerances as priors.
+    pub instrument: InstrumentReport,
+    /// Those channels: every number and model here is of the recordings with them taken out
+    /// ([`crate::fits::Channels::corrected`]), and a figure draws those recordings.
+    pub channels: crate::fits::Channels,
+    /// The candidates in [`Diagnosis::set`] other than the verdict.
     pub indistinguishable: Vec<Alternative>,
     /// Overdispersion ĉ of the data's χ² (see [`crate::decide::overdispersion`]) that data-space ΔBIC are divided by.
     pub overdispersion: f64,

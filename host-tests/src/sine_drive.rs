@@ -67,14 +67,16 @@ pub fn run<T: Real>(comp: &mut Compensator<T>, src: &Source, from: usize, to: us
 pub fn steady_error_on<T: Real>(rh: f64, input_rh: f64) -> f64 {
     let inv = design(rh).cast::<T>();
     let mut comp = Compensator::new(&inv);
-    run(&mut comp, &Source::new(input_rh), 0, SETTLE + 4000, inv.delay_s().to_f64(), SETTLE)
+    let delay_s = comp.delay_s().to_f64();
+    run(&mut comp, &Source::new(input_rh), 0, SETTLE + 4000, delay_s, SETTLE)
 }
 
 /// Steady-state error of the design at `rh` on its own humidity's current (last 2 s of 22 s).
 pub fn steady_error<T: Real>(rh: f64) -> f64 {
     let inv = design(rh).cast::<T>();
     let mut comp = Compensator::new(&inv);
-    run(&mut comp, &Source::new(rh), 0, SETTLE + 4000, inv.delay_s().to_f64(), SETTLE)
+    let delay_s = comp.delay_s().to_f64();
+    run(&mut comp, &Source::new(rh), 0, SETTLE + 4000, delay_s, SETTLE)
 }
 
 /// What a retune may disturb: during and after the switch the deviation from the true motion

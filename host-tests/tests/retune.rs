@@ -22,10 +22,10 @@ fn switch_case<T: Real>(rh_a: f64, rh_b: f64) -> (f64, f64, f64, f64) {
     let (ea, eb) = (steady_error_on::<T>(rh_a, rh_b), steady_error_on::<T>(rh_b, rh_b));
     let (inv_a, inv_b) = (design(rh_a).cast::<T>(), design(rh_b).cast::<T>());
     assert_eq!(inv_a.delay_s(), inv_b.delay_s(), "a retune must not change the latency");
-    let delay = inv_a.delay_s().to_f64();
     // Steady errors above the 3 % compensation limit would make the bound meaningless.
     assert!(eb <= 0.03 * U, "steady error of B {:.3} % of U exceeds 3 %: the filter as run does not compensate", eb / U * 100.0);
     let mut comp = Compensator::new(&inv_a);
+    let delay = comp.delay_s().to_f64();
     run(&mut comp, &Source::new(rh_b), 0, SETTLE, delay, SETTLE);
     comp.switch_to(&inv_b);
     assert!(comp.is_retuning());
@@ -128,8 +128,9 @@ fn not_retuning_violates_the_bound() {
     let (ea, eb) = (steady_error::<f64>(40.0), steady_error::<f64>(80.0));
     let inv_a = design(40.0).cast::<f64>();
     let mut comp = Compensator::new(&inv_a);
-    run(&mut comp, &Source::new(40.0), 0, SETTLE, inv_a.delay_s(), SETTLE);
-    let dev = run(&mut comp, &Source::new(80.0), SETTLE, 2 * SETTLE, inv_a.delay_s(), SETTLE + SETTLE / 2);
+    let delay = comp.delay_s();
+    run(&mut comp, &Source::new(40.0), 0, SETTLE, delay, SETTLE);
+    let dev = run(&mut comp, &Source::new(80.0), SETTLE, 2 * SETTLE, delay, SETTLE + SETTLE / 2);
     println!(
         "no retune 40 → 80 % (f64 arithmetic): steady deviation {:.1} % of U vs twice the tuned steady errors {:.3} %",
         dev / U * 100.0,

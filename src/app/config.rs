@@ -29,10 +29,10 @@ pub const ADC_CLIP_MARGIN_CODES: u16 = 8;
 /// Defmt status lines: one per this many blocks (about once a second at the defaults).
 pub const LOG_EVERY_BLOCKS: u32 = SAMPLE_RATE_HZ / BLOCK_LEN as u32;
 
-/// HIH-4030 analog humidity (feature `humidity-hih4030`). Supplied from the Arduino 5 V pin; its
-/// output (0.8 V dry, 3.9 V at 100 % RH) reaches A1 through a 100 kΩ / 200 kΩ divider so that it
-/// stays under the 3.3 V ADC reference (the part wants at least 80 kΩ of load).
-pub const HIH4030_SUPPLY_V: f32 = 5.0;
+/// HIH-4030 analog humidity (feature `humidity-hih4030`). Supplied from the Arduino 5 V pin (its
+/// measured voltage is the calibration's `[humidity] supply_v`); its output (0.8 V dry, 3.9 V at
+/// 100 % RH) reaches A1 through a 100 kΩ / 200 kΩ divider so that it stays under the 3.3 V ADC
+/// reference (the part wants at least 80 kΩ of load).
 /// Divider ratio V(A1) / V(HIH-4030 out).
 pub const HIH4030_DIVIDER: f32 = 200.0 / (100.0 + 200.0);
 /// Air temperature [°C] used for the HIH-4030's temperature compensation: a configured constant

@@ -5,12 +5,16 @@ use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
 
 use embassy_sync::{blocking_mutex::raw::CriticalSectionRawMutex, channel::Channel, signal::Signal};
 use ipmc_core::Inverse;
+use ipmc_core::startup::{Designed, Request};
 use ipmc_core::stream::Header;
 
 use super::config::BLOCK_LEN;
 
-/// RH [%] the retune task should design for (latest request wins).
-pub static RETUNE_REQUEST: Signal<CriticalSectionRawMutex, f32> = Signal::new();
+/// The design the retune task should make (latest request wins).
+pub static RETUNE_REQUEST: Signal<CriticalSectionRawMutex, Request> = Signal::new();
+
+/// What the last design came to, for the start-up (`humidity`), which retries a failed one.
+pub static DESIGN_OUTCOME: Signal<CriticalSectionRawMutex, Designed> = Signal::new();
 
 /// A finished design waiting for the sample path (latest design wins).
 pub static DESIGN_READY: Signal<CriticalSectionRawMutex, Inverse<f32>> = Signal::new();
@@ -52,7 +56,7 @@ impl AtomicF32 {
 /// Latest humidity reading as the sensor gave it [%] (NaN before the first): the sample path
 /// makes the strip's humidity of it, block by block.
 pub static LATEST_READ_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
-/// Humidity and design flags (`RH_STALE`, `DESIGN_FAILED`) for the next blocks.
+/// Humidity and design flags (`RH_STALE`, `DESIGN_FAILED`, `RH_FALLBACK`) for the next blocks.
 pub static CONDITION_FLAGS: AtomicU16 = AtomicU16::new(0);
 
 pub fn set_condition(flag: u16, on: bool) {

@@ -1,17 +1,23 @@
 //! Humidity: polls the board's sensor about once a second and keeps the last good reading
 //! for the sample path, which turns it into the strip's humidity block by block
-//! (`ipmc_core::block_humidity`) and asks for retunes. Before sampling starts this task asks for
-//! the first design itself: at the first reading, or at a fallback when the sensor is silent.
+//! (`ipmc_core::block_humidity`) and asks for retunes. Before sampling starts this task is the
+//! start-up path: it asks for the first design, at the first reading or at a fallback, retries a
+//! failed one and feeds the watchdog while the start-up makes progress (`ipmc_core::startup`,
+//! host-tested, decides all three).
 
 use embassy_time::{Duration, Instant, Ticker, with_timeout};
-use ipmc_core::{block_humidity::BlockHumidity, operating_point::reading_age_s};
+use ipmc_core::{
+    block_humidity::BlockHumidity,
+    operating_point::reading_age_s,
+    startup::{Poll, Startup},
+};
 
-use crate::board::Humidity;
+use crate::board::{self, Humidity};
 
 use super::{
     config::{HUMIDITY_PERIOD_MS, RH_FALLBACK_PCT},
     flags,
-    handoff::{self, LATEST_READ_RH_PCT, RETUNE_REQUEST},
+    handoff::{self, DESIGN_OUTCOME, LATEST_READ_RH_PCT, RETUNE_REQUEST},
     ports::{HumidityError, HumiditySource},
 };
 
@@ -24,17 +30,16 @@ const NO_NEW_DATA_PERIODS: u64 = 3;
 #[embassy_executor::task]
 pub async fn humidity_task(mut sensor: Humidity) {
     let mut ticker = Ticker::every(Duration::from_millis(HUMIDITY_PERIOD_MS));
-    // Whether the first design has been asked for (later ones come from the sample path).
-    let mut first_requested = false;
+    // Later designs come from the sample path.
+    let mut startup = Startup::new(&super::compensation::calibration(), RH_FALLBACK_PCT);
     let mut failures: u32 = 0;
-    let started = Instant::now();
     let mut last_new = Instant::now();
     loop {
         let reading = match with_timeout(READ_TIMEOUT, sensor.read_rh_pct()).await {
             Ok(r) => r,
             Err(_) => Err(HumidityError::NoResponse),
         };
-        match reading {
+        let poll = match reading {
             Ok(raw) => {
                 last_new = Instant::now();
                 LATEST_READ_RH_PCT.store(raw);
@@ -43,14 +48,12 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 }
                 failures = 0;
                 handoff::set_condition(flags::RH_STALE, false);
-                if !first_requested {
-                    // The strip starts settled at the first reading: the sample path's first
-                    // block will be at exactly this humidity.
-                    let first = BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s()).advance(raw, 0.0);
-                    if let Some(first) = first {
-                        first_requested = true;
-                        RETUNE_REQUEST.signal(first.rh_pct);
-                    }
+                // The strip starts settled at the first reading: the sample path's first block
+                // will be at exactly this humidity.
+                // (The calibration is not held across the awaits: it would stay in the task's RAM.)
+                match BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s()).advance(raw, 0.0) {
+                    Some(first) => Poll::Reading(first.rh_pct),
+                    None => Poll::Failed,
                 }
             }
             // The sensor is fine, only not faster than the poll: the last value holds, unless
@@ -59,6 +62,7 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 if last_new.elapsed() > Duration::from_millis(NO_NEW_DATA_PERIODS * HUMIDITY_PERIOD_MS) {
                     handoff::set_condition(flags::RH_STALE, true);
                 }
+                Poll::NothingNew
             }
             Err(e) => {
                 failures += 1;
@@ -66,12 +70,19 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 if failures == 1 {
                     defmt::warn!("humidity reading failed ({}), keeping the last good value", e);
                 }
-                // No reading at all yet: start with the fallback so sampling is not held up
-                // for long by a dead sensor.
-                if !first_requested && started.elapsed() >= Duration::from_millis(2 * HUMIDITY_PERIOD_MS) {
-                    first_requested = true;
-                    RETUNE_REQUEST.signal(RH_FALLBACK_PCT);
+                Poll::Failed
+            }
+        };
+        if !startup.is_done() {
+            let now_ms = Instant::now().as_millis();
+            if let Some(request) = startup.poll(now_ms, poll, DESIGN_OUTCOME.try_take()) {
+                if request.fallback {
+                    defmt::warn!("no humidity reading: design at the fallback {} %RH", request.rh_pct);
                 }
+                RETUNE_REQUEST.signal(request);
+            }
+            if startup.feeds_watchdog(now_ms) {
+                board::feed_startup_watchdog();
             }
         }
         ticker.next().await;

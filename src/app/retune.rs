@@ -1,26 +1,32 @@
 //! Filter retunes: designs the inverse for a requested RH in thread mode (lowest priority) and
 //! hands it to the sample path, which switches at its next block.
 
+use ipmc_core::startup::Designed;
+
 use super::{
     compensation, flags,
-    handoff::{self, DESIGN_READY, RETUNE_REQUEST},
+    handoff::{self, DESIGN_OUTCOME, DESIGN_READY, RETUNE_REQUEST},
 };
 
 #[embassy_executor::task]
 pub async fn retune_task() {
     let calibration = compensation::calibration();
     loop {
-        let rh_pct = RETUNE_REQUEST.wait().await;
-        match compensation::design(&calibration, rh_pct) {
+        let request = RETUNE_REQUEST.wait().await;
+        match compensation::design(&calibration, request.rh_pct) {
             Ok(design) => {
                 handoff::set_condition(flags::DESIGN_FAILED, false);
+                handoff::set_condition(flags::RH_FALLBACK, request.fallback);
                 DESIGN_READY.signal(design);
-                defmt::debug!("design ready for {} %RH", rh_pct);
+                DESIGN_OUTCOME.signal(Designed::Ok);
+                defmt::debug!("design ready for {} %RH", request.rh_pct);
             }
             Err(_) => {
-                // Keep the active design; the next humidity change asks again.
+                // Keep the active design; the next humidity change asks again, and before the
+                // first design the start-up does (`ipmc_core::startup`).
                 handoff::set_condition(flags::DESIGN_FAILED, true);
-                defmt::warn!("design failed for {} %RH, keeping the active filter", rh_pct);
+                DESIGN_OUTCOME.signal(Designed::Failed);
+                defmt::warn!("design failed for {} %RH, keeping the active filter", request.rh_pct);
             }
         }
     }

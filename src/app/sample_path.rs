@@ -7,6 +7,7 @@ use ipmc_core::{
     block_humidity::{BlockHumidity, span_s},
     expected_error::BlockError,
     operating_point::{asks_for_design, reading_age_s},
+    startup::Request,
     stream::Header,
     stuck::StuckDetector,
 };
@@ -39,6 +40,9 @@ pub async fn sample_task(mut samples: Samples) {
     let mut error_bar = BlockError::<f32>::new(&super::compensation::error_table(), &ipmc_core::DesignConfig::firmware());
     // RH of the active or already requested design.
     let mut design_rh = first.rh_pct();
+    // The first design is the start-up's fallback: the first reading replaces it even within
+    // the retune threshold, so that RH_FALLBACK always clears.
+    let mut on_fallback = handoff::conditions() & flags::RH_FALLBACK != 0;
     // Samples from the previous block's start to this one's (0 before the first: the strip
     // starts settled at the first reading).
     let mut since_last: u32 = 0;
@@ -78,9 +82,9 @@ pub async fn sample_task(mut samples: Samples) {
             if now.clamped {
                 block.header.flags |= flags::RH_CLAMPED;
             }
-            if asks_for_design(design_rh, now.rh_pct, filter.is_retuning()) {
+            if core::mem::take(&mut on_fallback) | asks_for_design(design_rh, now.rh_pct, filter.is_retuning()) {
                 design_rh = now.rh_pct;
-                RETUNE_REQUEST.signal(now.rh_pct);
+                RETUNE_REQUEST.signal(Request { rh_pct: now.rh_pct, fallback: false });
             }
         }
         since_last = BLOCK_LEN as u32;

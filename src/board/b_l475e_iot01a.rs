@@ -1,4 +1,4 @@
-//! Board layer for the B-L475E-IOT01A (STM32L475VG, 80 MHz), real hardware via embassy-stm32.
+//! Board layer for the B-L475E-IOT01A (STM32L475VG, 79.95 MHz), real hardware via embassy-stm32.
 //! Every pin and peripheral choice of the firmware is in this file:
 //!
 //! | what                      | where                                   |
@@ -12,17 +12,17 @@
 //! | binary stream             | USART1 TX PB6 (ST-LINK VCP); DMA2 ch6   |
 //! | sample / I/O executors    | UART4 / UART5 interrupts (unused UARTs) |
 //! | time driver               | TIM2 (embassy-stm32 `time-driver-tim2`) |
-//! | watchdog                  | IWDG, fed by the sample path (below)    |
+//! | watchdog                  | IWDG from reset: 16 s fed by the start-up, then 250 ms fed by the sample path (below) |
+//! | clock                     | 32.768 kHz LSE crystal → MSI PLL mode → PLL; HSI16 if the crystal does not start |
 
 pub use embassy_stm32::pac;
 use embassy_stm32::{
-    Config,
+    Config, Peri,
     adc::{Adc, AdcChannel, CONTINUOUS, RingBufferedAdc, SampleTime},
     bind_interrupts, dma, i2c,
     mode::Async,
     peripherals::{ADC1, DMA1_CH1, DMA2_CH6, IWDG, TIM6},
     rcc,
-    time::Hertz,
     timer::low_level::{RoundTo, Timer},
     usart::{self, UartTx},
     wdg::IndependentWatchdog,
@@ -32,7 +32,7 @@ use {defmt_rtt as _, panic_probe as _};
 
 use super::Board;
 use crate::app::{
-    config::{BLOCK_LEN, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
+    config::{ADC_VREF_V, BLOCK_LEN, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
     ports::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
@@ -47,7 +47,7 @@ use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
 use embassy_time::{Duration, Instant, with_timeout};
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use ipmc_core::humidity::Hts221Calibration;
-use ipmc_core::operating_point::samples_lost;
+use ipmc_core::operating_point::{sample_period_clocks, samples_lost};
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use ipmc_sensors::hts221;
 #[cfg(not(feature = "humidity-hih4030"))]
@@ -63,14 +63,34 @@ const ADC_EXTEN_RISING: u8 = 0b01;
 /// Factory conversion of VREFINT at VDDA = 3.0 V, 30 °C (STM32L475 datasheet, Table 8).
 const VREFINT_CAL_ADDR: usize = 0x1FFF_75AA;
 const STREAM_BAUD: u32 = 921_600;
-/// Independent watchdog timeout. Started when sampling starts and fed once per block the sample
-/// path receives (every 16 ms), so it fires only if the sample path itself stops: a hung ADC or
-/// DMA, a stuck sample executor, a fault loop. 250 ms is 15 block periods, far above any
-/// legitimate gap (the sample executor outranks everything but the DMA and time interrupts, a
-/// block takes well under one period to compute), and short enough that at most a quarter
-/// second of sensing is lost before the reset. The retune and I/O tasks do not feed it: their
-/// failures are flagged (DESIGN_FAILED, RH_STALE, REPORT_DROPPED) while sensing goes on.
+/// Independent watchdog timeout once sampling runs: fed once per block the sample path receives
+/// (every 16 ms), so it fires only if the sample path itself stops: a hung ADC or DMA, a stuck
+/// sample executor, a fault loop. 250 ms is 15 block periods, far above any legitimate gap (the
+/// sample executor outranks everything but the DMA and time interrupts, a block takes well under
+/// one period to compute), and short enough that at most a quarter second of sensing is lost
+/// before the reset. The retune and I/O tasks do not feed it: their failures are flagged
+/// (DESIGN_FAILED, RH_STALE, REPORT_DROPPED) while sensing goes on.
 const WATCHDOG_TIMEOUT_US: u32 = 250_000;
+/// Watchdog timeout from reset until sampling runs [s]: started before anything that can hang
+/// (the crystal's start, a panic or fault before sampling, a start-up that never gets its first
+/// design) and fed by the start-up path while it makes progress (`ipmc_core::startup`). Covers
+/// the crystal's bounded start ([`LSE_TIMEOUT_MS`]) with room for the rest of the set-up.
+const STARTUP_WATCHDOG_S: u32 = 16;
+/// The IWDG counts LSI (32 kHz nominal) / 256 at its longest prescaler: 125 counts a second.
+const STARTUP_WATCHDOG_RELOAD: u16 = (STARTUP_WATCHDOG_S * 32_000 / 256 - 1) as u16;
+const _: () = assert!(STARTUP_WATCHDOG_RELOAD < 0x1000, "the IWDG reload is 12 bits");
+/// Longest wait for the 32.768 kHz crystal to start [ms] (ST's HAL waits as long; the datasheet's
+/// typical start-up is 2 s). embassy-stm32 waits on LSERDY without bound, so init() starts the
+/// crystal itself first and leaves it out of embassy's configuration if it did not start.
+const LSE_TIMEOUT_MS: u32 = 5_000;
+/// SYSCLK at reset: MSI at 4 MHz, the clock init()'s wait for the crystal counts in.
+const RESET_SYSCLK_HZ: u32 = 4_000_000;
+/// MSI in PLL mode locks to 122 × LSE (RM0351, MSI PLL mode), not to its nominal 4 MHz range.
+const MSI_LOCKED_HZ: u64 = 122 * 32_768;
+/// SYSCLK with the crystal: MSI × 40 / 2 = 79 953 920 Hz (embassy reports the nominal 80 MHz).
+const SYSCLK_LSE_HZ: u64 = MSI_LOCKED_HZ * 40 / 2;
+/// SYSCLK without it: HSI16 × 10 / 2.
+const SYSCLK_HSI_HZ: u64 = 16_000_000 * 10 / 2;
 #[cfg(not(feature = "humidity-hih4030"))]
 const I2C_HZ: u32 = 100_000;
 /// Longest I2C transfer [ms]: the longest HTS221 transfer (16 calibration bytes) takes 2 ms at
@@ -125,33 +145,118 @@ pub const IO_PRIORITY: u8 = 7 << 4;
 /// Two halves of `BLOCK_LEN`: the DMA fills one while the sample path reads the other.
 static ADC_DMA_BUF: StaticCell<[u16; 2 * BLOCK_LEN]> = StaticCell::new();
 
-fn clocks() -> Config {
+/// The clock tree, and the real SYSCLK it gives (TIM6 and the ADC run from it).
+fn clocks(crystal: bool) -> (Config, u64) {
     let mut config = Config::default();
-    // MSI 4 MHz → PLL (×40 /2) → 80 MHz SYSCLK; the ADC runs from SYSCLK. With the board's
-    // 32.768 kHz crystal on LSE, embassy puts MSI in PLL mode (MSIPLLEN): MSI, and with it the
-    // sample rate, the filter's fs, the time base and the baud rate, inherit the crystal's
-    // ±20 ppm instead of HSI16's ±1–2 % over temperature.
-    config.rcc.ls = rcc::LsConfig::default_lse();
-    config.rcc.msi = Some(rcc::MSIRange::RANGE4M);
-    config.rcc.hsi = false;
-    config.rcc.pll = Some(rcc::Pll {
-        source: rcc::PllSource::MSI,
-        prediv: rcc::PllPreDiv::DIV1,
-        mul: rcc::PllMul::MUL40,
-        divp: None,
-        divq: None,
-        divr: Some(rcc::PllRDiv::DIV2),
-    });
-    config.rcc.sys = rcc::Sysclk::PLL1_R;
     config.rcc.mux.adcsel = rcc::mux::Adcsel::SYS;
-    config
+    config.rcc.sys = rcc::Sysclk::PLL1_R;
+    if crystal {
+        // MSI → PLL (×40 /2) → SYSCLK. With the crystal on LSE, embassy puts MSI in PLL mode
+        // (MSIPLLEN): MSI locks to 122 × 32 768 Hz, so SYSCLK is 79.954 MHz, and the sample
+        // rate's mean follows the crystal's own tolerance (once TIM6's period is counted from the
+        // real SYSCLK, below) instead of HSI16's ±1 % over temperature; MSI PLL mode itself is
+        // only guaranteed to ±0.25 % (datasheet), from period to period.
+        // LSI too: the crystal's clock security system runs on it (RM0351, CSS on LSE).
+        config.rcc.ls = rcc::LsConfig { lsi: true, ..rcc::LsConfig::default_lse() };
+        config.rcc.msi = Some(rcc::MSIRange::RANGE4M);
+        config.rcc.hsi = false;
+        config.rcc.pll = Some(rcc::Pll {
+            source: rcc::PllSource::MSI,
+            prediv: rcc::PllPreDiv::DIV1,
+            mul: rcc::PllMul::MUL40,
+            divp: None,
+            divq: None,
+            divr: Some(rcc::PllRDiv::DIV2),
+        });
+        (config, SYSCLK_LSE_HZ)
+    } else {
+        // No crystal: HSI16 is the better of the free-running oscillators (±1 % over
+        // temperature against MSI's few %), and the stream says CLOCK_FAULT.
+        config.rcc.ls = rcc::LsConfig::off();
+        config.rcc.hsi = true;
+        config.rcc.pll = Some(rcc::Pll {
+            source: rcc::PllSource::HSI,
+            prediv: rcc::PllPreDiv::DIV1,
+            mul: rcc::PllMul::MUL10,
+            divp: None,
+            divq: None,
+            divr: Some(rcc::PllRDiv::DIV2),
+        });
+        (config, SYSCLK_HSI_HZ)
+    }
+}
+
+/// Starts the IWDG with the long start-up timeout, with registers only: nothing of the HAL
+/// exists yet, and what comes next (the crystal, the HAL's own init) may hang.
+fn start_startup_watchdog() {
+    use pac::iwdg::vals::{Key, Pr};
+    // A debugger halt must not count as a stalled start-up or sample path.
+    pac::DBGMCU.apb1fzr1().modify(|w| w.set_iwdg(true));
+    let iwdg = pac::IWDG;
+    iwdg.kr().write(|w| w.set_key(Key::START));
+    iwdg.kr().write(|w| w.set_key(Key::ENABLE));
+    iwdg.pr().write(|w| w.set_pr(Pr::DIVIDE_BY256));
+    iwdg.rlr().write(|w| w.set_rl(STARTUP_WATCHDOG_RELOAD));
+    // The new values reach the LSI domain within a few LSI periods; a reload before that would
+    // use the reset values (a 0.5 s timeout).
+    while iwdg.sr().read().0 != 0 {}
+    feed_startup_watchdog();
+}
+
+/// Refreshes the watchdog with whatever timeout it runs: the start-up path's feed (`app::humidity`).
+pub fn feed_startup_watchdog() {
+    pac::IWDG.kr().write(|w| w.set_key(pac::iwdg::vals::Key::RESET));
+}
+
+/// Starts the 32.768 kHz crystal with a bound on the wait, in the configuration embassy-stm32
+/// checks for (LSE on, medium-high drive, RTC clock = LSE) so that its init finds it done and
+/// does not wait again. Returns whether the crystal runs; if not, LSE is left off, which is
+/// also what embassy finds done for a configuration without LSE.
+fn start_crystal() -> bool {
+    use pac::rcc::vals::{Lsedrv, Rtcsel};
+    pac::RCC.apb1enr1().modify(|w| w.set_pwren(true));
+    pac::PWR.cr1().modify(|w| w.set_dbp(true));
+    while !pac::PWR.cr1().read().dbp() {}
+    let bdcr = pac::RCC.bdcr();
+    let b = bdcr.read();
+    let running = b.lseon() && b.lserdy() && !b.lsebyp() && b.lsedrv() == Lsedrv::MEDIUM_HIGH && b.rtcsel() == Rtcsel::LSE && b.rtcen();
+    // The backup domain survives resets: a crystal that the clock security system found dead
+    // (LSECSSD, cleared only by a backup domain reset) is started anew.
+    if running && !b.lsecssd() {
+        return true;
+    }
+    bdcr.modify(|w| w.set_bdrst(true));
+    bdcr.modify(|w| w.set_bdrst(false));
+    bdcr.modify(|w| {
+        w.set_lsedrv(Lsedrv::MEDIUM_HIGH);
+        w.set_lseon(true);
+    });
+    // SYSCLK is the reset MSI here: one poll per millisecond of it.
+    for _ in 0..LSE_TIMEOUT_MS {
+        if bdcr.read().lserdy() {
+            bdcr.modify(|w| {
+                w.set_rtcsel(Rtcsel::LSE);
+                w.set_rtcen(true);
+            });
+            return true;
+        }
+        cortex_m::asm::delay(RESET_SYSCLK_HZ / 1_000);
+    }
+    bdcr.modify(|w| w.set_lseon(false));
+    false
+}
+
+/// The crystal stopped since it started: its clock security system tripped (MSI has left PLL
+/// mode by itself and runs free).
+fn crystal_failed() -> bool {
+    pac::RCC.bdcr().read().lsecssd()
 }
 
 /// Logs why the MCU last reset (RCC_CSR), then clears the flags for the next start.
 fn report_reset_cause() {
     let csr = pac::RCC.csr().read();
     let cause = if csr.iwdgrstf() {
-        "independent watchdog (the sample path had stopped)"
+        "independent watchdog (the start-up or the sample path had stopped)"
     } else if csr.wwdgrstf() {
         "window watchdog"
     } else if csr.sftrstf() {
@@ -174,17 +279,24 @@ fn report_reset_cause() {
 }
 
 pub fn init() -> Board {
+    start_startup_watchdog();
     report_reset_cause();
-    let p = embassy_stm32::init(clocks());
-    // A debugger halt must not count as a stalled sample path.
-    pac::DBGMCU.apb1fzr1().modify(|w| w.set_iwdg(true));
-    let watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
+    let crystal = start_crystal();
+    feed_startup_watchdog();
+    let (config, sysclk_hz) = clocks(crystal);
+    let p = embassy_stm32::init(config);
+    if crystal {
+        // Allowed once LSE and LSI run and the RTC clock is selected (RM0351, CSS on LSE).
+        pac::RCC.bdcr().modify(|w| w.set_lsecsson(true));
+    } else {
+        defmt::error!("the 32.768 kHz crystal did not start in {} ms: running from HSI16 (±1 %), CLOCK_FAULT", LSE_TIMEOUT_MS);
+    }
 
     // The reference every conversion scales with, measured before ADC1 goes to the sample
     // trigger (VREFINT is on ADC1 only). Two reads: the first after calibration may be wrong
     // (erratum below); 640.5 cycles is 8 µs, above VREFINT's 4 µs minimum sampling time.
     let mut adc = Adc::new(p.ADC1);
-    let front_end = {
+    let vdda_v = {
         let mut vrefint = adc.enable_vrefint();
         let _ = adc.blocking_read(&mut vrefint, SampleTime::CYCLES640_5);
         let code = adc.blocking_read(&mut vrefint, SampleTime::CYCLES640_5);
@@ -193,20 +305,23 @@ pub fn init() -> Board {
         match ipmc_sensors::vrefint::vdda_v(code, cal) {
             Some(v) => {
                 defmt::info!("ADC reference VDDA = {} V (VREFINT {} counts, factory {})", v, code, cal);
-                current_conversion::FrontEnd::with_vref(v)
+                v
             }
             None => {
                 defmt::warn!("VREFINT {} counts (factory {}) is no reference: assuming VDDA = 3.3 V", code, cal);
-                current_conversion::FrontEnd::NOMINAL
+                ADC_VREF_V
             }
         }
     };
+    let front_end = current_conversion::FrontEnd::with_vref(vdda_v);
     // Current: ADC1 converts once per TIM6 update; DMA writes a circular buffer.
     let mut adc = adc.into_ring_buffered(
         p.DMA1_CH1,
         ADC_DMA_BUF.init([0; 2 * BLOCK_LEN]),
         Irqs,
-        [(p.PC5.degrade_adc(), SampleTime::CYCLES47_5)].into_iter(),
+        // 640.5 cycles (8 µs): the front end's input capacitor and op-amp settle the sampling
+        // capacitor's kick (docs/firmware.md, "Front end"); at 2 kHz the ADC idles 98 % anyway.
+        [(p.PC5.degrade_adc(), SampleTime::CYCLES640_5)].into_iter(),
         CONTINUOUS,
     );
     // embassy-stm32 sets this ADC version up for continuous conversions only; switch it to
@@ -216,15 +331,20 @@ pub fn init() -> Board {
         w.set_exten(ADC_EXTEN_RISING);
         w.set_extsel(ADC_EXTSEL_TIM6_TRGO);
     });
-    adc.set_alignment(1);
+    // After an overrun the ring restarts where the DMA is; reading from the next block boundary
+    // of the buffer (whose position 0 was the first sample) loses whole blocks only, which is
+    // what the gap's duration counts (`samples_lost`).
+    adc.set_alignment(BLOCK_LEN);
     let trigger = Timer::new(p.TIM6);
-    trigger.set_frequency(Hertz(SAMPLE_RATE_HZ), RoundTo::Slower);
+    // From the real SYSCLK (TIM6 runs from it, APB1 undivided): embassy's set_frequency would
+    // use its nominal 80 MHz and run the sampling 576 ppm slow with the crystal.
+    trigger.set_period_clocks(sample_period_clocks(sysclk_hz), RoundTo::Slower);
     trigger.regs_basic().cr2().modify(|w| w.set_mms(pac::timer::vals::Mms::UPDATE));
 
     #[cfg(not(feature = "humidity-hih4030"))]
     let humidity = {
         let mut i2c_config = i2c::Config::default();
-        i2c_config.frequency = Hertz(I2C_HZ);
+        i2c_config.frequency = embassy_stm32::time::Hertz(I2C_HZ);
         // embassy's async I2C busy-waits inside its poll while the bus is BUSY (SDA held low),
         // up to this timeout: keep it far below the humidity task's (500 ms) so a wedged bus
         // costs the I/O executor milliseconds, not a second.
@@ -248,13 +368,23 @@ pub fn init() -> Board {
     };
     // ADC1 belongs to the timer-triggered current ring buffer; the humidity gets ADC2.
     #[cfg(feature = "humidity-hih4030")]
-    let humidity = Humidity { adc: Adc::new(p.ADC2), pin: p.PC4.degrade_adc() };
+    let humidity = Humidity { adc: Adc::new(p.ADC2), pin: p.PC4.degrade_adc(), vdda_v };
 
     let mut uart_config = usart::Config::default();
     uart_config.baudrate = STREAM_BAUD;
     let uart = UartTx::new(p.USART1, p.PB6, p.DMA2_CH6, Irqs, uart_config).expect("USART1 config is valid");
 
-    let samples = Samples { adc, trigger, codes: [0; BLOCK_LEN], watchdog, last_block: None, first_conversion: true, front_end };
+    let samples = Samples {
+        adc,
+        trigger,
+        codes: [0; BLOCK_LEN],
+        iwdg: Some(p.IWDG),
+        watchdog: None,
+        last_block: None,
+        first_conversion: true,
+        front_end,
+        clock_fault: !crystal,
+    };
     Board { samples, humidity, stream: Stream(uart) }
 }
 
@@ -262,12 +392,16 @@ pub struct Samples {
     adc: RingBufferedAdc<'static, ADC1>,
     trigger: Timer<'static, TIM6>,
     codes: [u16; BLOCK_LEN],
-    watchdog: IndependentWatchdog<'static, IWDG>,
+    /// The IWDG runs from reset with the start-up's timeout; `start` shortens it.
+    iwdg: Option<Peri<'static, IWDG>>,
+    watchdog: Option<IndependentWatchdog<'static, IWDG>>,
     /// When the last block arrived: the length of a gap after an overrun.
     last_block: Option<Instant>,
     /// The next block's first conversion is the first since calibration (below).
     first_conversion: bool,
     front_end: current_conversion::FrontEnd,
+    /// The crystal did not start: the sample clock is HSI16's.
+    clock_fault: bool,
 }
 
 impl CurrentSource for Samples {
@@ -287,8 +421,14 @@ impl CurrentSource for Samples {
         }
         self.trigger.start();
         self.first_conversion = true;
-        // From here on the sample path must deliver a block every 16 ms.
-        self.watchdog.unleash();
+        // From here on the sample path must deliver a block every 16 ms: the running IWDG gets
+        // the short timeout (the start-up stops feeding it once the first design is in).
+        if let Some(iwdg) = self.iwdg.take() {
+            let mut watchdog = IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US);
+            watchdog.unleash();
+            watchdog.pet();
+            self.watchdog = Some(watchdog);
+        }
     }
 
     async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
@@ -301,7 +441,12 @@ impl CurrentSource for Samples {
             overrun = true;
         }
         // Fed by progress: a block arrived, so the previous one was processed.
-        self.watchdog.pet();
+        if let Some(w) = self.watchdog.as_mut() {
+            w.pet();
+        }
+        if self.clock_fault || crystal_failed() {
+            block_flags |= flags::CLOCK_FAULT;
+        }
         let now = Instant::now();
         let lost_samples = match self.last_block {
             Some(last) if overrun => samples_lost((now - last).as_micros()),
@@ -473,15 +618,19 @@ impl embedded_hal::digital::InputPin for RegisterPin {
 pub struct Humidity {
     adc: Adc<'static, ADC2>,
     pin: AnyAdcChannel<'static, ADC2>,
+    /// ADC2 shares ADC1's reference, measured at start-up.
+    vdda_v: f32,
 }
 
 #[cfg(feature = "humidity-hih4030")]
 impl HumiditySource for Humidity {
     async fn read_rh_pct(&mut self) -> Result<f32, HumidityError> {
-        // 640.5 cycles (8 µs at 80 MHz) lets the ADC's sampling capacitor charge through the
-        // divider's 67 kΩ; blocking that long once a second costs the I/O executor nothing.
+        // The divider's 67 kΩ is more than even 640.5 cycles (8 µs) may be driven from: the
+        // 100 nF at A1 (docs/firmware.md) supplies the sampling capacitor's charge, and the
+        // longest sampling time keeps what is left of the error smallest. Blocking 8 µs once a
+        // second costs the I/O executor nothing.
         let code = self.adc.blocking_read(&mut self.pin, SampleTime::CYCLES640_5);
-        crate::app::analog_humidity::rh_pct_from_code(code)
+        crate::app::analog_humidity::rh_pct_from_code(code, self.vdda_v)
     }
 }
 

@@ -5,6 +5,7 @@
 //!   ports in `crate::app::ports`;
 //! - `SAMPLE_PRIORITY` / `IO_PRIORITY`, the NVIC priorities of the two interrupt executors
 //!   (`executors`: interrupts and handlers, shared);
+//! - `feed_startup_watchdog()`: the start-up path's feed of the watchdog (a no-op where there is none);
 //! - `finish()`: what happens when the sample source says the input has ended.
 
 #[cfg(feature = "board-b-l475e")]

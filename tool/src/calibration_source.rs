@@ -8,6 +8,12 @@ use std::path::Path;
 /// over its range (`calibration_file::check`, as the firmware build requires); the error names
 /// the file, line and column, or the parameter and humidity that make it unusable.
 pub fn load(spec: Option<&str>) -> Result<Calibration> {
+    if spec.is_none() {
+        // A silent preset would be read as the user's strip: say which laws are in use.
+        eprintln!(
+            "note: no --calib given: using the built-in default preset (the paper's laws, d reconstructed), not a calibration of your strip"
+        );
+    }
     let calib = match spec.unwrap_or("default") {
         "default" => Calibration::default_preset(),
         "paper" => Calibration::paper(),

@@ -29,6 +29,24 @@ pub fn noise_density(ts: &TimeSeries, per: usize) -> Option<f64> {
     (n > 0).then(|| (sum / n as f64 / 2.0 / (ts.fs_hz / 2.0)).sqrt())
 }
 
+/// Largest [`period_mismatch`] of a periodic excitation: halfway between a periodic signal (0)
+/// and one whose consecutive periods are unrelated (1).
+pub const MAX_PERIOD_MISMATCH: f64 = 0.5;
+
+/// rms of the difference between consecutive periods over √2·rms of the signal: 0 for a
+/// periodic one, 1 for one whose periods are unrelated, the noise's share in between. None
+/// without two whole periods.
+pub fn period_mismatch(x: &[f64], per: usize) -> Option<f64> {
+    let whole = x.len() / per * per;
+    if whole < 2 * per {
+        return None;
+    }
+    let mean = x[..whole].iter().sum::<f64>() / whole as f64;
+    let var = x[..whole].iter().map(|v| (v - mean).powi(2)).sum::<f64>() / whole as f64;
+    let diff = (per..whole).map(|k| (x[k] - x[k - per]).powi(2)).sum::<f64>() / (whole - per) as f64;
+    (var > 0.0).then(|| (diff / (2.0 * var)).sqrt())
+}
+
 /// Each burst's first whole periods, repeated to at least `seconds`; bursts keep their start
 /// times (moved later where a looped burst would reach the next one).
 pub fn loop_bursts(ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<TimeSeries> {
@@ -37,6 +55,19 @@ pub fn loop_bursts(ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<TimeS
         bail!("a period of {period_s} s is not a whole number of samples at {} Hz", ts.fs_hz);
     }
     let per = per.round() as usize;
+    for burst in ts.bursts() {
+        let x = &ts.current_a[burst.clone()];
+        if let Some(r) = period_mismatch(x, per)
+            && r > MAX_PERIOD_MISMATCH
+        {
+            bail!(
+                "the burst at t = {} s does not repeat every {period_s} s (consecutive periods differ by {:.0} % of the current's \
+                 rms): looping it would join unrelated stretches; give the excitation's period with --period-s",
+                ts.t_s[burst.start],
+                100.0 * r
+            );
+        }
+    }
     let mut out = TimeSeries { metadata: ts.metadata.clone(), fs_hz: ts.fs_hz, ..Default::default() };
     let (mut base, mut tip, mut temp) = (vec![], vec![], vec![]);
     let mut next_free = f64::NEG_INFINITY;
@@ -102,6 +133,8 @@ mod tests {
         assert_eq!(l.metadata.get(NOISE_KEY), Some("0"), "noiseless periods");
         assert!(loop_bursts(&ts, 0.45, 2.0).is_err(), "not whole samples");
         assert!(loop_bursts(&ts, 2.0, 2.0).is_err(), "longer than a burst");
+        let e = loop_bursts(&ts, 0.3, 2.0).unwrap_err().to_string();
+        assert!(e.contains("does not repeat every 0.3 s"), "{e}");
     }
 
     #[test]

@@ -7,6 +7,7 @@ mod charging;
 mod commands;
 mod diagnose;
 mod exact;
+mod hygrometer;
 mod input;
 mod inverse_choice;
 mod looping;
@@ -52,6 +53,12 @@ enum Command {
     /// own calibration beside the nominal one's, the identified model's exact inverse and a
     /// perfect calibration's (`--truth`).
     StripCheck(commands::strip_check::Args),
+    /// For a field recording with its truths: the compensation's error with the reading, the
+    /// fused humidity and a perfect hygrometer, and the strip's own humidity estimate's coverage.
+    FieldTable(commands::field_table::Args),
+    /// Field recording from the simulator's field mode: a strip in service, unknown broadband
+    /// motion, drifting humidity, a sensor with its errors.
+    SimulateField(commands::simulate_field::Args),
     /// Write a preset as a calibration file (to edit, bake into the firmware with IPMC_CALIB).
     CalibExport(commands::calib_export::Args),
     /// Decode the firmware's binary stream (serial port, file or -): live values, optional CSV.
@@ -90,6 +97,8 @@ fn main() {
         Command::Identify(a) => commands::identify::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
         Command::StripCheck(a) => commands::strip_check::run(a),
+        Command::FieldTable(a) => commands::field_table::run(a),
+        Command::SimulateField(a) => commands::simulate_field::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),
         Command::Monitor(a) => commands::monitor::run(a),
         Command::Score(a) => commands::score::run(a),

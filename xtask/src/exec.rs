@@ -37,7 +37,7 @@ pub fn describe(cmd: &Command) -> String {
 pub fn score_inband(rec: &std::path::Path, est: &std::path::Path) -> Result<f64> {
     let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str(), "--json".as_ref()])?;
     let v: serde_json::Value = serde_json::from_str(out.trim()).map_err(|e| anyhow!("ipmc score --json: {e}: {out}"))?;
-    v["inband"].as_f64().ok_or_else(|| anyhow!("ipmc score --json: no `inband` in {out}"))
+    v["band_error"].as_f64().ok_or_else(|| anyhow!("ipmc score --json: no `band_error` in {out}"))
 }
 
 pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {

@@ -7,6 +7,7 @@
 
 mod bench;
 mod coverage;
+mod doc_commands;
 mod exec;
 mod firmware;
 mod flash;
@@ -14,6 +15,7 @@ mod humidity_loop;
 mod install;
 mod qemu;
 mod qemu_scenarios;
+mod readme_figures;
 mod recording;
 mod replay;
 mod size;

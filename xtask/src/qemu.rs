@@ -119,6 +119,7 @@ pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathB
         )?,
     };
     let out = out.unwrap_or_else(|| repo_root().join("target/qemu-run/EST.csv"));
+    let input = long_enough_to_score(&input, &repo_root().join("target/qemu-run"))?;
     let replayed = replay_recording(&input, &out, calib.as_deref(), &repo_root().join("target/qemu-run"))?;
     print!("{}", replayed.log);
     println!(
@@ -129,8 +130,35 @@ pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathB
         replayed.blocks_with(flags::CLIPPED),
         out.display()
     );
-    report_accuracy(&input, &out)?;
+    report_accuracy(&input, &out, calib.as_deref())?;
     Ok(())
+}
+
+/// `input`, or where its bursts are too short for the chain to settle and be scored (a bench
+/// session's 2 s bursts of a periodic excitation), the recording with each burst repeated by
+/// whole periods (`ipmc loop-bursts`, written into `work`), said aloud.
+fn long_enough_to_score(input: &Path, work: &Path) -> Result<PathBuf> {
+    let rec = recording::time_series(input)?;
+    let shortest = rec.bursts().iter().map(|b| b.len()).min().unwrap_or(0) as f64 / rec.fs_hz;
+    let needed = ipmc_core::operating_point::SETTLE_S + 1.0;
+    if rec.base_m.is_none() || shortest >= needed {
+        return Ok(input.to_path_buf());
+    }
+    fs::create_dir_all(work)?;
+    let looped = work.join("LOOPED.csv");
+    println!(
+        "==> {}: its shortest burst is {shortest:.1} s, under the {needed} s the chain needs to settle and be scored; \
+         repeating each burst's whole periods (`cargo ipmc loop-bursts`) into {}",
+        input.display(),
+        looped.display()
+    );
+    // The settling and a few seconds to score: QEMU runs in real time.
+    let seconds = format!("{}", needed + 4.0);
+    print!(
+        "{}",
+        ipmc(&["loop-bursts".as_ref(), input.as_os_str(), "--out".as_ref(), looped.as_os_str(), "--seconds".as_ref(), seconds.as_ref()])?
+    );
+    Ok(looped)
 }
 
 /// Replays the time-series recording `input` in the QEMU build of the firmware (with `calib`
@@ -153,8 +181,16 @@ pub fn replay_recording(input: &Path, out: &Path, calib: Option<&Path>, work: &P
         if replay.gaps.is_empty() { String::new() } else { format!(", {} waits between bursts, {waits:.0} s in all", replay.gaps.len()) }
     );
     let replayed = run_replay(&elf, &replay, work)?;
-    write_est_csv(out, &rec.t_s, &replayed.blocks, &replay)?;
+    write_est_csv(out, &rec.t_s, &replayed.blocks, &replay, &band_of(calib)?)?;
     Ok(replayed)
+}
+
+/// The band the firmware built with `calib` (or the default preset) keeps.
+pub fn band_of(calib: Option<&Path>) -> Result<ipmc_core::band::Band> {
+    let Some(path) = calib else { return Ok(ipmc_core::band::Band::DEFAULT) };
+    let text = fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let c = ipmc_core::calibration_file::parse(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    Ok(c.band)
 }
 
 /// Runs `cargo ipmc ARGS…` and returns the figure it prints after "skipped): " (the scoring
@@ -168,24 +204,26 @@ fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<String> {
 
 /// If the input recording carries the true `base_m`, prints the firmware's error against it
 /// and, for comparison, the host's humidity-independent baseline (`ipmc compensate --fixed-rh 45`).
-fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
+fn report_accuracy(input: &Path, est_csv: &Path, calib: Option<&Path>) -> Result<()> {
     if recording::time_series(input)?.base_m.is_none() {
         return Ok(());
     }
     let firmware = ipmc_figure(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str()])?;
     let fixed_out = repo_root().join("target/qemu-run/EST-fixed45.csv");
-    let fixed = ipmc_figure(&[
-        "compensate".as_ref(),
-        input.as_os_str(),
-        "--out".as_ref(),
-        fixed_out.as_os_str(),
-        "--fixed-rh".as_ref(),
-        "45".as_ref(),
-    ])?;
+    let mut args: Vec<&std::ffi::OsStr> =
+        vec!["compensate".as_ref(), input.as_os_str(), "--out".as_ref(), fixed_out.as_os_str(), "--fixed-rh".as_ref(), "45".as_ref()];
+    if let Some(c) = calib {
+        args.extend(["--calib".as_ref(), c.as_os_str()]);
+    }
+    let fixed = ipmc_figure(&args)?;
+    let band = band_of(calib)?;
     println!(
-        "accuracy vs true base (delayed {} samples, first 5 s of settling skipped; `cargo ipmc score`):\n  \
+        "accuracy vs true base in {}–{} Hz (delayed {} samples, first {} s of each burst skipped; `cargo ipmc score`):\n  \
          firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}",
-        ipmc_core::operating_point::delay_samples()
+        band.low_hz,
+        band.high_hz,
+        ipmc_core::operating_point::delay_samples(&band),
+        ipmc_core::operating_point::SETTLE_S
     );
     plot(input, est_csv, &fixed_out)
 }
@@ -195,7 +233,6 @@ fn report_accuracy(input: &Path, est_csv: &Path) -> Result<()> {
 fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
     install::ensure_plot_font()?;
     let prefix = est_csv.with_extension("");
-    let delay_ms = format!("{}", ipmc_core::operating_point::delay_samples() as f64 * 1e3 / FIRMWARE_FS_HZ as f64);
     let out = ipmc(&[
         "plot".as_ref(),
         "compensated".as_ref(),
@@ -207,8 +244,6 @@ fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
         "compensated (firmware in QEMU)".as_ref(),
         "--baseline-label".as_ref(),
         "fixed 45 % design".as_ref(),
-        "--delay-ms".as_ref(),
-        delay_ms.as_ref(),
         "--out".as_ref(),
         prefix.as_os_str(),
     ])?;
@@ -217,7 +252,7 @@ fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
 }
 
 /// The firmware's estimates as EST.csv (the format `ipmc compensate` writes, one writer).
-pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay) -> Result<()> {
+pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay, band: &ipmc_core::band::Band) -> Result<()> {
     if let Some(dir) = path.parent() {
         fs::create_dir_all(dir)?;
     }
@@ -230,6 +265,9 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
         ..Default::default()
     };
     est.metadata.set("fs_hz", FIRMWARE_FS_HZ);
+    // What `ipmc score` and `ipmc plot compensated` align and score by, as for the host's file.
+    est.metadata.set("delay_samples", ipmc_core::operating_point::delay_samples(band));
+    est.metadata.set("band_hz", format!("{}-{}", band.low_hz, band.high_hz));
     for b in blocks {
         for (k, &v) in b.base_est_m.iter().enumerate() {
             let i = replay.sample_of(b.header.first_sample) + k;

@@ -82,7 +82,7 @@ pub fn qemu_replay_humidity_step_without_glitch() -> Result<()> {
         bail!("RH stepped {rh_a} → {rh_b} % but no later block is flagged RETUNED\n{}", r.log);
     }
     let bound = glitch_bound(steady_error_on::<f32>(rh_a, rh_b), steady_error_on::<f32>(rh_b, rh_b));
-    let delay_s = design(rh_b).delay_s() as f64;
+    let delay_s = ipmc_core::Compensator::new(&design(rh_b)).delay_s() as f64;
     let mut worst = 0.0f64;
     for b in &r.blocks {
         for (i, &y) in b.base_est_m.iter().enumerate() {
@@ -241,8 +241,9 @@ pub fn qemu_replay_bundled() -> Result<()> {
     // The sweep moves 0.67 %RH/s: the figure holds only if the active design describes the
     // humidity of now (issue 13.4; 6.7 % when designs trailed the reading by a second).
     let est = repo_root().join("target/qemu-test/bundled/EST.csv");
-    qemu::write_est_csv(&est, &rec.t_s, &r.blocks, &replay)?;
+    qemu::write_est_csv(&est, &rec.t_s, &r.blocks, &replay, &ipmc_core::band::Band::DEFAULT)?;
     let inband = crate::exec::score_inband(&path, &est)?;
+    crate::readme_figures::save("sweep", &crate::ipmc(&["score".as_ref(), path.as_os_str(), est.as_os_str()])?)?;
     println!("bundled sweep under QEMU: in-band {:.3} % rms (bound {:.1} %)", inband * 100.0, SWEEP_BOUND * 100.0);
     if inband > SWEEP_BOUND {
         bail!("in-band error {:.3} % on the bundled sweep exceeds {:.1} %", inband * 100.0, SWEEP_BOUND * 100.0);
@@ -344,7 +345,7 @@ fn host_equivalence_on_ramp(
         bail!("RH ramps {rh_from} → {rh_to} % but the firmware never retuned\n{}", r.log);
     }
     let fw_path = work.join("EST-qemu.csv");
-    qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks, &replay)?;
+    qemu::write_est_csv(&fw_path, &rec.t_s, &r.blocks, &replay, &qemu::band_of(calib)?)?;
     let host_path = work.join("EST-host.csv");
     let mut args: Vec<&std::ffi::OsStr> = vec![
         "compensate".as_ref(),

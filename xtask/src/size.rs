@@ -5,8 +5,11 @@ use object::{Object, ObjectSection, SectionKind};
 
 use crate::{Result, firmware};
 
-pub const FLASH_BUDGET: u64 = 128 * 1024;
-pub const RAM_BUDGET: u64 = 32 * 1024;
+/// The STM32L475VG has 1 MiB of flash and 128 KiB of SRAM; the budget leaves most of both to
+/// what a user adds. Raised from 128/32 KiB by the estimate's band FIR (12.8 KB of history) and
+/// the strip's own hygrometer (its running spectrum), as issue 26 set it.
+pub const FLASH_BUDGET: u64 = 160 * 1024;
+pub const RAM_BUDGET: u64 = 48 * 1024;
 /// Stretch goal: fits the 64 KiB / 16 KiB parts.
 const FLASH_STRETCH: u64 = 64 * 1024;
 const RAM_STRETCH: u64 = 16 * 1024;

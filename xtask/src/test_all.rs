@@ -10,7 +10,7 @@ use crate::{
         qemu_replay_no_receiver, qemu_replay_sensor_faults,
     },
     repo_root, run, size,
-    tool_checks::{diagnose_prove, vs_exact_external},
+    tool_checks::{diagnose_prove, diagnose_prove_external, vs_exact_external},
 };
 use anyhow::{anyhow, bail};
 
@@ -118,6 +118,10 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("diagnose library tests", || cargo_test("diagnose/Cargo.toml")),
         ("sensors tests (drivers and bus recovery against fake buses)", || cargo_test("sensors/Cargo.toml")),
         ("diagnose: ipmc prove (reduced)", diagnose_prove),
+        (
+            "diagnose: ipmc prove --external, no false alarm and no more confident wrong names than today's (external recordings)",
+            diagnose_prove_external,
+        ),
         ("vs-exact: f32 chain within 1.1× the exact inverse in band (external recordings)", vs_exact_external),
         ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
         ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", crate::coverage::test_step),
@@ -125,6 +129,10 @@ pub fn command(filter: &[String]) -> Result<()> {
             "own strip: identify a frequency response, compensate a time series of the same strip; beats nominal, within 1.1× perfect",
             crate::strip_workflow::test_step,
         ),
+        ("docs/your-data.md: every command of the page, as written", crate::doc_commands::your_data),
+        ("hygrometer: field mode — fused no worse than 1.05× the reading, the strip's 1σ covers 68 ± 10 %", || {
+            cargo_test_with("tool/Cargo.toml", &["--release", "field_mode", "--", "--ignored", "--nocapture"])
+        }),
         ("xtask tests", || cargo_test("xtask/Cargo.toml")),
         ("firmware build (board-b-l475e)", || firmware::build(Variant::Hardware).map(|_| ())),
         ("firmware build (board-b-l475e, humidity-sht4x)", || firmware::build(Variant::HardwareSht4x).map(|_| ())),
@@ -142,6 +150,8 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),
         ("qemu replay: humidity sensor with no new data", qemu_replay_no_new_humidity),
+        // Last: it reads what the steps above printed.
+        ("README: the headline figures are what their commands print", crate::readme_figures::test_step),
         (OPT_IN_QEMU_LONG, qemu_long_run),
     ];
     // Opt-in steps run only when a filter names them.

@@ -24,6 +24,7 @@ pub fn vs_exact_external() -> Result<()> {
         println!("no {}: skipped", calib.display());
         return Ok(());
     }
+    let mut all = String::new();
     for case in ["case09.csv", "case25.csv"] {
         let rec = dir.join(case);
         let out = ipmc(&[
@@ -35,8 +36,9 @@ pub fn vs_exact_external() -> Result<()> {
             EXACT_RATIO_BOUND.as_ref(),
         ])?;
         print!("{out}");
+        all += &out;
     }
-    Ok(())
+    crate::readme_figures::save("vs-exact", &all)
 }
 
 /// `ipmc prove` with one case per effect and three clean controls (the README's command runs
@@ -64,9 +66,47 @@ pub fn diagnose_prove() -> Result<()> {
         if fp > 0 {
             bail!("{format}: {fp} clean control(s) diagnosed with an effect");
         }
+        // Confident wrong names are printed in the outcome table, not held here: the project's
+        // own tip mass with rotary inertia is still named as the polymer's relaxation (see
+        // docs/diagnosis.md), and the external step holds the rule on recordings made elsewhere.
         if reduced != named {
             bail!("{format}: held-out error reduced in only {reduced} of {named} correct diagnoses");
         }
+    }
+    Ok(())
+}
+
+/// `ipmc prove --external` on the independent simulator's recordings beside the repository
+/// (`../shared/external`; skipped without them): no recording may be given a wrong name alone
+/// (a confident wrong name) and no clean one a name (a false alarm). The counts named, in the
+/// stated set and missed are printed, not held: the recordings are a sample, and a threshold
+/// chosen to get them right would say nothing of the next ones.
+/// Confident wrong names on the external set the suite lets through: a ratchet, not a target.
+/// Issue 27 asks for none; today two remain (case08, a viscoelastic relaxation named air
+/// loading at 94 %, and case18, an electrode resistance named amplifier bandwidth at 91 %:
+/// docs/diagnosis.md). Lower it as they go; a third fails the suite.
+const CONFIDENT_WRONG_AT_MOST: u64 = 2;
+
+pub fn diagnose_prove_external() -> Result<()> {
+    let dir = repo_root().join("../shared/external");
+    if !dir.join("truths.json").exists() {
+        println!("no {}: skipped", dir.join("truths.json").display());
+        return Ok(());
+    }
+    let out = ipmc(&["prove".as_ref(), "--external".as_ref(), dir.as_os_str(), "--json".as_ref()])?;
+    print!("{out}");
+    let line = out.lines().last().context("ipmc prove printed nothing")?;
+    let summary: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc prove --json: {e}: {line}"))?;
+    let (wrong, alarms) = (json_count(&summary, "confident_wrong")?, json_count(&summary, "false_alarms")?);
+    crate::readme_figures::save("prove-external", &out)?;
+    if alarms > 0 || wrong > CONFIDENT_WRONG_AT_MOST {
+        bail!(
+            "external recordings: {wrong} confident wrong name(s) (at most {CONFIDENT_WRONG_AT_MOST} today, target 0), \
+             {alarms} false alarm(s)"
+        );
+    }
+    if wrong > 0 {
+        println!("external recordings: {wrong} confident wrong name(s): issue 27's target of none is not met yet");
     }
     Ok(())
 }

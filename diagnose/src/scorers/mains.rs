@@ -228,6 +228,7 @@ fn heldout(ctx: &Ctx, f: &Fitted) -> Vec<HeldOutModel> {
                 extension: f.ext[held],
                 inflated: Some((held_lines.clone(), 1.0 + power)),
                 chi2_per_residual: 0.0,
+                channels: None,
             };
             model.chi2_per_residual = (kept + r2 / (1.0 + power) + model.normalization()) / ctx.all[held].count() as f64;
             model

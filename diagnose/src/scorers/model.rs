@@ -17,10 +17,18 @@ pub(super) struct ModelScorer(pub ExtFn);
 
 impl Scorer for ModelScorer {
     fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial> {
-        let (levels, ext) = (&ctx.data.levels, self.0);
-        let start: Vec<f64> = cand.params.iter().map(|s| s.start).collect();
+        let k = cand.params.len();
         let specs: Vec<Param> = cand.params.iter().map(|s| Param::new(s.name, s.bound)).collect();
-        let j = fits::fit_joint(ctx.calib, levels, &ctx.sig, &ctx.all, &specs, ext, &ctx.base.theta, &start)?;
+        let start: Vec<f64> = cand.params.iter().map(|s| s.start).collect();
+        let ext = self.0;
+        let prior = ctx.channel_prior.as_ref();
+        let j = fits::fit_joint(ctx.calib, &ctx.data.levels, &ctx.sig, &ctx.all, &specs, &ext, &ctx.base.theta, &start, prior)?;
+        // The candidate is judged with the instrument refitted beside it, held out too: without
+        // its channels a tip mass fails the held-out gate its own fit passes (external case22
+        // became `air_loading`). Its held-out models carry that move, so the figures draw the
+        // level as it was scored.
+        let levels: Vec<ipmc_fit::level::LevelData> = ctx.data.levels.iter().map(|l| j.channels.corrected(l)).collect();
+        let levels = &levels;
         let exts: Vec<Extension<f64>> =
             (0..levels.len()).map(|l| ext(&j.phi, &fits::level_params(ctx.calib, &levels[l], &j.theta[l]))).collect();
         let chi2: f64 = j.chi2.iter().sum();
@@ -28,13 +36,13 @@ impl Scorer for ModelScorer {
         let held = HeldOut {
             null: ctx.refit_null(),
             null_is: REFIT_NULL_IS.into(),
-            candidate: refit_heldout(ctx, cand, ext, &j.phi, &fitted),
+            candidate: refit_heldout(ctx, levels, &specs, &ext, &j.phi, &fitted, j.channels),
             candidate_is: format!("the level's base parameters refitted with {}'s parameters fitted on the other levels", cand.name()),
         };
         Ok(Trial::Fitted(Box::new(Candidacy {
             fitted,
-            delta_chi2: base.chi2_0 - chi2,
-            extra_params: cand.params.len(),
+            delta_chi2: base.chi2_0 + prior.map_or(0.0, |c| c.plain_chi2) - chi2 - j.prior_chi2,
+            extra_params: k,
             space: Space::Data,
             params: estimates(cand, &j.phi, &j.phi_se),
             note: String::new(),
@@ -48,17 +56,25 @@ impl Scorer for ModelScorer {
 
 /// Per level, the candidate's parameters `phi` refitted on the other levels (their base
 /// parameters held where the joint fit put them), then the level's base parameters with them.
-fn refit_heldout(ctx: &Ctx, cand: &Candidate, ext: ExtFn, phi: &[f64], f: &Fitted) -> Vec<HeldOutModel> {
-    let levels = &ctx.data.levels;
+fn refit_heldout(
+    ctx: &Ctx,
+    levels: &[ipmc_fit::level::LevelData],
+    specs: &[Param],
+    ext: &fits::Extend,
+    phi: &[f64],
+    f: &Fitted,
+    moved: fits::Channels,
+) -> Vec<HeldOutModel> {
+    let channels = (moved != fits::Channels::default()).then_some(moved);
     let n = levels.len();
-    let params: Vec<Param> = cand.params.iter().map(|s| Param::new(s.name, s.bound)).collect();
-    let start = vec![cand.params.iter().zip(phi).map(|(s, &v)| fits::inside_tight(s.bound, v)).collect::<Vec<f64>>()];
+    let params = specs;
+    let start = vec![specs.iter().zip(phi).map(|(s, &v)| fits::inside_tight(s.bound, v)).collect::<Vec<f64>>()];
     let p_joint: Vec<ipmc_core::Params<f64>> = (0..n).map(|l| fits::level_params(ctx.calib, &levels[l], &f.theta[l])).collect();
     (0..n)
         .map(|held| {
             let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();
             let counts: Vec<usize> = train.iter().map(|&l| ctx.all[l].count()).collect();
-            let phi_train = lsq::minimize(Tolerance::REPORT, &params, &start, counts.iter().sum(), |v, out| {
+            let phi_train = lsq::minimize(Tolerance::REPORT, params, &start, counts.iter().sum(), |v, out| {
                 let mut at = 0;
                 for (&l, &c) in train.iter().zip(&counts) {
                     fits::write_residuals(&levels[l], &ctx.sig[l], &ctx.all[l], &p_joint[l], &ext(v, &p_joint[l]), &mut out[at..at + c]);
@@ -71,7 +87,7 @@ fn refit_heldout(ctx: &Ctx, cand: &Candidate, ext: ExtFn, phi: &[f64], f: &Fitte
                 Ok((theta, fit)) => (fits::level_params(ctx.calib, &levels[held], &theta), fit.chi2),
                 Err(_) => (p_joint[held], fits::chi2(&levels[held], &ctx.sig[held], &ctx.all[held], &p_joint[held], &x)),
             };
-            HeldOutModel { params, extension: x, inflated: None, chi2_per_residual: chi2 / ctx.all[held].count() as f64 }
+            HeldOutModel { params, extension: x, inflated: None, chi2_per_residual: chi2 / ctx.all[held].count() as f64, channels }
         })
         .collect()
 }

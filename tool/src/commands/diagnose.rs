@@ -34,6 +34,53 @@ pub struct Args {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    #[command(flatten)]
+    instrument: InstrumentArgs,
+}
+
+/// The instrument's tolerances, overriding the calibration's `[instrument]` table (whose
+/// defaults are datasheet values): the channels are fitted as nuisance parameters with these
+/// as priors, 0 holding a channel at its nominal value.
+#[derive(clap::Args, Clone, Default)]
+pub struct InstrumentArgs {
+    /// The tip channel's scale factor tolerance [%, 1σ].
+    #[arg(long)]
+    tip_gain_tolerance: Option<f64>,
+    /// The base channel's sensitivity tolerance [%, 1σ].
+    #[arg(long)]
+    base_gain_tolerance: Option<f64>,
+    /// The current channel's transimpedance tolerance [%, 1σ].
+    #[arg(long)]
+    current_gain_tolerance: Option<f64>,
+    /// The delay the acquisition may share between the base and the other channels [µs, 1σ];
+    /// a larger one is a timing candidate.
+    #[arg(long)]
+    acquisition_delay: Option<f64>,
+}
+
+impl InstrumentArgs {
+    /// `calib` with these tolerances in its `[instrument]` table, checked as the file's are.
+    pub fn apply(&self, calib: &mut Calibration) -> Result<()> {
+        let i = &mut calib.instrument;
+        for (v, slot) in [
+            (self.tip_gain_tolerance, &mut i.tip_gain_tolerance_pct),
+            (self.base_gain_tolerance, &mut i.base_gain_tolerance_pct),
+            (self.current_gain_tolerance, &mut i.current_gain_tolerance_pct),
+            (self.acquisition_delay, &mut i.acquisition_delay_us),
+        ] {
+            if let Some(v) = v {
+                *slot = v;
+            }
+        }
+        if let Some((key, value)) = i.invalid() {
+            anyhow::bail!(
+                "instrument {key} = {value}: a tolerance must be within 0–{} %, a delay within 0–{} µs",
+                ipmc_core::instrument::MAX_TOLERANCE_PCT,
+                ipmc_core::instrument::MAX_DELAY_US
+            );
+        }
+        Ok(())
+    }
 }
 
 fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
@@ -56,7 +103,8 @@ pub fn write_report(dir: &Path, d: &ipmc_diagnose::Diagnosis, data: &Dataset, in
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
+    a.instrument.apply(&mut calib)?;
     let data = Dataset::read(&a.recordings, &calib.humidity)?;
     for (path, bursts) in a.recordings.iter().zip(&data.bursts).filter(|(_, b)| !b.is_empty()) {
         println!("{}: {}", path.display(), crate::input::summary(bursts));
@@ -73,7 +121,16 @@ pub fn run(a: Args) -> Result<()> {
     write_report(&a.report, &d, &data, &inputs, calib_name)?;
     println!("verdict: {}", d.verdict);
     println!("{}", d.explanation);
-    println!("located: {}", d.located.summary);
+    let set: Vec<String> = d
+        .set
+        .iter()
+        .map(|n| format!("{n} {:.1} %", 100.0 * d.probabilities.iter().find(|p| &p.name == n).map_or(0.0, |p| p.probability)))
+        .collect();
+    println!("probability: {}", set.join(", "));
+    if let Some(m) = &d.separation {
+        println!("to separate {} from {}: {} ({})", m.between[0], m.between[1], m.record, m.band);
+    }
+    println!("where the plain model departs most (before any candidate): {}", d.located.summary);
     println!("held-out χ²/residual: {:.3} → {:.3}", d.heldout_before, d.heldout_after);
     println!("report: {}", a.report.join("report.md").display());
     if let Some(out) = &a.write_calib {
@@ -121,8 +178,16 @@ mod tests {
         let rec = dir.join("REC.csv");
         std::fs::write(&rec, make_case(&calib, effect, seed, Strength::At(0.9), Format::Fr).unwrap().recording.to_csv().unwrap()).unwrap();
         let report_dir = dir.join("report");
-        run(Args { recordings: vec![rec], calib: None, report: report_dir.clone(), write_calib: None, humidity_sensor: None, quiet: true })
-            .unwrap();
+        run(Args {
+            recordings: vec![rec],
+            calib: None,
+            report: report_dir.clone(),
+            write_calib: None,
+            humidity_sensor: None,
+            instrument: InstrumentArgs::default(),
+            quiet: true,
+        })
+        .unwrap();
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(report_dir.join("report.json")).unwrap()).unwrap();
         let md = std::fs::read_to_string(report_dir.join("report.md")).unwrap();
         let names: Vec<&str> = json["figures"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();

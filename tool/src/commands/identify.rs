@@ -400,20 +400,15 @@ pub fn identify(
     Ok(Identified { calib, fits, model, text })
 }
 
-/// The base calibration a command starts from, and its name; a missing `--calib` is said.
-pub fn base_calibration(spec: Option<&str>, command: &str) -> Result<(Calibration, String)> {
-    if spec.is_none() {
-        eprintln!(
-            "note: {command}: no --calib: starting from the built-in default preset (the paper's laws, a reconstructed d, \
-             κe copied from it); the lab's nominal calibration of the strip (--calib FILE) is the better start"
-        );
-    }
+/// The base calibration a command starts from, and its name (a missing `--calib` is said by
+/// the loader).
+pub fn base_calibration(spec: Option<&str>) -> Result<(Calibration, String)> {
     let base = calibration_source::load(spec)?;
     Ok((base, spec.unwrap_or("the default preset").to_string()))
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let (base, base_name) = base_calibration(a.calib.as_deref(), "identify")?;
+    let (base, base_name) = base_calibration(a.calib.as_deref())?;
     let source = a.recording.display().to_string();
     let id = identify(&a.recording, &base, &base_name, &a.charging, a.rh_uncertainty)?;
     let json = Value::Array(id.fits.iter().map(|(k, l, f)| level_json(*k, l, f)).collect());
@@ -427,7 +422,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     if let Some(dir) = &a.plots {
         let models = id.fits.iter().map(|(_, l, f)| LevelModel::new(l.clone(), f.params)).collect();
-        let title = format!("{source}: measured (dots) vs identified model (lines)");
+        let title = format!("{source}: measured (markers) vs identified model (lines)");
         let bode = render(&Bode { title, levels: models }, &dir.join("bode"), (1600, 1000))?;
         let title = format!("{source}: identified parameters vs humidity, laws of {}", a.out.display());
         let params =

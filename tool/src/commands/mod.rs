@@ -4,6 +4,7 @@ pub mod charging;
 pub mod compensate;
 pub mod design;
 pub mod diagnose;
+pub mod field_table;
 pub mod identify;
 pub mod loop_bursts;
 pub mod model;
@@ -14,6 +15,7 @@ pub mod rh_sensitivity;
 pub mod score;
 pub mod simulate;
 pub mod strip_check;
+pub mod simulate_field;
 pub mod vs_exact;
 
 /// The designs a command evaluates: at which sample rate, from which calibration.

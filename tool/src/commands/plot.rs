@@ -61,9 +61,10 @@ enum Figure {
         label: String,
         #[arg(long, default_value = "baseline")]
         baseline_label: String,
-        /// Latency of the estimates [ms]: the design's preview delay.
-        #[arg(long, default_value_t = 2.0)]
-        delay_ms: f64,
+        /// Latency of the estimates [ms]; by default the estimate file's `delay_samples` (the
+        /// chain's preview and band filter).
+        #[arg(long)]
+        delay_ms: Option<f64>,
         /// Length of the detail window at the end of the run [s].
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
@@ -89,7 +90,7 @@ pub fn run(a: Args) -> Result<()> {
                 models.push(LevelModel::new(level, params));
             }
             let source = if levels.is_some() { "identified parameters" } else { "calibration" };
-            let title = format!("{}: measured (dots) vs model from the {source} (lines)", file_name(&recording));
+            let title = format!("{}: measured (markers) vs model from the {source} (lines)", file_name(&recording));
             render(&Bode { title, levels: models }, &out.join("bode"), (1600, 1000))?
         }
         Figure::Params { levels, calib, out } => {
@@ -102,13 +103,24 @@ pub fn run(a: Args) -> Result<()> {
             let ts = checked(TimeSeries::read(&recording))?;
             let base = ts.base_m.as_ref().ok_or_else(|| anyhow::anyhow!("{}: no base_m column to plot against", recording.display()))?;
             let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
-            let stated = checked(Estimates::read(&estimate))?.rel_err.map(|v| v.into_iter().map(f64::from).collect());
+            let file = checked(Estimates::read(&estimate))?;
+            let delay = match (delay_ms, file.metadata.get("delay_samples")) {
+                (Some(ms), _) => (ms * 1e-3 * ts.fs_hz).round() as usize,
+                (None, Some(d)) => {
+                    d.parse().map_err(|_| anyhow::anyhow!("{}: delay_samples={d} is not a whole number", estimate.display()))?
+                }
+                (None, None) => bail!("{}: the file does not say its delay (no `# delay_samples=`): give --delay-ms", estimate.display()),
+            };
+            let band = match file.metadata.get("band_hz") {
+                Some(b) => crate::commands::score::parse_band(b)?,
+                None => (ipmc_core::band::Band::DEFAULT.low_hz, ipmc_core::band::Band::DEFAULT.high_hz),
+            };
+            let stated = file.rel_err.map(|v| v.into_iter().map(f64::from).collect());
             let mut series = vec![Series { name: label, color: RGBColor(0, 110, 220), est: est(&estimate)?, primary: true, stated }];
             if let Some(b) = &baseline {
                 series.push(Series { name: baseline_label, color: humidity_color(95.0), est: est(b)?, primary: false, stated: None });
             }
-            let delay = (delay_ms * 1e-3 * ts.fs_hz).round() as usize;
-            render(&Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay)?, &out, (1200, 800))?
+            render(&Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay, band)?, &out, (1400, 800))?
         }
     };
     println!("plot: {}\nplot: {}", svg.display(), png.display());
@@ -159,6 +171,23 @@ mod tests {
         run(parse(args))
     }
 
+    /// Every `<text>` element of an SVG: its `x` and its text.
+    fn svg_text_elements(svg: &str) -> Vec<(f64, String)> {
+        svg.split("<text")
+            .skip(1)
+            .filter_map(|t| {
+                let (attrs, rest) = t.split_once('>')?;
+                let x = attrs.split(" x=\"").nth(1)?.split('"').next()?.parse().ok()?;
+                Some((x, rest.split_once("</text>")?.0.trim().to_string()))
+            })
+            .collect()
+    }
+
+    /// The text of every `<text>` element of an SVG.
+    fn svg_texts(svg: &str) -> Vec<String> {
+        svg_text_elements(svg).into_iter().map(|t| t.1).collect()
+    }
+
     /// Every figure renders from simulated data to an SVG with its labels and a PNG of its size;
     /// a LEVELS file that matches no level is refused naming the level.
     #[test]
@@ -181,6 +210,21 @@ mod tests {
         run_plot(&["bode", &fr, "--out", &d]).unwrap();
         let svg = std::fs::read_to_string(dir.join("bode.svg")).unwrap();
         assert!(svg.contains("phase of current") && svg.contains("(again)"), "labels missing");
+        // Units once, frequency ticks in plain numbers up to the data's end, no "3e1"-style label.
+        assert!(!svg.contains("[m/m] [deg]") && svg.contains("phase of tip / base  [°]"), "phase title");
+        let texts = svg_texts(&svg);
+        let f_max = checked(FrequencyResponse::read(Path::new(&fr))).unwrap().points.iter().map(|p| p.freq_hz).fold(0.0, f64::max);
+        let end = crate::plot::tick_label(crate::plot::round_sig(f_max, 2));
+        assert!(texts.contains(&end) && texts.iter().any(|t| t == "10"), "no tick at 10 Hz or at the data's end {end}: {texts:?}");
+        assert!(!texts.iter().any(|t| t.contains("e0") || t.contains("e1") || t.contains("e-")), "exponent ticks: {texts:?}");
+        // The legend lies beside the panels: its entries start right of every axis label.
+        let elements = svg_text_elements(&svg);
+        let legend_x = elements.iter().find(|t| t.1 == "levels in time order").expect("legend title").0;
+        let axis_labels: Vec<f64> = elements.iter().filter(|t| t.1 == "f [Hz]" || t.1 == end).map(|t| t.0).collect();
+        assert!(
+            !axis_labels.is_empty() && axis_labels.iter().all(|&x| x < legend_x),
+            "legend over the panels: {axis_labels:?} vs {legend_x}"
+        );
         let png = std::fs::read(dir.join("bode.png")).unwrap();
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
         assert_eq!(
@@ -189,11 +233,18 @@ mod tests {
         );
 
         let levels = dir.join("LEVELS.json");
-        std::fs::write(&levels, r#"[{"rh_pct": 30.0, "Y": 9e8, "Y_se": 1e7, "d": 2e-15, "d_se": 1e-16}, {"rh_pct": 40.0, "Y": 9.1e8, "Y_se": 1e7, "d": 3e-15}]"#).unwrap();
+        std::fs::write(&levels, r#"[{"rh_pct": 30.0, "Y": 9e8, "Y_se": 1e7, "d": 2e-15, "d_se": 1e-16, "kappa_e": 1e-3, "kappa_e_source": "base calibration"}, {"rh_pct": 40.0, "Y": 9.1e8, "Y_se": 1e7, "d": 3e-15, "kappa_e": 1.1e-3, "kappa_e_source": "base calibration", "revisit_of": 0}]"#).unwrap();
         let l = levels.display().to_string();
         run_plot(&["params", &l, "--out", &d]).unwrap();
         let svg = std::fs::read_to_string(dir.join("params.svg")).unwrap();
-        assert!(svg.contains("Y [Pa]") && svg.contains("calibration law"), "labels missing");
+        assert!(svg.contains("Y [MPa]") && svg.contains("calibration law"), "labels missing");
+        assert!(
+            svg.contains("κe [mF/m]: copied, not identified") && svg.contains("copied from the base calibration"),
+            "κe drawn as identified"
+        );
+        let texts = svg_texts(&svg);
+        assert!(texts.iter().any(|t| t == "900") && !texts.iter().any(|t| t.contains("e8")), "Y ticks not in MPa: {texts:?}");
+        assert!(svg.contains("revisited level"), "revisit legend missing");
         let err = run_plot(&["bode", &fr, "--levels", &l, "--out", &d]).unwrap_err().to_string();
         assert!(err.contains("within 3 %") && (err.contains("at 49.") || err.contains("at 50.")), "{err}");
 
@@ -203,7 +254,7 @@ mod tests {
         let est = dir.join("EST.csv");
         crate::commands::compensate::run(parse(&[&rec, "--out", &est.display().to_string()])).unwrap();
         run_plot(&["compensated", &rec, &est.display().to_string(), "--out", &dir.join("comp").display().to_string()]).unwrap();
-        assert!(std::fs::read_to_string(dir.join("comp.svg")).unwrap().contains("Error over time"));
+        assert!(std::fs::read_to_string(dir.join("comp.svg")).unwrap().contains("Error in 10–150 Hz over time"));
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -48,6 +48,119 @@ pub struct Args {
     /// of making sessions; the calibration defaults to DIR/nominal.toml.
     #[arg(long)]
     external: Option<PathBuf>,
+    /// Run this many seeds (from `--seed` on) and pool their cases: the outcome and reliability
+    /// tables over ≥ 100 cases.
+    #[arg(long, default_value_t = 1)]
+    seeds: u64,
+    /// Also write each case as one JSON line here: truth, verdict, the stated probabilities and
+    /// every candidate's evidence (what the evidence scale is calibrated from).
+    #[arg(long)]
+    records: Option<PathBuf>,
+}
+
+/// How a verdict stands against the truth: the outcome table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Class {
+    /// The truth named (for a clean case: `none`).
+    Named,
+    /// `undecided`, the truth in the stated set.
+    InSet,
+    /// An effect present and `none`, `unexplained` or `undecided` without it in the set; or a
+    /// clean case left undecided without `none` in the set.
+    Missed,
+    /// Another effect named alone.
+    ConfidentWrong,
+    /// A clean case given an effect's name.
+    FalseAlarm,
+}
+
+impl Class {
+    pub const ALL: [Class; 5] = [Class::Named, Class::InSet, Class::Missed, Class::ConfidentWrong, Class::FalseAlarm];
+
+    pub fn of(truth: &str, verdict: &str, set: &[String]) -> Class {
+        let named_effect = !matches!(verdict, "none" | "undecided" | "unexplained");
+        if verdict == truth {
+            Class::Named
+        } else if verdict == "undecided" && set.iter().any(|n| n == truth) {
+            Class::InSet
+        } else if named_effect && truth == "none" {
+            Class::FalseAlarm
+        } else if named_effect {
+            Class::ConfidentWrong
+        } else {
+            Class::Missed
+        }
+    }
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Class::Named => "named",
+            Class::InSet => "in set",
+            Class::Missed => "none/missed",
+            Class::ConfidentWrong => "confident wrong",
+            Class::FalseAlarm => "false alarm",
+        }
+    }
+}
+
+/// The outcome table: per class, how many cases, and over all.
+pub fn outcome_table(cases: &[(&str, Class)]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "\noutcomes ({} cases)", cases.len());
+    let _ = writeln!(s, "{:<16} {:>6} {:>14} {:>12}", "outcome", "cases", "with effect", "clean");
+    for c in Class::ALL {
+        let n = |clean: bool| cases.iter().filter(|(t, k)| *k == c && (*t == "none") == clean).count();
+        let _ = writeln!(s, "{:<16} {:>6} {:>14} {:>12}", c.label(), n(false) + n(true), n(false), n(true));
+    }
+    s
+}
+
+/// Reliability of the stated confidence: the most probable hypothesis's probability, binned,
+/// against how often it was the truth.
+pub fn reliability_table(cases: &[(f64, bool)]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "\nreliability (the most probable hypothesis: stated probability against how often it was the truth)");
+    let _ = writeln!(s, "{:<14} {:>6} {:>10} {:>10}", "stated", "cases", "mean", "right");
+    for (lo, hi) in [(0.0, 0.5), (0.5, 0.7), (0.7, 0.9), (0.9, 0.99), (0.99, 1.01)] {
+        let bin: Vec<&(f64, bool)> = cases.iter().filter(|(p, _)| *p >= lo && *p < hi).collect();
+        if bin.is_empty() {
+            let _ = writeln!(s, "{:<14} {:>6} {:>10} {:>10}", format!("{:.0}–{:.0} %", 100.0 * lo, 100.0 * hi.min(1.0)), 0, "–", "–");
+            continue;
+        }
+        let mean = bin.iter().map(|(p, _)| p).sum::<f64>() / bin.len() as f64;
+        let right = bin.iter().filter(|(_, r)| *r).count();
+        let _ = writeln!(
+            s,
+            "{:<14} {:>6} {:>9.1} % {:>5}/{:<4} ({:.0} %)",
+            format!("{:.0}–{:.0} %", 100.0 * lo, 100.0 * hi.min(1.0)),
+            bin.len(),
+            100.0 * mean,
+            right,
+            bin.len(),
+            100.0 * right as f64 / bin.len() as f64
+        );
+    }
+    let stated: Vec<&(f64, bool)> = cases.iter().filter(|(p, _)| *p >= 0.9).collect();
+    let right = stated.iter().filter(|(_, r)| *r).count();
+    let _ = writeln!(s, "stated ≥ 90 %: {right}/{} right", stated.len());
+    s
+}
+
+/// One case as a JSON line for `--records`.
+fn record(truth: &str, d: &ipmc_diagnose::Diagnosis) -> serde_json::Value {
+    serde_json::json!({
+        "truth": truth,
+        "verdict": d.verdict,
+        "set": d.set,
+        "probabilities": d.probabilities,
+        "overdispersion": d.overdispersion,
+        "candidates": d.candidates.iter().map(|c| serde_json::json!({
+            "name": c.name, "applicable": c.applicable, "delta_bic": c.delta_bic, "passes": c.passes,
+            "heldout_z": c.heldout_z, "space": c.space,
+        })).collect::<Vec<_>>(),
+    })
 }
 
 /// One case's outcome.
@@ -59,6 +172,20 @@ pub struct Outcome {
     pub heldout_after: f64,
     /// Naming the verdict improved the prediction of held-out data (`Diagnosis::heldout_lowered`).
     pub heldout_lowered: bool,
+    /// The smallest set holding the confidence, and the most probable hypothesis's probability.
+    pub set: Vec<String>,
+    pub top: (String, f64),
+    pub record: serde_json::Value,
+}
+
+impl Outcome {
+    pub fn class(&self) -> Class {
+        Class::of(&self.truth, &self.verdict, &self.set)
+    }
+}
+
+fn top_of(d: &ipmc_diagnose::Diagnosis) -> (String, f64) {
+    d.probabilities.first().map_or(("none".into(), 1.0), |p| (p.name.clone(), p.probability))
 }
 
 /// What a run makes: `per_effect` cases of every effect and `clean` controls, each recorded as
@@ -96,12 +223,15 @@ pub fn run_cases(
         let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;
         progress(&format!("case {i}: {truth}"));
         Ok(Outcome {
+            record: record(&truth, &d),
             truth,
             magnitude: case.magnitude,
             verdict: d.verdict.to_string(),
             heldout_before: d.heldout_before,
             heldout_after: d.heldout_after,
             heldout_lowered: d.heldout_lowered(),
+            set: d.set.clone(),
+            top: top_of(&d),
         })
     };
     let next = AtomicUsize::new(0);
@@ -129,7 +259,7 @@ pub fn run_cases(
 
 pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = &a.external {
-        return external(dir, a.calib.as_deref(), a.json);
+        return external(dir, a.calib.as_deref(), a.json, a.records.as_deref());
     }
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
     let dir = match &a.keep {
@@ -137,24 +267,37 @@ pub fn run(a: Args) -> Result<()> {
         None => std::env::temp_dir().join(format!("ipmc-prove-{}", std::process::id())),
     };
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let total = (a.per_effect * Effect::ALL.len() + a.clean) as u64;
+    anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
+    let total = a.seeds * (a.per_effect * Effect::ALL.len() + a.clean) as u64;
     let bar = crate::progress::bar(total, "cases");
     if let Some(at) = a.at {
         anyhow::ensure!((0.0..=1.0).contains(&at), "--at must be within 0 and 1, not {at}");
     }
     let strength = a.at.map_or(Strength::Random, Strength::At);
-    let plan = Plan { seed: a.seed, per_effect: a.per_effect, clean: a.clean, strength, format: a.format };
     let started = std::time::Instant::now();
-    let outcomes = run_cases(&calib, &plan, &dir, &|_| bar.inc(1))?;
+    let mut outcomes = Vec::new();
+    for seed in a.seed..a.seed + a.seeds {
+        let plan = Plan { seed, per_effect: a.per_effect, clean: a.clean, strength, format: a.format };
+        outcomes.extend(run_cases(&calib, &plan, &dir, &|_| bar.inc(1))?);
+    }
     let wall_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     if a.keep.is_none() {
         let _ = std::fs::remove_dir_all(&dir);
     }
     print!("{}", table(&outcomes));
+    let classes: Vec<(&str, Class)> = outcomes.iter().map(|o| (o.truth.as_str(), o.class())).collect();
+    print!("{}", outcome_table(&classes));
+    let stated: Vec<(f64, bool)> = outcomes.iter().map(|o| (o.top.1, o.top.0 == o.truth)).collect();
+    print!("{}", reliability_table(&stated));
+    if let Some(path) = &a.records {
+        let lines: String = outcomes.iter().map(|o| format!("{}\n", o.record)).collect();
+        write_atomically_text(path, &lines)?;
+    }
     let correct = outcomes.iter().filter(|o| o.verdict == o.truth).count();
     let clean: Vec<&Outcome> = outcomes.iter().filter(|o| o.truth == "none").collect();
-    let false_positives = clean.iter().filter(|o| o.verdict != "none").count();
+    // A clean control left undecided with `none` in its set is not an alarm: only a name is.
+    let false_positives = clean.iter().filter(|o| o.class() == Class::FalseAlarm).count();
     let improved = outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").filter(|o| o.heldout_lowered).count();
     let named = outcomes.iter().filter(|o| o.verdict == o.truth && o.truth != "none").count();
     println!(
@@ -174,6 +317,10 @@ pub fn run(a: Args) -> Result<()> {
                 "heldout_reduced": improved,
                 "named_correctly": named,
                 "wall_time_s": wall_s,
+                "confident_wrong": classes.iter().filter(|(_, c)| *c == Class::ConfidentWrong).count(),
+                "false_alarms": classes.iter().filter(|(_, c)| *c == Class::FalseAlarm).count(),
+                "in_set": classes.iter().filter(|(_, c)| *c == Class::InSet).count(),
+                "missed": classes.iter().filter(|(_, c)| *c == Class::Missed).count(),
             })
         );
     }
@@ -186,7 +333,10 @@ pub fn table(outcomes: &[Outcome]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "{:<24} {:<26} {:<58} {:>9} {:>9}", "concealed", "verdict", "magnitude", "held-out", "after");
     for o in outcomes {
-        let mark = if o.verdict == o.truth { "" } else { "  ✗" };
+        let mark = match o.class() {
+            Class::Named => "".to_string(),
+            c => format!("  ({})", c.label()),
+        };
         let _ =
             writeln!(s, "{:<24} {:<26} {:<58} {:>9.3} {:>9.3}{mark}", o.truth, o.verdict, o.magnitude, o.heldout_before, o.heldout_after);
     }
@@ -243,11 +393,12 @@ pub struct ExternalOutcome {
     pub truth: String,
     pub verdict: String,
     pub delta_bic: f64,
-    /// (name, ΔBIC) of the candidates the data cannot separate from the verdict.
-    pub indistinguishable: Vec<(String, f64)>,
     /// ΔBIC of the true candidate (None for clean cases or when it was not testable).
     pub truth_delta_bic: Option<f64>,
     pub seconds: f64,
+    pub set: Vec<String>,
+    pub top: (String, f64),
+    pub record: serde_json::Value,
 }
 
 impl ExternalOutcome {
@@ -255,11 +406,14 @@ impl ExternalOutcome {
         self.verdict == self.truth
     }
     pub fn truth_in_set(&self) -> bool {
-        self.indistinguishable.iter().any(|(n, _)| *n == self.truth)
+        self.set.contains(&self.truth)
+    }
+    pub fn class(&self) -> Class {
+        Class::of(&self.truth, &self.verdict, &self.set)
     }
 }
 
-fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()> {
+fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Option<&std::path::Path>) -> Result<()> {
     let default_calib = dir.join("nominal.toml");
     let calib_arg = calib.map(str::to_string).unwrap_or_else(|| default_calib.display().to_string());
     let calib = crate::calibration_source::load(Some(&calib_arg))?;
@@ -269,7 +423,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()
             .with_context(|| format!("{} is not JSON", truths_path.display()))?;
     let truths = truths.as_object().ok_or_else(|| anyhow::anyhow!("{}: expected an object of cases", truths_path.display()))?;
     let mut outcomes = Vec::new();
-    println!("{:<7} {:<24} {:<24} {:>9} {:>9} {:>6}  indistinguishable (ΔBIC)", "case", "truth", "verdict", "ΔBIC", "truth ΔBIC", "s");
+    println!("{:<7} {:<24} {:<24} {:>9} {:>9} {:>6}  set (probability)", "case", "truth", "verdict", "ΔBIC", "truth ΔBIC", "s");
     for (case, t) in truths {
         let path = dir.join(format!("{case}.csv"));
         let effect = t.get("effect").and_then(|e| e.as_str()).unwrap_or("none");
@@ -283,19 +437,19 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()
             case: case.clone(),
             verdict: d.verdict.to_string(),
             delta_bic: bic_of(d.verdict.as_str()).unwrap_or(f64::NAN),
-            indistinguishable: d.indistinguishable.iter().map(|a| (a.name.clone(), a.delta_bic)).collect(),
             truth_delta_bic: bic_of(&truth),
+            set: d.set.clone(),
+            top: top_of(&d),
+            record: record(&truth, &d),
             truth,
             seconds,
         };
-        let mark = if o.correct() {
-            ""
-        } else if o.truth_in_set() {
-            "  (truth in set)"
-        } else {
-            "  ✗"
+        let mark = match o.class() {
+            Class::Named => String::new(),
+            c => format!("  ({})", c.label()),
         };
-        let set: Vec<String> = o.indistinguishable.iter().map(|(n, b)| format!("{n} ({b:.1})")).collect();
+        let probability_of = |n: &str| d.probabilities.iter().find(|p| p.name == n).map_or(0.0, |p| p.probability);
+        let set: Vec<String> = o.set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
         println!(
             "{:<7} {:<24} {:<24} {:>9.1} {:>9} {:>6.2}  {}{mark}",
             o.case,
@@ -317,6 +471,9 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()
             heldout_before: 0.0,
             heldout_after: 0.0,
             heldout_lowered: false,
+            set: o.set.clone(),
+            top: o.top.clone(),
+            record: serde_json::Value::Null,
         })
         .collect();
     let full = table(&as_outcomes);
@@ -325,9 +482,17 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()
     }
     let correct = outcomes.iter().filter(|o| o.correct()).count();
     let clean: Vec<&ExternalOutcome> = outcomes.iter().filter(|o| o.truth == "none").collect();
-    let false_alarms = clean.iter().filter(|o| o.verdict != "none").count();
+    let false_alarms = clean.iter().filter(|o| o.class() == Class::FalseAlarm).count();
     let wrong: Vec<&ExternalOutcome> = outcomes.iter().filter(|o| !o.correct()).collect();
     let in_set = wrong.iter().filter(|o| o.truth_in_set()).count();
+    let classes: Vec<(&str, Class)> = outcomes.iter().map(|o| (o.truth.as_str(), o.class())).collect();
+    print!("{}", outcome_table(&classes));
+    let stated: Vec<(f64, bool)> = outcomes.iter().map(|o| (o.top.1, o.top.0 == o.truth)).collect();
+    print!("{}", reliability_table(&stated));
+    if let Some(path) = records {
+        let lines: String = outcomes.iter().map(|o| format!("{}\n", o.record)).collect();
+        write_atomically_text(path, &lines)?;
+    }
     let slowest = outcomes.iter().map(|o| o.seconds).fold(0.0, f64::max);
     let total: f64 = outcomes.iter().map(|o| o.seconds).sum();
     println!(
@@ -347,8 +512,15 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool) -> Result<()
                 "wrong": wrong.len(),
                 "truth_in_indistinguishable": in_set,
                 "slowest_s": slowest,
+                "confident_wrong": classes.iter().filter(|(_, c)| *c == Class::ConfidentWrong).count(),
+                "in_set": classes.iter().filter(|(_, c)| *c == Class::InSet).count(),
+                "missed": classes.iter().filter(|(_, c)| *c == Class::Missed).count(),
             })
         );
     }
     Ok(())
+}
+
+fn write_atomically_text(path: &std::path::Path, text: &str) -> Result<()> {
+    ipmc_recording::write_atomically(path, text.as_bytes()).with_context(|| format!("cannot write {}", path.display()))
 }

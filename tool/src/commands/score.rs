@@ -3,7 +3,7 @@
 //! including `cargo xtask qemu` for the firmware's estimates).
 
 use crate::input::{checked, read_time_series};
-use crate::scoring::{INBAND_HP_HZ, SETTLE_S, coverage, relative_error};
+use crate::scoring::{SETTLE_S, band_score, coverage};
 use anyhow::{Result, anyhow, bail};
 use ipmc_recording::{Estimates, Format as _};
 use std::path::PathBuf;
@@ -14,11 +14,16 @@ pub struct Args {
     recording: PathBuf,
     /// The estimate (`t_s,base_est_m,…`, as `ipmc compensate` and `cargo xtask qemu` write it).
     estimate: PathBuf,
-    /// Latency of the estimate [ms]: the design's preview delay (2 ms by default).
-    #[arg(long, default_value_t = 2.0)]
-    delay_ms: f64,
-    /// One JSON line `{"inband": …, "broadband": …}` (relative rms errors, fractions) for scripts
-    /// (with --coverage also `coverage`, `windows`, `levels_covered`, `levels`).
+    /// Latency of the estimate [ms]; by default the estimate file's `delay_samples` (which
+    /// `ipmc compensate` and `cargo xtask qemu` write: the preview's and the band FIR's delay).
+    #[arg(long)]
+    delay_ms: Option<f64>,
+    /// The band scored in [Hz], as `LOW-HIGH`; by default the estimate file's `band_hz`, else
+    /// 10–150 Hz.
+    #[arg(long)]
+    band_hz: Option<String>,
+    /// One JSON line `{"band_error": …, "estimate_over_truth": …, "band_hz": […]}` (fractions)
+    /// for scripts (with --coverage also `coverage`, `windows`, `levels_covered`, `levels`).
     #[arg(long)]
     json: bool,
     /// Also how often the estimate's stated 1σ (its `rel_err` column) contains the actual
@@ -31,6 +36,15 @@ pub struct Args {
     settle_s: f64,
 }
 
+/// `LOW-HIGH` in Hz.
+pub fn parse_band(s: &str) -> Result<(f64, f64)> {
+    let parsed = s.split_once('-').and_then(|(lo, hi)| Some((lo.trim().parse::<f64>().ok()?, hi.trim().parse::<f64>().ok()?)));
+    match parsed {
+        Some((lo, hi)) if lo > 0.0 && hi > lo => Ok((lo, hi)),
+        _ => bail!("band `{s}`: expected LOW-HIGH in Hz with 0 < LOW < HIGH, e.g. 10-150"),
+    }
+}
+
 pub fn run(a: Args) -> Result<()> {
     let ts = read_time_series(&a.recording)?;
     let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("{}: no base_m column to score against", a.recording.display()))?;
@@ -39,7 +53,19 @@ pub fn run(a: Args) -> Result<()> {
     if est.len() > base.len() {
         bail!("{} has {} estimates for {} samples in {}", a.estimate.display(), est.len(), base.len(), a.recording.display());
     }
-    let delay = (a.delay_ms * 1e-3 * ts.fs_hz).round() as usize;
+    let delay = match (a.delay_ms, file.metadata.get("delay_samples")) {
+        (Some(ms), _) => (ms * 1e-3 * ts.fs_hz).round() as usize,
+        (None, Some(d)) => d.parse().map_err(|_| anyhow!("{}: delay_samples={d} is not a whole number", a.estimate.display()))?,
+        (None, None) => bail!(
+            "{}: the file does not say its delay (no `# delay_samples=`): give --delay-ms (the chain's preview and band filter)",
+            a.estimate.display()
+        ),
+    };
+    let band_spec = a.band_hz.clone().or_else(|| file.metadata.get("band_hz").map(str::to_string));
+    let band = match band_spec {
+        Some(b) => parse_band(&b)?,
+        None => (ipmc_core::band::Band::DEFAULT.low_hz, ipmc_core::band::Band::DEFAULT.high_hz),
+    };
     let mut burst_start = vec![0; ts.t_s.len()];
     for burst in ts.bursts() {
         burst_start[burst.clone()].fill(burst.start);
@@ -79,9 +105,14 @@ pub fn run(a: Args) -> Result<()> {
             b.1
         );
     }
-    match relative_error(&est, &vec![delay; est.len()], &burst_start, base, ts.fs_hz) {
-        Some((broad, inband)) if a.json => {
-            let mut j = serde_json::json!({ "inband": inband, "broadband": broad });
+    match band_score(&est, &vec![delay; est.len()], &burst_start, base, ts.fs_hz, band) {
+        Some(score) if a.json => {
+            let mut j = serde_json::json!({
+                "band_error": score.error,
+                "estimate_over_truth": score.estimate_over_truth,
+                "band_hz": [band.0, band.1],
+                "bursts": score.bursts,
+            });
             if let Some((w, b)) = covered {
                 j["coverage"] = share(w).into();
                 j["windows"] = w.1.into();
@@ -90,13 +121,8 @@ pub fn run(a: Args) -> Result<()> {
             }
             println!("{j}")
         }
-        None if a.json => bail!("not enough samples after settling to score"),
-        Some((broad, inband)) => println!(
-            "error vs true base (delayed {delay} samples, first {SETTLE_S} s skipped): in-band (>{INBAND_HP_HZ} Hz) {:.3} % rms, broadband {:.3} % rms",
-            inband * 100.0,
-            broad * 100.0
-        ),
-        None => println!("error vs true base: not enough samples after settling"),
+        Some(score) => println!("{}", score.line(delay)),
+        None => bail!("{}", crate::scoring::nothing_scored(&a.recording, &ts, band)),
     }
     Ok(())
 }

@@ -191,7 +191,7 @@ fn rms(v: impl Iterator<Item = f64>) -> f64 {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let (nominal, nominal_name) = base_calibration(a.calib.as_deref(), "strip-check")?;
+    let (nominal, nominal_name) = base_calibration(a.calib.as_deref())?;
     println!("== identify {} from {nominal_name}", a.fr.display());
     let id = identify(&a.fr, &nominal, &nominal_name, &[], a.rh_uncertainty)?;
     let mut own = id.calib;

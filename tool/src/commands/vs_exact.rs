@@ -12,9 +12,9 @@ use crate::exact;
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
 use crate::looping::loop_bursts;
-use crate::scoring::{INBAND_HP_HZ, SETTLE_S, band_error, relative_error};
+use crate::scoring::{SETTLE_S, band_error, band_score};
 use anyhow::{Result, anyhow, bail};
-use ipmc_core::{DesignConfig, InverseKind};
+use ipmc_core::InverseKind;
 use ipmc_recording::TimeSeries;
 use std::path::PathBuf;
 
@@ -52,12 +52,11 @@ pub struct Level {
     /// The non-causal per-bin inverse of least expected error, E[H*]/E[|H|²] over the
     /// calibration's uncertainty (`exact::robust_inverse`).
     pub ideal_robust: f64,
-    /// The same two by `ipmc compensate`'s own in-band figure (error high-passed at 5 Hz):
-    /// what lies between 5 Hz and the band and above it counts too.
-    pub causal_above_5hz: f64,
-    pub exact_above_5hz: f64,
-    /// The chain's error from 5 Hz to the band's lower edge and from its upper edge to
-    /// Nyquist, on the scale of the base in the band: where `causal_above_5hz` comes from.
+    /// The chain's raw estimate's rms over the true base's in the band: what the band's FIR
+    /// leaves of the noise the inverse lifts below the band.
+    pub estimate_over_truth: f64,
+    /// The chain's error from 0.5 Hz to the band's lower edge and from its upper edge to
+    /// Nyquist, on the scale of the base in the band.
     pub causal_below_band: f64,
     pub causal_above_band: f64,
 }
@@ -88,8 +87,7 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
     if period == 0 || !total.is_multiple_of(period) {
         bail!("{SETTLE_S} s of settling + {seconds} s scored must be a whole number of {period_s} s periods");
     }
-    let cfg = DesignConfig::<f64>::default();
-    let band = (cfg.band_lo_hz, cfg.band_hi_hz);
+    let band = (calib.band.low_hz, calib.band.high_hz);
     let errors = error_table(calib, ts.fs_hz, rh_sd_pct, InverseKind::Exact)?;
     let robust_kind = InverseChoice::Robust.kind(rh_sd_pct);
     let robust_errors = error_table(calib, ts.fs_hz, rh_sd_pct, robust_kind)?;
@@ -111,7 +109,7 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
             .unwrap_or(f64::NAN);
         let causal_in = |b| band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, b, band);
         let causal = causal_in(band);
-        let below = causal_in((INBAND_HP_HZ, band.0 - 1e-9));
+        let below = causal_in((0.5, band.0 - 1e-9));
         let above = causal_in((band.1 + 1e-9, rec.fs_hz / 2.0));
         // The exact inverse at the humidity the chain's first design is for: the reading
         // through the calibration's humidity path (a settled strip), clamped to the range.
@@ -121,24 +119,15 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
         let exact = band_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band);
         let xr = exact::robust_inverse(calib, rh, rh_sd_pct, ROBUST_DRAWS, &rec.current_a, rec.fs_hz, band);
         let ideal_robust = band_error(&xr, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band).unwrap_or(f64::NAN);
-        let c5 = relative_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz);
-        let x5 = relative_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz);
-        match (causal, exact, c5, x5, below, above) {
-            (
-                Some(causal),
-                Some(exact),
-                Some((_, causal_above_5hz)),
-                Some((_, exact_above_5hz)),
-                Some(causal_below_band),
-                Some(causal_above_band),
-            ) => out.push(Level {
+        let raw = band_score(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, band);
+        match (causal, exact, raw, below, above) {
+            (Some(causal), Some(exact), Some(raw), Some(causal_below_band), Some(causal_above_band)) => out.push(Level {
                 rh_pct: rh_read,
                 causal,
                 exact,
                 robust,
                 ideal_robust,
-                causal_above_5hz,
-                exact_above_5hz,
+                estimate_over_truth: raw.estimate_over_truth,
                 causal_below_band,
                 causal_above_band,
             }),
@@ -152,32 +141,30 @@ pub fn run(a: Args) -> Result<()> {
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
     let ts = read_time_series(&a.input)?;
     let levels = levels(&calib, &ts, a.period_s, a.seconds, rh_uncertainty(&calib, a.rh_uncertainty))?;
-    let cfg = DesignConfig::<f64>::default();
     println!(
         "{}: error in {}–{} Hz against base_m, each burst repeated to at least {SETTLE_S} s + {} s, all but the first {SETTLE_S} s scored",
         a.input.display(),
-        cfg.band_lo_hz,
-        cfg.band_hi_hz,
+        calib.band.low_hz,
+        calib.band.high_hz,
         a.seconds
     );
     println!(
-        "{:>8} {:>10} {:>10} {:>7} {:>10} {:>9}   {:>12} {:>12}   {:>13} {:>13}",
-        "RH %", "causal %", "exact %", "ratio", "robust %", "ideal %", "causal >5Hz", "exact >5Hz", "causal 5Hz-lo", "causal hi-Nyq"
+        "{:>8} {:>10} {:>10} {:>7} {:>10} {:>9}   {:>12}   {:>13} {:>13}",
+        "RH %", "causal %", "exact %", "ratio", "robust %", "ideal %", "est/truth", "causal .5Hz-lo", "causal hi-Nyq"
     );
     let mut worst: f64 = 0.0;
     for l in &levels {
         let ratio = l.causal / l.exact;
         worst = worst.max(ratio);
         println!(
-            "{:>8.2} {:>10.3} {:>10.3} {:>7.3} {:>10.3} {:>9.3}   {:>12.3} {:>12.3}   {:>13.3} {:>13.3}",
+            "{:>8.2} {:>10.3} {:>10.3} {:>7.3} {:>10.3} {:>9.3}   {:>12.3}   {:>13.3} {:>13.3}",
             l.rh_pct,
             l.causal * 100.0,
             l.exact * 100.0,
             ratio,
             l.robust * 100.0,
             l.ideal_robust * 100.0,
-            l.causal_above_5hz * 100.0,
-            l.exact_above_5hz * 100.0,
+            l.estimate_over_truth,
             l.causal_below_band * 100.0,
             l.causal_above_band * 100.0
         );

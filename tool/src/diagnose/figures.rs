@@ -46,6 +46,11 @@ fn as_recorded(level: &LevelData) -> Level {
     Level { rh_pct: level.rh_pct, rh_range: (level.rh_pct, level.rh_pct), start_time_s: None, revisit_of: level.revisit_of, points }
 }
 
+/// `data` with the instrument's channels the diagnosis found taken out.
+fn as_scored(d: &Diagnosis, data: &Dataset) -> Dataset {
+    Dataset { levels: data.levels.iter().map(|l| d.channels.corrected(l)).collect(), ..data.clone() }
+}
+
 /// The levels worth a Bode overlay: the worst held-out mismatch before, the one the
 /// augmentation improves most, and the driest and wettest, without repeats.
 fn representative_levels(d: &Diagnosis) -> Vec<usize> {
@@ -70,6 +75,9 @@ fn representative_levels(d: &Diagnosis) -> Vec<usize> {
 /// Per frequency, residual/σ of the level's measured values under a held-out model (ln gain and
 /// phase of each channel; σ inflated where the model was scored so).
 pub fn heldout_residuals(level: &LevelData, sig: &fits::LevelSigmas, m: &HeldOutModel) -> Vec<Vec<f64>> {
+    // The level as this model scored it: with the candidate's own channel move taken out too.
+    let moved = m.channels.map(|c| c.corrected(level));
+    let level = moved.as_ref().unwrap_or(level);
     let (tip, current) = fits::log_ratios(level, &m.params, &m.extension);
     let inflation = |on: &dyn Fn(&fits::Mask) -> bool| m.inflated.as_ref().filter(|(mask, _)| on(mask)).map_or(1.0, |(_, f)| f.sqrt());
     (0..level.freqs.len())
@@ -96,6 +104,8 @@ fn residual_row(level: &LevelData, sig: &fits::LevelSigmas, m: &HeldOutModel) ->
 
 /// Draws every figure into `dir` as SVG and PNG.
 pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
+    // The recordings as the diagnosis scored them: the instrument's channels taken out.
+    let data = &as_scored(d, data);
     let mut drawn = Vec::new();
     for l in representative_levels(d) {
         let m = &d.models[l];
@@ -183,6 +193,7 @@ mod tests {
                 .unwrap()]);
             let d = engine::diagnose(&calib, &data, &|_| {}).unwrap();
             assert_eq!(d.verdict, effect.name());
+            let data = as_scored(&d, &data);
             let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
             let (mut sums, mut n) = ([0.0; 2], 0.0);
             for (l, level) in data.levels.iter().enumerate() {
@@ -212,7 +223,13 @@ mod tests {
                 d.heldout_after
             );
             let in_sample = data.levels.iter().zip(&d.models).map(|(level, m)| {
-                let refit = HeldOutModel { params: m.refit, extension: Extension::default(), inflated: None, chi2_per_residual: f64::NAN };
+                let refit = HeldOutModel {
+                    params: m.refit,
+                    extension: Extension::default(),
+                    inflated: None,
+                    chi2_per_residual: f64::NAN,
+                    channels: None,
+                };
                 drawn_score(level, &fits::sigmas(level, &d.noise), &refit)
             });
             let in_sample = in_sample.map(|(s, c)| s * c as f64).sum::<f64>() / n;

@@ -3,7 +3,10 @@
 //! the model at the level's parameters as a line (or several labelled models per level, as
 //! `ipmc diagnose` overlays simulation, refit and augmented model).
 
-use super::{Figure, humidity_color, legend, pe};
+use super::{
+    Figure, LegendEntry, Marker, draw_markers, humidity_color, humidity_color_in, legend_width, log_axis, log_tick_label, pe, side_legend,
+    tick_label,
+};
 use anyhow::Result;
 use ipmc_core::extension::{Extension, responses};
 use ipmc_core::model::jw;
@@ -62,8 +65,14 @@ impl Channel {
     }
     fn name(self) -> &'static str {
         match self {
-            Channel::Tip => "tip / base [m/m]",
-            Channel::Current => "current / base [A/m]",
+            Channel::Tip => "tip / base",
+            Channel::Current => "current / base",
+        }
+    }
+    fn unit(self) -> &'static str {
+        match self {
+            Channel::Tip => "m/m",
+            Channel::Current => "A/m",
         }
     }
 }
@@ -85,6 +94,28 @@ fn model_curve(lm: &LevelModel, line: &ModelLine, ch: Channel) -> Vec<(f64, f64,
     f.into_iter().zip(h).zip(ph).map(|((f, h), p)| (f, h.norm(), p)).collect()
 }
 
+/// The look of each level: its colour (humidity over the figure's span), its marker (neighbouring
+/// humidities take different shapes; a revisit takes its first visit's) and whether it revisits
+/// (drawn dashed with hollow markers: the way back of an up-and-down sweep; alone in its figure, a
+/// level is drawn plain).
+fn level_styles(levels: &[LevelModel]) -> Vec<(RGBColor, Marker, bool)> {
+    let rh = |l: &LevelModel| l.level.rh_pct;
+    let (lo, hi) = levels.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), l| (a.min(rh(l)), b.max(rh(l))));
+    let mut firsts: Vec<f64> = levels.iter().filter(|l| l.level.revisit_of.is_none()).map(rh).collect();
+    if firsts.is_empty() {
+        firsts = levels.iter().map(rh).collect();
+    }
+    firsts.sort_by(f64::total_cmp);
+    levels
+        .iter()
+        .map(|l| {
+            let color = if hi - lo < 1.0 { humidity_color(rh(l)) } else { humidity_color_in(rh(l), lo, hi) };
+            let rank = (0..firsts.len()).min_by(|&a, &b| (firsts[a] - rh(l)).abs().total_cmp(&(firsts[b] - rh(l)).abs())).unwrap_or(0);
+            (color, Marker::ALL[rank % Marker::ALL.len()], l.level.revisit_of.is_some() && levels.len() > 1)
+        })
+        .collect()
+}
+
 impl Figure for Bode {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>
     where
@@ -92,13 +123,55 @@ impl Figure for Bode {
     {
         root.fill(&WHITE).map_err(pe)?;
         let root = root.titled(&self.title, ("sans-serif", 22)).map_err(pe)?;
+        let styles = level_styles(&self.levels);
+        let mut entries = Vec::new();
+        for (lm, &(level_color, marker, revisit)) in self.levels.iter().zip(&styles) {
+            let again = if revisit { " (again)" } else { "" };
+            if lm.lines.iter().any(|l| l.label.is_some()) {
+                entries.push(LegendEntry {
+                    label: format!("measured, {:.1} %RH{again}", lm.level.rh_pct),
+                    color: level_color,
+                    line: None,
+                    marker: Some((marker, !revisit)),
+                });
+            }
+            for line in &lm.lines {
+                entries.push(match &line.label {
+                    Some(label) => LegendEntry {
+                        label: label.clone(),
+                        color: line.color.unwrap_or(level_color),
+                        line: Some(line.dashed),
+                        marker: None,
+                    },
+                    None => LegendEntry {
+                        label: format!("{:.1} %RH{again}", lm.level.rh_pct),
+                        color: line.color.unwrap_or(level_color),
+                        line: Some(line.dashed || revisit),
+                        marker: Some((marker, !revisit)),
+                    },
+                });
+            }
+        }
+        let any_revisit = styles.iter().any(|s| s.2) && self.levels.iter().any(|l| l.lines.iter().any(|l| l.label.is_none()));
+        if any_revisit {
+            for note in ["", "dashed, hollow: a level", "revisited (the way back)"] {
+                entries.push(LegendEntry { label: note.into(), color: BLACK, line: None, marker: None });
+            }
+        }
+        let legend_title = if self.levels.len() > 1 { "levels in time order" } else { "data and models" };
+        let (w, _) = root.dim_in_pixel();
+        let lw = legend_width(&root, Some(legend_title), &entries).min(w / 3);
+        let (plots, legend_area) = root.split_horizontally(w - lw);
+        side_legend(&legend_area, Some(legend_title), &entries)?;
+
         let channels: Vec<Channel> = [Channel::Tip, Channel::Current]
             .into_iter()
             .filter(|&c| self.levels.iter().any(|l| l.level.points.iter().any(|p| c.measured(p).is_some())))
             .collect();
-        let panels = root.split_evenly((2, channels.len().max(1)));
+        let panels = plots.split_evenly((2, channels.len().max(1)));
         let all = || self.levels.iter().flat_map(|l| l.level.points.iter());
         let (f_lo, f_hi) = all().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.freq_hz), b.max(p.freq_hz)));
+        let f_axis = || log_axis(f_lo / 1.06, f_hi * 1.06, &[f_lo, f_hi]);
         for (c, &ch) in channels.iter().enumerate() {
             let curves: Vec<Vec<Vec<(f64, f64, f64)>>> =
                 self.levels.iter().map(|l| l.lines.iter().map(|line| model_curve(l, line, ch)).collect()).collect();
@@ -111,60 +184,63 @@ impl Figure for Bode {
                 self.levels.iter().flat_map(|l| l.level.points.iter().filter_map(move |p| ch.measured(p).map(|r| r.phase_deg)));
             let phases = level_phases.chain(curves.iter().flatten().flatten().map(|c| c.2));
             let (p_lo, p_hi) = phases.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p), b.max(p)));
+            // Ticks at multiples of 15°, 30°, 45°, 90° or 180° (the finest giving at most ten),
+            // on an axis from one multiple to another.
+            let step = [15.0, 30.0, 45.0, 90.0, 180.0].into_iter().find(|s| (p_hi - p_lo + 10.0) / s <= 9.0).unwrap_or(360.0);
+            let (p_lo, p_hi) = (((p_lo - 5.0) / step).floor() * step, ((p_hi + 5.0) / step).ceil() * step);
 
             let mut mag = ChartBuilder::on(&panels[c])
-                .caption(format!("|{}|", ch.name()), ("sans-serif", 18))
+                .caption(format!("|{}|  [{}]", ch.name(), ch.unit()), ("sans-serif", 18))
                 .margin(10)
-                .x_label_area_size(34)
+                .x_label_area_size(40)
                 .y_label_area_size(70)
-                .build_cartesian_2d((f_lo..f_hi).log_scale(), (g_lo / 1.5..g_hi * 1.5).log_scale())
+                .build_cartesian_2d(f_axis(), log_axis(g_lo / 1.5, g_hi * 1.5, &[]))
                 .map_err(pe)?;
+            let (y_lo, y_hi) = (g_lo / 1.5, g_hi * 1.5);
             mag.configure_mesh()
                 .x_desc("f [Hz]")
-                .x_label_formatter(&|v| format!("{v:.0}"))
-                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .x_label_formatter(&|v| tick_label(*v))
+                .y_label_formatter(&|v| log_tick_label(*v, y_lo, y_hi))
+                .label_style(("sans-serif", 14))
                 .draw()
                 .map_err(pe)?;
             let mut phase = ChartBuilder::on(&panels[channels.len() + c])
-                .caption(format!("phase of {} [deg]", ch.name()), ("sans-serif", 18))
+                .caption(format!("phase of {}  [°]", ch.name()), ("sans-serif", 18))
                 .margin(10)
-                .x_label_area_size(34)
+                .x_label_area_size(40)
                 .y_label_area_size(70)
-                .build_cartesian_2d((f_lo..f_hi).log_scale(), (p_lo - 10.0)..(p_hi + 10.0))
+                .build_cartesian_2d(f_axis(), (p_lo..p_hi + 1e-6 * step).step(step))
                 .map_err(pe)?;
-            phase.configure_mesh().x_desc("f [Hz]").x_label_formatter(&|v| format!("{v:.0}")).draw().map_err(pe)?;
-            for (lm, lines) in self.levels.iter().zip(&curves) {
-                let level_color = humidity_color(lm.level.rh_pct);
+            phase
+                .configure_mesh()
+                .x_desc("f [Hz]")
+                .max_light_lines(1)
+                .x_label_formatter(&|v| tick_label(*v))
+                .y_label_formatter(&|v| tick_label(*v))
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(pe)?;
+            for ((lm, lines), &(level_color, marker, revisit)) in self.levels.iter().zip(&curves).zip(&styles) {
                 let measured: Vec<(f64, ipmc_recording::Response)> =
                     lm.level.points.iter().filter_map(|p| ch.measured(p).map(|r| (p.freq_hz, r))).collect();
                 for (line, curve) in lm.lines.iter().zip(lines) {
                     let color = line.color.unwrap_or(level_color);
                     let style = color.stroke_width(2);
+                    let dashed = line.dashed || (line.label.is_none() && revisit);
                     let gain = curve.iter().map(|c| (c.0, c.1));
-                    let s = if line.dashed {
-                        mag.draw_series(DashedLineSeries::new(gain, 8, 5, style)).map_err(pe)?
-                    } else {
-                        mag.draw_series(LineSeries::new(gain, style)).map_err(pe)?
-                    };
-                    if c == 0 {
-                        let label = line.label.clone().unwrap_or_else(|| {
-                            format!("{:.1} %{}", lm.level.rh_pct, if lm.level.revisit_of.is_some() { " (again)" } else { "" })
-                        });
-                        s.label(label).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-                    }
                     let phases = curve.iter().map(|c| (c.0, c.2));
-                    if line.dashed {
+                    if dashed {
+                        mag.draw_series(DashedLineSeries::new(gain, 8, 5, style)).map_err(pe)?;
                         phase.draw_series(DashedLineSeries::new(phases, 8, 5, style)).map_err(pe)?;
                     } else {
+                        mag.draw_series(LineSeries::new(gain, style)).map_err(pe)?;
                         phase.draw_series(LineSeries::new(phases, style)).map_err(pe)?;
                     }
                 }
-                mag.draw_series(measured.iter().filter(|m| m.1.gain > 0.0).map(|m| Circle::new((m.0, m.1.gain), 3, level_color.filled())))
-                    .map_err(pe)?;
-                phase.draw_series(measured.iter().map(|m| Circle::new((m.0, m.1.phase_deg), 3, level_color.filled()))).map_err(pe)?;
-            }
-            if c == 0 {
-                legend(&mut mag, SeriesLabelPosition::LowerRight)?;
+                let gains: Vec<(f64, f64)> = measured.iter().filter(|m| m.1.gain > 0.0).map(|m| (m.0, m.1.gain)).collect();
+                draw_markers(&mut mag, &gains, marker, 3, level_color, !revisit)?;
+                let phases: Vec<(f64, f64)> = measured.iter().map(|m| (m.0, m.1.phase_deg)).collect();
+                draw_markers(&mut phase, &phases, marker, 3, level_color, !revisit)?;
             }
         }
         Ok(())

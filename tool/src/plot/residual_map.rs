@@ -1,7 +1,7 @@
 //! Heat maps of normalized residuals (residual/σ) over frequency × humidity level, one panel per
 //! model (e.g. before and after a diagnosis's augmentation), on one colour scale.
 
-use super::{Figure, pe};
+use super::{Figure, log_axis, pe, tick_label};
 use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -67,32 +67,40 @@ impl Figure for ResidualMap {
             let cell_edges: Vec<Vec<f64>> = panel.rows.iter().map(|r| edges(&r.cells.iter().map(|c| c.0).collect::<Vec<_>>())).collect();
             let (f_lo, f_hi) = cell_edges.iter().flatten().fold((f64::INFINITY, 0.0f64), |(a, b), f| (a.min(*f), b.max(*f)));
             let n = panel.rows.len();
-            let labels: Vec<String> = panel.rows.iter().map(|r| format!("{:.1} %", r.rh_pct)).collect();
+            // Rows from the top in time order, two units high so that each row's label sits at
+            // its centre (an odd key point): every row is labelled, however many there are.
+            let labels: Vec<String> = panel.rows.iter().enumerate().map(|(i, r)| format!("#{}  {:.1} %", i + 1, r.rh_pct)).collect();
+            let centres: Vec<i32> = (0..n as i32).map(|i| 2 * i + 1).collect();
+            let row_of = |y: i32| n.checked_sub(1 + (y.max(0) / 2) as usize);
+            let font_px = ((area.dim_in_pixel().1 as f64 - 110.0) / n.max(1) as f64 * 0.75).clamp(8.0, 14.0);
+            let first_freq = panel.rows.iter().filter_map(|r| r.cells.first().map(|c| c.0)).fold(f64::INFINITY, f64::min);
+            let last_freq = panel.rows.iter().filter_map(|r| r.cells.last().map(|c| c.0)).fold(0.0, f64::max);
             let mut chart = ChartBuilder::on(area)
                 .caption(&panel.title, ("sans-serif", 18))
                 .margin(10)
-                .x_label_area_size(34)
-                .y_label_area_size(70)
-                .build_cartesian_2d((f_lo..f_hi).log_scale(), 0.0..n as f64)
+                .x_label_area_size(40)
+                .y_label_area_size(100)
+                .build_cartesian_2d(log_axis(f_lo, f_hi, &[first_freq, last_freq]), (0..2 * n as i32).with_key_points(centres))
                 .map_err(pe)?;
             chart
                 .configure_mesh()
                 .disable_mesh()
                 .x_desc("f [Hz]")
-                .y_desc("humidity level (time order)")
-                .x_label_formatter(&|v| format!("{v:.0}"))
-                .y_labels(n.min(20))
-                .y_label_formatter(&|v| labels.get(v.floor() as usize).cloned().unwrap_or_default())
+                .y_desc("level # and RH, in time order from the top")
+                .x_label_formatter(&|v| tick_label(*v))
+                .y_label_formatter(&|v| row_of(*v).and_then(|r| labels.get(r)).cloned().unwrap_or_default())
+                .label_style(("sans-serif", 14))
+                .y_label_style(("sans-serif", font_px))
                 .draw()
                 .map_err(pe)?;
             for (i, (row, e)) in panel.rows.iter().zip(&cell_edges).enumerate() {
-                let y = i as f64;
+                let y = 2 * (n - 1 - i) as i32;
                 chart
                     .draw_series(
                         row.cells
                             .iter()
                             .enumerate()
-                            .filter_map(|(k, (_, v))| v.map(|v| Rectangle::new([(e[k], y), (e[k + 1], y + 1.0)], color_of(v).filled()))),
+                            .filter_map(|(k, (_, v))| v.map(|v| Rectangle::new([(e[k], y), (e[k + 1], y + 2)], color_of(v).filled()))),
                     )
                     .map_err(pe)?;
             }
@@ -110,6 +118,40 @@ impl Figure for ResidualMap {
         let font = ("sans-serif", 16).into_font();
         bar.draw(&Text::new("|residual| / σ:  0".to_string(), (x0 - 150, 12), font.clone())).map_err(pe)?;
         bar.draw(&Text::new(format!("≥ {SATURATION:.0}"), (x0 + steps * dx + 8, 12), font)).map_err(pe)?;
+        for k in 1..SATURATION as i32 {
+            let x = x0 + steps * dx * k / SATURATION as i32;
+            bar.draw(&PathElement::new(vec![(x, 30), (x, 35)], BLACK.stroke_width(1))).map_err(pe)?;
+            bar.draw(&Text::new(k.to_string(), (x - 4, 37), ("sans-serif", 14).into_font())).map_err(pe)?;
+        }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every row of a map of 19 levels is labelled with its number and humidity, the hottest too.
+    #[test]
+    fn every_row_is_labelled() {
+        let rows: Vec<Row> = (0..19)
+            .map(|i| Row {
+                rh_pct: 35.0 + 2.5 * i as f64,
+                cells: [10.0, 20.0, 50.0, 150.0].iter().map(|&f| (f, Some(if i == 9 { 9.0 } else { 1.0 }))).collect(),
+            })
+            .collect();
+        let map = ResidualMap { title: "test".into(), panels: vec![Panel { title: "before".into(), rows }] };
+        super::super::register_font().unwrap();
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (1600, 800)).into_drawing_area();
+            map.draw(&root).unwrap();
+            root.present().unwrap();
+        }
+        for i in 0..19 {
+            let label = format!("#{}  {:.1} %", i + 1, 35.0 + 2.5 * i as f64);
+            assert!(svg.contains(&label), "row {} unlabelled ({label})", i + 1);
+        }
+        assert!(svg.contains(">\n150\n<") || svg.contains(">150<"), "no tick at the data's end");
     }
 }

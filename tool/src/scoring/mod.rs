@@ -1,58 +1,110 @@
 //! How an estimate is scored against the true base motion: the same samples (after each burst's
 //! settling, against the base delayed by the design's delay) for every figure the tool prints.
 //!
-//! - [`relative_error`]: broadband and in-band (error high-passed at [`INBAND_HP_HZ`]).
+//! - [`band_score`]: the error and the estimate's size in the calibration's band.
 //! - [`band_error`]: the error's content in a band of DFT lines (`crate::band`).
 //! - [`coverage`]: whether the stated error bars hold, window by window.
 
 pub mod coverage;
 
-use ipmc_core::{Cascade, Sos};
+pub use ipmc_core::operating_point::SETTLE_S;
 
-/// Filter settling skipped at the start of each burst when scoring [s].
-pub const SETTLE_S: f64 = 5.0;
-
-/// Corner of the high-pass applied to the error before the in-band figure [Hz]: half the
-/// design band's lower edge (10 Hz), so only the band the inverse is designed for is scored.
-pub const INBAND_HP_HZ: f64 = 5.0;
-
-/// Zero-phase high-pass of `x` in place: a 2nd-order Butterworth section (bilinear, the core's
-/// filter) run forward and backward, 4th order with no phase shift.
-fn highpass_zero_phase(x: &mut [f64], fc_hz: f64, fs_hz: f64) {
-    let w0 = 2.0 * std::f64::consts::PI * fc_hz / fs_hz;
-    let alpha = w0.sin() / (2.0 * std::f64::consts::FRAC_1_SQRT_2);
-    let (a0, c) = (1.0 + alpha, w0.cos());
-    let section = Sos::from_ba([(1.0 + c) / 2.0 / a0, -(1.0 + c) / a0, (1.0 + c) / 2.0 / a0], [1.0, -2.0 * c / a0, (1.0 - alpha) / a0]);
-    Cascade::from_sections(&[section], 1.0).process_block(x);
-    x.reverse();
-    Cascade::from_sections(&[section], 1.0).process_block(x);
-    x.reverse();
+/// What an estimate is scored by, in its calibration's band.
+#[derive(Clone, Copy, Debug)]
+pub struct BandScore {
+    /// The band [Hz].
+    pub band: (f64, f64),
+    /// The error's content in the band over the true base's there (rms ratio).
+    pub error: f64,
+    /// The raw estimate's rms over the true base's rms in the band: what a user sees as it
+    /// comes against what there is to see.
+    pub estimate_over_truth: f64,
+    /// Bursts with samples scored.
+    pub bursts: usize,
 }
 
-/// Error of an estimate against the true base: (broadband, in-band), each
-/// rms(estimate − delayed true base) / rms(delayed true base). The estimate at sample n is
-/// compared with base[n − delay[n]]; the first [`SETTLE_S`] of each burst is skipped. The
-/// in-band figure high-passes the error at [`INBAND_HP_HZ`] first (per burst, zero-phase).
-pub fn relative_error<E: Copy + Into<f64>>(
+impl BandScore {
+    /// The one wording of the figure for every command (`cargo xtask qemu` reads what follows
+    /// "skipped): ").
+    pub fn line(&self, delay_samples: usize) -> String {
+        let (lo, hi) = self.band;
+        format!(
+            "error in {lo}–{hi} Hz against the true base in {lo}–{hi} Hz (delayed {delay_samples} samples, first {SETTLE_S} s of each \
+             burst skipped): {:.3} % rms; the estimate's rms is {:.2}× the true base's in band",
+            100.0 * self.error,
+            self.estimate_over_truth
+        )
+    }
+}
+
+/// The estimate's error and size in `band`, on the samples every figure is taken on (after
+/// each burst's settling, against the base delayed by the chain's delay). None when no burst
+/// has samples after settling or the base has nothing in the band.
+pub fn band_score<E: Copy + Into<f64>>(
     est: &[E],
     delay: &[usize],
     burst_start: &[usize],
     base: &[f64],
     fs_hz: f64,
-) -> Option<(f64, f64)> {
-    let (mut se, mut sh, mut sb) = (0.0f64, 0.0f64, 0.0f64);
-    for (mut err, truth) in scored_bursts(est, delay, burst_start, base, fs_hz) {
-        se += err.iter().map(|e| e * e).sum::<f64>();
-        sb += truth.iter().map(|t| t * t).sum::<f64>();
-        highpass_zero_phase(&mut err, INBAND_HP_HZ, fs_hz);
-        sh += err.iter().map(|e| e * e).sum::<f64>();
+    band: (f64, f64),
+) -> Option<BandScore> {
+    let (mut se, mut sb, mut sx, mut n, mut bursts) = (0.0f64, 0.0f64, 0.0f64, 0usize, 0usize);
+    let settle = (SETTLE_S * fs_hz).round() as usize;
+    for ((err, truth), est) in
+        scored_bursts(est, delay, burst_start, base, fs_hz).into_iter().zip(scored_estimates(est, delay, burst_start, settle))
+    {
+        if err.len() > 2 {
+            se += crate::band::energy(&err, fs_hz, band.0, band.1);
+            sb += crate::band::energy(&truth, fs_hz, band.0, band.1);
+            sx += est.iter().map(|v| v * v).sum::<f64>();
+            n += err.len();
+            bursts += 1;
+        }
     }
-    (sb > 0.0).then(|| ((se / sb).sqrt(), (sh / sb).sqrt()))
+    (sb > 0.0 && n > 0).then(|| BandScore { band, error: (se / sb).sqrt(), estimate_over_truth: (sx / sb).sqrt(), bursts })
+}
+
+/// Why a recording gave nothing to score, and what to do: bursts shorter than the chain's
+/// settling are the common case (a bench session's 2 s bursts of a periodic excitation).
+pub fn nothing_scored(recording: &std::path::Path, ts: &ipmc_recording::TimeSeries, band: (f64, f64)) -> String {
+    let longest = ts.bursts().iter().map(|b| b.len()).max().unwrap_or(0) as f64 / ts.fs_hz;
+    if longest <= SETTLE_S {
+        format!(
+            "{}: nothing to score: its longest burst is {longest:.1} s, and the chain needs {SETTLE_S} s to settle; bursts of a \
+             periodic excitation can be repeated by whole periods until they settle: `ipmc loop-bursts {} --out LOOPED.csv` \
+             (`--period-s`, `--seconds`), then compensate and score LOOPED.csv (`ipmc vs-exact` does this per burst)",
+            recording.display(),
+            recording.display()
+        )
+    } else {
+        format!(
+            "{}: nothing to score: the true base has nothing in {}–{} Hz after each burst's settling",
+            recording.display(),
+            band.0,
+            band.1
+        )
+    }
+}
+
+/// Per burst, the estimate on the samples [`scored_bursts`] scores.
+fn scored_estimates<E: Copy + Into<f64>>(est: &[E], delay: &[usize], burst_start: &[usize], settle: usize) -> Vec<Vec<f64>> {
+    let n = est.len().min(delay.len()).min(burst_start.len());
+    let mut out: Vec<Vec<f64>> = vec![];
+    for k in 0..n {
+        if k == 0 || burst_start[k] != burst_start[k - 1] {
+            out.push(vec![]);
+        }
+        let b0 = burst_start[k];
+        if k >= b0 + settle && k >= b0 + delay[k] {
+            out.last_mut().expect("pushed").push(est[k].into());
+        }
+    }
+    out
 }
 
 /// Error of an estimate in a band: the error's content in `band` over the true base's content
 /// in `reference` (each `(lo_hz, hi_hz)`; `band::energy`, per burst, on the same samples as
-/// [`relative_error`]), as a ratio of rms values. With both the design band: the error in the
+/// [`band_score`]), as a ratio of rms values. With both the design band: the error in the
 /// band the inverse is asked to get right, and nothing else, the figure the exact band-limited
 /// inverse is held to as well (`ipmc vs-exact`); with another `band`, what the estimate adds
 /// there, on the scale of the signal in the design band.

@@ -165,20 +165,27 @@ mod tests {
     use ipmc_recording::{Format as _, FrequencyResponse};
 
     fn verdict(effect: Option<Effect>, seed: u64) -> String {
+        diagnosis(effect, seed).verdict.to_string()
+    }
+
+    fn diagnosis(effect: Option<Effect>, seed: u64) -> ipmc_diagnose::Diagnosis {
         let calib = Calibration::default_preset();
         let case = make_case(&calib, effect, seed, Strength::At(0.8), Format::Fr).unwrap();
         let csv = case.recording.to_csv().unwrap();
         let (fr, _) = FrequencyResponse::parse("case.csv", &csv).unwrap();
         let d = engine::diagnose(&calib, &Dataset::from_recordings(&[fr]), &|_| {}).unwrap();
-        if d.verdict != "none" && d.verdict != "unexplained" {
+        if d.verdict.effect().is_some() {
             assert!(d.heldout_lowered(), "{}: held-out {} → {}", d.verdict, d.heldout_before, d.heldout_after);
         }
-        d.verdict.to_string()
+        d
     }
 
+    /// Named, or `undecided` with it in the set holding 90 % (an honest pair the band cannot
+    /// separate, timing against an amplifier pole): never another name, never `none`.
     fn found(effect: Effect) {
-        let v = verdict(Some(effect), 7);
-        assert_eq!(v, effect.name(), "concealed {effect}, diagnosed {v}");
+        let d = diagnosis(Some(effect), 7);
+        let in_set = d.verdict == "undecided" && d.set.iter().any(|n| n == effect.name());
+        assert!(d.verdict == effect.name() || in_set, "concealed {effect}, diagnosed {} (set {:?})", d.verdict, d.set);
     }
 
     /// The same bench recorded as multisine time series, through the file and the time-series

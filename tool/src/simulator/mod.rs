@@ -6,6 +6,7 @@ mod bench;
 mod charging;
 pub mod concealed;
 pub mod effects;
+pub mod field;
 mod frequency_response;
 pub mod physics;
 pub mod random;
