@@ -22,7 +22,7 @@ use crate::input::read_time_series;
 use crate::looping::{loop_bursts, noise_density};
 use crate::scoring::{SETTLE_S, band_error};
 use anyhow::{Context, Result, anyhow, bail};
-use ipmc_core::{Calibration, DesignConfig, InverseKind, LawKind, ParamName};
+use ipmc_core::{Calibration, InverseKind, LawKind, ParamName};
 use ipmc_recording::{TimeSeries, write_atomically};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -167,8 +167,7 @@ fn load_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibratio
 
 /// The chain and the exact inverse with `calib` on one looped burst `rec`, scored in the band.
 fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64) -> Result<(Scores, crate::chain::Estimates)> {
-    let cfg = DesignConfig::<f64>::default();
-    let band = (cfg.band_lo_hz, cfg.band_hi_hz);
+    let band = (calib.band.low_hz, calib.band.high_hz);
     let errors = error_table(calib, rec.fs_hz, rh_sd, InverseKind::Exact)?;
     let est = compensate(calib, rec, None, &errors, InverseKind::Exact)?;
     let base = rec.base_m.as_ref().expect("cut with base");
@@ -258,10 +257,9 @@ pub fn run(a: Args) -> Result<()> {
     }
     bar.finish_and_clear();
 
-    let cfg = DesignConfig::<f64>::default();
     println!(
         "error in {}–{} Hz against base_m, per level (each burst repeated to {SETTLE_S} s + {} s, the first {SETTLE_S} s not scored), %:",
-        cfg.band_lo_hz, cfg.band_hi_hz, a.seconds
+        own.band.low_hz, own.band.high_hz, a.seconds
     );
     println!(
         "  level  RH read %   nominal chain   own chain   own exact{}   own stated 1σ (calibration, noise)  covered",
