@@ -239,7 +239,7 @@ fn charging_recordings_give_kappa_e_at_their_levels() {
         let rh = num(l, "rh_pct");
         let near = [28.0, 60.0, 90.0].iter().any(|c| (c - rh).abs() < 3.0);
         let source = l["kappa_e_source"].as_str().unwrap();
-        assert_eq!(source, if near { "charging" } else { "copied from the base calibration" }, "RH {rh}");
+        assert_eq!(source, if near { "charging" } else { "base calibration" }, "RH {rh}");
         if near {
             measured += 1;
             let (v, t) = (num(l, "kappa_e"), sample().params_at::<f64>(rh).kappa_e);

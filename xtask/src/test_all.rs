@@ -5,7 +5,7 @@ use crate::{
     Result, cargo,
     firmware::{self, Variant},
     qemu_scenarios::{
-        qemu_host_equivalence, qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_bundled,
+        qemu_host_equivalence, qemu_host_equivalence_with_departures, qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_bundled,
         qemu_replay_counts_and_retunes, qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_no_new_humidity,
         qemu_replay_no_receiver, qemu_replay_sensor_faults,
     },
@@ -147,6 +147,7 @@ pub fn command(filter: &[String]) -> Result<()> {
             "qemu replay: host ↔ QEMU equivalence with a humidity path (correction and hydration lag)",
             qemu_host_equivalence_with_humidity_path,
         ),
+        ("qemu replay: host ↔ QEMU equivalence with a [departures] table (the strip's own departures)", qemu_host_equivalence_with_departures),
         ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),
         ("qemu replay: humidity sensor with no new data", qemu_replay_no_new_humidity),

@@ -122,7 +122,7 @@ fn level_json(number: usize, level: &Level, fit: &LevelFit) -> Value {
             o.insert(format!("{}_se", p.as_str()), json!(e.se.filter(|s| s.is_finite())));
         }
     }
-    o.insert("kappa_e_source".into(), json!(if fit.kappa_e_measured { "charging" } else { "copied from the base calibration" }));
+    o.insert("kappa_e_source".into(), json!(if fit.kappa_e_measured { "charging" } else { "base calibration" }));
     if let Some(g) = fit.tip_gain {
         o.insert("tip_gain".into(), json!(g.value));
         o.insert("tip_gain_se".into(), json!(g.se.filter(|s| s.is_finite())));
