@@ -17,8 +17,9 @@ use std::path::Path;
 /// Largest ratio of the own calibration's rms error to the perfect calibration's (issue 25).
 pub const PERFECT_RATIO_BOUND: f64 = 1.1;
 
-/// Runs `ipmc strip-check` and holds its summary to the bounds.
-fn check(name: &str, fr: &Path, ts: &Path, calib: &str, truth: &Path, out: &Path) -> Result<()> {
+/// Runs `ipmc strip-check` and holds its summary to the bounds; what it printed is appended to
+/// `printed_all` (the README's figure `strip-check`).
+fn check(name: &str, fr: &Path, ts: &Path, calib: &str, truth: &Path, out: &Path, printed_all: &mut String) -> Result<()> {
     let printed = ipmc(&[
         "strip-check".as_ref(),
         fr.as_os_str(),
@@ -33,6 +34,7 @@ fn check(name: &str, fr: &Path, ts: &Path, calib: &str, truth: &Path, out: &Path
     ])?;
     let (table, line) = printed.trim_end().rsplit_once('\n').context("ipmc strip-check printed one line")?;
     println!("{name}:\n{table}");
+    printed_all.push_str(&format!("{name}:\n{table}\n"));
     let j: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc strip-check --json: {e}: {line}"))?;
     let get = |k: &str| j.get(k).and_then(serde_json::Value::as_f64).ok_or_else(|| anyhow!("no `{k}` in {line}"));
     let (own, nominal, perfect) = (get("own_rms")?, get("nominal_rms")?, get("perfect_rms")?);
@@ -72,7 +74,9 @@ pub fn test_step() -> Result<()> {
     ])?;
     ipmc(&["simulate".as_ref(), "--session".as_ref(), sessions.join("strip-ts.toml").as_os_str(), "--out".as_ref(), ts.as_os_str()])?;
     let mut failed = vec![];
-    if let Err(e) = check("the project's simulator (strip-fr.toml → strip-ts.toml)", &fr, &ts, "default", &strip, &work.join("OWN.toml"))
+    let mut printed = String::new();
+    if let Err(e) =
+        check("the project's simulator (strip-fr.toml → strip-ts.toml)", &fr, &ts, "default", &strip, &work.join("OWN.toml"), &mut printed)
     {
         eprintln!("{e}");
         failed.push(e.to_string());
@@ -84,7 +88,7 @@ pub fn test_step() -> Result<()> {
         for s in ["strip101", "strip102"] {
             let (fr, ts) = (strips.join(format!("{s}-fr.csv")), strips.join(format!("{s}-ts.csv")));
             let out = work.join(format!("{s}-own.toml"));
-            if let Err(e) = check(s, &fr, &ts, &nominal.to_string_lossy(), &strips.join("truths.json"), &out) {
+            if let Err(e) = check(s, &fr, &ts, &nominal.to_string_lossy(), &strips.join("truths.json"), &out, &mut printed) {
                 eprintln!("{e}");
                 failed.push(e.to_string());
             }
@@ -92,6 +96,7 @@ pub fn test_step() -> Result<()> {
     } else {
         println!("no {}: the shared pairs skipped", strips.join("truths.json").display());
     }
+    crate::readme_figures::save("strip-check", &printed)?;
     if !failed.is_empty() {
         bail!("{}", failed.join("; "));
     }
