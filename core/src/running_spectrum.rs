@@ -15,7 +15,7 @@ use crate::{C, Real};
 /// Decimated samples per segment: with the decimated rate near 3× the band's top, bins of about
 /// 1 Hz, several across the strip's first resonance (28–35 Hz, Q ≈ 10–15: 2–3 Hz wide).
 pub const SEGMENT: usize = 512;
-const _: () = assert!(SEGMENT % 4 == 0, "segments complete at an even head");
+const _: () = assert!(SEGMENT.is_multiple_of(4), "segments complete at an even head");
 /// Most bins of the band kept.
 pub const MAX_BINS: usize = 192;
 /// Time constant of the average [s]: long enough for the log-spectrum's scatter to be small
