@@ -159,6 +159,8 @@ impl<T: Real> RunningSpectrum<T> {
         }
     }
 
+    // Once a segment: kept out of line so the per-sample loop stays small in flash.
+    #[inline(never)]
     fn segment(&mut self) {
         let mut mean = T::zero();
         for v in self.ring.iter() {

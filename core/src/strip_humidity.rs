@@ -536,6 +536,8 @@ pub fn log_periodogram_variance<T: Real>(m: T) -> T {
 
 /// The strip's humidity from the spectrum `s` of its current (at the bins of `table`), with
 /// `noise_psd` the current's noise [A²/Hz, one-sided] (0: unknown, no bin left out for it).
+// Out of line: the device would inline it into the fit task, at a cost in flash.
+#[inline(never)]
 pub fn strip_rh<T: Real>(table: &ModelTable<'_, T>, s: &SpectrumView<'_, T>, noise_psd: T) -> Result<StripRh<T>, Refusal> {
     if s.segments < T::lit(MIN_SEGMENTS) || s.psd.len() < 8 || table.nodes() < 2 {
         return Err(Refusal::Warming);
