@@ -32,6 +32,16 @@ mod tests {
     use super::*;
     use ipmc_core::stream::{Header, encode, max_frame_len};
 
+    /// Finite throughout: a header compares with `==`.
+    const HYGROMETER: ipmc_core::stream::Hygrometer = ipmc_core::stream::Hygrometer {
+        read_sd_pct: 1.5,
+        own_pct: 45.25,
+        own_sd_pct: 0.5,
+        own_refusal: 0,
+        fused_pct: 45.5,
+        fused_sd_pct: 0.25,
+    };
+
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
         let header = Header {
@@ -40,7 +50,7 @@ mod tests {
             rh_strip_pct: rh + 0.5,
             rh_read_pct: rh + 1.5,
             rel_err: 0.125,
-            hygrometer: ipmc_core::stream::Hygrometer::NONE,
+            hygrometer: HYGROMETER,
             flags,
         };
         let n = encode(&header, est, &mut out).unwrap();
@@ -63,7 +73,7 @@ mod tests {
                     rh_strip_pct: 46.5,
                     rh_read_pct: 47.5,
                     rel_err: 0.125,
-                    hygrometer: ipmc_core::stream::Hygrometer::NONE,
+                    hygrometer: HYGROMETER,
                     flags: 8
                 },
                 base_est_m: vec![2e-3, -1e-3]

@@ -289,7 +289,14 @@ mod tests {
                 rh_strip_pct: rh + 1.0,
                 rh_read_pct: rh + 2.0,
                 rel_err: 0.05,
-                hygrometer: ipmc_core::stream::Hygrometer::NONE,
+                hygrometer: Hygrometer {
+                    read_sd_pct: 1.5,
+                    own_pct: 45.25,
+                    own_sd_pct: 0.5,
+                    own_refusal: 0,
+                    fused_pct: 45.5,
+                    fused_sd_pct: 0.25,
+                },
                 flags,
             },
             est,
@@ -342,7 +349,11 @@ mod tests {
             // 201 blocks of 16 ms = 3.2 s of stream: lines at 0, 1, 2 and 3 s.
             assert_eq!(lines.len(), 4, "{lines:?}");
             assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
-            assert!(lines[0].contains("RH  45.00 % (strip  46.00 %, read  47.00 %)"), "{}", lines[0]);
+            assert!(
+                lines[0].contains("RH  45.00 % (strip  46.00 ± 1.50 %, read  47.00 %; own  45.25 ± 0.50 %, fused  45.50 ± 0.25 %)"),
+                "{}",
+                lines[0]
+            );
             assert!(lines[0].contains("m ± 5.0 %"), "the expected error: {}", lines[0]);
             assert!(samples.iter().all(|s| s.rel_err == 0.05));
             assert!(lines.iter().any(|l| l.contains("bad 2")));
@@ -355,6 +366,13 @@ mod tests {
         bytes.extend(frame(0, 45.0, 0, &[0.0; 32]));
         let (_, samples, _) = run_bytes(&bytes, 64);
         assert!(samples.windows(2).all(|w| w[1].t_s > w[0].t_s));
+    }
+
+    #[test]
+    fn the_strips_own_estimate_or_why_not() {
+        assert_eq!(own(&Hygrometer::NONE), "no fit yet");
+        assert_eq!(own(&Hygrometer { own_refusal: Refusal::Ambiguous.code(), ..Hygrometer::NONE }), "refused: ambiguous");
+        assert_eq!(own(&Hygrometer { own_refusal: 0, own_pct: 72.5, own_sd_pct: 0.25, ..Hygrometer::NONE }), " 72.50 ± 0.25 %");
     }
 
     #[test]
