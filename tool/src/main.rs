@@ -10,6 +10,7 @@ mod exact;
 mod hygrometer;
 mod input;
 mod inverse_choice;
+mod limits;
 mod looping;
 mod overrides;
 mod plot;
