@@ -15,7 +15,7 @@ use crate::{C, Real};
 /// Decimated samples per segment: with the decimated rate near 3× the band's top, bins of about
 /// 1 Hz, several across the strip's first resonance (28–35 Hz, Q ≈ 10–15: 2–3 Hz wide).
 pub const SEGMENT: usize = 512;
-const _: () = assert!(SEGMENT.is_multiple_of(4), "segments complete at an even head");
+const _: () = assert!(SEGMENT.is_multiple_of(4), "a half segment packs into whole pairs");
 /// Most bins of the band kept.
 pub const MAX_BINS: usize = 192;
 /// Time constant of the average [s]: long enough for the log-spectrum's scatter to be small
@@ -73,15 +73,25 @@ impl BinGeometry {
     }
 }
 
+/// Decimated samples per hop: segments overlap by half.
+const HALF: usize = SEGMENT / 2;
+
+type Fft<T> = RealFft<T, { SEGMENT / 2 }>;
+
 pub struct RunningSpectrum<T> {
-    fft: RealFft<T, { SEGMENT / 2 }>,
+    fft: Fft<T>,
+    /// The segment packed for the FFT and transformed there: kept, not cleared, between segments.
+    packed: [C<T>; SEGMENT / 2],
     window: [T; SEGMENT],
-    /// The last SEGMENT decimated samples, a ring.
+    /// The last SEGMENT decimated samples in two halves, `pos` the next one written: when a half
+    /// is full, the other one is the older half of the segment it completes.
     ring: [T; SEGMENT],
-    head: usize,
-    filled: usize,
-    since_hop: usize,
+    pos: usize,
+    /// Each half's sum, for the segment's mean.
+    half_sums: [T; 2],
+    halves_filled: u8,
     decimation: usize,
+    /// The boxcar's sum so far and how many samples are in it.
     acc: T,
     acc_n: usize,
     first_bin: usize,
@@ -90,9 +100,35 @@ pub struct RunningSpectrum<T> {
     /// Segments averaged so far, and the forgetting factor once it is reached.
     count: u32,
     alpha: T,
-    /// From |X|² to one-sided PSD: 2/(fs_dec·Σw²).
+    /// From |X|² of the boxcar's sums to one-sided PSD of their mean: 2/(fs_dec·Σw²·decimation²).
     scale: T,
     df_hz: T,
+}
+
+/// Where a boxcar's sum starts: −0 + x is x for every x, so a sum begun in one block and one
+/// begun in the next round alike.
+fn empty<T: Real>() -> T {
+    T::lit(-0.0)
+}
+
+/// The boxcar over whole groups of `d` samples, each group's sum to `out` and added to `sum`, in
+/// the order a group split across blocks is summed in. Inlined with a constant `d` the groups
+/// unroll, which is most of the per-sample cost.
+#[inline(always)]
+fn boxcar<T: Real>(samples: &[T], d: usize, out: &mut [T], sum: &mut T) {
+    let mut s = *sum;
+    for (o, group) in out.iter_mut().zip(samples.chunks_exact(d)) {
+        let v = group.iter().fold(empty(), |a, &x| a + x);
+        *o = v;
+        s += v;
+    }
+    *sum = s;
+}
+
+/// [`boxcar`] for a decimation known when compiled.
+#[inline(never)]
+fn boxcar_of<T: Real, const D: usize>(samples: &[T], out: &mut [T], sum: &mut T) {
+    boxcar(samples, D, out, sum)
 }
 
 impl<T: Real> RunningSpectrum<T> {
@@ -106,84 +142,107 @@ impl<T: Real> RunningSpectrum<T> {
             power += v * v;
             *w = T::lit(v);
         }
-        let hop_s = (SEGMENT / 2) as f64 / fs_dec;
+        let hop_s = HALF as f64 / fs_dec;
+        let d = decimation as f64;
         RunningSpectrum {
             fft: RealFft::new(),
+            packed: [C::new(T::zero(), T::zero()); SEGMENT / 2],
             window,
             ring: [T::zero(); SEGMENT],
-            head: 0,
-            filled: 0,
-            since_hop: 0,
+            pos: 0,
+            half_sums: [T::zero(); 2],
+            halves_filled: 0,
             decimation,
-            acc: T::zero(),
+            acc: empty(),
             acc_n: 0,
             first_bin,
             bins,
             average: [T::zero(); MAX_BINS],
             count: 0,
             alpha: T::lit(hop_s / AVERAGING_S),
-            scale: T::lit(2.0 / (fs_dec * power)),
+            scale: T::lit(2.0 / (fs_dec * power * d * d)),
             df_hz: T::lit(df),
         }
     }
 
     /// Takes the current's samples [A]; returns how many segments were completed.
     pub fn push(&mut self, samples: &[T]) -> usize {
+        let d = self.decimation;
         let mut done = 0;
-        // The boxcar's sum in registers: the per-sample work is the addition alone.
-        let (mut acc, mut n) = (self.acc, self.acc_n);
-        for &x in samples {
-            acc += x;
-            n += 1;
-            if n == self.decimation {
-                done += self.decimated(acc / T::lit(self.decimation as f64));
-                (acc, n) = (T::zero(), 0);
+        let mut rest = samples;
+        while !rest.is_empty() {
+            if self.acc_n > 0 || rest.len() < d {
+                // A group an earlier block began, or one this block only begins.
+                let (head, tail) = rest.split_at((d - self.acc_n).min(rest.len()));
+                for &x in head {
+                    self.acc += x;
+                }
+                self.acc_n += head.len();
+                rest = tail;
+                if self.acc_n == d {
+                    let v = core::mem::replace(&mut self.acc, empty());
+                    self.acc_n = 0;
+                    done += self.store(1, |out, sum| {
+                        out[0] = v;
+                        *sum += v;
+                    });
+                }
+                continue;
             }
+            let groups = (rest.len() / d).min(HALF - self.pos % HALF);
+            let (whole, tail) = rest.split_at(groups * d);
+            rest = tail;
+            done += self.store(groups, |out, sum| match d {
+                4 => boxcar_of::<T, 4>(whole, out, sum),
+                _ => boxcar(whole, d, out, sum),
+            });
         }
-        (self.acc, self.acc_n) = (acc, n);
         done
     }
 
-    /// One decimated sample; 1 if it completed a segment.
-    fn decimated(&mut self, v: T) -> usize {
-        self.ring[self.head] = v;
-        self.head = (self.head + 1) % SEGMENT;
-        self.filled = (self.filled + 1).min(SEGMENT);
-        self.since_hop += 1;
-        if self.filled == SEGMENT && self.since_hop >= SEGMENT / 2 {
-            self.since_hop = 0;
+    /// Writes `groups` decimated samples (no further than the half's end) with `fill`, which
+    /// also adds them to the half's sum; 1 if a segment completed.
+    #[inline(always)]
+    fn store(&mut self, groups: usize, fill: impl FnOnce(&mut [T], &mut T)) -> usize {
+        let half = self.pos / HALF;
+        fill(&mut self.ring[self.pos..self.pos + groups], &mut self.half_sums[half]);
+        self.pos += groups;
+        if !self.pos.is_multiple_of(HALF) {
+            return 0;
+        }
+        self.pos %= SEGMENT;
+        self.halves_filled = self.halves_filled.saturating_add(1);
+        let done = if self.halves_filled >= 2 {
             self.segment();
             1
         } else {
             0
-        }
+        };
+        self.half_sums[self.pos / HALF] = T::zero();
+        done
     }
 
     // Once a segment: kept out of line so the per-sample loop stays small in flash.
     #[inline(never)]
     fn segment(&mut self) {
-        let mut mean = T::zero();
-        for v in self.ring.iter() {
-            mean += *v;
+        let mean = (self.half_sums[0] + self.half_sums[1]) / T::lit(SEGMENT as f64);
+        let (first, second) = self.ring.split_at(HALF);
+        // The half about to be overwritten is the older.
+        let (older, newer) = if self.pos == 0 { (first, second) } else { (second, first) };
+        let (w_older, w_newer) = self.window.split_at(HALF);
+        let z = &mut self.packed;
+        for (offset, x, w) in [(0, older, w_older), (HALF / 2, newer, w_newer)] {
+            for (n, (x, w)) in x.chunks_exact(2).zip(w.chunks_exact(2)).enumerate() {
+                z[Fft::<T>::slot(offset + n)] = C::new((x[0] - mean) * w[0], (x[1] - mean) * w[1]);
+            }
         }
-        mean /= T::lit(SEGMENT as f64);
-        let mut z = [C::new(T::zero(), T::zero()); SEGMENT / 2];
-        // Oldest first; a segment completes every half segment, so the ring's head is even
-        // then and no pair straddles its end.
-        let (newer, older) = self.ring.split_at(self.head);
-        let ordered = older.chunks_exact(2).chain(newer.chunks_exact(2));
-        for ((slot, x), w) in z.iter_mut().zip(ordered).zip(self.window.chunks_exact(2)) {
-            *slot = C::new((x[0] - mean) * w[0], (x[1] - mean) * w[1]);
-        }
-        self.fft.transform(&mut z);
+        self.fft.transform(z);
         self.count = self.count.saturating_add(1);
         // A plain mean until the forgetting factor is reached, then exponential.
         let a = T::one() / T::lit(self.count as f64);
         let a = if a > self.alpha { a } else { self.alpha };
-        for (k, avg) in self.average.iter_mut().enumerate().take(self.bins) {
-            let p = self.fft.bin(&z, self.first_bin + k).norm_sqr() * self.scale;
-            *avg += a * (p - *avg);
-        }
+        let scale = self.scale;
+        self.fft.powers(z, self.first_bin, &mut self.average[..self.bins], |avg, p| *avg += a * (p * scale - *avg));
     }
 
     /// Segments averaged so far.
@@ -240,6 +299,27 @@ mod tests {
         // The boxcar's response in the band (≥ 0.86² at 150 Hz) lowers it a little.
         assert!(mean / expected > 0.85 && mean / expected < 1.02, "{mean} vs {expected}");
         assert!((v.first_hz - 10.0).abs() < 1.0 && v.psd.len() > 140, "{} {}", v.first_hz, v.psd.len());
+    }
+
+    #[test]
+    fn blocks_of_any_length_give_the_same_bits() {
+        // The device pushes blocks of 32, a replay may not: the boxcar's groups and the halves'
+        // sums must round alike across any block boundaries.
+        let fs = 2000.0;
+        let x: std::vec::Vec<f32> = (0..60_000).map(|n| ((n as f32 * 0.731).sin() + 0.3 * (n as f32 * 2.9).cos()) * 1e-6 + 2e-6).collect();
+        let mut by_32 = RunningSpectrum::<f32>::new(fs, &Band::DEFAULT);
+        let done_32: usize = x.chunks(32).map(|b| by_32.push(b)).sum();
+        let mut ragged = RunningSpectrum::<f32>::new(fs, &Band::DEFAULT);
+        let (mut rest, mut done, mut k) = (&x[..], 0, 0);
+        while !rest.is_empty() {
+            let n = [1, 7, 3, 64, 13, 2, 301][k % 7].min(rest.len());
+            done += ragged.push(&rest[..n]);
+            rest = &rest[n..];
+            k += 1;
+        }
+        assert!(done_32 > 50 && done == done_32, "{done} vs {done_32}");
+        let bits = |s: &RunningSpectrum<f32>| s.view().psd.iter().map(|p| p.to_bits()).collect::<std::vec::Vec<_>>();
+        assert_eq!(bits(&ragged), bits(&by_32));
     }
 
     #[test]
