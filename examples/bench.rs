@@ -277,33 +277,19 @@ impl Lcg {
 /// of an average of 40 periodograms), as the fit task runs it.
 #[inline(never)]
 fn hygrometer(instr: impl Fn(u32) -> f64) {
-    use ipmc_core::running_spectrum::{MAX_BINS, RunningSpectrum, SpectrumView};
+    use ipmc_core::band::Band;
+    use ipmc_core::running_spectrum::{MAX_BINS, SpectrumView, decimation};
     let calib = generated::CALIBRATION;
-    let mut spectrum = RunningSpectrum::<f32>::new(SAMPLE_RATE_HZ as f64, &calib.band);
     let mut rng = Lcg(1);
-    let blocks = 2_500u32;
-    let mut segments = 0;
-    let mut block = [0.0f32; BLOCK_LEN];
-    // The blocks' making is timed alone and taken out: a region of one block would be a few
-    // SysTick ticks only.
-    let t = now();
-    for _ in 0..blocks {
-        for v in block.iter_mut() {
-            *v = 1e-7 * (rng.next() - 0.5);
-        }
-        segments += black_box(spectrum.push(black_box(&block)));
-    }
-    let with_push = instr(since(t));
-    let t = now();
-    for _ in 0..blocks {
-        for v in block.iter_mut() {
-            *v = 1e-7 * (rng.next() - 0.5);
-        }
-        black_box(&block);
-    }
-    let making = instr(since(t));
-    println!("spectrum_per_sample {}", (with_push - making) / (blocks as f64 * BLOCK_LEN as f64));
-    println!("spectrum_segments {}", segments);
+    let fs = SAMPLE_RATE_HZ as f64;
+    let (per_sample, spectrum) = spectrum_per_sample(&calib.band, &mut rng, &instr);
+    println!("spectrum_per_sample {}", per_sample);
+    println!("spectrum_segments {}", spectrum.segments());
+    println!("spectrum_decimation {}", decimation(fs, &calib.band));
+    // A band whose top gives another decimation: its boxcar takes the general loop.
+    let other = Band { high_hz: fs / 15.0, ..calib.band };
+    println!("spectrum_other_decimation {}", decimation(fs, &other));
+    println!("spectrum_per_sample_other_decimation {}", spectrum_per_sample(&other, &mut rng, &instr).0);
     type Fft = ipmc_core::fft::RealFft<f32, 256>;
     let fft = Fft::new();
     let mut z = [ipmc_core::C::new(0.0f32, 0.0); 256];
@@ -341,6 +327,36 @@ fn hygrometer(instr: impl Fn(u32) -> f64) {
     let t = now();
     black_box(ipmc_core::model::current_response(&params, ipmc_core::model::jw(black_box(31.0f32))));
     println!("instructions_per_model_point {}", instr(since(t)));
+}
+
+/// Instructions per sample of the running spectrum of `band` over 2 500 blocks of white noise,
+/// and the spectrum. The blocks' making is timed alone and taken out: a region of one block would
+/// be a few SysTick ticks only.
+fn spectrum_per_sample(
+    band: &ipmc_core::band::Band,
+    rng: &mut Lcg,
+    instr: &impl Fn(u32) -> f64,
+) -> (f64, ipmc_core::running_spectrum::RunningSpectrum<f32>) {
+    let mut spectrum = ipmc_core::running_spectrum::RunningSpectrum::<f32>::new(SAMPLE_RATE_HZ as f64, band);
+    let blocks = 2_500u32;
+    let mut block = [0.0f32; BLOCK_LEN];
+    let t = now();
+    for _ in 0..blocks {
+        for v in block.iter_mut() {
+            *v = 1e-7 * (rng.next() - 0.5);
+        }
+        black_box(spectrum.push(black_box(&block)));
+    }
+    let with_push = instr(since(t));
+    let t = now();
+    for _ in 0..blocks {
+        for v in block.iter_mut() {
+            *v = 1e-7 * (rng.next() - 0.5);
+        }
+        black_box(&block);
+    }
+    let making = instr(since(t));
+    ((with_push - making) / (blocks as f64 * BLOCK_LEN as f64), spectrum)
 }
 
 #[panic_handler]

@@ -121,6 +121,12 @@ pub fn command(json: bool) -> Result<()> {
         get("spectrum_fft_bins")?
     );
     println!(
+        "  the calibration's decimation {:.0}, whose boxcar is unrolled; a band with decimation {:.0} (general loop): {:.1} per sample",
+        get("spectrum_decimation")?,
+        get("spectrum_other_decimation")?,
+        get("spectrum_per_sample_other_decimation")?
+    );
+    println!(
         "  a fit of the strip's humidity (model table, search over the calibrated range): {fit:.0} instructions (target ≤ {TARGET_FIT}: {}); one point of the exact model {:.0}",
         verdict(fit <= TARGET_FIT),
         get("instructions_per_model_point")?
