@@ -384,6 +384,7 @@ mod tests {
             applicable: true,
             params: vec![],
             delta_chi2,
+            delta_chi2_per_level: vec![],
             extra_params: 1,
             delta_bic,
             space: Space::Data,

@@ -99,6 +99,8 @@ pub struct Score {
     pub params: Vec<Estimate>,
     /// χ² improvement over no extension (data or per-level parameters, see `space`).
     pub delta_chi2: f64,
+    /// `delta_chi2` level by level where the fit decomposes so (model candidates), else empty.
+    pub delta_chi2_per_level: Vec<f64>,
     pub extra_params: usize,
     pub delta_bic: f64,
     pub space: Space,
@@ -116,7 +118,7 @@ pub struct Score {
     /// Every gate but the information criterion passed (held-out, floors): `passes` is this and
     /// ΔBIC ≥ [`crate::decide::MIN_DELTA_BIC`] once ΔBIC is corrected for overdispersion.
     #[serde(skip)]
-    pub(crate) other_gates: bool,
+    pub other_gates: bool,
 }
 
 /// A candidate the data cannot separate from the verdict, with the evidence.
