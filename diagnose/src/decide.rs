@@ -82,7 +82,10 @@ pub fn posterior(scores: &[Score], n_candidates: usize, n_levels: usize, c_hat: 
     let supported: Vec<&Score> = scores.iter().filter(|s| s.applicable && s.other_gates && s.delta_bic.is_finite()).collect();
     let per_level: Vec<Vec<f64>> = supported
         .iter()
-        .map(|s| if s.space == Space::Data { s.delta_chi2_per_level.iter().map(|d| d / c_hat).collect() } else { vec![] })
+        .map(|s| {
+            let scale = if s.space == Space::Data { c_hat } else { 1.0 };
+            s.delta_chi2_per_level.iter().map(|d| d / scale).collect()
+        })
         .collect();
     let mut hypotheses = vec![Evidence { ln_prior: PRIOR_NONE.ln(), delta_bic: 0.0, per_level: &[] }];
     hypotheses.extend(supported.iter().zip(&per_level).map(|(s, d)| Evidence {

@@ -51,7 +51,7 @@ impl Scorer for SensorErrorScorer {
             held: r.held,
             own_heldout_z: None,
             occam: None,
-            per_level: vec![],
+            per_level: r.per_level,
         })))
     }
 }
