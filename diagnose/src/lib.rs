@@ -15,6 +15,7 @@
 //! - [`scorers`]: one scorer per kind of candidate behind one interface.
 //! - [`remap`]: candidates acting through the humidity (sensor error, hydration lag).
 //! - [`humidity_path`]: the whole humidity path fitted at once for the calibration.
+//! - [`humidity_reach`]: the shortest lag and smallest offset a recording could name.
 //! - [`level_bootstrap`]: the evidence's uncertainty over levels (Bayesian bootstrap).
 //! - [`decide`]: the decision rule and its thresholds.
 //! - [`types`]: what a diagnosis reports.
@@ -29,6 +30,7 @@ pub mod effect;
 pub mod engine;
 pub mod held_out;
 pub mod humidity_path;
+pub mod humidity_reach;
 pub mod laws;
 pub mod level_bootstrap;
 pub mod locate;

@@ -298,6 +298,9 @@ pub struct Diagnosis {
     /// path fitted at once (see [`crate::humidity_path::fit`]), relative to the humidity the levels are
     /// at (the readings through the calibration's own path).
     pub humidity_path: Option<HumidityPath>,
+    /// The shortest lag and smallest sensor offset this recording could name, and what would
+    /// carry the lab-sized ones it cannot.
+    pub humidity_reach: crate::humidity_reach::HumidityReach,
 }
 
 impl Diagnosis {
