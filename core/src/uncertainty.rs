@@ -1,17 +1,21 @@
 //! What a calibration does not know about its strip: the `[uncertainty]` table of the file.
 //!
-//! The humidity laws give each parameter's value at a humidity; a real strip scatters about
-//! them from level to level (and the laws themselves are only as good as the levels they went
-//! through). Those relative standard deviations, and the front end's current noise, are what
-//! the expected error of an estimate is made of (`expected_error`); the humidity reading's own
-//! uncertainty is in the `[humidity]` table, where the reading is corrected.
+//! The humidity laws give each parameter's value at a humidity; a real strip departs from them
+//! from level to level. Where the strip's own levels showed those departures, `ipmc identify`
+//! keeps them (the `[departures]` table) and this table holds what remains unknown after laws
+//! and departures; where nothing was identified (a preset, a nominal calibration of another
+//! strip), it holds how far a strip may lie from the laws. Those relative standard deviations,
+//! and the front end's current noise, are what the expected error of an estimate is made of
+//! (`expected_error`, which states the noise's part and the calibration's apart); the humidity
+//! reading's own uncertainty is in the `[humidity]` table, where the reading is corrected.
 
 use crate::calibration::{ParamName, Params};
 use crate::real::Real;
 
-/// Relative standard deviations (of ln p, so 0.03 is about 3 %) of the identified parameters
-/// about their laws, after the scatter the humidity reading error and the fit's own standard
-/// errors explain has been taken out (`ipmc identify` writes them), and the noise.
+/// Relative standard deviations (of ln p, so 0.03 is about 3 %) of what the calibration does not
+/// know of the strip's parameters at a humidity: for an identified calibration the posterior
+/// uncertainty left after its laws and `[departures]` (rms over its range; the bench reading's
+/// error and the fits' own errors accounted for, `ipmc identify` writes them), and the noise.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
@@ -37,8 +41,8 @@ impl Uncertainty {
     /// simulated strips' levels from the paper's laws (the frequency responses of 26 levels,
     /// 38–81 %RH; docs/calibrating.md, "Error bars"), after the 1 %RH reading error and the
     /// fits' own standard errors are taken out, rounded up; κe is not identified by a frequency
-    /// response and gets none. A calibration identified from the user's own strip replaces it,
-    /// and the coverage test uses such one, not these.
+    /// response and gets none. A calibration identified from the user's own strip replaces it
+    /// with what remains after its own laws and departures.
     pub const TYPICAL: Uncertainty =
         Uncertainty { y: 0.035, cs: 0.10, ca: 0.03, kappa_e: 0.0, d: 0.05, current_noise_a_per_rthz: FRONT_END_NOISE_A_PER_RTHZ };
 

@@ -6,7 +6,7 @@
 //! jobs compete for the machine), on one thread and on every core.
 
 use ipmc_core::Calibration;
-use ipmc_fit::identify::{LevelData, identify_levels};
+use ipmc_fit::identify::{LevelData, identify_session};
 use ipmc_fit::laws::calibration_from_levels;
 use ipmc_recording::{Format as _, FrequencyResponse};
 use std::path::Path;
@@ -45,12 +45,12 @@ fn main() {
         for _ in 0..RUNS {
             let t = Instant::now();
             let c = cpu_ms();
-            let fits: Vec<_> = identify_levels(&base, &data, threads, &|| {}).into_iter().map(|r| r.expect("level fits")).collect();
+            let fits: Vec<_> = identify_session(&base, &data, threads, &|| {}).0.into_iter().map(|r| r.expect("level fits")).collect();
             let range = (
                 levels.iter().map(|l| l.rh_range.0).fold(f64::INFINITY, f64::min),
                 levels.iter().map(|l| l.rh_range.1).fold(0.0, f64::max),
             );
-            let (calib, _) = calibration_from_levels(&base, &fits, range).expect("laws");
+            let (calib, _, _) = calibration_from_levels(&base, &fits, range, None).expect("laws");
             ms.push(t.elapsed().as_secs_f64() * 1e3);
             cpu.push(cpu_ms() - c);
             evaluations = fits.iter().map(|f| f.fit.evaluations).sum();

@@ -11,11 +11,19 @@
 //!    estimates, standard errors and correlations reported come from this fit.
 //!
 //! When a level has no tip channel the mechanics are fitted on the current with d free.
+//!
+//! The tip channel's own gain (the instrument's scale factor) is one for the whole session and
+//! the recording determines it: the tip follows the base at low frequency, so the tip response's
+//! level below the resonance fixes it once the resonance's shape is fitted. [`identify_session`]
+//! fits it at every level beside Y, Cs, Ca and d, combines the levels' values with the
+//! instrument's tolerance as a prior, and identifies every level again with the tip data
+//! divided by it, so that it does not leak into Y, Cs and Ca. The current channel's gain is not
+//! identifiable (it scales the current as κe and √d do) and is absorbed into their laws.
 
 pub use crate::level::LevelData;
 use crate::lsq::{self, Fit, FitError, Tolerance};
 use crate::noise::{self, ChannelNoise};
-use crate::response::{Channel, Misfit, Point, ResponseProblem, Sigma, model_values};
+use crate::response::{Channel, Misfit, Point, ResponseProblem, Sigma, TIP_GAIN, model_values};
 use ipmc_core::{Calibration, ParamName, Params};
 
 /// A value and its standard error.
@@ -40,6 +48,9 @@ pub struct LevelFit {
     pub noise: Vec<(Channel, ChannelNoise)>,
     pub tip_points: usize,
     pub current_points: usize,
+    /// The tip channel's gain as this level alone determines it (relative to the gain its tip
+    /// data were divided by), when it was fitted.
+    pub tip_gain: Option<Estimate>,
 }
 
 impl LevelFit {
@@ -127,16 +138,42 @@ fn best_of_grid(problem: &ResponseProblem<'_>, which: usize, factors: &[f64], k:
     scored.into_iter().take(k).map(|(_, v)| v).collect()
 }
 
-/// Identifies one level. `base` supplies the start values, κe when not measured, and every
-/// parameter that is not fitted (h, m, geometry, constants).
+/// How a level's fit treats the tip channel's gain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TipGain {
+    /// The tip data are divided by this gain, which is not fitted.
+    Fixed(f64),
+    /// The tip data are divided by this gain and the joint fit fits what remains of it.
+    Free(f64),
+}
+
+impl TipGain {
+    fn divisor(self) -> f64 {
+        match self {
+            TipGain::Fixed(g) | TipGain::Free(g) => g,
+        }
+    }
+}
+
+/// Identifies one level, the tip channel's gain held at the base calibration's. `base`
+/// supplies the start values, κe when not measured, and every parameter that is not fitted (h,
+/// m, geometry, constants).
 pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit, IdentifyError> {
+    identify_level_with(base, level, TipGain::Fixed(base.instrument.tip_gain))
+}
+
+/// [`identify_level`] with the tip channel's gain as `tip` says.
+pub fn identify_level_with(base: &Calibration, level: &LevelData, tip: TipGain) -> Result<LevelFit, IdentifyError> {
     let rh = level.rh_pct;
     let mut p0: Params<f64> = base.params_at(rh);
     let kappa_e_measured = level.kappa_e.is_some();
     let kappa_e = level.kappa_e.unwrap_or(Estimate { value: p0.kappa_e, se: None });
     p0.kappa_e = kappa_e.value;
 
-    let points = level.points();
+    let divisor = tip.divisor();
+    let points: Vec<Point> =
+        level.points().into_iter().map(|p| if p.channel == Channel::Tip { Point { value: p.value / divisor, ..p } } else { p }).collect();
+    let tip_mode = tip;
     let tip: Vec<Point> = points.iter().copied().filter(|p| p.channel == Channel::Tip).collect();
     let current: Vec<Point> = points.iter().copied().filter(|p| p.channel == Channel::Current).collect();
     let has_current = !current.is_empty();
@@ -189,10 +226,16 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
     // Stage 4: everything together, each point weighted by its own noise.
     let gains: Vec<f64> = model_values(&p3, &points).iter().map(|g| g.norm()).collect();
     let sigmas = noise::sigmas(&points, &gains, &noise);
-    let joint = ResponseProblem::new(p3, &fitted, &points, &sigmas, Misfit::Relative);
+    let mut joint = ResponseProblem::new(p3, &fitted, &points, &sigmas, Misfit::Relative);
+    let tip_free = matches!(tip_mode, TipGain::Free(_)) && mech_channel == Channel::Tip;
+    if tip_free {
+        joint = joint.with_tip_gain();
+    }
     let fit = lsq::fit(&joint.lsq_params(), &[joint.start()], joint.n_residuals(), |v, out| joint.residuals(v, out))
         .map_err(|error| IdentifyError::Fit { rh_pct: rh, stage: "joint fit", error })?;
     let params = joint.params(&fit.estimates);
+    let tip_gain =
+        tip_free.then(|| fit.index(TIP_GAIN).map(|i| Estimate { value: fit.estimates[i], se: Some(fit.std_errors[i]) })).flatten();
     Ok(LevelFit {
         rh_pct: rh,
         fit,
@@ -203,14 +246,17 @@ pub fn identify_level(base: &Calibration, level: &LevelData) -> Result<LevelFit,
         noise,
         tip_points: points.iter().filter(|p| p.channel == Channel::Tip).count(),
         current_points: points.iter().filter(|p| p.channel == Channel::Current).count(),
+        tip_gain,
     })
 }
 
-/// Identifies every level, on as many threads as `threads` (levels are independent), calling
-/// `done` after each level. Results are in the order of `levels`.
-pub fn identify_levels(
+/// Identifies every level with the tip gain as `tip` says, on as many threads as `threads`
+/// (levels are independent), calling `done` after each level. Results are in the order of
+/// `levels`.
+pub fn identify_levels_with(
     base: &Calibration,
     levels: &[LevelData],
+    tip: TipGain,
     threads: usize,
     done: &(dyn Fn() + Sync),
 ) -> Vec<Result<LevelFit, IdentifyError>> {
@@ -223,7 +269,7 @@ pub fn identify_levels(
                 scope.spawn(move || {
                     part.iter()
                         .map(|l| {
-                            let r = identify_level(base, l);
+                            let r = identify_level_with(base, l, tip);
                             done();
                             r
                         })
@@ -233,6 +279,79 @@ pub fn identify_levels(
             .collect();
         workers.into_iter().flat_map(|w| w.join().expect("a level's fit panicked")).collect()
     })
+}
+
+/// [`identify_levels_with`] with the tip gain held at the base calibration's.
+pub fn identify_levels(
+    base: &Calibration,
+    levels: &[LevelData],
+    threads: usize,
+    done: &(dyn Fn() + Sync),
+) -> Vec<Result<LevelFit, IdentifyError>> {
+    identify_levels_with(base, levels, TipGain::Fixed(base.instrument.tip_gain), threads, done)
+}
+
+/// The session's tip channel gain, from its levels.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct SessionTipGain {
+    pub value: f64,
+    /// Standard error (relative, of ln g).
+    pub se: f64,
+    /// Levels that determined it.
+    pub levels: usize,
+    /// χ² of the levels' values about it, on `levels − 1` degrees of freedom: whether one gain
+    /// explains every level.
+    pub chi2: f64,
+}
+
+/// The session's tip gain from the levels' own values (`fits` identified with a free gain
+/// relative to `divisor`) and the instrument's tolerance as a prior about `prior`: the
+/// precision-weighted mean in ln. None when no level determined it.
+pub fn combine_tip_gain(fits: &[LevelFit], divisor: f64, prior: f64, tolerance_pct: f64) -> Option<SessionTipGain> {
+    let values: Vec<(f64, f64)> = fits
+        .iter()
+        .filter_map(|f| f.tip_gain)
+        .filter_map(|e| Some(((e.value * divisor).ln(), e.se.filter(|s| s.is_finite() && *s > 0.0)? / e.value)))
+        .filter(|(x, _)| x.is_finite())
+        .collect();
+    if values.is_empty() {
+        return None;
+    }
+    let prior_w = if tolerance_pct > 0.0 { (tolerance_pct / 100.0).powi(-2) } else { 0.0 };
+    let (mut sw, mut swx) = (prior_w, prior_w * prior.ln());
+    for &(x, s) in &values {
+        sw += s.powi(-2);
+        swx += x * s.powi(-2);
+    }
+    let mean = swx / sw;
+    let chi2 = values.iter().map(|&(x, s)| ((x - mean) / s).powi(2)).sum();
+    Some(SessionTipGain { value: mean.exp(), se: sw.powf(-0.5), levels: values.len(), chi2 })
+}
+
+/// Identifies a session's levels: first with the tip channel's gain free at every level, then,
+/// with the session's gain from all of them ([`combine_tip_gain`], the prior `base`'s
+/// `[instrument]`), every level again with its tip data divided by it. `done` is called twice
+/// per level when there is a tip channel. Returns the second fits and the gain.
+pub fn identify_session(
+    base: &Calibration,
+    levels: &[LevelData],
+    threads: usize,
+    done: &(dyn Fn() + Sync),
+) -> (Vec<Result<LevelFit, IdentifyError>>, Option<SessionTipGain>) {
+    let start = base.instrument.tip_gain;
+    let first = identify_levels_with(base, levels, TipGain::Free(start), threads, done);
+    let ok: Vec<LevelFit> = first.iter().filter_map(|r| r.as_ref().ok().cloned()).collect();
+    let Some(gain) = combine_tip_gain(&ok, start, start, base.instrument.tip_gain_tolerance_pct) else {
+        return (first, None);
+    };
+    let mut second = identify_levels_with(base, levels, TipGain::Fixed(gain.value), threads, done);
+    // Each level keeps what it alone said of the gain (absolute, as the session's).
+    for (r2, r1) in second.iter_mut().zip(&first) {
+        if let (Ok(f2), Ok(f1)) = (r2, r1) {
+            f2.tip_gain = f1.tip_gain.map(|e| Estimate { value: e.value * start, se: e.se.map(|s| s * start) });
+        }
+    }
+    (second, Some(gain))
 }
 
 #[cfg(test)]

@@ -1,14 +1,20 @@
 //! Humidity laws through the identified levels, and the calibration they make.
 //!
-//! Y, Cs, Ca and κe: quadratic in RH (as the paper fits them); d: a polynomial in ln d (it spans
-//! decades, and a law in its logarithm stays positive), cubic when there are enough levels for
-//! the cubic to be overdetermined, which is the shape of the default law (ln d = a + c·RH³);
+//! Y, Cs, Ca and d: the base calibration's law shape times a quadratic correction in RH, with the
+//! strip's departures from it where its levels show them ([`crate::departures`]), written in ln
+//! (a law in the logarithm stays positive) with the departures as the `[departures]` table. κe:
+//! quadratic in RH through the levels where a charging recording measured it, else the base's.
 //! h and m are not identified by a frequency response (only Y·I/m and similar ratios are), so
-//! their laws stay those of the base calibration, linear as the paper gives them. Each level
-//! weighs by 1/SE², so a level that did not determine a parameter does not pull its law.
+//! their laws stay those of the base calibration, linear as the paper gives them; the current
+//! channel's gain is not either (it scales the current as κe and √d do): it is absorbed into
+//! the laws of κe and d. Each level weighs by its own errors, so a level that did not determine
+//! a parameter does not pull its law.
 
+use crate::departures::{self, LevelTheta, ModelError, StripModel};
 use crate::identify::{Estimate, LevelFit};
+use crate::stats::chi2_tail;
 use ipmc_core::calibration::MAX_LAW_COEFFS;
+use ipmc_core::departures::{DEPARTING, Departures};
 use ipmc_core::{Calibration, Law, LawKind, ParamName, ValidationError};
 use nalgebra::{DMatrix, DVector};
 
@@ -21,9 +27,16 @@ pub struct LawFit {
     pub degree: usize,
     /// Levels the law went through.
     pub levels: usize,
-    /// Σ((value − law)/SE)² over the levels: about levels − degree − 1 when the law's shape
-    /// holds and the SEs are honest. `None` when the values had no standard errors.
+    /// Σ((value − law)/SE)² over the levels (the law alone, without departures; the SE with the
+    /// reading's error along the law): about `dof` when the law's shape holds and the SEs are
+    /// honest. `None` when the values had no standard errors.
     pub chi2: Option<f64>,
+    /// Levels minus the law's coefficients.
+    pub dof: Option<usize>,
+    /// The chance of a χ² at least this large if the law held ([`crate::stats::chi2_tail`]).
+    pub p_value: Option<f64>,
+    /// The departures kept ([`crate::departures`]): their amplitude (sd of ln) and length [%RH].
+    pub departure: Option<(f64, f64)>,
     /// Why the kind differs from the usual one, if it does.
     pub note: Option<String>,
 }
@@ -34,6 +47,7 @@ pub enum LawError {
     NoLevels,
     Singular { param: ParamName },
     Invalid(ValidationError),
+    Model(ModelError),
 }
 
 impl core::fmt::Display for LawError {
@@ -42,6 +56,7 @@ impl core::fmt::Display for LawError {
             LawError::NoLevels => write!(f, "no humidity level was identified: no law can be fitted"),
             LawError::Singular { param } => write!(f, "the law of {} cannot be fitted (levels at the same humidity?)", param.as_str()),
             LawError::Invalid(e) => write!(f, "the fitted laws are not physical: {e}"),
+            LawError::Model(e) => write!(f, "{e}"),
         }
     }
 }
@@ -170,67 +185,107 @@ pub fn law_degree(param: ParamName, levels: usize) -> usize {
     if param == ParamName::D && levels >= 6 { 3 } else { 2 }
 }
 
-/// The calibration whose laws go through `levels`, declared on `rh_range`, with every constant
-/// and the h and m laws of `base`. κe's law is refitted only from levels where it was measured.
+/// Degree of the polynomial in RH a law is written with (in ln): the lowest that follows the
+/// model's law within [`WRITTEN_LAW_TOLERANCE`] over the range, at most the file's sixth.
+const WRITTEN_LAW_TOLERANCE: f64 = 1e-5;
+
+/// The calibration `levels` make, declared on `rh_range`, with every constant, the h and m laws
+/// and the `[humidity]` path of `base`: the laws of Y, Cs, Ca and d with the strip's departures
+/// from them ([`crate::departures`]: `rh_sd_pct` is the bench reading's standard error, estimated
+/// from the levels when `None`), written as ln-polynomials in RH and a `[departures]` table.
+/// κe's law is refitted (quadratic) only from levels where it was measured; else it is the
+/// base's, copied. Returns the model beside the calibration and the laws' report.
 pub fn calibration_from_levels(
     base: &Calibration,
     levels: &[LevelFit],
     rh_range: (f64, f64),
-) -> Result<(Calibration, Vec<LawFit>), LawError> {
+    rh_sd_pct: Option<f64>,
+) -> Result<(Calibration, Vec<LawFit>, StripModel), LawError> {
     if levels.is_empty() {
         return Err(LawError::NoLevels);
     }
     let mut calib = *base;
     calib.rh_min = rh_range.0;
     calib.rh_max = rh_range.1;
+    calib.departures = Departures::NONE;
+    let thetas: Vec<LevelTheta> = levels.iter().map(LevelTheta::of).collect();
+    let model = StripModel::fit(base, &thetas, rh_sd_pct).map_err(LawError::Model)?;
+    let dense: Vec<f64> = (0..=200).map(|i| rh_range.0 + (rh_range.1 - rh_range.0) * i as f64 / 200.0).collect();
     let mut report = Vec::new();
-    let n = levels.len();
-    let plan = [
-        (ParamName::Y, LawKind::Poly, law_degree(ParamName::Y, n)),
-        (ParamName::Cs, LawKind::Poly, law_degree(ParamName::Cs, n)),
-        (ParamName::Ca, LawKind::Poly, law_degree(ParamName::Ca, n)),
-        (ParamName::KappaE, LawKind::Poly, law_degree(ParamName::KappaE, n)),
-        (ParamName::D, LawKind::LogPoly, law_degree(ParamName::D, n)),
-    ];
-    for (param, kind, degree) in plan {
-        let points: Vec<(f64, Estimate)> = levels
-            .iter()
-            .filter(|l| param != ParamName::KappaE || l.kappa_e_measured)
-            .filter_map(|l| Some((l.rh_pct, l.estimate(param)?)))
-            .collect();
-        if points.is_empty() {
+    let mut written: [Option<Law>; 4] = [None; 4];
+    for (k, param) in DEPARTING.into_iter().enumerate() {
+        if model.degree[k].is_none() {
             continue;
         }
-        let (law, chi2) = fit_law(param, kind, degree, &points)?;
+        let target: Vec<f64> = dense.iter().map(|&x| model.law_ln(k, x)).collect();
+        let mut law = None;
+        for degree in 1..MAX_LAW_COEFFS {
+            let Some(coeffs) = poly_fit(&dense, &target, &vec![1.0; dense.len()], degree) else { continue };
+            let poly = Law { kind: LawKind::Poly, coeffs };
+            let worst = dense.iter().zip(&target).map(|(&x, &t)| (poly.eval(x) - t).abs()).fold(0.0, f64::max);
+            law = Some((Law::log_poly(coeffs), degree));
+            if worst < WRITTEN_LAW_TOLERANCE {
+                break;
+            }
+        }
+        let (law, degree) = law.ok_or(LawError::Singular { param })?;
         *law_slot(&mut calib, param) = law;
+        written[k] = Some(law);
+        let test = model.law_tests[k];
+        report.push(LawFit {
+            param: param.as_str(),
+            kind: kind_name(LawKind::LogPoly),
+            degree,
+            levels: model.levels[k],
+            chi2: test.map(|t| t.chi2),
+            dof: test.map(|t| t.dof),
+            p_value: test.map(|t| t.p_value),
+            departure: model.has_departures[k].then(|| (model.hyper.amplitude[k], model.hyper.length_pct[k])),
+            note: None,
+        });
+    }
+    if model.has_departures.iter().any(|&d| d) {
+        let misfit = |k: usize, x: f64| -> f64 {
+            written[k].map_or(0.0, |law| {
+                let v: f64 = law.eval(x);
+                model.law_ln(k, x) - v.ln()
+            })
+        };
+        let (grid, ln) = departures::table(&model, rh_range, &misfit);
+        calib.departures =
+            Departures::new(&grid, [&ln[0], &ln[1], &ln[2], &ln[3]]).map_err(|e| LawError::Invalid(ValidationError::Departures(e)))?;
+    }
+    // κe: from charging recordings only.
+    let measured: Vec<(f64, Estimate)> =
+        levels.iter().filter(|l| l.kappa_e_measured).filter_map(|l| Some((l.rh_pct, l.estimate(ParamName::KappaE)?))).collect();
+    if !measured.is_empty() {
+        let degree = law_degree(ParamName::KappaE, measured.len());
+        let (mut law, mut chi2) = fit_law(ParamName::KappaE, LawKind::Poly, degree, &measured)?;
+        let mut kind = LawKind::Poly;
         let mut note = None;
         // A quadratic through noisy positive values can dip through zero inside the range;
         // the same quadratic in the logarithm cannot.
-        if kind == LawKind::Poly && !positive_on(&law, rh_range) {
-            let (log_law, log_chi2) = fit_law(param, LawKind::LogPoly, degree, &points)?;
-            *law_slot(&mut calib, param) = log_law;
+        if !positive_on(&law, rh_range) {
+            (law, chi2) = fit_law(ParamName::KappaE, LawKind::LogPoly, degree, &measured)?;
+            kind = LawKind::LogPoly;
             note = Some("a quadratic in RH is not positive over the range; fitted in ln instead".into());
-            report.push(LawFit {
-                param: param.as_str(),
-                kind: kind_name(LawKind::LogPoly),
-                degree: degree.min(points.len() - 1),
-                levels: points.len(),
-                chi2: log_chi2,
-                note,
-            });
-            continue;
         }
+        calib.kappa_e = law;
+        let dof = measured.len().checked_sub(degree.min(measured.len() - 1) + 1).filter(|&d| d > 0);
         report.push(LawFit {
-            param: param.as_str(),
+            param: ParamName::KappaE.as_str(),
             kind: kind_name(kind),
-            degree: degree.min(points.len() - 1),
-            levels: points.len(),
+            degree: degree.min(measured.len() - 1),
+            levels: measured.len(),
             chi2,
+            dof,
+            p_value: chi2.zip(dof).map(|(c, d)| chi2_tail(c, d)),
+            departure: None,
             note,
         });
     }
     calib.validate().map_err(LawError::Invalid)?;
-    Ok((calib, report))
+    Ok((calib, report, model))
 }
 
 /// Whether a law is positive and finite on the validation grid of the range.

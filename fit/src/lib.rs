@@ -13,11 +13,15 @@
 //! - [`refit`]: levels refitted near a calibration with an extension held and a mask, the
 //!   noise from neighbouring points, joint fits of an extension with every level.
 //! - [`laws`]: humidity laws through the levels, and the calibration they make.
+//! - [`departures`]: the strip's departures from those laws where its levels show them (a
+//!   Gaussian process over humidity, the bench's read errors a random effect), and what remains.
+//! - [`stats`]: the χ² distribution's tail and a simplex minimizer.
 //! - [`scatter`]: how far the levels stray from those laws (the calibration's `[uncertainty]`).
 //! - [`scalar`]: minimizing a function of one positive scalar over decades.
 //!
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
+pub mod departures;
 pub mod identify;
 pub mod laws;
 pub mod level;
@@ -29,3 +33,4 @@ pub mod refit;
 pub mod response;
 pub mod scalar;
 pub mod scatter;
+pub mod stats;

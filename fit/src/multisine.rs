@@ -203,6 +203,21 @@ fn scatter(y: &[Vec<C<f64>>], u: &[Vec<C<f64>>], h: &[C<f64>]) -> Option<Vec<f64
     })
 }
 
+/// The period of a periodic multisine excitation [samples], as [`estimate`] finds it (None for
+/// tones off any grid, named by `tones_hz` metadata).
+pub fn excitation_period(ts: &TimeSeries, source: &str) -> Result<Option<usize>, Error> {
+    let base = ts.base_m.as_ref().ok_or_else(|| Error::file(source, "time series without a `base_m` column"))?;
+    if tones_from_metadata(ts, source)?.is_some() {
+        return Ok(None);
+    }
+    let bursts = ts.bursts();
+    let longest = bursts.iter().max_by_key(|r| r.len()).expect("a time series has a sample");
+    Ok(match detect(&base[longest.clone()], ts.fs_hz, source)? {
+        Plan::Periodic { period, .. } => Some(period),
+        Plan::Tones { .. } => None,
+    })
+}
+
 /// Estimates every burst of a time series. `source` names the file in errors.
 pub fn estimate(ts: &TimeSeries, source: &str) -> Result<Vec<Burst>, Error> {
     let base = ts.base_m.as_ref().ok_or_else(|| {

@@ -10,6 +10,9 @@ use crate::lsq::{Bound, Param};
 use ipmc_core::model::{current_response, jw, responses, tip_response};
 use ipmc_core::{C, ParamName, Params};
 
+/// The name of the tip channel's gain when [`ResponseProblem::with_tip_gain`] fits it.
+pub const TIP_GAIN: &str = "tip_gain";
+
 /// Which response a point measures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -113,6 +116,9 @@ pub struct ResponseProblem<'a> {
     pub points: &'a [Point],
     pub sigmas: &'a [Sigma],
     pub misfit: Misfit,
+    /// Whether the tip channel's gain is fitted too: one more value after the fitted
+    /// parameters, multiplying the model's tip response (the instrument's scale factor).
+    pub tip_gain_free: bool,
     /// Points by frequency: where both channels were measured at one frequency the model
     /// evaluates them together ([`responses`]), which costs little more than one of them.
     by_freq: Vec<(f64, [Option<usize>; 2])>,
@@ -160,13 +166,24 @@ fn fill_model_values(p: &Params<f64>, points: &[Point], by_freq: &[(f64, [Option
 impl<'a> ResponseProblem<'a> {
     pub fn new(base: Params<f64>, fitted: &[ParamName], points: &'a [Point], sigmas: &'a [Sigma], misfit: Misfit) -> Self {
         assert_eq!(points.len(), sigmas.len(), "one σ per point");
-        ResponseProblem { base, fitted: fitted.to_vec(), points, sigmas, misfit, by_freq: group_by_frequency(points) }
+        ResponseProblem { base, fitted: fitted.to_vec(), points, sigmas, misfit, tip_gain_free: false, by_freq: group_by_frequency(points) }
+    }
+
+    /// The same problem with the tip channel's gain fitted as well (named `tip_gain`, started
+    /// at 1).
+    pub fn with_tip_gain(mut self) -> Self {
+        self.tip_gain_free = true;
+        self
     }
 
     /// Every model parameter is positive and the identified ones span decades across humidity
     /// (d by two): all are fitted in their logarithm.
     pub fn lsq_params(&self) -> Vec<Param> {
-        self.fitted.iter().map(|p| Param::new(p.as_str(), Bound::Positive)).collect()
+        let mut v: Vec<Param> = self.fitted.iter().map(|p| Param::new(p.as_str(), Bound::Positive)).collect();
+        if self.tip_gain_free {
+            v.push(Param::new(TIP_GAIN, Bound::Positive));
+        }
+        v
     }
 
     pub fn n_residuals(&self) -> usize {
@@ -184,13 +201,30 @@ impl<'a> ResponseProblem<'a> {
 
     /// The start values at `base`.
     pub fn start(&self) -> Vec<f64> {
-        self.fitted.iter().map(|&p| self.base.get(p)).collect()
+        let mut v: Vec<f64> = self.fitted.iter().map(|&p| self.base.get(p)).collect();
+        if self.tip_gain_free {
+            v.push(1.0);
+        }
+        v
+    }
+
+    /// The model at every point for `values`, the tip's scaled by the fitted tip gain.
+    fn model(&self, values: &[f64]) -> Vec<C<f64>> {
+        let mut model = vec![C::new(0.0, 0.0); self.points.len()];
+        fill_model_values(&self.params(values), self.points, &self.by_freq, &mut model);
+        if self.tip_gain_free {
+            let g = values[self.fitted.len()];
+            for (m, p) in model.iter_mut().zip(self.points) {
+                if p.channel == Channel::Tip {
+                    *m *= g;
+                }
+            }
+        }
+        model
     }
 
     pub fn residuals(&self, values: &[f64], out: &mut [f64]) {
-        let mut model = vec![C::new(0.0, 0.0); self.points.len()];
-        fill_model_values(&self.params(values), self.points, &self.by_freq, &mut model);
-        weighted_residuals(self.points, self.sigmas, self.misfit, &model, out);
+        weighted_residuals(self.points, self.sigmas, self.misfit, &self.model(values), out);
     }
 
     /// χ² at `values` (for ranking starts).
@@ -203,8 +237,7 @@ impl<'a> ResponseProblem<'a> {
     /// Unweighted measured/model − 1 per point at `values` (what noise estimation looks at),
     /// with the model's gain there.
     pub fn relative_errors(&self, values: &[f64]) -> (Vec<C<f64>>, Vec<f64>) {
-        let mut model = vec![C::new(0.0, 0.0); self.points.len()];
-        fill_model_values(&self.params(values), self.points, &self.by_freq, &mut model);
+        let model = self.model(values);
         self.points.iter().zip(&model).map(|(pt, &g)| (Misfit::Relative.of(pt.value, g), g.norm())).unzip()
     }
 }

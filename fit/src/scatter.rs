@@ -1,15 +1,19 @@
-//! How far a strip's levels stray from the humidity laws fitted through them: the calibration's
-//! `[uncertainty]` table, what the expected error of an estimate is made of
-//! (`ipmc_core::expected_error`).
+//! What a calibration does not know of its strip: the calibration's `[uncertainty]` table, what
+//! the expected error of an estimate is made of (`ipmc_core::expected_error`).
 //!
-//! A level's value differs from its law by three things: the fit's own error (its standard
-//! error), the humidity reading's error moving the level along the law (|d ln p/dRH|·σ_RH), and
-//! the strip itself, which does not follow any smooth law exactly. Only the last is a parameter
-//! uncertainty; the reading's error is counted once, through the humidity term, and the fit's
-//! error belongs to the recording, not to the strip. So the table gets
-//! σ² = Σ r²/(n − k) − mean (SE/p)² − mean (d ln p/dRH)²·σ_RH², r = ln(p/law), k the law's
-//! coefficients, never below zero.
+//! For Y, Cs, Ca and d the laws and the strip's departures from them come from one model of the
+//! levels ([`crate::departures`]), whose posterior says how well it knows each parameter at
+//! each humidity: the table holds its rms over the calibrated range. The humidity reading's
+//! error at the time of use is not in it (it is counted once, through the humidity term).
+//!
+//! For κe measured by charging recordings (a quadratic law, no departures) a level's value
+//! differs from its law by three things: the fit's own error (its standard error), the humidity
+//! reading's error moving the level along the law (|d ln p/dRH|·σ_RH), and the strip itself,
+//! which does not follow any smooth law exactly. Only the last is a parameter uncertainty; so
+//! the table gets σ² = Σ r²/(n − k) − mean (SE/p)² − mean (d ln p/dRH)²·σ_RH², r = ln(p/law), k
+//! the law's coefficients, never below zero.
 
+use crate::departures::StripModel;
 use crate::identify::LevelFit;
 use crate::laws::law_degree;
 use ipmc_core::uncertainty::Uncertainty;
@@ -45,16 +49,30 @@ pub fn relative_sd(calib: &Calibration, levels: &[LevelFit], param: ParamName, r
     var.is_finite().then(|| var.max(0.0).sqrt())
 }
 
-/// `base` with every parameter the levels overdetermine replaced by its scatter about `calib`'s
-/// laws (the noise and the others kept).
-pub fn uncertainty(calib: &Calibration, levels: &[LevelFit], rh_sd_pct: f64, base: &Uncertainty) -> Uncertainty {
+/// Humidities the remaining uncertainty is averaged over: the calibrated range.
+const RANGE_POINTS: usize = 101;
+
+/// `base` with what remains unknown of each parameter after the laws and their departures
+/// (`model`): the rms over `calib`'s declared range of the posterior standard deviation of
+/// ln Y, ln Cs, ln Ca and ln d ([`StripModel::posterior_sd`]); κe's scatter about its law where
+/// charging recordings measured it at enough levels, else the base's (copied, as κe itself).
+/// The current's noise is the base's: a frequency response does not carry it.
+pub fn uncertainty(model: &StripModel, calib: &Calibration, levels: &[LevelFit], rh_sd_pct: f64, base: &Uncertainty) -> Uncertainty {
     let mut u = *base;
-    let sd = |p| relative_sd(calib, levels, p, rh_sd_pct);
-    u.y = sd(ParamName::Y).unwrap_or(u.y);
-    u.cs = sd(ParamName::Cs).unwrap_or(u.cs);
-    u.ca = sd(ParamName::Ca).unwrap_or(u.ca);
-    u.kappa_e = sd(ParamName::KappaE).unwrap_or(u.kappa_e);
-    u.d = sd(ParamName::D).unwrap_or(u.d);
+    let rms = |k: usize| -> Option<f64> {
+        model.degree[k]?;
+        let ms = (0..RANGE_POINTS)
+            .map(|i| calib.rh_min + (calib.rh_max - calib.rh_min) * i as f64 / (RANGE_POINTS - 1) as f64)
+            .map(|x| model.posterior_sd(k, x).powi(2))
+            .sum::<f64>()
+            / RANGE_POINTS as f64;
+        ms.is_finite().then(|| ms.sqrt().min(ipmc_core::uncertainty::MAX_RELATIVE_SD))
+    };
+    u.y = rms(0).unwrap_or(u.y);
+    u.cs = rms(1).unwrap_or(u.cs);
+    u.ca = rms(2).unwrap_or(u.ca);
+    u.d = rms(3).unwrap_or(u.d);
+    u.kappa_e = relative_sd(calib, levels, ParamName::KappaE, rh_sd_pct).unwrap_or(u.kappa_e);
     u
 }
 
@@ -95,6 +113,7 @@ mod tests {
                 noise: vec![],
                 tip_points: 0,
                 current_points: 0,
+                tip_gain: None,
             }
         };
         (calib, (0..n).map(level).collect())
@@ -114,8 +133,6 @@ mod tests {
         assert_eq!(relative_sd(&calib, &lv, ParamName::Cs, 0.0), None);
         let (calib, lv) = levels(3, 0.03, 0.0);
         assert_eq!(relative_sd(&calib, &lv, ParamName::Y, 0.0), None);
-        let u = uncertainty(&calib, &lv, 1.0, &Uncertainty::TYPICAL);
-        assert_eq!(u, Uncertainty::TYPICAL);
     }
 
     /// The reading's error moves a level along a sloped law: what it explains is taken out.

@@ -4,8 +4,18 @@
 
 use crate::{Error, Format, Metadata, Rule, Table, Warning};
 
-/// Readings within this many %RH of a level's mean belong to it: the humidity sensor's scatter.
+/// Two levels whose mean readings lie within this many %RH may be the same humidity (a revisit,
+/// the level a charging recording was taken at): a humidity sensor's absolute scatter. It does
+/// not group points into levels ([`FrequencyResponse::runs`] does).
 pub const LEVEL_SCATTER_PCT: f64 = 3.0;
+/// A time step this many times the median step between consecutive points starts a new level.
+pub const LEVEL_TIME_JUMP: f64 = 4.0;
+/// A reading this many of the readings' own noise off the run's recent mean starts a new level.
+pub const LEVEL_STEP_SIGMAS: f64 = 6.0;
+/// Readings of the run's end the next reading is compared with.
+pub const LEVEL_RECENT: usize = 5;
+/// Least noise a reading is granted [%RH] (readings written to 0.01 %RH, or noise-free).
+pub const LEVEL_NOISE_FLOOR_PCT: f64 = 0.01;
 
 const COLUMNS: [&str; 8] = ["time_s", "rh_pct", "temp_c", "freq_hz", "tip_gain", "tip_phase_deg", "current_gain", "current_phase_deg"];
 
@@ -101,37 +111,11 @@ impl Format for FrequencyResponse {
 }
 
 impl FrequencyResponse {
-    /// The humidity levels in the order the session visited them, at the sensor's scatter.
+    /// The humidity levels in the order the session visited them: runs of consecutive points
+    /// at one setpoint (recording-format.md §1), see [`Self::runs`].
     pub fn levels(&self) -> Vec<Level> {
-        self.levels_within(LEVEL_SCATTER_PCT)
-    }
-
-    /// Groups the points, in time order (`time_s` when every point has it, else file order),
-    /// into runs whose readings stay within `scatter_pct` of the run's mean. A level left and
-    /// visited again later is a new level with `revisit_of` set: the session's order is kept
-    /// because hysteresis shows only in it.
-    pub fn levels_within(&self, scatter_pct: f64) -> Vec<Level> {
-        let mut order: Vec<usize> = (0..self.points.len()).collect();
-        if self.points.iter().all(|p| p.time_s.is_some()) {
-            order.sort_by(|&a, &b| self.points[a].time_s.partial_cmp(&self.points[b].time_s).expect("times are finite"));
-        }
-        let mut runs: Vec<Vec<usize>> = vec![];
-        let mut sum = 0.0;
-        for i in order {
-            let rh = self.points[i].rh_pct;
-            match runs.last_mut() {
-                Some(run) if (rh - sum / run.len() as f64).abs() <= scatter_pct => {
-                    run.push(i);
-                    sum += rh;
-                }
-                _ => {
-                    runs.push(vec![i]);
-                    sum = rh;
-                }
-            }
-        }
-        let mut levels: Vec<Level> = Vec::with_capacity(runs.len());
-        for run in runs {
+        let mut levels: Vec<Level> = Vec::new();
+        for run in self.runs() {
             let mut points: Vec<FrPoint> = run.iter().map(|&i| self.points[i].clone()).collect();
             let rh_pct = points.iter().map(|p| p.rh_pct).sum::<f64>() / points.len() as f64;
             let rh_range = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.rh_pct), hi.max(p.rh_pct)));
@@ -139,10 +123,65 @@ impl FrequencyResponse {
             points.sort_by(|a, b| a.freq_hz.partial_cmp(&b.freq_hz).expect("frequencies are finite"));
             unwrap_channel(&mut points, |p| p.tip.as_mut());
             unwrap_channel(&mut points, |p| p.current.as_mut());
-            let revisit_of = levels.iter().position(|l| (l.rh_pct - rh_pct).abs() <= scatter_pct);
+            // The earlier level nearest in reading, if the sensor's scatter allows it to be the
+            // same humidity; never the level just left (a revisit comes back from elsewhere).
+            let revisit_of = levels[..levels.len().saturating_sub(1)]
+                .iter()
+                .enumerate()
+                .map(|(k, l)| (k, (l.rh_pct - rh_pct).abs()))
+                .filter(|&(_, d)| d <= LEVEL_SCATTER_PCT)
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(k, _)| k);
             levels.push(Level { rh_pct, rh_range, start_time_s, revisit_of, points });
         }
         levels
+    }
+
+    /// The points' indices grouped into levels, in time order (`time_s` when every point has it,
+    /// else file order). A new level starts where the time jumps by more than
+    /// [`LEVEL_TIME_JUMP`] times the median step between consecutive points (a level's dwell;
+    /// points of one time-series burst share one time, so each burst is a level of its own), or
+    /// where the reading leaves the mean of the run's last [`LEVEL_RECENT`] readings by more than
+    /// [`LEVEL_STEP_SIGMAS`] of its own noise. The noise is the readings' own: 1.4826·median
+    /// |Δ|/√2 of consecutive readings (most pairs are within a level), at least
+    /// [`LEVEL_NOISE_FLOOR_PCT`]. A sensor's absolute error says nothing here: setpoints 2 %RH
+    /// apart stay apart when the readings are steadier than that.
+    pub fn runs(&self) -> Vec<Vec<usize>> {
+        let mut order: Vec<usize> = (0..self.points.len()).collect();
+        let timed = self.points.iter().all(|p| p.time_s.is_some());
+        if timed {
+            order.sort_by(|&a, &b| self.points[a].time_s.partial_cmp(&self.points[b].time_s).expect("times are finite"));
+        }
+        let median = |mut v: Vec<f64>| -> f64 {
+            if v.is_empty() {
+                return 0.0;
+            }
+            v.sort_by(f64::total_cmp);
+            let n = v.len();
+            if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+        };
+        let pairs = || order.windows(2).map(|w| (&self.points[w[0]], &self.points[w[1]]));
+        let noise = (1.4826 * median(pairs().map(|(a, b)| (b.rh_pct - a.rh_pct).abs()).collect()) / core::f64::consts::SQRT_2)
+            .max(LEVEL_NOISE_FLOOR_PCT);
+        let dwell = if timed { median(pairs().map(|(a, b)| b.time_s.unwrap_or(0.0) - a.time_s.unwrap_or(0.0)).collect()) } else { 0.0 };
+        let mut runs: Vec<Vec<usize>> = vec![];
+        for i in order {
+            let p = &self.points[i];
+            let joins = runs.last().is_some_and(|run: &Vec<usize>| {
+                let last = &self.points[*run.last().expect("runs are never empty")];
+                let jumped = timed && p.time_s.unwrap_or(0.0) - last.time_s.unwrap_or(0.0) > LEVEL_TIME_JUMP * dwell;
+                let recent = &run[run.len().saturating_sub(LEVEL_RECENT)..];
+                let m = recent.len() as f64;
+                let mean = recent.iter().map(|&k| self.points[k].rh_pct).sum::<f64>() / m;
+                let stepped = (p.rh_pct - mean).abs() > LEVEL_STEP_SIGMAS * noise * (1.0 + 1.0 / m).sqrt();
+                !jumped && !stepped
+            });
+            match runs.last_mut() {
+                Some(run) if joins => run.push(i),
+                _ => runs.push(vec![i]),
+            }
+        }
+        runs
     }
 
     /// The recording as CSV. A column is written when the points carry it; points that
@@ -282,9 +321,21 @@ mod tests {
         assert_eq!(lv.iter().map(|l| l.revisit_of).collect::<Vec<_>>(), vec![None, None, Some(0)]);
         // Sorted by frequency within the level.
         assert_eq!(lv[0].points.iter().map(|p| p.freq_hz).collect::<Vec<_>>(), vec![10.0, 20.0]);
-        // A reading 3.5 % off the level's mean starts a new level.
-        let (fr, _) = FrequencyResponse::parse("l.csv", "rh_pct,freq_hz,tip_gain,tip_phase_deg\n50,1,1,0\n53.5,2,1,0\n").unwrap();
-        assert_eq!(fr.levels().len(), 2);
+        // Without times: a reading stepping far beyond the readings' own noise starts a new level,
+        // however small the step against a sensor's absolute error (setpoints 2 %RH apart).
+        let rows = [50.0, 50.1, 49.9, 50.05, 52.0, 51.9, 52.1, 52.0, 50.0, 50.1];
+        let text: String =
+            rows.iter().enumerate().fold("rh_pct,freq_hz,tip_gain,tip_phase_deg\n".into(), |s, (i, r)| s + &format!("{r},{},1,0\n", i + 1));
+        let (fr, _) = FrequencyResponse::parse("l.csv", &text).unwrap();
+        let lv = fr.levels();
+        assert_eq!(lv.iter().map(|l| l.points.len()).collect::<Vec<_>>(), vec![4, 4, 2]);
+        assert_eq!(lv.iter().map(|l| l.revisit_of).collect::<Vec<_>>(), vec![None, None, Some(0)]);
+        // With times: a jump in time starts a level even at the same reading (a session's
+        // settling between two setpoints that read alike).
+        let text =
+            "time_s,rh_pct,freq_hz,tip_gain,tip_phase_deg\n0,40,10,1,0\n2,40.1,20,1,0\n4,40,30,1,0\n150,40.05,10,1,0\n152,40,20,1,0\n";
+        let (fr, _) = FrequencyResponse::parse("l.csv", text).unwrap();
+        assert_eq!(fr.levels().iter().map(|l| l.points.len()).collect::<Vec<_>>(), vec![3, 2]);
     }
 
     #[test]

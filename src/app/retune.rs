@@ -19,7 +19,15 @@ pub async fn retune_task() {
                 handoff::set_condition(flags::RH_FALLBACK, request.fallback);
                 DESIGN_READY.signal(design);
                 DESIGN_OUTCOME.signal(Designed::Ok);
-                defmt::debug!("design ready for {} %RH", request.rh_pct);
+                // What will limit the estimates of this design: the calibration's part of the
+                // stated error, and the base motion the current's noise alone amounts to.
+                let errors = compensation::error_table();
+                defmt::info!(
+                    "design ready for {} %RH: calibration part {} %, noise-equivalent base motion {} um rms in band",
+                    request.rh_pct,
+                    100.0 * errors.calibration_part(request.rh_pct),
+                    1e6 * errors.noise_equivalent_m(request.rh_pct)
+                );
             }
             Err(_) => {
                 // Keep the active design; the next humidity change asks again, and before the

@@ -10,6 +10,7 @@ mod exact;
 mod hygrometer;
 mod input;
 mod inverse_choice;
+mod limits;
 mod looping;
 mod overrides;
 mod plot;
@@ -48,6 +49,11 @@ enum Command {
     Identify(commands::identify::Args),
     /// Run the firmware's f32 compensation chain over a time-series recording on the host.
     Compensate(commands::compensate::Args),
+    /// A strip's workflow end to end: identify its frequency response, compensate a time series
+    /// of the same strip from another session, and print per level the error with the strip's
+    /// own calibration beside the nominal one's, the identified model's exact inverse and a
+    /// perfect calibration's (`--truth`).
+    StripCheck(commands::strip_check::Args),
     /// For a field recording with its truths: the compensation's error with the reading, the
     /// fused humidity and a perfect hygrometer, and the strip's own humidity estimate's coverage.
     FieldTable(commands::field_table::Args),
@@ -91,6 +97,7 @@ fn main() {
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Identify(a) => commands::identify::run(a),
         Command::Compensate(a) => commands::compensate::run(a),
+        Command::StripCheck(a) => commands::strip_check::run(a),
         Command::FieldTable(a) => commands::field_table::run(a),
         Command::SimulateField(a) => commands::simulate_field::run(a),
         Command::CalibExport(a) => commands::calib_export::run(a),

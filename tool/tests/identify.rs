@@ -298,12 +298,19 @@ fn hand_written_edge_cases() {
     let err = ipmc_fails(&["identify", bad.to_str().unwrap(), "--out", calib.to_str().unwrap(), "--levels", levels.to_str().unwrap()]);
     assert!(err.contains("bad.csv:3:"), "{err}");
 
-    // A single level makes constant laws over its own humidity range.
+    // A single level scales the base's laws through it, over its own humidity range.
     let (mut rec, _) = FrequencyResponse::read(&full.recording).unwrap();
     rec.points.truncate(40);
     let one = dir.join("one-level.csv");
     std::fs::write(&one, rec.to_csv().unwrap()).unwrap();
-    assert_eq!(run(&one).len(), 1);
+    let out = run(&one);
+    assert_eq!(out.len(), 1);
     let c = calibration_file::parse(&std::fs::read_to_string(&calib).unwrap()).unwrap();
-    assert!(c.y.coeffs[1..].iter().all(|&k| k == 0.0), "one level: a constant Y law, got {:?}", c.y.coeffs);
+    let rh = num(&out[0], "rh_pct");
+    for p in [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::D] {
+        let (law, level): (f64, f64) = (c.params_at::<f64>(rh).get(p), num(&out[0], p.as_str()));
+        assert!((law / level - 1.0).abs() < 1e-3, "one level: {} law {law:e} vs the level's {level:e}", p.as_str());
+        let shape = |r: f64| c.law(p).unwrap().eval(r) / Calibration::default_preset().law(p).unwrap().eval(r);
+        assert!((shape(c.rh_min) / shape(c.rh_max) - 1.0).abs() < 1e-3, "one level: the base's shape of {}", p.as_str());
+    }
 }

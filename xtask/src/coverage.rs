@@ -1,22 +1,31 @@
-//! The test of the error bars on independent data: the external simulator's clean time series
-//! (`../shared/external`, beside the repository), each burst looped into a settled recording
-//! (`ipmc loop-bursts`), compensated with the lab's nominal calibration and the 1 %RH reading
-//! uncertainty the data's README states (`ipmc compensate`), and scored (`ipmc score
-//! --coverage`). What the calibration does not know about the strip, its `[uncertainty]`, comes
-//! the way a lab gets it: `ipmc identify` on the same bench's clean frequency response (case01),
-//! beside the nominal laws. Honest 1σ bars contain the actual error of about 68 % of the humidity levels;
-//! the step fails when the share is further from 68 % than two binomial standard deviations of
-//! the number of levels (windows of one level are one draw: its error is systematic).
+//! The test of the error bars on independent data (`../shared/external`, beside the repository):
+//! how often the stated 1σ contains the actual in-band error, per humidity level, for the two
+//! kinds of calibration a user compensates with.
+//!
+//! - A strip's own calibration (the shared pairs, `strips/`): `ipmc identify` on the strip's
+//!   frequency response from the lab's nominal calibration; its `[uncertainty]` is what remains
+//!   after its laws and departures. The strip's time series from another session, each burst
+//!   looped into a settled recording (`ipmc loop-bursts`, which measures the current's noise),
+//!   compensated with it (`ipmc compensate`, the reading uncertainty the bench's, as identify
+//!   estimated it) and scored (`ipmc score --coverage`).
+//! - The lab's nominal calibration of a strip it was not identified on (case09, case25: clean
+//!   time series), its `[uncertainty]` the file's (none: how far strips lie from the laws,
+//!   `Uncertainty::TYPICAL`), the 1 %RH reading uncertainty the data's README states.
+//!
+//! Honest 1σ bars contain the actual error of about 68 % of the levels; the step fails when the
+//! pooled share is further from 68 % than two binomial standard deviations of the number of
+//! levels (windows of one level are one draw: its error is systematic).
 
 use crate::Result;
 use crate::exec::{ipmc, repo_root};
 use anyhow::{Context, anyhow, bail};
+use std::path::Path;
 
-/// The clean (no concealed effect) time-series cases.
+/// The shared pairs: a frequency response and a time series of one strip each.
+const PAIRS: [&str; 2] = ["strip101", "strip102"];
+/// The clean (no concealed effect) time-series cases, compensated with the nominal calibration.
 const CASES: [&str; 2] = ["case09", "case25"];
-/// The same bench's clean frequency response, identified for the strip's `[uncertainty]`.
-const IDENTIFIED: &str = "case01";
-/// The reading uncertainty the external README gives ("~1 %RH humidity read error").
+/// The reading uncertainty the external README gives for them ("~1 %RH humidity read error").
 const RH_UNCERTAINTY_PCT: &str = "1";
 /// Looped length, skipped start-up and window: 2 s windows are whole periods of a looped 2 s
 /// burst; 10 s leaves the 1 Hz regularizer's transient far behind.
@@ -25,6 +34,53 @@ const SETTLE_S: &str = "10";
 const WINDOW_S: &str = "2";
 /// Share of a normal variable within ±1σ.
 const ONE_SIGMA: f64 = 0.6827;
+
+/// Loops, compensates and scores `rec` with `calib`: (levels covered, levels).
+fn covered(name: &str, rec: &Path, calib: &Path, rh_uncertainty: &str, work: &Path) -> Result<(u64, u64)> {
+    let looped = work.join(format!("{name}-looped.csv"));
+    let est = work.join(format!("{name}-est.csv"));
+    ipmc(&["loop-bursts".as_ref(), rec.as_os_str(), "--seconds".as_ref(), LOOP_S.as_ref(), "--out".as_ref(), looped.as_os_str()])?;
+    ipmc(&[
+        "compensate".as_ref(),
+        looped.as_os_str(),
+        "--calib".as_ref(),
+        calib.as_os_str(),
+        "--rh-uncertainty".as_ref(),
+        rh_uncertainty.as_ref(),
+        "--out".as_ref(),
+        est.as_os_str(),
+    ])?;
+    let score = |json: bool| {
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "score".as_ref(),
+            looped.as_os_str(),
+            est.as_os_str(),
+            "--coverage".as_ref(),
+            WINDOW_S.as_ref(),
+            "--settle-s".as_ref(),
+            SETTLE_S.as_ref(),
+        ];
+        if json {
+            args.push("--json".as_ref());
+        }
+        ipmc(&args)
+    };
+    print!("{name} (reading uncertainty {rh_uncertainty} %RH):\n{}", score(false)?);
+    let out = score(true)?;
+    let line = out.lines().last().context("ipmc score printed nothing")?;
+    let j: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc score --json: {e}: {line}"))?;
+    let count = |k: &str| j.get(k).and_then(serde_json::Value::as_u64).ok_or_else(|| anyhow!("no `{k}` in {line}"));
+    Ok((count("levels_covered")?, count("levels")?))
+}
+
+/// The bench reading uncertainty `ipmc identify` printed (estimated or given) [%RH].
+fn bench_rh_uncertainty(printed: &str) -> Result<String> {
+    let line =
+        printed.lines().find(|l| l.starts_with("bench reading uncertainty:")).context("identify printed no bench reading uncertainty")?;
+    let value = line.trim_start_matches("bench reading uncertainty:").split_whitespace().next().context("no value")?;
+    value.parse::<f64>().map_err(|e| anyhow!("`{line}`: {e}"))?;
+    Ok(value.to_string())
+}
 
 pub fn test_step() -> Result<()> {
     let external = repo_root().join("../shared/external");
@@ -35,51 +91,35 @@ pub fn test_step() -> Result<()> {
     }
     let work = repo_root().join("target/coverage");
     std::fs::create_dir_all(&work)?;
-    let calib = with_identified_uncertainty(&external, &work)?;
-    let (mut covered, mut levels) = (0u64, 0u64);
+    let nominal = external.join("nominal.toml");
+    let mut rows: Vec<(String, u64, u64)> = vec![];
+    for pair in PAIRS {
+        let fr = external.join(format!("strips/{pair}-fr.csv"));
+        if !fr.is_file() {
+            println!("no {}: skipped", fr.display());
+            continue;
+        }
+        let own = work.join(format!("{pair}-own.toml"));
+        let printed =
+            ipmc(&["identify".as_ref(), fr.as_os_str(), "--calib".as_ref(), nominal.as_os_str(), "--out".as_ref(), own.as_os_str()])?;
+        let rh = bench_rh_uncertainty(&printed)?;
+        let (c, n) = covered(&format!("{pair} (own calibration)"), &external.join(format!("strips/{pair}-ts.csv")), &own, &rh, &work)?;
+        rows.push((format!("{pair}, its own calibration"), c, n));
+    }
     for case in CASES {
-        let looped = work.join(format!("{case}-looped.csv"));
-        let est = work.join(format!("{case}-est.csv"));
-        let rec = external.join(format!("{case}.csv"));
-        ipmc(&["loop-bursts".as_ref(), rec.as_os_str(), "--seconds".as_ref(), LOOP_S.as_ref(), "--out".as_ref(), looped.as_os_str()])?;
-        ipmc(&[
-            "compensate".as_ref(),
-            looped.as_os_str(),
-            "--calib".as_ref(),
-            calib.as_os_str(),
-            "--rh-uncertainty".as_ref(),
-            RH_UNCERTAINTY_PCT.as_ref(),
-            "--out".as_ref(),
-            est.as_os_str(),
-        ])?;
-        let score = |json: bool| {
-            let mut args: Vec<&std::ffi::OsStr> = vec![
-                "score".as_ref(),
-                looped.as_os_str(),
-                est.as_os_str(),
-                "--coverage".as_ref(),
-                WINDOW_S.as_ref(),
-                "--settle-s".as_ref(),
-                SETTLE_S.as_ref(),
-            ];
-            if json {
-                args.push("--json".as_ref());
-            }
-            ipmc(&args)
-        };
-        print!("{case}:\n{}", score(false)?);
-        let out = score(true)?;
-        let line = out.lines().last().context("ipmc score printed nothing")?;
-        let j: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc score --json: {e}: {line}"))?;
-        let count = |k: &str| j.get(k).and_then(serde_json::Value::as_u64).ok_or_else(|| anyhow!("no `{k}` in {line}"));
-        covered += count("levels_covered")?;
-        levels += count("levels")?;
+        let (c, n) =
+            covered(&format!("{case} (nominal calibration)"), &external.join(format!("{case}.csv")), &nominal, RH_UNCERTAINTY_PCT, &work)?;
+        rows.push((format!("{case}, the nominal calibration"), c, n));
+    }
+    let (covered, levels) = rows.iter().fold((0, 0), |(c, n), r| (c + r.1, n + r.2));
+    for (name, c, n) in &rows {
+        println!("  {name}: {c} of {n} levels within the stated 1σ ({:.0} %)", 100.0 * *c as f64 / *n as f64);
     }
     let share = covered as f64 / levels as f64;
     let band = 2.0 * (ONE_SIGMA * (1.0 - ONE_SIGMA) / levels as f64).sqrt();
     println!(
-        "coverage over {} cases: {covered} of {levels} levels within the stated 1σ ({:.1} %; honest: {:.1} ± {:.1} %)",
-        CASES.len(),
+        "coverage over {} recordings: {covered} of {levels} levels within the stated 1σ ({:.1} %; honest: {:.1} ± {:.1} %)",
+        rows.len(),
         100.0 * share,
         100.0 * ONE_SIGMA,
         100.0 * band
@@ -93,31 +133,4 @@ pub fn test_step() -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// nominal.toml with the `[uncertainty]` that `ipmc identify` finds on the bench's clean
-/// frequency response, written into `work`.
-fn with_identified_uncertainty(external: &std::path::Path, work: &std::path::Path) -> Result<std::path::PathBuf> {
-    let nominal = external.join("nominal.toml");
-    let identified = work.join(format!("{IDENTIFIED}-identified.toml"));
-    ipmc(&[
-        "identify".as_ref(),
-        external.join(format!("{IDENTIFIED}.csv")).as_os_str(),
-        "--calib".as_ref(),
-        nominal.as_os_str(),
-        "--rh-uncertainty".as_ref(),
-        RH_UNCERTAINTY_PCT.as_ref(),
-        "--out".as_ref(),
-        identified.as_os_str(),
-    ])?;
-    let read = |p: &std::path::Path| -> Result<ipmc_core::Calibration> {
-        let text = std::fs::read_to_string(p).map_err(|e| anyhow!("{}: {e}", p.display()))?;
-        ipmc_core::calibration_file::parse(&text).map_err(|e| anyhow!("{}: {e}", p.display()))
-    };
-    let mut calib = read(&nominal)?;
-    calib.uncertainty = read(&identified)?.uncertainty;
-    println!("[uncertainty] identified on {IDENTIFIED}: {:?}", calib.uncertainty);
-    let out = work.join("nominal-with-identified-uncertainty.toml");
-    std::fs::write(&out, ipmc_core::calibration_file::to_text(&calib)).map_err(|e| anyhow!("{}: {e}", out.display()))?;
-    Ok(out)
 }

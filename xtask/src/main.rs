@@ -20,6 +20,7 @@ mod recording;
 mod replay;
 mod size;
 mod stream;
+mod strip_workflow;
 mod test_all;
 mod tool_checks;
 

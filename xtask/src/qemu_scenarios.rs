@@ -306,6 +306,32 @@ pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
     Ok(())
 }
 
+/// The default preset with a `[departures]` table as `ipmc identify` writes one: 32 humidities
+/// over the range, ln departures of a few percent that change sign from point to point.
+fn calibration_with_departures() -> Result<ipmc_core::Calibration> {
+    let mut c = ipmc_core::Calibration::default_preset();
+    let n = ipmc_core::departures::MAX_DEPARTURE_POINTS;
+    let grid: Vec<f64> = (0..n).map(|i| c.rh_min + (c.rh_max - c.rh_min) * i as f64 / (n - 1) as f64).collect();
+    let col = |k: usize| -> Vec<f64> { (0..n).map(|i| 0.03 * ((i * (k + 3) % 7) as f64 / 3.0 - 1.0)).collect() };
+    let (y, cs, ca, d) = (col(0), col(1), col(2), col(3));
+    c.departures = ipmc_core::departures::Departures::new(&grid, [&y, &cs, &ca, &d]).map_err(|e| anyhow!("{e}"))?;
+    Ok(c)
+}
+
+/// The equivalence with a `[departures]` table baked in: the firmware and the host evaluate
+/// the strip's departures with the one core code (`Calibration::params_at`), so their designs,
+/// estimates and error bars agree bit for bit as without it.
+pub fn qemu_host_equivalence_with_departures() -> Result<()> {
+    let work = repo_root().join("target/qemu-test/departures");
+    std::fs::create_dir_all(&work)?;
+    let calib = work.join("CALIB-with-departures.toml");
+    let text = ipmc_core::calibration_file::to_text(&calibration_with_departures()?);
+    std::fs::write(&calib, text).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
+    let elf = firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(&calib))?;
+    host_equivalence_on_ramp("departures", 10, 40, 50, &elf, Some(&calib))?;
+    Ok(())
+}
+
 /// The same on `seconds` of a ramp `rh_from` → `rh_to` %, in target/qemu-test/`name`.
 fn host_equivalence_on_ramp(
     name: &str,

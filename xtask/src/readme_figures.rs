@@ -2,7 +2,11 @@
 //! that no command prints any more fails the suite instead of misleading a reader.
 //!
 //! A checked cell ends in `<!--fig:ID-->`; every number written in the cell before the marker
-//! must appear, as written, in the output of the command the figure names. Cheap commands run
+//! must appear, as written, in the output of the command the figure names. A figure that
+//! legitimately moves from run to run (the firmware under QEMU is paced in real time, so its
+//! humidity polls and designs land a block earlier or later on a loaded machine) is marked
+//! `<!--fig:ID±T-->`, and the cell must say so: each of its numbers must then lie within T of a
+//! number printed to at least as many decimals. Cheap commands run
 //! here; the outputs of the expensive ones (QEMU, the external recordings) are what earlier
 //! steps of the same `cargo xtask test` saved under `target/figures/ID.txt` ([`save`]).
 
@@ -51,8 +55,16 @@ fn numbers(cell: &str) -> Vec<String> {
     out
 }
 
-/// (id, the cell's text before its marker) for every marker of `readme`.
-fn marked(readme: &str) -> Vec<(String, String)> {
+/// A figure of the README: what prints it, its cell's text before the marker, and how far a
+/// printed number may lie from the written one (0: as written).
+struct Figure {
+    id: String,
+    cell: String,
+    tolerance: f64,
+}
+
+/// Every marked figure of `readme`.
+fn marked(readme: &str) -> Vec<Figure> {
     let mut out = vec![];
     for line in readme.lines() {
         let mut rest = line;
@@ -61,11 +73,30 @@ fn marked(readme: &str) -> Vec<(String, String)> {
             let cell = before.rsplit('|').next().unwrap_or(before);
             let after = &rest[at + "<!--fig:".len()..];
             let Some(end) = after.find("-->") else { break };
-            out.push((after[..end].to_string(), cell.to_string()));
+            let (id, tolerance) = match after[..end].split_once('±') {
+                Some((id, t)) => (id, t.trim().parse().unwrap_or(f64::NAN)),
+                None => (&after[..end], 0.0),
+            };
+            out.push(Figure { id: id.to_string(), cell: cell.to_string(), tolerance });
             rest = &after[end + 3..];
         }
     }
     out
+}
+
+/// Whether `written` is in `out`: as written, or with a tolerance, within it of a number of
+/// `printed` given to at least as many decimals (not of a coarser one: a count, a bound).
+fn printed_as(written: &str, out: &str, printed: &[String], tolerance: f64) -> bool {
+    if tolerance == 0.0 {
+        return out.contains(written);
+    }
+    let decimals = |n: &str| n.split_once('.').map_or(0, |(_, d)| d.len());
+    let Ok(w) = written.parse::<f64>() else { return out.contains(written) };
+    printed
+        .iter()
+        .filter(|p| decimals(p) >= decimals(written))
+        .filter_map(|p| p.parse::<f64>().ok())
+        .any(|p| (p - w).abs() <= tolerance + 1e-12)
 }
 
 pub fn test_step() -> Result<()> {
@@ -75,12 +106,16 @@ pub fn test_step() -> Result<()> {
         bail!("README.md marks no figure (`<!--fig:ID-->`)");
     }
     let mut stale = vec![];
-    for (id, cell) in &figures {
+    for Figure { id, cell, tolerance } in &figures {
+        if !(*tolerance >= 0.0) {
+            bail!("README.md: the tolerance of figure `{id}` is not a number ≥ 0");
+        }
         let Some(out) = output_of(id)? else {
             println!("{id}: not checked here (the step that prints it did not run)");
             continue;
         };
-        let missing: Vec<String> = numbers(cell).into_iter().filter(|n| !out.contains(n.as_str())).collect();
+        let printed = numbers(&out);
+        let missing: Vec<String> = numbers(cell).into_iter().filter(|n| !printed_as(n, &out, &printed, *tolerance)).collect();
         if missing.is_empty() {
             println!("{id}: {} as the command prints", cell.trim());
         } else {
@@ -96,11 +131,26 @@ mod tests {
 
     #[test]
     fn reads_marked_cells_and_their_numbers() {
-        let md = "| a | ≤ 0.480 % rms, 1.894 % max <!--fig:accuracy--> | x |\n| 17/26 named, −3 dB <!--fig:prove-->|";
+        let md = "| a | ≤ 0.480 % rms, 1.894 % max <!--fig:accuracy--> | x |\n| 17/26 named, −3 dB <!--fig:prove-->| 0.73 % <!--fig:sweep±0.02--> |";
         let m = marked(md);
-        assert_eq!(m.len(), 2);
-        assert_eq!(m[0].0, "accuracy");
-        assert_eq!(numbers(&m[0].1), ["0.480", "1.894"]);
-        assert_eq!(numbers(&m[1].1), ["17", "26", "-3"]);
+        assert_eq!(m.len(), 3);
+        assert_eq!((m[0].id.as_str(), m[0].tolerance), ("accuracy", 0.0));
+        assert_eq!(numbers(&m[0].cell), ["0.480", "1.894"]);
+        assert_eq!(numbers(&m[1].cell), ["17", "26", "-3"]);
+        assert_eq!((m[2].id.as_str(), m[2].tolerance), ("sweep", 0.02));
+    }
+
+    #[test]
+    fn a_tolerance_admits_nearby_figures_of_the_same_precision_only() {
+        let out = "error 0.737 % rms; ratio 1.00×";
+        let printed = numbers(out);
+        assert!(printed_as("0.737", out, &printed, 0.0));
+        assert!(!printed_as("0.723", out, &printed, 0.0));
+        assert!(printed_as("0.723", out, &printed, 0.02));
+        assert!(!printed_as("0.700", out, &printed, 0.02));
+        assert!(printed_as("0.73", out, &printed, 0.01));
+        // Only against numbers printed as finely: 1.01 is not within 0.02 of the printed `1`.
+        assert!(!printed_as("0.99", "ratio 1 ×", &numbers("ratio 1 ×"), 0.02));
+        assert!(printed_as("1.00", out, &printed, 0.02));
     }
 }

@@ -5,9 +5,9 @@ use crate::{
     Result, cargo,
     firmware::{self, Variant},
     qemu_scenarios::{
-        qemu_host_equivalence, qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_bundled,
-        qemu_replay_counts_and_retunes, qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_no_new_humidity,
-        qemu_replay_no_receiver, qemu_replay_sensor_faults,
+        qemu_host_equivalence, qemu_host_equivalence_with_departures, qemu_host_equivalence_with_humidity_path, qemu_long_run,
+        qemu_replay_bundled, qemu_replay_counts_and_retunes, qemu_replay_faults, qemu_replay_humidity_step_without_glitch,
+        qemu_replay_no_new_humidity, qemu_replay_no_receiver, qemu_replay_sensor_faults,
     },
     repo_root, run, size,
     tool_checks::{diagnose_prove, diagnose_prove_external, vs_exact_external},
@@ -125,6 +125,10 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("vs-exact: f32 chain within 1.1× the exact inverse in band (external recordings)", vs_exact_external),
         ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
         ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", crate::coverage::test_step),
+        (
+            "own strip: identify a frequency response, compensate a time series of the same strip; beats nominal, within 1.1× perfect",
+            crate::strip_workflow::test_step,
+        ),
         ("docs/your-data.md: every command of the page, as written", crate::doc_commands::your_data),
         ("hygrometer: field mode — fused no worse than 1.05× the reading, the strip's 1σ covers 68 ± 10 %", || {
             cargo_test_with("tool/Cargo.toml", &["--release", "field_mode", "--", "--ignored", "--nocapture"])
@@ -142,6 +146,10 @@ pub fn command(filter: &[String]) -> Result<()> {
         (
             "qemu replay: host ↔ QEMU equivalence with a humidity path (correction and hydration lag)",
             qemu_host_equivalence_with_humidity_path,
+        ),
+        (
+            "qemu replay: host ↔ QEMU equivalence with a [departures] table (the strip's own departures)",
+            qemu_host_equivalence_with_departures,
         ),
         ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),

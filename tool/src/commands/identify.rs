@@ -16,12 +16,17 @@ use anyhow::{Context, Result, bail};
 use ipmc_core::Calibration;
 use ipmc_core::ParamName;
 use ipmc_core::calibration_file;
-use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_levels};
+use ipmc_fit::departures::StripModel;
+use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_session};
 use ipmc_fit::laws::{LawFit, calibration_from_levels};
 use ipmc_recording::write_atomically;
 use ipmc_recording::{Charging, Format as _, LEVEL_SCATTER_PCT, Level};
 use serde_json::{Map, Value, json};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// A law whose χ² has a chance below this of arising if the law held (with the levels' errors
+/// honest) is reported as not holding: a 0.1 % test.
+pub const LAW_TEST_LEVEL: f64 = 1e-3;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -34,16 +39,18 @@ pub struct Args {
     /// calibration. Repeat the option for several levels (several at one level are averaged).
     #[arg(long = "charging")]
     charging: Vec<PathBuf>,
-    /// Base calibration: start values of the fits, κe where not measured, and everything the
-    /// frequency response does not determine (h, m, length, width, α0, C⁻, T). `default`,
-    /// `paper`, or a TOML file.
+    /// Base calibration: start values of the fits, the shape of the laws, κe where not
+    /// measured, and everything the frequency response does not determine (h, m, length, width,
+    /// α0, C⁻, T). `default`, `paper`, or a TOML file: the lab's nominal calibration of the
+    /// strip. Without it the built-in default preset is used, and said so.
     #[arg(long)]
     calib: Option<String>,
     /// Where to write the identified calibration (TOML).
     #[arg(long)]
     out: PathBuf,
-    /// Also write the per-level estimates here (JSON: one object per level, each parameter with
-    /// its standard error `<name>_se`, the correlations, χ² and the estimated noise).
+    /// Also write the per-level estimates here (JSON: one object per level, numbered from 1,
+    /// with its time span, each parameter with its standard error `<name>_se`, the
+    /// correlations, χ², the estimated noise and the tip gain the level alone gives).
     #[arg(long)]
     levels: Option<PathBuf>,
     /// Also draw the result into this directory: bode.svg/.png (each level's measured response
@@ -51,8 +58,9 @@ pub struct Args {
     /// with the fitted laws), as `ipmc plot bode` and `ipmc plot params` draw them.
     #[arg(long)]
     plots: Option<PathBuf>,
-    /// Standard uncertainty of the humidity readings [%RH]: the scatter it explains is not the
-    /// strip's (by default as `compensate` takes it from the base calibration).
+    /// Standard uncertainty of the bench's humidity readings [%RH], one error per level: what
+    /// it explains is not the strip's. Without it, estimated from the levels (the read error
+    /// moves all four parameters of a level along their laws together).
     #[arg(long)]
     rh_uncertainty: Option<f64>,
 }
@@ -92,16 +100,21 @@ fn kappa_at(rh: f64, kappas: &[(f64, f64, PathBuf)]) -> Option<Estimate> {
 }
 
 /// One level as LEVELS.json shows it.
-fn level_json(level: &Level, fit: &LevelFit) -> Value {
+fn level_json(number: usize, level: &Level, fit: &LevelFit) -> Value {
     let mut o = Map::new();
+    o.insert("level".into(), json!(number));
     o.insert("rh_pct".into(), json!(fit.rh_pct));
     o.insert("rh_range_pct".into(), json!([level.rh_range.0, level.rh_range.1]));
+    let times: Option<Vec<f64>> = level.points.iter().map(|p| p.time_s).collect();
+    let span = times.map(|t| [t.iter().copied().fold(f64::INFINITY, f64::min), t.iter().copied().fold(f64::NEG_INFINITY, f64::max)]);
+    o.insert("time_span_s".into(), json!(span));
+    o.insert("points".into(), json!(level.points.len()));
     // The level's humidity is the mean of its readings; its standard error bounds how well the
     // parameters can be placed on the humidity axis (not included in their own SEs).
     let n = level.points.len() as f64;
     let var = level.points.iter().map(|p| (p.rh_pct - level.rh_pct).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
     o.insert("rh_se_pct".into(), json!((var / n).sqrt()));
-    o.insert("revisit_of".into(), json!(level.revisit_of));
+    o.insert("revisit_of".into(), json!(level.revisit_of.map(|k| k + 1)));
     for p in FITTED.iter().chain(&[ParamName::KappaE]) {
         if let Some(e) = fit.estimate(*p) {
             o.insert(p.as_str().into(), json!(e.value));
@@ -110,6 +123,10 @@ fn level_json(level: &Level, fit: &LevelFit) -> Value {
         }
     }
     o.insert("kappa_e_source".into(), json!(if fit.kappa_e_measured { "charging" } else { "base calibration" }));
+    if let Some(g) = fit.tip_gain {
+        o.insert("tip_gain".into(), json!(g.value));
+        o.insert("tip_gain_se".into(), json!(g.se.filter(|s| s.is_finite())));
+    }
     let mut corr = Map::new();
     for (i, a) in fit.fitted.iter().enumerate() {
         for b in &fit.fitted[i + 1..] {
@@ -128,17 +145,50 @@ fn level_json(level: &Level, fit: &LevelFit) -> Value {
     Value::Object(o)
 }
 
-fn print_summary(fits: &[LevelFit], laws: &[LawFit]) {
-    println!("  RH %  Y [Pa]               Cs [Pa·s]            Ca [N·s/m²]          d [m²/s]             corr(Cs,Ca)  χ²/dof");
-    for f in fits {
+/// The grouping into levels, numbered from 1 as every output numbers them.
+fn print_levels(levels: &[Level]) {
+    println!(
+        "levels: {} runs of consecutive points at one setpoint (a new level where the time jumps or the reading steps beyond its own noise)",
+        levels.len()
+    );
+    println!("  level  RH read %  readings %      points  time s          revisits");
+    for (k, l) in levels.iter().enumerate() {
+        let times: Option<Vec<f64>> = l.points.iter().map(|p| p.time_s).collect();
+        let span = times.map_or("—".into(), |t| {
+            format!("{:.0}–{:.0}", t.iter().copied().fold(f64::INFINITY, f64::min), t.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+        });
+        println!(
+            "  {:>5}  {:>9.2}  {:>5.2}–{:<7.2}  {:>6}  {:<14}  {}",
+            k + 1,
+            l.rh_pct,
+            l.rh_range.0,
+            l.rh_range.1,
+            l.points.len(),
+            span,
+            l.revisit_of.map_or(String::new(), |r| format!("level {}", r + 1))
+        );
+    }
+}
+
+/// A standard error as a percentage, or "not determined".
+fn pct_se(value: f64, se: Option<f64>) -> String {
+    match se {
+        Some(se) if se.is_finite() => format!("±{:>6.2}%", 100.0 * se / value),
+        _ => "(SE not determined)".into(),
+    }
+}
+
+fn print_summary(fits: &[(usize, LevelFit)], laws: &[LawFit]) {
+    println!("  level  RH %  Y [Pa]               Cs [Pa·s]            Ca [N·s/m²]          d [m²/s]             corr(Cs,Ca)  χ²/dof");
+    for (number, f) in fits {
         let cell = |p: ParamName| match f.estimate(p) {
-            Some(Estimate { value, se: Some(se) }) if se.is_finite() => format!("{value:.4e} ±{:>6.2}%", 100.0 * se / value),
-            Some(Estimate { value, .. }) => format!("{value:.4e} ±    ?"),
+            Some(Estimate { value, se }) => format!("{value:.4e} {}", pct_se(value, se)),
             None => "—".into(),
         };
-        let corr = f.correlation(ParamName::Cs, ParamName::Ca).map_or("—".into(), |c| format!("{c:+.2}"));
+        let corr = f.correlation(ParamName::Cs, ParamName::Ca).filter(|c| c.is_finite()).map_or("—".into(), |c| format!("{c:+.2}"));
         println!(
-            "{:6.1}  {:<20} {:<20} {:<20} {:<20} {:>11}  {:.2}",
+            "  {:>5} {:5.1}  {:<20} {:<20} {:<20} {:<20} {:>11}  {:.2}",
+            number,
             f.rh_pct,
             cell(ParamName::Y),
             cell(ParamName::Cs),
@@ -149,59 +199,84 @@ fn print_summary(fits: &[LevelFit], laws: &[LawFit]) {
         );
     }
     for l in laws {
-        let chi2 = l.chi2.map_or("".into(), |c| format!(", χ² {c:.1} on {} levels", l.levels));
-        println!("law {}: {} degree {}{chi2}{}", l.param, l.kind, l.degree, l.note.as_ref().map_or(String::new(), |n| format!(" ({n})")));
-        let dof = l.levels.saturating_sub(l.degree + 1);
-        if let Some(c) = l.chi2
-            && dof > 0
-            && chi2_exceedance(c, dof) < LAW_MISFIT_P
+        let test = match (l.chi2, l.dof, l.p_value) {
+            (Some(c), Some(d), Some(p)) => format!("; the law alone: χ² {c:.1} on {} levels ({d} dof), p {}", l.levels, p_text(p)),
+            (Some(c), _, _) => format!("; χ² {c:.1} on {} levels", l.levels),
+            _ => String::new(),
+        };
+        let kept = l.departure.map_or(String::new(), |(a, len)| {
+            if a > 1e-4 {
+                format!("; departures kept: {:.1} % over {len:.1} %RH", 100.0 * a)
+            } else {
+                "; no departures beyond the errors".into()
+            }
+        });
+        let kind = if l.kind == "log_poly" { "polynomial in RH of ln" } else { "polynomial in RH" };
+        println!(
+            "law {}: {kind}, degree {}{test}{kept}{}",
+            l.param,
+            l.degree,
+            l.note.as_ref().map_or(String::new(), |n| format!(" ({n})"))
+        );
+    }
+    for l in laws {
+        if let (Some(c), Some(d), Some(p)) = (l.chi2, l.dof, l.p_value)
+            && p < LAW_TEST_LEVEL
         {
-            println!(
-                "warning: law {}: χ² {c:.1} on {dof} degrees of freedom (p = {:.1e}): the levels depart from a smooth law by more \
-                 than their standard errors (the strip's own departures, a level's reading off, or the errors too small)",
+            let what = match l.departure {
+                Some((a, _)) if a > 1e-4 => {
+                    "the strip departs from any smooth law of this shape beyond its levels' errors; what the levels show is kept in [departures]"
+                }
+                _ => "the law's shape does not hold, or the levels' errors are too small",
+            };
+            eprintln!(
+                "warning: law {}: χ² {c:.1} is far above its {d} degrees of freedom (p {} < {LAW_TEST_LEVEL}): {what}",
                 l.param,
-                chi2_exceedance(c, dof)
+                p_text(p)
             );
         }
     }
 }
 
-/// A law's χ² is called a misfit when a law that described the levels would exceed it this
-/// rarely: one identification in a thousand warns by chance.
-const LAW_MISFIT_P: f64 = 1e-3;
-
-/// P(χ²_k > x), by the Wilson–Hilferty cube root (within 10⁻³ of the exact tail for k ≥ 1 at
-/// the small probabilities it is used for here).
-fn chi2_exceedance(x: f64, k: usize) -> f64 {
-    let k = k as f64;
-    let v = 2.0 / (9.0 * k);
-    let z = ((x / k).cbrt() - (1.0 - v)) / v.sqrt();
-    0.5 * erfc(z / std::f64::consts::SQRT_2)
+/// A probability as text: tiny ones as a bound.
+fn p_text(p: f64) -> String {
+    if p < 1e-300 {
+        "< 1e-300".into()
+    } else if p < 1e-3 {
+        format!("= {p:.1e}")
+    } else {
+        format!("= {p:.3}")
+    }
 }
 
-/// The complementary error function (Numerical Recipes' erfcc, relative error < 1.2·10⁻⁷).
-fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let poly = -z * z - 1.265_512_23
-        + t * (1.000_023_68
-            + t * (0.374_091_96
-                + t * (0.096_784_18
-                    + t * (-0.186_288_06
-                        + t * (0.278_868_07 + t * (-1.135_203_98 + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
-    let r = t * poly.exp();
-    if x >= 0.0 { r } else { 2.0 - r }
+/// What `identify` made.
+pub struct Identified {
+    pub calib: Calibration,
+    /// The levels as grouped, each with its number (from 1) and fit.
+    pub fits: Vec<(usize, Level, LevelFit)>,
+    pub model: StripModel,
+    /// The calibration file's text (header comments and TOML).
+    pub text: String,
 }
 
-pub fn run(a: Args) -> Result<()> {
-    let base = calibration_source::load(a.calib.as_deref())?;
-    let source = a.recording.display().to_string();
-    let recording = crate::input::responses(&a.recording)?.response;
+/// Identifies `recording` from `base` (named `base_name`), printing what it does; nothing is
+/// written.
+pub fn identify(
+    recording: &Path,
+    base: &Calibration,
+    base_name: &str,
+    charging: &[PathBuf],
+    rh_uncertainty: Option<f64>,
+) -> Result<Identified> {
+    let source = recording.display().to_string();
+    let input = crate::input::responses(recording)?;
+    let recording_fr = input.response;
     // The laws are fitted at the humidity the strip felt: the base calibration's humidity path
     // (sensor correction, hydration lag) applied to the readings, and kept in the result.
-    let mut levels = recording.levels();
-    crate::input::levels_felt(&recording, &mut levels, &base.humidity, &source);
-    let kappas = charging_kappas(&a.charging, &base)?;
+    let mut levels = recording_fr.levels();
+    crate::input::levels_felt(&recording_fr, &mut levels, &base.humidity, &source);
+    print_levels(&levels);
+    let kappas = charging_kappas(charging, base)?;
     for (rh, _, path) in &kappas {
         if !levels.iter().any(|l| (l.rh_pct - rh).abs() <= LEVEL_SCATTER_PCT) {
             eprintln!("warning: {}: taken at RH {rh} %, which matches no level of {source}; not used", path.display());
@@ -218,81 +293,143 @@ pub fn run(a: Args) -> Result<()> {
         })
         .collect();
 
-    let bar = progress::bar(data.len() as u64, "levels");
+    let has_tip = data.iter().any(|d| d.tip.iter().any(Option::is_some));
+    let bar = progress::bar(data.len() as u64 * if has_tip { 2 } else { 1 }, "level fits");
     let tick = || bar.inc(1);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let results = identify_levels(&base, &data, threads, &tick);
+    let (results, tip_gain) = identify_session(base, &data, threads, &tick);
     bar.finish_and_clear();
 
     let mut fits = Vec::with_capacity(results.len());
-    for (level, r) in levels.iter().zip(results) {
+    for (k, (level, r)) in levels.iter().zip(results).enumerate() {
         match r {
-            Ok(f) => fits.push((level, f)),
-            Err(e) => eprintln!("warning: {source}: {e}; level left out"),
+            Ok(f) => fits.push((k + 1, level.clone(), f)),
+            Err(e) => eprintln!("warning: {source}: level {}: {e}; level left out", k + 1),
         }
     }
     if fits.is_empty() {
         bail!("{source}: no humidity level could be identified");
     }
-    let rh_range = fits.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (l, _)| (lo.min(l.rh_range.0), hi.max(l.rh_range.1)));
-    let level_fits: Vec<LevelFit> = fits.iter().map(|(_, f)| f.clone()).collect();
-    let (mut calib, laws) = calibration_from_levels(&base, &level_fits, rh_range).with_context(|| format!("{source}: calibration"))?;
-    let rh_sd = crate::chain::rh_uncertainty(&base, a.rh_uncertainty);
-    if a.rh_uncertainty.is_none() {
-        // A bench with a reference hygrometer is ten times better than the board's sensor.
+    let rh_range = fits.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, l, _)| (lo.min(l.rh_range.0), hi.max(l.rh_range.1)));
+    let level_fits: Vec<LevelFit> = fits.iter().map(|(_, _, f)| f.clone()).collect();
+    // The bench reading's error: given, else from the setpoints visited twice, else from the
+    // levels' values (weakly determined: the departures explain much of what it does).
+    let pairs: Vec<(f64, f64)> = fits.iter().filter_map(|(_, l, _)| Some((l.rh_pct, levels.get(l.revisit_of?)?.rh_pct))).collect();
+    let (rh_given, how) = match (rh_uncertainty, ipmc_fit::departures::rh_sd_from_revisits(&pairs)) {
+        (Some(v), _) => (Some(v), "as given by --rh-uncertainty".to_string()),
+        (None, Some(v)) => (
+            Some(v),
+            format!(
+                "from the {} setpoints the session read twice: each pair differs by two read errors; --rh-uncertainty sets it",
+                pairs.len()
+            ),
+        ),
+        (None, None) => {
+            (None, "estimated from the levels' values, weakly determined without revisited setpoints; --rh-uncertainty sets it".into())
+        }
+    };
+    let (mut calib, laws, model) =
+        calibration_from_levels(base, &level_fits, rh_range, rh_given).with_context(|| format!("{source}: calibration"))?;
+    let rh_sd = model.hyper.rh_sd_pct;
+    println!("bench reading uncertainty: {rh_sd:.2} %RH per level ({how})");
+    if let Some(g) = tip_gain {
+        calib.instrument.tip_gain = g.value;
         println!(
-            "note: the bench's humidity readings taken as {rh_sd} %RH uncertain (the base calibration's sensor, or the board's \
-             HTS221): give --rh-uncertainty for your hygrometer"
+            "tip channel gain: {:.5} ± {:.5} from {} levels (χ² {:.1} on {} dof; prior {} ± {} %), the tip data divided by it",
+            g.value,
+            g.se * g.value,
+            g.levels,
+            g.chi2,
+            g.levels.saturating_sub(1),
+            base.instrument.tip_gain,
+            base.instrument.tip_gain_tolerance_pct
         );
     }
-    calib.uncertainty = ipmc_fit::scatter::uncertainty(&calib, &level_fits, rh_sd, &base.uncertainty);
+    calib.uncertainty = ipmc_fit::scatter::uncertainty(&model, &calib, &level_fits, rh_sd, &base.uncertainty);
+    let mut noise_note = "the base calibration's (a frequency response does not carry the current's noise)".to_string();
+    if input.bursts.is_some() {
+        let ts = crate::input::read_time_series(recording)?;
+        if let Some(per) = ipmc_fit::multisine::excitation_period(&ts, &source)?
+            && let Some(d) = crate::looping::noise_density(&ts, per)
+        {
+            calib.uncertainty.current_noise_a_per_rthz = d;
+            noise_note = "measured from the differences of the bursts' consecutive periods".into();
+        }
+    }
     let u = calib.uncertainty;
     println!(
-        "scatter about the laws, beyond the fits' errors and a {rh_sd} %RH reading error ([uncertainty]): Y {:.1} %, Cs {:.1} %, Ca {:.1} %, κe {:.1} %, d {:.1} %",
+        "[uncertainty], what remains after the laws and departures (rms over {:.1}–{:.1} %RH): Y {:.1} %, Cs {:.1} %, Ca {:.1} %, d {:.1} %, κe {:.1} %; current noise {:.3e} A/√Hz, {noise_note}",
+        calib.rh_min,
+        calib.rh_max,
         100.0 * u.y,
         100.0 * u.cs,
         100.0 * u.ca,
+        100.0 * u.d,
         100.0 * u.kappa_e,
-        100.0 * u.d
+        u.current_noise_a_per_rthz
     );
+    let numbered: Vec<(usize, LevelFit)> = fits.iter().map(|(k, _, f)| (*k, f.clone())).collect();
+    print_summary(&numbered, &laws);
+    calibration_file::check(&calib).map_err(|e| anyhow::anyhow!("{source}: the identified calibration would not load: {e}"))?;
+    let measured_kappa = level_fits.iter().any(|f| f.kappa_e_measured);
+    let mut header = format!(
+        "# Identified by `ipmc identify` from {source} ({} levels, RH {:.1}–{:.1} %), starting from {base_name}.\n",
+        fits.len(),
+        rh_range.0,
+        rh_range.1
+    );
+    header += "# Y, Cs, Ca, d: the base's law shapes times a quadratic correction in RH, written as polynomials of ln;\n";
+    header += &format!(
+        "#   [departures]: the strip's own departures from them (a Gaussian process over humidity, its amplitude and\n#   length from the levels by marginal likelihood; the bench reading's error, {rh_sd:.2} %RH, a random effect).\n"
+    );
+    header += if measured_kappa {
+        "# κe: fitted through the levels where a charging recording measured it.\n"
+    } else {
+        "# κe: copied from the base calibration (no charging recording): not identified.\n"
+    };
+    header += "# The current channel's gain is not identifiable (it scales the current as κe and √d do): it is absorbed\n#   into the laws of κe and d. Use this calibration with the same current front end.\n";
+    if let Some(g) = tip_gain {
+        header += &format!(
+            "# [instrument] tip_gain: the tip channel's gain identified from the session ({:.5} ± {:.5}).\n",
+            g.value,
+            g.se * g.value
+        );
+    }
+    header += "# [uncertainty]: what remains unknown of Y, Cs, Ca and d after the laws and departures (rms over the range).\n";
+    let text = format!("{header}{}", calibration_file::to_text(&calib));
+    Ok(Identified { calib, fits, model, text })
+}
 
-    let json = Value::Array(fits.iter().map(|(l, f)| level_json(l, f)).collect());
+/// The base calibration a command starts from, and its name (a missing `--calib` is said by
+/// the loader).
+pub fn base_calibration(spec: Option<&str>) -> Result<(Calibration, String)> {
+    let base = calibration_source::load(spec)?;
+    Ok((base, spec.unwrap_or("the default preset").to_string()))
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let (base, base_name) = base_calibration(a.calib.as_deref())?;
+    let source = a.recording.display().to_string();
+    let id = identify(&a.recording, &base, &base_name, &a.charging, a.rh_uncertainty)?;
+    let json = Value::Array(id.fits.iter().map(|(k, l, f)| level_json(*k, l, f)).collect());
     if let Some(path) = &a.levels {
         write_atomically(path, serde_json::to_string_pretty(&json)?.as_bytes())?;
     }
-    calibration_file::check(&calib).map_err(|e| anyhow::anyhow!("{source}: the identified calibration would not load: {e}"))?;
-    let toml = calibration_file::to_text(&calib);
-    let header =
-        format!("# Identified by `ipmc identify` from {source} ({} levels, RH {:.1}–{:.1} %).\n", fits.len(), rh_range.0, rh_range.1);
-    write_atomically(&a.out, format!("{header}{toml}").as_bytes())?;
-    print_summary(&level_fits, &laws);
+    write_atomically(&a.out, id.text.as_bytes())?;
     match &a.levels {
         Some(path) => println!("wrote {} and {}", a.out.display(), path.display()),
         None => println!("wrote {}", a.out.display()),
     }
     if let Some(dir) = &a.plots {
-        let models = fits.iter().map(|(l, f)| LevelModel::new((*l).clone(), f.params)).collect();
+        let models = id.fits.iter().map(|(_, l, f)| LevelModel::new(l.clone(), f.params)).collect();
         let title = format!("{source}: measured (markers) vs identified model (lines)");
         let bode = render(&Bode { title, levels: models }, &dir.join("bode"), (1600, 1000))?;
         let title = format!("{source}: identified parameters vs humidity, laws of {}", a.out.display());
-        let params = render(&ParamsFigure { title, series: levels_series(&source, &json)?, calib }, &dir.join("params"), (1600, 1100))?;
+        let params =
+            render(&ParamsFigure { title, series: levels_series(&source, &json)?, calib: id.calib }, &dir.join("params"), (1600, 1100))?;
         for path in [bode.0, bode.1, params.0, params.1] {
             println!("plot: {}", path.display());
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn chi2_tail_matches_known_quantiles() {
-        // χ²_10 exceeds 29.59 with probability 0.001, 18.31 with 0.05; χ²_7 exceeds 24.32 with 0.001.
-        assert!((chi2_exceedance(29.59, 10) / 1e-3 - 1.0).abs() < 0.15, "{}", chi2_exceedance(29.59, 10));
-        assert!((chi2_exceedance(18.31, 10) - 0.05).abs() < 0.003, "{}", chi2_exceedance(18.31, 10));
-        assert!((chi2_exceedance(24.32, 7) / 1e-3 - 1.0).abs() < 0.15, "{}", chi2_exceedance(24.32, 7));
-        assert!(chi2_exceedance(5.0, 10) > 0.8);
-    }
 }

@@ -15,6 +15,7 @@ pub mod rh_sensitivity;
 pub mod score;
 pub mod simulate;
 pub mod simulate_field;
+pub mod strip_check;
 pub mod vs_exact;
 
 /// The designs a command evaluates: at which sample rate, from which calibration.

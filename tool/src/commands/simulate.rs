@@ -30,6 +30,11 @@ pub struct Args {
     /// Output recording (CSV in the interchange format of the session's kind).
     #[arg(long)]
     out: PathBuf,
+    /// Also write the strip's true calibration here (a session with `[sample] strip_seed`): the
+    /// calibration simulated from with the strip's departures as its `[departures]` table, the
+    /// perfect calibration `ipmc strip-check --truth` compares with.
+    #[arg(long)]
+    strip_calib: Option<PathBuf>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -39,6 +44,9 @@ pub fn run(a: Args) -> Result<()> {
     let mut metadata = Metadata::default();
     metadata.set("generator", format!("ipmc simulate session={} seed={}", a.session.display(), session.seed));
     metadata.set("calib", a.calib.as_deref().unwrap_or("default"));
+    if let Some(strip) = session.sample.strip_seed {
+        metadata.set("strip_seed", strip);
+    }
     let spin = crate::progress::spinner("simulating");
     let rec = simulate(&calib, &session, &ExactModel, metadata)?;
     spin.finish_and_clear();
@@ -48,6 +56,23 @@ pub fn run(a: Args) -> Result<()> {
     }
     let names: Vec<String> = files.iter().map(|f| f.0.display().to_string()).collect();
     eprintln!("wrote {} to {}", rec.summary(), names.join(", "));
+    if let Some(path) = &a.strip_calib {
+        let strip = crate::simulator::Strip::of(&session.sample)
+            .ok_or_else(|| anyhow::anyhow!("--strip-calib: the session has no `[sample] strip_seed`: its strip has no identity"))?;
+        if !calib.departures.is_none() {
+            anyhow::bail!("--strip-calib: the calibration simulated from already has a [departures] table");
+        }
+        let mut truth = calib;
+        truth.departures = strip.departures(calib.rh_min, calib.rh_max)?;
+        ipmc_core::calibration_file::check(&truth).map_err(|e| anyhow::anyhow!("--strip-calib: {e}"))?;
+        let header = format!(
+            "# The true calibration of strip {} as `ipmc simulate` simulates it: the laws of {}, the strip's departures as [departures].\n",
+            session.sample.strip_seed.unwrap_or_default(),
+            a.calib.as_deref().unwrap_or("default")
+        );
+        write_atomically(path, format!("{header}{}", ipmc_core::calibration_file::to_text(&truth)).as_bytes())?;
+        eprintln!("wrote the strip's true calibration to {}", path.display());
+    }
     Ok(())
 }
 

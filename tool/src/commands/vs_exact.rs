@@ -65,7 +65,7 @@ pub struct Level {
 const ROBUST_DRAWS: usize = 200;
 
 /// The burst `range` of `ts` as a recording of its own, starting at t = 0.
-fn burst_of(ts: &TimeSeries, range: std::ops::Range<usize>) -> Result<TimeSeries> {
+pub(crate) fn burst_of(ts: &TimeSeries, range: std::ops::Range<usize>) -> Result<TimeSeries> {
     let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("no base_m column: nothing to score against"))?;
     let t0 = ts.t_s[range.start];
     Ok(TimeSeries {

@@ -19,12 +19,13 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let leakage_a = plan.leakage_ohm.map_or(0.0, |r| plan.voltage_v / r);
     let mut out = vec![];
     let drift = Departure::drift(&session.sample, &mut rng);
+    let strip = super::Strip::of(&session.sample);
     let room = Room::draw(session, &mut rng);
     // Each level is charged from a discharged, settled sample: hydration lag plays no part.
     for (k, &level) in h.levels_pct.iter().enumerate() {
         let dep = drift.at_level(&session.sample, &mut rng);
         // One charge per level, one after the other.
-        let (params, temp_c) = sample_at(calib, level, dep, room.at(k as f64 * plan.duration_s));
+        let (params, temp_c) = sample_at(calib, level, dep, strip.as_ref(), room.at(k as f64 * plan.duration_s));
         let mut rec = Charging { metadata: metadata.clone(), voltage_v: plan.voltage_v, ..Charging::default() };
         for k in 0..samples {
             let t = k as f64 / plan.fs_hz;

@@ -19,6 +19,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mut rng = SplitMix64(session.seed);
     let mut bench = Bench::settled(h.levels_pct[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
+    let strip = super::Strip::of(&session.sample);
     let mains = Mains::draw(n, &mut rng);
     let room = Room::draw(session, &mut rng);
     let mut points = Vec::with_capacity(h.levels_pct.len() * freqs.len());
@@ -26,13 +27,14 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     for &level in &h.levels_pct {
         bench.set_target(level + rng.gauss(h.level_error_pct));
         let dep = drift.at_level(&session.sample, &mut rng);
+        let level_read = rng.gauss(h.level_read_error_pct);
         let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
         bench.advance(wait, &mut rng);
         t += wait;
         let temp_level = room.at(t);
         for &f in &freqs {
             let rh_sample = bench.sample();
-            let (params, temp_c) = sample_at(calib, rh_sample, dep, temp_level);
+            let (params, temp_c) = sample_at(calib, rh_sample, dep, strip.as_ref(), temp_level);
             let (tip, current) = physics.response(&params, rh_sample, temp_c, jw(f));
             if !(tip.is_finite() && current.is_finite()) {
                 bail!("the physics gave a non-finite response at {f} Hz, RH {rh_sample} %");
@@ -61,7 +63,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             let current = floor(current, current_floor, &mut rng);
             let tip = measured(tip, n.tip_gain_pct, n.tip_phase_deg, &mut rng);
             let current = measured(current, n.current_gain_pct, n.current_phase_deg, &mut rng);
-            let rh_read = h.read_gain * bench.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct);
+            let rh_read = h.read_gain * bench.chamber() + h.read_bias_pct + level_read + rng.gauss(h.read_error_pct);
             points.push(FrPoint {
                 line: 0,
                 time_s: Some(t),

@@ -74,6 +74,11 @@ pub struct Humidity {
     /// Constant offset of the humidity sensor [%RH].
     #[serde(default)]
     pub read_bias_pct: f64,
+    /// Standard deviation of the humidity sensor's error drawn once per level and held through
+    /// it [%RH]: a chamber sensor's absolute error, which a down sweep meets again with another
+    /// draw (`read_error_pct` is the reading-to-reading noise on top).
+    #[serde(default)]
+    pub level_read_error_pct: f64,
     /// Span of the humidity sensor: read = gain · chamber + bias + error.
     #[serde(default = "unit")]
     pub read_gain: f64,
@@ -101,6 +106,7 @@ impl Default for Humidity {
             hydration_tau_s: 0.0,
             read_error_pct: 0.0,
             read_bias_pct: 0.0,
+            level_read_error_pct: 0.0,
             read_gain: 1.0,
             hydration_tau_dry_s: None,
             chamber_tau_s: 0.0,
@@ -116,7 +122,11 @@ fn unit() -> f64 {
 }
 
 /// How the sample differs from its calibration: a drift drawn once per session and a scatter
-/// drawn per level, each log-normal with these standard deviations [%] for Y, Cs, Ca and d.
+/// between levels, each log-normal with these standard deviations [%] for Y, Cs, Ca and d.
+/// Without `strip_seed` the scatter is drawn per level from the session's seed (each session its
+/// own strip); with it, the scatter is the strip's: a fixed function of the strip seed and the
+/// humidity the strip is at ([`crate::simulator::Strip`]), the same in every session naming it,
+/// so that a frequency response and a time series are of one strip.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Sample {
@@ -124,6 +134,8 @@ pub struct Sample {
     pub drift_pct: [f64; 4],
     #[serde(default)]
     pub scatter_pct: [f64; 4],
+    #[serde(default)]
+    pub strip_seed: Option<u64>,
 }
 
 /// Excitation frequencies of a frequency-response session: `list_hz`, or `points` log-spaced
@@ -285,6 +297,7 @@ impl Session {
         non_negative("humidity.settle_s", h.settle_s)?;
         non_negative("humidity.hydration_tau_s", h.hydration_tau_s)?;
         non_negative("humidity.read_error_pct", h.read_error_pct)?;
+        non_negative("humidity.level_read_error_pct", h.level_read_error_pct)?;
         if !h.read_bias_pct.is_finite() {
             bail!("humidity.read_bias_pct must be finite");
         }

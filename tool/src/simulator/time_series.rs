@@ -55,10 +55,12 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     };
     let mut bench = Bench::settled(levels[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
+    let strip = super::Strip::of(&session.sample);
     let mains = Mains::draw(n, &mut rng);
     let room = Room::draw(session, &mut rng);
     let tone_amplitude_m = tones.first().map_or(0.0, |t| t.amplitude_m);
     let (mut dep, mut temp_level) = (drift, room.at(0.0));
+    let mut level_read = 0.0;
     // Responses per tone at the last humidity the sample was at: a constant level costs one
     // model evaluation per tone, not one per sample.
     type TipAndCurrent = (C<f64>, C<f64>);
@@ -68,6 +70,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
         if !plan.ramp {
             let setpoint = levels[leg] + rng.gauss(h.level_error_pct);
             dep = drift.at_level(&session.sample, &mut rng);
+            level_read = rng.gauss(h.level_read_error_pct);
             cached = None;
             if leg > 0 {
                 let wait = h.settle_s + if h.settle_jitter_s > 0.0 { h.settle_jitter_s * rng.uniform() } else { 0.0 };
@@ -98,7 +101,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             }
             let rh_sample = bench.sample();
             if cached.as_ref().is_none_or(|(bits, ..)| *bits != rh_sample.to_bits()) {
-                let (params, temp_c) = sample_at(calib, rh_sample, dep, temp_level);
+                let (params, temp_c) = sample_at(calib, rh_sample, dep, strip.as_ref(), temp_level);
                 let responses = tones.iter().map(|tone| physics.response(&params, rh_sample, temp_c, jw(tone.freq_hz))).collect();
                 // The current a tone at the mains line would give: the pickup's scale.
                 let at_line = mains.as_ref().map_or(0.0, |m| current_response(&params, jw(m.line_hz)).norm() * tone_amplitude_m);
@@ -126,7 +129,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
                 v.push(tip);
             }
             ts.current_a.push(cur);
-            ts.rh_pct.push(h.read_gain * bench.chamber() + h.read_bias_pct + rng.gauss(h.read_error_pct));
+            ts.rh_pct.push(h.read_gain * bench.chamber() + h.read_bias_pct + level_read + rng.gauss(h.read_error_pct));
             if let (Some(v), Some(temp)) = (ts.temp_c.as_mut(), temp_level) {
                 v.push(temp + rng.gauss(session.temp_read_error_k));
             }

@@ -1,0 +1,318 @@
+//! `ipmc strip-check`: the lab's workflow on one strip, end to end, and what it is worth.
+//!
+//! 1. `ipmc identify` on the strip's frequency response (one session on the bench), from the
+//!    lab's nominal calibration (`--calib`): the strip's own calibration.
+//! 2. The current's noise measured on the strip's time series (another session of the same
+//!    strip: periodic multisine bursts with the true `base_m`), from the differences of its
+//!    consecutive periods, into the calibration's `[uncertainty]`.
+//! 3. Every burst made a recording of its own by repeating its whole periods (as `ipmc
+//!    vs-exact` does) and compensated by the firmware's f32 chain (`ipmc compensate`'s code) with
+//!    the strip's own calibration and with the nominal one; beside them the exact band-limited
+//!    inverse of the identified model at the same reading, and, where a truth is given
+//!    (`--truth`), the chain and the exact inverse with the perfect calibration of the strip.
+//!    All scored alike in the design band against `base_m`.
+//!
+//! Per level it prints those errors, the error the chain states (1σ) and how much of it is the
+//! current's noise; then the rms over the levels and the ratios the workflow is judged by.
+
+use crate::chain::{compensate, error_table};
+use crate::commands::identify::{base_calibration, identify};
+use crate::exact;
+use crate::input::read_time_series;
+use crate::looping::{loop_bursts, noise_density};
+use crate::scoring::{SETTLE_S, band_error};
+use anyhow::{Context, Result, anyhow, bail};
+use ipmc_core::{Calibration, InverseKind, LawKind, ParamName};
+use ipmc_recording::{TimeSeries, write_atomically};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The strip's frequency-response recording (the bench session identify calibrates on).
+    fr: PathBuf,
+    /// A time series of the same strip from another session: periodic multisine bursts with
+    /// the true base motion `base_m`, one burst per humidity level.
+    ts: PathBuf,
+    /// The lab's nominal calibration: identify's start and the law shapes, and the calibration
+    /// the strip's own one is compared with. `default`, `paper`, or a TOML file.
+    #[arg(long)]
+    calib: Option<String>,
+    /// Write the strip's own calibration here (with the current's noise measured on the time
+    /// series).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Standard uncertainty of the humidity readings [%RH] (the bench's, one error per level;
+    /// also the time series' for its stated error). Default: what identify estimates from the
+    /// frequency response.
+    #[arg(long)]
+    rh_uncertainty: Option<f64>,
+    /// The strip's truth: its perfect calibration (a TOML file, e.g. from `ipmc simulate
+    /// --strip-calib`), or an independent generator's truths.json (the time series' entry: each
+    /// burst's setpoint and the strip's factors there, see ../shared/external/strips/README.md).
+    #[arg(long)]
+    truth: Option<PathBuf>,
+    /// Period of the excitation [s] (each burst holds whole periods of it).
+    #[arg(long, default_value_t = 1.0)]
+    period_s: f64,
+    /// Seconds scored per level after the chain's settling.
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f64,
+    /// Also print the summary as one JSON line at the end.
+    #[arg(long)]
+    json: bool,
+}
+
+/// One calibration's figures on one level: relative rms errors in the band (fractions).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+struct Scores {
+    chain: f64,
+    exact: f64,
+}
+
+/// One level of the time series.
+#[derive(Clone, Debug, serde::Serialize)]
+struct Level {
+    rh_read_pct: f64,
+    own: Scores,
+    nominal: Scores,
+    perfect: Option<Scores>,
+    /// The chain's stated 1σ with the strip's own calibration (mean over the scored samples),
+    /// and its calibration's part; the rest is the noise's.
+    stated: f64,
+    stated_calibration: f64,
+}
+
+/// The strip's perfect calibration for each burst.
+enum Truth {
+    /// One calibration for every burst (its laws and departures are the strip's).
+    Calibration(Box<Calibration>),
+    /// One per burst (an independent generator's strip: its factors at the burst's setpoint).
+    PerBurst(Vec<Calibration>),
+}
+
+impl Truth {
+    fn at(&self, burst: usize) -> &Calibration {
+        match self {
+            Truth::Calibration(c) => c,
+            Truth::PerBurst(v) => &v[burst],
+        }
+    }
+}
+
+/// `calib` with the law of `p` multiplied by `f` at every humidity.
+fn scale_law(calib: &mut Calibration, p: ParamName, f: f64) {
+    let law = match p {
+        ParamName::Y => &mut calib.y,
+        ParamName::Cs => &mut calib.cs,
+        ParamName::Ca => &mut calib.ca,
+        ParamName::KappaE => &mut calib.kappa_e,
+        ParamName::D => &mut calib.d,
+        ParamName::H => &mut calib.h,
+        ParamName::M => &mut calib.m,
+        _ => return,
+    };
+    match law.kind {
+        LawKind::Poly => law.coeffs.iter_mut().for_each(|c| *c *= f),
+        LawKind::LogPoly => law.coeffs[0] += f.ln(),
+    }
+}
+
+/// The perfect calibration per burst from an independent generator's truths.json: the nominal
+/// laws times the strip's factors at the burst's setpoint (the plan entry measured last before
+/// the burst starts), every parameter the generator scatters.
+fn external_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibration) -> Result<Vec<Calibration>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let all: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
+    let stem = ts_path.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
+    let entry = all.get(stem).ok_or_else(|| anyhow!("{}: no entry `{stem}` (the time series' name)", path.display()))?;
+    let factors = &entry["scatter_factors_at_levels"];
+    let setpoints: Vec<f64> =
+        factors["levels"].as_array().context("scatter_factors_at_levels.levels")?.iter().filter_map(|v| v.as_f64()).collect();
+    let plan = entry["session"]["plan"].as_array().context("session.plan")?;
+    let mut out = vec![];
+    for burst in ts.bursts() {
+        let t0 = ts.t_s[burst.start];
+        let step = plan
+            .iter()
+            .rfind(|p| p["t_meas"].as_f64().is_some_and(|t| t <= t0 + 1e-6))
+            .ok_or_else(|| anyhow!("{}: no plan entry measured before the burst at t = {t0} s", path.display()))?;
+        let set = step["rh_set"].as_f64().context("plan.rh_set")?;
+        let i = setpoints.iter().position(|&s| s == set).ok_or_else(|| anyhow!("{}: no factors at setpoint {set}", path.display()))?;
+        let mut c = *nominal;
+        for (key, p) in [
+            ("Y", ParamName::Y),
+            ("Cs", ParamName::Cs),
+            ("Ca", ParamName::Ca),
+            ("kappa_e", ParamName::KappaE),
+            ("d", ParamName::D),
+            ("h", ParamName::H),
+            ("m", ParamName::M),
+        ] {
+            if let Some(f) = factors[key].get(i).and_then(|v| v.as_f64()) {
+                scale_law(&mut c, p, f);
+            }
+        }
+        out.push(c);
+    }
+    Ok(out)
+}
+
+fn load_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibration) -> Result<Truth> {
+    if path.extension().is_some_and(|e| e == "json") {
+        return Ok(Truth::PerBurst(external_truth(path, ts_path, ts, nominal)?));
+    }
+    Ok(Truth::Calibration(Box::new(crate::calibration_source::load(path.to_str())?)))
+}
+
+/// The chain and the exact inverse with `calib` on one looped burst `rec`, scored in the band.
+fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64) -> Result<(Scores, crate::chain::Estimates)> {
+    let band = (calib.band.low_hz, calib.band.high_hz);
+    let errors = error_table(calib, rec.fs_hz, rh_sd, InverseKind::Exact)?;
+    let est = compensate(calib, rec, None, &errors, InverseKind::Exact)?;
+    let base = rec.base_m.as_ref().expect("cut with base");
+    let n = rec.t_s.len();
+    let chain = band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, band, band);
+    // The exact inverse at the humidity the chain's first design is for.
+    let rh_read = rec.rh_pct.iter().sum::<f64>() / n as f64;
+    let (rh, _) = calib.clamp_rh(calib.humidity.correct(rh_read));
+    let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, band);
+    let exact = band_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band);
+    match (chain, exact) {
+        (Some(chain), Some(exact)) => Ok((Scores { chain, exact }, est)),
+        _ => bail!("burst at {rh_read:.1} %RH: no base in the band to score against"),
+    }
+}
+
+fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+    (s / n.max(1) as f64).sqrt()
+}
+
+pub fn run(a: Args) -> Result<()> {
+    let (nominal, nominal_name) = base_calibration(a.calib.as_deref())?;
+    println!("== identify {} from {nominal_name}", a.fr.display());
+    let id = identify(&a.fr, &nominal, &nominal_name, &[], a.rh_uncertainty)?;
+    let mut own = id.calib;
+    let ts = read_time_series(&a.ts)?;
+    if ts.base_m.is_none() {
+        bail!("{}: no `base_m` column: the time series must carry the true base motion to be scored", a.ts.display());
+    }
+    let per = a.period_s * ts.fs_hz;
+    if !(per >= 1.0 && (per - per.round()).abs() < 1e-6) {
+        bail!("a period of {} s is not a whole number of samples at {} Hz", a.period_s, ts.fs_hz);
+    }
+    let noise = noise_density(&ts, per.round() as usize).ok_or_else(|| anyhow!("{}: no burst holds two periods", a.ts.display()))?;
+    own.uncertainty.current_noise_a_per_rthz = noise;
+    let mut nominal_noisy = nominal;
+    nominal_noisy.uncertainty.current_noise_a_per_rthz = noise;
+    let rh_sd = a.rh_uncertainty.unwrap_or(id.model.hyper.rh_sd_pct);
+    println!(
+        "\n== compensate {} ({} bursts): the current's noise {noise:.3e} A/√Hz (from its consecutive periods), reading uncertainty {rh_sd:.2} %RH",
+        a.ts.display(),
+        ts.bursts().len()
+    );
+    if let Some(out) = &a.out {
+        let text = format!(
+            "{}# [uncertainty] current_noise_a_per_rthz: measured on {} (differences of consecutive periods).\n{}",
+            id.text.split_inclusive('\n').take_while(|l| l.starts_with('#')).collect::<String>(),
+            a.ts.display(),
+            ipmc_core::calibration_file::to_text(&own)
+        );
+        write_atomically(out, text.as_bytes())?;
+        println!("wrote {}", out.display());
+    }
+    let truth = a.truth.as_ref().map(|p| load_truth(p, &a.ts, &ts, &nominal_noisy)).transpose()?;
+
+    let period = per.round() as usize;
+    let total = ((SETTLE_S + a.seconds) * ts.fs_hz).round() as usize;
+    if !total.is_multiple_of(period) {
+        bail!("{SETTLE_S} s of settling + {} s scored must be a whole number of {} s periods", a.seconds, a.period_s);
+    }
+    let looped = loop_bursts(&ts, a.period_s, SETTLE_S + a.seconds)?;
+    let settle = (SETTLE_S * ts.fs_hz).round() as usize;
+    let bar = crate::progress::bar(ts.bursts().len() as u64, "levels");
+    let mut levels = vec![];
+    for (k, (burst, range)) in ts.bursts().into_iter().zip(looped.bursts()).enumerate() {
+        let unit = burst.len() / period * period;
+        let scored = (range.len().saturating_sub(settle)) / unit * unit;
+        let rec = crate::commands::vs_exact::burst_of(&looped, range.start..range.start + settle + scored)?;
+        let (own_s, est) = score(&own, &rec, rh_sd)?;
+        let (nominal_s, _) = score(&nominal_noisy, &rec, rh_sd)?;
+        let perfect = truth.as_ref().map(|t| score(t.at(k), &rec, rh_sd).map(|s| s.0)).transpose()?;
+        let tail = &est.rel_err[settle.min(est.rel_err.len())..];
+        let stated = tail.iter().map(|&e| e as f64).sum::<f64>() / tail.len().max(1) as f64;
+        let errors = error_table(&own, rec.fs_hz, rh_sd, InverseKind::Exact)?;
+        let design_rh = est.rh_pct.last().copied().unwrap_or(f32::NAN) as f64;
+        let stated_calibration = errors.calibration_part(design_rh);
+        levels.push(Level {
+            rh_read_pct: rec.rh_pct.iter().sum::<f64>() / rec.rh_pct.len() as f64,
+            own: own_s,
+            nominal: nominal_s,
+            perfect,
+            stated,
+            stated_calibration,
+        });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    println!(
+        "error in {}–{} Hz against base_m, per level (each burst repeated to {SETTLE_S} s + {} s, the first {SETTLE_S} s not scored), %:",
+        own.band.low_hz, own.band.high_hz, a.seconds
+    );
+    println!(
+        "  level  RH read %   nominal chain   own chain   own exact{}   own stated 1σ (calibration, noise)  covered",
+        if truth.is_some() { "   perfect chain   perfect exact" } else { "" }
+    );
+    for (k, l) in levels.iter().enumerate() {
+        let noise_part = (l.stated.powi(2) - l.stated_calibration.powi(2)).max(0.0).sqrt();
+        println!(
+            "  {:>5}  {:>9.2}  {:>14.2}  {:>10.2}  {:>10.2}{}  {:>13.2} ({:>5.2}, {:>5.2})  {:>12}",
+            k + 1,
+            l.rh_read_pct,
+            100.0 * l.nominal.chain,
+            100.0 * l.own.chain,
+            100.0 * l.own.exact,
+            l.perfect.map_or(String::new(), |p| format!("  {:>14.2}  {:>14.2}", 100.0 * p.chain, 100.0 * p.exact)),
+            100.0 * l.stated,
+            100.0 * l.stated_calibration,
+            100.0 * noise_part,
+            if l.own.chain <= l.stated { "yes" } else { "no" }
+        );
+    }
+    let r = |f: &dyn Fn(&Level) -> f64| rms(levels.iter().map(f));
+    let (nominal_rms, own_rms, own_exact_rms) = (r(&|l| l.nominal.chain), r(&|l| l.own.chain), r(&|l| l.own.exact));
+    let perfect_rms = truth.as_ref().map(|_| (r(&|l| l.perfect.map_or(0.0, |p| p.chain)), r(&|l| l.perfect.map_or(0.0, |p| p.exact))));
+    let covered = levels.iter().filter(|l| l.own.chain <= l.stated).count();
+    println!(
+        "rms over the {} levels: nominal {:.2} %, own {:.2} % (its exact inverse {:.2} %){}",
+        levels.len(),
+        100.0 * nominal_rms,
+        100.0 * own_rms,
+        100.0 * own_exact_rms,
+        perfect_rms.map_or(String::new(), |(c, e)| format!(", perfect {:.2} % (its exact inverse {:.2} %)", 100.0 * c, 100.0 * e))
+    );
+    println!(
+        "own / nominal {:.3}{}; the stated 1σ covers the own chain's error at {covered} of {} levels ({:.0} %; honest: 68 %)",
+        own_rms / nominal_rms,
+        perfect_rms.map_or(String::new(), |(c, _)| format!(", own / perfect {:.3}", own_rms / c)),
+        levels.len(),
+        100.0 * covered as f64 / levels.len() as f64
+    );
+    if a.json {
+        let summary = json!({
+            "levels": levels,
+            "nominal_rms": nominal_rms,
+            "own_rms": own_rms,
+            "own_exact_rms": own_exact_rms,
+            "perfect_rms": perfect_rms.map(|p| p.0),
+            "perfect_exact_rms": perfect_rms.map(|p| p.1),
+            "covered": covered,
+            "rh_uncertainty_pct": rh_sd,
+            "current_noise_a_per_rthz": noise,
+        });
+        println!("{summary}");
+    }
+    Ok(())
+}

@@ -1,0 +1,87 @@
+//! What limits an estimate, per humidity: the stated 1σ split into the calibration's part (what
+//! the calibration and the humidity reading leave unknown; it does not shrink with the signal)
+//! and the current noise's part (the noise-equivalent base motion in the band over the
+//! estimate's own rms there), so a user sees whether a better calibration or a stronger signal
+//! would help.
+
+use ipmc_core::expected_error::ErrorTable;
+
+/// Width of a row [%RH].
+const ROW_PCT: f32 = 5.0;
+/// Blocks at the start of each burst left out: the estimate's in-band power (the noise part's
+/// denominator) is smoothed over about a second and reads low until then.
+const SETTLING_BLOCKS: usize = 64;
+
+/// One row per [`ROW_PCT`] of design humidity the estimate visited: the medians over its blocks.
+/// `rh_pct`, `rel_err` and `burst_start` are per sample, as the chain gives them; `block_len`
+/// samples share one value.
+pub fn table(errors: &ErrorTable, rh_pct: &[f32], rel_err: &[f32], burst_start: &[usize], block_len: usize, band: (f64, f64)) -> String {
+    // (row, stated, calibration's, noise's) per settled block.
+    let mut blocks: Vec<(i32, f32, f32, f32)> = vec![];
+    for start in (0..rh_pct.len()).step_by(block_len) {
+        if (start - burst_start[start]) / block_len < SETTLING_BLOCKS {
+            continue;
+        }
+        let (rh, stated) = (rh_pct[start], rel_err[start]);
+        if !stated.is_finite() {
+            continue;
+        }
+        let calibration = errors.calibration_part(rh);
+        let noise = (stated * stated - calibration * calibration).max(0.0).sqrt();
+        blocks.push(((rh / ROW_PCT).floor() as i32, stated, calibration, noise));
+    }
+    if blocks.is_empty() {
+        return String::new();
+    }
+    blocks.sort_by_key(|b| b.0);
+    let mut out = format!(
+        "what limits the estimate ({}–{} Hz; stated 1σ = calibration ⊕ noise, medians over the settled blocks):\n  \
+         RH %        stated %   calibration %   noise %   noise-equivalent base motion [µm rms]   blocks\n",
+        band.0, band.1
+    );
+    for row in blocks.chunk_by(|a, b| a.0 == b.0) {
+        let lo = row[0].0 as f32 * ROW_PCT;
+        let noise_m = errors.noise_equivalent_m(lo + ROW_PCT / 2.0);
+        out += &format!(
+            "  {:>4.0}–{:<4.0} {:>9.2} {:>15.2} {:>9.2} {:>39.3} {:>8}\n",
+            lo,
+            lo + ROW_PCT,
+            100.0 * median(row.iter().map(|b| b.1)),
+            100.0 * median(row.iter().map(|b| b.2)),
+            100.0 * median(row.iter().map(|b| b.3)),
+            1e6 * noise_m,
+            row.len()
+        );
+    }
+    out
+}
+
+fn median(values: impl Iterator<Item = f32>) -> f32 {
+    let mut v: Vec<f32> = values.collect();
+    v.sort_by(f32::total_cmp);
+    v[v.len() / 2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_core::{Calibration, InverseKind};
+
+    #[test]
+    fn the_parts_add_up_to_the_stated_error_and_rows_follow_the_humidity() {
+        let calib = Calibration::default_preset();
+        let errors = crate::chain::error_table(&calib, 2000.0, 1.0, InverseKind::Exact).expect("table");
+        let (block, n) = (32, 32 * 200);
+        // Two humidities, a stated error larger than the calibration's part at each.
+        let rh: Vec<f32> = (0..n).map(|i| if i < n / 2 { 42.0 } else { 71.0 }).collect();
+        let stated: Vec<f32> = rh.iter().map(|&r| (errors.calibration_part(r).powi(2) + 0.1f32.powi(2)).sqrt()).collect();
+        let t = table(&errors, &rh, &stated, &vec![0; n], block, (10.0, 150.0));
+        let rows: Vec<&str> = t.lines().skip(2).collect();
+        assert_eq!(rows.len(), 2, "{t}");
+        assert!(rows[0].trim_start().starts_with("40–45") && rows[1].trim_start().starts_with("70–75"), "{t}");
+        for r in rows {
+            let noise: f32 = r.split_whitespace().nth(3).unwrap().parse().unwrap();
+            assert!((noise - 10.0).abs() < 0.02, "{t}");
+        }
+    }
+}
