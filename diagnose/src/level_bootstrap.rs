@@ -14,6 +14,8 @@
 //! do not hold the truth exactly. Candidates whose evidence does not decompose by level
 //! (humidity remaps, mains) keep their ΔBIC in every replicate.
 
+use ipmc_fit::random::SplitMix64;
+
 /// Number of replicates: the Monte-Carlo error of a probability is ≤ 0.5/√N ≈ 0.008.
 pub const REPLICATES: usize = 4000;
 
@@ -63,19 +65,6 @@ fn accumulate(into: &mut [f64], ln: impl Iterator<Item = f64>, weight: f64) {
     }
 }
 
-/// Steele, Lea & Flood's SplitMix64: a fixed seed, so one recording gets one verdict.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -100,13 +89,5 @@ mod tests {
         let p = averaged_posterior(&[h(4.0, &[]), h(0.0, &[])], 10, 1.0);
         let bic = 1.0 / (1.0 + (-2.0f64).exp());
         assert!((p[0] - bic).abs() < 1e-12 && (p.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{p:?}");
-    }
-
-    #[test]
-    fn uniform_draws_fill_the_unit_interval() {
-        let mut r = SplitMix64(0x1d_c0ff_ee27);
-        let v: Vec<f64> = (0..100_000).map(|_| r.uniform()).collect();
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        assert!(v.iter().all(|x| (0.0..1.0).contains(x)) && (mean - 0.5).abs() < 0.005, "{mean}");
     }
 }
