@@ -27,16 +27,28 @@ pub struct Evidence<'a> {
     pub per_level: &'a [f64],
 }
 
-/// The posterior probability of each hypothesis, averaged over [`REPLICATES`] Bayesian
-/// bootstrap weightings of the `n_levels` levels; `scale` divides every ΔBIC (the evidence's
+/// The posterior probability of each hypothesis, `hypotheses[0]` being the null (no effect,
+/// ΔBIC 0) that every other one nests; `scale` divides every ΔBIC (the evidence's
 /// temperature). In the order given.
+///
+/// The null's probability is BIC's own, from the point evidence: its Δχ² against a candidate
+/// is ≥ 0 at every level by construction, so re-weighting the levels can only spread a losing
+/// candidate's evidence upwards through the convex odds (Jensen) and would lend every clean
+/// strip's candidates probability whatever its data. What the levels' bootstrap judges is which
+/// of the candidates explains what the null leaves: the rest of the probability is split among
+/// them by their posterior averaged over [`REPLICATES`] Bayesian-bootstrap weightings of the
+/// `n_levels` levels.
 pub fn averaged_posterior(hypotheses: &[Evidence], n_levels: usize, scale: f64) -> Vec<f64> {
+    let ln = |h: &Evidence, shift: f64| h.ln_prior + (h.delta_bic + shift) / (2.0 * scale);
+    let mut point = vec![0.0; hypotheses.len()];
+    accumulate(&mut point, hypotheses.iter().map(|h| ln(h, 0.0)), 1.0);
+    let Some((null, candidates)) = point.split_first() else { return point };
     let decomposes = |h: &Evidence| n_levels > 1 && h.per_level.len() == n_levels;
-    let mut mean = vec![0.0; hypotheses.len()];
-    if !hypotheses.iter().any(decomposes) {
-        accumulate(&mut mean, hypotheses.iter().map(|h| h.ln_prior + h.delta_bic / (2.0 * scale)), 1.0);
-        return mean;
+    if !hypotheses[1..].iter().any(decomposes) {
+        return point;
     }
+    let rest = 1.0 - null;
+    let mut shares = vec![0.0; candidates.len()];
     let mut rng = SplitMix64(0x1d_c0ff_ee27);
     let mut w = vec![0.0; n_levels];
     for _ in 0..REPLICATES {
@@ -46,13 +58,13 @@ pub fn averaged_posterior(hypotheses: &[Evidence], n_levels: usize, scale: f64) 
         }
         let total: f64 = w.iter().sum();
         w.iter_mut().for_each(|wi| *wi *= n_levels as f64 / total);
-        let ln = hypotheses.iter().map(|h| {
+        let replicate = hypotheses[1..].iter().map(|h| {
             let shift: f64 = if decomposes(h) { h.per_level.iter().zip(&w).map(|(d, wi)| d * (wi - 1.0)).sum() } else { 0.0 };
-            h.ln_prior + (h.delta_bic + shift) / (2.0 * scale)
+            ln(h, shift)
         });
-        accumulate(&mut mean, ln, 1.0 / REPLICATES as f64);
+        accumulate(&mut shares, replicate, 1.0 / REPLICATES as f64);
     }
-    mean
+    std::iter::once(*null).chain(shares.iter().map(|s| s * rest)).collect()
 }
 
 /// Adds `weight` × the normalized probabilities of the log-weights `ln` to `into`.
@@ -73,21 +85,38 @@ mod tests {
         Evidence { ln_prior: 0.0, delta_bic, per_level }
     }
 
-    /// A lead every level shares stays certain; the same lead carried by one level of ten against
-    /// the others is split; without per-level evidence the result is BIC's own posterior.
+    /// Among candidates, a lead every level shares stays certain and the same lead carried by
+    /// one level of ten against the others is split; the null's probability is BIC's own
+    /// however the candidates' evidence is spread over levels; without per-level evidence the
+    /// result is BIC's own posterior.
     #[test]
-    fn a_lead_few_levels_carry_is_split() {
-        let shared = [2.0; 10];
-        let flat = [0.0; 10];
-        let p = averaged_posterior(&[h(20.0, &shared), h(0.0, &flat)], 10, 1.0);
-        assert!(p[0] > 0.99, "{p:?}");
+    fn a_lead_few_levels_carry_is_split_between_candidates() {
+        let shared = [3.0; 10];
+        let flat = [1.0; 10];
+        let null = || h(-100.0, &[]);
+        let p = averaged_posterior(&[null(), h(30.0, &shared), h(10.0, &flat)], 10, 1.0);
+        assert!(p[1] > 0.99, "{p:?}");
         // The same ΔBIC from one level while the nine others lean the other way.
-        let mut one = [-2.0; 10];
-        one[3] = 38.0;
-        let p = averaged_posterior(&[h(20.0, &one), h(0.0, &flat)], 10, 1.0);
-        assert!(p[0] < 0.9 && p[0] > 0.3, "{p:?}");
+        let mut one = [-1.0; 10];
+        one[3] = 29.0;
+        let p = averaged_posterior(&[null(), h(30.0, &one), h(10.0, &flat)], 10, 1.0);
+        assert!(p[1] < 0.9 && p[1] > 0.3, "{p:?}");
+        assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9, "{p:?}");
         let p = averaged_posterior(&[h(4.0, &[]), h(0.0, &[])], 10, 1.0);
         let bic = 1.0 / (1.0 + (-2.0f64).exp());
         assert!((p[0] - bic).abs() < 1e-12 && (p.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{p:?}");
+    }
+
+    /// A clean strip: the candidate's Δχ² sits in one level (noise) and its ΔBIC is negative.
+    /// Re-weighting levels would lend it up to a tenth of the probability; the null keeps
+    /// BIC's odds.
+    #[test]
+    fn the_null_keeps_its_point_odds() {
+        let mut one = [0.1; 10];
+        one[2] = 14.0;
+        let delta_bic = one.iter().sum::<f64>() - 18.0;
+        let p = averaged_posterior(&[h(0.0, &[]), h(delta_bic, &one)], 10, 1.0);
+        let bic = 1.0 / (1.0 + (delta_bic / 2.0).exp());
+        assert!((p[0] - bic).abs() < 1e-12, "{p:?} against {bic}");
     }
 }
