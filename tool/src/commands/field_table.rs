@@ -4,18 +4,20 @@
 //! humidity, and with a perfect hygrometer at the strip; and the strip's own estimate: how often
 //! there is one from 70 %RH, and how often its stated 1σ covers the truth.
 //!
-//! Scored as the README scores: error and true base both band-limited to 10–150 Hz over the whole
-//! recording (here by a zero-phase Butterworth pair, 4th order each edge, run forward and
-//! backward), after the first 20 s, at the best delay of 0–40 samples.
+//! Scored as the README scores: estimate and true base both band-limited to 10–150 Hz over the
+//! whole recording at once (its DFT kept in the band: the estimate is band-limited by the chain's
+//! own filter already, and a softer edge applied to the truth alone would count what lies beyond
+//! the band as error), after the first 20 s, at the best delay of 0–40 samples past the chain's
+//! own.
 
 use crate::chain::{compensate, error_table, rh_uncertainty};
 use crate::hygrometer::{self, Second};
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
 use anyhow::{Context, Result, anyhow};
+use ipmc_core::Calibration;
 use ipmc_core::humidity_path::HumidityPath;
 use ipmc_core::running_spectrum::AVERAGING_S;
-use ipmc_core::{Calibration, Cascade, Sos};
 use ipmc_recording::TimeSeries;
 use std::path::PathBuf;
 
@@ -39,35 +41,22 @@ pub struct Args {
 const SKIP_S: f64 = 20.0;
 const MAX_DELAY: usize = 40;
 const WET_PCT: f64 = 70.0;
+/// The README's band.
+const BAND_HZ: (f64, f64) = (10.0, 150.0);
 
-fn section(fc: f64, fs: f64, high: bool) -> Sos<f64> {
-    let w0 = 2.0 * std::f64::consts::PI * fc / fs;
-    let alpha = w0.sin() / (2.0 * std::f64::consts::FRAC_1_SQRT_2);
-    let (a0, c) = (1.0 + alpha, w0.cos());
-    let a = [1.0, -2.0 * c / a0, (1.0 - alpha) / a0];
-    if high {
-        Sos::from_ba([(1.0 + c) / 2.0 / a0, -(1.0 + c) / a0, (1.0 + c) / 2.0 / a0], a)
-    } else {
-        Sos::from_ba([(1.0 - c) / 2.0 / a0, (1.0 - c) / a0, (1.0 - c) / 2.0 / a0], a)
-    }
-}
-
+/// `x` with only its content in 10–150 Hz, over the whole series at once.
 fn band_limited(x: &[f64], fs: f64) -> Vec<f64> {
-    let mut y = x.to_vec();
-    let sections = [section(10.0, fs, true), section(150.0, fs, false)];
-    for _ in 0..2 {
-        Cascade::from_sections(&sections, 1.0).process_block(&mut y);
-        y.reverse();
-    }
-    y
+    let ks = crate::band::bins(x.len(), fs, BAND_HZ.0, BAND_HZ.1);
+    crate::band::synthesize(&crate::band::dft(x, ks.clone()), ks, x.len())
 }
 
-/// rms(estimate − base delayed) / rms(base delayed) in the band, at the best delay [%].
-pub(crate) fn score(est: &[f32], base: &[f64], fs: f64) -> f64 {
+/// rms(estimate − base delayed) / rms(base delayed) in the band, at the best delay of
+/// `delay0` (the chain's own: its preview and its band filter) plus 0–[`MAX_DELAY`] samples [%].
+pub(crate) fn score(est: &[f32], base: &[f64], fs: f64, delay0: usize) -> f64 {
     let e = band_limited(&est.iter().map(|&v| v as f64).collect::<Vec<_>>(), fs);
     let b = band_limited(base, fs);
     let start = (SKIP_S * fs) as usize;
-    (0..=MAX_DELAY)
+    (delay0..=delay0 + MAX_DELAY)
         .map(|d| {
             let (mut se, mut sb) = (0.0, 0.0);
             for k in start.max(d)..e.len().min(b.len() + d) {
@@ -86,7 +75,7 @@ pub(crate) fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<f64> {
     let errors = error_table(calib, ts.fs_hz, rh_sd, kind)?;
     let est = compensate(calib, ts, None, &errors, InverseChoice::Exact.kind(rh_sd))?;
     let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("no base_m column"))?;
-    Ok(score(&est.base_est_m, base, ts.fs_hz))
+    Ok(score(&est.base_est_m, base, ts.fs_hz, est.delay_samples.first().copied().unwrap_or(0)))
 }
 
 /// One file's figures: (strip %RH, reading, fused, perfect hygrometer).
