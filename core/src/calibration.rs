@@ -407,6 +407,20 @@ impl Calibration {
         }
     }
 
+    /// The humidity law of `p` to change in place (None: `p` is a constant of the strip).
+    pub fn law_mut(&mut self, p: ParamName) -> Option<&mut Law> {
+        match p {
+            ParamName::Y => Some(&mut self.y),
+            ParamName::Cs => Some(&mut self.cs),
+            ParamName::Ca => Some(&mut self.ca),
+            ParamName::KappaE => Some(&mut self.kappa_e),
+            ParamName::D => Some(&mut self.d),
+            ParamName::H => Some(&mut self.h),
+            ParamName::M => Some(&mut self.m),
+            _ => None,
+        }
+    }
+
     /// Replaces one parameter by a fixed value: a humidity law becomes a constant law.
     pub fn set(&mut self, p: ParamName, v: f64) {
         let law = Law::constant(v);

@@ -158,19 +158,6 @@ fn fit_law(param: ParamName, kind: LawKind, degree: usize, points: &[(f64, Estim
     Ok((law, chi2))
 }
 
-fn law_slot(c: &mut Calibration, p: ParamName) -> &mut Law {
-    match p {
-        ParamName::Y => &mut c.y,
-        ParamName::Cs => &mut c.cs,
-        ParamName::Ca => &mut c.ca,
-        ParamName::KappaE => &mut c.kappa_e,
-        ParamName::D => &mut c.d,
-        ParamName::H => &mut c.h,
-        ParamName::M => &mut c.m,
-        _ => unreachable!("{} has no humidity law", p.as_str()),
-    }
-}
-
 fn kind_name(k: LawKind) -> &'static str {
     match k {
         LawKind::Poly => "poly",
@@ -229,7 +216,7 @@ pub fn calibration_from_levels(
             }
         }
         let (law, degree) = law.ok_or(LawError::Singular { param })?;
-        *law_slot(&mut calib, param) = law;
+        *calib.law_mut(param).unwrap_or_else(|| unreachable!("{} has no humidity law", param.as_str())) = law;
         written[k] = Some(law);
         let test = model.law_tests[k];
         report.push(LawFit {

@@ -102,16 +102,7 @@ impl Truth {
 
 /// `calib` with the law of `p` multiplied by `f` at every humidity.
 fn scale_law(calib: &mut Calibration, p: ParamName, f: f64) {
-    let law = match p {
-        ParamName::Y => &mut calib.y,
-        ParamName::Cs => &mut calib.cs,
-        ParamName::Ca => &mut calib.ca,
-        ParamName::KappaE => &mut calib.kappa_e,
-        ParamName::D => &mut calib.d,
-        ParamName::H => &mut calib.h,
-        ParamName::M => &mut calib.m,
-        _ => return,
-    };
+    let Some(law) = calib.law_mut(p) else { return };
     match law.kind {
         LawKind::Poly => law.coeffs.iter_mut().for_each(|c| *c *= f),
         LawKind::LogPoly => law.coeffs[0] += f.ln(),
