@@ -468,7 +468,7 @@ pub fn strip_rh<T: Real>(calib: &Calibration, s: &SpectrumView<'_, T>, noise_psd
     }
     let h = p.log_gain(rh, None);
     let mut var_cal = T::zero();
-    for (name, sd) in calib.uncertainty.relative_sds() {
+    for (name, sd) in calib.uncertainty_at(rh.to_f64()).relative_sds() {
         if sd > 0.0 {
             let moved = p.log_gain(rh, Some((name, T::lit(libm::exp(sd)))));
             let mut dh = [T::zero(); MAX_BINS];
