@@ -176,5 +176,6 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         heldout_before_is: before_is,
         heldout_after_is: after_is,
         humidity_path,
+        humidity_reach: crate::humidity_reach::reach(&ctx),
     })
 }

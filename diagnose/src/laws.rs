@@ -205,18 +205,23 @@ pub fn fitted(reg: &Regressors, theta: &[Theta], se: &[Theta]) -> (Vec<Theta>, u
 /// σ_h² is profiled (0 included), τ_j² by moments given it. Unlike a χ² at fixed weights, it
 /// lets a model that explains the scatter (temperature, hydration) show it.
 pub fn nll(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta]) -> f64 {
-    let at = |s2: f64| nll_at(pred, theta, se, grad, s2);
-    let none = at(0.0);
-    let (_, best) = minimize_log(at, READ_VARIANCE_RANGE.0, READ_VARIANCE_RANGE.1);
-    none.min(best)
+    nll_per_level(pred, theta, se, grad).iter().sum()
+}
+
+/// [`nll`] level by level (its terms at the profiled read variance): a level's Σ_l is its own,
+/// so the likelihood is a sum over levels.
+pub fn nll_per_level(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta]) -> Vec<f64> {
+    let at = |s2: f64| nll_at(pred, theta, se, grad, s2).iter().sum::<f64>();
+    let (s2, best) = minimize_log(at, READ_VARIANCE_RANGE.0, READ_VARIANCE_RANGE.1);
+    nll_at(pred, theta, se, grad, if at(0.0) <= best { 0.0 } else { s2 })
 }
 
 /// Where the per-level humidity read variance is profiled [%RH²]: 0.03–5 %RH standard
 /// deviation, from a sensor's repeatability to the ±3.5 %RH an HTS221 is specified to.
 const READ_VARIANCE_RANGE: (f64, f64) = (1e-3, 25.0);
 
-/// [`nll`] at a read variance `s2` [%RH²].
-fn nll_at(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta], s2: f64) -> f64 {
+/// [`nll`] at a read variance `s2` [%RH²], level by level.
+fn nll_at(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta], s2: f64) -> Vec<f64> {
     let valid = |l: usize, j: usize| !se[l][j].is_nan() && pred[l][j].is_finite();
     let own = |l: usize, j: usize| se[l][j].min(1.0).powi(2);
     let mut tau2 = [0.0; 4];
@@ -230,7 +235,7 @@ fn nll_at(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta], s2: f64
         let ms = mean(&|l| (theta[l][j] - pred[l][j]).powi(2));
         *t = (ms - mean(&|l| own(l, j)) - s2 * mean(&|l| grad[l][j].powi(2))).max(1e-8);
     }
-    let mut total = 0.0;
+    let mut total = Vec::with_capacity(theta.len());
     for l in 0..theta.len() {
         // Σ = D + s2·g·gᵀ: Sherman–Morrison for the quadratic form and the determinant.
         let (mut q, mut logdet, mut rg, mut gg) = (0.0, 0.0, 0.0, 0.0);
@@ -242,7 +247,7 @@ fn nll_at(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta], s2: f64
             rg += r * grad[l][j] / d;
             gg += grad[l][j].powi(2) / d;
         }
-        total += q - s2 * rg * rg / (1.0 + s2 * gg) + logdet + (1.0 + s2 * gg).ln();
+        total.push(q - s2 * rg * rg / (1.0 + s2 * gg) + logdet + (1.0 + s2 * gg).ln());
     }
     total
 }

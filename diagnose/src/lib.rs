@@ -15,6 +15,8 @@
 //! - [`scorers`]: one scorer per kind of candidate behind one interface.
 //! - [`remap`]: candidates acting through the humidity (sensor error, hydration lag).
 //! - [`humidity_path`]: the whole humidity path fitted at once for the calibration.
+//! - [`humidity_reach`]: the shortest lag and smallest offset a recording could name.
+//! - [`level_bootstrap`]: the evidence's uncertainty over levels (Bayesian bootstrap).
 //! - [`decide`]: the decision rule and its thresholds.
 //! - [`types`]: what a diagnosis reports.
 //! - [`engine`]: the diagnosis in order.
@@ -28,7 +30,9 @@ pub mod effect;
 pub mod engine;
 pub mod held_out;
 pub mod humidity_path;
+pub mod humidity_reach;
 pub mod laws;
+pub mod level_bootstrap;
 pub mod locate;
 pub mod mains_between_lines;
 pub mod remap;

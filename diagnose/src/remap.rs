@@ -44,9 +44,14 @@ pub(crate) fn with_drift(ctx: &Ctx, cal: Vec<Theta>, train: &[usize]) -> Vec<The
 
 /// −2 ln L of the levels `train`'s θ under [`anchored`] at humidities `rh`.
 pub(crate) fn anchored_nll(ctx: &Ctx, rh: &[f64], train: &[usize]) -> f64 {
+    anchored_nll_per_level(ctx, rh, train).iter().sum()
+}
+
+/// [`anchored_nll`] level by level, in the order of `train`.
+pub(crate) fn anchored_nll_per_level(ctx: &Ctx, rh: &[f64], train: &[usize]) -> Vec<f64> {
     let pred = anchored(ctx, rh, train);
     let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
-    laws::nll(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se), &pick(&ctx.read_gradient))
+    laws::nll_per_level(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se), &pick(&ctx.read_gradient))
 }
 
 /// The hydration lag τ [s] that best maps the levels `train` onto the calibration, and its −2 ln L.
@@ -158,6 +163,8 @@ pub(crate) struct RemapScore {
     /// BIC): then the levels' parameters follow the calibration's laws at no humidity, and their
     /// drift is not a humidity error.
     pub delta_chi2: f64,
+    /// `delta_chi2` level by level (empty when it is 0 by the free laws' test).
+    pub per_level: Vec<f64>,
     pub note: String,
     pub floor: Option<String>,
     pub held: HeldOut,
@@ -180,14 +187,17 @@ pub(crate) struct Remap<'a> {
 /// free humidity laws and their parameter count, `n_theta` the number of level parameters.
 pub(crate) fn score_remap(ctx: &Ctx, remap: &Remap, law0: (f64, usize), n_theta: f64) -> RemapScore {
     let everyone: Vec<usize> = (0..ctx.n_levels()).collect();
-    let nll_null = anchored_nll(ctx, &ctx.read_rh(), &everyone);
-    let nll_alt = anchored_nll(ctx, &remap.rh, &everyone);
+    let null_per_level = anchored_nll_per_level(ctx, &ctx.read_rh(), &everyone);
+    let alt_per_level = anchored_nll_per_level(ctx, &remap.rh, &everyone);
+    let (nll_null, nll_alt): (f64, f64) = (null_per_level.iter().sum(), alt_per_level.iter().sum());
     let bic_alt = nll_alt + (remap.k + 4) as f64 * n_theta.ln();
     let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
     let fitted = Fitted { theta: anchored(ctx, &remap.rh, &everyone), ..ctx.plain() };
     let (null, candidate) = heldout_anchored(ctx, &fitted, remap.remap_of);
+    let explains = bic_alt <= bic_laws;
     RemapScore {
-        delta_chi2: if bic_alt <= bic_laws { nll_null - nll_alt } else { 0.0 },
+        delta_chi2: if explains { nll_null - nll_alt } else { 0.0 },
+        per_level: if explains { null_per_level.iter().zip(&alt_per_level).map(|(n, a)| n - a).collect() } else { vec![] },
         note: format!(
             "calibration + drift as read: −2lnL {nll_null:.1}; {} {nll_alt:.1}; free laws {:.1} ({} parameters)",
             remap.mapped, law0.0, law0.1

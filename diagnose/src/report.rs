@@ -19,6 +19,7 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -
         "set": d.set,
         "set_rule": format!("the smallest set of hypotheses holding {:.0} % of the probability; a name is stated only when it alone does (else the verdict is undecided)", 100.0 * crate::decide::CONFIDENCE),
         "separating_measurement": d.separation,
+        "humidity_reach": d.humidity_reach,
         "indistinguishable": d.indistinguishable,
         "instrument": d.instrument,
         "overdispersion": d.overdispersion,
@@ -73,6 +74,21 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     if let Some(m) = &d.separation {
         let _ = writeln!(s, "**What would separate {} from {}:** {} ({}): {}.\n", m.between[0], m.between[1], m.record, m.band, m.because);
     }
+    let r = &d.humidity_reach;
+    let _ = writeln!(
+        s,
+        "**What this recording can carry of the humidity path:** a hydration lag from {} ({}), a sensor offset from {:.1} %RH.{}\n",
+        r.shortest_lag_s.map_or("none (no lag up to an hour moves a level by the floor)".into(), |t| format!("{t:.0} s")),
+        if r.both_directions { "levels revisited in the other direction" } else { "one sweep direction" },
+        r.smallest_offset_pct,
+        r.measurement.as_ref().map_or(String::new(), |m| format!(
+            " Lab-sized ones ({:.0} s, {:.1} %RH) would need: {} ({}).",
+            crate::humidity_reach::LAB_LAG_S,
+            crate::humidity_reach::LAB_OFFSET_PCT,
+            m.record,
+            m.band
+        ))
+    );
     if !d.indistinguishable.is_empty() {
         let _ = writeln!(s, "**The candidates in the set:**\n");
         let _ = writeln!(

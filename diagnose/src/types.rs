@@ -99,6 +99,8 @@ pub struct Score {
     pub params: Vec<Estimate>,
     /// χ² improvement over no extension (data or per-level parameters, see `space`).
     pub delta_chi2: f64,
+    /// `delta_chi2` level by level where the fit decomposes so (model candidates), else empty.
+    pub delta_chi2_per_level: Vec<f64>,
     pub extra_params: usize,
     pub delta_bic: f64,
     pub space: Space,
@@ -116,7 +118,7 @@ pub struct Score {
     /// Every gate but the information criterion passed (held-out, floors): `passes` is this and
     /// ΔBIC ≥ [`crate::decide::MIN_DELTA_BIC`] once ΔBIC is corrected for overdispersion.
     #[serde(skip)]
-    pub(crate) other_gates: bool,
+    pub other_gates: bool,
 }
 
 /// A candidate the data cannot separate from the verdict, with the evidence.
@@ -296,6 +298,9 @@ pub struct Diagnosis {
     /// path fitted at once (see [`crate::humidity_path::fit`]), relative to the humidity the levels are
     /// at (the readings through the calibration's own path).
     pub humidity_path: Option<HumidityPath>,
+    /// The shortest lag and smallest sensor offset this recording could name, and what would
+    /// carry the lab-sized ones it cannot.
+    pub humidity_reach: crate::humidity_reach::HumidityReach,
 }
 
 impl Diagnosis {

@@ -18,6 +18,7 @@
 //! - [`stats`]: the χ² distribution's tail and a simplex minimizer.
 //! - [`scatter`]: how far the levels stray from those laws (the calibration's `[uncertainty]`).
 //! - [`scalar`]: minimizing a function of one positive scalar over decades.
+//! - [`random`]: deterministic random numbers (the simulator's recordings, a diagnosis's bootstrap).
 //!
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
@@ -28,6 +29,7 @@ pub mod level;
 pub mod lsq;
 pub mod multisine;
 pub mod noise;
+pub mod random;
 pub mod recordings;
 pub mod refit;
 pub mod response;

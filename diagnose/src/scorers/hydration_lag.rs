@@ -53,6 +53,7 @@ impl Scorer for HydrationLagScorer {
             held: r.held,
             own_heldout_z: None,
             occam: None,
+            per_level: r.per_level,
         })))
     }
 }

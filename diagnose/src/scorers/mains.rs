@@ -86,6 +86,7 @@ impl Scorer for MainsScorer {
             floor,
             own_heldout_z: between.as_ref().map(|e| e.heldout_z),
             occam: None,
+            per_level: vec![],
             held,
         })))
     }
@@ -104,6 +105,7 @@ fn seen_between_lines_only(ctx: &Ctx, e: &MainsEvidence) -> Candidacy {
         floor: None,
         own_heldout_z: Some(e.heldout_z),
         occam: None,
+        per_level: vec![],
         held: HeldOut {
             candidate: null.clone(),
             null,

@@ -54,6 +54,10 @@ pub(crate) struct Candidacy {
     /// from the literature (the Laplace approximation of its evidence): it replaces BIC's price
     /// k·ln N, which stands for a prior as wide as one datum's worth of information.
     pub occam: Option<f64>,
+    /// `delta_chi2` level by level, where the candidate's fit decomposes so (a model candidate's
+    /// joint fit against the per-level refit); what is not in it (the channels' prior terms) is
+    /// the same whichever levels were recorded.
+    pub per_level: Vec<f64>,
 }
 
 pub(crate) enum Trial {
@@ -123,6 +127,7 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
             applicable: true,
             params: c.params,
             delta_chi2: c.delta_chi2,
+            delta_chi2_per_level: c.per_level,
             extra_params: c.extra_params,
             delta_bic,
             space: c.space,
@@ -148,6 +153,7 @@ fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
         applicable: false,
         params: vec![],
         delta_chi2: 0.0,
+        delta_chi2_per_level: vec![],
         extra_params: 0,
         delta_bic: 0.0,
         space: Space::NotTested,

@@ -32,6 +32,7 @@ impl Scorer for ModelScorer {
         let exts: Vec<Extension<f64>> =
             (0..levels.len()).map(|l| ext(&j.phi, &fits::level_params(ctx.calib, &levels[l], &j.theta[l]))).collect();
         let chi2: f64 = j.chi2.iter().sum();
+        let per_level: Vec<f64> = ctx.base.chi2.iter().zip(&j.chi2).map(|(b, a)| b - a).collect();
         let fitted = Fitted { theta: j.theta, se: j.se, ext: exts, masks: ctx.all.clone(), regressors: ctx.read.clone() };
         let held = HeldOut {
             null: ctx.refit_null(),
@@ -50,6 +51,7 @@ impl Scorer for ModelScorer {
             held,
             own_heldout_z: None,
             occam: None,
+            per_level,
         })))
     }
 }

@@ -51,6 +51,7 @@ impl Scorer for SensorErrorScorer {
             held: r.held,
             own_heldout_z: None,
             occam: None,
+            per_level: r.per_level,
         })))
     }
 }

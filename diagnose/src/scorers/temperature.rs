@@ -73,6 +73,7 @@ impl Scorer for TemperatureScorer {
             held,
             own_heldout_z: None,
             occam: Some(fit.occam),
+            per_level: vec![],
         })))
     }
 }

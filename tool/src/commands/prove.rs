@@ -158,8 +158,12 @@ fn record(truth: &str, d: &ipmc_diagnose::Diagnosis) -> serde_json::Value {
         "overdispersion": d.overdispersion,
         "candidates": d.candidates.iter().map(|c| serde_json::json!({
             "name": c.name, "applicable": c.applicable, "delta_bic": c.delta_bic, "passes": c.passes,
-            "heldout_z": c.heldout_z, "space": c.space,
+            "heldout_z": c.heldout_z, "other_gates": c.other_gates, "space": c.space, "delta_chi2": c.delta_chi2,
+            "delta_chi2_per_level": c.delta_chi2_per_level, "extra_params": c.extra_params,
+            "heldout_per_level": c.heldout_per_level, "heldout_null_per_level": c.heldout_null_per_level,
         })).collect::<Vec<_>>(),
+        "humidity_reach": d.humidity_reach,
+        "levels": d.levels.iter().map(|l| serde_json::json!({"rh_pct": l.rh_pct, "time_s": l.time_s, "revisit_of": l.revisit_of})).collect::<Vec<_>>(),
     })
 }
 
