@@ -153,10 +153,11 @@ fn band_expr(band: &Band) -> String {
 }
 
 fn departures_expr(t: &Departures) -> String {
-    let Departures { n, rh_pct, ln } = t;
+    let Departures { n, rh_pct, ln, sd } = t;
     let array = |a: &[f64]| format!("[{}]", a.iter().map(|&v| f64_expr(v)).collect::<Vec<_>>().join(", "));
-    let ln: Vec<String> = ln.iter().map(|row| array(row)).collect();
-    format!("ipmc_core::departures::Departures {{ n: {n}, rh_pct: {}, ln: [{}] }}", array(rh_pct), ln.join(", "))
+    let rows = |r: &[[f64; ipmc_core::departures::MAX_DEPARTURE_POINTS]; 4]| r.iter().map(|row| array(row)).collect::<Vec<_>>().join(", ");
+    let sd = sd.as_ref().map_or("None".to_string(), |sd| format!("Some([{}])", rows(sd)));
+    format!("ipmc_core::departures::Departures {{ n: {n}, rh_pct: {}, ln: [{}], sd: {sd} }}", array(rh_pct), rows(ln))
 }
 
 fn instrument_expr(i: &Instrument) -> String {

@@ -453,6 +453,16 @@ impl Calibration {
         p
     }
 
+    /// What remains unknown of the strip at `rh_pct`: `[uncertainty]` with Y, Cs, Ca and d as the
+    /// `[departures]` table states them there, where it does.
+    pub fn uncertainty_at(&self, rh_pct: f64) -> Uncertainty {
+        let mut u = self.uncertainty;
+        if let Some([y, cs, ca, d]) = self.departures.sd_at(rh_pct) {
+            (u.y, u.cs, u.ca, u.d) = (y, cs, ca, d);
+        }
+        u
+    }
+
     /// Every parameter at `rh_pct` as the smooth laws alone say, without `[departures]`.
     pub fn laws_at<T: Real>(&self, rh_pct: T) -> Params<T> {
         Params {

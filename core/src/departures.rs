@@ -25,6 +25,12 @@ pub struct Departures {
     pub rh_pct: [f64; MAX_DEPARTURE_POINTS],
     /// Per parameter of [`DEPARTING`], its ln departures at `rh_pct`.
     pub ln: [[f64; MAX_DEPARTURE_POINTS]; 4],
+    /// Per parameter, the standard deviation of ln θ that remains unknown at `rh_pct` (the
+    /// files' `y_sd` … `d_sd`). Why per humidity: where a level measured the strip little is
+    /// left unknown; between levels the strip may depart by the departures' whole amplitude,
+    /// and one number over the range (`[uncertainty]`) is too wide at the levels and too narrow
+    /// between them. None: `[uncertainty]` holds everywhere.
+    pub sd: Option<[[f64; MAX_DEPARTURE_POINTS]; 4]>,
 }
 
 /// Why a `[departures]` table cannot be used: the key as the file spells it and the cause.
@@ -42,7 +48,7 @@ impl core::fmt::Display for TableError {
 
 impl Departures {
     /// The laws as they are.
-    pub const NONE: Departures = Departures { n: 0, rh_pct: [0.0; MAX_DEPARTURE_POINTS], ln: [[0.0; MAX_DEPARTURE_POINTS]; 4] };
+    pub const NONE: Departures = Departures { n: 0, rh_pct: [0.0; MAX_DEPARTURE_POINTS], ln: [[0.0; MAX_DEPARTURE_POINTS]; 4], sd: None };
 
     /// A table from its grid and per-parameter departures (order of [`DEPARTING`]), checked.
     pub fn new(rh_pct: &[f64], ln: [&[f64]; 4]) -> Result<Departures, TableError> {
@@ -60,6 +66,21 @@ impl Departures {
         }
         t.check()?;
         Ok(t)
+    }
+
+    /// This table with what remains unknown of each parameter at its humidities (order of
+    /// [`DEPARTING`]), checked.
+    pub fn with_sd(mut self, sd: [&[f64]; 4]) -> Result<Departures, TableError> {
+        let mut rows = [[0.0; MAX_DEPARTURE_POINTS]; 4];
+        for (k, values) in sd.iter().enumerate() {
+            if values.len() != self.n {
+                return Err(TableError { key: SD_KEYS[k], why: "needs one value per humidity of rh_pct" });
+            }
+            rows[k][..self.n].copy_from_slice(values);
+        }
+        self.sd = Some(rows);
+        self.check()?;
+        Ok(self)
     }
 
     pub fn is_none(&self) -> bool {
@@ -91,12 +112,32 @@ impl Departures {
                 return bad(key, "a departure ln(strip/law) must be finite and within ±2");
             }
         }
+        if let Some(sd) = &self.sd {
+            for (row, key) in sd.iter().zip(SD_KEYS) {
+                if row[..self.n].iter().any(|v| !(v.is_finite() && (0.0..=crate::uncertainty::MAX_RELATIVE_SD).contains(v))) {
+                    return bad(key, "a standard deviation of ln θ must be finite and within 0–2");
+                }
+            }
+        }
         Ok(())
     }
 
     /// ln(strip / law) of Y, Cs, Ca and d at `rh_pct`: linear between grid points, the end
     /// values beyond them; zeros without a table.
     pub fn ln_at<T: Real>(&self, rh_pct: T) -> [T; 4] {
+        self.interpolate(&self.ln, rh_pct)
+    }
+
+    /// The standard deviation of ln Y, Cs, Ca and d that remains unknown at `rh_pct`,
+    /// interpolated as [`Self::ln_at`]; None where the table does not say.
+    pub fn sd_at<T: Real>(&self, rh_pct: T) -> Option<[T; 4]> {
+        if self.is_none() {
+            return None;
+        }
+        self.sd.as_ref().map(|sd| self.interpolate(sd, rh_pct))
+    }
+
+    fn interpolate<T: Real>(&self, rows: &[[f64; MAX_DEPARTURE_POINTS]; 4], rh_pct: T) -> [T; 4] {
         let mut out = [T::zero(); 4];
         let grid = self.grid();
         let Some((&first, &last)) = grid.first().zip(grid.last()) else {
@@ -112,8 +153,8 @@ impl Departures {
             (i, (rh_pct - T::lit(grid[i])) / T::lit(grid[i + 1] - grid[i]))
         };
         for (k, o) in out.iter_mut().enumerate() {
-            let left = T::lit(self.ln[k][i]);
-            *o = if w > T::zero() { left + w * (T::lit(self.ln[k][i + 1]) - left) } else { left };
+            let left = T::lit(rows[k][i]);
+            *o = if w > T::zero() { left + w * (T::lit(rows[k][i + 1]) - left) } else { left };
         }
         out
     }
@@ -121,6 +162,8 @@ impl Departures {
 
 /// The file's key of each parameter of [`DEPARTING`].
 pub const KEYS: [&str; 4] = ["y", "cs", "ca", "d"];
+/// The file's key of each parameter's remaining standard deviation.
+pub const SD_KEYS: [&str; 4] = ["y_sd", "cs_sd", "ca_sd", "d_sd"];
 
 impl Default for Departures {
     fn default() -> Self {
@@ -144,19 +187,44 @@ mod file {
         cs: Vec<f64>,
         ca: Vec<f64>,
         d: Vec<f64>,
+        // All four or none: what remains unknown at each humidity.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        y_sd: Option<Vec<f64>>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        cs_sd: Option<Vec<f64>>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        ca_sd: Option<Vec<f64>>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        d_sd: Option<Vec<f64>>,
     }
 
     impl TryFrom<DeparturesFile> for Departures {
         type Error = String;
         fn try_from(f: DeparturesFile) -> Result<Self, String> {
-            Departures::new(&f.rh_pct, [&f.y, &f.cs, &f.ca, &f.d]).map_err(|e: TableError| e.to_string())
+            let t = Departures::new(&f.rh_pct, [&f.y, &f.cs, &f.ca, &f.d]).map_err(|e: TableError| e.to_string())?;
+            match (f.y_sd, f.cs_sd, f.ca_sd, f.d_sd) {
+                (None, None, None, None) => Ok(t),
+                (Some(y), Some(cs), Some(ca), Some(d)) => t.with_sd([&y, &cs, &ca, &d]).map_err(|e| e.to_string()),
+                _ => Err("departures.y_sd, cs_sd, ca_sd and d_sd: give all four or none".to_string()),
+            }
         }
     }
 
     impl From<Departures> for DeparturesFile {
         fn from(t: Departures) -> Self {
             let v = |k: usize| t.ln_of(k).to_vec();
-            DeparturesFile { rh_pct: t.grid().to_vec(), y: v(0), cs: v(1), ca: v(2), d: v(3) }
+            let sd = |k: usize| t.sd.map(|sd| sd[k][..t.n].to_vec());
+            DeparturesFile {
+                rh_pct: t.grid().to_vec(),
+                y: v(0),
+                cs: v(1),
+                ca: v(2),
+                d: v(3),
+                y_sd: sd(0),
+                cs_sd: sd(1),
+                ca_sd: sd(2),
+                d_sd: sd(3),
+            }
         }
     }
 }
@@ -178,6 +246,20 @@ mod tests {
         assert_eq!(Departures::NONE.ln_at(55.0_f32), [0.0; 4]);
         let f: [f32; 4] = t.ln_at(50.0_f32);
         assert!(f[0].abs() < 1e-7);
+    }
+
+    #[test]
+    fn what_remains_unknown_is_interpolated_like_the_departures() {
+        let t = Departures::new(&[40.0, 60.0], [&[0.0; 2]; 4]).unwrap();
+        assert_eq!(t.sd_at(50.0), None);
+        let t = t.with_sd([&[0.01, 0.03], &[0.1, 0.1], &[0.0, 0.02], &[0.05, 0.01]]).unwrap();
+        let at = t.sd_at(50.0).unwrap();
+        assert!((at[0] - 0.02).abs() < 1e-15 && (at[2] - 0.01).abs() < 1e-15 && (at[3] - 0.03).abs() < 1e-15, "{at:?}");
+        assert_eq!(t.sd_at(90.0).unwrap()[0], 0.03);
+        let e = t.with_sd([&[0.01, 0.03], &[0.1, -0.1], &[0.0; 2], &[0.0; 2]]).unwrap_err();
+        assert_eq!(e.key, "cs_sd");
+        let e = t.with_sd([&[0.01], &[0.1; 2], &[0.0; 2], &[0.0; 2]]).unwrap_err();
+        assert_eq!(e.key, "y_sd");
     }
 
     #[test]

@@ -94,12 +94,13 @@ pub fn response_moments(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, freq_h
             (calib.params_at(rh_pct + node * rh_sd_pct), calib.params_at(rh_pct - node * rh_sd_pct));
         axis(&wet, &dry);
     }
-    for (j, (_, sd)) in calib.uncertainty.relative_sds().into_iter().enumerate() {
+    let unknown = calib.uncertainty_at(rh_pct);
+    for (j, (_, sd)) in unknown.relative_sds().into_iter().enumerate() {
         if sd > 0.0 {
             let at = |k: f64| {
                 let mut z = [0.0; 5];
                 z[j] = k * node;
-                calib.uncertainty.scattered(p, &z)
+                unknown.scattered(p, &z)
             };
             axis(&at(1.0), &at(-1.0));
         }

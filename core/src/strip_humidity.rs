@@ -203,7 +203,7 @@ pub fn fill_table<T: Real>(calib: &Calibration, g: &BinGeometry, ln_gain: &mut [
         let sens = if all.ok { all.residual(&d) } else { [0.0; MAX_BINS] };
         let gg = dot(&sens, &sens, g.bins);
         let mut var = 0.0;
-        for (name, sd) in calib.uncertainty.relative_sds() {
+        for (name, sd) in calib.uncertainty_at(rh).relative_sds() {
             if sd > 0.0 && gg > 0.0 {
                 let moved = exact_ln_gain(calib, g, rh, Some((name, libm::exp(sd))));
                 let mut dh = [0.0; MAX_BINS];

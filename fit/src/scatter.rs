@@ -76,6 +76,28 @@ pub fn uncertainty(model: &StripModel, calib: &Calibration, levels: &[LevelFit],
     u
 }
 
+/// `calib`'s `[departures]` with what remains unknown at each of its humidities
+/// ([`StripModel::posterior_sd`]; a parameter the model does not fit keeps `calib`'s
+/// `[uncertainty]`), so the stated error follows the levels: small where one measured the
+/// strip, the departures' amplitude between them. None without a table.
+pub fn departures_with_sd(model: &StripModel, calib: &Calibration) -> Option<ipmc_core::departures::Departures> {
+    let t = calib.departures;
+    if t.is_none() {
+        return None;
+    }
+    let constant = [calib.uncertainty.y, calib.uncertainty.cs, calib.uncertainty.ca, calib.uncertainty.d];
+    let sd: [Vec<f64>; 4] = core::array::from_fn(|k| {
+        t.grid()
+            .iter()
+            .map(|&x| match model.degree[k] {
+                Some(_) => model.posterior_sd(k, x).min(ipmc_core::uncertainty::MAX_RELATIVE_SD),
+                None => constant[k],
+            })
+            .collect()
+    });
+    t.with_sd([&sd[0], &sd[1], &sd[2], &sd[3]]).ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

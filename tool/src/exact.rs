@@ -43,7 +43,7 @@ pub fn robust_inverse(
     let strips: Vec<ipmc_core::Params<f64>> = (0..draws)
         .map(|_| {
             let p = calib.params_at(rh_pct + rh_sd_pct * normal());
-            calib.uncertainty.scattered(p, &std::array::from_fn(|_| normal()))
+            calib.uncertainty_at(rh_pct).scattered(p, &std::array::from_fn(|_| normal()))
         })
         .collect();
     let base: Vec<C<f64>> = band::dft(current_a, ks.clone())

@@ -346,6 +346,9 @@ pub fn identify(
         );
     }
     calib.uncertainty = ipmc_fit::scatter::uncertainty(&model, &calib, &level_fits, rh_sd, &base.uncertainty);
+    if let Some(t) = ipmc_fit::scatter::departures_with_sd(&model, &calib) {
+        calib.departures = t;
+    }
     let mut noise_note = "the base calibration's (a frequency response does not carry the current's noise)".to_string();
     if input.bursts.is_some() {
         let ts = crate::input::read_time_series(recording)?;
@@ -395,7 +398,7 @@ pub fn identify(
             g.se * g.value
         );
     }
-    header += "# [uncertainty]: what remains unknown of Y, Cs, Ca and d after the laws and departures (rms over the range).\n";
+    header += "# [uncertainty]: what remains unknown of Y, Cs, Ca and d after the laws and departures (rms over the range);\n#   [departures] y_sd … d_sd: the same at each humidity of its grid, which the error bars use.\n";
     let text = format!("{header}{}", calibration_file::to_text(&calib));
     Ok(Identified { calib, fits, model, text })
 }
