@@ -111,12 +111,19 @@ fn decode_defmt(elf: &Path, raw: &Path) -> Result<String> {
 }
 
 pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathBuf>) -> Result<()> {
-    let input = match input {
-        Some(p) => p,
-        None => recording::bundled().context(
-            "no --input given and no bundled time-series recording under data/ yet; \
-             run `cargo xtask qemu --input REC.csv`",
-        )?,
+    let (input, calib) = match input {
+        Some(p) => (p, calib),
+        None => {
+            let rec = recording::bundled().context(
+                "no --input given and no bundled time-series recording under data/ yet; \
+                 run `cargo xtask qemu --input REC.csv`",
+            )?;
+            let calib = calib.or_else(|| recording::calibration_beside(&rec));
+            if let Some(c) = &calib {
+                println!("==> {}: baked into the firmware with the bundled recording (the strip's own calibration)", c.display());
+            }
+            (rec, calib)
+        }
     };
     let out = out.unwrap_or_else(|| repo_root().join("target/qemu-run/EST.csv"));
     let input = long_enough_to_score(&input, &repo_root().join("target/qemu-run"))?;
@@ -217,6 +224,8 @@ fn report_accuracy(input: &Path, est_csv: &Path, calib: Option<&Path>) -> Result
     }
     let fixed = ipmc_figure(&args)?;
     let band = band_of(calib)?;
+    let coverage = ipmc(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str(), "--coverage".as_ref(), "2".as_ref()])?;
+    print!("{}", coverage.lines().filter(|l| !l.starts_with("error in")).map(|l| format!("{l}\n")).collect::<String>());
     println!(
         "accuracy vs true base in {}–{} Hz (delayed {} samples, first {} s of each burst skipped; `cargo ipmc score`):\n  \
          firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}",

@@ -41,3 +41,10 @@ pub fn bundled() -> Option<PathBuf> {
     csvs.sort();
     csvs.into_iter().next()
 }
+
+/// The calibration a bundled recording is replayed with: `NAME.calib.toml` beside `NAME.csv`
+/// (the strip's own, from its bench sessions), if there is one.
+pub fn calibration_beside(recording: &Path) -> Option<PathBuf> {
+    let p = recording.with_extension("calib.toml");
+    p.is_file().then_some(p)
+}

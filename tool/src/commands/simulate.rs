@@ -3,8 +3,7 @@
 //! noise, deterministic for a seed. The work is done by [`crate::simulator`].
 //!
 //! `ipmc simulate-sweep`: the two-level humidity ramp of a time series with its own flags, made
-//! by the same simulator (it made the bundled data/sweep-40-80.csv, which it still reproduces
-//! byte for byte): one continuous burst during which the humidity ramps linearly, multisine
+//! by the same simulator (the idealized sweep `cargo xtask test` replays under QEMU): one continuous burst during which the humidity ramps linearly, multisine
 //! base motion (`tones` log-spaced tones over [`f_lo`, `f_hi`], equal amplitudes summing to
 //! `amplitude_m`, random phases), the model's quasi-static current, numbers written compactly.
 

@@ -204,11 +204,16 @@ pub fn run(a: Args) -> Result<()> {
         ts.bursts().len()
     );
     if let Some(out) = &a.out {
+        // The file is the calibration as this workflow used it: with the bench's reading
+        // uncertainty, not the board sensor's datasheet default.
+        let mut written = own;
+        written.humidity.uncertainty_pct = Some(rh_sd);
         let text = format!(
-            "{}# [uncertainty] current_noise_a_per_rthz: measured on {} (differences of consecutive periods).\n{}",
+            "{}# [uncertainty] current_noise_a_per_rthz: measured on {} (differences of consecutive periods).\n\
+             # [humidity] uncertainty_pct: the bench reading's ({rh_sd:.2} %RH); set your sensor's for use in service.\n{}",
             id.text.split_inclusive('\n').take_while(|l| l.starts_with('#')).collect::<String>(),
             a.ts.display(),
-            ipmc_core::calibration_file::to_text(&own)
+            ipmc_core::calibration_file::to_text(&written)
         );
         write_atomically(out, text.as_bytes())?;
         println!("wrote {}", out.display());

@@ -420,19 +420,22 @@ mod tests {
         assert!(ts.tip_m.is_some() && ts.metadata.get("tones_hz").is_some());
     }
 
-    /// `simulate-sweep` through this simulator still makes the bundled recording, byte for byte.
+    /// The bundled recording is what its session file makes, byte for byte.
     #[test]
-    fn sweep_reproduces_the_bundled_recording() {
+    fn the_bundled_recording_is_its_session_files() {
         let bundled = std::fs::read_to_string(repo().join("data/sweep-40-80.csv")).unwrap();
-        let session = sweep::Sweep::bundled().session();
+        let name = "data/sessions/sweep-40-80.toml";
+        let session = Session::parse(Path::new(name), &std::fs::read_to_string(repo().join(name)).unwrap()).unwrap();
         let mut metadata = Metadata::default();
-        metadata.set("generator", "ipmc simulate-sweep seed=1 rh_from=40 rh_to=80 seconds=60 noise_a=0");
+        metadata.set("generator", format!("ipmc simulate session={name} seed={}", session.seed));
+        metadata.set("calib", "default");
+        metadata.set("strip_seed", session.sample.strip_seed.unwrap());
         let made = simulate(&Calibration::default_preset(), &session, &ExactModel, metadata)
             .unwrap()
             .files(Path::new("x.csv"))
             .unwrap()
             .remove(0)
             .1;
-        assert!(made == bundled, "data/sweep-40-80.csv differs from what simulate-sweep makes");
+        assert!(made == bundled, "data/sweep-40-80.csv differs from what `ipmc simulate --session {name}` makes");
     }
 }

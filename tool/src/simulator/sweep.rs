@@ -1,5 +1,5 @@
-//! The two-level humidity ramp of a time series (`ipmc simulate-sweep`, which made the bundled
-//! data/sweep-40-80.csv) as a session: one continuous burst during which the humidity ramps
+//! The two-level humidity ramp of a time series (`ipmc simulate-sweep`: the idealized sweep
+//! `cargo xtask test` replays under QEMU) as a session: one continuous burst during which the humidity ramps
 //! linearly, multisine base motion, current noise only.
 
 use super::session::{Frequencies, Humidity, Kind, Noise, Session, TimeSeriesPlan};
@@ -39,12 +39,6 @@ impl Default for Sweep {
 }
 
 impl Sweep {
-    /// The bundled data/sweep-40-80.csv's.
-    #[cfg(test)]
-    pub fn bundled() -> Self {
-        Sweep { seconds: 60.0, ..Sweep::default() }
-    }
-
     pub fn session(&self) -> Session {
         Session {
             kind: Kind::TimeSeries,
