@@ -241,7 +241,7 @@ pub fn qemu_replay_bundled() -> Result<()> {
     let calib = crate::recording::calibration_beside(&path);
     let elf = match &calib {
         Some(c) => firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(c))?,
-        None => Variant::Qemu.elf(),
+        None => firmware::build(Variant::Qemu)?,
     };
     let rec = crate::recording::time_series(&path)?;
     let replay = Replay::of_recording(&rec);
@@ -283,7 +283,7 @@ pub fn qemu_replay_idealized_sweep() -> Result<()> {
     ipmc(&["simulate-sweep".as_ref(), "--seconds".as_ref(), "60".as_ref(), "--out".as_ref(), path.as_os_str()])?;
     let rec = crate::recording::time_series(&path)?;
     let replay = Replay::of_recording(&rec);
-    let r = qemu::run_replay(&Variant::Qemu.elf(), &replay, &work)?;
+    let r = qemu::run_replay(&firmware::build(Variant::Qemu)?, &replay, &work)?;
     check_count(&r, replay.samples.len())?;
     let est = work.join("EST.csv");
     qemu::write_est_csv(&est, &rec.t_s, &r.blocks, &replay, &ipmc_core::band::Band::DEFAULT)?;
