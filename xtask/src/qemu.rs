@@ -118,10 +118,11 @@ pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathB
                 "no --input given and no bundled time-series recording under data/ yet; \
                  run `cargo xtask qemu --input REC.csv`",
             )?;
-            let calib = calib.or_else(|| recording::calibration_beside(&rec));
-            if let Some(c) = &calib {
-                println!("==> {}: baked into the firmware with the bundled recording (the strip's own calibration)", c.display());
-            }
+            let calib = calib.or_else(|| {
+                let own = recording::calibration_beside(&rec)?;
+                println!("==> {}: baked into the firmware with the bundled recording (the strip's own calibration)", own.display());
+                Some(own)
+            });
             (rec, calib)
         }
     };
