@@ -38,8 +38,10 @@ fn main() -> ! {
     let board = board::init();
     defmt::info!("ipmc firmware on {}, calibration: {}", board::NAME, app::calibration::CALIBRATION_SOURCE);
 
+    // Before any executor runs: see `SamplePath::prepare`.
+    let sample_path = app::sample_path::SamplePath::prepare();
     let sample_spawner = board::start_sample_executor(&SAMPLE_EXECUTOR);
-    sample_spawner.spawn(app::sample_path::sample_task(board.samples).expect("sample task spawns once"));
+    sample_spawner.spawn(app::sample_path::sample_task(board.samples, sample_path).expect("sample task spawns once"));
 
     let io_spawner = board::start_io_executor(&IO_EXECUTOR);
     io_spawner.spawn(app::humidity::humidity_task(board.humidity).expect("humidity task spawns once"));

@@ -161,11 +161,26 @@ impl<T: Real> BandLimit<T> {
     }
 
     pub fn from_taps(t: &Taps) -> Self {
+        let mut b = Self::identity();
+        b.load(t);
+        b
+    }
+
+    /// One tap of 1: the input as it is, undelayed.
+    pub fn identity() -> Self {
         let mut half = [T::zero(); MAX_HALF];
-        for (h, &v) in half.iter_mut().zip(&t.half[..=t.delay_samples()]) {
+        half[0] = T::one();
+        BandLimit { half, n: 1, hist: [T::zero(); 2 * MAX_TAPS], pos: 0, rhist: [T::zero(); 2 * MAX_TAPS], rpos: 0 }
+    }
+
+    /// Takes the taps `t`, in place (no copy of the filter on the stack), with no history.
+    pub fn load(&mut self, t: &Taps) {
+        self.half = [T::zero(); MAX_HALF];
+        for (h, &v) in self.half.iter_mut().zip(&t.half[..=t.delay_samples()]) {
             *h = T::lit(v);
         }
-        BandLimit { half, n: t.n, hist: [T::zero(); 2 * MAX_TAPS], pos: 0, rhist: [T::zero(); 2 * MAX_TAPS], rpos: 0 }
+        self.n = t.n;
+        self.reset();
     }
 
     /// Number of taps.

@@ -298,7 +298,8 @@ impl<T: Real> Inverse<T> {
 /// frequency (`expected_error::response_moments`, 520 evaluations in f64): a host's design, not a
 /// retune's (the firmware designs `Exact` only; its constant configuration leaves the rest unlinked).
 pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfig<T>) -> Result<Inverse<T>, DesignError> {
-    let cfg = &DesignConfig { band_lo_hz: T::lit(calib.band.low_hz), band_hi_hz: T::lit(calib.band.high_hz), ..*cfg };
+    let band = design_band::<T>(calib);
+    let cfg = &DesignConfig { band_lo_hz: T::lit(band.low_hz), band_hi_hz: T::lit(band.high_hz), ..*cfg };
     let p: Params<T> = calib.params_at(rh_pct);
     match cfg.kind {
         InverseKind::Exact => design_inverse_for(&p, rh_pct, cfg),
@@ -312,6 +313,14 @@ pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfi
             design_inverse_with(&p, rh_pct, cfg, Some(&spread))
         }
     }
+}
+
+/// The band [`design_inverse`]'s designs in `T` report ([`Inverse::band`]): the calibration's
+/// `[band]` as `T` holds it. A filter made for the band before its first design
+/// ([`Compensator::passthrough`](crate::Compensator::passthrough)) starts from this one, so that its
+/// band FIR is the one the designs ask for, bit for bit.
+pub fn design_band<T: Real>(calib: &Calibration) -> Band {
+    Band { low_hz: T::lit(calib.band.low_hz).to_f64(), high_hz: T::lit(calib.band.high_hz).to_f64() }
 }
 
 /// The nominal inverse for explicit parameters (overrides, perturbations); `cfg.kind` must be

@@ -12,7 +12,8 @@
 //! signal, which is what makes state transfer on a retune meaningful.
 
 use crate::Real;
-use crate::band_limit::BandLimit;
+use crate::band::Band;
+use crate::band_limit::{BandLimit, Taps};
 use crate::design::{Inverse, MAX_SECTIONS, Sos};
 
 /// Duration of a retune's crossfade [s]. Measured on a 0.25 % step during a steady 40 Hz sine
@@ -189,7 +190,12 @@ pub struct Compensator<T = f32> {
     rh_pct: T,
     delay_s: T,
     /// The estimate's band, kept by a linear-phase FIR after the inverse (`band_limit`).
-    band: Option<BandLimit<T>>,
+    /// Not an Option: a restart that changes the band reloads it in place (see `passthrough`).
+    band: BandLimit<T>,
+    /// Whether `band` runs: false where its FIR would need more taps than it has.
+    keeps_band: bool,
+    /// The band `band` was made for.
+    band_spec: Band,
     fs_hz: T,
     /// Samples replaced because they were not finite or beyond [`INPUT_LIMIT_A`], since construction.
     pub bad_samples: u32,
@@ -201,25 +207,79 @@ pub const WARMUP_S: f64 = 0.5;
 
 impl<T: Real> Compensator<T> {
     pub fn new(inv: &Inverse<T>) -> Self {
-        let fs = inv.fs_hz().to_f64();
-        let warmup = Real::round(WARMUP_S * fs) as u32;
-        let fade = Real::round(FADE_S * fs) as u32;
-        Compensator {
-            active: Cascade::from_sections(inv.head(), inv.gain()),
-            tail: Cascade::from_sections(inv.tail(), T::one()),
+        let mut c = Self::passthrough(&inv.band(), inv.fs_hz());
+        c.start_on(inv);
+        c
+    }
+
+    /// Passes its input through, limited to `band`, until [`restart`](Self::restart): for a
+    /// caller that needs one before its first design exists and cannot build one then. One this
+    /// size (the band's FIR history) built on a small stack and moved into place costs its size
+    /// twice on that stack: the firmware's sample path, which runs on top of whatever thread
+    /// mode is doing, keeps one in a static made at boot and restarts it in place.
+    pub fn passthrough(band: &Band, fs_hz: T) -> Self {
+        let mut c = Compensator {
+            active: Cascade::from_sections(&[], T::one()),
+            tail: Cascade::from_sections(&[], T::one()),
             next: None,
             pending: None,
             transition: Transition::Idle,
-            warmup_len: warmup.max(1),
-            fade_len: fade.max(1),
-            rh_pct: inv.rh_pct(),
-            delay_s: inv.delay_s(),
-            // A calibration's band is one the firmware's rate keeps; at a far higher rate a low
-            // edge may need more taps than the filter has ([`Compensator::keeps_band`]).
-            band: BandLimit::new(&inv.band(), fs).ok(),
-            fs_hz: inv.fs_hz(),
+            warmup_len: 1,
+            fade_len: 1,
+            rh_pct: T::nan(),
+            delay_s: T::zero(),
+            band: BandLimit::identity(),
+            keeps_band: false,
+            band_spec: *band,
+            fs_hz,
             bad_samples: 0,
+        };
+        c.set_rate_and_band(band, fs_hz);
+        c
+    }
+
+    /// Starts afresh on `inv`, in place, as [`new`](Self::new) would make it: no state, no
+    /// retune under way, nothing counted.
+    pub fn restart(&mut self, inv: &Inverse<T>) {
+        if inv.fs_hz() != self.fs_hz || inv.band() != self.band_spec {
+            self.set_rate_and_band(&inv.band(), inv.fs_hz());
         }
+        self.start_on(inv);
+    }
+
+    /// What depends on the rate and the band, in place. A calibration's band is one the
+    /// firmware's rate keeps; at a far higher rate a low edge may need more taps than the band's
+    /// FIR has ([`Compensator::keeps_band`]).
+    fn set_rate_and_band(&mut self, band: &Band, fs_hz: T) {
+        let fs = fs_hz.to_f64();
+        self.fs_hz = fs_hz;
+        self.warmup_len = (Real::round(WARMUP_S * fs) as u32).max(1);
+        self.fade_len = (Real::round(FADE_S * fs) as u32).max(1);
+        self.band_spec = *band;
+        match Taps::design(band, fs) {
+            Ok(t) => {
+                self.band.load(&t);
+                self.keeps_band = true;
+            }
+            Err(_) => self.keeps_band = false,
+        }
+    }
+
+    /// The band's FIR where it runs.
+    fn band_fir(&mut self) -> Option<&mut BandLimit<T>> {
+        self.keeps_band.then_some(&mut self.band)
+    }
+
+    fn start_on(&mut self, inv: &Inverse<T>) {
+        self.active = Cascade::from_sections(inv.head(), inv.gain());
+        self.tail = Cascade::from_sections(inv.tail(), T::one());
+        self.next = None;
+        self.pending = None;
+        self.transition = Transition::Idle;
+        self.rh_pct = inv.rh_pct();
+        self.delay_s = inv.delay_s();
+        self.band.reset();
+        self.bad_samples = 0;
     }
 
     pub fn rh_pct(&self) -> T {
@@ -228,12 +288,12 @@ impl<T: Real> Compensator<T> {
     /// Whether the estimate is limited to the inverse's band (false only where the band's FIR
     /// would need more than `band_limit::MAX_TAPS` taps at this rate).
     pub fn keeps_band(&self) -> bool {
-        self.band.is_some()
+        self.keeps_band
     }
 
     /// The estimate's delay behind the base motion [s]: the inverse's preview and the band's FIR.
     pub fn delay_s(&self) -> T {
-        let fir = self.band.as_ref().map_or(0, BandLimit::delay_samples);
+        let fir = if self.keeps_band { self.band.delay_samples() } else { 0 };
         self.delay_s + T::lit(fir as f64) / self.fs_hz
     }
     /// Largest |state value| of the running sections (active head, incoming head, tail): what
@@ -288,7 +348,7 @@ impl<T: Real> Compensator<T> {
         for chunk in block.chunks_mut(CHUNK) {
             self.process_head(chunk);
             self.tail.process_block(chunk);
-            if let Some(band) = self.band.as_mut() {
+            if let Some(band) = self.band_fir() {
                 band.process_block(chunk);
             }
         }
@@ -297,9 +357,7 @@ impl<T: Real> Compensator<T> {
             // The band's FIR took the same overflow in: it starts clean too.
             self.active.reset();
             self.tail.reset();
-            if let Some(band) = self.band.as_mut() {
-                band.reset();
-            }
+            self.band.reset();
             for v in block.iter_mut() {
                 if !v.is_finite() {
                     *v = T::zero();

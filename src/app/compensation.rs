@@ -38,8 +38,15 @@ pub fn design(calibration: &Calibration, rh_pct: f32) -> Result<Inverse<f32>, De
 pub struct SamplePathFilter(Compensator);
 
 impl SamplePathFilter {
-    pub fn new(design: &Inverse<f32>) -> Self {
-        Self(Compensator::new(design))
+    /// Before the first design: passes the current through the calibration's band
+    /// (`Compensator::passthrough`), until [`restart`](Self::restart).
+    pub fn passthrough() -> Self {
+        let calibration = calibration();
+        Self(Compensator::passthrough(&ipmc_core::design::design_band::<f32>(&calibration), design_config().fs_hz))
+    }
+    /// Starts on `design` afresh, in place.
+    pub fn restart(&mut self, design: &Inverse<f32>) {
+        self.0.restart(design)
     }
     /// In place: current [A] → base displacement estimate [m]; true if a sample was not a
     /// measurement and was replaced (the compensator counts them).
