@@ -6,6 +6,7 @@
 //! task); with a `fused` calibration the design follows the fused humidity instead of the
 //! reading's.
 
+use core::ptr::addr_of_mut;
 use ipmc_core::{
     Inverse,
     block_humidity::{BlockHumidity, span_s},
@@ -17,7 +18,6 @@ use ipmc_core::{
     stream::{Header, Hygrometer},
     stuck::StuckDetector,
 };
-use core::ptr::addr_of_mut;
 use static_cell::StaticCell;
 
 use crate::board::Samples;
@@ -136,8 +136,7 @@ impl SamplePath {
                 &ipmc_core::Calibration { humidity: calibration.humidity.at_strip(), ..calibration },
                 reading_age_s(),
             ));
-            addr_of_mut!((*p).error_bar)
-                .write(BlockError::new(&super::compensation::error_table(), &ipmc_core::DesignConfig::firmware()));
+            addr_of_mut!((*p).error_bar).write(BlockError::new(&super::compensation::error_table(), &ipmc_core::DesignConfig::firmware()));
             addr_of_mut!((*p).design_rh).write(f32::NAN);
             addr_of_mut!((*p).on_fallback).write(false);
             addr_of_mut!((*p).since_last).write(0);
