@@ -457,8 +457,10 @@ impl Walk<'_> {
         let f = &g.functions[i];
         if let Some(pos) = self.path.iter().position(|&p| p == i) {
             let cycle = &self.path[pos..];
-            // A panic while panicking: panic-probe's handler checks its PANICKED flag first and
-            // faults, so a second turn stops in the handler; one more turn of the cycle bounds it.
+            // A panic while panicking (the defmt logger taken re-entrantly): panic-probe's
+            // handler checks its PANICKED flag first and faults, so a second turn stops in the
+            // handler and one more turn of the cycle bounds it. The QEMU board's handler has no
+            // such flag: there this bound is an assumption that logging does not panic.
             if cycle.iter().any(|&p| short(&g.functions[p].name).ends_with(PANIC_HANDLER)) {
                 return Ok(Depth { bytes: cycle.iter().map(|&p| g.functions[p].frame).sum(), next: None });
             }
