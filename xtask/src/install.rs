@@ -24,12 +24,36 @@ pub fn ensure_firmware_tools() -> Result<()> {
 
 /// Whether the firmware's Rust target is installed for the toolchain that builds here.
 pub fn firmware_target_installed() -> Result<bool> {
-    let out = Command::new("rustc").current_dir(repo_root()).args(["--print", "sysroot"]).output().map_err(|e| anyhow!("rustc: {e}"))?;
-    let sysroot = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    let sysroot = rustc_print("sysroot")?;
     Ok(Path::new(&sysroot).join("lib/rustlib").join(FIRMWARE_TARGET).join("lib").is_dir())
 }
 
 pub const FIRMWARE_TARGET: &str = "thumbv7em-none-eabihf";
+
+fn rustc_print(what: &str) -> Result<String> {
+    let out = Command::new("rustc").current_dir(repo_root()).args(["--print", what]).output().map_err(|e| anyhow!("rustc: {e}"))?;
+    if !out.status.success() {
+        bail!("rustc --print {what}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
+
+/// The toolchain's own llvm-objdump (component `llvm-tools`): it decodes what this rustc's
+/// LLVM emits, which a distribution's llvm-objdump may lag behind. Installed as the thumb
+/// target is (rustup does not install components on use either).
+pub fn ensure_llvm_objdump() -> Result<std::path::PathBuf> {
+    let sysroot = rustc_print("sysroot")?;
+    let objdump = Path::new(&sysroot).join("lib/rustlib").join(rustc_print("host-tuple")?).join("bin/llvm-objdump");
+    if objdump.exists() {
+        return Ok(objdump);
+    }
+    let rustup = std::env::var_os("RUSTUP").unwrap_or_else(|| "rustup".into());
+    let toolchain = Path::new(&sysroot).file_name().map(|t| t.to_string_lossy().into_owned()).unwrap_or_default();
+    println!("==> installing llvm-objdump (rustup component add --toolchain {toolchain} llvm-tools)");
+    run(Command::new(&rustup).current_dir(repo_root()).args(["component", "add", "--toolchain", &toolchain, "llvm-tools"]))
+        .map_err(|e| anyhow!("{e}: {} is missing and rustup could not add the llvm-tools component", objdump.display()))?;
+    if objdump.exists() { Ok(objdump) } else { Err(anyhow!("llvm-tools installed but {} is still missing", objdump.display())) }
+}
 
 /// A `cargo install --locked` tool (flip-link, defmt-print).
 pub fn ensure_cargo_tool(bin: &str, krate: &str) -> Result<()> {

@@ -19,6 +19,7 @@ mod readme_figures;
 mod recording;
 mod replay;
 mod size;
+mod stack;
 mod stream;
 mod strip_workflow;
 mod test_all;

@@ -10,7 +10,7 @@ use crate::{
         qemu_replay_humidity_step_without_glitch, qemu_replay_idealized_sweep, qemu_replay_no_new_humidity, qemu_replay_no_receiver,
         qemu_replay_sensor_faults,
     },
-    repo_root, run, size,
+    repo_root, run, size, stack,
     tool_checks::{diagnose_prove, diagnose_prove_external, vs_exact_external},
 };
 use anyhow::{anyhow, bail};
@@ -27,7 +27,9 @@ fn cargo_test_with(manifest: &str, extra: &[&str]) -> Result<()> {
     run(cargo().current_dir(repo_root()).args(["test", "--target", "host-tuple", "--manifest-path"]).arg(manifest).args(extra))
 }
 
+/// Flash and static RAM within the budget, and the worst-case stack within what the statics leave.
 fn size_within_budget() -> Result<()> {
+    let mut over = Vec::new();
     for v in Variant::ALL {
         let bytes = std::fs::read(v.elf()).map_err(|e| anyhow!("{} (build step failed?): {e}", v.elf().display()))?;
         let fp = size::footprint(&bytes)?;
@@ -35,8 +37,13 @@ fn size_within_budget() -> Result<()> {
         if fp.flash > size::FLASH_BUDGET || fp.ram > size::RAM_BUDGET {
             bail!("{} over budget: {fp:?}", v.name());
         }
+        let report = stack::analyse(&v.elf())?;
+        println!("{report}");
+        if report.over() {
+            over.push(v.name());
+        }
     }
-    Ok(())
+    if over.is_empty() { Ok(()) } else { Err(anyhow!("worst-case stack over the stack region: {}", over.join(", "))) }
 }
 
 /// The long QEMU run takes over 8 minutes of real time: not part of the default suite.
