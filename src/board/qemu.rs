@@ -286,7 +286,12 @@ fn exit(code: i32) -> ! {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
-    defmt::error!("panic: {}", defmt::Display2Format(info));
+    // A panic inside the logger (its lock taken) would panic again on logging, and again, until
+    // the stack ran out: the second one leaves without a word, as panic-probe does on a board.
+    static PANICKING: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
+    if !PANICKING.swap(true, Ordering::Relaxed) {
+        defmt::error!("panic: {}", defmt::Display2Format(info));
+    }
     exit(101)
 }
 
