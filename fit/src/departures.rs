@@ -23,6 +23,14 @@
 //! change within the read error to follow the levels is no better than noise: a level read far
 //! off its setpoint (2 %RH from the next one) cannot make a spike of its neighbour's value.
 //!
+//! A setpoint visited twice (a down sweep) is one humidity, not two: the chamber returns to it,
+//! the sensor reads it with another error. Both visits sit at their readings' mean, whose error
+//! they share (σₑ²/n); what differs between them is only how far the chamber left each visit
+//! from the setpoint, σₛ, a hyperparameter. Without this, two visits read 1 %RH apart that
+//! agree in value would say the strip is smooth over 1 %RH, and the departures' length would
+//! be set by the read errors instead of by the setpoints: between setpoints 5 %RH apart the
+//! strip would be claimed known where no level measured it.
+//!
 //! Aₖ, ℓₖ (and σₑ when the reading's uncertainty is not given) maximize the restricted (REML)
 //! marginal likelihood of all levels' values, the polynomial coefficients integrated out; then
 //! the law is the generalized-least-squares polynomial and the departure the posterior mean of
@@ -56,6 +64,9 @@ pub struct LevelTheta {
     pub rh_pct: f64,
     pub ln: [Option<f64>; 4],
     pub cov: [[f64; 4]; 4],
+    /// The earlier level of the same slice at the same setpoint, when the session came back
+    /// to it.
+    pub revisit_of: Option<usize>,
 }
 
 impl LevelTheta {
@@ -77,7 +88,7 @@ impl LevelTheta {
                 }
             }
         }
-        LevelTheta { rh_pct: fit.rh_pct, ln, cov }
+        LevelTheta { rh_pct: fit.rh_pct, ln, cov, revisit_of: None }
     }
 }
 
@@ -90,6 +101,9 @@ pub struct Hyper {
     pub rh_sd_pct: f64,
     /// Whether `rh_sd_pct` was estimated (true) or given.
     pub rh_sd_estimated: bool,
+    /// How far the chamber left the visits of one setpoint from each other [%RH] (0 without
+    /// revisits).
+    pub setpoint_sd_pct: f64,
 }
 
 /// How far the smooth law alone (no departures) misses its levels: χ² against the levels'
@@ -189,12 +203,22 @@ struct Problem<'a> {
     /// Whether two levels' departures covary as at their uncertain humidities (else as at their
     /// readings).
     uncertain_inputs: bool,
-    /// Each level's humidity and its variance.
+    /// Each level's humidity (its setpoint's readings' mean).
     pos: Vec<f64>,
-    var: Vec<f64>,
+    /// Each level's setpoint (the index of its first visit) and how many visits it had.
+    site: Vec<usize>,
+    visits: Vec<usize>,
     y: DVector<f64>,
     h: DMatrix<f64>,
     slopes: Vec<[f64; 4]>,
+}
+
+/// The spread of the levels' true humidities: the bench reading's error and how far the
+/// chamber left the visits of one setpoint from each other [%RH].
+#[derive(Clone, Copy, Debug)]
+struct Spread {
+    read: f64,
+    setpoint: f64,
 }
 
 /// What a posterior at fixed hyperparameters is made of.
@@ -208,7 +232,7 @@ struct Posterior {
 impl<'a> Problem<'a> {
     /// The levels at humidities `pos` with variances `var`: the offsets (the base's law there)
     /// and the correction's basis.
-    fn place(&mut self, pos: Vec<f64>, var: Vec<f64>) -> Result<(), ModelError> {
+    fn place(&mut self, pos: Vec<f64>) -> Result<(), ModelError> {
         let mut y = DVector::zeros(self.obs.len());
         let mut h = DMatrix::zeros(self.obs.len(), self.ncol);
         for (a, &(k, i)) in self.obs.iter().enumerate() {
@@ -221,7 +245,7 @@ impl<'a> Problem<'a> {
                 h[(a, self.col[k] + j)] = v;
             }
         }
-        (self.pos, self.var, self.y, self.h) = (pos, var, y, h);
+        (self.pos, self.y, self.h) = (pos, y, h);
         Ok(())
     }
 
@@ -246,22 +270,40 @@ impl<'a> Problem<'a> {
 
     /// The observations' covariance: departures (each level's value at its uncertain
     /// humidity), the levels' own errors, and the humidity's error along the laws.
-    fn covariance(&self, amplitude: &[f64; 4], length: &[f64; 4], var: &[f64]) -> DMatrix<f64> {
+    fn covariance(&self, amplitude: &[f64; 4], length: &[f64; 4], sd: Spread) -> DMatrix<f64> {
         let n = self.obs.len();
         DMatrix::from_fn(n, n, |a, b| {
             let ((ka, ia), (kb, ib)) = (self.obs[a], self.obs[b]);
             let mut c = 0.0;
             if ka == kb && self.gp[ka] {
                 // One level's departure is one value (its read error moves it along nothing);
-                // two levels' are the departure at two humidities each read with its own error.
-                let v = if ia == ib || !self.uncertain_inputs { 0.0 } else { var[ia] + var[ib] };
+                // two levels' are the departure at two humidities each known up to its error.
+                let v = if ia == ib || !self.uncertain_inputs {
+                    0.0
+                } else {
+                    self.input_cov(ia, ia, sd) + self.input_cov(ib, ib, sd) - 2.0 * self.input_cov(ia, ib, sd)
+                };
                 c += kernel(self.pos[ia] - self.pos[ib], amplitude[ka], length[ka], v);
             }
             if ia == ib {
-                c += self.levels[ia].cov[ka][kb] + var[ia] * self.slopes[ia][ka] * self.slopes[ia][kb];
+                c += self.levels[ia].cov[ka][kb];
             }
-            c
+            c + self.input_cov(ia, ib, sd) * self.slopes[ia][ka] * self.slopes[ib][kb]
         })
+    }
+
+    /// The covariance of two levels' true humidities about their positions: a lone level's is
+    /// its reading's error; the visits of one setpoint share their mean reading's error and
+    /// differ by how far the chamber left each.
+    fn input_cov(&self, ia: usize, ib: usize, sd: Spread) -> f64 {
+        let n = self.visits[ia] as f64;
+        if self.site[ia] != self.site[ib] {
+            0.0
+        } else if n == 1.0 {
+            sd.read * sd.read
+        } else {
+            sd.read * sd.read / n + if ia == ib { sd.setpoint * sd.setpoint } else { 0.0 }
+        }
     }
 
     /// −(restricted log likelihood) up to a constant, and the pieces of the posterior.
@@ -288,6 +330,14 @@ fn reml_of(c: DMatrix<f64>, y: &DVector<f64>, h: &DMatrix<f64>) -> Option<(f64, 
     v.is_finite().then(|| (v, Posterior { chol, beta, alpha, hch_inv: hch_chol.inverse() }))
 }
 
+/// The first visit of level `i`'s setpoint (itself unless it revisits one).
+fn site_of(levels: &[LevelTheta], i: usize) -> usize {
+    match levels[i].revisit_of {
+        Some(j) if j < i => site_of(levels, j),
+        _ => i,
+    }
+}
+
 /// The polynomial basis of a parameter's correction at `x`.
 fn basis(x: f64, center: f64, half: f64, degree: usize) -> impl Iterator<Item = f64> {
     (0..=degree).map(move |j| ((x - center) / half).powi(j as i32))
@@ -302,7 +352,8 @@ fn ln_base(base: &Calibration, k: usize, rh: f64) -> f64 {
 impl StripModel {
     /// Fits the model to `levels` on the shape of `base`'s laws. `rh_sd_pct`: the bench
     /// reading's standard error when known; estimated from the levels otherwise. Every level
-    /// is at its reading, its humidity uncertain by σₑ. Two passes: the first takes the
+    /// is at its reading, its humidity uncertain by σₑ; a setpoint visited again (a level's
+    /// `revisit_of`) at its visits' mean reading (module doc). Two passes: the first takes the
     /// departures at the readings (the read error moving the levels along the laws only) and
     /// estimates σₑ there; the second, with σₑ and the slopes of the first pass's law, takes
     /// each departure at its uncertain humidity. (Estimated in the second, σₑ shrinks: the
@@ -338,16 +389,26 @@ impl StripModel {
             gp,
             uncertain_inputs: false,
             pos: vec![],
-            var: vec![],
+            site: vec![],
+            visits: vec![],
             y: DVector::zeros(0),
             h: DMatrix::zeros(0, 0),
             slopes: vec![],
         };
-        let readings: Vec<f64> = levels.iter().map(|l| l.rh_pct).collect();
-        problem.place(readings.clone(), vec![0.0; levels.len()])?;
+        problem.site = (0..levels.len()).map(|i| site_of(levels, i)).collect();
+        problem.visits = problem.site.iter().map(|s| problem.site.iter().filter(|t| *t == s).count()).collect();
+        let positions: Vec<f64> = (0..levels.len())
+            .map(|i| {
+                let visits = (0..levels.len()).filter(|&j| problem.site[j] == problem.site[i]);
+                visits.clone().map(|j| levels[j].rh_pct).sum::<f64>() / visits.count() as f64
+            })
+            .collect();
+        problem.place(positions)?;
+        let revisited = problem.visits.iter().any(|&n| n > 1);
         let n_gp = gp.iter().filter(|&&g| g).count();
-        // The hyperparameters as the search sees them: ln of each free one; σₑ last when free.
-        let unpack = |u: &[f64], sd_free: bool, sd_fixed: f64| -> ([f64; 4], [f64; 4], f64) {
+        // The hyperparameters as the search sees them: ln of each free one; then σₛ where a
+        // setpoint was revisited, and σₑ last when free.
+        let unpack = |u: &[f64], sd_free: bool, sd_fixed: f64| -> ([f64; 4], [f64; 4], Spread) {
             let mut amplitude = [0.0; 4];
             let mut length = [1.0; 4];
             let mut m = 0;
@@ -358,8 +419,14 @@ impl StripModel {
                     m += 2;
                 }
             }
-            let sd = if sd_free { u[m].exp().clamp(RH_SD_PCT.0, RH_SD_PCT.1) } else { sd_fixed };
-            (amplitude, length, sd)
+            let setpoint = if revisited {
+                m += 1;
+                u[m - 1].exp().clamp(RH_SD_PCT.0, RH_SD_PCT.1)
+            } else {
+                0.0
+            };
+            let read = if sd_free { u[m].exp().clamp(RH_SD_PCT.0, RH_SD_PCT.1) } else { sd_fixed };
+            (amplitude, length, Spread { read, setpoint })
         };
         let search = |objective: &dyn Fn(&[f64]) -> f64, starts: Vec<Vec<f64>>| -> (Vec<f64>, f64) {
             if starts[0].is_empty() {
@@ -384,12 +451,15 @@ impl StripModel {
         // σₑ (when not given) is estimated here, where the laws' slopes alone carry it.
         let reml_at = |p: &Problem<'_>, u: &[f64], sd_free: bool, sd: f64| -> f64 {
             let (a, l, sd) = unpack(u, sd_free, sd);
-            p.reml(p.covariance(&a, &l, &vec![sd * sd; levels.len()])).map_or(f64::INFINITY, |r| r.0)
+            p.reml(p.covariance(&a, &l, sd)).map_or(f64::INFINITY, |r| r.0)
         };
         problem.set_slopes(&beta);
         let starts: Vec<Vec<f64>> = [1.5, 4.0, 12.0]
             .map(|length: f64| {
                 let mut u: Vec<f64> = (0..n_gp).flat_map(|_| [0.03f64.ln(), length.min(max_length).ln()]).collect();
+                if revisited {
+                    u.push(0.1f64.ln());
+                }
                 if estimate_sd {
                     u.push(0.5f64.ln());
                 }
@@ -397,29 +467,35 @@ impl StripModel {
             })
             .to_vec();
         let mut u_best = search(&|u: &[f64]| reml_at(&problem, u, estimate_sd, given_sd), starts).0;
-        let (a, l, rh_sd) = unpack(&u_best, estimate_sd, given_sd);
-        beta = problem.reml(problem.covariance(&a, &l, &vec![rh_sd * rh_sd; levels.len()])).ok_or(ModelError::Singular)?.1.beta;
+        let (a, l, spread) = unpack(&u_best, estimate_sd, given_sd);
+        let rh_sd = spread.read;
+        beta = problem.reml(problem.covariance(&a, &l, spread)).ok_or(ModelError::Singular)?.1.beta;
         // Then with the slopes of that law, each departure at its level's uncertain humidity.
         problem.set_slopes(&beta);
         problem.uncertain_inputs = true;
-        u_best.truncate(2 * n_gp);
+        u_best.truncate(2 * n_gp + usize::from(revisited));
         u_best = search(&|u: &[f64]| reml_at(&problem, u, false, rh_sd), vec![u_best]).0;
-        let (amplitude, length_pct, _) = unpack(&u_best, false, rh_sd);
-        let law_tests = core::array::from_fn(|k| law_test(&problem, k, degree[k]?, rh_sd));
+        let (amplitude, length_pct, spread) = unpack(&u_best, false, rh_sd);
+        let law_tests = core::array::from_fn(|k| law_test(&problem, k, degree[k]?, spread));
 
-        let var = vec![rh_sd * rh_sd; levels.len()];
-        let (_, post) = problem.reml(problem.covariance(&amplitude, &length_pct, &var)).ok_or(ModelError::Singular)?;
+        let (_, post) = problem.reml(problem.covariance(&amplitude, &length_pct, spread)).ok_or(ModelError::Singular)?;
         let amplitude = core::array::from_fn(|k| if gp[k] { amplitude[k] } else { 0.0 });
         Ok(StripModel {
             base: *base,
-            hyper: Hyper { amplitude, length_pct, rh_sd_pct: rh_sd, rh_sd_estimated: estimate_sd },
+            hyper: Hyper {
+                amplitude,
+                length_pct,
+                rh_sd_pct: rh_sd,
+                rh_sd_estimated: estimate_sd,
+                setpoint_sd_pct: spread.setpoint,
+            },
             degree,
             has_departures: gp,
             law_tests,
             levels: count,
             center,
             half,
-            obs: obs.iter().map(|&(k, i)| (k, problem.pos[i], var[i])).collect(),
+            obs: obs.iter().map(|&(k, i)| (k, problem.pos[i], problem.input_cov(i, i, spread))).collect(),
             col,
             beta: post.beta,
             alpha: post.alpha,
@@ -484,14 +560,14 @@ fn posterior_var(
 
 /// The law alone (no departures) against the levels of parameter k: generalized least squares
 /// with each level's own variance and the reading's along the slope.
-fn law_test(p: &Problem<'_>, k: usize, degree: usize, rh_sd: f64) -> Option<LawTest> {
+fn law_test(p: &Problem<'_>, k: usize, degree: usize, sd: Spread) -> Option<LawTest> {
     let rows: Vec<usize> = (0..p.obs.len()).filter(|&a| p.obs[a].0 == k).collect();
     let dof = rows.len().checked_sub(degree + 1).filter(|&d| d > 0)?;
     let col0 = p.col[k];
     let (mut xtx, mut xty) = (DMatrix::<f64>::zeros(degree + 1, degree + 1), DVector::<f64>::zeros(degree + 1));
     let var = |a: usize| {
         let i = p.obs[a].1;
-        p.levels[i].cov[k][k] + (rh_sd * p.slopes[i][k]).powi(2)
+        p.levels[i].cov[k][k] + p.input_cov(i, i, sd) * p.slopes[i][k].powi(2)
     };
     for &a in &rows {
         let w = 1.0 / var(a);
@@ -538,6 +614,7 @@ mod tests {
                     rh_pct: x + e,
                     ln: core::array::from_fn(|k| Some(ln_base(&base, k, x) + dep(k, x) + noise(k))),
                     cov: core::array::from_fn(|a| core::array::from_fn(|b| if a == b { se * se } else { 0.0 })),
+                    revisit_of: None,
                 }
             })
             .collect()
@@ -584,5 +661,41 @@ mod tests {
             assert!(m.posterior_sd(0, x) < 0.02, "{}", m.posterior_sd(0, x));
         }
         assert!(m.has_departures[0] && m.hyper.amplitude[0] > 0.02, "{:?}", m.hyper);
+    }
+
+    /// A strip whose departures are independent from setpoint to setpoint (5 %RH apart),
+    /// visited up and down, each visit read 0.75 %RH off in its own direction. Told which
+    /// levels revisit a setpoint, the model keeps each setpoint's value and says the strip is
+    /// unknown between setpoints (the posterior sd there near the departures' amplitude);
+    /// taking the two visits as two humidities, the agreeing values of visits read ~1.5 %RH
+    /// apart make the strip look smooth, and the sd between setpoints comes out a fraction of
+    /// that.
+    #[test]
+    fn a_revisited_setpoint_is_one_humidity() {
+        let up: Vec<f64> = (0..9).map(|i| 40.0 + 5.0 * i as f64).collect();
+        let sp: Vec<f64> = up.iter().copied().chain(up.iter().rev().skip(1).copied()).collect();
+        // Fixed draws of Y's departures, about 3 % rms, one per setpoint.
+        const DRAWS: [f64; 9] = [0.6, -1.2, 0.9, 0.1, -1.5, 1.3, -0.4, -0.8, 1.1];
+        let dep = |k: usize, x: f64| if k == 0 { 0.03 * DRAWS[((x - 40.0) / 5.0).round() as usize] } else { 0.0 };
+        let e: Vec<f64> = (0..sp.len()).map(|i| if i < up.len() { 0.75 } else { -0.75 }).collect();
+        let mut lv = levels(&sp, &e, 0.002, &dep);
+        let n_up = up.len();
+        let midpoints = [47.5, 52.5, 57.5, 62.5, 67.5, 72.5];
+        let rms = |m: &StripModel, xs: &[f64]| (xs.iter().map(|&x| m.posterior_sd(0, x).powi(2)).sum::<f64>() / xs.len() as f64).sqrt();
+        let apart = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.75)).unwrap();
+        for (i, l) in lv.iter_mut().enumerate().skip(n_up) {
+            l.revisit_of = Some(2 * n_up - 2 - i);
+        }
+        let one = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.75)).unwrap();
+        let amplitude = one.hyper.amplitude[0];
+        assert!(amplitude > 0.02, "{:?}", one.hyper);
+        let (between, apart_between) = (rms(&one, &midpoints), rms(&apart, &midpoints));
+        assert!(between > 0.7 * amplitude, "between setpoints: sd {between} against the amplitude {amplitude} ({:?})", one.hyper);
+        assert!(apart_between < 0.7 * between, "two humidities per setpoint: sd {apart_between} between setpoints, one: {between}");
+        for &x in &[50.0, 60.0, 70.0] {
+            assert!(one.posterior_sd(0, x) < 0.3 * amplitude, "at the setpoint {x}: {} ({:?})", one.posterior_sd(0, x), one.hyper);
+            let got = one.law_ln(0, x) + one.departure(0, x) - ln_base(&Calibration::default_preset(), 0, x);
+            assert!((got - dep(0, x)).abs() < 0.01, "Y at {x}: {got} vs {}", dep(0, x));
+        }
     }
 }
