@@ -39,6 +39,41 @@
 //! within a length ℓₖ. The posterior variance of θₖ (departure and law coefficients both) is
 //! what is left unknown: its rms over the calibrated range becomes `[uncertainty]`. No constant
 //! here is set from any recording: the hyperparameters are the data's.
+//!
+//! The lengths are averaged over, not taken at their REML point. Levels a step s apart, each
+//! visited once, cannot tell a departure of length ℓ ≲ s/2 from one of ℓ = s/2: both make the
+//! levels independent, and the likelihood is flat below there. A point estimate that lands at ℓ ≈ s (as it did, 3–5 %RH with levels
+//! 5 %RH apart) claims that the strip between two levels is the smooth interpolation of
+//! them, and its posterior sd there is small, while a strip departing every half step is as
+//! far off midway as anywhere (Y 0.8 % stated where it was 11 % off). What the data do not
+//! decide has to stay in the answer: per parameter k with a departure process, ℓₖ takes a
+//! grid log-spaced over its search bounds, the other hyperparameters stay at their REML
+//! point, and at each ℓₖⱼ the amplitude Aₖ is the REML one given that length (profiled: a
+//! length shorter than the spacing makes the levels white, and their scatter is then the
+//! whole amplitude). Each grid point weighs the restricted likelihood there times its step in
+//! ln ℓ,
+//!
+//!   wⱼ ∝ e^(−REML negative log-likelihood at (Aₖ(ℓₖⱼ), ℓₖⱼ))·Δln ℓ,
+//!
+//! the posterior of ℓₖ under a log-uniform prior over the bounds. Log-uniform because a
+//! length is a scale: nothing says 1 %RH is likelier than 10 %RH, and a prior uniform in ℓ
+//! would put nearly all its mass at the long end. Where the data decide (a smooth departure
+//! seen by several levels per length) the likelihood is peaked and the prior does not matter;
+//! where they do not (below the spacing) the weight follows the prior, so the lower bound
+//! (a tenth of the closest setpoints) sets how much weight the short, unknowable lengths get:
+//! it only matters there, and moving it moves the mixture's sd between levels only between
+//! the point model's and the full amplitude. Each length brings its own posterior (law
+//! coefficients, departure); θₖ(x) is their mixture, mean Σwⱼμⱼ and variance
+//! Σwⱼ(vⱼ + μⱼ²) − mean². The written law stays the REML point's, the table carries the
+//! mixture's mean less that law, the sd is the mixture's. So between levels the stated sd
+//! grows toward the amplitude as far as the data leave short lengths possible. At a level it
+//! is smaller, though not the level's own error: the level measured the strip at a humidity
+//! known to σₑ/√n, and a length below that leaves the strip at the exact humidity uncertain.
+//! What used to pin the lengths down, two visits of a setpoint read 1 %RH apart agreeing, was
+//! the read error's doing (the simulated bench session's lengths' 90 % interval started at
+//! 0.7–1.6 %RH; the strip there departs independently every 2.5 %RH, and the main job's ramp
+//! between the setpoints was covered by 37 % of its stated bars). With a revisited setpoint one
+//! humidity the session's data say nothing below the setpoints' spacing, and the answer says so.
 
 use crate::identify::LevelFit;
 use crate::stats::{chi2_tail, nelder_mead};
@@ -54,6 +89,11 @@ pub const CORRECTION_DEGREE: usize = 2;
 const AMPLITUDE: (f64, f64) = (1e-5, 2.0);
 const LENGTH_PCT: (f64, f64) = (0.2, 300.0);
 const RH_SD_PCT: (f64, f64) = (1e-3, 5.0);
+/// Points of the grid of lengths averaged over: a ratio of ~1.5 between neighbours over a
+/// bench session's 40 %RH, fine against the likelihood's width in ln ℓ where the data decide.
+const LENGTH_GRID: usize = 14;
+/// Weight below which a length's posterior is dropped from the mixture (after normalizing).
+const NEGLIGIBLE_WEIGHT: f64 = 1e-4;
 /// RH step [%] of the laws' slopes.
 const SLOPE_STEP_PCT: f64 = 0.05;
 
@@ -184,6 +224,22 @@ pub struct StripModel {
     chol: Cholesky<f64, Dyn>,
     h: DMatrix<f64>,
     /// (HᵀC⁻¹H)⁻¹
+    hch_inv: DMatrix<f64>,
+    /// Per parameter with a departure process: the lengths it is averaged over (empty: the
+    /// REML point alone).
+    mixture: [Vec<Component>; 4],
+}
+
+/// One length of a parameter's departure in the average over lengths: its posterior weight,
+/// the amplitude the likelihood takes at that length and the posterior given both.
+#[derive(Clone, Debug)]
+struct Component {
+    weight: f64,
+    amplitude: f64,
+    length_pct: f64,
+    beta: DVector<f64>,
+    alpha: DVector<f64>,
+    chol: Cholesky<f64, Dyn>,
     hch_inv: DMatrix<f64>,
 }
 
@@ -479,16 +535,12 @@ impl StripModel {
         let law_tests = core::array::from_fn(|k| law_test(&problem, k, degree[k]?, spread));
 
         let (_, post) = problem.reml(problem.covariance(&amplitude, &length_pct, spread)).ok_or(ModelError::Singular)?;
+        let mixture =
+            core::array::from_fn(|k| if gp[k] { over_lengths(&problem, k, &amplitude, &length_pct, spread, max_length) } else { vec![] });
         let amplitude = core::array::from_fn(|k| if gp[k] { amplitude[k] } else { 0.0 });
         Ok(StripModel {
             base: *base,
-            hyper: Hyper {
-                amplitude,
-                length_pct,
-                rh_sd_pct: rh_sd,
-                rh_sd_estimated: estimate_sd,
-                setpoint_sd_pct: spread.setpoint,
-            },
+            hyper: Hyper { amplitude, length_pct, rh_sd_pct: rh_sd, rh_sd_estimated: estimate_sd, setpoint_sd_pct: spread.setpoint },
             degree,
             has_departures: gp,
             law_tests,
@@ -502,7 +554,14 @@ impl StripModel {
             chol: post.chol,
             h: problem.h,
             hch_inv: post.hch_inv,
+            mixture,
         })
+    }
+
+    /// The posterior of the departure's length of parameter k: (length [%RH], weight) over
+    /// the grid it is averaged on, negligible lengths left out; empty without a departure.
+    pub fn length_posterior(&self, k: usize) -> Vec<(f64, f64)> {
+        self.mixture[k].iter().map(|c| (c.length_pct, c.weight)).collect()
     }
 
     /// The smooth law of parameter k (order of [`DEPARTING`]) at `x`, in ln.
@@ -518,18 +577,117 @@ impl StripModel {
         k_star(&self.obs, self.has_departures[k], k, x, self.hyper.amplitude[k], self.hyper.length_pct[k])
     }
 
-    /// The strip's departure from the law of parameter k at `x`, in ln (the posterior mean).
+    /// The 5 %, 50 % and 95 % points of the departure length's posterior of parameter k [%RH]
+    /// (the grid's lengths); None without a departure.
+    pub fn length_quantiles(&self, k: usize) -> Option<[f64; 3]> {
+        let c = &self.mixture[k];
+        let at = |q: f64| {
+            let mut sum = 0.0;
+            c.iter().find(|c| {
+                sum += c.weight;
+                sum >= q
+            })
+        };
+        let [a, b, d] = [0.05, 0.5, 0.95].map(|q| at(q).or(c.last()).map(|c| c.length_pct));
+        Some([a?, b?, d?])
+    }
+
+    /// The strip's departure from the (REML point's) law of parameter k at `x`, in ln: the
+    /// posterior mean of ln θₖ averaged over the departure's lengths, less that law.
     pub fn departure(&self, k: usize, x: f64) -> f64 {
+        if self.mixture[k].is_empty() {
+            return self.point_departure(k, x);
+        }
+        self.mixture_moments(k, x).map_or(f64::NAN, |(mean, _)| mean - self.law_ln(k, x))
+    }
+
+    /// The posterior standard deviation of ln θₖ at `x` (departure and law), averaged over the
+    /// departure's lengths.
+    pub fn posterior_sd(&self, k: usize, x: f64) -> f64 {
+        if self.mixture[k].is_empty() {
+            return self.point_sd(k, x);
+        }
+        self.mixture_moments(k, x).map_or(f64::NAN, |(_, var)| var.max(0.0).sqrt())
+    }
+
+    /// The departure's posterior mean at the REML point of its hyperparameters alone.
+    pub fn point_departure(&self, k: usize, x: f64) -> f64 {
         self.k_star(k, x).dot(&self.alpha)
     }
 
-    /// The posterior standard deviation of ln θₖ at `x`: the departure's and the law's.
-    pub fn posterior_sd(&self, k: usize, x: f64) -> f64 {
+    /// The posterior sd of ln θₖ at `x` at the REML point of the hyperparameters alone.
+    pub fn point_sd(&self, k: usize, x: f64) -> f64 {
         let Some(q) = self.degree[k] else { return f64::NAN };
         let ks = self.k_star(k, x);
         let prior = if self.has_departures[k] { self.hyper.amplitude[k].powi(2) } else { 0.0 };
         posterior_var(&self.chol, &self.h, &self.hch_inv, &ks, prior, basis(x, self.center, self.half, q), self.col[k]).max(0.0).sqrt()
     }
+
+    /// Mean and variance of ln θₖ at `x` over the lengths' mixture.
+    fn mixture_moments(&self, k: usize, x: f64) -> Option<(f64, f64)> {
+        let q = self.degree[k]?;
+        let (mut m1, mut m2) = (0.0, 0.0);
+        for c in &self.mixture[k] {
+            let ks = k_star(&self.obs, true, k, x, c.amplitude, c.length_pct);
+            let law: f64 = basis(x, self.center, self.half, q).enumerate().map(|(j, b)| b * c.beta[self.col[k] + j]).sum();
+            let mean = ln_base(&self.base, k, x) + law + ks.dot(&c.alpha);
+            let var =
+                posterior_var(&c.chol, &self.h, &c.hch_inv, &ks, c.amplitude.powi(2), basis(x, self.center, self.half, q), self.col[k]);
+            m1 += c.weight * mean;
+            m2 += c.weight * (var.max(0.0) + mean * mean);
+        }
+        Some((m1, m2 - m1 * m1))
+    }
+}
+
+/// The posteriors of parameter k over a grid of its departure's length, weighted by the
+/// restricted likelihood under a log-uniform prior on the length (module doc); the other
+/// hyperparameters at their REML point (`amplitude`, `length`), k's amplitude the likelihood's
+/// best at each length. Empty when no length gives a posterior.
+fn over_lengths(p: &Problem<'_>, k: usize, amplitude: &[f64; 4], length: &[f64; 4], spread: Spread, max_length: f64) -> Vec<Component> {
+    let (lo, hi) = (LENGTH_PCT.0.ln(), max_length.ln());
+    let step = (hi - lo) / (LENGTH_GRID - 1) as f64;
+    let mut fits: Vec<(f64, Component)> = Vec::with_capacity(LENGTH_GRID);
+    for j in 0..LENGTH_GRID {
+        let mut lengths = *length;
+        lengths[k] = (lo + step * j as f64).exp().clamp(LENGTH_PCT.0, max_length);
+        let with = |ln_a: f64| {
+            let mut a = *amplitude;
+            a[k] = ln_a.exp().clamp(AMPLITUDE.0, AMPLITUDE.1);
+            a
+        };
+        let nll = |u: &[f64]| p.reml(p.covariance(&with(u[0]), &lengths, spread)).map_or(f64::INFINITY, |r| r.0);
+        // From no smaller than a percent: below the levels' errors the likelihood is flat in A
+        // and a simplex started there would not move.
+        let (u, _) = nelder_mead(&nll, &[amplitude[k].max(0.01).ln()], 0.7, 1e-9, 300);
+        let (u, _) = nelder_mead(&nll, &u, 0.2, 1e-10, 200);
+        let a = with(u[0]);
+        let Some((v, post)) = p.reml(p.covariance(&a, &lengths, spread)) else { continue };
+        // Trapezoid in ln ℓ: the two ends carry half a step.
+        let dl = if j == 0 || j + 1 == LENGTH_GRID { 0.5 * step } else { step };
+        let component = Component {
+            weight: 0.0,
+            amplitude: a[k],
+            length_pct: lengths[k],
+            beta: post.beta,
+            alpha: post.alpha,
+            chol: post.chol,
+            hch_inv: post.hch_inv,
+        };
+        fits.push((-v + dl.max(f64::MIN_POSITIVE).ln(), component));
+    }
+    let Some(top) = fits.iter().map(|f| f.0).reduce(f64::max) else { return vec![] };
+    let total: f64 = fits.iter().map(|f| (f.0 - top).exp()).sum();
+    let mut kept: Vec<Component> = fits
+        .into_iter()
+        .map(|(lw, c)| Component { weight: (lw - top).exp() / total, ..c })
+        .filter(|c| c.weight >= NEGLIGIBLE_WEIGHT)
+        .collect();
+    let kept_total: f64 = kept.iter().map(|c| c.weight).sum();
+    for c in &mut kept {
+        c.weight /= kept_total;
+    }
+    kept
 }
 
 /// Covariances of parameter k's departure at an exact `x` with observations `obs` (parameter,
@@ -620,6 +778,74 @@ mod tests {
             .collect()
     }
 
+    /// Setpoints 5 %RH apart, 40→80 %RH, each read with its own error.
+    fn setpoints_5_apart() -> (Vec<f64>, Vec<f64>) {
+        let sp: Vec<f64> = (0..=8).map(|i| 40.0 + 5.0 * i as f64).collect();
+        let e: Vec<f64> = (0..sp.len()).map(|i| 0.4 * (((i * 5) % 7) as f64 / 3.0 - 1.0)).collect();
+        (sp, e)
+    }
+
+    /// A strip departing from its laws independently at every setpoint (white at the levels'
+    /// spacing), each visited once: the levels cannot tell any length below the spacing, so
+    /// midway between two of them the strip is unknown and the stated sd must be about the
+    /// departure's amplitude. The REML point's length lands near the spacing for some
+    /// parameters (here Ca and d), and its sd midway is then the interpolation's, half the
+    /// amplitude or less; the average over lengths must not be.
+    #[test]
+    fn white_departures_are_unknown_between_levels() {
+        let (sp, e) = setpoints_5_apart();
+        let mut rng = crate::random::SplitMix64(7);
+        let at_setpoint: Vec<[f64; 4]> = sp.iter().map(|_| core::array::from_fn(|_| rng.gauss(0.05))).collect();
+        let dep = |k: usize, x: f64| at_setpoint[((x - 40.0) / 5.0).round() as usize][k];
+        let lv = levels(&sp, &e, 0.002, &dep);
+        let m = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.3)).unwrap();
+        let mut interpolated = 0;
+        for k in 0..4 {
+            let a = m.hyper.amplitude[k];
+            assert!(m.has_departures[k] && a > 0.03, "{k}: {:?}", m.hyper);
+            for x in [47.5, 52.5, 57.5, 62.5, 67.5, 72.5] {
+                let (point, mixed) = (m.point_sd(k, x), m.posterior_sd(k, x));
+                assert!(mixed > 0.8 * a && mixed < 1.25 * a, "{k} at {x}: sd {mixed} against amplitude {a}");
+                if m.hyper.length_pct[k] > 2.5 {
+                    assert!(mixed > 1.3 * point, "{k} at {x}: sd {mixed} against the point's {point}");
+                    interpolated += 1;
+                }
+                // The levels still say something: less unknown at one than midway.
+                assert!(m.posterior_sd(k, x + 2.5) < mixed, "{k} at {}: {}", x + 2.5, m.posterior_sd(k, x + 2.5));
+            }
+        }
+        // The case this test is about happened (the data, not the test, choose the point).
+        assert!(interpolated > 0, "{:?}", m.hyper);
+    }
+
+    /// A smooth departure, several levels per length: the likelihood decides the length, and
+    /// the average over lengths gives the point estimate's answer.
+    #[test]
+    fn smooth_departures_keep_the_point_estimate() {
+        // Up and back down, the second visit read with the opposite error.
+        let (up, e_up) = setpoints_5_apart();
+        let sp: Vec<f64> = up.iter().chain(up.iter().rev().skip(1)).copied().collect();
+        let e: Vec<f64> = e_up.iter().copied().chain(e_up.iter().rev().skip(1).map(|e| -e)).collect();
+        let dep = |k: usize, x: f64| if k == 0 { 0.06 * (2.0 * core::f64::consts::PI * (x - 40.0) / 30.0).sin() } else { 0.0 };
+        let lv = levels(&sp, &e, 0.002, &dep);
+        let m = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.3)).unwrap();
+        let short: f64 = m.length_posterior(0).iter().filter(|c| c.0 < 2.5).map(|c| c.1).sum();
+        assert!(short < 0.01, "{:?}", m.length_posterior(0));
+        let [lo, _, hi] = m.length_quantiles(0).unwrap();
+        assert!(lo > 0.5 * m.hyper.length_pct[0] && hi < 2.0 * m.hyper.length_pct[0], "{lo}–{hi}: {:?}", m.hyper);
+        for x in [42.5, 47.5, 50.0, 57.5, 62.5, 65.0, 72.5, 77.5] {
+            let (point, mixed) = (m.point_sd(0, x), m.posterior_sd(0, x));
+            assert!(
+                (m.departure(0, x) - m.point_departure(0, x)).abs() < 0.2 * point,
+                "at {x}: {} vs {}",
+                m.departure(0, x),
+                m.point_departure(0, x)
+            );
+            // Within a quarter of a sd that is itself a twentieth of the amplitude.
+            assert!((mixed / point - 1.0).abs() < 0.25, "at {x}: sd {mixed} vs {point}");
+        }
+    }
+
     #[test]
     fn read_errors_from_revisits() {
         assert_eq!(rh_sd_from_revisits(&[(40.0, 41.0), (50.0, 49.0)]), None);
@@ -667,9 +893,8 @@ mod tests {
     /// visited up and down, each visit read 0.75 %RH off in its own direction. Told which
     /// levels revisit a setpoint, the model keeps each setpoint's value and says the strip is
     /// unknown between setpoints (the posterior sd there near the departures' amplitude);
-    /// taking the two visits as two humidities, the agreeing values of visits read ~1.5 %RH
-    /// apart make the strip look smooth, and the sd between setpoints comes out a fraction of
-    /// that.
+    /// taking the two visits as two humidities, the agreeing values of visits read 1.5 %RH
+    /// apart make the strip look smooth, and the sd between setpoints comes out well below.
     #[test]
     fn a_revisited_setpoint_is_one_humidity() {
         let up: Vec<f64> = (0..9).map(|i| 40.0 + 5.0 * i as f64).collect();
@@ -692,10 +917,12 @@ mod tests {
         let (between, apart_between) = (rms(&one, &midpoints), rms(&apart, &midpoints));
         assert!(between > 0.7 * amplitude, "between setpoints: sd {between} against the amplitude {amplitude} ({:?})", one.hyper);
         assert!(apart_between < 0.7 * between, "two humidities per setpoint: sd {apart_between} between setpoints, one: {between}");
+        // The setpoints still say something: less unknown there than midway, and the strip's
+        // value there kept.
         for &x in &[50.0, 60.0, 70.0] {
-            assert!(one.posterior_sd(0, x) < 0.3 * amplitude, "at the setpoint {x}: {} ({:?})", one.posterior_sd(0, x), one.hyper);
+            assert!(one.posterior_sd(0, x) < 0.8 * between, "at the setpoint {x}: {} ({:?})", one.posterior_sd(0, x), one.hyper);
             let got = one.law_ln(0, x) + one.departure(0, x) - ln_base(&Calibration::default_preset(), 0, x);
-            assert!((got - dep(0, x)).abs() < 0.01, "Y at {x}: {got} vs {}", dep(0, x));
+            assert!((got - dep(0, x)).abs() < 0.5 * dep(0, x).abs().max(0.01), "Y at {x}: {got} vs {}", dep(0, x));
         }
     }
 }

@@ -341,6 +341,15 @@ pub fn identify(
             model.hyper.setpoint_sd_pct
         );
     }
+    let lengths: Vec<String> = (0..4)
+        .filter_map(|k| {
+            let [lo, mid, hi] = model.length_quantiles(k)?;
+            Some(format!("{} {mid:.1} ({lo:.1}–{hi:.1})", ipmc_core::departures::DEPARTING[k].as_str()))
+        })
+        .collect();
+    if !lengths.is_empty() {
+        println!("departure lengths averaged over, posterior median (90 %) [%RH]: {}", lengths.join(", "));
+    }
     if let Some(g) = tip_gain {
         calib.instrument.tip_gain = g.value;
         println!(
