@@ -23,6 +23,14 @@
 //! change within the read error to follow the levels is no better than noise: a level read far
 //! off its setpoint (2 %RH from the next one) cannot make a spike of its neighbour's value.
 //!
+//! A setpoint visited twice (a down sweep) is one humidity, not two: the chamber returns to it,
+//! the sensor reads it with another error. Both visits sit at their readings' mean, whose error
+//! they share (σₑ²/n); what differs between them is only how far the chamber left each visit
+//! from the setpoint, σₛ, a hyperparameter. Without this, two visits read 1 %RH apart that
+//! agree in value would say the strip is smooth over 1 %RH, and the departures' length would
+//! be set by the read errors instead of by the setpoints: between setpoints 5 %RH apart the
+//! strip would be claimed known where no level measured it.
+//!
 //! Aₖ, ℓₖ (and σₑ when the reading's uncertainty is not given) maximize the restricted (REML)
 //! marginal likelihood of all levels' values, the polynomial coefficients integrated out; then
 //! the law is the generalized-least-squares polynomial and the departure the posterior mean of
@@ -31,6 +39,41 @@
 //! within a length ℓₖ. The posterior variance of θₖ (departure and law coefficients both) is
 //! what is left unknown: its rms over the calibrated range becomes `[uncertainty]`. No constant
 //! here is set from any recording: the hyperparameters are the data's.
+//!
+//! The lengths are averaged over, not taken at their REML point. Levels a step s apart, each
+//! visited once, cannot tell a departure of length ℓ ≲ s/2 from one of ℓ = s/2: both make the
+//! levels independent, and the likelihood is flat below there. A point estimate that lands at ℓ ≈ s (as it did, 3–5 %RH with levels
+//! 5 %RH apart) claims that the strip between two levels is the smooth interpolation of
+//! them, and its posterior sd there is small, while a strip departing every half step is as
+//! far off midway as anywhere (Y 0.8 % stated where it was 11 % off). What the data do not
+//! decide has to stay in the answer: per parameter k with a departure process, ℓₖ takes a
+//! grid log-spaced over its search bounds, the other hyperparameters stay at their REML
+//! point, and at each ℓₖⱼ the amplitude Aₖ is the REML one given that length (profiled: a
+//! length shorter than the spacing makes the levels white, and their scatter is then the
+//! whole amplitude). Each grid point weighs the restricted likelihood there times its step in
+//! ln ℓ,
+//!
+//!   wⱼ ∝ e^(−REML negative log-likelihood at (Aₖ(ℓₖⱼ), ℓₖⱼ))·Δln ℓ,
+//!
+//! the posterior of ℓₖ under a log-uniform prior over the bounds. Log-uniform because a
+//! length is a scale: nothing says 1 %RH is likelier than 10 %RH, and a prior uniform in ℓ
+//! would put nearly all its mass at the long end. Where the data decide (a smooth departure
+//! seen by several levels per length) the likelihood is peaked and the prior does not matter;
+//! where they do not (below the spacing) the weight follows the prior, so the lower bound
+//! (a tenth of the closest setpoints) sets how much weight the short, unknowable lengths get:
+//! it only matters there, and moving it moves the mixture's sd between levels only between
+//! the point model's and the full amplitude. Each length brings its own posterior (law
+//! coefficients, departure); θₖ(x) is their mixture, mean Σwⱼμⱼ and variance
+//! Σwⱼ(vⱼ + μⱼ²) − mean². The written law stays the REML point's, the table carries the
+//! mixture's mean less that law, the sd is the mixture's. So between levels the stated sd
+//! grows toward the amplitude as far as the data leave short lengths possible. At a level it
+//! is smaller, though not the level's own error: the level measured the strip at a humidity
+//! known to σₑ/√n, and a length below that leaves the strip at the exact humidity uncertain.
+//! What used to pin the lengths down, two visits of a setpoint read 1 %RH apart agreeing, was
+//! the read error's doing (the simulated bench session's lengths' 90 % interval started at
+//! 0.7–1.6 %RH; the strip there departs independently every 2.5 %RH, and the main job's ramp
+//! between the setpoints was covered by 37 % of its stated bars). With a revisited setpoint one
+//! humidity the session's data say nothing below the setpoints' spacing, and the answer says so.
 
 use crate::identify::LevelFit;
 use crate::stats::{chi2_tail, nelder_mead};
@@ -46,6 +89,11 @@ pub const CORRECTION_DEGREE: usize = 2;
 const AMPLITUDE: (f64, f64) = (1e-5, 2.0);
 const LENGTH_PCT: (f64, f64) = (0.2, 300.0);
 const RH_SD_PCT: (f64, f64) = (1e-3, 5.0);
+/// Points of the grid of lengths averaged over: a ratio of ~1.5 between neighbours over a
+/// bench session's 40 %RH, fine against the likelihood's width in ln ℓ where the data decide.
+const LENGTH_GRID: usize = 14;
+/// Weight below which a length's posterior is dropped from the mixture (after normalizing).
+const NEGLIGIBLE_WEIGHT: f64 = 1e-4;
 /// RH step [%] of the laws' slopes.
 const SLOPE_STEP_PCT: f64 = 0.05;
 
@@ -56,6 +104,9 @@ pub struct LevelTheta {
     pub rh_pct: f64,
     pub ln: [Option<f64>; 4],
     pub cov: [[f64; 4]; 4],
+    /// The earlier level of the same slice at the same setpoint, when the session came back
+    /// to it.
+    pub revisit_of: Option<usize>,
 }
 
 impl LevelTheta {
@@ -77,7 +128,7 @@ impl LevelTheta {
                 }
             }
         }
-        LevelTheta { rh_pct: fit.rh_pct, ln, cov }
+        LevelTheta { rh_pct: fit.rh_pct, ln, cov, revisit_of: None }
     }
 }
 
@@ -90,6 +141,9 @@ pub struct Hyper {
     pub rh_sd_pct: f64,
     /// Whether `rh_sd_pct` was estimated (true) or given.
     pub rh_sd_estimated: bool,
+    /// How far the chamber left the visits of one setpoint from each other [%RH] (0 without
+    /// revisits).
+    pub setpoint_sd_pct: f64,
 }
 
 /// How far the smooth law alone (no departures) misses its levels: χ² against the levels'
@@ -171,6 +225,22 @@ pub struct StripModel {
     h: DMatrix<f64>,
     /// (HᵀC⁻¹H)⁻¹
     hch_inv: DMatrix<f64>,
+    /// Per parameter with a departure process: the lengths it is averaged over (empty: the
+    /// REML point alone).
+    mixture: [Vec<Component>; 4],
+}
+
+/// One length of a parameter's departure in the average over lengths: its posterior weight,
+/// the amplitude the likelihood takes at that length and the posterior given both.
+#[derive(Clone, Debug)]
+struct Component {
+    weight: f64,
+    amplitude: f64,
+    length_pct: f64,
+    beta: DVector<f64>,
+    alpha: DVector<f64>,
+    chol: Cholesky<f64, Dyn>,
+    hch_inv: DMatrix<f64>,
 }
 
 /// The model's data at given level humidities.
@@ -189,12 +259,22 @@ struct Problem<'a> {
     /// Whether two levels' departures covary as at their uncertain humidities (else as at their
     /// readings).
     uncertain_inputs: bool,
-    /// Each level's humidity and its variance.
+    /// Each level's humidity (its setpoint's readings' mean).
     pos: Vec<f64>,
-    var: Vec<f64>,
+    /// Each level's setpoint (the index of its first visit) and how many visits it had.
+    site: Vec<usize>,
+    visits: Vec<usize>,
     y: DVector<f64>,
     h: DMatrix<f64>,
     slopes: Vec<[f64; 4]>,
+}
+
+/// The spread of the levels' true humidities: the bench reading's error and how far the
+/// chamber left the visits of one setpoint from each other [%RH].
+#[derive(Clone, Copy, Debug)]
+struct Spread {
+    read: f64,
+    setpoint: f64,
 }
 
 /// What a posterior at fixed hyperparameters is made of.
@@ -208,7 +288,7 @@ struct Posterior {
 impl<'a> Problem<'a> {
     /// The levels at humidities `pos` with variances `var`: the offsets (the base's law there)
     /// and the correction's basis.
-    fn place(&mut self, pos: Vec<f64>, var: Vec<f64>) -> Result<(), ModelError> {
+    fn place(&mut self, pos: Vec<f64>) -> Result<(), ModelError> {
         let mut y = DVector::zeros(self.obs.len());
         let mut h = DMatrix::zeros(self.obs.len(), self.ncol);
         for (a, &(k, i)) in self.obs.iter().enumerate() {
@@ -221,7 +301,7 @@ impl<'a> Problem<'a> {
                 h[(a, self.col[k] + j)] = v;
             }
         }
-        (self.pos, self.var, self.y, self.h) = (pos, var, y, h);
+        (self.pos, self.y, self.h) = (pos, y, h);
         Ok(())
     }
 
@@ -246,22 +326,40 @@ impl<'a> Problem<'a> {
 
     /// The observations' covariance: departures (each level's value at its uncertain
     /// humidity), the levels' own errors, and the humidity's error along the laws.
-    fn covariance(&self, amplitude: &[f64; 4], length: &[f64; 4], var: &[f64]) -> DMatrix<f64> {
+    fn covariance(&self, amplitude: &[f64; 4], length: &[f64; 4], sd: Spread) -> DMatrix<f64> {
         let n = self.obs.len();
         DMatrix::from_fn(n, n, |a, b| {
             let ((ka, ia), (kb, ib)) = (self.obs[a], self.obs[b]);
             let mut c = 0.0;
             if ka == kb && self.gp[ka] {
                 // One level's departure is one value (its read error moves it along nothing);
-                // two levels' are the departure at two humidities each read with its own error.
-                let v = if ia == ib || !self.uncertain_inputs { 0.0 } else { var[ia] + var[ib] };
+                // two levels' are the departure at two humidities each known up to its error.
+                let v = if ia == ib || !self.uncertain_inputs {
+                    0.0
+                } else {
+                    self.input_cov(ia, ia, sd) + self.input_cov(ib, ib, sd) - 2.0 * self.input_cov(ia, ib, sd)
+                };
                 c += kernel(self.pos[ia] - self.pos[ib], amplitude[ka], length[ka], v);
             }
             if ia == ib {
-                c += self.levels[ia].cov[ka][kb] + var[ia] * self.slopes[ia][ka] * self.slopes[ia][kb];
+                c += self.levels[ia].cov[ka][kb];
             }
-            c
+            c + self.input_cov(ia, ib, sd) * self.slopes[ia][ka] * self.slopes[ib][kb]
         })
+    }
+
+    /// The covariance of two levels' true humidities about their positions: a lone level's is
+    /// its reading's error; the visits of one setpoint share their mean reading's error and
+    /// differ by how far the chamber left each.
+    fn input_cov(&self, ia: usize, ib: usize, sd: Spread) -> f64 {
+        let n = self.visits[ia] as f64;
+        if self.site[ia] != self.site[ib] {
+            0.0
+        } else if n == 1.0 {
+            sd.read * sd.read
+        } else {
+            sd.read * sd.read / n + if ia == ib { sd.setpoint * sd.setpoint } else { 0.0 }
+        }
     }
 
     /// −(restricted log likelihood) up to a constant, and the pieces of the posterior.
@@ -288,6 +386,14 @@ fn reml_of(c: DMatrix<f64>, y: &DVector<f64>, h: &DMatrix<f64>) -> Option<(f64, 
     v.is_finite().then(|| (v, Posterior { chol, beta, alpha, hch_inv: hch_chol.inverse() }))
 }
 
+/// The first visit of level `i`'s setpoint (itself unless it revisits one).
+fn site_of(levels: &[LevelTheta], i: usize) -> usize {
+    match levels[i].revisit_of {
+        Some(j) if j < i => site_of(levels, j),
+        _ => i,
+    }
+}
+
 /// The polynomial basis of a parameter's correction at `x`.
 fn basis(x: f64, center: f64, half: f64, degree: usize) -> impl Iterator<Item = f64> {
     (0..=degree).map(move |j| ((x - center) / half).powi(j as i32))
@@ -302,7 +408,8 @@ fn ln_base(base: &Calibration, k: usize, rh: f64) -> f64 {
 impl StripModel {
     /// Fits the model to `levels` on the shape of `base`'s laws. `rh_sd_pct`: the bench
     /// reading's standard error when known; estimated from the levels otherwise. Every level
-    /// is at its reading, its humidity uncertain by σₑ. Two passes: the first takes the
+    /// is at its reading, its humidity uncertain by σₑ; a setpoint visited again (a level's
+    /// `revisit_of`) at its visits' mean reading (module doc). Two passes: the first takes the
     /// departures at the readings (the read error moving the levels along the laws only) and
     /// estimates σₑ there; the second, with σₑ and the slopes of the first pass's law, takes
     /// each departure at its uncertain humidity. (Estimated in the second, σₑ shrinks: the
@@ -338,16 +445,26 @@ impl StripModel {
             gp,
             uncertain_inputs: false,
             pos: vec![],
-            var: vec![],
+            site: vec![],
+            visits: vec![],
             y: DVector::zeros(0),
             h: DMatrix::zeros(0, 0),
             slopes: vec![],
         };
-        let readings: Vec<f64> = levels.iter().map(|l| l.rh_pct).collect();
-        problem.place(readings.clone(), vec![0.0; levels.len()])?;
+        problem.site = (0..levels.len()).map(|i| site_of(levels, i)).collect();
+        problem.visits = problem.site.iter().map(|s| problem.site.iter().filter(|t| *t == s).count()).collect();
+        let positions: Vec<f64> = (0..levels.len())
+            .map(|i| {
+                let visits = (0..levels.len()).filter(|&j| problem.site[j] == problem.site[i]);
+                visits.clone().map(|j| levels[j].rh_pct).sum::<f64>() / visits.count() as f64
+            })
+            .collect();
+        problem.place(positions)?;
+        let revisited = problem.visits.iter().any(|&n| n > 1);
         let n_gp = gp.iter().filter(|&&g| g).count();
-        // The hyperparameters as the search sees them: ln of each free one; σₑ last when free.
-        let unpack = |u: &[f64], sd_free: bool, sd_fixed: f64| -> ([f64; 4], [f64; 4], f64) {
+        // The hyperparameters as the search sees them: ln of each free one; then σₛ where a
+        // setpoint was revisited, and σₑ last when free.
+        let unpack = |u: &[f64], sd_free: bool, sd_fixed: f64| -> ([f64; 4], [f64; 4], Spread) {
             let mut amplitude = [0.0; 4];
             let mut length = [1.0; 4];
             let mut m = 0;
@@ -358,8 +475,14 @@ impl StripModel {
                     m += 2;
                 }
             }
-            let sd = if sd_free { u[m].exp().clamp(RH_SD_PCT.0, RH_SD_PCT.1) } else { sd_fixed };
-            (amplitude, length, sd)
+            let setpoint = if revisited {
+                m += 1;
+                u[m - 1].exp().clamp(RH_SD_PCT.0, RH_SD_PCT.1)
+            } else {
+                0.0
+            };
+            let read = if sd_free { u[m].exp().clamp(RH_SD_PCT.0, RH_SD_PCT.1) } else { sd_fixed };
+            (amplitude, length, Spread { read, setpoint })
         };
         let search = |objective: &dyn Fn(&[f64]) -> f64, starts: Vec<Vec<f64>>| -> (Vec<f64>, f64) {
             if starts[0].is_empty() {
@@ -384,12 +507,15 @@ impl StripModel {
         // σₑ (when not given) is estimated here, where the laws' slopes alone carry it.
         let reml_at = |p: &Problem<'_>, u: &[f64], sd_free: bool, sd: f64| -> f64 {
             let (a, l, sd) = unpack(u, sd_free, sd);
-            p.reml(p.covariance(&a, &l, &vec![sd * sd; levels.len()])).map_or(f64::INFINITY, |r| r.0)
+            p.reml(p.covariance(&a, &l, sd)).map_or(f64::INFINITY, |r| r.0)
         };
         problem.set_slopes(&beta);
         let starts: Vec<Vec<f64>> = [1.5, 4.0, 12.0]
             .map(|length: f64| {
                 let mut u: Vec<f64> = (0..n_gp).flat_map(|_| [0.03f64.ln(), length.min(max_length).ln()]).collect();
+                if revisited {
+                    u.push(0.1f64.ln());
+                }
                 if estimate_sd {
                     u.push(0.5f64.ln());
                 }
@@ -397,36 +523,45 @@ impl StripModel {
             })
             .to_vec();
         let mut u_best = search(&|u: &[f64]| reml_at(&problem, u, estimate_sd, given_sd), starts).0;
-        let (a, l, rh_sd) = unpack(&u_best, estimate_sd, given_sd);
-        beta = problem.reml(problem.covariance(&a, &l, &vec![rh_sd * rh_sd; levels.len()])).ok_or(ModelError::Singular)?.1.beta;
+        let (a, l, spread) = unpack(&u_best, estimate_sd, given_sd);
+        let rh_sd = spread.read;
+        beta = problem.reml(problem.covariance(&a, &l, spread)).ok_or(ModelError::Singular)?.1.beta;
         // Then with the slopes of that law, each departure at its level's uncertain humidity.
         problem.set_slopes(&beta);
         problem.uncertain_inputs = true;
-        u_best.truncate(2 * n_gp);
+        u_best.truncate(2 * n_gp + usize::from(revisited));
         u_best = search(&|u: &[f64]| reml_at(&problem, u, false, rh_sd), vec![u_best]).0;
-        let (amplitude, length_pct, _) = unpack(&u_best, false, rh_sd);
-        let law_tests = core::array::from_fn(|k| law_test(&problem, k, degree[k]?, rh_sd));
+        let (amplitude, length_pct, spread) = unpack(&u_best, false, rh_sd);
+        let law_tests = core::array::from_fn(|k| law_test(&problem, k, degree[k]?, spread));
 
-        let var = vec![rh_sd * rh_sd; levels.len()];
-        let (_, post) = problem.reml(problem.covariance(&amplitude, &length_pct, &var)).ok_or(ModelError::Singular)?;
+        let (_, post) = problem.reml(problem.covariance(&amplitude, &length_pct, spread)).ok_or(ModelError::Singular)?;
+        let mixture =
+            core::array::from_fn(|k| if gp[k] { over_lengths(&problem, k, &amplitude, &length_pct, spread, max_length) } else { vec![] });
         let amplitude = core::array::from_fn(|k| if gp[k] { amplitude[k] } else { 0.0 });
         Ok(StripModel {
             base: *base,
-            hyper: Hyper { amplitude, length_pct, rh_sd_pct: rh_sd, rh_sd_estimated: estimate_sd },
+            hyper: Hyper { amplitude, length_pct, rh_sd_pct: rh_sd, rh_sd_estimated: estimate_sd, setpoint_sd_pct: spread.setpoint },
             degree,
             has_departures: gp,
             law_tests,
             levels: count,
             center,
             half,
-            obs: obs.iter().map(|&(k, i)| (k, problem.pos[i], var[i])).collect(),
+            obs: obs.iter().map(|&(k, i)| (k, problem.pos[i], problem.input_cov(i, i, spread))).collect(),
             col,
             beta: post.beta,
             alpha: post.alpha,
             chol: post.chol,
             h: problem.h,
             hch_inv: post.hch_inv,
+            mixture,
         })
+    }
+
+    /// The posterior of the departure's length of parameter k: (length [%RH], weight) over
+    /// the grid it is averaged on, negligible lengths left out; empty without a departure.
+    pub fn length_posterior(&self, k: usize) -> Vec<(f64, f64)> {
+        self.mixture[k].iter().map(|c| (c.length_pct, c.weight)).collect()
     }
 
     /// The smooth law of parameter k (order of [`DEPARTING`]) at `x`, in ln.
@@ -442,18 +577,117 @@ impl StripModel {
         k_star(&self.obs, self.has_departures[k], k, x, self.hyper.amplitude[k], self.hyper.length_pct[k])
     }
 
-    /// The strip's departure from the law of parameter k at `x`, in ln (the posterior mean).
+    /// The 5 %, 50 % and 95 % points of the departure length's posterior of parameter k [%RH]
+    /// (the grid's lengths); None without a departure.
+    pub fn length_quantiles(&self, k: usize) -> Option<[f64; 3]> {
+        let c = &self.mixture[k];
+        let at = |q: f64| {
+            let mut sum = 0.0;
+            c.iter().find(|c| {
+                sum += c.weight;
+                sum >= q
+            })
+        };
+        let [a, b, d] = [0.05, 0.5, 0.95].map(|q| at(q).or(c.last()).map(|c| c.length_pct));
+        Some([a?, b?, d?])
+    }
+
+    /// The strip's departure from the (REML point's) law of parameter k at `x`, in ln: the
+    /// posterior mean of ln θₖ averaged over the departure's lengths, less that law.
     pub fn departure(&self, k: usize, x: f64) -> f64 {
+        if self.mixture[k].is_empty() {
+            return self.point_departure(k, x);
+        }
+        self.mixture_moments(k, x).map_or(f64::NAN, |(mean, _)| mean - self.law_ln(k, x))
+    }
+
+    /// The posterior standard deviation of ln θₖ at `x` (departure and law), averaged over the
+    /// departure's lengths.
+    pub fn posterior_sd(&self, k: usize, x: f64) -> f64 {
+        if self.mixture[k].is_empty() {
+            return self.point_sd(k, x);
+        }
+        self.mixture_moments(k, x).map_or(f64::NAN, |(_, var)| var.max(0.0).sqrt())
+    }
+
+    /// The departure's posterior mean at the REML point of its hyperparameters alone.
+    pub fn point_departure(&self, k: usize, x: f64) -> f64 {
         self.k_star(k, x).dot(&self.alpha)
     }
 
-    /// The posterior standard deviation of ln θₖ at `x`: the departure's and the law's.
-    pub fn posterior_sd(&self, k: usize, x: f64) -> f64 {
+    /// The posterior sd of ln θₖ at `x` at the REML point of the hyperparameters alone.
+    pub fn point_sd(&self, k: usize, x: f64) -> f64 {
         let Some(q) = self.degree[k] else { return f64::NAN };
         let ks = self.k_star(k, x);
         let prior = if self.has_departures[k] { self.hyper.amplitude[k].powi(2) } else { 0.0 };
         posterior_var(&self.chol, &self.h, &self.hch_inv, &ks, prior, basis(x, self.center, self.half, q), self.col[k]).max(0.0).sqrt()
     }
+
+    /// Mean and variance of ln θₖ at `x` over the lengths' mixture.
+    fn mixture_moments(&self, k: usize, x: f64) -> Option<(f64, f64)> {
+        let q = self.degree[k]?;
+        let (mut m1, mut m2) = (0.0, 0.0);
+        for c in &self.mixture[k] {
+            let ks = k_star(&self.obs, true, k, x, c.amplitude, c.length_pct);
+            let law: f64 = basis(x, self.center, self.half, q).enumerate().map(|(j, b)| b * c.beta[self.col[k] + j]).sum();
+            let mean = ln_base(&self.base, k, x) + law + ks.dot(&c.alpha);
+            let var =
+                posterior_var(&c.chol, &self.h, &c.hch_inv, &ks, c.amplitude.powi(2), basis(x, self.center, self.half, q), self.col[k]);
+            m1 += c.weight * mean;
+            m2 += c.weight * (var.max(0.0) + mean * mean);
+        }
+        Some((m1, m2 - m1 * m1))
+    }
+}
+
+/// The posteriors of parameter k over a grid of its departure's length, weighted by the
+/// restricted likelihood under a log-uniform prior on the length (module doc); the other
+/// hyperparameters at their REML point (`amplitude`, `length`), k's amplitude the likelihood's
+/// best at each length. Empty when no length gives a posterior.
+fn over_lengths(p: &Problem<'_>, k: usize, amplitude: &[f64; 4], length: &[f64; 4], spread: Spread, max_length: f64) -> Vec<Component> {
+    let (lo, hi) = (LENGTH_PCT.0.ln(), max_length.ln());
+    let step = (hi - lo) / (LENGTH_GRID - 1) as f64;
+    let mut fits: Vec<(f64, Component)> = Vec::with_capacity(LENGTH_GRID);
+    for j in 0..LENGTH_GRID {
+        let mut lengths = *length;
+        lengths[k] = (lo + step * j as f64).exp().clamp(LENGTH_PCT.0, max_length);
+        let with = |ln_a: f64| {
+            let mut a = *amplitude;
+            a[k] = ln_a.exp().clamp(AMPLITUDE.0, AMPLITUDE.1);
+            a
+        };
+        let nll = |u: &[f64]| p.reml(p.covariance(&with(u[0]), &lengths, spread)).map_or(f64::INFINITY, |r| r.0);
+        // From no smaller than a percent: below the levels' errors the likelihood is flat in A
+        // and a simplex started there would not move.
+        let (u, _) = nelder_mead(&nll, &[amplitude[k].max(0.01).ln()], 0.7, 1e-9, 300);
+        let (u, _) = nelder_mead(&nll, &u, 0.2, 1e-10, 200);
+        let a = with(u[0]);
+        let Some((v, post)) = p.reml(p.covariance(&a, &lengths, spread)) else { continue };
+        // Trapezoid in ln ℓ: the two ends carry half a step.
+        let dl = if j == 0 || j + 1 == LENGTH_GRID { 0.5 * step } else { step };
+        let component = Component {
+            weight: 0.0,
+            amplitude: a[k],
+            length_pct: lengths[k],
+            beta: post.beta,
+            alpha: post.alpha,
+            chol: post.chol,
+            hch_inv: post.hch_inv,
+        };
+        fits.push((-v + dl.max(f64::MIN_POSITIVE).ln(), component));
+    }
+    let Some(top) = fits.iter().map(|f| f.0).reduce(f64::max) else { return vec![] };
+    let total: f64 = fits.iter().map(|f| (f.0 - top).exp()).sum();
+    let mut kept: Vec<Component> = fits
+        .into_iter()
+        .map(|(lw, c)| Component { weight: (lw - top).exp() / total, ..c })
+        .filter(|c| c.weight >= NEGLIGIBLE_WEIGHT)
+        .collect();
+    let kept_total: f64 = kept.iter().map(|c| c.weight).sum();
+    for c in &mut kept {
+        c.weight /= kept_total;
+    }
+    kept
 }
 
 /// Covariances of parameter k's departure at an exact `x` with observations `obs` (parameter,
@@ -484,14 +718,14 @@ fn posterior_var(
 
 /// The law alone (no departures) against the levels of parameter k: generalized least squares
 /// with each level's own variance and the reading's along the slope.
-fn law_test(p: &Problem<'_>, k: usize, degree: usize, rh_sd: f64) -> Option<LawTest> {
+fn law_test(p: &Problem<'_>, k: usize, degree: usize, sd: Spread) -> Option<LawTest> {
     let rows: Vec<usize> = (0..p.obs.len()).filter(|&a| p.obs[a].0 == k).collect();
     let dof = rows.len().checked_sub(degree + 1).filter(|&d| d > 0)?;
     let col0 = p.col[k];
     let (mut xtx, mut xty) = (DMatrix::<f64>::zeros(degree + 1, degree + 1), DVector::<f64>::zeros(degree + 1));
     let var = |a: usize| {
         let i = p.obs[a].1;
-        p.levels[i].cov[k][k] + (rh_sd * p.slopes[i][k]).powi(2)
+        p.levels[i].cov[k][k] + p.input_cov(i, i, sd) * p.slopes[i][k].powi(2)
     };
     for &a in &rows {
         let w = 1.0 / var(a);
@@ -538,9 +772,78 @@ mod tests {
                     rh_pct: x + e,
                     ln: core::array::from_fn(|k| Some(ln_base(&base, k, x) + dep(k, x) + noise(k))),
                     cov: core::array::from_fn(|a| core::array::from_fn(|b| if a == b { se * se } else { 0.0 })),
+                    revisit_of: None,
                 }
             })
             .collect()
+    }
+
+    /// Setpoints 5 %RH apart, 40→80 %RH, each read with its own error.
+    fn setpoints_5_apart() -> (Vec<f64>, Vec<f64>) {
+        let sp: Vec<f64> = (0..=8).map(|i| 40.0 + 5.0 * i as f64).collect();
+        let e: Vec<f64> = (0..sp.len()).map(|i| 0.4 * (((i * 5) % 7) as f64 / 3.0 - 1.0)).collect();
+        (sp, e)
+    }
+
+    /// A strip departing from its laws independently at every setpoint (white at the levels'
+    /// spacing), each visited once: the levels cannot tell any length below the spacing, so
+    /// midway between two of them the strip is unknown and the stated sd must be about the
+    /// departure's amplitude. The REML point's length lands near the spacing for some
+    /// parameters (here Ca and d), and its sd midway is then the interpolation's, half the
+    /// amplitude or less; the average over lengths must not be.
+    #[test]
+    fn white_departures_are_unknown_between_levels() {
+        let (sp, e) = setpoints_5_apart();
+        let mut rng = crate::random::SplitMix64(7);
+        let at_setpoint: Vec<[f64; 4]> = sp.iter().map(|_| core::array::from_fn(|_| rng.gauss(0.05))).collect();
+        let dep = |k: usize, x: f64| at_setpoint[((x - 40.0) / 5.0).round() as usize][k];
+        let lv = levels(&sp, &e, 0.002, &dep);
+        let m = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.3)).unwrap();
+        let mut interpolated = 0;
+        for k in 0..4 {
+            let a = m.hyper.amplitude[k];
+            assert!(m.has_departures[k] && a > 0.03, "{k}: {:?}", m.hyper);
+            for x in [47.5, 52.5, 57.5, 62.5, 67.5, 72.5] {
+                let (point, mixed) = (m.point_sd(k, x), m.posterior_sd(k, x));
+                assert!(mixed > 0.8 * a && mixed < 1.25 * a, "{k} at {x}: sd {mixed} against amplitude {a}");
+                if m.hyper.length_pct[k] > 2.5 {
+                    assert!(mixed > 1.3 * point, "{k} at {x}: sd {mixed} against the point's {point}");
+                    interpolated += 1;
+                }
+                // The levels still say something: less unknown at one than midway.
+                assert!(m.posterior_sd(k, x + 2.5) < mixed, "{k} at {}: {}", x + 2.5, m.posterior_sd(k, x + 2.5));
+            }
+        }
+        // The case this test is about happened (the data, not the test, choose the point).
+        assert!(interpolated > 0, "{:?}", m.hyper);
+    }
+
+    /// A smooth departure, several levels per length: the likelihood decides the length, and
+    /// the average over lengths gives the point estimate's answer.
+    #[test]
+    fn smooth_departures_keep_the_point_estimate() {
+        // Up and back down, the second visit read with the opposite error.
+        let (up, e_up) = setpoints_5_apart();
+        let sp: Vec<f64> = up.iter().chain(up.iter().rev().skip(1)).copied().collect();
+        let e: Vec<f64> = e_up.iter().copied().chain(e_up.iter().rev().skip(1).map(|e| -e)).collect();
+        let dep = |k: usize, x: f64| if k == 0 { 0.06 * (2.0 * core::f64::consts::PI * (x - 40.0) / 30.0).sin() } else { 0.0 };
+        let lv = levels(&sp, &e, 0.002, &dep);
+        let m = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.3)).unwrap();
+        let short: f64 = m.length_posterior(0).iter().filter(|c| c.0 < 2.5).map(|c| c.1).sum();
+        assert!(short < 0.01, "{:?}", m.length_posterior(0));
+        let [lo, _, hi] = m.length_quantiles(0).unwrap();
+        assert!(lo > 0.5 * m.hyper.length_pct[0] && hi < 2.0 * m.hyper.length_pct[0], "{lo}–{hi}: {:?}", m.hyper);
+        for x in [42.5, 47.5, 50.0, 57.5, 62.5, 65.0, 72.5, 77.5] {
+            let (point, mixed) = (m.point_sd(0, x), m.posterior_sd(0, x));
+            assert!(
+                (m.departure(0, x) - m.point_departure(0, x)).abs() < 0.2 * point,
+                "at {x}: {} vs {}",
+                m.departure(0, x),
+                m.point_departure(0, x)
+            );
+            // Within a quarter of a sd that is itself a twentieth of the amplitude.
+            assert!((mixed / point - 1.0).abs() < 0.25, "at {x}: sd {mixed} vs {point}");
+        }
     }
 
     #[test]
@@ -584,5 +887,42 @@ mod tests {
             assert!(m.posterior_sd(0, x) < 0.02, "{}", m.posterior_sd(0, x));
         }
         assert!(m.has_departures[0] && m.hyper.amplitude[0] > 0.02, "{:?}", m.hyper);
+    }
+
+    /// A strip whose departures are independent from setpoint to setpoint (5 %RH apart),
+    /// visited up and down, each visit read 0.75 %RH off in its own direction. Told which
+    /// levels revisit a setpoint, the model keeps each setpoint's value and says the strip is
+    /// unknown between setpoints (the posterior sd there near the departures' amplitude);
+    /// taking the two visits as two humidities, the agreeing values of visits read 1.5 %RH
+    /// apart make the strip look smooth, and the sd between setpoints comes out well below.
+    #[test]
+    fn a_revisited_setpoint_is_one_humidity() {
+        let up: Vec<f64> = (0..9).map(|i| 40.0 + 5.0 * i as f64).collect();
+        let sp: Vec<f64> = up.iter().copied().chain(up.iter().rev().skip(1).copied()).collect();
+        // Fixed draws of Y's departures, about 3 % rms, one per setpoint.
+        const DRAWS: [f64; 9] = [0.6, -1.2, 0.9, 0.1, -1.5, 1.3, -0.4, -0.8, 1.1];
+        let dep = |k: usize, x: f64| if k == 0 { 0.03 * DRAWS[((x - 40.0) / 5.0).round() as usize] } else { 0.0 };
+        let e: Vec<f64> = (0..sp.len()).map(|i| if i < up.len() { 0.75 } else { -0.75 }).collect();
+        let mut lv = levels(&sp, &e, 0.002, &dep);
+        let n_up = up.len();
+        let midpoints = [47.5, 52.5, 57.5, 62.5, 67.5, 72.5];
+        let rms = |m: &StripModel, xs: &[f64]| (xs.iter().map(|&x| m.posterior_sd(0, x).powi(2)).sum::<f64>() / xs.len() as f64).sqrt();
+        let apart = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.75)).unwrap();
+        for (i, l) in lv.iter_mut().enumerate().skip(n_up) {
+            l.revisit_of = Some(2 * n_up - 2 - i);
+        }
+        let one = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.75)).unwrap();
+        let amplitude = one.hyper.amplitude[0];
+        assert!(amplitude > 0.02, "{:?}", one.hyper);
+        let (between, apart_between) = (rms(&one, &midpoints), rms(&apart, &midpoints));
+        assert!(between > 0.7 * amplitude, "between setpoints: sd {between} against the amplitude {amplitude} ({:?})", one.hyper);
+        assert!(apart_between < 0.7 * between, "two humidities per setpoint: sd {apart_between} between setpoints, one: {between}");
+        // The setpoints still say something: less unknown there than midway, and the strip's
+        // value there kept.
+        for &x in &[50.0, 60.0, 70.0] {
+            assert!(one.posterior_sd(0, x) < 0.8 * between, "at the setpoint {x}: {} ({:?})", one.posterior_sd(0, x), one.hyper);
+            let got = one.law_ln(0, x) + one.departure(0, x) - ln_base(&Calibration::default_preset(), 0, x);
+            assert!((got - dep(0, x)).abs() < 0.5 * dep(0, x).abs().max(0.01), "Y at {x}: {got} vs {}", dep(0, x));
+        }
     }
 }

@@ -179,7 +179,8 @@ const WRITTEN_LAW_TOLERANCE: f64 = 1e-5;
 /// The calibration `levels` make, declared on `rh_range`, with every constant, the h and m laws
 /// and the `[humidity]` path of `base`: the laws of Y, Cs, Ca and d with the strip's departures
 /// from them ([`crate::departures`]: `rh_sd_pct` is the bench reading's standard error, estimated
-/// from the levels when `None`), written as ln-polynomials in RH and a `[departures]` table.
+/// from the levels when `None`; `revisit_of`: per level, the earlier level of `levels` at the
+/// same setpoint, where the session came back to one), written as ln-polynomials in RH and a `[departures]` table.
 /// κe's law is refitted (quadratic) only from levels where it was measured; else it is the
 /// base's, copied. Returns the model beside the calibration and the laws' report.
 pub fn calibration_from_levels(
@@ -187,6 +188,7 @@ pub fn calibration_from_levels(
     levels: &[LevelFit],
     rh_range: (f64, f64),
     rh_sd_pct: Option<f64>,
+    revisit_of: &[Option<usize>],
 ) -> Result<(Calibration, Vec<LawFit>, StripModel), LawError> {
     if levels.is_empty() {
         return Err(LawError::NoLevels);
@@ -195,7 +197,11 @@ pub fn calibration_from_levels(
     calib.rh_min = rh_range.0;
     calib.rh_max = rh_range.1;
     calib.departures = Departures::NONE;
-    let thetas: Vec<LevelTheta> = levels.iter().map(LevelTheta::of).collect();
+    let thetas: Vec<LevelTheta> = levels
+        .iter()
+        .zip(revisit_of.iter().chain(core::iter::repeat(&None)))
+        .map(|(l, &revisit_of)| LevelTheta { revisit_of, ..LevelTheta::of(l) })
+        .collect();
     let model = StripModel::fit(base, &thetas, rh_sd_pct).map_err(LawError::Model)?;
     let dense: Vec<f64> = (0..=200).map(|i| rh_range.0 + (rh_range.1 - rh_range.0) * i as f64 / 200.0).collect();
     let mut report = Vec::new();

@@ -328,10 +328,28 @@ pub fn identify(
             (None, "estimated from the levels' values, weakly determined without revisited setpoints; --rh-uncertainty sets it".into())
         }
     };
+    // Each fitted level's earlier visit of its setpoint, as an index into the fitted levels.
+    let revisits: Vec<Option<usize>> =
+        fits.iter().map(|(_, l, _)| l.revisit_of.and_then(|r| fits.iter().position(|(k, _, _)| *k == r + 1))).collect();
     let (mut calib, laws, model) =
-        calibration_from_levels(base, &level_fits, rh_range, rh_given).with_context(|| format!("{source}: calibration"))?;
+        calibration_from_levels(base, &level_fits, rh_range, rh_given, &revisits).with_context(|| format!("{source}: calibration"))?;
     let rh_sd = model.hyper.rh_sd_pct;
     println!("bench reading uncertainty: {rh_sd:.2} %RH per level ({how})");
+    if revisits.iter().any(Option::is_some) {
+        println!(
+            "setpoints visited twice: each one humidity, at its visits' mean reading; the chamber left the visits {:.2} %RH apart (fitted)",
+            model.hyper.setpoint_sd_pct
+        );
+    }
+    let lengths: Vec<String> = (0..4)
+        .filter_map(|k| {
+            let [lo, mid, hi] = model.length_quantiles(k)?;
+            Some(format!("{} {mid:.1} ({lo:.1}–{hi:.1})", ipmc_core::departures::DEPARTING[k].as_str()))
+        })
+        .collect();
+    if !lengths.is_empty() {
+        println!("departure lengths averaged over, posterior median (90 %) [%RH]: {}", lengths.join(", "));
+    }
     if let Some(g) = tip_gain {
         calib.instrument.tip_gain = g.value;
         println!(
@@ -383,7 +401,7 @@ pub fn identify(
     );
     header += "# Y, Cs, Ca, d: the base's law shapes times a quadratic correction in RH, written as polynomials of ln;\n";
     header += &format!(
-        "#   [departures]: the strip's own departures from them (a Gaussian process over humidity, its amplitude and\n#   length from the levels by marginal likelihood; the bench reading's error, {rh_sd:.2} %RH, a random effect).\n"
+        "#   [departures]: the strip's own departures from them (a Gaussian process over humidity, its amplitude and\n#   length from the levels by marginal likelihood; the bench reading's error, {rh_sd:.2} %RH, a random effect;\n#   a setpoint visited twice is one humidity).\n"
     );
     header += if measured_kappa {
         "# κe: fitted through the levels where a charging recording measured it.\n"
