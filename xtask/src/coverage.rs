@@ -35,8 +35,12 @@ const WINDOW_S: &str = "2";
 /// Share of a normal variable within ±1σ.
 const ONE_SIGMA: f64 = 0.6827;
 
-/// Loops, compensates and scores `rec` with `calib`: (levels covered, levels).
-fn covered(name: &str, rec: &Path, calib: &Path, rh_uncertainty: &str, work: &Path) -> Result<(u64, u64)> {
+/// A row of the table: the recording and its calibration, levels covered, levels.
+type Row = (String, u64, u64);
+
+/// Loops, compensates and scores `rec` with `calib`: (levels covered, levels), what it printed
+/// appended to `printed`.
+fn covered(name: &str, rec: &Path, calib: &Path, rh_uncertainty: &str, work: &Path, printed: &mut String) -> Result<(u64, u64)> {
     let looped = work.join(format!("{name}-looped.csv"));
     let est = work.join(format!("{name}-est.csv"));
     ipmc(&["loop-bursts".as_ref(), rec.as_os_str(), "--seconds".as_ref(), LOOP_S.as_ref(), "--out".as_ref(), looped.as_os_str()])?;
@@ -65,7 +69,7 @@ fn covered(name: &str, rec: &Path, calib: &Path, rh_uncertainty: &str, work: &Pa
         }
         ipmc(&args)
     };
-    print!("{name} (reading uncertainty {rh_uncertainty} %RH):\n{}", score(false)?);
+    printed.push_str(&format!("{name} (reading uncertainty {rh_uncertainty} %RH):\n{}", score(false)?));
     let out = score(true)?;
     let line = out.lines().last().context("ipmc score printed nothing")?;
     let j: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc score --json: {e}: {line}"))?;
@@ -92,24 +96,46 @@ pub fn test_step() -> Result<()> {
     let work = repo_root().join("target/coverage");
     std::fs::create_dir_all(&work)?;
     let nominal = external.join("nominal.toml");
-    let mut rows: Vec<(String, u64, u64)> = vec![];
-    for pair in PAIRS {
+    // The four recordings are independent and each mostly single-threaded: run side by side,
+    // what each printed is shown in the order of the list.
+    let own_row = |pair: &str, printed: &mut String| -> Result<Option<Row>> {
         let fr = external.join(format!("strips/{pair}-fr.csv"));
         if !fr.is_file() {
-            println!("no {}: skipped", fr.display());
-            continue;
+            printed.push_str(&format!("no {}: skipped\n", fr.display()));
+            return Ok(None);
         }
         let own = work.join(format!("{pair}-own.toml"));
-        let printed =
+        let identified =
             ipmc(&["identify".as_ref(), fr.as_os_str(), "--calib".as_ref(), nominal.as_os_str(), "--out".as_ref(), own.as_os_str()])?;
-        let rh = bench_rh_uncertainty(&printed)?;
-        let (c, n) = covered(&format!("{pair} (own calibration)"), &external.join(format!("strips/{pair}-ts.csv")), &own, &rh, &work)?;
-        rows.push((format!("{pair}, its own calibration"), c, n));
-    }
-    for case in CASES {
-        let (c, n) =
-            covered(&format!("{case} (nominal calibration)"), &external.join(format!("{case}.csv")), &nominal, RH_UNCERTAINTY_PCT, &work)?;
-        rows.push((format!("{case}, the nominal calibration"), c, n));
+        let rh = bench_rh_uncertainty(&identified)?;
+        let rec = external.join(format!("strips/{pair}-ts.csv"));
+        let (c, n) = covered(&format!("{pair} (own calibration)"), &rec, &own, &rh, &work, printed)?;
+        Ok(Some((format!("{pair}, its own calibration"), c, n)))
+    };
+    let nominal_row = |case: &str, printed: &mut String| -> Result<Option<Row>> {
+        let rec = external.join(format!("{case}.csv"));
+        let (c, n) = covered(&format!("{case} (nominal calibration)"), &rec, &nominal, RH_UNCERTAINTY_PCT, &work, printed)?;
+        Ok(Some((format!("{case}, the nominal calibration"), c, n)))
+    };
+    let results: Vec<(Result<Option<Row>>, String)> = std::thread::scope(|scope| {
+        let own = PAIRS.map(|pair| {
+            scope.spawn(move || {
+                let mut printed = String::new();
+                (own_row(pair, &mut printed), printed)
+            })
+        });
+        let nominal = CASES.map(|case| {
+            scope.spawn(move || {
+                let mut printed = String::new();
+                (nominal_row(case, &mut printed), printed)
+            })
+        });
+        own.into_iter().chain(nominal).map(|t| t.join().expect("a coverage row panicked")).collect()
+    });
+    let mut rows: Vec<Row> = vec![];
+    for (row, printed) in results {
+        print!("{printed}");
+        rows.extend(row?);
     }
     let (covered, levels) = rows.iter().fold((0, 0), |(c, n), r| (c + r.1, n + r.2));
     for (name, c, n) in &rows {

@@ -17,10 +17,10 @@ use std::path::Path;
 /// Largest ratio of the own calibration's rms error to the perfect calibration's (issue 25).
 pub const PERFECT_RATIO_BOUND: f64 = 1.1;
 
-/// Runs `ipmc strip-check` and holds its summary to the bounds; what it printed is appended to
-/// `printed_all` (the README's figure `strip-check`).
-fn check(name: &str, fr: &Path, ts: &Path, calib: &str, truth: &Path, out: &Path, printed_all: &mut String) -> Result<()> {
-    let printed = ipmc(&[
+/// Runs `ipmc strip-check` and holds its summary to the bounds; its table is appended to
+/// `printed.figure` (the README's figure `strip-check`), the table and the figures to `printed.shown`.
+fn check(name: &str, fr: &Path, ts: &Path, calib: &str, truth: &Path, out: &Path, printed: &mut Printed) -> Result<()> {
+    let said = ipmc(&[
         "strip-check".as_ref(),
         fr.as_os_str(),
         ts.as_os_str(),
@@ -32,20 +32,20 @@ fn check(name: &str, fr: &Path, ts: &Path, calib: &str, truth: &Path, out: &Path
         out.as_os_str(),
         "--json".as_ref(),
     ])?;
-    let (table, line) = printed.trim_end().rsplit_once('\n').context("ipmc strip-check printed one line")?;
-    println!("{name}:\n{table}");
-    printed_all.push_str(&format!("{name}:\n{table}\n"));
+    let (table, line) = said.trim_end().rsplit_once('\n').context("ipmc strip-check printed one line")?;
+    printed.shown.push_str(&format!("{name}:\n{table}\n"));
+    printed.figure.push_str(&format!("{name}:\n{table}\n"));
     let j: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc strip-check --json: {e}: {line}"))?;
     let get = |k: &str| j.get(k).and_then(serde_json::Value::as_f64).ok_or_else(|| anyhow!("no `{k}` in {line}"));
     let (own, nominal, perfect) = (get("own_rms")?, get("nominal_rms")?, get("perfect_rms")?);
-    println!(
-        "{name}: own {:.2} %, nominal {:.2} %, perfect {:.2} %: own/nominal {:.3}, own/perfect {:.3} (bound {PERFECT_RATIO_BOUND})",
+    printed.shown.push_str(&format!(
+        "{name}: own {:.2} %, nominal {:.2} %, perfect {:.2} %: own/nominal {:.3}, own/perfect {:.3} (bound {PERFECT_RATIO_BOUND})\n",
         100.0 * own,
         100.0 * nominal,
         100.0 * perfect,
         own / nominal,
         own / perfect
-    );
+    ));
     if own >= nominal {
         bail!("{name}: the strip's own calibration ({:.2} %) does not beat the nominal one ({:.2} %)", 100.0 * own, 100.0 * nominal);
     }
@@ -58,44 +58,78 @@ fn check(name: &str, fr: &Path, ts: &Path, calib: &str, truth: &Path, out: &Path
     Ok(())
 }
 
+/// What one check printed: its part of the README's figure, and all it shows.
+#[derive(Default)]
+struct Printed {
+    figure: String,
+    shown: String,
+}
+
+/// A check's verdict with what it printed.
+struct Checked {
+    printed: Printed,
+    result: Result<()>,
+}
+
+fn checked(f: impl FnOnce(&mut Printed) -> Result<()>) -> Checked {
+    let mut printed = Printed::default();
+    let result = f(&mut printed);
+    Checked { printed, result }
+}
+
 pub fn test_step() -> Result<()> {
     let work = repo_root().join("target/strip-workflow");
     std::fs::create_dir_all(&work)?;
     let sessions = repo_root().join("data/sessions");
     let (fr, ts, strip) = (work.join("FR.csv"), work.join("TS.csv"), work.join("STRIP.toml"));
-    ipmc(&[
-        "simulate".as_ref(),
-        "--session".as_ref(),
-        sessions.join("strip-fr.toml").as_os_str(),
-        "--out".as_ref(),
-        fr.as_os_str(),
-        "--strip-calib".as_ref(),
-        strip.as_os_str(),
-    ])?;
-    ipmc(&["simulate".as_ref(), "--session".as_ref(), sessions.join("strip-ts.toml").as_os_str(), "--out".as_ref(), ts.as_os_str()])?;
-    let mut failed = vec![];
-    let mut printed = String::new();
-    if let Err(e) =
-        check("the project's simulator (strip-fr.toml → strip-ts.toml)", &fr, &ts, "default", &strip, &work.join("OWN.toml"), &mut printed)
-    {
-        eprintln!("{e}");
-        failed.push(e.to_string());
-    }
+    let own_sim = || -> Result<Checked> {
+        ipmc(&[
+            "simulate".as_ref(),
+            "--session".as_ref(),
+            sessions.join("strip-fr.toml").as_os_str(),
+            "--out".as_ref(),
+            fr.as_os_str(),
+            "--strip-calib".as_ref(),
+            strip.as_os_str(),
+        ])?;
+        ipmc(&["simulate".as_ref(), "--session".as_ref(), sessions.join("strip-ts.toml").as_os_str(), "--out".as_ref(), ts.as_os_str()])?;
+        let name = "the project's simulator (strip-fr.toml → strip-ts.toml)";
+        Ok(checked(|p| check(name, &fr, &ts, "default", &strip, &work.join("OWN.toml"), p)))
+    };
     let shared = repo_root().join("../shared/external");
     let strips = shared.join("strips");
-    if strips.join("truths.json").is_file() {
-        let nominal = shared.join("nominal.toml");
-        for s in ["strip101", "strip102"] {
-            let (fr, ts) = (strips.join(format!("{s}-fr.csv")), strips.join(format!("{s}-ts.csv")));
-            let out = work.join(format!("{s}-own.toml"));
-            if let Err(e) = check(s, &fr, &ts, &nominal.to_string_lossy(), &strips.join("truths.json"), &out, &mut printed) {
-                eprintln!("{e}");
-                failed.push(e.to_string());
-            }
+    let nominal = shared.join("nominal.toml").to_string_lossy().into_owned();
+    let pair = |s: &str| {
+        let (fr, ts) = (strips.join(format!("{s}-fr.csv")), strips.join(format!("{s}-ts.csv")));
+        let out = work.join(format!("{s}-own.toml"));
+        checked(|p| check(s, &fr, &ts, &nominal, &strips.join("truths.json"), &out, p))
+    };
+    let with_pairs = strips.join("truths.json").is_file();
+    // The three strips are independent and `strip-check` spends most of its time on one core:
+    // they run side by side, and what each printed is shown in the order of the list.
+    let (own, pairs) = std::thread::scope(|scope| {
+        let own = scope.spawn(own_sim);
+        let pairs: Vec<_> = if with_pairs { ["strip101", "strip102"].map(|s| scope.spawn(move || pair(s))).into() } else { vec![] };
+        (
+            own.join().expect("the simulator's strip check panicked"),
+            pairs.into_iter().map(|p| p.join().expect("a strip check panicked")).collect::<Vec<_>>(),
+        )
+    });
+    let mut failed = vec![];
+    let mut printed = String::new();
+    let mut report = |c: Checked| {
+        print!("{}", c.printed.shown);
+        printed.push_str(&c.printed.figure);
+        if let Err(e) = c.result {
+            eprintln!("{e}");
+            failed.push(e.to_string());
         }
-    } else {
+    };
+    report(own?);
+    if !with_pairs {
         println!("no {}: the shared pairs skipped", strips.join("truths.json").display());
     }
+    pairs.into_iter().for_each(&mut report);
     crate::readme_figures::save("strip-check", &printed)?;
     if !failed.is_empty() {
         bail!("{}", failed.join("; "));

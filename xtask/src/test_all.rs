@@ -184,9 +184,15 @@ pub fn command(filter: &[String]) -> Result<()> {
     }
     let steps = selected;
     let mut failed = Vec::new();
+    // Wall-clock time per step: tells where the suite's time goes (the CI keeps it well under 30 min).
+    let mut seconds = Vec::new();
+    let suite = std::time::Instant::now();
     for (i, (name, step)) in steps.iter().enumerate() {
         println!("\n==> [{}/{}] {name}", i + 1, steps.len());
-        match step() {
+        let start = std::time::Instant::now();
+        let result = step();
+        seconds.push(start.elapsed().as_secs());
+        match result {
             Ok(()) => println!("--> ok: {name}"),
             Err(e) => {
                 eprintln!("--> FAILED: {name}: {e}");
@@ -195,9 +201,9 @@ pub fn command(filter: &[String]) -> Result<()> {
         }
     }
     println!("\nxtask test summary:");
-    for (name, _) in &steps {
-        println!("  {} {name}", if failed.contains(name) { "FAILED" } else { "ok    " });
+    for ((name, _), s) in steps.iter().zip(&seconds) {
+        println!("  {} {s:>4} s  {name}", if failed.contains(name) { "FAILED" } else { "ok    " });
     }
-    println!("{} passed, {} failed", steps.len() - failed.len(), failed.len());
+    println!("{} passed, {} failed, {} s in all", steps.len() - failed.len(), failed.len(), suite.elapsed().as_secs());
     if failed.is_empty() { Ok(()) } else { Err(anyhow!("failed steps: {}", failed.join(", "))) }
 }

@@ -170,6 +170,18 @@ mod tests {
     use ipmc_core::humidity_path::HumidityPath;
     use ipmc_core::running_spectrum::AVERAGING_S;
 
+    /// One field case's figures and what it printed.
+    #[derive(Default)]
+    struct Case {
+        printed: String,
+        reading: f64,
+        fused: f64,
+        covered: usize,
+        judged: usize,
+        wet: usize,
+        wet_with: usize,
+    }
+
     /// The acceptance on the project's own field mode: the fused design humidity is not
     /// worse than the reading (1.05×), and the strip's stated 1σ covers the truth 68 ± 10 % of
     /// the seconds. Release-only (a minute of multisine per case): `cargo xtask test hygrometer`.
@@ -184,12 +196,8 @@ mod tests {
         let levels = [(66.0, SensorKind::Sht4x), (72.0, SensorKind::Hts221), (76.0, SensorKind::Sht4x), (80.0, SensorKind::Hts221)];
         let cases: Vec<(f64, SensorKind)> = (0..8).flat_map(|_| levels).collect();
         let only: Option<usize> = std::env::var("FIELD_CASE").ok().and_then(|v| v.parse().ok());
-        let (mut sq_read, mut sq_fused) = (0.0, 0.0);
-        let (mut covered, mut judged, mut wet, mut wet_with) = (0, 0, 0, 0);
-        for (i, &(rh, sensor)) in cases.iter().enumerate() {
-            if only.is_some_and(|o| o != i) {
-                continue;
-            }
+        let debug = std::env::var("FIELD_DEBUG").is_ok();
+        let case = |i: usize, rh: f64, sensor: SensorKind| {
             let plan = FieldPlan {
                 seed: 2600 + i as u64,
                 seconds: 45.0,
@@ -209,15 +217,14 @@ mod tests {
             let mut at_strip = c;
             at_strip.humidity = HumidityPath { sensor: Some(sensor), ..HumidityPath::NONE };
             let fused = compensated(&at_strip, &hygrometer::with_humidity(&field.ts, &seconds, |s| s.fused.rh_pct)).unwrap();
-            println!("{rh} %RH, {}: reading {reading:.2} %, fused {fused:.2} %", sensor.as_str());
-            sq_read += reading * reading;
-            sq_fused += fused * fused;
+            let mut r = Case { reading, fused, ..Case::default() };
+            r.printed = format!("{rh} %RH, {}: reading {reading:.2} %, fused {fused:.2} %\n", sensor.as_str());
             let mut avg: Option<f64> = None;
             for (k, s) in seconds.iter().enumerate() {
                 let truth = field.strip_pct[k.min(field.strip_pct.len() - 1)];
-                if std::env::var("FIELD_DEBUG").is_ok() && k % 10 == 5 {
-                    println!(
-                        "  t {:.0} truth {truth:.2} reading {:.2} ± {:.2} strip {:?} fused {:.2}",
+                if debug && k % 10 == 5 {
+                    r.printed += &format!(
+                        "  t {:.0} truth {truth:.2} reading {:.2} ± {:.2} strip {:?} fused {:.2}\n",
                         s.t_s,
                         s.reading.rh_pct,
                         s.reading.sd_pct,
@@ -229,13 +236,44 @@ mod tests {
                 if s.t_s < 20.0 {
                     continue;
                 }
-                wet += usize::from(truth >= 70.0);
+                r.wet += usize::from(truth >= 70.0);
                 if let Ok(e) = s.strip {
-                    wet_with += usize::from(truth >= 70.0);
-                    judged += 1;
-                    covered += usize::from((e.rh_pct - avg.unwrap()).abs() <= e.sd_pct);
+                    r.wet_with += usize::from(truth >= 70.0);
+                    r.judged += 1;
+                    r.covered += usize::from((e.rh_pct - avg.unwrap()).abs() <= e.sd_pct);
                 }
             }
+            r
+        };
+        // The cases are independent and each runs on one core: they are shared among the cores
+        // and summed in their order, as one after another would.
+        let todo: Vec<(usize, (f64, SensorKind))> =
+            cases.iter().copied().enumerate().filter(|(i, _)| only.is_none_or(|o| o == *i)).collect();
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(todo.len().max(1));
+        let mut done: Vec<(usize, Case)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..workers)
+                .map(|_| {
+                    scope.spawn(|| {
+                        let mut mine = vec![];
+                        loop {
+                            let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            let Some(&(i, (rh, sensor))) = todo.get(k) else { break mine };
+                            mine.push((k, case(i, rh, sensor)));
+                        }
+                    })
+                })
+                .collect();
+            handles.into_iter().flat_map(|h| h.join().expect("a field case panicked")).collect()
+        });
+        done.sort_by_key(|(k, _)| *k);
+        let (mut sq_read, mut sq_fused) = (0.0, 0.0);
+        let (mut covered, mut judged, mut wet, mut wet_with) = (0, 0, 0, 0);
+        for (_, r) in done {
+            print!("{}", r.printed);
+            sq_read += r.reading * r.reading;
+            sq_fused += r.fused * r.fused;
+            (covered, judged, wet, wet_with) = (covered + r.covered, judged + r.judged, wet + r.wet, wet_with + r.wet_with);
         }
         let coverage = covered as f64 / judged as f64;
         println!("coverage {coverage:.2} over {judged} seconds; estimates in {wet_with} of {wet} seconds from 70 %RH");
