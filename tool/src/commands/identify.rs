@@ -401,7 +401,7 @@ pub fn identify(
     );
     header += "# Y, Cs, Ca, d: the base's law shapes times a quadratic correction in RH, written as polynomials of ln;\n";
     header += &format!(
-        "#   [departures]: the strip's own departures from them (a Gaussian process over humidity, its amplitude and\n#   length from the levels by marginal likelihood; the bench reading's error, {rh_sd:.2} %RH, a random effect;\n#   a setpoint visited twice is one humidity).\n"
+        "#   [departures]: the strip's own departures from them (a Gaussian process over humidity, its amplitude from\n#   the levels by marginal likelihood, its length averaged over what they allow; the bench reading's error,\n#   {rh_sd:.2} %RH, a random effect; a setpoint visited twice is one humidity).\n"
     );
     header += if measured_kappa {
         "# κe: fitted through the levels where a charging recording measured it.\n"
