@@ -78,8 +78,11 @@ pub struct BlockHygrometer<T> {
     period: u32,
     since_snapshot: u32,
     pending: bool,
-    /// The reading path at the last snapshot, and the rate it moved at from the one before.
-    last_path: Option<T>,
+    /// The reading path smoothed over [`AVERAGING_S`] (at the snapshots), and the rate it moves
+    /// at. A difference of two readings a second apart is mostly the sensor's noise (0.1 %RH in
+    /// a second is 2 %RH over the spectrum's 20 s), and it would hand the strip's estimate an
+    /// age it does not have; over the window the estimate averages, the noise is a twentieth.
+    path_trend: Option<T>,
     rate: T,
     strip: Option<Result<StripRh<T>, Refusal>>,
     accuracy_pct: T,
@@ -97,7 +100,7 @@ impl<T: Real> BlockHygrometer<T> {
             period: libm::ceil(FIT_PERIOD_S * fs_hz) as u32,
             since_snapshot: 0,
             pending: false,
-            last_path: None,
+            path_trend: None,
             rate: T::zero(),
             strip: None,
             accuracy_pct: T::lit(calib.humidity.uncertainty_pct_for(kind)),
@@ -125,10 +128,7 @@ impl<T: Real> BlockHygrometer<T> {
             return None;
         }
         if let Some(path) = path_pct {
-            if let Some(last) = self.last_path {
-                self.rate = (path - last) * self.fs_hz / T::lit(self.since_snapshot as f64);
-            }
-            self.last_path = Some(path);
+            self.track(path, T::lit(self.since_snapshot as f64) / self.fs_hz);
         }
         self.since_snapshot = 0;
         self.pending = true;
@@ -136,6 +136,19 @@ impl<T: Real> BlockHygrometer<T> {
         let mut psd = [T::zero(); MAX_BINS];
         psd[..v.psd.len()].copy_from_slice(v.psd);
         Some(Snapshot { first_hz: v.first_hz, df_hz: v.df_hz, bins: v.psd.len(), psd, segments: v.segments })
+    }
+
+    /// A backward-Euler average of the path with time constant τ = [`AVERAGING_S`], `dt_s` after
+    /// the last: on a ramp of rate r it trails the path by exactly r·τ, so that distance over τ
+    /// is the rate.
+    fn track(&mut self, path: T, dt_s: T) {
+        let tau = T::lit(AVERAGING_S);
+        let trend = match self.path_trend {
+            Some(s) => s + dt_s / (dt_s + tau) * (path - s),
+            None => path,
+        };
+        self.path_trend = Some(trend);
+        self.rate = (path - trend) / tau;
     }
 
     /// The block's humidities with the reading path `path_pct`. The strip's estimate stands for
@@ -176,6 +189,29 @@ mod tests {
         }
         // 2000 samples are 62.5 blocks: the 63rd block completes the second.
         assert_eq!(at, vec![62, 125, 188]);
+    }
+
+    #[test]
+    fn the_rate_is_the_paths_trend_not_its_noise() {
+        let c = Calibration::default_preset();
+        let block = [1e-7f64; 32];
+        let rate_after = |path: &dyn Fn(f64) -> f64| {
+            let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+            let mut t = 0.0;
+            for _ in 0..200 * 63 {
+                t += 32.0 / 2000.0;
+                if h.push(&block, Some(path(t))).is_some() {
+                    h.complete(Err(Refusal::Warming));
+                }
+            }
+            h.rate
+        };
+        // A reading that alternates by ±0.1 %RH from second to second: a one-second difference
+        // would say 0.2 %RH/s.
+        let noisy = rate_after(&|t: f64| 60.0 + if (t as u64) % 2 == 0 { 0.1 } else { -0.1 });
+        assert!(noisy.abs() < 0.012, "{noisy}");
+        let ramp = rate_after(&|t: f64| 60.0 + 0.02 * t);
+        assert!((ramp - 0.02).abs() < 1e-4, "{ramp}");
     }
 
     #[test]
