@@ -9,7 +9,7 @@
 //! completion points bit for bit, as it replays its retunes.
 
 use crate::calibration::Calibration;
-use crate::humidity_fusion::{Estimate, fuse, reading_sd};
+use crate::humidity_fusion::{Estimate, SensorBias, reading_sd};
 use crate::humidity_path::SensorKind;
 use crate::real::Real;
 use crate::running_spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
@@ -49,7 +49,8 @@ pub struct Humidities<T> {
     pub reading: Estimate<T>,
     /// The strip's own estimate from its last fit (None before the first result).
     pub strip: Option<Result<StripRh<T>, Refusal>>,
-    /// Both combined: what a `fused` calibration designs at.
+    /// The reading path corrected by the bias the strip's estimates show in it: what a `fused`
+    /// calibration designs at.
     pub fused: Estimate<T>,
 }
 
@@ -72,6 +73,47 @@ impl Humidities<f32> {
     }
 }
 
+/// The strip's hydration lags the fusion weighs when the calibration's humidity path has none
+/// [s]. The strip's humidity follows the air through its water uptake, the reading follows it
+/// at once: while the air moves, reading − strip is the sensor's bias plus the rate times the
+/// lag, and a bias learned without the lag follows the last ramp. A thin strip in air takes
+/// tens of seconds to minutes (a Nafion film's uptake; issue 27's bench lags 1–2.5 min); equal
+/// weights on a doubling grid are a log-uniform prior over 7–230 s, and the fits' agreement with
+/// each decides among them as far as the data can.
+pub const HYDRATION_LAGS_S: [f64; 5] = [10.0, 20.0, 40.0, 80.0, 160.0];
+const LAGS: usize = HYDRATION_LAGS_S.len();
+
+/// One hydration lag the strip may have: the reading path through it, that averaged as the
+/// spectrum is, and the path's bias the strip's fits show at it.
+#[derive(Clone, Copy, Debug)]
+struct Lag<T> {
+    tau_s: T,
+    /// At the last snapshot.
+    lagged: Option<T>,
+    trend: Option<T>,
+    bias: SensorBias<T>,
+    /// From the last fit: the bias taken off and its variance, and the lag's probability.
+    correction: T,
+    var: T,
+    probability: T,
+}
+
+impl<T: Real> Lag<T> {
+    fn new(tau_s: f64) -> Self {
+        let z = T::zero();
+        Lag { tau_s: T::lit(tau_s), lagged: None, trend: None, bias: SensorBias::new(), correction: z, var: z, probability: z }
+    }
+
+    /// The path through this lag `dt_s` after the last snapshot (backward Euler, as the
+    /// snapshots advance it).
+    fn lagged_after(&self, path: T, dt_s: T) -> T {
+        match self.lagged {
+            Some(l) if self.tau_s > T::zero() => l + dt_s / (dt_s + self.tau_s) * (path - l),
+            _ => path,
+        }
+    }
+}
+
 pub struct BlockHygrometer<T> {
     spectrum: RunningSpectrum<T>,
     fs_hz: T,
@@ -80,10 +122,20 @@ pub struct BlockHygrometer<T> {
     pending: bool,
     /// The reading path smoothed over [`AVERAGING_S`] (at the snapshots), and the rate it moves
     /// at. A difference of two readings a second apart is mostly the sensor's noise (0.1 %RH in
-    /// a second is 2 %RH over the spectrum's 20 s), and it would hand the strip's estimate an
-    /// age it does not have; over the window the estimate averages, the noise is a twentieth.
+    /// a second is 2 %RH over the spectrum's 20 s); over the window the estimate averages, the
+    /// noise is a twentieth.
     path_trend: Option<T>,
     rate: T,
+    /// Samples pushed, the count at the last snapshot and at the snapshot of the last fit the
+    /// bias used: how much current each fit saw that the last one used did not, whenever the
+    /// results come back.
+    clock: u64,
+    snapshot_at: u64,
+    used_at: Option<u64>,
+    /// The hydration lags weighed: the calibration's own (none beyond its path) when it gives
+    /// one, else [`HYDRATION_LAGS_S`].
+    lags: [Lag<T>; LAGS],
+    n_lags: usize,
     strip: Option<Result<StripRh<T>, Refusal>>,
     accuracy_pct: T,
     lag_s: T,
@@ -94,6 +146,11 @@ impl<T: Real> BlockHygrometer<T> {
     /// lag from the calibration's `[humidity]` (its sensor, else the board's HTS221).
     pub fn new(calib: &Calibration, fs_hz: f64) -> Self {
         let kind = calib.humidity.sensor.unwrap_or(SensorKind::Hts221);
+        let (lags, n_lags) = if calib.humidity.has_lag() {
+            ([Lag::new(0.0); LAGS], 1)
+        } else {
+            (HYDRATION_LAGS_S.map(Lag::new), LAGS)
+        };
         BlockHygrometer {
             spectrum: RunningSpectrum::new(fs_hz, &calib.band),
             fs_hz: T::lit(fs_hz),
@@ -102,14 +159,47 @@ impl<T: Real> BlockHygrometer<T> {
             pending: false,
             path_trend: None,
             rate: T::zero(),
+            clock: 0,
+            snapshot_at: 0,
+            used_at: None,
+            lags,
+            n_lags,
             strip: None,
             accuracy_pct: T::lit(calib.humidity.uncertainty_pct_for(kind)),
             lag_s: T::lit(calib.humidity.sensor_lag_s_for(kind)),
         }
     }
 
-    /// A fit's result for the last snapshot.
+    /// A fit's result for the last snapshot: the path's bias at each lag, and the lags'
+    /// probabilities from how well the fits agree with each (their statistical scatter about
+    /// the bias; the calibration's part is common to all and decides nothing).
     pub fn complete(&mut self, result: Result<StripRh<T>, Refusal>) {
+        if let Ok(s) = &result {
+            let new_data = T::lit((self.snapshot_at - self.used_at.unwrap_or(0)) as f64) / self.fs_hz;
+            let window = T::lit(2.0 * AVERAGING_S);
+            let mut used = false;
+            for l in self.lags[..self.n_lags].iter_mut() {
+                if let Some(trend) = l.trend {
+                    used |= l.bias.observe(trend, s, new_data, window, self.accuracy_pct);
+                }
+            }
+            if used {
+                self.used_at = Some(self.snapshot_at);
+                let lags = &mut self.lags[..self.n_lags];
+                let best = lags.iter().map(|l| l.bias.scatter_chi2()).fold(T::infinity(), T::min);
+                let mut total = T::zero();
+                for l in lags.iter_mut() {
+                    let (c, v) = l.bias.correction(self.accuracy_pct);
+                    l.correction = c;
+                    l.var = v;
+                    l.probability = (-(l.bias.scatter_chi2() - best) / T::lit(2.0)).exp();
+                    total += l.probability;
+                }
+                for l in lags.iter_mut() {
+                    l.probability = l.probability / total;
+                }
+            }
+        }
         self.strip = Some(result);
         self.pending = false;
     }
@@ -124,12 +214,24 @@ impl<T: Real> BlockHygrometer<T> {
             self.spectrum.push(current);
         }
         self.since_snapshot = self.since_snapshot.saturating_add(current.len() as u32);
+        self.clock += current.len() as u64;
         if self.pending || self.since_snapshot < self.period {
             return None;
         }
         if let Some(path) = path_pct {
-            self.track(path, T::lit(self.since_snapshot as f64) / self.fs_hz);
+            let dt = T::lit(self.since_snapshot as f64) / self.fs_hz;
+            self.track(path, dt);
+            let tau = T::lit(AVERAGING_S);
+            for l in self.lags[..self.n_lags].iter_mut() {
+                let lagged = l.lagged_after(path, dt);
+                l.lagged = Some(lagged);
+                l.trend = Some(match l.trend {
+                    Some(t) => t + dt / (dt + tau) * (lagged - t),
+                    None => lagged,
+                });
+            }
         }
+        self.snapshot_at = self.clock;
         self.since_snapshot = 0;
         self.pending = true;
         let v = self.spectrum.view();
@@ -152,17 +254,27 @@ impl<T: Real> BlockHygrometer<T> {
     }
 
     /// The block's humidities with the reading path `path_pct`. The strip's estimate stands for
-    /// the spectrum's average, about [`AVERAGING_S`] old: while the humidity moves it is that
-    /// much behind, and its 1σ says so. It is not moved along the reading path, which follows the
-    /// air: the strip follows it only through its own hydration lag.
+    /// the spectrum's average, about [`AVERAGING_S`] old, so it is compared with the path
+    /// averaged alike, and what it corrects is the path's bias: the fused value follows the
+    /// strip as the path through its lag does, without the spectrum's age. Over the lags, the
+    /// mixture of their values.
     pub fn humidities(&self, path_pct: T) -> Humidities<T> {
         let reading = Estimate { rh_pct: path_pct, sd_pct: reading_sd(self.accuracy_pct, self.lag_s, self.rate) };
-        let age = reading_sd(T::zero(), T::lit(AVERAGING_S), self.rate);
-        let behind = match self.strip {
-            Some(Ok(s)) => Some(Estimate { rh_pct: s.rh_pct, sd_pct: (s.sd_pct * s.sd_pct + age * age).sqrt() }),
-            _ => None,
+        let fused = if self.used_at.is_some() {
+            let dt = T::lit((self.clock - self.snapshot_at) as f64) / self.fs_hz;
+            let lags = &self.lags[..self.n_lags];
+            let value = |l: &Lag<T>| l.lagged_after(path_pct, dt) - l.correction;
+            let mean = lags.iter().fold(T::zero(), |a, l| a + l.probability * value(l));
+            let var = lags.iter().fold(T::zero(), |a, l| {
+                let d = value(l) - mean;
+                a + l.probability * (l.var + d * d)
+            });
+            let lag_var = (reading.sd_pct * reading.sd_pct - self.accuracy_pct * self.accuracy_pct).max(T::zero());
+            Estimate { rh_pct: mean, sd_pct: (var + lag_var).sqrt() }
+        } else {
+            reading
         };
-        Humidities { reading, strip: self.strip, fused: fuse(reading, behind) }
+        Humidities { reading, strip: self.strip, fused }
     }
 }
 
@@ -214,17 +326,50 @@ mod tests {
         assert!((ramp - 0.02).abs() < 1e-4, "{ramp}");
     }
 
+    /// The air ramping at 0.03 %RH/s, the strip behind it by a 40 s hydration lag, the reading
+    /// 1 %RH high; the fits the strip's humidity averaged as the spectrum is. The fused value at
+    /// the end, less the strip's humidity; with the lags weighed, or with none.
+    fn after_a_ramp(weigh_lags: bool) -> f64 {
+        let c = Calibration::default_preset();
+        let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+        if !weigh_lags {
+            h.lags = [Lag::new(0.0); LAGS];
+            h.n_lags = 1;
+        }
+        let (dt, mut strip, mut seen) = (32.0 / 2000.0, 78.0, 78.0);
+        let mut path = 79.0;
+        for k in 0..120 * 2000 / 32 {
+            let air = 78.0 + 0.03 * (k as f64 * dt - 30.0).max(0.0);
+            strip += dt / 40.0 * (air - strip);
+            seen += dt / AVERAGING_S * (strip - seen);
+            path = air + 1.0;
+            if h.push(&[1e-7; 32], Some(path)).is_some() {
+                h.complete(Ok(StripRh { rh_pct: seen, sd_stat_pct: 0.3, sd_cal_pct: 0.2, sd_pct: 0.36, misfit: 1.0, bins_used: 140 }));
+            }
+        }
+        h.humidities(path).fused.rh_pct - strip
+    }
+
+    #[test]
+    fn follows_the_strip_through_its_hydration_lag() {
+        let weighed = after_a_ramp(true);
+        assert!(weighed.abs() < 0.2, "{weighed}");
+        let unlagged = after_a_ramp(false);
+        assert!(unlagged.abs() > 0.3, "a bias without the lag follows the ramp: {unlagged}");
+    }
+
     #[test]
     fn fuses_the_last_estimate_with_the_reading() {
         let c = Calibration::default_preset();
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         let r = h.humidities(70.0);
         assert_eq!(r.fused, r.reading);
+        while h.push(&[1e-7; 32], Some(70.0)).is_none() {}
         let e = StripRh { rh_pct: 68.0, sd_stat_pct: 0.1, sd_cal_pct: 0.1, sd_pct: 0.14, misfit: 1.0, bins_used: 140 };
         h.complete(Ok(e));
         let f = h.humidities(70.0).fused;
         assert!((f.rh_pct - 68.0).abs() < 0.1 && f.sd_pct < r.reading.sd_pct, "{f:?}");
         h.complete(Err(Refusal::Misfit));
-        assert_eq!(h.humidities(70.0).fused, r.reading, "a refusal leaves the reading");
+        assert_eq!(h.humidities(70.0).fused, f, "a refusal keeps the sensor's bias as learned");
     }
 }
