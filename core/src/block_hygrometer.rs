@@ -99,13 +99,27 @@ struct Lag<T> {
 }
 
 impl<T: Real> Lag<T> {
+    /// The snapshot `dt_s` after the last: the path through the lag, and that averaged as the
+    /// spectrum is.
+    #[inline(never)]
+    fn advance(&mut self, path: T, dt_s: T) {
+        let lagged = self.lagged_after(path, dt_s);
+        let tau = T::lit(AVERAGING_S);
+        self.lagged = Some(lagged);
+        self.trend = Some(match self.trend {
+            Some(t) => t + dt_s / (dt_s + tau) * (lagged - t),
+            None => lagged,
+        });
+    }
+
     fn new(tau_s: f64) -> Self {
         let z = T::zero();
         Lag { tau_s: T::lit(tau_s), lagged: None, trend: None, bias: SensorBias::new(), correction: z, var: z, probability: z }
     }
 
     /// The path through this lag `dt_s` after the last snapshot (backward Euler, as the
-    /// snapshots advance it).
+    /// snapshots advance it). Not inlined, as [`SensorBias::observe`].
+    #[inline(never)]
     fn lagged_after(&self, path: T, dt_s: T) -> T {
         match self.lagged {
             Some(l) if self.tau_s > T::zero() => l + dt_s / (dt_s + self.tau_s) * (path - l),
@@ -146,11 +160,7 @@ impl<T: Real> BlockHygrometer<T> {
     /// lag from the calibration's `[humidity]` (its sensor, else the board's HTS221).
     pub fn new(calib: &Calibration, fs_hz: f64) -> Self {
         let kind = calib.humidity.sensor.unwrap_or(SensorKind::Hts221);
-        let (lags, n_lags) = if calib.humidity.has_lag() {
-            ([Lag::new(0.0); LAGS], 1)
-        } else {
-            (HYDRATION_LAGS_S.map(Lag::new), LAGS)
-        };
+        let (lags, n_lags) = if calib.humidity.has_lag() { ([Lag::new(0.0); LAGS], 1) } else { (HYDRATION_LAGS_S.map(Lag::new), LAGS) };
         BlockHygrometer {
             spectrum: RunningSpectrum::new(fs_hz, &calib.band),
             fs_hz: T::lit(fs_hz),
@@ -175,33 +185,41 @@ impl<T: Real> BlockHygrometer<T> {
     /// the bias; the calibration's part is common to all and decides nothing).
     pub fn complete(&mut self, result: Result<StripRh<T>, Refusal>) {
         if let Ok(s) = &result {
-            let new_data = T::lit((self.snapshot_at - self.used_at.unwrap_or(0)) as f64) / self.fs_hz;
-            let window = T::lit(2.0 * AVERAGING_S);
-            let mut used = false;
-            for l in self.lags[..self.n_lags].iter_mut() {
-                if let Some(trend) = l.trend {
-                    used |= l.bias.observe(trend, s, new_data, window, self.accuracy_pct);
-                }
-            }
-            if used {
-                self.used_at = Some(self.snapshot_at);
-                let lags = &mut self.lags[..self.n_lags];
-                let best = lags.iter().map(|l| l.bias.scatter_chi2()).fold(T::infinity(), T::min);
-                let mut total = T::zero();
-                for l in lags.iter_mut() {
-                    let (c, v) = l.bias.correction(self.accuracy_pct);
-                    l.correction = c;
-                    l.var = v;
-                    l.probability = (-(l.bias.scatter_chi2() - best) / T::lit(2.0)).exp();
-                    total += l.probability;
-                }
-                for l in lags.iter_mut() {
-                    l.probability = l.probability / total;
-                }
-            }
+            self.learn(s);
         }
         self.strip = Some(result);
         self.pending = false;
+    }
+
+    /// [`Self::complete`] with a fit. Not inlined, as [`SensorBias::observe`].
+    #[inline(never)]
+    fn learn(&mut self, s: &StripRh<T>) {
+        let new_data = T::lit((self.snapshot_at - self.used_at.unwrap_or(0)) as f64) / self.fs_hz;
+        let window = T::lit(2.0 * AVERAGING_S);
+        let mut used = false;
+        for l in self.lags[..self.n_lags].iter_mut() {
+            if let Some(trend) = l.trend {
+                used |= l.bias.observe(trend, s, new_data, window, self.accuracy_pct);
+            }
+        }
+        if used {
+            self.used_at = Some(self.snapshot_at);
+            let lags = &mut self.lags[..self.n_lags];
+            let mut best = T::infinity();
+            for l in lags.iter_mut() {
+                let (c, v) = l.bias.correction(self.accuracy_pct);
+                (l.correction, l.var, l.probability) = (c, v, l.bias.scatter_chi2());
+                best = best.min(l.probability);
+            }
+            let mut total = T::zero();
+            for l in lags.iter_mut() {
+                l.probability = (-(l.probability - best) / T::lit(2.0)).exp();
+                total += l.probability;
+            }
+            for l in lags.iter_mut() {
+                l.probability /= total;
+            }
+        }
     }
 
     /// One block of current [A] and the reading path after it (None before the first reading);
@@ -221,14 +239,8 @@ impl<T: Real> BlockHygrometer<T> {
         if let Some(path) = path_pct {
             let dt = T::lit(self.since_snapshot as f64) / self.fs_hz;
             self.track(path, dt);
-            let tau = T::lit(AVERAGING_S);
             for l in self.lags[..self.n_lags].iter_mut() {
-                let lagged = l.lagged_after(path, dt);
-                l.lagged = Some(lagged);
-                l.trend = Some(match l.trend {
-                    Some(t) => t + dt / (dt + tau) * (lagged - t),
-                    None => lagged,
-                });
+                l.advance(path, dt);
             }
         }
         self.snapshot_at = self.clock;
@@ -260,21 +272,24 @@ impl<T: Real> BlockHygrometer<T> {
     /// mixture of their values.
     pub fn humidities(&self, path_pct: T) -> Humidities<T> {
         let reading = Estimate { rh_pct: path_pct, sd_pct: reading_sd(self.accuracy_pct, self.lag_s, self.rate) };
-        let fused = if self.used_at.is_some() {
-            let dt = T::lit((self.clock - self.snapshot_at) as f64) / self.fs_hz;
-            let lags = &self.lags[..self.n_lags];
-            let value = |l: &Lag<T>| l.lagged_after(path_pct, dt) - l.correction;
-            let mean = lags.iter().fold(T::zero(), |a, l| a + l.probability * value(l));
-            let var = lags.iter().fold(T::zero(), |a, l| {
-                let d = value(l) - mean;
-                a + l.probability * (l.var + d * d)
-            });
-            let lag_var = (reading.sd_pct * reading.sd_pct - self.accuracy_pct * self.accuracy_pct).max(T::zero());
-            Estimate { rh_pct: mean, sd_pct: (var + lag_var).sqrt() }
-        } else {
-            reading
-        };
+        let fused = if self.used_at.is_some() { self.fused(reading) } else { reading };
         Humidities { reading, strip: self.strip, fused }
+    }
+
+    /// The mixture over the lags of the reading path through each less its bias. Not inlined,
+    /// as [`SensorBias::observe`].
+    #[inline(never)]
+    fn fused(&self, reading: Estimate<T>) -> Estimate<T> {
+        let dt = T::lit((self.clock - self.snapshot_at) as f64) / self.fs_hz;
+        let lags = &self.lags[..self.n_lags];
+        let value = |l: &Lag<T>| l.lagged_after(reading.rh_pct, dt) - l.correction;
+        let mean = lags.iter().fold(T::zero(), |a, l| a + l.probability * value(l));
+        let var = lags.iter().fold(T::zero(), |a, l| {
+            let d = value(l) - mean;
+            a + l.probability * (l.var + d * d)
+        });
+        let lag_var = (reading.sd_pct * reading.sd_pct - self.accuracy_pct * self.accuracy_pct).max(T::zero());
+        Estimate { rh_pct: mean, sd_pct: (var + lag_var).sqrt() }
     }
 }
 
@@ -320,7 +335,7 @@ mod tests {
         };
         // A reading that alternates by ±0.1 %RH from second to second: a one-second difference
         // would say 0.2 %RH/s.
-        let noisy = rate_after(&|t: f64| 60.0 + if (t as u64) % 2 == 0 { 0.1 } else { -0.1 });
+        let noisy = rate_after(&|t: f64| 60.0 + if (t as u64).is_multiple_of(2) { 0.1 } else { -0.1 });
         assert!(noisy.abs() < 0.012, "{noisy}");
         let ramp = rate_after(&|t: f64| 60.0 + 0.02 * t);
         assert!((ramp - 0.02).abs() < 1e-4, "{ramp}");

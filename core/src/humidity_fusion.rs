@@ -70,35 +70,39 @@ impl<T: Real> SensorBias<T> {
     /// 1σ, from the scatter of a spectrum that young, is the least trustworthy).
     /// A fit no more certain than the sensor is left out: where the strip's likelihood is that
     /// flat, its linearized 1σ is least trustworthy (an alias can win there). Whether it was used.
+    // Not inlined: the block hygrometer calls it once per hydration lag, and unrolled five times
+    // on the device it cost kilobytes of the flash budget.
+    #[inline(never)]
     pub fn observe(&mut self, path_avg_pct: T, strip: &StripRh<T>, new_data_s: T, window_s: T, accuracy_pct: T) -> bool {
         if !(strip.rh_pct.is_finite() && path_avg_pct.is_finite() && strip.sd_pct > T::zero() && strip.sd_pct < accuracy_pct) {
             return false;
         }
         let fade = (-new_data_s / T::lit(BIAS_MEMORY_S)).exp();
-        self.weight = self.weight * fade;
-        self.difference = self.difference * fade;
-        self.stat_var = self.stat_var * fade;
-        self.cal_var = self.cal_var * fade;
-        self.s0 = self.s0 * fade;
-        self.s1 = self.s1 * fade;
-        self.s2 = self.s2 * fade;
+        self.weight *= fade;
+        self.difference *= fade;
+        self.stat_var *= fade;
+        self.cal_var *= fade;
+        self.s0 *= fade;
+        self.s1 *= fade;
+        self.s2 *= fade;
         let w = (new_data_s / window_s).min(T::one()).max(T::zero());
         let d = path_avg_pct - strip.rh_pct;
         let stat2 = strip.sd_stat_pct * strip.sd_stat_pct;
-        self.weight = self.weight + w;
-        self.difference = self.difference + w * d;
-        self.stat_var = self.stat_var + w * stat2;
-        self.cal_var = self.cal_var + w * strip.sd_cal_pct * strip.sd_cal_pct;
+        self.weight += w;
+        self.difference += w * d;
+        self.stat_var += w * stat2;
+        self.cal_var += w * strip.sd_cal_pct * strip.sd_cal_pct;
         if stat2 > T::zero() {
-            self.s0 = self.s0 + w / stat2;
-            self.s1 = self.s1 + w * d / stat2;
-            self.s2 = self.s2 + w * d * d / stat2;
+            self.s0 += w / stat2;
+            self.s1 += w * d / stat2;
+            self.s2 += w * d * d / stat2;
         }
         true
     }
 
     /// The bias to take off the reading path and the variance left, the sensor's accuracy its
     /// prior; (0, 0) before any fit.
+    #[inline(never)]
     pub fn correction(&self, accuracy_pct: T) -> (T, T) {
         if self.weight <= T::zero() {
             return (T::zero(), T::zero());
@@ -125,6 +129,7 @@ impl<T: Real> SensorBias<T> {
     /// −2 ln of the fits' likelihood about their weighted mean, up to a constant: Σ w (d − d̄)²/σ².
     /// Paths through different hydration lags compared by it: the lag that leaves the fits'
     /// differences flattest is the likelier.
+    #[inline(never)]
     pub fn scatter_chi2(&self) -> T {
         if self.s0 <= T::zero() {
             return T::zero();
