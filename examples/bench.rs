@@ -257,9 +257,28 @@ fn main() -> ! {
     println!("conversion_per_sample {}", conv);
     println!("biquad_df2t_per_sample {}", bq_total);
     println!("biquad_df2t_per_section {}", (bq_total - conv) / sections as f64);
+    band_fir(&d45.band(), &codes, conv, &instr);
     hygrometer(instr);
     println!("done");
     semihosting::process::exit(0)
+}
+
+/// The band's linear-phase FIR after the inverse, alone: a cost per sample of its own, not per
+/// section. In a frame of its own: its taps and delay line (several KiB) would otherwise stay on
+/// main's stack under the hygrometer's bench.
+#[inline(never)]
+fn band_fir(band: &ipmc_core::band::Band, codes: &[u16; 2048], conv: f64, instr: &impl Fn(u32) -> f64) {
+    let mut fir = ipmc_core::band_limit::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has an FIR");
+    let mut at = 0;
+    let t = now();
+    for _ in 0..BLOCKS {
+        let mut block = dma_block(codes, at).map(current_conversion::code_to_amps);
+        fir.process_block(&mut block);
+        black_box(&block);
+        at += BLOCK_LEN;
+    }
+    println!("band_fir_per_sample {}", instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64) - conv);
+    println!("band_fir_taps {}", fir.taps());
 }
 
 /// A deterministic generator, uniform in (0, 1).
