@@ -169,6 +169,7 @@ mod tests {
     use crate::simulator::physics::ExactModel;
     use ipmc_core::humidity_path::HumidityPath;
     use ipmc_core::running_spectrum::AVERAGING_S;
+    use ipmc_core::strip_humidity::Refusal;
 
     /// One field case's figures and what it printed.
     #[derive(Default)]
@@ -180,6 +181,8 @@ mod tests {
         judged: usize,
         wet: usize,
         wet_with: usize,
+        /// Seconds from 70 %RH without an estimate, by the refusal's code.
+        refused: [usize; 8],
     }
 
     /// The acceptance on the project's own field mode: the fused design humidity is not
@@ -237,10 +240,14 @@ mod tests {
                     continue;
                 }
                 r.wet += usize::from(truth >= 70.0);
-                if let Ok(e) = s.strip {
-                    r.wet_with += usize::from(truth >= 70.0);
-                    r.judged += 1;
-                    r.covered += usize::from((e.rh_pct - avg.unwrap()).abs() <= e.sd_pct);
+                match s.strip {
+                    Ok(e) => {
+                        r.wet_with += usize::from(truth >= 70.0);
+                        r.judged += 1;
+                        r.covered += usize::from((e.rh_pct - avg.unwrap()).abs() <= e.sd_pct);
+                    }
+                    Err(why) if truth >= 70.0 => r.refused[usize::from(why.code()).min(7)] += 1,
+                    Err(_) => {}
                 }
             }
             r
@@ -269,14 +276,34 @@ mod tests {
         done.sort_by_key(|(k, _)| *k);
         let (mut sq_read, mut sq_fused) = (0.0, 0.0);
         let (mut covered, mut judged, mut wet, mut wet_with) = (0, 0, 0, 0);
+        let mut refused = [0usize; 8];
+        let strips = done.len();
         for (_, r) in done {
             print!("{}", r.printed);
+            for (all, one) in refused.iter_mut().zip(r.refused) {
+                *all += one;
+            }
             sq_read += r.reading * r.reading;
             sq_fused += r.fused * r.fused;
             (covered, judged, wet, wet_with) = (covered + r.covered, judged + r.judged, wet + r.wet, wet_with + r.wet_with);
         }
         let coverage = covered as f64 / judged as f64;
+        println!(
+            "rms over {strips} strips: reading {:.2} %, fused {:.2} %",
+            (sq_read / strips as f64).sqrt(),
+            (sq_fused / strips as f64).sqrt()
+        );
         println!("coverage {coverage:.2} over {judged} seconds; estimates in {wet_with} of {wet} seconds from 70 %RH");
+        let why: Vec<String> = refused
+            .iter()
+            .enumerate()
+            .filter(|&(_, &n)| n > 0)
+            .map(|(code, n)| format!("{n} {}", Refusal::of_code(code as u8).map_or("unknown".into(), |r| format!("{r:?}"))))
+            .collect();
+        println!(
+            "seconds from 70 %RH without an estimate, by the refusal: {}",
+            if why.is_empty() { "none".into() } else { why.join(", ") }
+        );
         assert!(sq_fused.sqrt() <= 1.05 * sq_read.sqrt(), "fused {} vs reading {}", sq_fused.sqrt(), sq_read.sqrt());
         assert!((coverage - 0.68).abs() <= 0.10, "coverage {coverage}");
         assert!(wet_with as f64 >= 0.8 * wet as f64, "{wet_with} of {wet}");
