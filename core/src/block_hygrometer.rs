@@ -10,7 +10,7 @@
 
 use crate::calibration::Calibration;
 use crate::humidity_fusion::{Estimate, SensorBias, reading_sd};
-use crate::humidity_path::SensorKind;
+use crate::humidity_path::{SensorKind, relax};
 use crate::real::Real;
 use crate::running_spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
 use crate::stream::Hygrometer;
@@ -104,12 +104,8 @@ impl<T: Real> Lag<T> {
     #[inline(never)]
     fn advance(&mut self, path: T, dt_s: T) {
         let lagged = self.lagged_after(path, dt_s);
-        let tau = T::lit(AVERAGING_S);
         self.lagged = Some(lagged);
-        self.trend = Some(match self.trend {
-            Some(t) => t + dt_s / (dt_s + tau) * (lagged - t),
-            None => lagged,
-        });
+        self.trend = Some(averaged(self.trend, lagged, dt_s));
     }
 
     fn new(tau_s: f64) -> Self {
@@ -117,14 +113,24 @@ impl<T: Real> Lag<T> {
         Lag { tau_s: T::lit(tau_s), lagged: None, trend: None, bias: SensorBias::new(), correction: z, var: z, probability: z }
     }
 
-    /// The path through this lag `dt_s` after the last snapshot (backward Euler, as the
-    /// snapshots advance it). Not inlined, as [`SensorBias::observe`].
+    /// The path through this lag `dt_s` after the last snapshot: the strip's hydration as the
+    /// humidity path runs it, the path held over the interval. Not inlined, as
+    /// [`SensorBias::observe`].
     #[inline(never)]
     fn lagged_after(&self, path: T, dt_s: T) -> T {
         match self.lagged {
-            Some(l) if self.tau_s > T::zero() => l + dt_s / (dt_s + self.tau_s) * (path - l),
-            _ => path,
+            Some(l) => relax(l, path, dt_s, self.tau_s, self.tau_s),
+            None => path,
         }
+    }
+}
+
+/// An average of `x` over the spectrum's [`AVERAGING_S`], `dt_s` after `prev` (None: it starts
+/// at `x`). Backward Euler: on a ramp of rate r it trails `x` by exactly r·τ.
+fn averaged<T: Real>(prev: Option<T>, x: T, dt_s: T) -> T {
+    match prev {
+        Some(a) => a + dt_s / (dt_s + T::lit(AVERAGING_S)) * (x - a),
+        None => x,
     }
 }
 
@@ -252,17 +258,12 @@ impl<T: Real> BlockHygrometer<T> {
         Some(Snapshot { first_hz: v.first_hz, df_hz: v.df_hz, bins: v.psd.len(), psd, segments: v.segments })
     }
 
-    /// A backward-Euler average of the path with time constant τ = [`AVERAGING_S`], `dt_s` after
-    /// the last: on a ramp of rate r it trails the path by exactly r·τ, so that distance over τ
-    /// is the rate.
+    /// The path's average over the spectrum's time, and from how far it trails the path (r·τ on
+    /// a ramp) the rate the path moves at.
     fn track(&mut self, path: T, dt_s: T) {
-        let tau = T::lit(AVERAGING_S);
-        let trend = match self.path_trend {
-            Some(s) => s + dt_s / (dt_s + tau) * (path - s),
-            None => path,
-        };
+        let trend = averaged(self.path_trend, path, dt_s);
         self.path_trend = Some(trend);
-        self.rate = (path - trend) / tau;
+        self.rate = (path - trend) / T::lit(AVERAGING_S);
     }
 
     /// The block's humidities with the reading path `path_pct`. The strip's estimate stands for
