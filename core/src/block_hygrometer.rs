@@ -9,7 +9,7 @@
 //! completion points bit for bit, as it replays its retunes.
 
 use crate::calibration::Calibration;
-use crate::humidity_fusion::{Estimate, SensorBias, reading_sd};
+use crate::humidity_fusion::{Estimate, SensorBias, lag_var, reading_sd};
 use crate::humidity_path::{SensorKind, relax};
 use crate::real::Real;
 use crate::running_spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
@@ -289,8 +289,7 @@ impl<T: Real> BlockHygrometer<T> {
             let d = value(l) - mean;
             a + l.probability * (l.var + d * d)
         });
-        let lag_var = (reading.sd_pct * reading.sd_pct - self.accuracy_pct * self.accuracy_pct).max(T::zero());
-        Estimate { rh_pct: mean, sd_pct: (var + lag_var).sqrt() }
+        Estimate { rh_pct: mean, sd_pct: (var + lag_var(reading, self.accuracy_pct)).sqrt() }
     }
 }
 

@@ -36,6 +36,12 @@ pub fn reading_sd<T: Real>(accuracy_pct: T, lag_s: T, rate_pct_per_s: T) -> T {
     (accuracy_pct * accuracy_pct + lag * lag).sqrt()
 }
 
+/// The part of the reading's variance beyond its accuracy: what its lag hides while the humidity
+/// moves. A correction of the bias leaves it.
+pub fn lag_var<T: Real>(reading: Estimate<T>, accuracy_pct: T) -> T {
+    (reading.sd_pct * reading.sd_pct - accuracy_pct * accuracy_pct).max(T::zero())
+}
+
 /// The reading path's bias as the strip's estimates show it: sums over the fits used, each
 /// weighted by the information it adds and faded over [`BIAS_MEMORY_S`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,8 +128,7 @@ impl<T: Real> SensorBias<T> {
             return reading;
         }
         let (c, v) = self.correction(accuracy_pct);
-        let lag_var = (reading.sd_pct * reading.sd_pct - accuracy_pct * accuracy_pct).max(T::zero());
-        Estimate { rh_pct: reading.rh_pct - c, sd_pct: (v + lag_var).sqrt() }
+        Estimate { rh_pct: reading.rh_pct - c, sd_pct: (v + lag_var(reading, accuracy_pct)).sqrt() }
     }
 
     /// −2 ln of the fits' likelihood about their weighted mean, up to a constant: Σ w (d − d̄)²/σ².
