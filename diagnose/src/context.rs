@@ -24,6 +24,8 @@ pub(crate) struct Ctx<'a> {
     /// The instrument's channels as the plain model left them, for a model candidate's joint
     /// fit to move under their prior (None: every tolerance zero).
     pub channel_prior: Option<fits::ChannelPrior>,
+    /// Where a model candidate's joint fit starts the channels.
+    pub channel_start: fits::ChannelStart,
 }
 
 /// Per-level outcome of a candidate, what held-out scoring needs.
@@ -52,7 +54,22 @@ impl<'a> Ctx<'a> {
         let read = Regressors { x: levels.iter().map(|l| l.rh_pct).collect(), temperature: None };
         let weights = LawWeights::estimate(&read, &base.theta, &base.se);
         let read_gradient = crate::laws::read_gradient(calib, &read.x);
-        Ok((Ctx { calib, data, sig, all, base, read, weights, read_gradient, channel_prior: None }, noise, cal_theta))
+        Ok((
+            Ctx {
+                calib,
+                data,
+                sig,
+                all,
+                base,
+                read,
+                weights,
+                read_gradient,
+                channel_prior: None,
+                channel_start: fits::ChannelStart::Plain,
+            },
+            noise,
+            cal_theta,
+        ))
     }
 
     /// The plain model's per-level fits as a candidate's outcome.

@@ -91,6 +91,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     let mut scores = Vec::new();
     let mut fitted_of = Vec::new();
     let mut heldout_of = Vec::new();
+    let mut at_reach = Vec::new();
     for cand in LIBRARY {
         progress(cand.name());
         let t0 = std::time::Instant::now();
@@ -108,9 +109,33 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
                 sc.params.iter().map(|p| p.value).collect::<Vec<_>>()
             );
         }
+        at_reach.push(s.channels_at_reach);
         scores.push(s.score);
         fitted_of.push(s.fitted);
         heldout_of.push(s.held);
+    }
+    // The plain model's channels take what they can of a concealed effect first. Where one sits
+    // at the edge of its reach, each candidate that explains part of the mismatch (ΔBIC > 0)
+    // and left the channel there may be explaining less than it could: it is fitted again from
+    // the channels' prior mean and keeps the better fit (`fits::ChannelStart::PriorMean`).
+    let plain_at_reach = ctx.channel_prior.as_ref().is_some_and(|p| p.at_reach(&fits::Channels::default()));
+    if plain_at_reach {
+        ctx.channel_start = fits::ChannelStart::PriorMean;
+        let again = |i: usize| at_reach[i] == Some(true) && scores[i].delta_bic > 0.0;
+        let again: Vec<usize> = (0..LIBRARY.len()).filter(|&i| again(i)).collect();
+        for (i, cand) in again.into_iter().map(|i| (i, &LIBRARY[i])) {
+            progress(cand.name());
+            let s = scorers::score(&ctx, cand, &base)?;
+            if s.score.delta_chi2 > scores[i].delta_chi2 {
+                if trace {
+                    eprintln!("{}: from the channels' prior mean Δχ² {:.1} → {:.1}", cand.name(), scores[i].delta_chi2, s.score.delta_chi2);
+                }
+                scores[i] = s.score;
+                fitted_of[i] = s.fitted;
+                heldout_of[i] = s.held;
+            }
+        }
+        ctx.channel_start = fits::ChannelStart::Plain;
     }
     let decision = decide(&ctx, LIBRARY, &mut scores, &fitted_of, &base, &located.summary);
 

@@ -49,6 +49,7 @@ pub(crate) fn fit(ctx: &Ctx, c_hat: f64) -> HumidityPath {
             weights,
             read_gradient: ctx.read_gradient.clone(),
             channel_prior: ctx.channel_prior.clone(),
+            channel_start: ctx.channel_start,
         };
         path = fit_once(&refitted, c_hat);
     }

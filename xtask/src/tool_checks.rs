@@ -67,7 +67,7 @@ pub fn diagnose_prove() -> Result<()> {
             bail!("{format}: {fp} clean control(s) diagnosed with an effect");
         }
         // Issue 27's rule holds on the project's own cases too: no wrong name stated alone
-        // (none in either format of this run; one in 204 of the README's three seeds, see
+        // (none in either format of this run, none in 204 of the README's three seeds: see
         // docs/diagnosis.md).
         let wrong = json_count(&summary, "confident_wrong")?;
         if wrong > 0 {

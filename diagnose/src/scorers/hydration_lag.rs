@@ -54,6 +54,7 @@ impl Scorer for HydrationLagScorer {
             own_heldout_z: None,
             occam: None,
             per_level: r.per_level,
+            channels_at_reach: None,
         })))
     }
 }

@@ -87,6 +87,7 @@ impl Scorer for MainsScorer {
             own_heldout_z: between.as_ref().map(|e| e.heldout_z),
             occam: None,
             per_level: vec![],
+            channels_at_reach: None,
             held,
         })))
     }
@@ -106,6 +107,7 @@ fn seen_between_lines_only(ctx: &Ctx, e: &MainsEvidence) -> Candidacy {
         own_heldout_z: Some(e.heldout_z),
         occam: None,
         per_level: vec![],
+        channels_at_reach: None,
         held: HeldOut {
             candidate: null.clone(),
             null,

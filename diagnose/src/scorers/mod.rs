@@ -58,6 +58,9 @@ pub(crate) struct Candidacy {
     /// joint fit against the per-level refit); what is not in it (the channels' prior terms) is
     /// the same whichever levels were recorded.
     pub per_level: Vec<f64>,
+    /// For a candidate fitted with the instrument's channels: whether its fit left one at the
+    /// edge of its reach ([`fits::ChannelPrior::at_reach`]).
+    pub channels_at_reach: Option<bool>,
 }
 
 pub(crate) enum Trial {
@@ -84,6 +87,8 @@ fn scorer_for(kind: Kind) -> Box<dyn Scorer> {
 /// A candidate's scores, and for one that was tested its fits and held-out models.
 pub(crate) struct Scored {
     pub score: Score,
+    /// As [`Candidacy::channels_at_reach`] (None for a candidate not fitted with the channels).
+    pub channels_at_reach: Option<bool>,
     pub fitted: Option<Fitted>,
     pub held: Option<HeldOut>,
 }
@@ -102,7 +107,9 @@ pub(crate) fn estimates(cand: &Candidate, values: &[f64], ses: &[f64]) -> Vec<Es
 pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scored> {
     let c = match scorer_for(cand.kind).trial(ctx, cand, base)? {
         Trial::Fitted(c) => *c,
-        Trial::NotTestable(why) => return Ok(Scored { score: not_applicable(cand, why, base.heldout_before), fitted: None, held: None }),
+        Trial::NotTestable(why) => {
+            return Ok(Scored { score: not_applicable(cand, why, base.heldout_before), channels_at_reach: None, fitted: None, held: None });
+        }
     };
     let n_ic = if c.space == Space::Data { base.n_data } else { base.n_theta };
     let delta_bic = c.delta_chi2 - c.occam.unwrap_or(c.extra_params as f64 * n_ic.ln());
@@ -141,6 +148,7 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
             note,
             other_gates,
         },
+        channels_at_reach: c.channels_at_reach,
         fitted: Some(c.fitted),
         held: Some(c.held),
     })

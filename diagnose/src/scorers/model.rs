@@ -22,7 +22,18 @@ impl Scorer for ModelScorer {
         let start: Vec<f64> = cand.params.iter().map(|s| s.start).collect();
         let ext = self.0;
         let prior = ctx.channel_prior.as_ref();
-        let j = fits::fit_joint(ctx.calib, &ctx.data.levels, &ctx.sig, &ctx.all, &specs, &ext, &ctx.base.theta, &start, prior)?;
+        let j = fits::fit_joint(
+            ctx.calib,
+            &ctx.data.levels,
+            &ctx.sig,
+            &ctx.all,
+            &specs,
+            &ext,
+            &ctx.base.theta,
+            &start,
+            prior,
+            ctx.channel_start,
+        )?;
         // The candidate is judged with the instrument refitted beside it, held out too: without
         // its channels a tip mass fails the held-out gate its own fit passes (external case22
         // became `air_loading`). Its held-out models carry that move, so the figures draw the
@@ -52,6 +63,7 @@ impl Scorer for ModelScorer {
             own_heldout_z: None,
             occam: None,
             per_level,
+            channels_at_reach: Some(prior.is_some_and(|p| p.at_reach(&j.channels))),
         })))
     }
 }

@@ -52,6 +52,7 @@ impl Scorer for SensorErrorScorer {
             own_heldout_z: None,
             occam: None,
             per_level: r.per_level,
+            channels_at_reach: None,
         })))
     }
 }

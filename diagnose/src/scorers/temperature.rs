@@ -74,6 +74,7 @@ impl Scorer for TemperatureScorer {
             own_heldout_z: None,
             occam: Some(fit.occam),
             per_level: vec![],
+            channels_at_reach: None,
         })))
     }
 }
