@@ -2,6 +2,8 @@
 //!
 //! - [`lsq`]: bounded, weighted nonlinear least squares (Levenberg–Marquardt) with standard
 //!   errors and correlations: generic, knows nothing of IPMCs.
+//! - [`block_qr`]: the QR factor of a Jacobian whose columns reach one block of rows or all,
+//!   computed block by block ([`lsq::fit_blocks`]'s steps).
 //! - [`response`]: residuals of a measured tip/current response against the core's exact model
 //!   (`ipmc_core::model`), with any subset of the model's parameters fitted by their `--set` names.
 //! - [`multisine`]: tip/base and current/base responses, their noise and the between-line
@@ -22,6 +24,7 @@
 //!
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
+pub mod block_qr;
 pub mod departures;
 pub mod identify;
 pub mod laws;

@@ -490,7 +490,7 @@ fn sweep_joint(joint: Joint, levels: &[LevelData], channels_start: Option<&[f64]
 /// moving together with every level's, end inside that (`ipmc prove`'s verdicts and held-out
 /// figures are the same as with no limit). An absent candidate's parameters can instead crawl
 /// along a flat curved valley (a relaxation moved below the band, trading off against every
-/// level's Y) for thousands of iterations, each a Jacobian and a QR of all residuals, gaining
+/// level's Y) for thousands of iterations, each a Jacobian and a QR factor of it, gaining
 /// 0.1–0.3 in χ² per run of 50: that was 85 % of `ipmc prove --seed 2`'s time and moved ΔBIC
 /// by about 2, far from deciding anything.
 const POLISH_RUN: Tolerance = Tolerance { patience: 1, ..Tolerance::REPORT };
