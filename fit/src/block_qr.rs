@@ -34,7 +34,12 @@ pub fn factor(jac: &DMatrix<f64>, res: &[f64], offsets: &[usize], reach: &[Reach
         let own: Vec<usize> = (0..n).filter(|&j| reach[j] == Reach::Block(b)).collect();
         let cols: Vec<usize> = own.iter().chain(&globals).copied().collect();
         let rows = w[0]..w[1];
-        let a = DMatrix::from_fn(rows.len(), cols.len() + 1, |i, j| if j < cols.len() { jac[(rows.start + i, cols[j])] } else { res[rows.start + i] });
+        let a =
+            DMatrix::from_fn(
+                rows.len(),
+                cols.len() + 1,
+                |i, j| if j < cols.len() { jac[(rows.start + i, cols[j])] } else { res[rows.start + i] },
+            );
         let t = a.qr().r();
         for i in 0..own.len().min(t.nrows()) {
             for (j, &col) in cols.iter().enumerate() {
