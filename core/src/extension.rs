@@ -41,6 +41,12 @@ pub struct Extension<T> {
     pub relax_time: [T; 2],
     /// Constant (hysteretic) loss factor η: E* gains iηY at positive frequencies.
     pub loss_factor: T,
+    /// 1 − α for a power-law (fractional, "springpot") damping that replaces Kelvin–Voigt's:
+    /// Cs·s becomes Cs·ω_r·(s/ω_r)^α, the same at ω_r ([`Self::damping_ref`]), growing as ω^α
+    /// instead of ω (0 < α ≤ 1; α = 0 is a constant loss).
+    pub damping_order_drop: T,
+    /// ω_r [rad/s], where the power-law damping equals the Kelvin–Voigt damping it replaces.
+    pub damping_ref: T,
     /// Rotational compliance of the clamp c_θ [rad/(N·m)].
     pub clamp_compliance: T,
     /// Point mass at the tip M_t [kg].
@@ -70,6 +76,7 @@ impl<T: Real> Extension<T> {
             || self.stokes != T::zero()
             || self.relax_modulus.iter().any(|m| *m != T::zero())
             || self.loss_factor != T::zero()
+            || self.damping_order_drop != T::zero()
     }
 
     /// Mass/damping impedance per length μ(s) of the extended eq. 1.
@@ -79,7 +86,7 @@ impl<T: Real> Extension<T> {
 
     /// Complex modulus E*(s) of the extended eq. 1.
     pub fn modulus(&self, p: &Params<T>, s: C<T>) -> C<T> {
-        let mut e = s * p.cs + p.y;
+        let mut e = self.damping(p, s) + p.y;
         for (&dy, &tau) in self.relax_modulus.iter().zip(&self.relax_time) {
             if dy != T::zero() {
                 let st = s * tau;
@@ -92,6 +99,18 @@ impl<T: Real> Extension<T> {
             e += C::new(T::zero(), sign * self.loss_factor * p.y);
         }
         e
+    }
+
+    /// The damping part of E*: Kelvin–Voigt's Cs·s, or its power law Cs·ω_r·(s/ω_r)^α.
+    fn damping(&self, p: &Params<T>, s: C<T>) -> C<T> {
+        if self.damping_order_drop == T::zero() {
+            return s * p.cs;
+        }
+        let alpha = T::one() - self.damping_order_drop;
+        let w_r = self.damping_ref;
+        let (sin, cos) = (alpha * s.im.atan2(s.re)).sin_cos();
+        let magnitude = (s.cabs() / w_r).powf(alpha) * w_r * p.cs;
+        C::new(magnitude * cos, magnitude * sin)
     }
 
     /// Factor of the current channel's measurement chain.

@@ -49,6 +49,10 @@ pub enum HumidityMap {
 pub struct Candidate {
     /// The effect the candidate names.
     pub effect: Effect,
+    /// Which of the effect's physical forms it is, where the effect has more than one (each
+    /// fitted on its own; the decision keeps the better and splits the effect's prior between
+    /// them); empty otherwise.
+    pub form: &'static str,
     pub family: &'static str,
     pub doc: &'static str,
     pub params: &'static [Spec],
@@ -65,6 +69,7 @@ const fn spec(name: &'static str, unit: &'static str, bound: Bound, start: f64, 
 pub const LIBRARY: &[Candidate] = &[
     Candidate {
         effect: Effect::ClampCompliance,
+        form: "",
         family: "mechanical: boundary condition",
         doc: "The clamp is not rigid: it turns by c_θ·M under the root bending moment M, so the \
               beam sits on a rotational spring whose compliance is a property of the clamp, the \
@@ -79,6 +84,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::TipMass,
+        form: "",
         family: "mechanical: added mass",
         doc: "A body at the tip (glue, a reflector for the laser, a lead wire): a point mass M_t \
               at z = L. Parameter: M_t in mg. Lowers the first resonance as \
@@ -90,6 +96,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::AirLoading,
+        form: "",
         family: "mechanical: air loading",
         doc: "The surrounding air is dragged along: it adds mass per length and dissipates in an \
               oscillating boundary layer whose force grows like √ω (Stokes), unlike the paper's \
@@ -103,6 +110,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::ViscoelasticRelaxation,
+        form: "standard linear solid",
         family: "mechanical: viscoelastic law",
         doc: "The polymer relaxes rather than being Kelvin–Voigt: a standard linear solid's \
               branch of modulus ΔY and time τ stiffens the beam above f_relax = 1/(2πτ) and \
@@ -124,7 +132,29 @@ pub const LIBRARY: &[Candidate] = &[
         }),
     },
     Candidate {
+        effect: Effect::ViscoelasticRelaxation,
+        form: "power-law damping",
+        family: "mechanical: viscoelastic law",
+        doc: "The polymer's damping is not Kelvin–Voigt's dashpot but a fractional one (a \
+              springpot; Bagley & Torvik, J. Rheol. 27, 1983: a continuous spectrum of \
+              relaxation times, as polymers near their glass transition and swollen ionomers \
+              show): Cs·s in E* becomes Cs·ω₁·(s/ω₁)^α, the same damping at each level's first \
+              resonance ω₁, growing as ω^α instead of ω, with a storage part that stiffens the \
+              beam as ω^α·cos(απ/2). Each level keeps its own Cs (its damping at resonance); \
+              the order α is the polymer's, the same at every humidity. Parameter: α (1 is \
+              Kelvin–Voigt, 0 a constant loss). Shows in both channels alike: a phase lag \
+              already far below the resonance (where Kelvin–Voigt's vanishes as f), less \
+              damping above it, and a second mode less damped than Kelvin–Voigt predicts.",
+        params: &[spec("alpha", "1", Bound::Between(0.0, 1.0), 0.8, 1.0)],
+        kind: Kind::Model(|v, p| Extension {
+            damping_order_drop: 1.0 - v[0],
+            damping_ref: ipmc_core::model::first_mode_rad_s(p),
+            ..Default::default()
+        }),
+    },
+    Candidate {
         effect: Effect::HystereticDamping,
+        form: "",
         family: "mechanical: viscoelastic law",
         doc: "Structural (hysteretic) damping: a loss factor η that does not depend on frequency, \
               E* = Y(1 + iη), as many polymers and clamps show, instead of damping growing with \
@@ -136,6 +166,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::ElectrodeResistance,
+        form: "",
         family: "electrical: electrode resistance",
         doc: "The electrodes' surface resistance R_e with the polymer's capacitance \
               C = κe·b·L/(2h) forms a distributed RC line (Chen & Tan, IEEE/ASME TMech 2008; \
@@ -162,6 +193,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::AmplifierBandwidth,
+        form: "",
         family: "electrical: measurement amplifier",
         doc: "The transimpedance amplifier is not flat: its feedback capacitance and the second \
               stage give a pole at f_a. Parameter: τ_a = 1/(2πf_a) [µs]. Shows in the current \
@@ -172,6 +204,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::CurrentTiming,
+        form: "",
         family: "instrumentation: timing between channels",
         doc: "The current is not sampled at the same instant as the base (a multiplexed ADC, a \
               filter's group delay): a delay Δt multiplies it by e^(−jωΔt). Parameter: Δt [µs]. \
@@ -182,6 +215,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::TipTiming,
+        form: "",
         family: "instrumentation: timing between channels",
         doc: "The tip displacement is not sampled at the same instant as the base (the laser \
               sensors' response time, close to 1 ms in the paper's set-up): e^(−jωΔt) on the tip \
@@ -192,6 +226,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::CapacitiveFeedthrough,
+        form: "",
         family: "electrical: feedthrough",
         doc: "The shaker drive couples capacitively into the high-impedance current input: a \
               current ∝ base velocity, g·s·U, adds to the IPMC's. Parameter: g [nA·s/m]. Shows in \
@@ -203,6 +238,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::MainsInterference,
+        form: "",
         family: "interference",
         doc: "Pickup from the mains (50 or 60 Hz and its harmonics) adds, at points measured near \
               a line, a current of its own with a phase unrelated to the excitation. Fitted as a \
@@ -215,6 +251,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::HydrationLag,
+        form: "",
         family: "ionic: hydration dynamics",
         doc: "The polymer's water content follows the ambient humidity through a first-order lag \
               τ_h (diffusion of water into the membrane): every parameter takes the value of its \
@@ -227,6 +264,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::HumiditySensorError,
+        form: "",
         family: "instrumentation: humidity sensor",
         doc: "The humidity reading is offset or mis-scaled (a drifted or mis-calibrated sensor, \
               the HIH-4030's temperature correction): the sample lives at RH_true = RH_read + o + \
@@ -241,6 +279,7 @@ pub const LIBRARY: &[Candidate] = &[
     },
     Candidate {
         effect: Effect::Temperature,
+        form: "",
         family: "environmental: temperature",
         doc: "The paper held the strip at 20 °C; a room that drifts during the session changes \
               the polymer at every point at once. Ion transport is thermally activated: \
@@ -275,6 +314,15 @@ impl Candidate {
     pub fn name(&self) -> &'static str {
         self.effect.name()
     }
+    /// The name with the form, where the effect has more than one.
+    pub fn label(&self) -> String {
+        if self.form.is_empty() { self.name().to_string() } else { format!("{} ({})", self.name(), self.form) }
+    }
+}
+
+/// How many forms of `effect` the library fits (its prior is shared between them).
+pub fn forms_of(effect: Effect) -> usize {
+    LIBRARY.iter().filter(|c| c.effect == effect).count()
 }
 
 pub fn by_effect(effect: Effect) -> Option<&'static Candidate> {
@@ -309,16 +357,18 @@ mod tests {
         assert!(LIBRARY.len() >= 10);
     }
 
-    /// Every effect the simulator conceals has the candidate that should find it, and no two
-    /// candidates share a name.
+    /// Every effect the simulator conceals has a candidate that should find it, and no two
+    /// candidates share a name and form.
     #[test]
     fn one_candidate_per_effect() {
         for e in Effect::ALL {
             assert!(by_name(e.name()).is_some(), "{e}");
         }
-        let mut names: Vec<&str> = LIBRARY.iter().map(|c| c.name()).collect();
+        let mut names: Vec<String> = LIBRARY.iter().map(|c| c.label()).collect();
         names.sort();
         names.dedup();
         assert_eq!(names.len(), LIBRARY.len());
+        // An effect with several forms names each.
+        assert!(LIBRARY.iter().all(|c| forms_of(c.effect) == 1 || !c.form.is_empty()));
     }
 }

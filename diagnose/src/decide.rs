@@ -30,10 +30,10 @@ pub const MIN_DELTA_BIC: f64 = 10.0;
 /// verdict is `undecided` and the smallest set holding it is reported.
 pub const CONFIDENCE: f64 = 0.9;
 /// Prior probability that a strip brought to diagnosis has no missing physics at all; the rest
-/// is shared equally by the library's candidates (no effect is known to be commoner than
-/// another). With 14 candidates a candidate's prior odds against none are 1:14, so on its
-/// own it reaches [`CONFIDENCE`] at ΔBIC = 2 ln(9·14) ≈ 9.7: the same evidence
-/// [`MIN_DELTA_BIC`] asks for, from the other side.
+/// is shared equally by the library's effects (no effect is known to be commoner than another;
+/// an effect fitted in several forms splits its share between them). With 14 effects a
+/// candidate's prior odds against none are 1:14, so on its own it reaches [`CONFIDENCE`] at
+/// ΔBIC = 2 ln(9·14) ≈ 9.7: the same evidence [`MIN_DELTA_BIC`] asks for, from the other side.
 pub const PRIOR_NONE: f64 = 0.5;
 /// The scale of the evidence in the probabilities: ln p ∝ ΔBIC / (2·EVIDENCE_SCALE). ΔBIC is
 /// already a quasi-likelihood (divided by the overdispersion) and the probabilities are averaged
@@ -59,6 +59,8 @@ pub(crate) struct Decision {
     /// ĉ the data-space ΔBIC were divided by.
     pub overdispersion: f64,
     pub family: String,
+    /// The winner's form (see [`crate::candidates::Candidate::form`]).
+    pub form: String,
     pub explanation: String,
     pub params: Vec<Estimate>,
     /// Held-out χ² per residual before and after.
@@ -74,13 +76,13 @@ pub const NONE: &str = "none";
 /// The probability of each hypothesis: `none` (ΔBIC 0) and every applicable candidate that
 /// passes the held-out gates and its floor (a candidate that does not predict held-out levels
 /// better is not supported, whatever its ΔBIC), from the prior ([`PRIOR_NONE`], the rest shared
-/// by `n_candidates`) and the evidence exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of
+/// by `n_effects`, an effect's share split between its forms) and the evidence exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of
 /// the marginal likelihood, Kass & Raftery 1995; on the data ΔBIC is divided by the
 /// overdispersion `c_hat`), averaged over the levels' bootstrap ([`crate::level_bootstrap`]:
 /// how much of a lead the `n_levels` levels share). Most probable first.
-pub fn posterior(scores: &[Score], n_candidates: usize, n_levels: usize, c_hat: f64) -> Vec<Probability> {
-    let ln_prior_cand = ((1.0 - PRIOR_NONE) / n_candidates.max(1) as f64).ln();
-    let supported: Vec<&Score> = scores.iter().filter(|s| s.applicable && s.other_gates && s.delta_bic.is_finite()).collect();
+pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64) -> Vec<Probability> {
+    let ln_prior_effect = ((1.0 - PRIOR_NONE) / n_effects.max(1) as f64).ln();
+    let supported: Vec<&Score> = scores.iter().filter(|s| supported(s)).collect();
     let per_level: Vec<Vec<f64>> = supported
         .iter()
         .map(|s| {
@@ -90,7 +92,7 @@ pub fn posterior(scores: &[Score], n_candidates: usize, n_levels: usize, c_hat: 
         .collect();
     let mut hypotheses = vec![Evidence { ln_prior: PRIOR_NONE.ln(), delta_bic: 0.0, per_level: &[] }];
     hypotheses.extend(supported.iter().zip(&per_level).map(|(s, d)| Evidence {
-        ln_prior: ln_prior_cand,
+        ln_prior: ln_prior_effect - (forms(scores, &s.name) as f64).ln(),
         delta_bic: s.delta_bic,
         per_level: d,
     }));
@@ -99,6 +101,41 @@ pub fn posterior(scores: &[Score], n_candidates: usize, n_levels: usize, c_hat: 
     let mut out: Vec<Probability> = names.zip(p).map(|(name, probability)| Probability { name, probability }).collect();
     out.sort_by(|a, b| b.probability.total_cmp(&a.probability));
     out
+}
+
+/// A candidate the probabilities weigh: applicable, through its gates, with a finite ΔBIC.
+fn supported(s: &Score) -> bool {
+    s.applicable && s.other_gates && s.delta_bic.is_finite()
+}
+
+/// How many forms of the effect `name` were scored.
+fn forms(scores: &[Score], name: &str) -> usize {
+    scores.iter().filter(|s| s.name == name).count()
+}
+
+/// Where an effect was fitted in several forms (`crate::candidates::Candidate::form`), only the
+/// form with the larger ΔBIC stays a hypothesis: the effect's prior is split between its forms
+/// ([`posterior`]), and dropping the other's evidence keeps the effect's probability a lower
+/// bound (the exact sum gains at most ln 2 where the two forms fit alike).
+fn keep_better_forms(scores: &mut [Score]) {
+    for i in 0..scores.len() {
+        let beaten = scores.iter().enumerate().any(|(j, o)| {
+            j != i
+                && o.name == scores[i].name
+                && supported(o)
+                && (o.delta_bic > scores[i].delta_bic || (o.delta_bic == scores[i].delta_bic && j < i))
+        });
+        if beaten && supported(&scores[i]) {
+            let s = &mut scores[i];
+            s.other_gates = false;
+            s.passes = false;
+            s.note = if s.note.is_empty() {
+                "another form of this effect fits better".into()
+            } else {
+                format!("{}; another form of this effect fits better", s.note)
+            };
+        }
+    }
 }
 
 /// The smallest set of hypotheses (most probable first) holding [`CONFIDENCE`].
@@ -133,10 +170,11 @@ pub(crate) fn decide(
         sc.delta_bic = sc.delta_chi2 / c_hat - sc.extra_params as f64 * base.n_data.ln();
         sc.passes = sc.other_gates && sc.delta_bic >= MIN_DELTA_BIC;
     }
+    keep_better_forms(scores);
     let structure_before =
         fits::structure_z(ctx.calib, &ctx.data.levels, &ctx.sig, &ctx.all, &ctx.base.theta, &vec![Extension::default(); n_levels]);
     let structured = structure_before > STRUCTURED_Z;
-    let probabilities = posterior(scores, candidates.len(), n_levels, c_hat);
+    let probabilities = posterior(scores, crate::Effect::ALL.len(), n_levels, c_hat);
     let mut set = credible_set(&probabilities);
     let top = &probabilities[0];
     let probability_of = |name: &str| probabilities.iter().find(|p| p.name == name).map_or(0.0, |p| p.probability);
@@ -156,11 +194,11 @@ pub(crate) fn decide(
             .map_or(String::new(), |m| format!("; {} ({}) would separate {} from {}", m.record, m.band, m.between[0], m.between[1]));
         let alternatives = set
             .iter()
-            .filter_map(|n| scores.iter().find(|s| &s.name == n))
+            .filter_map(|n| scores.iter().find(|s| &s.name == n && supported(s)))
             .map(|b| Alternative {
                 name: b.name.clone(),
                 delta_bic: b.delta_bic,
-                delta_bic_gap: scores.iter().find(|s| s.name == top.name).map_or(0.0, |t| t.delta_bic) - b.delta_bic,
+                delta_bic_gap: scores.iter().find(|s| s.name == top.name && supported(s)).map_or(0.0, |t| t.delta_bic) - b.delta_bic,
                 heldout: b.heldout,
                 heldout_z: b.heldout_z,
                 heldout_z_vs_verdict: None,
@@ -174,6 +212,7 @@ pub(crate) fn decide(
             alternatives,
             overdispersion: c_hat,
             family: String::new(),
+            form: String::new(),
             explanation: format!(
                 "no hypothesis holds {:.0} % of the probability alone; the data lean to {}{measure}",
                 100.0 * CONFIDENCE,
@@ -204,7 +243,7 @@ pub(crate) fn decide(
         let alternatives: Vec<Alternative> = order
             .iter()
             .map(|&i| &scores[i])
-            .filter(|b| set.contains(&b.name))
+            .filter(|b| set.contains(&b.name) && supported(b))
             .map(|b| Alternative {
                 name: b.name.clone(),
                 delta_bic: b.delta_bic,
@@ -228,6 +267,7 @@ pub(crate) fn decide(
             alternatives,
             overdispersion: c_hat,
             family: String::new(),
+            form: String::new(),
             explanation,
             params: vec![],
             heldout: (refit, refit),
@@ -240,7 +280,7 @@ pub(crate) fn decide(
     let alternatives: Vec<Alternative> = order[1..]
         .iter()
         .map(|&i| &scores[i])
-        .filter(|b| set.contains(&b.name))
+        .filter(|b| set.contains(&b.name) && supported(b) && b.name != s.name)
         .map(|b| {
             let shared_null = s.space == b.space && s.heldout_null_per_level == b.heldout_null_per_level;
             Alternative {
@@ -280,6 +320,7 @@ pub(crate) fn decide(
         winner: Some(w),
         overdispersion: c_hat,
         family: s.family.clone(),
+        form: s.form.clone(),
         explanation: format!(
             "{} (ΔBIC {:.1}, held-out χ²/residual {:.3} → {:.3}, z = {:.1}){remainder}",
             s.name, s.delta_bic, s.heldout_null, s.heldout, s.heldout_z
@@ -394,6 +435,7 @@ mod tests {
         Score {
             name: name.into(),
             family: String::new(),
+            form: String::new(),
             applicable: true,
             params: vec![],
             delta_chi2,

@@ -100,7 +100,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             let sc = &s.score;
             eprintln!(
                 "{}: {:.2} s dBIC {:.1} heldout {:.3} null {:.3} z {:.1} {:?}",
-                cand.name(),
+                cand.label(),
                 t0.elapsed().as_secs_f64(),
                 sc.delta_bic,
                 sc.heldout,
@@ -128,7 +128,12 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
             let s = scorers::score(&ctx, cand, &base)?;
             if s.score.delta_chi2 > scores[i].delta_chi2 {
                 if trace {
-                    eprintln!("{}: from the channels' prior mean Δχ² {:.1} → {:.1}", cand.name(), scores[i].delta_chi2, s.score.delta_chi2);
+                    eprintln!(
+                        "{}: from the channels' prior mean Δχ² {:.1} → {:.1}",
+                        cand.label(),
+                        scores[i].delta_chi2,
+                        s.score.delta_chi2
+                    );
                 }
                 scores[i] = s.score;
                 fitted_of[i] = s.fitted;
@@ -189,6 +194,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         indistinguishable: decision.alternatives,
         overdispersion: decision.overdispersion,
         family: decision.family,
+        form: decision.form,
         explanation: decision.explanation,
         params: decision.params,
         heldout_before: decision.heldout.0,

@@ -1,6 +1,6 @@
 //! The diagnosis as report.json (for programs) and report.md (for people).
 
-use crate::candidates::by_effect;
+use crate::candidates::LIBRARY;
 use crate::types::{Diagnosis, Verdict};
 use serde_json::json;
 use std::fmt::Write as _;
@@ -101,7 +101,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         }
         let _ = writeln!(s);
     }
-    if let Some(c) = d.verdict.effect().and_then(by_effect) {
+    if let Some(c) = d.verdict.effect().and_then(|e| LIBRARY.iter().find(|c| c.effect == e && c.form == d.form)) {
         let _ = writeln!(s, "{}\n", c.doc);
         let _ = writeln!(s, "| parameter | value | standard error | unit |\n|---|---|---|---|");
         for p in &d.params {
@@ -193,7 +193,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
             let _ = writeln!(
                 s,
                 "| {}{} | {} | {} | {} | {} | {} | {} |",
-                c.name,
+                labelled(c),
                 if c.passes { " ✔" } else { "" },
                 c.family,
                 fixed(c.delta_bic, 1),
@@ -203,7 +203,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
                 c.note
             );
         } else {
-            let _ = writeln!(s, "| {} | {} | – | – | – | – | not testable: {} |", c.name, c.family, c.note);
+            let _ = writeln!(s, "| {} | {} | – | – | – | – | not testable: {} |", labelled(c), c.family, c.note);
         }
     }
     let _ = writeln!(s);
@@ -226,6 +226,11 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         let _ = writeln!(s, "![{}]({}.svg)  \n[PNG]({}.png)\n", f.title, f.stem, f.stem);
     }
     s
+}
+
+/// A candidate's name with its form, where its effect has more than one.
+fn labelled(c: &crate::types::Score) -> String {
+    if c.form.is_empty() { c.name.clone() } else { format!("{} ({})", c.name, c.form) }
 }
 
 /// The stated probability of a hypothesis, as a percentage.

@@ -93,6 +93,8 @@ pub struct Estimate {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Score {
     pub name: String,
+    /// Which form of the effect, where the library fits more than one (else empty).
+    pub form: String,
     pub family: String,
     /// Whether the data allow testing it (times for hydration, varying temperature…).
     pub applicable: bool,
@@ -281,6 +283,8 @@ pub struct Diagnosis {
     /// Overdispersion ĉ of the data's χ² (see [`crate::decide::overdispersion`]) that data-space ΔBIC are divided by.
     pub overdispersion: f64,
     pub family: String,
+    /// The named candidate's form, where its effect has more than one (else empty).
+    pub form: String,
     pub explanation: String,
     pub params: Vec<Estimate>,
     pub heldout_before: f64,

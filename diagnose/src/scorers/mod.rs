@@ -130,6 +130,7 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
     Ok(Scored {
         score: Score {
             name: cand.name().into(),
+            form: cand.form.into(),
             family: cand.family.into(),
             applicable: true,
             params: c.params,
@@ -157,6 +158,7 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
 fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
     Score {
         name: cand.name().into(),
+        form: cand.form.into(),
         family: cand.family.into(),
         applicable: false,
         params: vec![],

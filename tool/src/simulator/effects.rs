@@ -6,14 +6,15 @@
 //! Effects are generated in a physically richer or different form than the candidate that
 //! fits them where that is natural: the electrode as a distributed RC line (fitted: one pole),
 //! the tip body with rotary inertia (fitted: a point mass), the polymer's relaxation with two
-//! time constants (fitted: one), the amplifier with two poles (fitted: one), hydration with
+//! time constants (fitted: one) or its power-law damping matched at one resonance (fitted: at
+//! each level's), the amplifier with two poles (fitted: one), hydration with
 //! different time constants for wetting and drying (fitted: one). Magnitudes are drawn
 //! log-uniformly over ranges whose low ends are near what 12 levels can detect.
 
 use super::physics::Physics;
 use super::random::SplitMix64;
 use ipmc_core::extension::{Extension, responses};
-use ipmc_core::model::capacitance;
+use ipmc_core::model::{capacitance, first_mode_rad_s};
 use ipmc_core::thermal::Thermal;
 use ipmc_core::{C, Params};
 use ipmc_diagnose::Effect;
@@ -132,7 +133,9 @@ pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: 
             s.ext.stokes = d.log_uniform(2e-3, 2e-2);
             format!("m_air/m = {ratio:.3}, c_st = {:.1} mN·s^½/m²", s.ext.stokes * 1e3)
         }
-        Some(Effect::ViscoelasticRelaxation) => {
+        // Either of the laws a polymer's viscoelasticity follows: discrete relaxations, or
+        // damping that grows as a power of the frequency.
+        Some(Effect::ViscoelasticRelaxation) if d.rng.uniform() < 0.5 => {
             let dy = d.log_uniform(0.04, 0.25);
             let f = d.log_uniform(20.0, 150.0);
             // Two branches a factor 3 apart in time (a relaxation spectrum), ΔY/2 each.
@@ -140,6 +143,17 @@ pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: 
             s.ext.relax_modulus = [dy * p60.y / 2.0; 2];
             s.ext.relax_time = [tau / 3f64.sqrt(), tau * 3f64.sqrt()];
             format!("ΔY/Y = {dy:.3} relaxing near {f:.0} Hz")
+        }
+        Some(Effect::ViscoelasticRelaxation) => {
+            // Matched to Kelvin–Voigt at the first resonance at 60 %RH, the same at every level
+            // (the candidate matches it at each level's own resonance).
+            s.ext.damping_order_drop = d.log_uniform(0.15, 0.7);
+            s.ext.damping_ref = first_mode_rad_s(p60);
+            format!(
+                "damping ∝ ω^{:.2} (a power law, Kelvin–Voigt's at {:.0} Hz)",
+                1.0 - s.ext.damping_order_drop,
+                s.ext.damping_ref / two_pi
+            )
         }
         Some(Effect::HystereticDamping) => {
             s.ext.loss_factor = d.log_uniform(0.01, 0.06);
