@@ -76,10 +76,11 @@ pub const NONE: &str = "none";
 /// The probability of each hypothesis: `none` (ΔBIC 0) and every applicable candidate that
 /// passes the held-out gates and its floor (a candidate that does not predict held-out levels
 /// better is not supported, whatever its ΔBIC), from the prior ([`PRIOR_NONE`], the rest shared
-/// by `n_effects`, an effect's share split between its forms) and the evidence exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of
-/// the marginal likelihood, Kass & Raftery 1995; on the data ΔBIC is divided by the
-/// overdispersion `c_hat`), averaged over the levels' bootstrap ([`crate::level_bootstrap`]:
-/// how much of a lead the `n_levels` levels share). Most probable first.
+/// by `n_effects`, an effect's share split between its forms) and the evidence
+/// exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of the marginal likelihood, Kass &
+/// Raftery 1995; on the data ΔBIC is divided by the overdispersion `c_hat`), averaged over the
+/// levels' bootstrap ([`crate::level_bootstrap`]: how much of a lead the `n_levels` levels
+/// share). Most probable first.
 pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64) -> Vec<Probability> {
     let ln_prior_effect = ((1.0 - PRIOR_NONE) / n_effects.max(1) as f64).ln();
     let supported: Vec<&Score> = scores.iter().filter(|s| supported(s)).collect();
