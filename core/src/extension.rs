@@ -8,8 +8,8 @@
 //!   μ(s) = (m + m_air)·s + Ca + c_st·√s (air moving with the beam and Stokes-type boundary-layer
 //!   damping, which grows like √ω) and the complex modulus
 //!   E*(s) = Y + Cs·s + Σ ΔYₖ·sτₖ/(1 + sτₖ) + iηY (relaxation branches of a generalized standard
-//!   linear solid and a
-//!   constant loss factor, alternatives to the paper's pure Kelvin–Voigt law). Since the
+//!   linear solid and a constant loss factor, alternatives to the paper's pure Kelvin–Voigt
+//!   law), or with Cs·s replaced by the power law Cs·ω_r·(s/ω_r)^α (fractional damping). Since the
 //!   mechanical ratios depend on s only through q = (pL)⁴ = L⁴·s·μ/(4I·E*), the closed forms of
 //!   [`crate::model`] still apply with this q.
 //! * **End conditions.** A clamp with finite rotational stiffness (compliance c_θ: root slope per

@@ -236,7 +236,8 @@ pub struct Blocks<'a> {
 
 /// [`fit`] for a problem whose residuals come in blocks, each parameter moving either every block
 /// or one block only (a model's global parameters and each humidity level's own ones). The
-/// result is the one [`fit`] gives on the concatenated residuals; only the cost differs: a
+/// result is the one [`fit`] gives on the concatenated residuals (the same steps in exact
+/// arithmetic, so the two part at the stopping tolerance); only the cost differs: a
 /// Jacobian takes one evaluation of every block per global parameter, plus one, and one
 /// evaluation of its block per local parameter, instead of one of every block per parameter,
 /// and each step is solved from a QR factor computed block by block ([`crate::block_qr`]).
