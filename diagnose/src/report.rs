@@ -24,6 +24,7 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -
         "instrument": d.instrument,
         "overdispersion": d.overdispersion,
         "family": d.family,
+        "form": d.form,
         "explanation": d.explanation,
         "params": d.params,
         "heldout_before": d.heldout_before,
@@ -57,13 +58,16 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         Verdict::None => format!("**No missing physics above the noise** (`none` holds {}).", percent(d, "none")),
         Verdict::Unexplained => format!("**Unexplained:** {}.", d.explanation),
         Verdict::Undecided => format!("**Undecided:** {}.", d.explanation),
-        Verdict::Named(v) => format!("**{v}** ({}, probability {}): {}.", d.family, percent(d, v.name()), d.explanation),
+        Verdict::Named(v) if d.form.is_empty() => {
+            format!("**{v}** ({}, probability {}): {}.", d.family, percent(d, v.name()), d.explanation)
+        }
+        Verdict::Named(v) => format!("**{v}**, {} ({}, probability {}): {}.", d.form, d.family, percent(d, v.name()), d.explanation),
     };
     let _ = writeln!(s, "## Verdict\n\n{verdict}\n");
     let _ = writeln!(
         s,
-        "Probabilities of the hypotheses the evidence supports (prior: half on no missing physics, the rest shared by the {} candidates; evidence: ΔBIC on Kass & Raftery's approximation); a name is stated only when it alone holds {:.0} %:\n",
-        crate::candidates::LIBRARY.len(),
+        "Probabilities of the hypotheses the evidence supports (prior: half on no missing physics, the rest shared by the {} effects, an effect fitted in several forms splitting its share; evidence: ΔBIC on Kass & Raftery's approximation); a name is stated only when it alone holds {:.0} %:\n",
+        crate::Effect::ALL.len(),
         100.0 * crate::decide::CONFIDENCE
     );
     let _ = writeln!(s, "| hypothesis | probability | in the set |\n|---|---|---|");
