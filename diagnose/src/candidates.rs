@@ -137,8 +137,7 @@ pub const LIBRARY: &[Candidate] = &[
         family: "mechanical: viscoelastic law",
         doc: "The polymer's damping is not Kelvin–Voigt's dashpot but a fractional one (a \
               springpot; Bagley & Torvik, J. Rheol. 27, 1983: a continuous spectrum of \
-              relaxation times, as polymers near their glass transition and swollen ionomers \
-              show): Cs·s in E* becomes Cs·ω₁·(s/ω₁)^α, the same damping at each level's first \
+              relaxation times, as many polymers show): Cs·s in E* becomes Cs·ω₁·(s/ω₁)^α, the same damping at each level's first \
               resonance ω₁, growing as ω^α instead of ω, with a storage part that stiffens the \
               beam as ω^α·cos(απ/2). Each level keeps its own Cs (its damping at resonance); \
               the order α is the polymer's, the same at every humidity. Parameter: α (1 is \
