@@ -315,8 +315,13 @@ impl Candidate {
     }
     /// The name with the form, where the effect has more than one.
     pub fn label(&self) -> String {
-        if self.form.is_empty() { self.name().to_string() } else { format!("{} ({})", self.name(), self.form) }
+        label(self.name(), self.form)
     }
+}
+
+/// A candidate's name with its form, where its effect has more than one (a form is empty else).
+pub fn label(name: &str, form: &str) -> String {
+    if form.is_empty() { name.to_string() } else { format!("{name} ({form})") }
 }
 
 /// How many forms of `effect` the library fits (its prior is shared between them).

@@ -197,7 +197,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
             let _ = writeln!(
                 s,
                 "| {}{} | {} | {} | {} | {} | {} | {} |",
-                labelled(c),
+                crate::candidates::label(&c.name, &c.form),
                 if c.passes { " ✔" } else { "" },
                 c.family,
                 fixed(c.delta_bic, 1),
@@ -207,7 +207,8 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
                 c.note
             );
         } else {
-            let _ = writeln!(s, "| {} | {} | – | – | – | – | not testable: {} |", labelled(c), c.family, c.note);
+            let _ =
+                writeln!(s, "| {} | {} | – | – | – | – | not testable: {} |", crate::candidates::label(&c.name, &c.form), c.family, c.note);
         }
     }
     let _ = writeln!(s);
@@ -230,11 +231,6 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         let _ = writeln!(s, "![{}]({}.svg)  \n[PNG]({}.png)\n", f.title, f.stem, f.stem);
     }
     s
-}
-
-/// A candidate's name with its form, where its effect has more than one.
-fn labelled(c: &crate::types::Score) -> String {
-    if c.form.is_empty() { c.name.clone() } else { format!("{} ({})", c.name, c.form) }
 }
 
 /// The stated probability of a hypothesis, as a percentage.
