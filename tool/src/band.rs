@@ -1,15 +1,14 @@
 //! A signal's content in a frequency band, by the discrete Fourier transform of the whole
-//! signal evaluated at the band's bins only (a band of 10–150 Hz in a 2 kHz signal is a few
-//! percent of the bins, so a direct sum costs less than it would to pull in an FFT). The signal
-//! is taken as one period of a periodic one: exact for a whole number of periods of a periodic
-//! recording, with the usual leakage otherwise.
+//! signal (an FFT: a field recording of 90 s at 2 kHz has 12 600 bins in 10–150 Hz, and a direct
+//! sum over them took seconds per signal). The signal is taken as one period of a periodic one:
+//! exact for a whole number of periods of a periodic recording, with the usual leakage otherwise.
 //!
 //! One implementation for the two uses that must agree on what "in band" means: scoring an
 //! estimate's error in the band (`scoring::band_error`) and the exact band-limited inverse
 //! (`exact`).
 
 use ipmc_core::C;
-use std::f64::consts::PI;
+use rustfft::FftPlanner;
 
 /// The bins k (frequency k·fs/n) with lo ≤ f ≤ hi, below Nyquist.
 pub fn bins(n: usize, fs_hz: f64, lo_hz: f64, hi_hz: f64) -> std::ops::RangeInclusive<usize> {
@@ -19,43 +18,29 @@ pub fn bins(n: usize, fs_hz: f64, lo_hz: f64, hi_hz: f64) -> std::ops::RangeIncl
     first..=last
 }
 
-/// X_k = Σ x_n e^(−2πikn/N) for the bins `ks`. The rotation is taken from its angle every 1024
-/// samples so that the recurrence's rounding does not build up over long signals.
+/// X_k = Σ x_n e^(−2πikn/N) for the bins `ks`.
 pub fn dft(x: &[f64], ks: std::ops::RangeInclusive<usize>) -> Vec<C<f64>> {
-    let n = x.len();
-    ks.map(|k| {
-        let w = -2.0 * PI * k as f64 / n as f64;
-        let step = C::<f64>::from_polar(1.0, w);
-        let mut acc = C::<f64>::new(0.0, 0.0);
-        for (start, chunk) in x.chunks(1024).enumerate() {
-            let mut ph = C::<f64>::from_polar(1.0, w * ((start * 1024) % n) as f64);
-            for &v in chunk {
-                acc += ph * v;
-                ph *= step;
-            }
-        }
-        acc
-    })
-    .collect()
+    let mut buf: Vec<C<f64>> = x.iter().map(|&v| C::new(v, 0.0)).collect();
+    if buf.is_empty() {
+        return vec![];
+    }
+    FftPlanner::new().plan_fft_forward(buf.len()).process(&mut buf);
+    buf[ks].to_vec()
 }
 
 /// The real signal of length `n` whose only content is `spectrum` at the bins `ks` (and their
 /// mirror images): the inverse of [`dft`] restricted to the band.
 pub fn synthesize(spectrum: &[C<f64>], ks: std::ops::RangeInclusive<usize>, n: usize) -> Vec<f64> {
-    let mut out = vec![0.0; n];
-    for (&xk, k) in spectrum.iter().zip(ks) {
-        let w = 2.0 * PI * k as f64 / n as f64;
-        let step = C::<f64>::from_polar(1.0, w);
-        let a = xk * (2.0 / n as f64);
-        for (start, chunk) in out.chunks_mut(1024).enumerate() {
-            let mut ph = C::<f64>::from_polar(1.0, w * ((start * 1024) % n) as f64);
-            for v in chunk.iter_mut() {
-                *v += (a * ph).re;
-                ph *= step;
-            }
-        }
+    if n == 0 {
+        return vec![];
     }
-    out
+    let mut buf = vec![C::new(0.0, 0.0); n];
+    for (&xk, k) in spectrum.iter().zip(ks) {
+        buf[k] = xk;
+        buf[n - k] = xk.conj();
+    }
+    FftPlanner::new().plan_fft_inverse(n).process(&mut buf);
+    buf.iter().map(|c| c.re / n as f64).collect()
 }
 
 /// Sum of squares of `x`'s content in the band (Parseval: what Σ of the band-limited signal
@@ -68,6 +53,7 @@ pub fn energy(x: &[f64], fs_hz: f64, lo_hz: f64, hi_hz: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     #[test]
     fn keeps_the_band_and_drops_the_rest() {
@@ -82,5 +68,19 @@ mod tests {
         assert!(worst < 1e-9, "{worst}");
         let e = energy(&x, fs, 10.0, 150.0);
         assert!((e - n as f64 / 2.0).abs() < 1e-6 * n as f64, "{e}");
+    }
+
+    /// The FFT agrees with the definition's sum at a prime length, where it cannot split.
+    #[test]
+    fn the_transform_is_the_definitions_sum() {
+        let n = 4001;
+        let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 1013) as f64 / 1013.0 - 0.5).collect();
+        let ks = 17..=311;
+        let direct: Vec<C<f64>> = ks
+            .clone()
+            .map(|k| x.iter().enumerate().map(|(i, &v)| C::from_polar(v, -2.0 * PI * ((k * i) % n) as f64 / n as f64)).sum())
+            .collect();
+        let worst = dft(&x, ks).iter().zip(&direct).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        assert!(worst < 1e-9, "{worst}");
     }
 }

@@ -34,27 +34,37 @@ impl Variant {
         }
     }
 
-    /// Each variant gets its own target directory so switching does not rebuild the other.
+    /// One target directory for every variant and calibration: the variants share their
+    /// dependencies and the host's proc-macros and build scripts (a directory of its own cost each
+    /// a cold build of a minute), and a change of variant or of `IPMC_CALIB` rebuilds only the
+    /// firmware crate. The user's own `cargo build --release` builds here too.
     pub fn target_dir(self) -> PathBuf {
-        match self {
-            Variant::Hardware => repo_root().join("target"),
-            Variant::HardwareSht4x => repo_root().join("target/sht4x"),
-            Variant::Qemu => repo_root().join("target/qemu"),
-        }
+        repo_root().join("target")
     }
 
+    /// The variant's ELF as [`build`] last made it: a copy, since every variant's build leaves
+    /// its binary at the one path cargo writes.
     pub fn elf(self) -> PathBuf {
-        self.target_dir().join("thumbv7em-none-eabihf/release/ipmc-firmware")
+        self.target_dir().join("firmware").join(format!("{}.elf", self.name()))
     }
 }
 
-/// `cargo build --release` of one variant; returns the ELF path.
+/// Where cargo writes the firmware in `target_dir`.
+fn cargo_output(target_dir: &Path) -> PathBuf {
+    target_dir.join("thumbv7em-none-eabihf/release/ipmc-firmware")
+}
+
+/// `cargo build --release` of one variant with the default calibration; returns [`Variant::elf`].
 pub fn build(variant: Variant) -> Result<PathBuf> {
-    build_in(variant, &variant.target_dir(), None)
+    let built = build_in(variant, &variant.target_dir(), None)?;
+    let elf = variant.elf();
+    std::fs::create_dir_all(elf.parent().expect("the ELF's directory"))?;
+    std::fs::copy(&built, &elf)?;
+    Ok(elf)
 }
 
 /// `build` into `target_dir` with the calibration `calib` baked in (`IPMC_CALIB`; None: the
-/// default preset), so a test build with its own calibration leaves the usual builds alone.
+/// default preset). Returns cargo's own output path: valid until the next build there.
 pub fn build_in(variant: Variant, target_dir: &Path, calib: Option<&Path>) -> Result<PathBuf> {
     install::ensure_firmware_tools()?;
     let mut cmd = cargo();
@@ -67,13 +77,13 @@ pub fn build_in(variant: Variant, target_dir: &Path, calib: Option<&Path>) -> Re
     };
     println!("==> building firmware ({}{})", variant.name(), calib.map(|c| format!(", IPMC_CALIB={}", c.display())).unwrap_or_default());
     crate::run(&mut cmd)?;
-    Ok(target_dir.join("thumbv7em-none-eabihf/release/ipmc-firmware"))
+    Ok(cargo_output(target_dir))
 }
 
-/// Where QEMU builds with a calibration of their own go: one directory for all of them, so a
-/// change of calibration rebuilds only the firmware crate.
+/// Where QEMU builds with a calibration of their own go: the variants' directory (see
+/// [`Variant::target_dir`]).
 pub fn own_calibration_target_dir() -> PathBuf {
-    repo_root().join("target/qemu-own-calibration")
+    Variant::Qemu.target_dir()
 }
 
 pub fn build_all() -> Result<Vec<PathBuf>> {

@@ -40,18 +40,7 @@ pub struct Burst {
 /// Energy of `x` in the DFT lines of the design band, for a window `x.len()` samples long at `fs_hz`.
 fn band_energy(x: &[f64], fs_hz: f64) -> f64 {
     let cfg = DesignConfig::<f64>::default();
-    let span_s = x.len() as f64 / fs_hz;
-    let (lo, hi) = ((cfg.band_lo_hz * span_s).ceil() as usize, (cfg.band_hi_hz * span_s).floor() as usize);
-    (lo..=hi)
-        .map(|k| {
-            let w = 2.0 * std::f64::consts::PI * k as f64 / x.len() as f64;
-            let (re, im) = x.iter().enumerate().fold((0.0, 0.0), |(re, im), (n, &v)| {
-                let (s, c) = (w * n as f64).sin_cos();
-                (re + v * c, im - v * s)
-            });
-            re * re + im * im
-        })
-        .sum()
+    crate::band::energy(x, fs_hz, cfg.band_lo_hz, cfg.band_hi_hz)
 }
 
 /// Scores `est` (each sample compared with `base` `delay` samples earlier) against `rel_err` in

@@ -187,9 +187,9 @@ mod tests {
 
     /// The acceptance on the project's own field mode: the fused design humidity is not
     /// worse than the reading (1.05×), and the strip's stated 1σ covers the truth 68 ± 10 % of
-    /// the seconds. Release-only (a minute of multisine per case): `cargo xtask test hygrometer`.
+    /// the seconds. Optimized builds only (45 s of multisine per case): `cargo xtask test hygrometer`.
     #[test]
-    #[ignore = "release: cargo xtask test hygrometer"]
+    #[ignore = "optimized (profile host): cargo xtask test hygrometer"]
     fn field_mode_fused_and_coverage() {
         let mut calib = Calibration::default_preset();
         // The paper's fitted range, where the laws are more than extrapolations.
