@@ -3,9 +3,9 @@
 //! sum over them took seconds per signal). The signal is taken as one period of a periodic one:
 //! exact for a whole number of periods of a periodic recording, with the usual leakage otherwise.
 //!
-//! One implementation for the two uses that must agree on what "in band" means: scoring an
-//! estimate's error in the band (`scoring::band_error`) and the exact band-limited inverse
-//! (`exact`).
+//! One implementation for the uses that must agree on what "in band" means: scoring an
+//! estimate's error in the band (`scoring`: a burst's error and each window's coverage), the
+//! exact band-limited inverse (`exact`) and the field table's band limit.
 
 use ipmc_core::C;
 use rustfft::FftPlanner;
