@@ -24,7 +24,7 @@ const DESIGN_DELAY_MS: f64 = 2.0;
 
 fn build() -> Result<std::path::PathBuf> {
     install::ensure_firmware_tools()?;
-    let target_dir = Variant::Qemu.target_dir();
+    let target_dir = crate::firmware::target_dir();
     let mut cmd = cargo();
     cmd.current_dir(repo_root())
         .args(["build", "--release", "--example", "bench"])

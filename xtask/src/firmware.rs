@@ -34,42 +34,37 @@ impl Variant {
         }
     }
 
-    /// One target directory for every variant and calibration: the variants share their
-    /// dependencies and the host's proc-macros and build scripts (a directory of its own cost each
-    /// a cold build of a minute), and a change of variant or of `IPMC_CALIB` rebuilds only the
-    /// firmware crate. The user's own `cargo build --release` builds here too.
-    pub fn target_dir(self) -> PathBuf {
-        repo_root().join("target")
-    }
-
     /// The variant's ELF as [`build`] last made it: a copy, since every variant's build leaves
     /// its binary at the one path cargo writes.
     pub fn elf(self) -> PathBuf {
-        self.target_dir().join("firmware").join(format!("{}.elf", self.name()))
+        target_dir().join("firmware").join(format!("{}.elf", self.name()))
     }
 }
 
-/// Where cargo writes the firmware in `target_dir`.
-fn cargo_output(target_dir: &Path) -> PathBuf {
-    target_dir.join("thumbv7em-none-eabihf/release/ipmc-firmware")
+/// One target directory for every variant and calibration: the variants share their
+/// dependencies and the host's proc-macros and build scripts (a directory of its own cost each a
+/// cold build of a minute), and a change of variant or of `IPMC_CALIB` rebuilds only the firmware
+/// crate. The user's own `cargo build --release` builds here too.
+pub fn target_dir() -> PathBuf {
+    repo_root().join("target")
 }
 
 /// `cargo build --release` of one variant with the default calibration; returns [`Variant::elf`].
 pub fn build(variant: Variant) -> Result<PathBuf> {
-    let built = build_in(variant, &variant.target_dir(), None)?;
+    let built = build_with(variant, None)?;
     let elf = variant.elf();
     std::fs::create_dir_all(elf.parent().expect("the ELF's directory"))?;
     std::fs::copy(&built, &elf)?;
     Ok(elf)
 }
 
-/// `build` into `target_dir` with the calibration `calib` baked in (`IPMC_CALIB`; None: the
-/// default preset). Returns cargo's own output path: valid until the next build there.
-pub fn build_in(variant: Variant, target_dir: &Path, calib: Option<&Path>) -> Result<PathBuf> {
+/// `cargo build --release` of one variant with the calibration `calib` baked in (`IPMC_CALIB`;
+/// None: the default preset). Returns cargo's own output path: valid until the next build.
+pub fn build_with(variant: Variant, calib: Option<&Path>) -> Result<PathBuf> {
     install::ensure_firmware_tools()?;
     let mut cmd = cargo();
     cmd.current_dir(repo_root()).args(["build", "--release", "--bin", "ipmc-firmware"]);
-    cmd.arg("--target-dir").arg(target_dir);
+    cmd.arg("--target-dir").arg(target_dir());
     cmd.args(variant.feature_args());
     match calib {
         Some(c) => cmd.env("IPMC_CALIB", c),
@@ -77,13 +72,7 @@ pub fn build_in(variant: Variant, target_dir: &Path, calib: Option<&Path>) -> Re
     };
     println!("==> building firmware ({}{})", variant.name(), calib.map(|c| format!(", IPMC_CALIB={}", c.display())).unwrap_or_default());
     crate::run(&mut cmd)?;
-    Ok(cargo_output(target_dir))
-}
-
-/// Where QEMU builds with a calibration of their own go: the variants' directory (see
-/// [`Variant::target_dir`]).
-pub fn own_calibration_target_dir() -> PathBuf {
-    Variant::Qemu.target_dir()
+    Ok(target_dir().join("thumbv7em-none-eabihf/release/ipmc-firmware"))
 }
 
 pub fn build_all() -> Result<Vec<PathBuf>> {

@@ -178,7 +178,7 @@ pub fn replay_recording(input: &Path, out: &Path, calib: Option<&Path>, work: &P
     }
     let replay = Replay::of_recording(&rec);
     let elf = match calib {
-        Some(c) => firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(c))?,
+        Some(c) => firmware::build_with(Variant::Qemu, Some(c))?,
         None => firmware::build(Variant::Qemu)?,
     };
     let waits: f64 = replay.gaps.iter().map(|g| g.lost_samples as f64).sum::<f64>() / FIRMWARE_FS_HZ as f64;

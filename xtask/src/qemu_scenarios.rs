@@ -240,7 +240,7 @@ pub fn qemu_replay_bundled() -> Result<()> {
     };
     let calib = crate::recording::calibration_beside(&path);
     let elf = match &calib {
-        Some(c) => firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(c))?,
+        Some(c) => firmware::build_with(Variant::Qemu, Some(c))?,
         None => firmware::build(Variant::Qemu)?,
     };
     let rec = crate::recording::time_series(&path)?;
@@ -337,7 +337,7 @@ pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
     let calib = work.join("CALIB-with-path.toml");
     let text = ipmc_core::calibration_file::to_text(&calibration_with_humidity_path());
     std::fs::write(&calib, text).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
-    let elf = firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(&calib))?;
+    let elf = firmware::build_with(Variant::Qemu, Some(&calib))?;
     let blocks = host_equivalence_on_ramp("humidity-path", 10, 40, 50, &elf, Some(&calib))?;
     // Both parts must have acted: without the path the strip is the reading (0), with the
     // correction alone it is +2 + 0.02·RH ≈ +2.9 %RH above it, and the lag on the rising ramp
@@ -366,7 +366,7 @@ pub fn qemu_host_equivalence_fused() -> Result<()> {
     c.humidity.mode = HumidityMode::Fused;
     let calib = work.join("CALIB-fused.toml");
     std::fs::write(&calib, ipmc_core::calibration_file::to_text(&c)).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
-    let elf = firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(&calib))?;
+    let elf = firmware::build_with(Variant::Qemu, Some(&calib))?;
     let rec_path = work.join("field-75.csv");
     ipmc(&[
         "simulate-field".as_ref(),
@@ -420,7 +420,7 @@ pub fn qemu_host_equivalence_with_departures() -> Result<()> {
     let calib = work.join("CALIB-with-departures.toml");
     let text = ipmc_core::calibration_file::to_text(&calibration_with_departures()?);
     std::fs::write(&calib, text).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
-    let elf = firmware::build_in(Variant::Qemu, &firmware::own_calibration_target_dir(), Some(&calib))?;
+    let elf = firmware::build_with(Variant::Qemu, Some(&calib))?;
     host_equivalence_on_ramp("departures", 10, 40, 50, &elf, Some(&calib))?;
     Ok(())
 }

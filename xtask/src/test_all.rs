@@ -74,7 +74,7 @@ fn lint() -> Result<()> {
     crate::install::ensure_firmware_tools()?;
     for v in Variant::ALL {
         let mut cmd = cargo();
-        cmd.current_dir(repo_root()).args(["clippy", "--release", "--bins", "--examples"]).arg("--target-dir").arg(v.target_dir());
+        cmd.current_dir(repo_root()).args(["clippy", "--release", "--bins", "--examples"]).arg("--target-dir").arg(firmware::target_dir());
         cmd.args(v.feature_args());
         run(cmd.args(["--", "-D", "warnings"]))?;
     }
