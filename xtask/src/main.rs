@@ -12,6 +12,7 @@ mod exec;
 mod firmware;
 mod flash;
 mod humidity_loop;
+mod import_graph;
 mod install;
 mod qemu;
 mod qemu_scenarios;
@@ -67,6 +68,8 @@ enum Task {
     Size,
     /// Every test of the repository (CI runs this), or the steps whose names contain a STEP.
     Test { steps: Vec<String> },
+    /// Import circles between the files, and between the folders, of every crate.
+    Imports,
     /// Cargo runner: `probe-rs run` with probe-rs.toml's preset.
     Flash {
         elf: PathBuf,
@@ -82,6 +85,7 @@ fn main() -> ExitCode {
         Task::HumidityLoop => humidity_loop::command(),
         Task::Build => firmware::build_all().map(|_| ()),
         Task::Size => size::command(),
+        Task::Imports => import_graph::command(),
         Task::Test { steps } => test_all::command(&steps),
         Task::Flash { elf, rest } => flash::command(&elf, &rest),
     };
