@@ -34,6 +34,8 @@ struct Module {
     globs: Vec<ModPath>,
     /// Names of the items it defines itself.
     defines: BTreeSet<String>,
+    /// Names it re-exports from other crates.
+    external: BTreeSet<String>,
 }
 
 /// A crate's module tree and the references its files make.
@@ -41,7 +43,7 @@ pub struct Crate {
     /// Files relative to the crate's directory.
     pub files: Vec<PathBuf>,
     modules: BTreeMap<ModPath, Module>,
-    /// (from file, absolute path referred to, line) for every `crate`/`super`/`self` path.
+    /// (from file, absolute path referred to, line) for every path into the crate.
     refs: Vec<(usize, ModPath, usize)>,
     /// Each file's module path (the module the file defines).
     file_module: Vec<ModPath>,
@@ -59,13 +61,22 @@ fn is_cfg_test(attrs: &[syn::Attribute]) -> bool {
     attrs.iter().any(|a| a.path().is_ident("cfg") && a.parse_args::<syn::Meta>().map(|m| m.path().is_ident("test")).unwrap_or(false))
 }
 
-/// Absolute path of `segments` written inside module `here`, or None when it does not start at
-/// the crate (`crate`, `super`, `self`).
-fn absolute(here: &[String], segments: &[String]) -> Option<ModPath> {
-    let mut out: ModPath = match segments.first().map(String::as_str) {
-        Some("crate") => Vec::new(),
-        Some("super") | Some("self") => here.to_vec(),
-        _ => return None,
+/// A path as written inside module `here`, made absolute. A path that starts with a name
+/// (`design::Sos` in `lib.rs`) starts at a child module if there is one, else outside the crate:
+/// the second element is the child module that must exist for the path to be the crate's.
+fn absolute(here: &[String], segments: &[String]) -> Option<(ModPath, Option<ModPath>)> {
+    let first = segments.first()?;
+    let mut out: ModPath = match first.as_str() {
+        "crate" => Vec::new(),
+        "super" | "self" => here.to_vec(),
+        "Self" => return None,
+        _ => {
+            let mut child = here.to_vec();
+            child.push(first.clone());
+            let mut full = here.to_vec();
+            full.extend(segments.iter().cloned());
+            return Some((full, Some(child)));
+        }
     };
     let mut rest = segments;
     if rest[0] == "crate" {
@@ -82,7 +93,7 @@ fn absolute(here: &[String], segments: &[String]) -> Option<ModPath> {
         rest = &rest[1..];
     }
     out.extend(rest.iter().cloned());
-    Some(out)
+    Some((out, None))
 }
 
 /// Every full path of a `use` tree (a glob ends in `*`).
@@ -126,14 +137,14 @@ fn use_paths(tree: &syn::UseTree, prefix: &mut Vec<String>, out: &mut Vec<(Vec<S
 struct FileWalk<'a> {
     /// The module the walker is in (inline modules extend the file's).
     here: ModPath,
-    /// Paths referred to, with their line.
-    refs: &'a mut Vec<(ModPath, usize)>,
+    /// Paths referred to, with their line and the child module they need (see [`absolute`]).
+    refs: &'a mut Vec<(ModPath, usize, Option<ModPath>)>,
     /// Child modules declared without a body (`mod x;`), each with its module path.
     children: &'a mut Vec<ModPath>,
     /// Inline modules with a body (path), so that paths into them resolve to this file.
     inline: &'a mut Vec<ModPath>,
-    /// `pub use` items: (module, bound name or None for a glob, absolute path).
-    reexports: &'a mut Vec<(ModPath, Option<String>, ModPath)>,
+    /// `pub use` items: (module, bound name or None for a glob, absolute path, child it needs).
+    reexports: &'a mut Vec<(ModPath, Option<String>, ModPath, Option<ModPath>)>,
     /// Whether this file is a folder's front door (`lib.rs`, `main.rs`, `mod.rs`).
     front_door: bool,
     /// (module, name) of every item defined.
@@ -142,8 +153,8 @@ struct FileWalk<'a> {
 
 impl FileWalk<'_> {
     fn push_ref(&mut self, segments: &[String], line: usize) {
-        if let Some(abs) = absolute(&self.here, segments) {
-            self.refs.push((abs, line));
+        if let Some((abs, needs)) = absolute(&self.here, segments) {
+            self.refs.push((abs, line, needs));
         }
     }
 
@@ -244,18 +255,18 @@ impl<'ast> Visit<'ast> for FileWalk<'_> {
         let public = !matches!(u.vis, syn::Visibility::Inherited);
         let line = u.use_token.span.start().line;
         for (segments, bound) in paths {
-            let Some(abs) = absolute(&self.here, &segments) else { continue };
+            let Some((abs, needs)) = absolute(&self.here, &segments) else { continue };
             let glob = abs.last().is_some_and(|s| s == "*");
             let target: ModPath = if glob { abs[..abs.len() - 1].to_vec() } else { abs.clone() };
             // A front door's `pub use` of what lies below it lists the folder's exports.
             let below = target.len() > self.here.len() && target.starts_with(&self.here);
             if public {
-                self.reexports.push((self.here.clone(), if glob { None } else { bound }, target.clone()));
+                self.reexports.push((self.here.clone(), if glob { None } else { bound }, target.clone(), needs.clone()));
                 if self.front_door && below {
                     continue;
                 }
             }
-            self.refs.push((target, line));
+            self.refs.push((target, line, needs));
         }
     }
 
@@ -297,6 +308,7 @@ impl Crate {
         let mut pending: Vec<(PathBuf, ModPath)> = vec![(PathBuf::from(root), Vec::new())];
         let mut reexports = Vec::new();
         let mut defines = Vec::new();
+        let mut all_refs = Vec::new();
         while let Some((rel, path)) = pending.pop() {
             let full = src.join(&rel);
             let text = std::fs::read_to_string(&full).with_context(|| format!("reading {}", full.display()))?;
@@ -319,10 +331,16 @@ impl Crate {
                 defines: &mut defines,
             };
             walk.visit_file(&ast);
-            crate_.refs.extend(refs.into_iter().map(|(p, line)| (file, p, line)));
-            crate_.modules.insert(path.clone(), Module { file, aliases: HashMap::new(), globs: Vec::new(), defines: BTreeSet::new() });
+            all_refs.extend(refs.into_iter().map(|(p, line, needs)| (file, p, line, needs)));
+            crate_.modules.insert(
+                path.clone(),
+                Module { file, aliases: HashMap::new(), globs: Vec::new(), defines: BTreeSet::new(), external: BTreeSet::new() },
+            );
             for m in inline {
-                crate_.modules.insert(m, Module { file, aliases: HashMap::new(), globs: Vec::new(), defines: BTreeSet::new() });
+                crate_.modules.insert(
+                    m,
+                    Module { file, aliases: HashMap::new(), globs: Vec::new(), defines: BTreeSet::new(), external: BTreeSet::new() },
+                );
             }
             for child in children {
                 match module_file(&src, &rel, &child) {
@@ -337,8 +355,22 @@ impl Crate {
                 m.defines.insert(name);
             }
         }
-        for (module, bound, target) in reexports {
+        let known = |needs: &Option<ModPath>, modules: &BTreeMap<ModPath, Module>| needs.as_ref().is_none_or(|c| modules.contains_key(c));
+        crate_.refs = all_refs
+            .into_iter()
+            .filter(|(_, _, _, needs)| known(needs, &crate_.modules))
+            .map(|(file, p, line, _)| (file, p, line))
+            .collect();
+        for (module, bound, target, needs) in reexports {
+            let inside = known(&needs, &crate_.modules);
             if let Some(m) = crate_.modules.get_mut(&module) {
+                // A re-export from another crate: what it names is not in this crate.
+                if !inside {
+                    if let Some(name) = bound {
+                        m.external.insert(name);
+                    }
+                    continue;
+                }
                 match bound {
                     Some(name) => {
                         m.aliases.insert(name, target);
@@ -364,6 +396,9 @@ impl Crate {
         let Some(name) = path.get(at) else { return Some(module.file) };
         if module.defines.contains(name) {
             return Some(module.file);
+        }
+        if module.external.contains(name) {
+            return None;
         }
         if let Some(target) = module.aliases.get(name) {
             let mut next = target.clone();
@@ -532,7 +567,8 @@ pub fn crates(root: &Path) -> Result<Vec<(PathBuf, &'static str)>> {
 }
 
 /// `cargo xtask imports`: prints each crate's count and every circle; fails if there is one.
-pub fn command() -> Result<()> {
+/// The crates named in `list` also get every import, file by file.
+pub fn command(list: &[String]) -> Result<()> {
     let root = crate::repo_root();
     let mut found = 0;
     for (dir, file) in crates(&root)? {
@@ -547,6 +583,12 @@ pub fn command() -> Result<()> {
             f.file_circles.len(),
             f.room_circles.len()
         );
+        if list.iter().any(|l| Path::new(l) == name) {
+            let mut lines: Vec<String> =
+                c.imports().iter().map(|i| format!("    {} → {}", c.files[i.from].display(), c.files[i.to].display())).collect();
+            lines.sort();
+            println!("{}", lines.join("\n"));
+        }
         for (files, inside) in &f.file_circles {
             println!("  circle of files: {}", files.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
             for i in inside {

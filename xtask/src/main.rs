@@ -69,7 +69,11 @@ enum Task {
     /// Every test of the repository (CI runs this), or the steps whose names contain a STEP.
     Test { steps: Vec<String> },
     /// Import circles between the files, and between the folders, of every crate.
-    Imports,
+    Imports {
+        /// Also list every import of the crates whose directory is named (`core`, `.`).
+        #[arg(long)]
+        list: Vec<String>,
+    },
     /// Cargo runner: `probe-rs run` with probe-rs.toml's preset.
     Flash {
         elf: PathBuf,
@@ -85,7 +89,7 @@ fn main() -> ExitCode {
         Task::HumidityLoop => humidity_loop::command(),
         Task::Build => firmware::build_all().map(|_| ()),
         Task::Size => size::command(),
-        Task::Imports => import_graph::command(),
+        Task::Imports { list } => import_graph::command(&list),
         Task::Test { steps } => test_all::command(&steps),
         Task::Flash { elf, rest } => flash::command(&elf, &rest),
     };
