@@ -285,6 +285,9 @@ impl<'ast> Visit<'ast> for FileWalk<'_> {
     }
 
     fn visit_attribute(&mut self, _: &'ast syn::Attribute) {}
+
+    // `pub(crate)`, `pub(super)`: who may see an item, not what it uses.
+    fn visit_visibility(&mut self, _: &'ast syn::Visibility) {}
 }
 
 /// The file that defines module `path` under `src` (`a/b.rs` or `a/b/mod.rs`), relative to `src`.
@@ -605,3 +608,4 @@ pub fn command(list: &[String]) -> Result<()> {
     }
     if found > 0 { Err(anyhow!("{found} import circles")) } else { Ok(()) }
 }
+
