@@ -1,11 +1,20 @@
 //! A Levenberg–Marquardt step needs a Jacobian J and residuals r only through JᵀJ, Jᵀr and ‖r‖.
-//! Where J's columns each reach one block of rows or every block (a humidity level's own
-//! parameters, a model's global ones), those three come from a QR factor computed block by
+//! Where J's columns each reach one block of rows or every block ([`Reach`]: a humidity level's
+//! own parameters, a model's global ones), those three come from a QR factor computed block by
 //! block: O(m·(p + k)²) for blocks of p own and k global parameters, where a dense QR of J costs
 //! O(m·n²) with n = k + Σp. A joint fit of 19 levels spent 65 % of its time in that dense QR.
 
-use crate::lsq::Reach;
 use nalgebra::{DMatrix, DVector};
+
+/// Which rows a column of J reaches: which residuals a parameter of a block problem moves
+/// ([`crate::lsq::fit_blocks`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reach {
+    /// Every block's.
+    Global,
+    /// Only those of the block with this index.
+    Block(usize),
+}
 
 /// R (n × n, triangular up to the order of its columns) and c with RᵀR = JᵀJ and Rᵀc = Jᵀr, and
 /// ‖r‖² − ‖c‖², the part of r no change of the parameters can reach.

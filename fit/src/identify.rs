@@ -20,19 +20,13 @@
 //! divided by it, so that it does not leak into Y, Cs and Ca. The current channel's gain is not
 //! identifiable (it scales the current as κe and √d do) and is absorbed into their laws.
 
+// What a level's fit reports and what it reads: here for whoever takes a level fit.
+pub use crate::estimate::Estimate;
 pub use crate::level::LevelData;
 use crate::lsq::{self, Fit, FitError, Tolerance};
 use crate::noise::{self, ChannelNoise};
 use crate::response::{Channel, Misfit, Point, ResponseProblem, Sigma, TIP_GAIN, model_values};
 use ipmc_core::{Calibration, ParamName, Params};
-
-/// A value and its standard error.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct Estimate {
-    pub value: f64,
-    /// Standard error; `None` when the source gives none (κe taken from the base calibration).
-    pub se: Option<f64>,
-}
 
 /// One level's identified parameters.
 #[derive(Clone, Debug)]

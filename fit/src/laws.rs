@@ -11,7 +11,8 @@
 //! a parameter does not pull its law.
 
 use crate::departures::{self, LevelTheta, ModelError, StripModel};
-use crate::identify::{Estimate, LevelFit};
+use crate::estimate::Estimate;
+use crate::identify::LevelFit;
 use crate::stats::chi2_tail;
 use ipmc_core::calibration::MAX_LAW_COEFFS;
 use ipmc_core::departures::{DEPARTING, Departures};

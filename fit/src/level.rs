@@ -2,7 +2,7 @@
 //! and what else the recording says of the level (when and at what temperature it was measured,
 //! which session, the earlier visit it repeats, κe measured there).
 
-use crate::identify::Estimate;
+use crate::estimate::Estimate;
 use crate::response::{Channel, Point};
 use ipmc_core::C;
 use ipmc_recording::{FrPoint, Response};

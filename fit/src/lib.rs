@@ -10,6 +10,7 @@
 //!   spectrum estimated from a time-series recording's multisine bursts.
 //! - [`recordings`]: recording files read as frequency responses at the strip's humidity.
 //! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
+//! - [`estimate`]: a fitted value with its standard error.
 //! - [`level`]: one humidity level's measured responses, as every fit takes them.
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
 //! - [`refit`]: levels refitted near a calibration with an extension held and a mask, the
@@ -26,6 +27,7 @@
 
 pub mod block_qr;
 pub mod departures;
+pub mod estimate;
 pub mod identify;
 pub mod laws;
 pub mod level;

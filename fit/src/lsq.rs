@@ -13,6 +13,9 @@
 //! difference of a block's own parameter evaluates that block alone.
 
 use crate::block_qr;
+/// [`Blocks`] names it, so a caller of [`fit_blocks`] finds it here; it is defined with the
+/// block factor, which reads it too.
+pub use crate::block_qr::Reach;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
@@ -214,15 +217,6 @@ where
     F: Fn(&[f64], &mut [f64]),
 {
     fit_model(tol, params, starts, &Dense { n_residuals, f: residuals })
-}
-
-/// Which residuals a parameter of a block problem moves ([`fit_blocks`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Reach {
-    /// Every block's.
-    Global,
-    /// Only those of the block with this index.
-    Block(usize),
 }
 
 /// The layout of a problem whose residuals come in consecutive blocks.

@@ -101,7 +101,7 @@ pub fn departures_with_sd(model: &StripModel, calib: &Calibration) -> Option<ipm
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::Estimate;
+    use crate::estimate::Estimate;
     use crate::lsq::Fit;
     use ipmc_core::{Law, Params};
     use nalgebra::DMatrix;
