@@ -1,5 +1,6 @@
 //! What every candidate's scorer starts from: the calibration and data, the noise's σ, the
-//! per-level base fits of the plain model and the humidity laws' weights.
+//! per-level base fits of the plain model and the humidity laws' weights, and the plain model's
+//! figures every candidate is scored against.
 
 use crate::data::Dataset;
 use crate::fits::{self, BaseFits, LevelSigmas, Mask, Theta};
@@ -35,6 +36,23 @@ pub(crate) struct Fitted {
     pub ext: Vec<Extension<f64>>,
     pub masks: Vec<Mask>,
     pub regressors: Regressors,
+}
+
+/// What every candidate is scored against: the plain model's fits and the counts the
+/// information criterion needs.
+pub(crate) struct Baseline {
+    /// Residuals per level (the weights of per-level means).
+    pub counts: Vec<f64>,
+    /// Residuals in all.
+    pub n_data: f64,
+    /// χ² of the per-level refit of the plain model.
+    pub chi2_0: f64,
+    /// −2 ln L of free humidity laws through the levels' parameters, and their parameter count.
+    pub law0: (f64, usize),
+    /// Number of level parameters the fits determined.
+    pub n_theta: f64,
+    /// Held-out score of the plain humidity laws: a candidate that cannot be tested keeps it.
+    pub heldout_before: f64,
 }
 
 impl<'a> Ctx<'a> {

@@ -16,11 +16,10 @@
 //! remainder reported.
 
 use crate::candidates::Candidate;
-use crate::context::{Ctx, Fitted};
+use crate::context::{Baseline, Ctx, Fitted};
 use crate::fits;
 use crate::held_out::{per_level_scores, weighted_mean};
 use crate::level_bootstrap::{Evidence, averaged_posterior};
-use crate::scorers::Baseline;
 use crate::types::{Alternative, Estimate, Probability, Score, Separation, Space, Verdict};
 use ipmc_core::extension::Extension;
 

@@ -25,14 +25,14 @@
 //! **Decision.** [`crate::decide`].
 
 use crate::candidates::LIBRARY;
-use crate::context::Ctx;
+use crate::context::{Baseline, Ctx};
 use crate::data::Dataset;
 use crate::decide::decide;
 use crate::fits;
 use crate::held_out::{REFIT_NULL_IS, per_level_scores};
 use crate::laws;
 use crate::locate;
-use crate::scorers::{self, Baseline};
+use crate::scorers;
 use crate::types::{Diagnosis, LevelModels, LevelSummary};
 use anyhow::Result;
 use ipmc_core::Calibration;

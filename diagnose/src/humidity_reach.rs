@@ -10,22 +10,10 @@
 use crate::context::Ctx;
 use crate::laws;
 use crate::remap::{MIN_RH_SHIFT_PCT, SHIFT_FLOOR_SE, fit_sensor};
+// A diagnosis reports the reach, so its type lives with the report's (types.rs); re-exported
+// here, where it is computed, so that its path stays.
+pub use crate::types::HumidityReach;
 use crate::types::Separation;
-
-/// The recording's reach on the humidity path.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct HumidityReach {
-    /// The shortest hydration lag [s] that moves some level by [`MIN_RH_SHIFT_PCT`] at the
-    /// levels' timing (None without times, or when no lag up to [`LONGEST_LAG_S`] does).
-    pub shortest_lag_s: Option<f64>,
-    /// Whether a level is revisited in the other sweep direction (a lag's hysteresis).
-    pub both_directions: bool,
-    /// The smallest sensor offset [%RH] the levels could name: the floor plus
-    /// [`SHIFT_FLOOR_SE`] standard errors of the offset fitted here.
-    pub smallest_offset_pct: f64,
-    /// What would carry the lab-sized effects this recording cannot (None when it carries both).
-    pub measurement: Option<Separation>,
-}
 
 /// The longest lag searched [s].
 pub const LONGEST_LAG_S: f64 = 3600.0;

@@ -10,7 +10,8 @@
 //! - [`laws`]: humidity laws over levels (held-out prediction, humidity-acting candidates).
 //! - [`locate`]: where the mismatch lives and how significant it is.
 //! - [`mains_between_lines`]: mains interference in a time series' spectrum between its lines.
-//! - [`context`]: what every candidate is scored from (base fits, noise, law weights).
+//! - [`context`]: what every candidate is scored from (base fits, noise, law weights) and
+//!   against (the plain model's baseline).
 //! - [`held_out`]: held-out scores of levels and their paired comparison.
 //! - [`scorers`]: one scorer per kind of candidate behind one interface.
 //! - [`remap`]: candidates acting through the humidity (sensor error, hydration lag).

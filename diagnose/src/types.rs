@@ -1,5 +1,6 @@
 //! What a diagnosis reports: the verdict, each candidate's scores, the alternatives the data
-//! cannot separate from the verdict, per-level summaries and the models the figures draw.
+//! cannot separate from the verdict, the humidity path's reach, per-level summaries and the
+//! models the figures draw.
 
 use crate::effect::Effect;
 use crate::fits::{Mask, Noise};
@@ -161,6 +162,22 @@ pub struct Separation {
     pub because: String,
 }
 
+/// The recording's reach on the humidity path ([`crate::humidity_reach`]).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct HumidityReach {
+    /// The shortest hydration lag [s] that moves some level by
+    /// [`crate::remap::MIN_RH_SHIFT_PCT`] at the levels' timing (None without times, or when no
+    /// lag up to [`crate::humidity_reach::LONGEST_LAG_S`] does).
+    pub shortest_lag_s: Option<f64>,
+    /// Whether a level is revisited in the other sweep direction (a lag's hysteresis).
+    pub both_directions: bool,
+    /// The smallest sensor offset [%RH] the levels could name: the floor plus
+    /// [`crate::remap::SHIFT_FLOOR_SE`] standard errors of the offset fitted to every level.
+    pub smallest_offset_pct: f64,
+    /// What would carry the lab-sized effects this recording cannot (None when it carries both).
+    pub measurement: Option<Separation>,
+}
+
 /// One of the instrument's channels as the plain model fitted it, with the prior it had.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ChannelEstimate {
@@ -304,7 +321,7 @@ pub struct Diagnosis {
     pub humidity_path: Option<HumidityPath>,
     /// The shortest lag and smallest sensor offset this recording could name, and what would
     /// carry the lab-sized ones it cannot.
-    pub humidity_reach: crate::humidity_reach::HumidityReach,
+    pub humidity_reach: HumidityReach,
 }
 
 impl Diagnosis {

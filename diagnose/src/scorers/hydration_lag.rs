@@ -1,9 +1,9 @@
 //! Hydration lag: the levels' parameters follow the calibration at the humidity behind a
 //! first-order lag τ of the readings; held out, τ fitted on the other levels.
 
-use super::{Baseline, Candidacy, Scorer, Trial, estimates};
+use super::trial::{Candidacy, Scorer, Trial, estimates};
 use crate::candidates::Candidate;
-use crate::context::Ctx;
+use crate::context::{Baseline, Ctx};
 use crate::laws;
 use crate::remap::{self, Remap, anchored_nll, fit_lag};
 use crate::types::Space;

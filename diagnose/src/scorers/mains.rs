@@ -4,9 +4,9 @@
 //! levels show. A time series also shows mains between its lines, wherever it falls
 //! ([`crate::mains_between_lines`]); that evidence adds its ΔBIC and is held out burst by burst.
 
-use super::{Baseline, Candidacy, Scorer, Trial};
+use super::trial::{Candidacy, Scorer, Trial};
 use crate::candidates::Candidate;
-use crate::context::{Ctx, Fitted, total_residuals};
+use crate::context::{Baseline, Ctx, Fitted, total_residuals};
 use crate::fits::{self, Mask};
 use crate::held_out::{HeldOut, REFIT_NULL_IS};
 use crate::mains_between_lines::{MainsEvidence, between_line_mains};

@@ -1,78 +1,22 @@
 //! Scoring one candidate: its kind's scorer fits it and gives its held-out models; here the
 //! information criterion, the held-out scores and the gates every kind shares. A new kind of
-//! candidate is a file here implementing [`Scorer`], its variant of [`Kind`] and its row in
-//! [`scorer_for`].
+//! candidate is a file here implementing [`Scorer`] (the interface in [`trial`]), its variant of
+//! [`Kind`] and its row in [`scorer_for`].
 
 mod hydration_lag;
 mod mains;
 mod model;
 mod sensor_error;
 mod temperature;
+mod trial;
 
 use crate::candidates::{Candidate, HumidityMap, Kind};
-use crate::context::{Ctx, Fitted};
+use crate::context::{Baseline, Ctx, Fitted};
 use crate::decide::{MIN_DELTA_BIC, MIN_HELDOUT_Z};
 use crate::held_out::{HeldOut, paired_z, per_level_scores, weighted_mean};
-use crate::types::{Estimate, Score, Space};
+use crate::types::{Score, Space};
 use anyhow::Result;
-
-/// What every candidate is scored against: the plain model's fits and the counts the
-/// information criterion needs.
-pub(crate) struct Baseline {
-    /// Residuals per level (the weights of per-level means).
-    pub counts: Vec<f64>,
-    /// Residuals in all.
-    pub n_data: f64,
-    /// χ² of the per-level refit of the plain model.
-    pub chi2_0: f64,
-    /// −2 ln L of free humidity laws through the levels' parameters, and their parameter count.
-    pub law0: (f64, usize),
-    /// Number of level parameters the fits determined.
-    pub n_theta: f64,
-    /// Held-out score of the plain humidity laws: a candidate that cannot be tested keeps it.
-    pub heldout_before: f64,
-}
-
-/// A candidate fitted: what its kind's scorer found.
-pub(crate) struct Candidacy {
-    pub fitted: Fitted,
-    /// −2 ln L (χ² on the data) gained over the candidate's null.
-    pub delta_chi2: f64,
-    pub extra_params: usize,
-    pub space: Space,
-    pub params: Vec<Estimate>,
-    pub note: String,
-    /// Why a candidate that fits cannot be named (a humidity remap too small to matter, lines
-    /// no worse than their neighbours).
-    pub floor: Option<String>,
-    pub held: HeldOut,
-    /// A held-out test of its own where the evidence lies outside the levels' responses (mains
-    /// between a time series' lines, held out burst by burst): its paired z replaces the
-    /// levels' and the held-out χ² need not fall.
-    pub own_heldout_z: Option<f64>,
-    /// −2 ln of the Occam factor of a candidate whose parameters have an informative prior
-    /// from the literature (the Laplace approximation of its evidence): it replaces BIC's price
-    /// k·ln N, which stands for a prior as wide as one datum's worth of information.
-    pub occam: Option<f64>,
-    /// `delta_chi2` level by level, where the candidate's fit decomposes so (a model candidate's
-    /// joint fit against the per-level refit); what is not in it (the channels' prior terms) is
-    /// the same whichever levels were recorded.
-    pub per_level: Vec<f64>,
-    /// For a candidate fitted with the instrument's channels: whether its fit left one at the
-    /// edge of its reach ([`fits::ChannelPrior::at_reach`]).
-    pub channels_at_reach: Option<bool>,
-}
-
-pub(crate) enum Trial {
-    Fitted(Box<Candidacy>),
-    /// The data do not allow testing it (no times for a lag, constant temperature…): why.
-    NotTestable(&'static str),
-}
-
-/// How one kind of candidate is fitted and held out.
-pub(crate) trait Scorer {
-    fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial>;
-}
+use trial::{Scorer, Trial};
 
 fn scorer_for(kind: Kind) -> Box<dyn Scorer> {
     match kind {
@@ -87,19 +31,10 @@ fn scorer_for(kind: Kind) -> Box<dyn Scorer> {
 /// A candidate's scores, and for one that was tested its fits and held-out models.
 pub(crate) struct Scored {
     pub score: Score,
-    /// As [`Candidacy::channels_at_reach`] (None for a candidate not fitted with the channels).
+    /// As [`trial::Candidacy::channels_at_reach`] (None for a candidate not fitted with the channels).
     pub channels_at_reach: Option<bool>,
     pub fitted: Option<Fitted>,
     pub held: Option<HeldOut>,
-}
-
-/// The candidate's parameters as estimates, in the order of its specs.
-pub(crate) fn estimates(cand: &Candidate, values: &[f64], ses: &[f64]) -> Vec<Estimate> {
-    cand.params
-        .iter()
-        .zip(values.iter().zip(ses))
-        .map(|(s, (v, e))| Estimate { name: s.name.into(), unit: s.unit.into(), value: *v, std_error: *e })
-        .collect()
 }
 
 /// Fits and scores `cand`. ΔBIC on the data is provisional: the decision corrects it for

@@ -3,9 +3,9 @@
 //! other levels and the held-out level's base parameters with them, against the plain model's
 //! per-level refit.
 
-use super::{Baseline, Candidacy, Scorer, Trial, estimates};
+use super::trial::{Candidacy, Scorer, Trial, estimates};
 use crate::candidates::{Candidate, ExtFn};
-use crate::context::{Ctx, Fitted};
+use crate::context::{Baseline, Ctx, Fitted};
 use crate::fits;
 use crate::held_out::{HeldOut, REFIT_NULL_IS};
 use crate::types::{HeldOutModel, Space};

@@ -1,9 +1,9 @@
 //! Humidity sensor error: the levels' parameters follow the calibration at the reading mapped
 //! by an offset and a gain; held out, both fitted on the other levels.
 
-use super::{Baseline, Candidacy, Scorer, Trial, estimates};
+use super::trial::{Candidacy, Scorer, Trial, estimates};
 use crate::candidates::Candidate;
-use crate::context::Ctx;
+use crate::context::{Baseline, Ctx};
 use crate::laws;
 use crate::remap::{self, Remap, fit_sensor};
 use crate::types::Space;

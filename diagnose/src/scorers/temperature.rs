@@ -2,9 +2,9 @@
 //! ionic transport (Arrhenius) and the modulus; held out, both coefficients fitted on the other
 //! levels.
 
-use super::{Baseline, Candidacy, Scorer, Trial, estimates};
+use super::trial::{Candidacy, Scorer, Trial, estimates};
 use crate::candidates::Candidate;
-use crate::context::{Ctx, Fitted};
+use crate::context::{Baseline, Ctx, Fitted};
 use crate::fits::{self, Theta};
 use crate::held_out::{ANCHORED_NULL_IS, HeldOut};
 use crate::laws;
