@@ -6,7 +6,7 @@
 //!    is taken from the repository root) or, without the variable, the core's default preset.
 //!    The file is parsed and validated here, on the host, so a calibration the design cannot
 //!    use fails the build instead of the device; the firmware gets it as a `const` in
-//!    `$OUT_DIR/calibration.rs` (included by `src/app/calibration.rs`).
+//!    `$OUT_DIR/calibration.rs` (included by `src/contract/calibration.rs`).
 
 use std::{
     env, fs,
@@ -17,15 +17,15 @@ use std::{
 use ipmc_core::{
     Calibration, DesignConfig, Law,
     band::Band,
+    calibration::departures::Departures,
+    calibration::humidity_path::{HumidityPath, SensorKind},
+    calibration::instrument::Instrument,
+    calibration::uncertainty::Uncertainty,
     calibration_file,
-    departures::Departures,
-    expected_error::ErrorTable,
-    humidity_path::{HumidityPath, SensorKind},
-    instrument::Instrument,
-    operating_point::SAMPLE_RATE_HZ,
-    running_spectrum::BinGeometry,
-    strip_humidity::{fill_table, table_nodes},
-    uncertainty::Uncertainty,
+    humidity::spectrum::BinGeometry,
+    humidity::strip::{fill_table, table_nodes},
+    inverse::expected_error::ErrorTable,
+    timing::SAMPLE_RATE_HZ,
 };
 
 const CALIB_VAR: &str = "IPMC_CALIB";
@@ -52,9 +52,9 @@ fn main() -> ExitCode {
          pub const CALIBRATION_SOURCE: &str = {source:?};\n\
          /// The calibration compiled into this firmware (validated at build time).\n\
          pub const CALIBRATION: ipmc_core::Calibration = {};\n\
-         /// The expected error of its designs over humidity (`ipmc_core::expected_error`), for\n\
+         /// The expected error of its designs over humidity (`ipmc_core::inverse::expected_error`), for\n\
          /// this firmware's humidity sensor.\n\
-         pub const ERROR_TABLE: ipmc_core::expected_error::ErrorTable = {};\n\
+         pub const ERROR_TABLE: ipmc_core::inverse::expected_error::ErrorTable = {};\n\
          {}",
         calibration_expr(&calibration),
         error_table_expr(&calibration),
@@ -155,15 +155,17 @@ fn band_expr(band: &Band) -> String {
 fn departures_expr(t: &Departures) -> String {
     let Departures { n, rh_pct, ln, sd } = t;
     let array = |a: &[f64]| format!("[{}]", a.iter().map(|&v| f64_expr(v)).collect::<Vec<_>>().join(", "));
-    let rows = |r: &[[f64; ipmc_core::departures::MAX_DEPARTURE_POINTS]; 4]| r.iter().map(|row| array(row)).collect::<Vec<_>>().join(", ");
+    let rows = |r: &[[f64; ipmc_core::calibration::departures::MAX_DEPARTURE_POINTS]; 4]| {
+        r.iter().map(|row| array(row)).collect::<Vec<_>>().join(", ")
+    };
     let sd = sd.as_ref().map_or("None".to_string(), |sd| format!("Some([{}])", rows(sd)));
-    format!("ipmc_core::departures::Departures {{ n: {n}, rh_pct: {}, ln: [{}], sd: {sd} }}", array(rh_pct), rows(ln))
+    format!("ipmc_core::calibration::departures::Departures {{ n: {n}, rh_pct: {}, ln: [{}], sd: {sd} }}", array(rh_pct), rows(ln))
 }
 
 fn instrument_expr(i: &Instrument) -> String {
     let Instrument { tip_gain, tip_gain_tolerance_pct, base_gain_tolerance_pct, current_gain_tolerance_pct, acquisition_delay_us } = i;
     format!(
-        "ipmc_core::instrument::Instrument {{ tip_gain: {}, tip_gain_tolerance_pct: {}, base_gain_tolerance_pct: {}, \
+        "ipmc_core::calibration::instrument::Instrument {{ tip_gain: {}, tip_gain_tolerance_pct: {}, base_gain_tolerance_pct: {}, \
          current_gain_tolerance_pct: {}, acquisition_delay_us: {} }}",
         f64_expr(*tip_gain),
         f64_expr(*tip_gain_tolerance_pct),
@@ -176,7 +178,7 @@ fn instrument_expr(i: &Instrument) -> String {
 fn uncertainty_expr(u: &Uncertainty) -> String {
     let Uncertainty { y, cs, ca, kappa_e, d, current_noise_a_per_rthz } = u;
     format!(
-        "ipmc_core::uncertainty::Uncertainty {{ y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, current_noise_a_per_rthz: {} }}",
+        "ipmc_core::calibration::uncertainty::Uncertainty {{ y: {}, cs: {}, ca: {}, kappa_e: {}, d: {}, current_noise_a_per_rthz: {} }}",
         f64_expr(*y),
         f64_expr(*cs),
         f64_expr(*ca),
@@ -188,13 +190,13 @@ fn uncertainty_expr(u: &Uncertainty) -> String {
 
 fn humidity_path_expr(p: &HumidityPath) -> String {
     let HumidityPath { sensor, offset_pct, gain, tau_wet_s, tau_dry_s, uncertainty_pct, sensor_lag_s, mode, supply_v } = p;
-    let sensor = sensor.map_or("None".into(), |k| format!("Some(ipmc_core::humidity_path::SensorKind::{k:?})"));
+    let sensor = sensor.map_or("None".into(), |k| format!("Some(ipmc_core::calibration::humidity_path::SensorKind::{k:?})"));
     let uncertainty = uncertainty_pct.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
     let lag = sensor_lag_s.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
     let supply = supply_v.map_or("None".into(), |v| format!("Some({})", f64_expr(v)));
     format!(
-        "ipmc_core::humidity_path::HumidityPath {{ sensor: {sensor}, offset_pct: {}, gain: {}, tau_wet_s: {}, tau_dry_s: {}, \
-         uncertainty_pct: {uncertainty}, sensor_lag_s: {lag}, mode: ipmc_core::humidity_path::HumidityMode::{mode:?}, \
+        "ipmc_core::calibration::humidity_path::HumidityPath {{ sensor: {sensor}, offset_pct: {}, gain: {}, tau_wet_s: {}, tau_dry_s: {}, \
+         uncertainty_pct: {uncertainty}, sensor_lag_s: {lag}, mode: ipmc_core::calibration::humidity_path::HumidityMode::{mode:?}, \
          supply_v: {supply} }}",
         f64_expr(*offset_pct),
         f64_expr(*gain),
@@ -210,7 +212,7 @@ fn error_table_expr(c: &Calibration) -> String {
     let t = ErrorTable::new(c, rh_sd, &DesignConfig::firmware()).expect("the calibration designs over its range");
     let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
     format!(
-        "ipmc_core::expected_error::ErrorTable {{ rh0_pct: f32::from_bits({:#x}), step_pct: f32::from_bits({:#x}), n: {}, \
+        "ipmc_core::inverse::expected_error::ErrorTable {{ rh0_pct: f32::from_bits({:#x}), step_pct: f32::from_bits({:#x}), n: {}, \
          model_var: [{}], noise_m2: [{}] }}",
         t.rh0_pct.to_bits(),
         t.step_pct.to_bits(),
@@ -221,7 +223,7 @@ fn error_table_expr(c: &Calibration) -> String {
 }
 
 /// The strip's model at the running spectrum's bins for the firmware's rate
-/// (`ipmc_core::strip_humidity::ModelTable`), as the host tool fills its own: f32 by its bits.
+/// (`ipmc_core::humidity::strip::ModelTable`), as the host tool fills its own: f32 by its bits.
 fn model_table_items(c: &Calibration) -> String {
     let g = BinGeometry::new(SAMPLE_RATE_HZ as f64, &c.band);
     let nodes = table_nodes(c);
@@ -235,8 +237,8 @@ fn model_table_items(c: &Calibration) -> String {
          static STRIP_LN_GAIN: [u16; {}] = [{codes}];\n\
          static STRIP_SD_CAL: [f32; {nodes}] = [{}];\n\
          /// The strip's model for its own hygrometer's fit.\n\
-         pub const STRIP_TABLE: ipmc_core::strip_humidity::ModelTable<'static, f32> = ipmc_core::strip_humidity::ModelTable {{ \
-         rh_min: {}, rh_max: {}, geometry: ipmc_core::running_spectrum::BinGeometry {{ decimation: {decimation}, \
+         pub const STRIP_TABLE: ipmc_core::humidity::strip::ModelTable<'static, f32> = ipmc_core::humidity::strip::ModelTable {{ \
+         rh_min: {}, rh_max: {}, geometry: ipmc_core::humidity::spectrum::BinGeometry {{ decimation: {decimation}, \
          first_bin: {first_bin}, bins: {bins}, df_hz: {} }}, ln_offset: {}, ln_step: {}, ln_gain: &STRIP_LN_GAIN, \
          sd_cal: &STRIP_SD_CAL }};\n",
         ln_gain.len(),

@@ -11,18 +11,18 @@
 //! Output (semihosting stdout), one `key value` per line, read by xtask/src/bench.rs.
 //!
 //! The per-sample path is the firmware's: ADC code → amperes with the clip check
-//! (src/app/current_conversion.rs, the same file) and `Compensator::process_block` per block of
-//! `BLOCK_LEN` (src/app/config.rs, the same file). The reference is the `biquad` crate's DF2T
+//! (src/contract/current_conversion.rs, the same file) and `Compensator::process_block` per block of
+//! `BLOCK_LEN` (src/contract/config.rs, the same file). The reference is the `biquad` crate's DF2T
 //! section (`DirectForm2Transposed::run`), run stage by stage over the same blocks with the same
 //! section coefficients.
 
 #![no_std]
 #![no_main]
 
-#[path = "../src/app/config.rs"]
+#[path = "../src/contract/config.rs"]
 #[allow(dead_code)]
 mod config;
-#[path = "../src/app/current_conversion.rs"]
+#[path = "../src/contract/current_conversion.rs"]
 mod current_conversion;
 
 use core::hint::black_box;
@@ -35,7 +35,7 @@ mod generated {
 
 use biquad::{Biquad, Coefficients, DirectForm2Transposed};
 use cortex_m::peripheral::{SYST, syst::SystClkSource};
-use ipmc_core::{Calibration, Cascade, Compensator, DesignConfig, Inverse, design_inverse, expected_error::BlockError};
+use ipmc_core::{Calibration, Cascade, Compensator, DesignConfig, Inverse, design_inverse, inverse::expected_error::BlockError};
 use semihosting::println;
 // The device vector table cortex-m-rt links against.
 use stm32_metapac as _;
@@ -268,7 +268,7 @@ fn main() -> ! {
 /// main's stack under the hygrometer's bench.
 #[inline(never)]
 fn band_fir(band: &ipmc_core::band::Band, codes: &[u16; 2048], conv: f64, instr: &impl Fn(u32) -> f64) {
-    let mut fir = ipmc_core::band_limit::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has an FIR");
+    let mut fir = ipmc_core::band::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has an FIR");
     let mut at = 0;
     let t = now();
     for _ in 0..BLOCKS {
@@ -297,7 +297,7 @@ impl Lcg {
 #[inline(never)]
 fn hygrometer(instr: impl Fn(u32) -> f64) {
     use ipmc_core::band::Band;
-    use ipmc_core::running_spectrum::{MAX_BINS, SpectrumView, decimation};
+    use ipmc_core::humidity::spectrum::{MAX_BINS, SpectrumView, decimation};
     let calib = generated::CALIBRATION;
     let mut rng = Lcg(1);
     let fs = SAMPLE_RATE_HZ as f64;
@@ -309,7 +309,7 @@ fn hygrometer(instr: impl Fn(u32) -> f64) {
     let other = Band { high_hz: fs / 15.0, ..calib.band };
     println!("spectrum_other_decimation {}", decimation(fs, &other));
     println!("spectrum_per_sample_other_decimation {}", spectrum_per_sample(&other, &mut rng, &instr).0);
-    type Fft = ipmc_core::fft::RealFft<f32, 256>;
+    type Fft = ipmc_core::numeric::fft::RealFft<f32, 256>;
     let fft = Fft::new();
     let mut z = [ipmc_core::C::new(0.0f32, 0.0); 256];
     for n in 0..256 {
@@ -333,18 +333,18 @@ fn hygrometer(instr: impl Fn(u32) -> f64) {
         let accel = 1.0 / ((1.0 - w * w) * (1.0 - w * w) + (w / 2.0) * (w / 2.0));
         let su = accel / (ipmc_core::Real::powf(2.0 * core::f32::consts::PI * f, 4.0));
         let chi: f32 = (0..40).map(|_| -ipmc_core::Real::ln(rng.next())).sum::<f32>() / 40.0;
-        *p = ipmc_core::model::current_response(&params, ipmc_core::model::jw(f)).norm_sqr() * su * chi;
+        *p = ipmc_core::model::exact::current_response(&params, ipmc_core::model::exact::jw(f)).norm_sqr() * su * chi;
     }
     let view = SpectrumView { psd: &psd[..v.psd.len()], segments: 40.0, ..v };
     let t = now();
-    let fit = black_box(ipmc_core::strip_humidity::strip_rh(&generated::STRIP_TABLE, black_box(&view), 0.0));
+    let fit = black_box(ipmc_core::humidity::strip::strip_rh(&generated::STRIP_TABLE, black_box(&view), 0.0));
     println!("instructions_per_fit {}", instr(since(t)));
     match fit {
         Ok(e) => println!("fit_rh_pct {}", e.rh_pct),
         Err(r) => println!("fit_refused {}", r.as_str()),
     }
     let t = now();
-    black_box(ipmc_core::model::current_response(&params, ipmc_core::model::jw(black_box(31.0f32))));
+    black_box(ipmc_core::model::exact::current_response(&params, ipmc_core::model::exact::jw(black_box(31.0f32))));
     println!("instructions_per_model_point {}", instr(since(t)));
 }
 
@@ -355,8 +355,8 @@ fn spectrum_per_sample(
     band: &ipmc_core::band::Band,
     rng: &mut Lcg,
     instr: &impl Fn(u32) -> f64,
-) -> (f64, ipmc_core::running_spectrum::RunningSpectrum<f32>) {
-    let mut spectrum = ipmc_core::running_spectrum::RunningSpectrum::<f32>::new(SAMPLE_RATE_HZ as f64, band);
+) -> (f64, ipmc_core::humidity::spectrum::RunningSpectrum<f32>) {
+    let mut spectrum = ipmc_core::humidity::spectrum::RunningSpectrum::<f32>::new(SAMPLE_RATE_HZ as f64, band);
     let blocks = 2_500u32;
     let mut block = [0.0f32; BLOCK_LEN];
     let t = now();

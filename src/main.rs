@@ -23,27 +23,24 @@ compile_error!("select at most one humidity sensor feature: `humidity-hih4030` o
 
 mod app;
 mod board;
+mod contract;
 
-use embassy_executor::{Executor, InterruptExecutor};
+use embassy_executor::Executor;
 use static_cell::StaticCell;
 
-/// Runs the sample path; its interrupt handler lives in the board module (the IRQ is a board choice).
-pub(crate) static SAMPLE_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
-/// Runs humidity polling and reporting.
-pub(crate) static IO_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
 static RETUNE_EXECUTOR: StaticCell<Executor> = StaticCell::new();
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
     let board = board::init();
-    defmt::info!("ipmc firmware on {}, calibration: {}", board::NAME, app::calibration::CALIBRATION_SOURCE);
+    defmt::info!("ipmc firmware on {}, calibration: {}", board::NAME, contract::calibration::CALIBRATION_SOURCE);
 
     // Before any executor runs: see `SamplePath::prepare`.
     let sample_path = app::sample_path::SamplePath::prepare();
-    let sample_spawner = board::start_sample_executor(&SAMPLE_EXECUTOR);
+    let sample_spawner = board::start_sample_executor();
     sample_spawner.spawn(app::sample_path::sample_task(board.samples, sample_path).expect("sample task spawns once"));
 
-    let io_spawner = board::start_io_executor(&IO_EXECUTOR);
+    let io_spawner = board::start_io_executor();
     io_spawner.spawn(app::humidity::humidity_task(board.humidity).expect("humidity task spawns once"));
     io_spawner.spawn(app::report::report_task(board.stream).expect("report task spawns once"));
 

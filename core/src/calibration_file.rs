@@ -4,9 +4,10 @@
 
 use std::fmt;
 
-use crate::calibration::{Calibration, ParamName, Params, ValidationError};
-use crate::design::{DesignConfig, DesignError, design_inverse};
-use crate::real::Real;
+use crate::calibration::laws::{Calibration, ValidationError};
+use crate::inverse::design::{DesignConfig, DesignError, design_inverse};
+use crate::model::params::{ParamName, Params};
+use crate::numeric::real::Real;
 
 /// RH step [%] of the load-time design check over the declared range (both ends included).
 pub const DESIGN_CHECK_STEP_PCT: f64 = 5.0;
@@ -134,7 +135,7 @@ mod tests {
 
     #[test]
     fn the_humidity_table_is_optional_checked_and_kept() {
-        use crate::humidity_path::{HumidityPath, SensorKind};
+        use crate::calibration::humidity_path::{HumidityPath, SensorKind};
         let plain = to_text(&Calibration::default_preset());
         let old = plain.split("[humidity]").next().unwrap().to_string();
         assert!(!old.contains("[humidity]"));
@@ -148,7 +149,7 @@ mod tests {
             tau_dry_s: 900.0,
             uncertainty_pct: Some(1.2),
             sensor_lag_s: Some(4.0),
-            mode: crate::humidity_path::HumidityMode::Fused,
+            mode: crate::calibration::humidity_path::HumidityMode::Fused,
             supply_v: Some(4.85),
         };
         let text = to_text(&c);
@@ -174,8 +175,8 @@ mod tests {
     #[test]
     fn band_departures_and_instrument_are_optional_checked_and_kept() {
         use crate::band::Band;
-        use crate::departures::Departures;
-        use crate::instrument::Instrument;
+        use crate::calibration::departures::Departures;
+        use crate::calibration::instrument::Instrument;
         let plain = to_text(&Calibration::default_preset());
         assert!(!plain.contains("[departures]"), "no table, no key: {plain}");
         let old = plain.split("[humidity]").next().unwrap().to_string();

@@ -3,11 +3,23 @@
 //! One source of truth for the firmware (f32), the host tests and the host tool (f64): every
 //! function is generic over [`Real`], so the device and the host run the same code.
 //!
-//! Data flows one way through the modules:
-//! [`calibration`] (humidity laws → [`Params`]) → [`model`] (exact H(s)) →
-//! [`rational`] (physics-structured rational approximation) → [`design`] (discretized,
-//! band-limited, causal inverse as second-order sections) → [`filter`] (the per-sample cascade
-//! and glitch-free retuning).
+//! The rooms, bottom to top; each imports only from the rooms below it (`cargo xtask imports`
+//! checks it):
+//! - [`numeric`]: the scalar type and the numerical tools with no physics in them;
+//! - [`timing`]: the firmware's clock (sample rate, block length, humidity period);
+//! - [`band`]: the band an estimate is good in, and the FIR that keeps it;
+//! - [`model`]: the paper's exact model H(s), its parameters, and the physics it leaves out;
+//! - [`calibration`]: a strip's humidity laws, departures, uncertainty, instrument and humidity
+//!   path: what the `CALIB.toml` file holds, and the parameters it gives at a humidity;
+//! - [`inverse`]: rational approximation, discretized band-limited inverse, its expected error,
+//!   and the per-sample filter with glitch-free retuning;
+//! - [`humidity`]: the humidity chain, from a sensor's raw reading and the strip's own current to
+//!   the humidity each block's design is for;
+//! - [`wire`]: the formats that cross the board's edge (the stream out, the replay file in);
+//! - [`firmware`]: what the firmware decides with no hardware (operating point, start-up, a stuck
+//!   input), so the host runs it too;
+//! - [`calibration_file`]: the one reader of the calibration file, which checks that the inverse
+//!   designs over its range.
 #![cfg_attr(not(feature = "std"), no_std)]
 
 // The unit tests run on the host and may format.
@@ -15,45 +27,21 @@
 extern crate std;
 
 pub mod band;
-pub mod band_limit;
-pub mod block_humidity;
-pub mod block_hygrometer;
 pub mod calibration;
 #[cfg(feature = "toml")]
 pub mod calibration_file;
-pub mod departures;
-pub mod design;
-pub mod expected_error;
-pub mod extension;
-pub mod fft;
-pub mod filter;
+pub mod firmware;
 pub mod humidity;
-pub mod humidity_fusion;
-pub mod humidity_path;
-pub mod humidity_trend;
-pub mod instrument;
-pub mod lstsq;
+pub mod inverse;
 pub mod model;
-pub mod operating_point;
-pub mod rational;
-pub mod rational_tables;
-pub mod real;
-pub mod replay;
-pub mod roots;
-pub mod running_spectrum;
-pub mod startup;
-pub mod stream;
-pub mod strip_humidity;
-pub mod stuck;
-pub mod thermal;
-pub mod uncertainty;
+pub mod numeric;
+pub mod timing;
+pub mod wire;
 
-pub use calibration::{Calibration, Law, LawKind, ParamName, Params, ValidationError};
-pub use design::{DesignConfig, DesignError, Inverse, InverseKind, MAX_SECTIONS, Sos, compensation_error, design_inverse};
-pub use filter::{Cascade, Compensator};
-pub use model::{current_response, tip_response};
-pub use rational::RationalModel;
-pub use real::{ComplexMath, Real};
-
-/// Complex numbers over the crate's real type.
-pub type C<T> = num_complex::Complex<T>;
+pub use calibration::laws::{Calibration, Law, LawKind, ValidationError};
+pub use inverse::design::{DesignConfig, DesignError, Inverse, InverseKind, MAX_SECTIONS, Sos, compensation_error, design_inverse};
+pub use inverse::filter::{Cascade, Compensator};
+pub use inverse::rational::RationalModel;
+pub use model::exact::{current_response, tip_response};
+pub use model::params::{ParamName, Params};
+pub use numeric::real::{C, ComplexMath, Real};

@@ -3,7 +3,7 @@
 //!
 //! The reference below is written straight from the paper (Lei, Lim, Tan 2015, eqs. 2–6) in
 //! 256-bit floating point (astro-float), with complex arithmetic built here from real exp/sin/cos.
-//! It shares nothing with `ipmc_core::model`: no fourth-root choice (p = k·√s with k the principal
+//! It shares nothing with `ipmc_core::model::exact`: no fourth-root choice (p = k·√s with k the principal
 //! fourth root, as printed), no scaling by e^-(x+y), no power series, no asymptotic coth. The huge
 //! cosh of βh (|βh| up to ~1e6) is evaluated as it is: the big-float exponent range holds e^(1e6),
 //! and 256 bits absorb the cancellations in N1, N3 and βh·coth βh − 1.
@@ -12,7 +12,7 @@
 //! the simplification N1(L) = 2 cos pL cosh pL; the test also checks that identity.
 
 use astro_float::{BigFloat, Consts, RoundingMode, Sign};
-use ipmc_core::model::{current_response, jw, tip_response};
+use ipmc_core::model::exact::{current_response, jw, tip_response};
 use ipmc_core::{C, Calibration, Params};
 
 const PREC: usize = 256;

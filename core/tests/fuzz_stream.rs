@@ -10,7 +10,7 @@
 use std::cell::Cell;
 use std::time::Instant;
 
-use ipmc_core::stream::{self, DecodeError, Deframer, Header, MAX_ESTIMATES, MAX_FRAME_LEN};
+use ipmc_core::wire::stream::{self, DecodeError, Deframer, Header, MAX_ESTIMATES, MAX_FRAME_LEN};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 

@@ -5,11 +5,11 @@
 //!
 //! Everything the assertions depend on is computed here: the cascade's frequency response from
 //! the section coefficients, the pole radii of each section (and Jury's test), and the error
-//! |H(jω)·G(e^{jωT})·e^{jωτ} − 1|. "Exact H" is `ipmc_core::model::current_response` in f64 (checked
+//! |H(jω)·G(e^{jωT})·e^{jωτ} − 1|. "Exact H" is `ipmc_core::model::exact::current_response` in f64 (checked
 //! against a 256-bit evaluation in `exact_model_reference.rs`).
 
-use ipmc_core::model::{current_response, jw};
-use ipmc_core::rational::IonicOrder;
+use ipmc_core::inverse::rational::IonicOrder;
+use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{C, Calibration, DesignConfig, Inverse, Params, RationalModel, design_inverse};
 
 const N_GRID: usize = 300;

@@ -2,12 +2,12 @@
 //! exact model on a dense grid: accuracy (≤ 0.5 % magnitude, ≤ 0.5° phase over 5–500 Hz at every
 //! RH in 20–90 %), real coefficients, stability, and the denominator order.
 //!
-//! "Exact" is `ipmc_core::model::current_response` in f64, itself checked against an independent
+//! "Exact" is `ipmc_core::model::exact::current_response` in f64, itself checked against an independent
 //! 256-bit evaluation of the paper's formulas in `exact_model_reference.rs`. The error is computed
 //! here, not with the crate's `approximation_error`.
 
-use ipmc_core::model::{current_response, jw};
-use ipmc_core::rational::IonicOrder;
+use ipmc_core::inverse::rational::IonicOrder;
+use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{C, Calibration, ComplexMath, Params, RationalModel, Real};
 
 const GRID: usize = 400;

@@ -10,8 +10,8 @@
 //! Besides the shrinking `proptest!` properties, one deterministic run COUNTS failures over a fixed
 //! set of cases and prints the count, so the figure is reproducible.
 
-use ipmc_core::design::design_inverse_for;
-use ipmc_core::rational::IonicOrder;
+use ipmc_core::inverse::design::design_inverse_for;
+use ipmc_core::inverse::rational::IonicOrder;
 use ipmc_core::{Calibration, DesignConfig, Inverse, ParamName, Params, RationalModel, Real};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};

@@ -1,11 +1,11 @@
-//! The firmware's start-up state machine (`ipmc_core::startup`) driven as the humidity task
+//! The firmware's start-up state machine (`ipmc_core::firmware::startup`) driven as the humidity task
 //! drives it: one poll a second, a sensor and a designer scripted per test. QEMU has no
 //! watchdog and its replayed sensor always answers at start, so these are the tests of a
 //! start-up that must not hang.
 
 use ipmc_core::{
     Calibration,
-    startup::{DESIGN_DEADLINE_MS, Designed, Poll, RETRY_MS, Request, Startup},
+    firmware::startup::{DESIGN_DEADLINE_MS, Designed, Poll, RETRY_MS, Request, Startup},
 };
 
 const PERIOD_MS: u64 = 1_000;

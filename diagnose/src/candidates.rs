@@ -1,13 +1,13 @@
 //! The library of candidate missing physics `diagnose` tests: what each is physically, how it
 //! shows in data, its few parameters, and how it maps them onto the core's extended model
-//! ([`ipmc_core::extension`]) or onto the humidity the parameters follow.
+//! ([`ipmc_core::model::extension`]) or onto the humidity the parameters follow.
 //!
 //! Parameters are fitted in display units (ms, Ω, %RH…) so that every fitted number is of order
 //! one to a thousand: the fitter's finite-difference steps are absolute for unbounded parameters.
 
 use crate::effect::Effect;
 use ipmc_core::Params;
-use ipmc_core::extension::Extension;
+use ipmc_core::model::extension::Extension;
 use ipmc_fit::lsq::Bound;
 
 /// One parameter of a candidate.
@@ -147,7 +147,7 @@ pub const LIBRARY: &[Candidate] = &[
         params: &[spec("alpha", "1", Bound::Between(0.0, 1.0), 0.8, 1.0)],
         kind: Kind::Model(|v, p| Extension {
             damping_order_drop: 1.0 - v[0],
-            damping_ref: ipmc_core::model::first_mode_rad_s(p),
+            damping_ref: ipmc_core::model::exact::first_mode_rad_s(p),
             ..Default::default()
         }),
     },
@@ -186,7 +186,7 @@ pub const LIBRARY: &[Candidate] = &[
             spec("capacitance_exponent", "1", Bound::Between(0.0, 1.0), 0.5, 1.0),
         ],
         kind: Kind::Model(|v, p| Extension {
-            electrode_tau_distributed: v[0] * ELECTRODE_C_REF_F * (ipmc_core::model::capacitance(p) / ELECTRODE_C_REF_F).powf(v[1]),
+            electrode_tau_distributed: v[0] * ELECTRODE_C_REF_F * (ipmc_core::model::exact::capacitance(p) / ELECTRODE_C_REF_F).powf(v[1]),
             ..Default::default()
         }),
     },
@@ -352,8 +352,8 @@ mod tests {
             if let Kind::Model(f) = c.kind {
                 let absent: Vec<f64> = c.params.iter().map(|s| s.absent).collect();
                 let x = f(&absent, &p);
-                let s = ipmc_core::model::jw(40.0);
-                let (t, i) = ipmc_core::extension::responses(&p, &x, s);
+                let s = ipmc_core::model::exact::jw(40.0);
+                let (t, i) = ipmc_core::model::extension::responses(&p, &x, s);
                 assert!((t - ipmc_core::tip_response(&p, s)).norm() < 1e-9 * t.norm(), "{}", c.name());
                 assert!((i - ipmc_core::current_response(&p, s)).norm() < 1e-9 * i.norm(), "{}", c.name());
             }

@@ -7,7 +7,7 @@ use crate::fits::{self, BaseFits, LevelSigmas, Mask, Theta};
 use crate::laws::{LawWeights, Regressors};
 use anyhow::Result;
 use ipmc_core::Calibration;
-use ipmc_core::extension::Extension;
+use ipmc_core::model::extension::Extension;
 
 pub(crate) struct Ctx<'a> {
     pub calib: &'a Calibration,

@@ -1,7 +1,7 @@
 //! The recordings as `diagnose` fits them: humidity levels of complex responses per frequency,
 //! each with the time, temperature and session it was measured in.
 
-use ipmc_core::humidity_path::HumidityPath;
+use ipmc_core::calibration::humidity_path::HumidityPath;
 use ipmc_recording::FrequencyResponse;
 
 /// One visit of one humidity level: fit's, which every fit takes (its `revisit_of` indexes the

@@ -21,7 +21,7 @@ use crate::fits;
 use crate::held_out::{per_level_scores, weighted_mean};
 use crate::level_bootstrap::{Evidence, averaged_posterior};
 use crate::types::{Alternative, Estimate, Probability, Score, Separation, Space, Verdict};
-use ipmc_core::extension::Extension;
+use ipmc_core::model::extension::Extension;
 
 /// Very strong evidence on Kass & Raftery's scale (ΔBIC > 10 ⇔ Bayes factor > 150).
 pub const MIN_DELTA_BIC: f64 = 10.0;

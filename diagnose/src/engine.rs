@@ -36,7 +36,7 @@ use crate::scorers;
 use crate::types::{Diagnosis, LevelModels, LevelSummary};
 use anyhow::Result;
 use ipmc_core::Calibration;
-use ipmc_core::extension::Extension;
+use ipmc_core::model::extension::Extension;
 
 /// Runs the whole diagnosis. `progress` is told each step's name.
 pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) -> Result<Diagnosis> {

@@ -6,7 +6,7 @@ use crate::context::{Ctx, Fitted};
 use crate::fits::{self, Theta};
 use crate::laws::{self, LawWeights};
 use crate::types::HeldOutModel;
-use ipmc_core::extension::Extension;
+use ipmc_core::model::extension::Extension;
 
 /// A candidate's held-out models per level and its null's, and what each is.
 pub(crate) struct HeldOut {

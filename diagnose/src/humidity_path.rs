@@ -8,8 +8,8 @@ use crate::context::Ctx;
 use crate::fits;
 use crate::laws::{self, LawWeights, Regressors};
 use crate::remap::{SensorFit, fit_sensor_parsimonious};
-use ipmc_core::extension::Extension;
-use ipmc_core::humidity_path::HumidityPath;
+use ipmc_core::calibration::humidity_path::HumidityPath;
+use ipmc_core::model::extension::Extension;
 use ipmc_fit::scalar::minimize_log;
 
 /// The path is fitted without a drift of the parameters: a drift trades off against the

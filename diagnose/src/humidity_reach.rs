@@ -10,10 +10,8 @@
 use crate::context::Ctx;
 use crate::laws;
 use crate::remap::{MIN_RH_SHIFT_PCT, SHIFT_FLOOR_SE, fit_sensor};
-// A diagnosis reports the reach, so its type lives with the report's (types.rs); re-exported
-// here, where it is computed, so that its path stays.
-pub use crate::types::HumidityReach;
-use crate::types::Separation;
+// A diagnosis reports the reach, so its type lives with the report's (types.rs).
+use crate::types::{HumidityReach, Separation};
 
 /// The longest lag searched [s].
 pub const LONGEST_LAG_S: f64 = 3600.0;

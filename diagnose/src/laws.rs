@@ -10,7 +10,7 @@
 
 use super::data::{LevelData, RhHistory};
 use super::fits::{BASE, Theta};
-use ipmc_core::humidity_path::{HumidityPath, Hydration};
+use ipmc_core::calibration::humidity_path::{HumidityPath, Hydration};
 use ipmc_fit::laws::{Singular, weighted_least_squares};
 use ipmc_fit::scalar::minimize_log;
 

@@ -10,8 +10,8 @@
 use super::data::{Dataset, LevelData};
 use super::fits::{self, BASE, BaseFits, LevelSigmas, Mask, Theta};
 use anyhow::Result;
-use ipmc_core::extension::{Extension, responses};
-use ipmc_core::model::jw;
+use ipmc_core::model::exact::jw;
+use ipmc_core::model::extension::{Extension, responses};
 use ipmc_core::{C, Calibration};
 use ipmc_fit::response::log_ratio;
 

@@ -6,8 +6,8 @@ use crate::effect::Effect;
 use crate::fits::{Mask, Noise};
 use crate::locate::Located;
 use ipmc_core::Calibration;
-use ipmc_core::extension::Extension;
-use ipmc_core::humidity_path::{HumidityPath, SensorKind};
+use ipmc_core::calibration::humidity_path::{HumidityPath, SensorKind};
+use ipmc_core::model::extension::Extension;
 use std::fmt;
 
 /// What the diagnosis concludes.
@@ -200,7 +200,7 @@ pub struct InstrumentReport {
 }
 
 impl InstrumentReport {
-    pub fn of(fit: &crate::fits::InstrumentFit, prior: &ipmc_core::instrument::Instrument) -> Self {
+    pub fn of(fit: &crate::fits::InstrumentFit, prior: &ipmc_core::calibration::instrument::Instrument) -> Self {
         let finite = |v: f64| Some(v).filter(|v| v.is_finite());
         let gain = |i: usize, name: &str, mean: f64, sd: f64| ChannelEstimate {
             name: name.into(),

@@ -13,7 +13,7 @@
 //! scatter over neighbouring bins: an F(2, 8) variable with two periods, median 0.75, when both
 //! see the same noise).
 
-use ipmc_core::model::{jw, responses};
+use ipmc_core::model::exact::{jw, responses};
 use ipmc_core::{C, Calibration, calibration_file};
 use ipmc_fit::multisine::{Burst, estimate};
 use ipmc_recording::{Format as _, TimeSeries};

@@ -77,7 +77,7 @@
 
 use crate::identify::LevelFit;
 use crate::stats::{chi2_tail, nelder_mead};
-use ipmc_core::departures::{DEPARTING, MAX_DEPARTURE_POINTS, MAX_LN_DEPARTURE};
+use ipmc_core::calibration::departures::{DEPARTING, MAX_DEPARTURE_POINTS, MAX_LN_DEPARTURE};
 use ipmc_core::{Calibration, ParamName};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 

@@ -14,8 +14,8 @@ use crate::departures::{self, LevelTheta, ModelError, StripModel};
 use crate::estimate::Estimate;
 use crate::identify::LevelFit;
 use crate::stats::chi2_tail;
-use ipmc_core::calibration::MAX_LAW_COEFFS;
-use ipmc_core::departures::{DEPARTING, Departures};
+use ipmc_core::calibration::departures::{DEPARTING, Departures};
+use ipmc_core::calibration::laws::MAX_LAW_COEFFS;
 use ipmc_core::{Calibration, Law, LawKind, ParamName, ValidationError};
 use nalgebra::{DMatrix, DVector};
 

@@ -5,7 +5,7 @@
 //! - [`block_qr`]: the QR factor of a Jacobian whose columns reach one block of rows or all,
 //!   computed block by block ([`lsq::fit_blocks`]'s steps).
 //! - [`response`]: residuals of a measured tip/current response against the core's exact model
-//!   (`ipmc_core::model`), with any subset of the model's parameters fitted by their `--set` names.
+//!   (`ipmc_core::model::exact`), with any subset of the model's parameters fitted by their `--set` names.
 //! - [`multisine`]: tip/base and current/base responses, their noise and the between-line
 //!   spectrum estimated from a time-series recording's multisine bursts.
 //! - [`recordings`]: recording files read as frequency responses at the strip's humidity.

@@ -12,10 +12,7 @@
 //! move one block only is fitted by [`fit_blocks`]: the same optimizer, but each forward
 //! difference of a block's own parameter evaluates that block alone.
 
-use crate::block_qr;
-/// [`Blocks`] names it, so a caller of [`fit_blocks`] finds it here; it is defined with the
-/// block factor, which reads it too.
-pub use crate::block_qr::Reach;
+use crate::block_qr::{self, Reach};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 

@@ -4,7 +4,7 @@
 //! through the calibration's humidity path to the humidity the strip feels.
 
 use crate::multisine::{self, Burst};
-use ipmc_core::humidity_path::{HumidityPath, Hydration};
+use ipmc_core::calibration::humidity_path::{HumidityPath, Hydration};
 use ipmc_recording::{Error, Format as _, FrPoint, FrequencyResponse, Level, Table, TimeSeries, Warning};
 use std::collections::HashMap;
 use std::path::Path;

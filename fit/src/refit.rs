@@ -5,12 +5,13 @@
 //! level's base parameters (what a diagnosis fits; [`crate::identify`] identifies a level from
 //! scratch instead).
 
+use crate::block_qr::Reach;
 use crate::level::LevelData;
-use crate::lsq::{self, Blocks, Bound, Fit, FitError, Param, Reach, Tolerance};
+use crate::lsq::{self, Blocks, Bound, Fit, FitError, Param, Tolerance};
 use crate::noise::{self, ChannelNoise};
 use crate::response::{Channel, Misfit, Point, Sigma, log_ratio};
-use ipmc_core::extension::{Extension, responses};
-use ipmc_core::model::jw;
+use ipmc_core::model::exact::jw;
+use ipmc_core::model::extension::{Extension, responses};
 use ipmc_core::{C, Calibration, ParamName, Params};
 
 /// Why a refit failed.
@@ -674,7 +675,7 @@ pub struct InstrumentFit {
 
 /// The channels' parameters (ln gains, delay in µs) with their prior means and 1σ from the
 /// calibration's `[instrument]` table.
-fn instrument_priors(prior: &ipmc_core::instrument::Instrument) -> [(&'static str, f64, f64); 4] {
+fn instrument_priors(prior: &ipmc_core::calibration::instrument::Instrument) -> [(&'static str, f64, f64); 4] {
     [
         ("ln tip gain", prior.tip_gain.ln(), prior.tip_gain_tolerance_pct / 100.0),
         ("ln base gain", 0.0, prior.base_gain_tolerance_pct / 100.0),
@@ -702,7 +703,7 @@ pub struct ChannelPrior {
 }
 
 impl ChannelPrior {
-    pub fn new(fit: &InstrumentFit, prior: &ipmc_core::instrument::Instrument) -> Option<Self> {
+    pub fn new(fit: &InstrumentFit, prior: &ipmc_core::calibration::instrument::Instrument) -> Option<Self> {
         let (st, sb, sc, sd) = (
             prior.tip_gain_tolerance_pct / 100.0,
             prior.base_gain_tolerance_pct / 100.0,
@@ -828,7 +829,7 @@ pub fn fit_instrument(
     levels: &[LevelData],
     sig: &[LevelSigmas],
     masks: &[Mask],
-    prior: &ipmc_core::instrument::Instrument,
+    prior: &ipmc_core::calibration::instrument::Instrument,
     base: &[Theta],
 ) -> Result<InstrumentFit> {
     let priors = instrument_priors(prior);
@@ -1027,7 +1028,8 @@ mod tests {
         let start: Vec<Theta> = levels.iter().map(|l| calibration_theta(&calib, l.rh_pct)).collect();
         // Where a per-level refit would start the fit: near the truth, not on it.
         let start: Vec<Theta> = start.iter().map(|t| t.map(|v| v + 0.01)).collect();
-        let fit = fit_instrument(&calib, &levels, &sig, &masks, &ipmc_core::instrument::Instrument::DATASHEET, &start).unwrap();
+        let fit =
+            fit_instrument(&calib, &levels, &sig, &masks, &ipmc_core::calibration::instrument::Instrument::DATASHEET, &start).unwrap();
         let ch = fit.channels;
         assert!((ch.ln_tip - 1.006f64.ln()).abs() < 3e-4, "{ch:?}");
         // The current's gain is not asserted: it trades off against each level's d and Ca (the
@@ -1067,7 +1069,7 @@ mod tests {
         let none = Extension::default();
         let cal: Vec<Theta> = levels.iter().map(|l| calibration_theta(&calib, l.rh_pct)).collect();
         let plain = fit_levels(&calib, &levels, &sig, &masks, &none, &cal).unwrap();
-        let prior = ipmc_core::instrument::Instrument::DATASHEET;
+        let prior = ipmc_core::calibration::instrument::Instrument::DATASHEET;
         let inst = fit_instrument(&calib, &levels, &sig, &masks, &prior, &plain.theta).unwrap();
         let corrected: Vec<LevelData> = levels.iter().map(|l| inst.channels.corrected(l)).collect();
         let channel_prior = ChannelPrior::new(&inst, &prior);

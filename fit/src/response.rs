@@ -7,7 +7,7 @@
 //! needs no unwrapping.
 
 use crate::lsq::{Bound, Param};
-use ipmc_core::model::{current_response, jw, responses, tip_response};
+use ipmc_core::model::exact::{current_response, jw, responses, tip_response};
 use ipmc_core::{C, ParamName, Params};
 
 /// The name of the tip channel's gain when [`ResponseProblem::with_tip_gain`] fits it.

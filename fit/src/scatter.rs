@@ -1,5 +1,5 @@
 //! What a calibration does not know of its strip: the calibration's `[uncertainty]` table, what
-//! the expected error of an estimate is made of (`ipmc_core::expected_error`).
+//! the expected error of an estimate is made of (`ipmc_core::inverse::expected_error`).
 //!
 //! For Y, Cs, Ca and d the laws and the strip's departures from them come from one model of the
 //! levels ([`crate::departures`]), whose posterior says how well it knows each parameter at
@@ -16,7 +16,7 @@
 use crate::departures::StripModel;
 use crate::identify::LevelFit;
 use crate::laws::law_degree;
-use ipmc_core::uncertainty::Uncertainty;
+use ipmc_core::calibration::uncertainty::Uncertainty;
 use ipmc_core::{Calibration, ParamName};
 
 /// RH step [%] of the law's slope.
@@ -66,7 +66,7 @@ pub fn uncertainty(model: &StripModel, calib: &Calibration, levels: &[LevelFit],
             .map(|x| model.posterior_sd(k, x).powi(2))
             .sum::<f64>()
             / RANGE_POINTS as f64;
-        ms.is_finite().then(|| ms.sqrt().min(ipmc_core::uncertainty::MAX_RELATIVE_SD))
+        ms.is_finite().then(|| ms.sqrt().min(ipmc_core::calibration::uncertainty::MAX_RELATIVE_SD))
     };
     u.y = rms(0).unwrap_or(u.y);
     u.cs = rms(1).unwrap_or(u.cs);
@@ -80,7 +80,7 @@ pub fn uncertainty(model: &StripModel, calib: &Calibration, levels: &[LevelFit],
 /// ([`StripModel::posterior_sd`]; a parameter the model does not fit keeps `calib`'s
 /// `[uncertainty]`), so the stated error follows the levels: small where one measured the
 /// strip, the departures' amplitude between them. None without a table.
-pub fn departures_with_sd(model: &StripModel, calib: &Calibration) -> Option<ipmc_core::departures::Departures> {
+pub fn departures_with_sd(model: &StripModel, calib: &Calibration) -> Option<ipmc_core::calibration::departures::Departures> {
     let t = calib.departures;
     if t.is_none() {
         return None;
@@ -90,7 +90,7 @@ pub fn departures_with_sd(model: &StripModel, calib: &Calibration) -> Option<ipm
         t.grid()
             .iter()
             .map(|&x| match model.degree[k] {
-                Some(_) => model.posterior_sd(k, x).min(ipmc_core::uncertainty::MAX_RELATIVE_SD),
+                Some(_) => model.posterior_sd(k, x).min(ipmc_core::calibration::uncertainty::MAX_RELATIVE_SD),
                 None => constant[k],
             })
             .collect()

@@ -1,13 +1,13 @@
 //! The steady-sine retune scenario (host-tests/tests/retune.rs) and its glitch bound, shared
 //! with the firmware's QEMU test of the same scenario (`cargo xtask test`).
 
-use ipmc_core::model::{current_response, jw};
+use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{Calibration, Compensator, ComplexMath, DesignConfig, Inverse, Params, Real, design_inverse};
 
-pub const FS: f64 = ipmc_core::operating_point::SAMPLE_RATE_HZ as f64;
+pub const FS: f64 = ipmc_core::timing::SAMPLE_RATE_HZ as f64;
 pub const F0: f64 = 40.0;
 pub const U: f64 = 1e-3; // 1 mm base amplitude
-pub const BLOCK: usize = ipmc_core::operating_point::BLOCK_LEN;
+pub const BLOCK: usize = ipmc_core::timing::BLOCK_LEN;
 pub const SETTLE: usize = 40_000; // 20 s: the slowest pole (1 Hz high-pass) decays e^-40 over it
 
 pub fn design(rh: f64) -> Inverse<f32> {

@@ -85,7 +85,7 @@ fn wrap(a: f64) -> f64 {
 
 /// What the compensator runs: the inverse, then the band's linear-phase FIR with its delay.
 fn chain_response(inv: &ipmc_core::Inverse<f64>, f: f64) -> ipmc_core::C<f64> {
-    let kept = ipmc_core::band_limit::Taps::design(&inv.band(), FS).expect("the default band at 2 kHz");
+    let kept = ipmc_core::band::Taps::design(&inv.band(), FS).expect("the default band at 2 kHz");
     inv.response(f) * kept.delayed_response(f, FS)
 }
 

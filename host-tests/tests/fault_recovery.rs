@@ -16,7 +16,7 @@ const FS: f64 = 2000.0;
 const BLOCK: usize = 32;
 /// Amplitude of the drive [A]: a typical sensing current.
 const AMP_A: f64 = 1e-6;
-/// The TIA's rail for the firmware's front end (src/app/current_conversion.rs CLIP_LIMIT_AMPS).
+/// The TIA's rail for the firmware's front end (src/contract/current_conversion.rs CLIP_LIMIT_AMPS).
 const RAIL_A: f32 = 1.76e-6;
 /// Settling before the fault [samples]: the 1 Hz high-pass's start transient is gone.
 const SETTLE: usize = 40_000;

@@ -12,7 +12,8 @@
 use std::time::Instant;
 
 use host_tests::Rng;
-use ipmc_core::operating_point::{BLOCK_LEN, needs_retune};
+use ipmc_core::firmware::operating_point::needs_retune;
+use ipmc_core::timing::BLOCK_LEN;
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, design_inverse};
 
 const FS: f64 = 2000.0;

@@ -1,12 +1,12 @@
 //! ST HTS221 relative-humidity sensor (I2C address 0x5F; on the B-L475E-IOT01A): the bus
 //! traffic. The two-point factory calibration (registers 0x30..0x3F) is checked and applied by
-//! `ipmc_core::humidity::Hts221Calibration`.
+//! `ipmc_core::humidity::sensor::Hts221Calibration`.
 //!
 //! The driver borrows the bus for each call instead of owning it: the firmware cancels a read
 //! that takes too long, and a cancelled future must not take the bus with it.
 
 use embedded_hal_async::{delay::DelayNs, i2c::I2c};
-use ipmc_core::humidity::Hts221Calibration;
+use ipmc_core::humidity::sensor::Hts221Calibration;
 
 pub const ADDRESS: u8 = 0x5F;
 

@@ -1,6 +1,6 @@
 //! Sensor drivers and bus handling of the firmware, generic over embedded-hal(-async) so that
 //! their state machines run against fake buses on the host (`tests/`). The boards pick buses
-//! and pins; the conversions from raw values live in `ipmc_core::humidity`.
+//! and pins; the conversions from raw values live in `ipmc_core::humidity::sensor`.
 #![no_std]
 
 pub mod hts221;

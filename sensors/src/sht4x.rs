@@ -1,5 +1,5 @@
 //! Sensirion SHT4x (SHT40/41/45) relative-humidity sensor: the bus traffic. The word checksums
-//! and the conversions are `ipmc_core::humidity::{sht4x_word, sht4x_rh_pct, sht4x_temp_c}`.
+//! and the conversions are `ipmc_core::humidity::sensor::{sht4x_word, sht4x_rh_pct, sht4x_temp_c}`.
 //!
 //! Our own driver rather than the published `sht4x` crate: its async driver would work on a
 //! `&mut` bus borrowed per call, but it brings the `fixed` and `sensirion-i2c` crates (and
@@ -10,7 +10,7 @@
 //! future must not take the bus with it.
 
 use embedded_hal_async::{delay::DelayNs, i2c::I2c};
-use ipmc_core::humidity::{sht4x_rh_pct, sht4x_temp_c, sht4x_word};
+use ipmc_core::humidity::sensor::{sht4x_rh_pct, sht4x_temp_c, sht4x_word};
 
 /// I2C address of the SHT40-AD1B, SHT41-AD1B and SHT45-AD1B (and of the usual breakouts). The
 /// SHT40-BD1B answers at 0x45 and the SHT40-CD1B at 0x46: a different part number, not a pin.

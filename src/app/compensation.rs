@@ -2,27 +2,26 @@
 //! tasks read as data flow and the core API is named in one place.
 
 use ipmc_core::{
-    Calibration, Compensator, DesignConfig, DesignError, Inverse,
-    block_hygrometer::{Snapshot, noise_psd},
-    design_inverse,
-    expected_error::ErrorTable,
-    strip_humidity::{Refusal, StripRh, strip_rh},
+    Calibration, Compensator, DesignConfig, DesignError, Inverse, design_inverse,
+    humidity::hygrometer::{Snapshot, noise_psd},
+    humidity::strip::{Refusal, StripRh, strip_rh},
+    inverse::expected_error::ErrorTable,
 };
 
-/// The calibration compiled into this firmware (see `calibration`: chosen at build time).
+/// The calibration compiled into this firmware (see `contract::calibration`: chosen at build time).
 pub fn calibration() -> Calibration {
-    super::calibration::CALIBRATION
+    crate::contract::calibration::CALIBRATION
 }
 
 /// The expected error of the calibration's designs over humidity, tabulated at build time.
 pub fn error_table() -> ErrorTable {
-    super::calibration::ERROR_TABLE
+    crate::contract::calibration::ERROR_TABLE
 }
 
 /// The strip's humidity from a snapshot of its current's spectrum, with the model table baked
 /// for this calibration. Slow: runs in the fit task only.
 pub fn fit(snapshot: &Snapshot<f32>) -> Result<StripRh<f32>, Refusal> {
-    strip_rh(&super::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(&calibration()))
+    strip_rh(&crate::contract::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(&calibration()))
 }
 
 fn design_config() -> DesignConfig<f32> {
@@ -42,7 +41,7 @@ impl SamplePathFilter {
     /// (`Compensator::passthrough`), until [`restart`](Self::restart).
     pub fn passthrough() -> Self {
         let calibration = calibration();
-        Self(Compensator::passthrough(&ipmc_core::design::design_band::<f32>(&calibration), design_config().fs_hz))
+        Self(Compensator::passthrough(&ipmc_core::inverse::design::design_band::<f32>(&calibration), design_config().fs_hz))
     }
     /// Starts on `design` afresh, in place.
     pub fn restart(&mut self, design: &Inverse<f32>) {

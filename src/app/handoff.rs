@@ -1,16 +1,18 @@
 //! The only state shared between tasks. Every hand-off is non-blocking for the sample path:
 //! it `try_take`s a finished design and `try_send`s its results.
 
-use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicU16, Ordering};
+
+use crate::contract::atomic_f32::AtomicF32;
 
 use embassy_sync::{blocking_mutex::raw::CriticalSectionRawMutex, channel::Channel, signal::Signal};
 use ipmc_core::Inverse;
-use ipmc_core::block_hygrometer::Snapshot;
-use ipmc_core::startup::{Designed, Request};
-use ipmc_core::stream::Header;
-use ipmc_core::strip_humidity::{Refusal, StripRh};
+use ipmc_core::firmware::startup::{Designed, Request};
+use ipmc_core::humidity::hygrometer::Snapshot;
+use ipmc_core::humidity::strip::{Refusal, StripRh};
+use ipmc_core::wire::stream::Header;
 
-use super::config::BLOCK_LEN;
+use crate::contract::config::BLOCK_LEN;
 
 /// The design the retune task should make (latest request wins).
 pub static RETUNE_REQUEST: Signal<CriticalSectionRawMutex, Request> = Signal::new();
@@ -46,21 +48,6 @@ pub enum ReportItem {
 
 /// Sample path → report task. Eight blocks (128 ms) absorb a slow stream write.
 pub static REPORT_QUEUE: Channel<CriticalSectionRawMutex, ReportItem, 8> = Channel::new();
-
-/// An f32 readable and writable from any priority without a lock.
-pub struct AtomicF32(AtomicU32);
-
-impl AtomicF32 {
-    pub const fn new(v: f32) -> Self {
-        Self(AtomicU32::new(v.to_bits()))
-    }
-    pub fn load(&self) -> f32 {
-        f32::from_bits(self.0.load(Ordering::Relaxed))
-    }
-    pub fn store(&self, v: f32) {
-        self.0.store(v.to_bits(), Ordering::Relaxed)
-    }
-}
 
 /// Latest humidity reading as the sensor gave it [%] (NaN before the first): the sample path
 /// makes the strip's humidity of it, block by block.

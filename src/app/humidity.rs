@@ -1,24 +1,24 @@
 //! Humidity: polls the board's sensor about once a second and keeps the last good reading
 //! for the sample path, which turns it into the strip's humidity block by block
-//! (`ipmc_core::block_humidity`) and asks for retunes. Before sampling starts this task is the
+//! (`ipmc_core::humidity::block`) and asks for retunes. Before sampling starts this task is the
 //! start-up path: it asks for the first design, at the first reading or at a fallback, retries a
-//! failed one and feeds the watchdog while the start-up makes progress (`ipmc_core::startup`,
+//! failed one and feeds the watchdog while the start-up makes progress (`ipmc_core::firmware::startup`,
 //! host-tested, decides all three).
 
 use embassy_time::{Duration, Instant, Ticker, with_timeout};
 use ipmc_core::{
-    block_humidity::BlockHumidity,
-    operating_point::reading_age_s,
-    startup::{Poll, Startup},
+    firmware::startup::{Poll, Startup},
+    humidity::block::BlockHumidity,
+    timing::reading_age_s,
 };
 
 use crate::board::{self, Humidity};
 
-use super::{
+use super::handoff::{self, DESIGN_OUTCOME, LATEST_READ_RH_PCT, RETUNE_REQUEST};
+use crate::contract::{
     config::{HUMIDITY_PERIOD_MS, RH_FALLBACK_PCT},
     flags,
-    handoff::{self, DESIGN_OUTCOME, LATEST_READ_RH_PCT, RETUNE_REQUEST},
-    ports::{HumidityError, HumiditySource},
+    sources::{HumidityError, HumiditySource},
 };
 
 /// A reading that takes longer than this counts as no response.

@@ -1,15 +1,15 @@
 //! Reporting: every block goes out as a stream frame; a defmt status line goes out about
 //! once a second. At the end of a replay, tells the board to finish.
 
-use ipmc_core::stream::{self, Header};
+use ipmc_core::wire::stream::{self, Header};
 
 use crate::board::{self, Stream};
 
-use super::{
+use super::handoff::{REPORT_QUEUE, ReportItem};
+use crate::contract::{
     config::{BLOCK_LEN, LOG_EVERY_BLOCKS},
     flags::REPORT_DROPPED,
-    handoff::{REPORT_QUEUE, ReportItem},
-    ports::StreamSink,
+    sources::StreamSink,
 };
 
 /// The wire format (documented in ipmc-core's `stream` module) carries at most 255 estimates.

@@ -1,12 +1,13 @@
 //! Filter retunes: designs the inverse for a requested RH in thread mode (lowest priority) and
 //! hands it to the sample path, which switches at its next block.
 
-use ipmc_core::startup::Designed;
+use ipmc_core::firmware::startup::Designed;
 
 use super::{
-    compensation, flags,
+    compensation,
     handoff::{self, DESIGN_OUTCOME, DESIGN_READY, RETUNE_REQUEST},
 };
+use crate::contract::flags;
 
 #[embassy_executor::task]
 pub async fn retune_task() {
@@ -31,7 +32,7 @@ pub async fn retune_task() {
             }
             Err(_) => {
                 // Keep the active design; the next humidity change asks again, and before the
-                // first design the start-up does (`ipmc_core::startup`).
+                // first design the start-up does (`ipmc_core::firmware::startup`).
                 handoff::set_condition(flags::DESIGN_FAILED, true);
                 DESIGN_OUTCOME.signal(Designed::Failed);
                 defmt::warn!("design failed for {} %RH, keeping the active filter", request.rh_pct);

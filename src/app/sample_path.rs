@@ -1,22 +1,23 @@
 //! The per-sample path: current block → compensation → report queue. Runs at the highest
 //! priority; after start-up it never waits for anything but the next block of samples. Each
-//! block also advances the strip's humidity by its own duration (`ipmc_core::block_humidity`)
+//! block also advances the strip's humidity by its own duration (`ipmc_core::humidity::block`)
 //! and asks for a design when that moved away from the active one. Its current also feeds the
-//! strip's own hygrometer (`ipmc_core::block_hygrometer`: a spectrum here, the fit in the fit
+//! strip's own hygrometer (`ipmc_core::humidity::hygrometer`: a spectrum here, the fit in the fit
 //! task); with a `fused` calibration the design follows the fused humidity instead of the
 //! reading's.
 
 use core::ptr::addr_of_mut;
 use ipmc_core::{
     Inverse,
-    block_humidity::{BlockHumidity, span_s},
-    block_hygrometer::BlockHygrometer,
-    expected_error::BlockError,
-    humidity_path::HumidityMode,
-    operating_point::{asks_for_design, reading_age_s},
-    startup::Request,
-    stream::{Header, Hygrometer},
-    stuck::StuckDetector,
+    calibration::humidity_path::HumidityMode,
+    firmware::operating_point::asks_for_design,
+    firmware::startup::Request,
+    firmware::stuck::StuckDetector,
+    humidity::block::{BlockHumidity, span_s},
+    humidity::hygrometer::BlockHygrometer,
+    inverse::expected_error::BlockError,
+    timing::reading_age_s,
+    wire::stream::{Header, Hygrometer},
 };
 use static_cell::StaticCell;
 
@@ -24,10 +25,12 @@ use crate::board::Samples;
 
 use super::{
     compensation::SamplePathFilter,
+    handoff::{self, DESIGN_READY, EstimateBlock, FIT_REQUEST, FIT_RESULT, LATEST_READ_RH_PCT, REPORT_QUEUE, RETUNE_REQUEST, ReportItem},
+};
+use crate::contract::{
     config::{BLOCK_LEN, SAMPLE_RATE_HZ},
     flags,
-    handoff::{self, DESIGN_READY, EstimateBlock, FIT_REQUEST, FIT_RESULT, LATEST_READ_RH_PCT, REPORT_QUEUE, RETUNE_REQUEST, ReportItem},
-    ports::{CurrentSource, SampleBlock},
+    sources::{CurrentSource, SampleBlock},
 };
 
 #[embassy_executor::task]
@@ -77,7 +80,7 @@ pub async fn sample_task(mut samples: Samples, path: &'static mut SamplePath) {
 /// poll, the two overflowed the stack (a lockup under QEMU on a loaded machine).
 pub struct SamplePath {
     filter: SamplePathFilter,
-    /// One second of identical samples is no live front end (see ipmc_core::stuck).
+    /// One second of identical samples is no live front end (see ipmc_core::firmware::stuck).
     stuck: StuckDetector<f32>,
     humidity: BlockHumidity<f32>,
     hygrometer: BlockHygrometer<f32>,

@@ -31,10 +31,10 @@ use static_cell::StaticCell;
 use {defmt_rtt as _, panic_probe as _};
 
 use super::Board;
-use crate::app::{
+use crate::contract::{
     config::{ADC_VREF_V, BLOCK_LEN, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
-    ports::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
+    sources::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
 #[cfg(not(feature = "humidity-hih4030"))]
 use embassy_stm32::i2c::I2c;
@@ -46,8 +46,8 @@ use embassy_stm32::peripherals::{DMA1_CH6, DMA1_CH7, I2C1};
 use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
 use embassy_time::{Duration, Instant, with_timeout};
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
-use ipmc_core::humidity::Hts221Calibration;
-use ipmc_core::operating_point::{sample_period_clocks, samples_lost};
+use ipmc_core::humidity::sensor::Hts221Calibration;
+use ipmc_core::timing::{sample_period_clocks, samples_lost};
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use ipmc_sensors::hts221;
 #[cfg(not(feature = "humidity-hih4030"))]
@@ -73,7 +73,7 @@ const STREAM_BAUD: u32 = 921_600;
 const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 /// Watchdog timeout from reset until sampling runs [s]: started before anything that can hang
 /// (the crystal's start, a panic or fault before sampling, a start-up that never gets its first
-/// design) and fed by the start-up path while it makes progress (`ipmc_core::startup`). Covers
+/// design) and fed by the start-up path while it makes progress (`ipmc_core::firmware::startup`). Covers
 /// the crystal's bounded start ([`LSE_TIMEOUT_MS`]) with room for the rest of the set-up.
 const STARTUP_WATCHDOG_S: u32 = 16;
 /// The IWDG counts LSI (32 kHz nominal) / 256 at its longest prescaler: 125 counts a second.
@@ -630,7 +630,7 @@ impl HumiditySource for Humidity {
         // longest sampling time keeps what is left of the error smallest. Blocking 8 µs once a
         // second costs the I/O executor nothing.
         let code = self.adc.blocking_read(&mut self.pin, SampleTime::CYCLES640_5);
-        crate::app::analog_humidity::rh_pct_from_code(code, self.vdda_v)
+        crate::contract::analog_humidity::rh_pct_from_code(code, self.vdda_v)
     }
 }
 

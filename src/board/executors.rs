@@ -6,19 +6,24 @@ use embassy_executor::{InterruptExecutor, SendSpawner};
 
 use super::pac::{Interrupt, interrupt};
 
+/// Runs the sample path.
+static SAMPLE_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
+/// Runs humidity polling and reporting.
+static IO_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
+
 const SAMPLE_IRQ: Interrupt = Interrupt::UART4;
 const IO_IRQ: Interrupt = Interrupt::UART5;
 
 #[interrupt]
 fn UART4() {
     // SAFETY: the executor was started before this interrupt was unmasked.
-    unsafe { crate::SAMPLE_EXECUTOR.on_interrupt() }
+    unsafe { SAMPLE_EXECUTOR.on_interrupt() }
 }
 
 #[interrupt]
 fn UART5() {
     // SAFETY: as above.
-    unsafe { crate::IO_EXECUTOR.on_interrupt() }
+    unsafe { IO_EXECUTOR.on_interrupt() }
 }
 
 /// NVIC priority byte (lower = more urgent; the STM32L4 implements the top four bits).
@@ -28,10 +33,10 @@ fn start(executor: &'static InterruptExecutor, irq: Interrupt, priority: u8) -> 
     executor.start(irq)
 }
 
-pub fn start_sample_executor(executor: &'static InterruptExecutor) -> SendSpawner {
-    start(executor, SAMPLE_IRQ, super::SAMPLE_PRIORITY)
+pub fn start_sample_executor() -> SendSpawner {
+    start(&SAMPLE_EXECUTOR, SAMPLE_IRQ, super::SAMPLE_PRIORITY)
 }
 
-pub fn start_io_executor(executor: &'static InterruptExecutor) -> SendSpawner {
-    start(executor, IO_IRQ, super::IO_PRIORITY)
+pub fn start_io_executor() -> SendSpawner {
+    start(&IO_EXECUTOR, IO_IRQ, super::IO_PRIORITY)
 }

@@ -2,7 +2,7 @@
 //!
 //! - `NAME`, `pac` (the register-access crate for its chip);
 //! - `init() -> Board` with concrete `Samples`, `Humidity` and `Stream` types implementing the
-//!   ports in `crate::app::ports`;
+//!   ports in `crate::contract::sources`;
 //! - `SAMPLE_PRIORITY` / `IO_PRIORITY`, the NVIC priorities of the two interrupt executors
 //!   (`executors`: interrupts and handlers, shared);
 //! - `feed_startup_watchdog()`: the start-up path's feed of the watchdog (a no-op where there is none);

@@ -10,7 +10,7 @@
 //! - defmt goes out over semihosting (decode with `defmt-print -e <ELF>`), a panic exits QEMU
 //!   with a failure status, and the end of the replay exits it with success.
 //!
-//! Replay file (written by `cargo xtask qemu`; layout in `ipmc_core::replay`): samples of
+//! Replay file (written by `cargo xtask qemu`; layout in `ipmc_core::wire::replay`): samples of
 //! current and RH, and the waits between a recording's bursts. A wait is not replayed in time:
 //! the board lets the humidity task read the next burst's humidity, then reports the wait's
 //! samples as lost, so the strip's hydration moves on through it as it would on the bench.
@@ -19,7 +19,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m_rt::exception;
 use embassy_time::{Duration, Instant, Ticker, Timer};
-use ipmc_core::replay::{self, BYTES_PER_GAP, BYTES_PER_SAMPLE, Gap};
+use ipmc_core::wire::replay::{self, BYTES_PER_GAP, BYTES_PER_SAMPLE, Gap};
 use semihosting::{fs::File, io::Read};
 use systick_timer::SystickDriver;
 
@@ -27,11 +27,11 @@ use defmt_semihosting as _;
 pub use stm32_metapac as pac;
 
 use super::Board;
-use crate::app::{
+use crate::contract::{
+    atomic_f32::AtomicF32,
     config::{BLOCK_LEN, HUMIDITY_PERIOD_MS, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
-    handoff::AtomicF32,
-    ports::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
+    sources::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
 
 pub const NAME: &str = "qemu b-l475e-iot01a (replay)";

@@ -109,7 +109,7 @@ pub fn command(json: bool) -> Result<()> {
         get("instructions_per_retune_75")?
     );
     println!(
-        "error bar of a block (ipmc_core::expected_error: table at the design's RH, in-band power of {} estimates): {:.0} instructions, {:.1} per sample; none at a retune",
+        "error bar of a block (ipmc_core::inverse::expected_error: table at the design's RH, in-band power of {} estimates): {:.0} instructions, {:.1} per sample; none at a retune",
         get("block_len")?,
         get("instructions_per_block_error")?,
         get("instructions_per_block_error")? / get("block_len")?

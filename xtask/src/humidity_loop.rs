@@ -5,7 +5,7 @@
 //! same series through the firmware under QEMU built with the written calibration.
 
 use anyhow::{anyhow, bail};
-use ipmc_core::operating_point::RETUNE_THRESHOLD_PCT;
+use ipmc_core::firmware::operating_point::RETUNE_THRESHOLD_PCT;
 use std::{ffi::OsStr, fs, path::Path};
 
 use crate::{Result, ipmc, qemu, repo_root};

@@ -513,7 +513,9 @@ pub fn check(c: &Crate) -> Findings {
         .map(|members| {
             let inside: Vec<String> =
                 imports.iter().filter(|i| members.contains(&i.from) && members.contains(&i.to)).map(describe).collect();
-            (members.iter().map(|&f| c.files[f].clone()).collect(), inside)
+            let mut files: Vec<PathBuf> = members.iter().map(|&f| c.files[f].clone()).collect();
+            files.sort();
+            (files, inside)
         })
         .collect();
     // Rooms: under each module, the child each file belongs to.
@@ -609,3 +611,80 @@ pub fn command(list: &[String]) -> Result<()> {
     if found > 0 { Err(anyhow!("{found} import circles")) } else { Ok(()) }
 }
 
+#[cfg(test)]
+mod tests {
+    use super::{Crate, check};
+    use std::path::Path;
+
+    /// A crate written into a temporary directory: (path under src/, text).
+    fn crate_of(name: &str, files: &[(&str, &str)]) -> Crate {
+        let dir = std::env::temp_dir().join(format!("xtask-imports-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        for (path, text) in files {
+            let p = dir.join("src").join(path);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(p, text).unwrap();
+        }
+        let c = Crate::read(&dir, "lib.rs").unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        c
+    }
+
+    #[test]
+    fn two_files_that_import_each_other_are_a_circle() {
+        let c = crate_of(
+            "pair",
+            &[
+                ("lib.rs", "mod a;\nmod b;\n"),
+                ("a.rs", "pub struct A;\npub fn f() -> crate::b::B { crate::b::B }\n"),
+                ("b.rs", "use crate::a::A;\npub struct B;\nfn g(_: A) {}\n"),
+            ],
+        );
+        let f = check(&c);
+        assert_eq!(f.file_circles.len(), 1);
+        assert_eq!(f.file_circles[0].0, [Path::new("src/a.rs"), Path::new("src/b.rs")]);
+        assert_eq!(f.room_circles.len(), 1, "two files at the top are two rooms of the crate");
+    }
+
+    #[test]
+    fn a_front_door_re_export_and_a_test_are_no_import() {
+        let c = crate_of(
+            "door",
+            &[
+                ("lib.rs", "pub mod room;\npub mod top;\npub use room::Low;\n"),
+                ("room/mod.rs", "pub mod low;\npub mod high;\npub use low::Low;\n"),
+                ("room/low.rs", "pub struct Low;\n#[cfg(test)]\nmod tests { use crate::top::Top; }\n"),
+                ("room/high.rs", "use crate::Low;\npub fn h(_: Low) {}\n"),
+                ("top.rs", "use super::room::{high, Low};\npub struct Top(Low);\n"),
+            ],
+        );
+        let f = check(&c);
+        assert!(f.file_circles.is_empty() && f.room_circles.is_empty(), "{:?} {:?}", f.file_circles, f.room_circles);
+        let edges: Vec<(String, String)> =
+            c.imports().iter().map(|i| (c.files[i.from].display().to_string(), c.files[i.to].display().to_string())).collect();
+        // `crate::Low` is followed through both front doors to the file that defines it.
+        assert!(edges.contains(&("src/room/high.rs".into(), "src/room/low.rs".into())), "{edges:?}");
+        assert!(!edges.iter().any(|(_, to)| to.ends_with("lib.rs") || to.ends_with("mod.rs")), "{edges:?}");
+    }
+
+    #[test]
+    fn rooms_that_import_each_other_through_different_files_are_a_circle() {
+        // No two files import each other, but the rooms do: down and back up.
+        let c = crate_of(
+            "rooms",
+            &[
+                ("lib.rs", "mod model;\nmod chain;\n"),
+                ("model/mod.rs", "pub mod params;\npub mod exact;\n"),
+                ("model/params.rs", "pub struct P;\n"),
+                ("model/exact.rs", "use crate::chain::fusion::F;\npub fn e(_: F) {}\n"),
+                ("chain/mod.rs", "pub mod fusion;\npub mod path;\n"),
+                ("chain/fusion.rs", "pub struct F;\n"),
+                ("chain/path.rs", "use crate::model::params::P;\npub fn p(_: P) {}\n"),
+            ],
+        );
+        let f = check(&c);
+        assert!(f.file_circles.is_empty());
+        assert_eq!(f.room_circles.len(), 1);
+        assert_eq!(f.room_circles[0].1, ["chain", "model"]);
+    }
+}

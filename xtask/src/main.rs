@@ -2,7 +2,7 @@
 //!
 //! Leaves: `exec` (cargo, run, ipmc), `install` (what a bare machine lacks), `firmware` (the
 //! variants and their builds), `replay`/`stream`/`recording` (the formats). Above them the
-//! commands (`qemu`, `bench`, `humidity_loop`, `size`, `flash`) and the test steps
+//! commands (`qemu`, `bench`, `humidity_loop`, `size`, `flash`, `imports`: `import_graph`) and the test steps
 //! (`qemu_scenarios`, `tool_checks`, `coverage`), listed by `test_all`.
 
 mod bench;

@@ -19,7 +19,7 @@ use crate::{
 };
 
 /// The firmware's sample rate (the core's operating point).
-pub use ipmc_core::operating_point::SAMPLE_RATE_HZ as FIRMWARE_FS_HZ;
+pub use ipmc_core::timing::SAMPLE_RATE_HZ as FIRMWARE_FS_HZ;
 
 /// What came back from one QEMU run.
 pub struct Replayed {
@@ -38,7 +38,7 @@ impl Replayed {
 }
 
 /// Flag bits of the stream (defined with the wire format).
-pub use ipmc_core::stream::flags;
+pub use ipmc_core::wire::stream::flags;
 
 /// Runs `elf` in QEMU on `replay` inside `work` (created), and decodes what comes back.
 pub fn run_replay(elf: &Path, replay: &Replay, work: &Path) -> Result<Replayed> {
@@ -148,7 +148,7 @@ pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathB
 fn long_enough_to_score(input: &Path, work: &Path) -> Result<PathBuf> {
     let rec = recording::time_series(input)?;
     let shortest = rec.bursts().iter().map(|b| b.len()).min().unwrap_or(0) as f64 / rec.fs_hz;
-    let needed = ipmc_core::operating_point::SETTLE_S + 1.0;
+    let needed = ipmc_core::firmware::operating_point::SETTLE_S + 1.0;
     if rec.base_m.is_none() || shortest >= needed {
         return Ok(input.to_path_buf());
     }
@@ -232,8 +232,8 @@ fn report_accuracy(input: &Path, est_csv: &Path, calib: Option<&Path>) -> Result
          firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}",
         band.low_hz,
         band.high_hz,
-        ipmc_core::operating_point::delay_samples(&band),
-        ipmc_core::operating_point::SETTLE_S
+        ipmc_core::firmware::operating_point::delay_samples(&band),
+        ipmc_core::firmware::operating_point::SETTLE_S
     );
     plot(input, est_csv, &fixed_out)
 }
@@ -277,7 +277,7 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
     };
     est.metadata.set("fs_hz", FIRMWARE_FS_HZ);
     // What `ipmc score` and `ipmc plot compensated` align and score by, as for the host's file.
-    est.metadata.set("delay_samples", ipmc_core::operating_point::delay_samples(band));
+    est.metadata.set("delay_samples", ipmc_core::firmware::operating_point::delay_samples(band));
     est.metadata.set("band_hz", format!("{}-{}", band.low_hz, band.high_hz));
     for b in blocks {
         for (k, &v) in b.base_est_m.iter().enumerate() {

@@ -307,7 +307,7 @@ const EQUIVALENCE_TOL: f64 = 1e-6;
 /// (so it retunes several times at moments its own tasks choose), then the host's f32 chain on
 /// the same input replaying the firmware's retune schedule (`ipmc compensate --schedule`). The
 /// tool is built with num-traits' `std` feature (tool/Cargo.toml), so this also fails if the
-/// core's f32 math stops going through libm (core/src/real.rs).
+/// core's f32 math stops going through libm (core/src/numeric/real.rs).
 pub fn qemu_host_equivalence() -> Result<()> {
     host_equivalence_on_ramp("equivalence", 10, 40, 50, &Variant::Qemu.elf(), None).map(|_| ())
 }
@@ -315,7 +315,7 @@ pub fn qemu_host_equivalence() -> Result<()> {
 /// The humidity path's test calibration: the default preset with a sensor correction and a
 /// hydration lag short enough to act within the ramp (wetting faster than drying).
 fn calibration_with_humidity_path() -> ipmc_core::Calibration {
-    use ipmc_core::humidity_path::{HumidityPath, SensorKind};
+    use ipmc_core::calibration::humidity_path::{HumidityPath, SensorKind};
     let humidity = HumidityPath {
         sensor: Some(SensorKind::Hts221),
         offset_pct: 2.0,
@@ -359,7 +359,7 @@ pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
 /// rerun never asked for), and the estimates must agree as without it. At least one fit must
 /// have given an estimate, or the fused path was never exercised.
 pub fn qemu_host_equivalence_fused() -> Result<()> {
-    use ipmc_core::humidity_path::HumidityMode;
+    use ipmc_core::calibration::humidity_path::HumidityMode;
     let work = repo_root().join("target/qemu-test/fused");
     std::fs::create_dir_all(&work)?;
     let mut c = calibration_with_humidity_path();
@@ -403,11 +403,11 @@ pub fn qemu_host_equivalence_fused() -> Result<()> {
 /// over the range, ln departures of a few percent that change sign from point to point.
 fn calibration_with_departures() -> Result<ipmc_core::Calibration> {
     let mut c = ipmc_core::Calibration::default_preset();
-    let n = ipmc_core::departures::MAX_DEPARTURE_POINTS;
+    let n = ipmc_core::calibration::departures::MAX_DEPARTURE_POINTS;
     let grid: Vec<f64> = (0..n).map(|i| c.rh_min + (c.rh_max - c.rh_min) * i as f64 / (n - 1) as f64).collect();
     let col = |k: usize| -> Vec<f64> { (0..n).map(|i| 0.03 * ((i * (k + 3) % 7) as f64 / 3.0 - 1.0)).collect() };
     let (y, cs, ca, d) = (col(0), col(1), col(2), col(3));
-    c.departures = ipmc_core::departures::Departures::new(&grid, [&y, &cs, &ca, &d]).map_err(|e| anyhow!("{e}"))?;
+    c.departures = ipmc_core::calibration::departures::Departures::new(&grid, [&y, &cs, &ca, &d]).map_err(|e| anyhow!("{e}"))?;
     Ok(c)
 }
 

@@ -1,12 +1,12 @@
 //! The replay xtask writes for the QEMU board layer, through the core's codec
-//! (`ipmc_core::replay`, which the firmware decodes with), and the way back from the firmware's
+//! (`ipmc_core::wire::replay`, which the firmware decodes with), and the way back from the firmware's
 //! sample numbers to the recording's rows.
 
-use ipmc_core::replay::{BYTES_PER_GAP, BYTES_PER_SAMPLE, HEADER_LEN, Header};
-pub use ipmc_core::replay::{FILE_NAME, Gap, Sample};
+use ipmc_core::wire::replay::{BYTES_PER_GAP, BYTES_PER_SAMPLE, HEADER_LEN, Header};
+pub use ipmc_core::wire::replay::{FILE_NAME, Gap, Sample};
 use ipmc_recording::TimeSeries;
 
-use ipmc_core::operating_point::BLOCK_LEN;
+use ipmc_core::timing::BLOCK_LEN;
 
 /// What QEMU replays: samples, and the waits between them where the board did not sample.
 #[derive(Default)]

@@ -935,6 +935,6 @@ mod tests {
     #[test]
     fn short_names_drop_the_hash_and_decode_escapes() {
         assert_eq!(short("_$LT$$RF$T$u20$as$u20$core..fmt..Display$GT$::fmt::h650b9dd4f442b2b6"), "<&T as core::fmt::Display>::fmt");
-        assert_eq!(short("ipmc_core::strip_humidity::strip_rh::h0123456789abcdef"), "ipmc_core::strip_humidity::strip_rh");
+        assert_eq!(short("ipmc_core::humidity::strip::strip_rh::h0123456789abcdef"), "ipmc_core::humidity::strip::strip_rh");
     }
 }

@@ -2,7 +2,7 @@
 //! the firmware encodes with) into owned blocks for scoring and CSV output.
 
 use anyhow::bail;
-use ipmc_core::stream::{Deframer, Header, MAX_FRAME_LEN};
+use ipmc_core::wire::stream::{Deframer, Header, MAX_FRAME_LEN};
 
 use crate::Result;
 
@@ -30,10 +30,10 @@ pub fn decode_all(bytes: &[u8]) -> Result<Vec<Block>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipmc_core::stream::{Header, encode, max_frame_len};
+    use ipmc_core::wire::stream::{Header, encode, max_frame_len};
 
     /// Finite throughout: a header compares with `==`.
-    const HYGROMETER: ipmc_core::stream::Hygrometer = ipmc_core::stream::Hygrometer {
+    const HYGROMETER: ipmc_core::wire::stream::Hygrometer = ipmc_core::wire::stream::Hygrometer {
         read_sd_pct: 1.5,
         own_pct: 45.25,
         own_sd_pct: 0.5,

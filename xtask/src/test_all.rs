@@ -116,6 +116,7 @@ pub fn command(filter: &[String]) -> Result<()> {
     let steps: &[Step] = &[
         ("format: cargo fmt --check", format_check),
         ("lint: cargo clippy -D warnings (host crates, every firmware variant)", lint),
+        ("imports: no circle between the files, or the rooms of a folder, of any crate", || crate::import_graph::command(&[])),
         ("fresh machine: the thumb target installs on use", thumb_target_installs_on_use),
         // `toml`: the calibration file reader and its fuzz test.
         ("core tests", || cargo_test_with("core/Cargo.toml", &["--features", "toml"])),

@@ -12,7 +12,7 @@ use crate::held_out::{HeldOut, REFIT_NULL_IS};
 use crate::mains_between_lines::{MainsEvidence, between_line_mains};
 use crate::types::{Estimate, HeldOutModel, Space};
 use anyhow::Result;
-use ipmc_core::extension::Extension;
+use ipmc_core::model::extension::Extension;
 use ipmc_fit::multisine::Burst;
 
 /// How much worse than their neighbours in frequency the values at the mains lines must fit

@@ -10,7 +10,7 @@ use crate::fits;
 use crate::held_out::{HeldOut, REFIT_NULL_IS};
 use crate::types::{HeldOutModel, Space};
 use anyhow::Result;
-use ipmc_core::extension::Extension;
+use ipmc_core::model::extension::Extension;
 use ipmc_fit::lsq::{self, Param, Tolerance};
 
 pub(super) struct ModelScorer(pub ExtFn);

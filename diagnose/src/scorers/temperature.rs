@@ -11,7 +11,7 @@ use crate::laws;
 use crate::remap::{anchored, anchored_nll, with_drift};
 use crate::types::{HeldOutModel, Space};
 use anyhow::Result;
-use ipmc_core::thermal::Thermal;
+use ipmc_core::model::thermal::Thermal;
 use ipmc_fit::lsq::{self, Bound, Param};
 
 pub(super) struct TemperatureScorer;

@@ -1,0 +1,390 @@
+//! The strip as its own hygrometer, block by block: the current's running spectrum advanced by
+//! each block, a snapshot of it handed to the fit at most once a second, and the fit's result
+//! fused with the reading path ([`super::fusion`]) at every block.
+//!
+//! The fit is slow next to a block: on the device it runs in a task of its own and its result
+//! comes back some blocks after its snapshot; on the host it may come back at once. Either way the
+//! same calls in the same order ([`BlockHygrometer::complete`] when a result arrives, then
+//! [`BlockHygrometer::push`]) give the same numbers, so the host can replay the device's
+//! completion points bit for bit, as it replays its retunes.
+
+use crate::calibration::humidity_path::{SensorKind, relax};
+use crate::calibration::laws::Calibration;
+use crate::humidity::fusion::{Estimate, SensorBias, lag_var, reading_sd};
+use crate::humidity::spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
+use crate::humidity::strip::{Refusal, StripRh};
+use crate::numeric::real::Real;
+use crate::wire::stream::Hygrometer;
+
+/// Fits at most this often [s].
+pub const FIT_PERIOD_S: f64 = 1.0;
+
+/// The current's noise density the fit leaves weak bins out by [A²/Hz], from the calibration's
+/// `[uncertainty]`.
+pub fn noise_psd<T: Real>(calib: &Calibration) -> T {
+    let d = T::lit(calib.uncertainty.current_noise_a_per_rthz);
+    d * d
+}
+
+/// What the fit is given: the spectrum as it was when the snapshot was taken.
+#[derive(Clone, Copy, Debug)]
+pub struct Snapshot<T> {
+    first_hz: T,
+    df_hz: T,
+    bins: usize,
+    psd: [T; MAX_BINS],
+    segments: T,
+}
+
+impl<T: Real> Snapshot<T> {
+    pub fn view(&self) -> SpectrumView<'_, T> {
+        SpectrumView { first_hz: self.first_hz, df_hz: self.df_hz, psd: &self.psd[..self.bins], segments: self.segments }
+    }
+}
+
+/// One block's humidities, each with its 1σ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Humidities<T> {
+    /// The reading through the humidity path.
+    pub reading: Estimate<T>,
+    /// The strip's own estimate from its last fit (None before the first result).
+    pub strip: Option<Result<StripRh<T>, Refusal>>,
+    /// The reading path corrected by the bias the strip's estimates show in it: what a `fused`
+    /// calibration designs at.
+    pub fused: Estimate<T>,
+}
+
+impl Humidities<f32> {
+    /// As the stream carries them.
+    pub fn to_wire(&self) -> Hygrometer {
+        let (own_pct, own_sd_pct, own_refusal) = match self.strip {
+            Some(Ok(e)) => (e.rh_pct, e.sd_pct, 0),
+            Some(Err(r)) => (f32::NAN, f32::NAN, r.code()),
+            None => (f32::NAN, f32::NAN, Hygrometer::NO_FIT_YET),
+        };
+        Hygrometer {
+            read_sd_pct: self.reading.sd_pct,
+            own_pct,
+            own_sd_pct,
+            own_refusal,
+            fused_pct: self.fused.rh_pct,
+            fused_sd_pct: self.fused.sd_pct,
+        }
+    }
+}
+
+/// The strip's hydration lags the fusion weighs when the calibration's humidity path has none
+/// [s]. The strip's humidity follows the air through its water uptake, the reading follows it
+/// at once: while the air moves, reading − strip is the sensor's bias plus the rate times the
+/// lag, and a bias learned without the lag follows the last ramp. A thin strip in air takes
+/// tens of seconds to minutes (a Nafion film's uptake; issue 27's bench lags 1–2.5 min); equal
+/// weights on a doubling grid are a log-uniform prior over 7–230 s, and the fits' agreement with
+/// each decides among them as far as the data can.
+pub const HYDRATION_LAGS_S: [f64; 5] = [10.0, 20.0, 40.0, 80.0, 160.0];
+const LAGS: usize = HYDRATION_LAGS_S.len();
+
+/// One hydration lag the strip may have: the reading path through it, that averaged as the
+/// spectrum is, and the path's bias the strip's fits show at it.
+#[derive(Clone, Copy, Debug)]
+struct Lag<T> {
+    tau_s: T,
+    /// At the last snapshot.
+    lagged: Option<T>,
+    trend: Option<T>,
+    bias: SensorBias<T>,
+    /// From the last fit: the bias taken off and its variance, and the lag's probability.
+    correction: T,
+    var: T,
+    probability: T,
+}
+
+impl<T: Real> Lag<T> {
+    /// The snapshot `dt_s` after the last: the path through the lag, and that averaged as the
+    /// spectrum is.
+    #[inline(never)]
+    fn advance(&mut self, path: T, dt_s: T) {
+        let lagged = self.lagged_after(path, dt_s);
+        self.lagged = Some(lagged);
+        self.trend = Some(averaged(self.trend, lagged, dt_s));
+    }
+
+    fn new(tau_s: f64) -> Self {
+        let z = T::zero();
+        Lag { tau_s: T::lit(tau_s), lagged: None, trend: None, bias: SensorBias::new(), correction: z, var: z, probability: z }
+    }
+
+    /// The path through this lag `dt_s` after the last snapshot: the strip's hydration as the
+    /// humidity path runs it, the path held over the interval. Not inlined, as
+    /// [`SensorBias::observe`].
+    #[inline(never)]
+    fn lagged_after(&self, path: T, dt_s: T) -> T {
+        match self.lagged {
+            Some(l) => relax(l, path, dt_s, self.tau_s, self.tau_s),
+            None => path,
+        }
+    }
+}
+
+/// An average of `x` over the spectrum's [`AVERAGING_S`], `dt_s` after `prev` (None: it starts
+/// at `x`). Backward Euler: on a ramp of rate r it trails `x` by exactly r·τ.
+fn averaged<T: Real>(prev: Option<T>, x: T, dt_s: T) -> T {
+    match prev {
+        Some(a) => a + dt_s / (dt_s + T::lit(AVERAGING_S)) * (x - a),
+        None => x,
+    }
+}
+
+pub struct BlockHygrometer<T> {
+    spectrum: RunningSpectrum<T>,
+    fs_hz: T,
+    period: u32,
+    since_snapshot: u32,
+    pending: bool,
+    /// The reading path smoothed over [`AVERAGING_S`] (at the snapshots), and the rate it moves
+    /// at. A difference of two readings a second apart is mostly the sensor's noise (0.1 %RH in
+    /// a second is 2 %RH over the spectrum's 20 s); over the window the estimate averages, the
+    /// noise is a twentieth.
+    path_trend: Option<T>,
+    rate: T,
+    /// Samples pushed, the count at the last snapshot and at the snapshot of the last fit the
+    /// bias used: how much current each fit saw that the last one used did not, whenever the
+    /// results come back.
+    clock: u64,
+    snapshot_at: u64,
+    used_at: Option<u64>,
+    /// The hydration lags weighed: the calibration's own (none beyond its path) when it gives
+    /// one, else [`HYDRATION_LAGS_S`].
+    lags: [Lag<T>; LAGS],
+    n_lags: usize,
+    strip: Option<Result<StripRh<T>, Refusal>>,
+    accuracy_pct: T,
+    lag_s: T,
+}
+
+impl<T: Real> BlockHygrometer<T> {
+    /// For samples at `fs_hz` (a whole number of hertz on the device); the reading's accuracy and
+    /// lag from the calibration's `[humidity]` (its sensor, else the board's HTS221).
+    pub fn new(calib: &Calibration, fs_hz: f64) -> Self {
+        let kind = calib.humidity.sensor.unwrap_or(SensorKind::Hts221);
+        let (lags, n_lags) = if calib.humidity.has_lag() { ([Lag::new(0.0); LAGS], 1) } else { (HYDRATION_LAGS_S.map(Lag::new), LAGS) };
+        BlockHygrometer {
+            spectrum: RunningSpectrum::new(fs_hz, &calib.band),
+            fs_hz: T::lit(fs_hz),
+            period: libm::ceil(FIT_PERIOD_S * fs_hz) as u32,
+            since_snapshot: 0,
+            pending: false,
+            path_trend: None,
+            rate: T::zero(),
+            clock: 0,
+            snapshot_at: 0,
+            used_at: None,
+            lags,
+            n_lags,
+            strip: None,
+            accuracy_pct: T::lit(calib.humidity.uncertainty_pct_for(kind)),
+            lag_s: T::lit(calib.humidity.sensor_lag_s_for(kind)),
+        }
+    }
+
+    /// A fit's result for the last snapshot: the path's bias at each lag, and the lags'
+    /// probabilities from how well the fits agree with each (their statistical scatter about
+    /// the bias; the calibration's part is common to all and decides nothing).
+    pub fn complete(&mut self, result: Result<StripRh<T>, Refusal>) {
+        if let Ok(s) = &result {
+            self.learn(s);
+        }
+        self.strip = Some(result);
+        self.pending = false;
+    }
+
+    /// [`Self::complete`] with a fit. Not inlined, as [`SensorBias::observe`].
+    #[inline(never)]
+    fn learn(&mut self, s: &StripRh<T>) {
+        let new_data = T::lit((self.snapshot_at - self.used_at.unwrap_or(0)) as f64) / self.fs_hz;
+        let window = T::lit(2.0 * AVERAGING_S);
+        let mut used = false;
+        for l in self.lags[..self.n_lags].iter_mut() {
+            if let Some(trend) = l.trend {
+                used |= l.bias.observe(trend, s, new_data, window, self.accuracy_pct);
+            }
+        }
+        if used {
+            self.used_at = Some(self.snapshot_at);
+            let lags = &mut self.lags[..self.n_lags];
+            let mut best = T::infinity();
+            for l in lags.iter_mut() {
+                let (c, v) = l.bias.correction(self.accuracy_pct);
+                (l.correction, l.var, l.probability) = (c, v, l.bias.scatter_chi2());
+                best = best.min(l.probability);
+            }
+            let mut total = T::zero();
+            for l in lags.iter_mut() {
+                l.probability = (-(l.probability - best) / T::lit(2.0)).exp();
+                total += l.probability;
+            }
+            for l in lags.iter_mut() {
+                l.probability /= total;
+            }
+        }
+    }
+
+    /// One block of current [A] and the reading path after it (None before the first reading);
+    /// a snapshot when a fit is due: a second of samples since the last one, and no fit
+    /// outstanding.
+    pub fn push(&mut self, current: &[T], path_pct: Option<T>) -> Option<Snapshot<T>> {
+        // A sample that is no measurement would stay in the average for good: its block is left
+        // out of the spectrum (its time still counts).
+        if current.iter().all(|v| v.is_finite()) {
+            self.spectrum.push(current);
+        }
+        self.since_snapshot = self.since_snapshot.saturating_add(current.len() as u32);
+        self.clock += current.len() as u64;
+        if self.pending || self.since_snapshot < self.period {
+            return None;
+        }
+        if let Some(path) = path_pct {
+            let dt = T::lit(self.since_snapshot as f64) / self.fs_hz;
+            self.track(path, dt);
+            for l in self.lags[..self.n_lags].iter_mut() {
+                l.advance(path, dt);
+            }
+        }
+        self.snapshot_at = self.clock;
+        self.since_snapshot = 0;
+        self.pending = true;
+        let v = self.spectrum.view();
+        let mut psd = [T::zero(); MAX_BINS];
+        psd[..v.psd.len()].copy_from_slice(v.psd);
+        Some(Snapshot { first_hz: v.first_hz, df_hz: v.df_hz, bins: v.psd.len(), psd, segments: v.segments })
+    }
+
+    /// The path's average over the spectrum's time, and from how far it trails the path (r·τ on
+    /// a ramp) the rate the path moves at.
+    fn track(&mut self, path: T, dt_s: T) {
+        let trend = averaged(self.path_trend, path, dt_s);
+        self.path_trend = Some(trend);
+        self.rate = (path - trend) / T::lit(AVERAGING_S);
+    }
+
+    /// The block's humidities with the reading path `path_pct`. The strip's estimate stands for
+    /// the spectrum's average, about [`AVERAGING_S`] old, so it is compared with the path
+    /// averaged alike, and what it corrects is the path's bias: the fused value follows the
+    /// strip as the path through its lag does, without the spectrum's age. Over the lags, the
+    /// mixture of their values.
+    pub fn humidities(&self, path_pct: T) -> Humidities<T> {
+        let reading = Estimate { rh_pct: path_pct, sd_pct: reading_sd(self.accuracy_pct, self.lag_s, self.rate) };
+        let fused = if self.used_at.is_some() { self.fused(reading) } else { reading };
+        Humidities { reading, strip: self.strip, fused }
+    }
+
+    /// The mixture over the lags of the reading path through each less its bias. Not inlined,
+    /// as [`SensorBias::observe`].
+    #[inline(never)]
+    fn fused(&self, reading: Estimate<T>) -> Estimate<T> {
+        let dt = T::lit((self.clock - self.snapshot_at) as f64) / self.fs_hz;
+        let lags = &self.lags[..self.n_lags];
+        let value = |l: &Lag<T>| l.lagged_after(reading.rh_pct, dt) - l.correction;
+        let mean = lags.iter().fold(T::zero(), |a, l| a + l.probability * value(l));
+        let var = lags.iter().fold(T::zero(), |a, l| {
+            let d = value(l) - mean;
+            a + l.probability * (l.var + d * d)
+        });
+        Estimate { rh_pct: mean, sd_pct: (var + lag_var(reading, self.accuracy_pct)).sqrt() }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::humidity::strip::StripRh;
+    use std::vec;
+
+    #[test]
+    fn snapshots_once_a_second_and_never_while_a_fit_is_out() {
+        let c = Calibration::default_preset();
+        let mut h = BlockHygrometer::<f32>::new(&c, 2000.0);
+        let block = [1e-7f32; 32];
+        let mut at = vec![];
+        for k in 0..200 {
+            if h.push(&block, Some(60.0)).is_some() {
+                at.push(k);
+            }
+            // The fit takes 10 blocks.
+            if at.last().is_some_and(|&s| k == s + 10) {
+                h.complete(Err(Refusal::Warming));
+            }
+        }
+        // 2000 samples are 62.5 blocks: the 63rd block completes the second.
+        assert_eq!(at, vec![62, 125, 188]);
+    }
+
+    #[test]
+    fn the_rate_is_the_paths_trend_not_its_noise() {
+        let c = Calibration::default_preset();
+        let block = [1e-7f64; 32];
+        let rate_after = |path: &dyn Fn(f64) -> f64| {
+            let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+            let mut t = 0.0;
+            for _ in 0..200 * 63 {
+                t += 32.0 / 2000.0;
+                if h.push(&block, Some(path(t))).is_some() {
+                    h.complete(Err(Refusal::Warming));
+                }
+            }
+            h.rate
+        };
+        // A reading that alternates by ±0.1 %RH from second to second: a one-second difference
+        // would say 0.2 %RH/s.
+        let noisy = rate_after(&|t: f64| 60.0 + if (t as u64).is_multiple_of(2) { 0.1 } else { -0.1 });
+        assert!(noisy.abs() < 0.012, "{noisy}");
+        let ramp = rate_after(&|t: f64| 60.0 + 0.02 * t);
+        assert!((ramp - 0.02).abs() < 1e-4, "{ramp}");
+    }
+
+    /// The air ramping at 0.03 %RH/s, the strip behind it by a 40 s hydration lag, the reading
+    /// 1 %RH high; the fits the strip's humidity averaged as the spectrum is. The fused value at
+    /// the end, less the strip's humidity; with the lags weighed, or with none.
+    fn after_a_ramp(weigh_lags: bool) -> f64 {
+        let c = Calibration::default_preset();
+        let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+        if !weigh_lags {
+            h.lags = [Lag::new(0.0); LAGS];
+            h.n_lags = 1;
+        }
+        let (dt, mut strip, mut seen) = (32.0 / 2000.0, 78.0, 78.0);
+        let mut path = 79.0;
+        for k in 0..120 * 2000 / 32 {
+            let air = 78.0 + 0.03 * (k as f64 * dt - 30.0).max(0.0);
+            strip += dt / 40.0 * (air - strip);
+            seen += dt / AVERAGING_S * (strip - seen);
+            path = air + 1.0;
+            if h.push(&[1e-7; 32], Some(path)).is_some() {
+                h.complete(Ok(StripRh { rh_pct: seen, sd_stat_pct: 0.3, sd_cal_pct: 0.2, sd_pct: 0.36, misfit: 1.0, bins_used: 140 }));
+            }
+        }
+        h.humidities(path).fused.rh_pct - strip
+    }
+
+    #[test]
+    fn follows_the_strip_through_its_hydration_lag() {
+        let weighed = after_a_ramp(true);
+        assert!(weighed.abs() < 0.2, "{weighed}");
+        let unlagged = after_a_ramp(false);
+        assert!(unlagged.abs() > 0.3, "a bias without the lag follows the ramp: {unlagged}");
+    }
+
+    #[test]
+    fn fuses_the_last_estimate_with_the_reading() {
+        let c = Calibration::default_preset();
+        let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+        let r = h.humidities(70.0);
+        assert_eq!(r.fused, r.reading);
+        while h.push(&[1e-7; 32], Some(70.0)).is_none() {}
+        let e = StripRh { rh_pct: 68.0, sd_stat_pct: 0.1, sd_cal_pct: 0.1, sd_pct: 0.14, misfit: 1.0, bins_used: 140 };
+        h.complete(Ok(e));
+        let f = h.humidities(70.0).fused;
+        assert!((f.rh_pct - 68.0).abs() < 0.1 && f.sd_pct < r.reading.sd_pct, "{f:?}");
+        h.complete(Err(Refusal::Misfit));
+        assert_eq!(h.humidities(70.0).fused, f, "a refusal keeps the sensor's bias as learned");
+    }
+}

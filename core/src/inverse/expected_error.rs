@@ -1,0 +1,431 @@
+//! The expected relative error of the estimate in the band, for the design at a humidity: the
+//! 1σ a stream frame and an estimate file carry beside every block.
+//!
+//! Propagation through the exact model. The strip is H = H₀·r (H₀ the nominal strip at the
+//! design's humidity), r spread by independent, zero-mean causes of standard deviation σₖ: the
+//! humidity reading's error (σ from the `[humidity]` table or the sensor's datasheet) and each
+//! parameter's scatter about its law (in ln p, σ from the `[uncertainty]` table). With
+//! y = H₀·G·e^{jωτ} the relative error at f has the mean square E|r·y − 1|² =
+//! E|r|²·|y|² − 2 Re(E[r]·y) + 1, and over the band (a signal spread evenly over it)
+//!
+//!   v(RH) = mean_f E|r(f)·y(f) − 1|².
+//!
+//! E[r] and E|r|² come from [`response_moments`](crate::calibration::moments::response_moments), exact to second order. To first order
+//! (r = 1 + Σₖ sₖδₖ, sₖ = ∂ln H/∂θₖ) this is mean_f |y − 1|² + Σₖ σₖ²·mean_f |sₖ|², the design's
+//! own error plus the causes' (what it was before the robust design needed the second order:
+//! near a resonance the curvature of H puts a bias into E[r] of the size of the gain sought).
+//!
+//! The front end's noise (density S) adds N² = ∫_band S/|H₀|² df of displacement, which relative
+//! to a signal of mean square P is N²/P: √N² is the noise-equivalent base motion in the band
+//! ([`ErrorTable::noise_equivalent_m`]), the part of the error no calibration removes, stated
+//! apart from the calibration's ([`BlockError::parts`]). N² is integrated by Simpson's rule on
+//! [`NOISE_POINTS`] frequencies: 1/|H₀|² falls as f⁻⁴ at the band's lower edge, where a coarse
+//! trapezoid overstates it by a quarter. P is the estimate's own in the band, smoothed over
+//! about a second. "In the band": the double integration can leave the estimate a
+//! low-frequency wander (offset and noise) far above the signal (50× on the external
+//! recordings, and the noise the inverse lifts just below the band as large as the signal), so
+//! P is measured after a fourth-order Butterworth high-pass at the band's lower edge
+//! ([`HP_SECTIONS`] biquads: half the power at the edge, 96 % at 1.5× it, 2·10⁻⁸ at 1 Hz), and
+//! divided by its mean power gain over the band. The four first-order sections at the edge it
+//! replaces kept 6–25 % of the power of tones at 10–17 Hz, so that P was a third low for a base
+//! motion whose power lies at the band's low end and the noise part stated 1.3× too large (the
+//! external strips' time series: every level covered, none near its bar); a corner at half the
+//! edge let the noise at 5–10 Hz in and stated it 1.4× too small.
+//!
+//! The exact model costs far more than a retune may spend on the MCU, and v and N² depend on the
+//! humidity and the calibration only: they are tabulated over the calibrated range on the host
+//! (the firmware's build script, the tool) in f64 and narrowed to f32, so both sides interpolate
+//! the same numbers per block, bit for bit.
+
+use crate::C;
+use crate::calibration::laws::Calibration;
+use crate::calibration::moments::response_moments;
+use crate::inverse::design::{DesignConfig, design_inverse};
+use crate::model::exact::{current_response, jw};
+use crate::model::params::Params;
+use crate::numeric::real::Real;
+
+/// Most table entries: 0–100 %RH at 1 %RH steps.
+pub const TABLE_LEN: usize = 101;
+/// Frequencies of the band averages.
+const BAND_POINTS: usize = 29;
+/// Blocks over which the estimate's mean square is smoothed (about 1 s at 2 kHz and 32 samples
+/// a block): long enough to span the slowest in-band period many times over.
+pub const POWER_BLOCKS: usize = 64;
+/// Second-order sections of the high-pass in front of the signal's mean square.
+pub const HP_SECTIONS: usize = 2;
+/// Its corner, as a fraction of the band's lower edge.
+pub const HP_CORNER_OF_BAND: f64 = 1.0;
+/// Frequencies of the noise integral over the band (Simpson's rule: an odd number).
+const NOISE_POINTS: usize = 281;
+
+/// v and N² over the calibrated range, at evenly spaced humidities.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorTable {
+    /// RH of the first entry and the spacing [%].
+    pub rh0_pct: f32,
+    pub step_pct: f32,
+    pub n: usize,
+    /// Relative mean-square error from the humidity reading, the parameters and the design.
+    pub model_var: [f32; TABLE_LEN],
+    /// Mean-square noise displacement in the band [m²].
+    pub noise_m2: [f32; TABLE_LEN],
+}
+
+/// The two terms at one humidity, in f64, for the designs of `cfg` (None where the model or the
+/// design fails): v is the band's mean of E|H·G·e^{jωτ} − 1|² = E|r|²·|y|² − 2 Re(E[r]·y) + 1,
+/// y = H₀·G·e^{jωτ} ([`response_moments`]): the design's own error and the strip's departure
+/// from the nominal model, through the design.
+pub fn terms_at(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<(f64, f64)> {
+    let p: Params<f64> = calib.params_at(rh_pct);
+    let inv = design_inverse(calib, rh_pct, cfg).ok()?;
+    let density = calib.uncertainty.current_noise_a_per_rthz;
+    let band = inv.band();
+    // The chain keeps the band with a linear-phase FIR: its ripple is part of y.
+    let kept = crate::band::Taps::design(&band, cfg.fs_hz).ok()?;
+    let df = (band.high_hz - band.low_hz) / (BAND_POINTS - 1) as f64;
+    let mut var = 0.0;
+    for i in 0..BAND_POINTS {
+        let f = band.low_hz + df * i as f64;
+        let h0 = current_response(&p, jw(f));
+        let w = 2.0 * core::f64::consts::PI * f * inv.delay_s();
+        let y = h0 * inv.response(f) * C::new(Real::cos(w), Real::sin(w)) * kept.response(f, cfg.fs_hz);
+        let (mean, power) = response_moments(calib, rh_pct, rh_sd_pct, f);
+        var += power * y.norm_sqr() - 2.0 * (mean * y).re + 1.0;
+    }
+    let mut noise = 0.0;
+    if density > 0.0 {
+        let dn = (band.high_hz - band.low_hz) / (NOISE_POINTS - 1) as f64;
+        for i in 0..NOISE_POINTS {
+            let f = band.low_hz + dn * i as f64;
+            // Simpson: 1, 4, 2, 4, …, 4, 1 (× step/3).
+            let w = if i == 0 || i == NOISE_POINTS - 1 {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            noise += w * density * density / current_response(&p, jw(f)).norm_sqr() * dn / 3.0;
+        }
+    }
+    let v = var / BAND_POINTS as f64;
+    (v.is_finite() && noise.is_finite()).then_some((v, noise))
+}
+
+impl ErrorTable {
+    /// Tabulates over the calibration's declared range at (at most) 1 %RH steps, with the
+    /// humidity reading's standard uncertainty `rh_sd_pct`. None if the design fails anywhere.
+    pub fn new(calib: &Calibration, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<ErrorTable> {
+        let span = calib.rh_max - calib.rh_min;
+        let n = ((Real::ceil(span) as usize) + 1).clamp(2, TABLE_LEN);
+        let step = span / (n - 1) as f64;
+        let mut t =
+            ErrorTable { rh0_pct: calib.rh_min as f32, step_pct: step as f32, n, model_var: [0.0; TABLE_LEN], noise_m2: [0.0; TABLE_LEN] };
+        for i in 0..n {
+            let rh = if i == n - 1 { calib.rh_max } else { calib.rh_min + step * i as f64 };
+            let (v, noise) = terms_at(calib, rh, rh_sd_pct, cfg)?;
+            t.model_var[i] = v as f32;
+            t.noise_m2[i] = noise as f32;
+        }
+        Some(t)
+    }
+
+    /// The calibration's part of the expected relative error at `rh_pct` (1σ, a fraction): the
+    /// humidity reading's uncertainty, what the calibration does not know of the strip
+    /// (`[uncertainty]`) and the design's own error, √v. It does not shrink with the signal.
+    pub fn calibration_part<T: Real>(&self, rh_pct: T) -> T {
+        self.at(rh_pct).0.sqrt()
+    }
+
+    /// The noise-equivalent base motion in the band at `rh_pct` [m rms], √N²: the front end's
+    /// current noise (`[uncertainty] current_noise_a_per_rthz`) through the inverse. Relative to
+    /// a base motion of rms X in the band, the noise part of the error is this over X.
+    pub fn noise_equivalent_m<T: Real>(&self, rh_pct: T) -> T {
+        self.at(rh_pct).1.sqrt()
+    }
+
+    /// (v, N²) at `rh_pct`, linear between entries, the end entries beyond the range.
+    pub fn at<T: Real>(&self, rh_pct: T) -> (T, T) {
+        let x = (rh_pct - T::lit(self.rh0_pct as f64)) / T::lit(self.step_pct as f64);
+        let last = self.n - 1;
+        let x = if x.is_nan() || x < T::zero() { T::zero() } else { x.min(T::lit(last as f64)) };
+        let i = (x.floor().to_f64() as usize).min(last - 1);
+        let u = x - T::lit(i as f64);
+        let lerp = |a: &[f32; TABLE_LEN]| T::lit(a[i] as f64) + (T::lit(a[i + 1] as f64) - T::lit(a[i] as f64)) * u;
+        (lerp(&self.model_var), lerp(&self.noise_m2))
+    }
+}
+
+/// The 1σ of each block: the table at the active design's humidity and the estimate's smoothed
+/// mean square. One per compensator; the device and the host's replica run it on the same blocks.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockError<T> {
+    table: ErrorTable,
+    power_m2: Option<T>,
+    /// The high-pass in front of the mean square: [`HP_SECTIONS`] biquads (b0, b1, b2, a1, a2)
+    /// in transposed direct form II, and each one's two states.
+    hp: [[T; 5]; HP_SECTIONS],
+    state: [[T; 2]; HP_SECTIONS],
+    /// The high-pass's mean power gain over the band.
+    band_gain: T,
+}
+
+impl<T: Real> BlockError<T> {
+    /// For the estimates of designs made with `cfg`.
+    pub fn new(table: &ErrorTable, cfg: &DesignConfig<T>) -> Self {
+        // Butterworth, fourth order: the two sections' quality factors 1/(2 cos(π/8)), 1/(2 cos(3π/8)).
+        const Q: [f64; HP_SECTIONS] = [0.541_196_100_146_197, 1.306_562_964_876_376_7];
+        let w0 = T::lit(2.0) * T::PI() * cfg.band_lo_hz * T::lit(HP_CORNER_OF_BAND) / cfg.fs_hz;
+        let (sn, cs) = (w0.sin(), w0.cos());
+        let hp = Q.map(|q| {
+            let alpha = sn / (T::lit(2.0 * q));
+            let a0 = T::one() + alpha;
+            let b = (T::one() + cs) / (T::lit(2.0) * a0);
+            [b, -(b + b), b, -(T::lit(2.0) * cs) / a0, (T::one() - alpha) / a0]
+        });
+        let one = C::new(T::one(), T::zero());
+        let mut band_gain = T::zero();
+        for i in 0..BAND_POINTS {
+            let f = cfg.band_lo_hz + (cfg.band_hi_hz - cfg.band_lo_hz) * T::lit(i as f64 / (BAND_POINTS - 1) as f64);
+            let z1 = crate::numeric::real::cis(-(T::lit(2.0) * T::PI() * f / cfg.fs_hz));
+            let z2 = z1 * z1;
+            let mut g = T::one();
+            for c in &hp {
+                g *= ((one * c[0] + z1 * c[1] + z2 * c[2]) / (one + z1 * c[3] + z2 * c[4])).norm_sqr();
+            }
+            band_gain += g;
+        }
+        band_gain /= T::lit(BAND_POINTS as f64);
+        BlockError { table: *table, power_m2: None, hp, state: [[T::zero(); 2]; HP_SECTIONS], band_gain }
+    }
+
+    /// The two parts of the expected relative error after the blocks so far, for the design at
+    /// `design_rh_pct`: (the calibration's, the noise's), 1σ each, fractions; [`Self::block`]
+    /// returns their root sum of squares. The noise's part is the noise-equivalent base motion
+    /// ([`ErrorTable::noise_equivalent_m`]) over the estimate's smoothed rms in the band: which
+    /// of the two limits an estimate, for the user to see. Infinite noise part before any signal.
+    pub fn parts(&self, design_rh_pct: T) -> (T, T) {
+        let (v, noise) = self.table.at(design_rh_pct);
+        let p = self.power_m2.unwrap_or(T::zero());
+        (v.sqrt(), (noise / p).sqrt())
+    }
+
+    /// The expected relative rms error (a fraction) of `estimates`, made by the design at
+    /// `design_rh_pct`. Infinite while the estimate is exactly zero (no signal to be relative to).
+    pub fn block(&mut self, design_rh_pct: T, estimates: &[T]) -> T {
+        if !estimates.is_empty() {
+            let mut ms = T::zero();
+            for &x in estimates {
+                let mut v = x;
+                for (c, s) in self.hp.iter().zip(self.state.iter_mut()) {
+                    let y = c[0] * v + s[0];
+                    s[0] = c[1] * v - c[3] * y + s[1];
+                    s[1] = c[2] * v - c[4] * y;
+                    v = y;
+                }
+                ms += v * v;
+            }
+            ms /= T::lit(estimates.len() as f64) * self.band_gain;
+            let p = match self.power_m2 {
+                None => ms,
+                Some(p) => p + (ms - p) / T::lit(POWER_BLOCKS as f64),
+            };
+            // A non-finite block (a fault the compensator reports) must not poison the average.
+            if p.is_finite() {
+                self.power_m2 = Some(p);
+            } else {
+                self.state = [[T::zero(); 2]; HP_SECTIONS];
+            }
+        }
+        let (v, noise) = self.table.at(design_rh_pct);
+        let p = self.power_m2.unwrap_or(T::zero());
+        (v + noise / p).sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibration::uncertainty::Uncertainty;
+    use crate::inverse::design::{InverseKind, compensation_error};
+
+    /// Under the distribution the calibration states (reading and scatter drawn as it says), the
+    /// robust inverse's error, averaged over strips, is below the exact inverse's, as the
+    /// expected-error terms say it is; and by about what they say.
+    #[test]
+    fn robust_inverse_has_the_smaller_error_over_the_stated_distribution() {
+        let calib = Calibration { uncertainty: Uncertainty::TYPICAL, ..Calibration::default_preset() };
+        let rh_sd = 1.0;
+        let exact_cfg = DesignConfig::<f64>::firmware();
+        let robust_cfg = DesignConfig { kind: InverseKind::Robust { rh_sd_pct: rh_sd }, ..exact_cfg };
+        let mut seed = 7u64;
+        let mut normal = || {
+            let mut u = || {
+                seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+                ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (a, b) = (u(), u());
+            Real::sqrt(-2.0 * Real::ln(a)) * Real::cos(2.0 * core::f64::consts::PI * b)
+        };
+        for rh in [40.0, 60.0, 80.0] {
+            let exact = design_inverse(&calib, rh, &exact_cfg).unwrap();
+            let robust = design_inverse(&calib, rh, &robust_cfg).unwrap();
+            let (mut ms_exact, mut ms_robust) = (0.0, 0.0);
+            // Antithetic pairs (each draw and its mirror image): the first-order part of either
+            // error, which is as large as the difference sought, cancels in every pair.
+            let draws = 400;
+            for _ in 0..draws / 2 {
+                let d_rh = rh_sd * normal();
+                let d: [f64; 5] = core::array::from_fn(|_| normal());
+                for sign in [1.0, -1.0] {
+                    let mut p: Params<f64> = calib.params_at(rh + sign * d_rh);
+                    for ((name, sd), dk) in calib.uncertainty.relative_sds().into_iter().zip(d) {
+                        p.set(name, p.get(name) * Real::exp(sign * sd * dk));
+                    }
+                    let e = |inv| compensation_error(&p, inv, 10.0, 150.0, BAND_POINTS).0;
+                    ms_exact += e(&exact).powi(2) / draws as f64;
+                    ms_robust += e(&robust).powi(2) / draws as f64;
+                }
+            }
+            let (v_exact, _) = terms_at(&calib, rh, rh_sd, &exact_cfg).unwrap();
+            let (v_robust, _) = terms_at(&calib, rh, rh_sd, &robust_cfg).unwrap();
+            std::println!(
+                "RH {rh}: Monte Carlo rms exact {:.4} robust {:.4}; stated {:.4} {:.4}",
+                ms_exact.sqrt(),
+                ms_robust.sqrt(),
+                v_exact.sqrt(),
+                v_robust.sqrt()
+            );
+            assert!(ms_robust < ms_exact, "RH {rh}: robust {ms_robust} vs exact {ms_exact}");
+            assert!(v_robust < v_exact, "RH {rh}: stated robust {v_robust} vs exact {v_exact}");
+        }
+    }
+
+    fn quiet() -> Calibration {
+        let none = Uncertainty { y: 0.0, cs: 0.0, ca: 0.0, kappa_e: 0.0, d: 0.0, current_noise_a_per_rthz: 0.0 };
+        Calibration { uncertainty: none, ..Calibration::default_preset() }
+    }
+
+    /// The humidity term is the design at RH against the model at RH + δ (what `ipmc design`
+    /// against `ipmc model` measures): for a small δ the error is |δ|·√(mean |∂ln H/∂RH|²).
+    #[test]
+    fn humidity_term_is_the_error_of_a_mismatched_design() {
+        let cfg = DesignConfig::<f64>::firmware();
+        let c = quiet();
+        for rh in [40.0, 60.0, 80.0] {
+            let (v0, _) = terms_at(&c, rh, 0.0, &cfg).unwrap();
+            let (v1, _) = terms_at(&c, rh, 0.2, &cfg).unwrap();
+            let per_pct = ((v1 - v0) / 0.04).sqrt();
+            let p: Params<f64> = c.params_at(rh + 0.2);
+            let inv = crate::inverse::design::design_inverse(&c, rh, &cfg).unwrap();
+            let (mismatched, _) = compensation_error(&p, &inv, cfg.band_lo_hz, cfg.band_hi_hz, BAND_POINTS);
+            let direct = (mismatched * mismatched - v0).sqrt() / 0.2;
+            assert!((per_pct / direct - 1.0).abs() < 0.05, "RH {rh}: {per_pct} vs {direct} per %RH");
+        }
+    }
+
+    #[test]
+    fn parameter_and_noise_terms_add_and_scale() {
+        let cfg = DesignConfig::<f64>::firmware();
+        let c = quiet();
+        let (v0, n0) = terms_at(&c, 50.0, 0.0, &cfg).unwrap();
+        assert_eq!(n0, 0.0);
+        let y = Calibration { uncertainty: Uncertainty { y: 0.002, ..c.uncertainty }, ..c };
+        let y2 = Calibration { uncertainty: Uncertainty { y: 0.004, ..c.uncertainty }, ..c };
+        let (vy, _) = terms_at(&y, 50.0, 0.0, &cfg).unwrap();
+        let (vy2, _) = terms_at(&y2, 50.0, 0.0, &cfg).unwrap();
+        assert!(vy > v0);
+        // Quadratic for small σ (larger ones reach the resonance's curvature: 3.1 from 2 % to 4 %).
+        assert!(((vy2 - v0) / (vy - v0) - 4.0).abs() < 0.1, "quadratic in the standard deviation: {}", (vy2 - v0) / (vy - v0));
+        let noisy = Calibration { uncertainty: Uncertainty { current_noise_a_per_rthz: 1e-11, ..c.uncertainty }, ..c };
+        let noisier = Calibration { uncertainty: Uncertainty { current_noise_a_per_rthz: 2e-11, ..c.uncertainty }, ..c };
+        let (_, n1) = terms_at(&noisy, 50.0, 0.0, &cfg).unwrap();
+        let (_, n2) = terms_at(&noisier, 50.0, 0.0, &cfg).unwrap();
+        assert!(n1 > 0.0 && ((n2 / n1) - 4.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn table_interpolates_its_entries_and_holds_its_ends() {
+        let c = Calibration::default_preset();
+        let cfg = DesignConfig::<f64>::firmware();
+        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        assert_eq!((t.n, t.rh0_pct, t.step_pct), (71, 20.0, 1.0));
+        let (v, _) = t.at(47.0f32);
+        assert_eq!(v, t.model_var[27]);
+        let (mid, _) = t.at(47.5f64);
+        assert!((mid - 0.5 * (t.model_var[27] as f64 + t.model_var[28] as f64)).abs() < 1e-9);
+        assert_eq!(t.at(5.0f32), t.at(20.0f32));
+        assert_eq!(t.at(f32::NAN), t.at(20.0f32));
+        assert_eq!(t.at(99.0f32).0, t.model_var[70]);
+        let (v, _) = terms_at(&c, 90.0, 1.0, &cfg).unwrap();
+        assert_eq!(t.model_var[70], v as f32);
+    }
+
+    /// The noise term is relative to the estimate's in-band power: a tone anywhere in the band
+    /// counts fully, an offset or a wander below the band (the double integration's) not at all.
+    #[test]
+    fn block_error_follows_the_in_band_power() {
+        let c = Calibration::default_preset();
+        let cfg = DesignConfig::firmware();
+        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        let (v, n) = t.at(50.0f64);
+        let tone = |a: f64, f: f64, k: usize| a * (2.0 * core::f64::consts::PI * f * k as f64 / 2000.0).sin();
+        let run = |a: f64, f: f64, offset: f64| {
+            let mut b = BlockError::<f64>::new(&t, &cfg);
+            let mut last = 0.0;
+            for blk in 0..40 * POWER_BLOCKS {
+                let est: [f64; 32] = core::array::from_fn(|k| offset + tone(a, f, 32 * blk + k));
+                last = b.block(50.0, &est);
+            }
+            last
+        };
+        // A tone of amplitude a has mean square a²/2, times the high-pass's power gain there
+        // (fourth-order Butterworth at 10 Hz: |H|² ≈ 1/(1 + (10/f)⁸)), over its mean over the band.
+        let power = |f: f64| 1.0 / (1.0 + (10.0 / f).powi(8));
+        let mean = (0..BAND_POINTS).map(|i| power(10.0 + 140.0 * i as f64 / (BAND_POINTS - 1) as f64)).sum::<f64>() / BAND_POINTS as f64;
+        assert!(mean > 0.9 && mean < 0.99, "{mean}");
+        for (a, f) in [(1e-6, 60.0), (1e-8, 60.0), (1e-6, 12.0), (1e-6, 140.0)] {
+            let want = (v + n / (a * a / 2.0 * power(f) / mean)).sqrt();
+            let got = run(a, f, 0.0);
+            assert!((got / want - 1.0).abs() < 5e-3, "amplitude {a} at {f} Hz: {got} vs {want}");
+            assert!((run(a, f, 1e3 * a) / got - 1.0).abs() < 1e-3, "an offset is no signal");
+        }
+        // A wander below the band is no signal either: a 1 Hz sine 50 times the tone.
+        let got = run(1e-6, 60.0, 0.0);
+        let mut b = BlockError::<f64>::new(&t, &cfg);
+        let mut with_wander = 0.0;
+        for blk in 0..40 * POWER_BLOCKS {
+            let est: [f64; 32] = core::array::from_fn(|k| tone(1e-6, 60.0, 32 * blk + k) + tone(5e-5, 1.0, 32 * blk + k));
+            with_wander = b.block(50.0, &est);
+        }
+        assert!((with_wander / got - 1.0).abs() < 0.02, "{with_wander} vs {got}");
+        assert!(BlockError::<f32>::new(&t, &DesignConfig::firmware()).block(50.0, &[0.0; 4]).is_infinite());
+    }
+
+    /// The parts: the calibration's is √v, the noise's the noise-equivalent motion over the
+    /// signal; together what a block states.
+    #[test]
+    fn parts_add_up_to_the_block_error() {
+        let c = Calibration {
+            uncertainty: Uncertainty { current_noise_a_per_rthz: 1e-11, ..Uncertainty::TYPICAL },
+            ..Calibration::default_preset()
+        };
+        let cfg = DesignConfig::firmware();
+        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        let (v, n) = t.at(60.0f64);
+        assert_eq!(t.calibration_part(60.0f64), v.sqrt());
+        assert_eq!(t.noise_equivalent_m(60.0f64), n.sqrt());
+        assert!(n > 0.0);
+        let mut b = BlockError::<f64>::new(&t, &cfg);
+        let mut last = 0.0;
+        for blk in 0..200 {
+            let est: [f64; 32] =
+                core::array::from_fn(|k| 1e-5 * (2.0 * core::f64::consts::PI * 60.0 * (32 * blk + k) as f64 / 2000.0).sin());
+            last = b.block(60.0, &est);
+        }
+        let (cal, noise) = b.parts(60.0);
+        assert!((cal.hypot(noise) / last - 1.0).abs() < 1e-12, "{cal} {noise} {last}");
+        assert_eq!(cal, v.sqrt());
+    }
+}

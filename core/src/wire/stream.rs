@@ -1,0 +1,545 @@
+//! Wire format of the firmware's binary stream, encoder and decoder in one place, so the
+//! firmware (encodes), `cargo xtask qemu` and `cargo ipmc monitor` (decode) cannot drift apart.
+//! No heap: the encoder writes into a caller's buffer, the decoder works in place.
+//!
+//! One frame per block of estimates:
+//!
+//! ```text
+//! payload, little endian:
+//!   u8   version (= FRAME_VERSION)
+//!   u32  index of the block's first sample since acquisition start
+//!   f32  RH [%] the block's active design is for
+//!   f32  RH [%] of the strip at the block: the reading through the calibration's humidity path
+//!        (sensor correction, hydration lag), before clamping to the calibrated range
+//!   f32  RH [%] as the humidity sensor read it
+//!   f32  expected relative rms error of the block's estimates in the band, 1σ (a fraction;
+//!        `ipmc_core::inverse::expected_error`)
+//!   f32  1σ of the reading through the humidity path [%RH] (`ipmc_core::humidity::hygrometer`)
+//!   f32  RH [%] of the strip from its own current, its last fit (NaN: none), and its 1σ
+//!   f32
+//!   u8   why the strip's own estimate is missing: 0 it is there, else the refusal's code
+//!        (`ipmc_core::humidity::strip::Refusal::code`), 255 before the first fit
+//!   f32  RH [%] of the reading and the strip's estimate fused, and its 1σ
+//!   f32
+//!   u16  flags (bits: [`flags`])
+//!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
+//!   f32  × n  base displacement estimates [m], one per sample at the firmware's sample rate
+//!   u16  CRC-16/IBM-3740 (poly 0x1021, init 0xFFFF) of all bytes above
+//! frame = COBS(payload) followed by one 0x00 delimiter
+//! ```
+//!
+//! COBS leaves no 0x00 inside a frame, so a reader that starts mid-stream or loses bytes
+//! resynchronises at the next delimiter; the CRC catches what COBS cannot (flipped bits).
+
+use core::fmt;
+
+use crc::{CRC_16_IBM_3740, Crc};
+
+/// Status bits of a frame's `flags`, raised by the firmware (`src/contract/flags.rs` re-exports
+/// them). The bit positions are part of the wire format: append, never renumber.
+pub mod flags {
+    /// At least one current sample of the block was at or near an ADC rail.
+    pub const CLIPPED: u16 = 1 << 0;
+    /// The last humidity reading failed or was implausible; RH is the last good value.
+    pub const RH_STALE: u16 = 1 << 1;
+    /// RH was outside the calibration's range and was clamped to it.
+    pub const RH_CLAMPED: u16 = 1 << 2;
+    /// A new filter design took effect at the start of this block.
+    pub const RETUNED: u16 = 1 << 3;
+    /// Samples were lost before this block (ADC/DMA overrun or replay gap).
+    pub const SAMPLES_LOST: u16 = 1 << 4;
+    /// Earlier blocks were not reported (the report queue was full, or the stream could not
+    /// take their frames in time).
+    pub const REPORT_DROPPED: u16 = 1 << 5;
+    /// The last requested retune failed; the previous design stays active.
+    pub const DESIGN_FAILED: u16 = 1 << 6;
+    /// A current sample was not a measurement (not finite, or beyond the compensator's input
+    /// limit); it was replaced by 0 A.
+    pub const BAD_SAMPLE: u16 = 1 << 7;
+    /// The current input has repeated one value for a second or more (a hung ADC or DMA, an
+    /// amplifier stuck at a rail): the estimates are not of a live signal. Clears at the first
+    /// changing sample.
+    pub const STUCK: u16 = 1 << 8;
+    /// The active design is at the firmware's start-up fallback humidity (clamped into the
+    /// calibrated range): no humidity reading had arrived when sampling started. Clears when a
+    /// design at a reading takes over.
+    pub const RH_FALLBACK: u16 = 1 << 9;
+    /// The sample clock is not locked to the board's 32.768 kHz crystal: the crystal did not
+    /// start (the firmware runs from HSI16, ±1 % over temperature) or stopped while running
+    /// (its clock security system tripped; MSI runs free). The sample rate, and with it every
+    /// designed frequency and time stamp, is off by up to that much. Stays until reset.
+    pub const CLOCK_FAULT: u16 = 1 << 10;
+    /// The strip's own humidity estimate is missing: its last fit refused (the frame says why)
+    /// or none has finished yet. The fused humidity is the reading's.
+    pub const OWN_REFUSED: u16 = 1 << 11;
+    /// The spectrum as it stood after this block's current went to the fit.
+    pub const FIT_STARTED: u16 = 1 << 12;
+    /// The fit's result was taken at this block, before its current went into the spectrum.
+    pub const FIT_DONE: u16 = 1 << 13;
+
+    /// Every bit with its name, lowest first (for host displays).
+    pub const NAMES: [(u16, &str); 14] = [
+        (CLIPPED, "CLIPPED"),
+        (RH_STALE, "RH_STALE"),
+        (RH_CLAMPED, "RH_CLAMPED"),
+        (RETUNED, "RETUNED"),
+        (SAMPLES_LOST, "SAMPLES_LOST"),
+        (REPORT_DROPPED, "REPORT_DROPPED"),
+        (DESIGN_FAILED, "DESIGN_FAILED"),
+        (BAD_SAMPLE, "BAD_SAMPLE"),
+        (STUCK, "STUCK"),
+        (RH_FALLBACK, "RH_FALLBACK"),
+        (CLOCK_FAULT, "CLOCK_FAULT"),
+        (OWN_REFUSED, "OWN_REFUSED"),
+        (FIT_STARTED, "FIT_STARTED"),
+        (FIT_DONE, "FIT_DONE"),
+    ];
+}
+
+/// Bumped whenever the payload layout changes; decoders refuse other versions. 2: the strip's
+/// humidity and the reading beside the design's (version 1 had one RH, the reading's). 3: the
+/// expected error after the humidities. 4: the strip's own hygrometer (the reading's 1σ, the
+/// strip's estimate and the fused humidity with theirs).
+pub const FRAME_VERSION: u8 = 4;
+/// version + first sample + RH of the design, of the strip, as read + expected error +
+/// the hygrometer's + flags + count.
+pub const HEADER_LEN: usize = 1 + 4 + 4 * 4 + HYGROMETER_LEN + 2 + 1;
+const HYGROMETER_LEN: usize = 5 * 4 + 1;
+const CRC_LEN: usize = 2;
+/// The count is one byte.
+pub const MAX_ESTIMATES: usize = u8::MAX as usize;
+
+const CRC16: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
+
+/// Payload bytes of a frame carrying `n` estimates.
+pub const fn payload_len(n: usize) -> usize {
+    HEADER_LEN + 4 * n + CRC_LEN
+}
+
+/// Encoded frame length for `n` estimates in the worst case, delimiter included: the size
+/// of an encoder's output buffer.
+pub const fn max_frame_len(n: usize) -> usize {
+    cobs::max_encoding_length(payload_len(n)) + 1
+}
+
+/// Largest encoded frame any valid stream can contain, delimiter included: the size of a
+/// decoder's buffer that accepts every frame size.
+pub const MAX_FRAME_LEN: usize = max_frame_len(MAX_ESTIMATES);
+
+/// Everything in a frame except the estimates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Header {
+    /// Index of the block's first sample since acquisition start (wraps at 2³²).
+    pub first_sample: u32,
+    /// The humidity the block's active design is for [%].
+    pub rh_pct: f32,
+    /// The strip's humidity at the block [%] (NaN before the first reading).
+    pub rh_strip_pct: f32,
+    /// The humidity sensor's reading [%] (NaN before the first).
+    pub rh_read_pct: f32,
+    /// The estimates' expected relative rms error in the band, 1σ (a fraction).
+    pub rel_err: f32,
+    pub hygrometer: Hygrometer,
+    pub flags: u16,
+}
+
+/// The strip's own hygrometer at the block [%RH].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hygrometer {
+    /// 1σ of the reading through the humidity path (`Header::rh_strip_pct`).
+    pub read_sd_pct: f32,
+    /// The strip's humidity from its own current, and its 1σ (NaN: no estimate).
+    pub own_pct: f32,
+    pub own_sd_pct: f32,
+    /// 0: there is an estimate; else why not (`Refusal::code`); [`Hygrometer::NO_FIT_YET`].
+    pub own_refusal: u8,
+    /// The design humidity of a `fused` calibration, and its 1σ.
+    pub fused_pct: f32,
+    pub fused_sd_pct: f32,
+}
+
+impl Hygrometer {
+    pub const NO_FIT_YET: u8 = u8::MAX;
+    /// Before the first reading.
+    pub const NONE: Hygrometer = Hygrometer {
+        read_sd_pct: f32::NAN,
+        own_pct: f32::NAN,
+        own_sd_pct: f32::NAN,
+        own_refusal: Self::NO_FIT_YET,
+        fused_pct: f32::NAN,
+        fused_sd_pct: f32::NAN,
+    };
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EncodeError {
+    /// More than [`MAX_ESTIMATES`] estimates.
+    TooManyEstimates(usize),
+    /// The output buffer is shorter than [`max_frame_len`] of the estimate count.
+    BufferTooSmall,
+}
+
+/// Encodes one frame into `out`; returns its length including the 0x00 delimiter.
+pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usize, EncodeError> {
+    let count = u8::try_from(estimates.len()).map_err(|_| EncodeError::TooManyEstimates(estimates.len()))?;
+    if out.len() < max_frame_len(estimates.len()) {
+        return Err(EncodeError::BufferTooSmall);
+    }
+    let (body, _) = out.split_at_mut(out.len() - 1);
+    // Streamed straight into the output (no payload copy): the CRC and COBS see the same bytes.
+    let mut encoder = cobs::CobsEncoder::new(body);
+    let mut digest = CRC16.digest();
+    let mut put = |bytes: &[u8]| -> Result<(), EncodeError> {
+        digest.update(bytes);
+        encoder.push(bytes).map_err(|_| EncodeError::BufferTooSmall)
+    };
+    put(&[FRAME_VERSION])?;
+    put(&header.first_sample.to_le_bytes())?;
+    put(&header.rh_pct.to_le_bytes())?;
+    put(&header.rh_strip_pct.to_le_bytes())?;
+    put(&header.rh_read_pct.to_le_bytes())?;
+    put(&header.rel_err.to_le_bytes())?;
+    let h = &header.hygrometer;
+    put(&h.read_sd_pct.to_le_bytes())?;
+    put(&h.own_pct.to_le_bytes())?;
+    put(&h.own_sd_pct.to_le_bytes())?;
+    put(&[h.own_refusal])?;
+    put(&h.fused_pct.to_le_bytes())?;
+    put(&h.fused_sd_pct.to_le_bytes())?;
+    put(&header.flags.to_le_bytes())?;
+    put(&[count])?;
+    for v in estimates {
+        put(&v.to_le_bytes())?;
+    }
+    let crc = digest.finalize();
+    encoder.push(&crc.to_le_bytes()).map_err(|_| EncodeError::BufferTooSmall)?;
+    let n = encoder.finalize();
+    // The length check above leaves room for the delimiter after the worst-case encoding.
+    *out.get_mut(n).ok_or(EncodeError::BufferTooSmall)? = 0;
+    Ok(n + 1)
+}
+
+/// Why a frame was rejected. Every case means "skip this frame"; the stream goes on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DecodeError {
+    /// Not valid COBS (typically a frame whose start was lost).
+    Cobs,
+    /// Fewer bytes than a header and a CRC.
+    TooShort(usize),
+    /// The CRC does not match: some byte changed on the way.
+    Crc,
+    /// A frame of another format version.
+    Version(u8),
+    /// The count byte disagrees with the frame's length.
+    Length { count: u8, payload_len: usize },
+    /// More bytes than any frame has before a delimiter (the [`Deframer`] buffer overflowed).
+    TooLong,
+}
+
+impl fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DecodeError::Cobs => write!(f, "not a valid COBS frame"),
+            DecodeError::TooShort(n) => write!(f, "frame of {n} bytes is too short"),
+            DecodeError::Crc => write!(f, "CRC mismatch"),
+            DecodeError::Version(v) => write!(
+                f,
+                "frame version {v}, this decoder reads version {FRAME_VERSION}: the firmware and the host tool are \
+                 from different releases (build and flash both from one checkout)"
+            ),
+            DecodeError::Length { count, payload_len } => {
+                write!(f, "frame says {count} estimates but its payload has {payload_len} bytes")
+            }
+            DecodeError::TooLong => write!(f, "no delimiter within {MAX_FRAME_LEN} bytes"),
+        }
+    }
+}
+
+/// A decoded frame, borrowing the estimates from the decoder's buffer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame<'a> {
+    pub header: Header,
+    /// The estimates' bytes, 4 per estimate (read with [`Frame::estimates`]).
+    estimate_bytes: &'a [[u8; 4]],
+}
+
+impl<'a> Frame<'a> {
+    /// Base displacement estimates [m], in sample order.
+    pub fn estimates(&self) -> impl ExactSizeIterator<Item = f32> + 'a {
+        self.estimate_bytes.iter().map(|b| f32::from_le_bytes(*b))
+    }
+    pub fn len(&self) -> usize {
+        self.estimate_bytes.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.estimate_bytes.is_empty()
+    }
+}
+
+/// Decodes one frame: the bytes between two delimiters (without them), decoded in place.
+pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
+    let n = cobs::decode_in_place(encoded).map_err(|_| DecodeError::Cobs)?;
+    let payload = encoded.get(..n).ok_or(DecodeError::Cobs)?;
+    let (body, crc) = payload.split_last_chunk::<CRC_LEN>().ok_or(DecodeError::TooShort(n))?;
+    // A frame of another version may be shorter than this one's header: its version is the
+    // error worth reporting, so the length is checked field by field after it.
+    if body.is_empty() {
+        return Err(DecodeError::TooShort(n));
+    }
+    if CRC16.checksum(body) != u16::from_le_bytes(*crc) {
+        return Err(DecodeError::Crc);
+    }
+    let (&[version], rest) = body.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
+    if version != FRAME_VERSION {
+        return Err(DecodeError::Version(version));
+    }
+    let (first_sample, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (rh_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (rh_strip_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (rh_read_pct, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let (rel_err, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+    let f32_field = |rest: &mut &[u8]| -> Result<f32, DecodeError> {
+        let (v, r) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+        *rest = r;
+        Ok(f32::from_le_bytes(*v))
+    };
+    let mut rest = rest;
+    let read_sd_pct = f32_field(&mut rest)?;
+    let own_pct = f32_field(&mut rest)?;
+    let own_sd_pct = f32_field(&mut rest)?;
+    let (&[own_refusal], r) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
+    rest = r;
+    let fused_pct = f32_field(&mut rest)?;
+    let fused_sd_pct = f32_field(&mut rest)?;
+    let hygrometer = Hygrometer { read_sd_pct, own_pct, own_sd_pct, own_refusal, fused_pct, fused_sd_pct };
+    let (flags, rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
+    let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
+    let (estimate_bytes, tail) = rest.as_chunks::<4>();
+    if estimate_bytes.len() != count as usize || !tail.is_empty() {
+        return Err(DecodeError::Length { count, payload_len: n });
+    }
+    Ok(Frame {
+        header: Header {
+            first_sample: u32::from_le_bytes(*first_sample),
+            rh_pct: f32::from_le_bytes(*rh_pct),
+            rh_strip_pct: f32::from_le_bytes(*rh_strip_pct),
+            rh_read_pct: f32::from_le_bytes(*rh_read_pct),
+            rel_err: f32::from_le_bytes(*rel_err),
+            hygrometer,
+            flags: u16::from_le_bytes(*flags),
+        },
+        estimate_bytes,
+    })
+}
+
+/// Splits a byte stream at the 0x00 delimiters and decodes each frame, one byte at a time,
+/// in a fixed buffer of `N` bytes (use [`MAX_FRAME_LEN`] to accept every valid frame).
+/// Bytes before the first delimiter of a stream joined mid-frame come out as one failed frame.
+pub struct Deframer<const N: usize> {
+    buf: [u8; N],
+    len: usize,
+    overflowed: bool,
+}
+
+impl<const N: usize> Default for Deframer<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Deframer<N> {
+    pub const fn new() -> Self {
+        Self { buf: [0; N], len: 0, overflowed: false }
+    }
+
+    /// Feeds one byte; at a delimiter that ends a non-empty frame, returns that frame decoded
+    /// (or why it was rejected). Empty frames (repeated delimiters) are ignored.
+    pub fn push(&mut self, byte: u8) -> Option<Result<Frame<'_>, DecodeError>> {
+        if byte != 0 {
+            match self.buf.get_mut(self.len) {
+                Some(slot) => {
+                    *slot = byte;
+                    self.len += 1;
+                }
+                None => self.overflowed = true,
+            }
+            return None;
+        }
+        let len = core::mem::replace(&mut self.len, 0);
+        if core::mem::replace(&mut self.overflowed, false) {
+            return Some(Err(DecodeError::TooLong));
+        }
+        if len == 0 {
+            return None;
+        }
+        Some(self.buf.get_mut(..len).map_or(Err(DecodeError::TooLong), decode))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const H: Header = Header {
+        first_sample: 64,
+        rh_pct: 46.5,
+        rh_strip_pct: 46.625,
+        rh_read_pct: 49.25,
+        rel_err: 0.0625,
+        hygrometer: Hygrometer {
+            read_sd_pct: 1.5,
+            own_pct: 45.75,
+            own_sd_pct: 0.25,
+            own_refusal: 0,
+            fused_pct: 45.875,
+            fused_sd_pct: 0.125,
+        },
+        flags: 0b1001,
+    };
+
+    fn frame(header: &Header, est: &[f32]) -> ([u8; MAX_FRAME_LEN], usize) {
+        let mut out = [0u8; MAX_FRAME_LEN];
+        let n = encode(header, est, &mut out).unwrap();
+        (out, n)
+    }
+
+    #[test]
+    fn round_trip_of_every_length() {
+        for n in 0..=MAX_ESTIMATES {
+            let est: [f32; MAX_ESTIMATES] = core::array::from_fn(|k| (k as f32 - 100.0) * 1e-4);
+            let (mut out, len) = frame(&H, &est[..n]);
+            assert!(len <= max_frame_len(n));
+            assert_eq!(out[len - 1], 0);
+            assert!(!out[..len - 1].contains(&0));
+            // The streaming encoder gives the one-shot encoder's bytes (what v1 sent).
+            let encoded = out;
+            let mut payload = out;
+            let p = cobs::decode_in_place(&mut payload[..len - 1]).unwrap();
+            let mut again = [0u8; MAX_FRAME_LEN];
+            assert_eq!(cobs::encode(&payload[..p], &mut again), len - 1);
+            assert_eq!(again[..len - 1], encoded[..len - 1]);
+            let f = decode(&mut out[..len - 1]).unwrap();
+            assert_eq!(f.header, H);
+            assert_eq!(f.len(), n);
+            assert!(f.estimates().eq(est[..n].iter().copied()));
+        }
+    }
+
+    /// The layout documented above, byte for byte, before COBS.
+    #[test]
+    fn payload_layout() {
+        let (mut out, len) = frame(&H, &[1.0, -2.0]);
+        let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+        let p = &out[..n];
+        assert_eq!(n, payload_len(2));
+        assert_eq!(p[0], FRAME_VERSION);
+        assert_eq!(p[1..5], 64u32.to_le_bytes());
+        assert_eq!(p[5..9], 46.5f32.to_le_bytes());
+        assert_eq!(p[9..13], 46.625f32.to_le_bytes());
+        assert_eq!(p[13..17], 49.25f32.to_le_bytes());
+        assert_eq!(p[17..21], 0.0625f32.to_le_bytes());
+        assert_eq!(p[21..25], 1.5f32.to_le_bytes());
+        assert_eq!(p[25..29], 45.75f32.to_le_bytes());
+        assert_eq!(p[29..33], 0.25f32.to_le_bytes());
+        assert_eq!(p[33], 0);
+        assert_eq!(p[34..38], 45.875f32.to_le_bytes());
+        assert_eq!(p[38..42], 0.125f32.to_le_bytes());
+        assert_eq!(p[42..44], 9u16.to_le_bytes());
+        assert_eq!(p[44], 2);
+        assert_eq!(p[45..49], 1.0f32.to_le_bytes());
+        assert_eq!(p[49..53], (-2.0f32).to_le_bytes());
+        assert_eq!(p[53..55], CRC16.checksum(&p[..53]).to_le_bytes());
+    }
+
+    /// A frame of an older layout with a valid CRC: version, first sample 64, `n_rh` humidities
+    /// of 46.5 %, flags 0, one estimate of 1 m.
+    fn old_frame(version: u8, n_rh: usize, out: &mut [u8; 40]) -> usize {
+        let mut payload = [0u8; 40];
+        let mut at = 0;
+        let mut put = |bytes: &[u8]| {
+            payload[at..at + bytes.len()].copy_from_slice(bytes);
+            at += bytes.len();
+        };
+        put(&[version]);
+        put(&64u32.to_le_bytes());
+        for _ in 0..n_rh {
+            put(&46.5f32.to_le_bytes());
+        }
+        put(&0u16.to_le_bytes());
+        put(&[1]);
+        put(&1.0f32.to_le_bytes());
+        let crc = CRC16.checksum(&payload[..at]);
+        payload[at..at + 2].copy_from_slice(&crc.to_le_bytes());
+        cobs::encode(&payload[..at + 2], out)
+    }
+
+    /// Frames of the layouts before this one (version 1: one RH; version 2: three humidities,
+    /// no expected error; version 3: no hygrometer) are refused by their version, with a
+    /// message that says what to do.
+    #[test]
+    fn refuses_the_previous_versions() {
+        for (version, n_rh) in [(1, 1), (2, 3), (3, 4)] {
+            let mut encoded = [0u8; 40];
+            let n = old_frame(version, n_rh, &mut encoded);
+            let e = decode(&mut encoded[..n]).unwrap_err();
+            assert_eq!(e, DecodeError::Version(version));
+            let shown = std::string::ToString::to_string(&e);
+            assert!(shown.contains("different releases") && shown.contains("reads version 4"), "{shown}");
+        }
+    }
+
+    #[test]
+    fn refuses_bad_frames() {
+        let (out, len) = frame(&H, &[1.0, 2.0, 3.0]);
+        // Every single-bit flip of the frame body is rejected, never accepted or panicking.
+        for i in 0..len - 1 {
+            for bit in 0..8 {
+                let mut bad = out;
+                bad[i] ^= 1 << bit;
+                assert!(decode(&mut bad[..len - 1]).is_err(), "flip of bit {bit} in byte {i} accepted");
+            }
+        }
+        assert_eq!(encode(&H, &[0.0; 256], &mut [0u8; 2048]), Err(EncodeError::TooManyEstimates(256)));
+        assert_eq!(encode(&H, &[0.0; 4], &mut [0u8; 20]), Err(EncodeError::BufferTooSmall));
+        assert_eq!(decode(&mut [3, 1, 2]), Err(DecodeError::TooShort(2)));
+        assert!(decode(&mut []).is_err());
+    }
+
+    #[test]
+    fn deframer_skips_garbage_and_resyncs() {
+        let mut stream = [0u8; 4 * MAX_FRAME_LEN];
+        let mut w = 0;
+        let mut put = |bytes: &[u8]| {
+            stream[w..w + bytes.len()].copy_from_slice(bytes);
+            w += bytes.len();
+        };
+        put(&[7, 7, 0xFF, 0, 0]); // garbage, then a repeated delimiter
+        let (f, n) = frame(&H, &[1.0]);
+        put(&f[..n]);
+        let (mut f, n) = frame(&Header { first_sample: 65, ..H }, &[2.0]);
+        f[3] ^= 0x40; // corrupted on the wire
+        put(&f[..n]);
+        let (f, n) = frame(&Header { first_sample: 66, ..H }, &[3.0]);
+        put(&f[..n]);
+        put(&[0x55; MAX_FRAME_LEN + 3]); // no delimiter for too long
+        put(&[0]);
+        let (f, n) = frame(&Header { first_sample: 67, ..H }, &[4.0]);
+        put(&f[..n]);
+
+        let mut d = Deframer::<MAX_FRAME_LEN>::new();
+        let (mut good, mut bad) = ([0u32; 8], 0);
+        let mut n_good = 0;
+        for &b in &stream[..w] {
+            match d.push(b) {
+                Some(Ok(frame)) => {
+                    good[n_good] = frame.header.first_sample;
+                    n_good += 1;
+                }
+                Some(Err(_)) => bad += 1,
+                None => {}
+            }
+        }
+        assert_eq!(&good[..n_good], &[64, 66, 67]);
+        assert_eq!(bad, 3); // the garbage, the corrupted frame, the over-long run
+    }
+}
