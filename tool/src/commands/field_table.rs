@@ -224,13 +224,13 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
 
 #[cfg(test)]
 mod tests {
-    //! The hygrometer's acceptance on the simulator's field mode (`crate::simulator::field`),
-    //! scored by this command's compensation.
+    //! The hygrometer's acceptance on the simulator's field mode (`ipmc_sim::field`), scored by
+    //! this command's compensation.
     use super::*;
-    use crate::simulator::field::{FieldPlan, simulate_field};
-    use crate::simulator::physics::ExactModel;
     use ipmc_core::humidity_path::{HumidityPath, SensorKind};
     use ipmc_core::strip_humidity::Refusal;
+    use ipmc_sim::field::{FieldPlan, simulate_field};
+    use ipmc_sim::physics::ExactModel;
 
     /// One field case's figures and what it printed.
     #[derive(Default)]

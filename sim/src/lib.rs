@@ -1,6 +1,13 @@
-//! Simulated recordings in the interchange formats, from a calibration, a session
-//! ([`session::Session`]) and a physics ([`physics::Physics`]: the seam where an effect the
-//! exact model lacks can be injected). Deterministic for a given seed.
+//! The simulator of ipmc-sense: simulated recordings in the interchange formats, from a
+//! calibration, a session ([`session::Session`]) and a physics ([`physics::Physics`]: the seam
+//! where an effect the exact model lacks can be injected). Deterministic for a given seed: the
+//! bundled recordings, `ipmc prove`'s cases and the tests are what a seed makes.
+//!
+//! It exports [`simulate`] and the [`Recording`] it makes (a frequency response, a time series
+//! or charging recordings); the session file ([`session`]) and the two-level ramp of
+//! `ipmc simulate-sweep` ([`sweep`]); a strip's identity ([`Strip`]); the effects `ipmc prove`
+//! conceals ([`effects`]) and its cases ([`concealed`]); the field mode, a strip in service
+//! ([`field`]); and its random numbers ([`random`]).
 
 mod bench;
 mod charging;
@@ -15,6 +22,7 @@ pub mod session;
 mod session_fuzz;
 pub mod sweep;
 mod time_series;
+mod toml_file;
 
 use anyhow::Result;
 use ipmc_core::{Calibration, Params};
@@ -246,7 +254,7 @@ mod tests {
     use std::path::{Path, PathBuf};
 
     fn repo() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tool/ is in the repository").to_path_buf()
+        Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("sim/ is in the repository").to_path_buf()
     }
 
     fn session(name: &str) -> Session {
