@@ -72,10 +72,10 @@ pub fn analyse(ch: &Charging, calib: &Calibration, rh_pct: f64) -> Result<(Charg
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulator::physics::ExactModel;
-    use crate::simulator::session::Session;
-    use crate::simulator::{Recording, simulate};
     use ipmc_recording::{Format as _, Metadata};
+    use ipmc_sim::physics::ExactModel;
+    use ipmc_sim::session::Session;
+    use ipmc_sim::{Recording, simulate};
     use std::path::Path;
 
     fn recordings(edit: impl Fn(&mut Session)) -> Vec<Charging> {

@@ -38,7 +38,7 @@ pub fn robust_inverse(
 ) -> Vec<f64> {
     let n = current_a.len();
     let ks = band::bins(n, fs_hz, lo_hz, hi_hz);
-    let mut rng = crate::simulator::random::SplitMix64(0x9e37_79b9_7f4a_7c15u64);
+    let mut rng = ipmc_sim::random::SplitMix64(0x9e37_79b9_7f4a_7c15u64);
     let mut normal = || rng.normal();
     let strips: Vec<ipmc_core::Params<f64>> = (0..draws)
         .map(|_| {

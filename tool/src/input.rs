@@ -12,7 +12,7 @@ pub fn read_time_series(path: &std::path::Path) -> anyhow::Result<ipmc_recording
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulator::{Recording, physics::ExactModel, session::Session, simulate};
+    use ipmc_sim::{Recording, physics::ExactModel, session::Session, simulate};
 
     fn temp(name: &str, text: &str) -> std::path::PathBuf {
         let p = std::env::temp_dir().join(format!("ipmc-input-{}-{name}", std::process::id()));

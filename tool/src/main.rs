@@ -16,8 +16,6 @@ mod overrides;
 mod plot;
 mod progress;
 mod scoring;
-mod simulator;
-mod toml_file;
 
 use clap::{Parser, Subcommand};
 

@@ -392,7 +392,7 @@ impl Crate {
         }
         // The deepest module that `path` passes through.
         let mut at = 0;
-        while at < path.len() && self.modules.contains_key(&path[..=at].to_vec()) {
+        while at < path.len() && self.modules.contains_key(&path[..=at]) {
             at += 1;
         }
         let module = &self.modules[&path[..at].to_vec()];

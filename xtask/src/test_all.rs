@@ -57,7 +57,7 @@ fn format_check() -> Result<()> {
 /// `cargo clippy -D warnings`: every host crate with its tests, and each firmware variant
 /// (the lint policy is `[workspace.lints]` in Cargo.toml).
 fn lint() -> Result<()> {
-    for m in ["core", "sensors", "recording", "fit", "diagnose", "tool", "host-tests", "xtask"] {
+    for m in ["core", "sensors", "recording", "fit", "diagnose", "sim", "tool", "host-tests", "xtask"] {
         let manifest = format!("{m}/Cargo.toml");
         run(cargo().current_dir(repo_root()).args([
             "clippy",
@@ -123,6 +123,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("host-tests", || cargo_test("host-tests/Cargo.toml")),
         ("recording tests", || cargo_test("recording/Cargo.toml")),
         ("tool tests", || crate::install::ensure_plot_font().and_then(|()| cargo_test("tool/Cargo.toml"))),
+        ("sim tests", || cargo_test("sim/Cargo.toml")),
         ("fit tests", || cargo_test("fit/Cargo.toml")),
         ("diagnose library tests", || cargo_test("diagnose/Cargo.toml")),
         ("sensors tests (drivers and bus recovery against fake buses)", || cargo_test("sensors/Cargo.toml")),

@@ -164,8 +164,8 @@ pub fn run(a: Args) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulator::concealed::{Format, Strength, make_case};
     use ipmc_diagnose::Effect;
+    use ipmc_sim::concealed::{Format, Strength, make_case};
 
     /// Runs the command on a generated case and checks every figure report.json lists: present
     /// as SVG and PNG, each a valid non-empty file of its kind, linked from report.md; the

@@ -151,10 +151,10 @@ fn apply_fitted(params: &mut Params<f64>, fitted: &[serde_json::Map<String, serd
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulator::physics::ExactModel;
-    use crate::simulator::session::Session;
-    use crate::simulator::simulate;
     use ipmc_recording::Metadata;
+    use ipmc_sim::physics::ExactModel;
+    use ipmc_sim::session::Session;
+    use ipmc_sim::simulate;
 
     /// A command's arguments as clap parses them from a command line.
     fn parse<A: clap::Args>(args: &[&str]) -> A {

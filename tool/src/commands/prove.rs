@@ -1,5 +1,5 @@
 //! `ipmc prove [--seed N] [--per-effect N] [--clean N] [--format fr|ts] [--json]`: builds
-//! sessions with one concealed effect each (`crate::simulator::concealed`, as frequency
+//! sessions with one concealed effect each (`ipmc_sim::concealed`, as frequency
 //! responses or time series) plus clean controls, writes each as an interchange-format
 //! recording, runs the diagnosis blind on the file (cases in parallel), and prints the
 //! confusion table.
@@ -8,10 +8,10 @@
 //! (DIR/caseNN.csv, one at a time, each timed) against DIR/truths.json and prints the same
 //! table with each case's indistinguishable set, evidence and wall time.
 
-use crate::simulator::concealed::{Format, Strength, make_case};
 use anyhow::{Context, Result};
 use ipmc_diagnose::data::Dataset;
 use ipmc_diagnose::{Effect, engine};
+use ipmc_sim::concealed::{Format, Strength, make_case};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Mutex;

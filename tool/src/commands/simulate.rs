@@ -1,6 +1,6 @@
 //! `ipmc simulate`: a recording in the interchange format from a calibration and a session file
 //! (data/sessions/*.toml): frequency response, time series or charging, humidity levels in any order,
-//! noise, deterministic for a seed. The work is done by [`crate::simulator`].
+//! noise, deterministic for a seed. The work is done by [`ipmc_sim`].
 //!
 //! `ipmc simulate-sweep`: the two-level humidity ramp of a time series with its own flags, made
 //! by the same simulator (the idealized sweep `cargo xtask test` replays under QEMU): one continuous burst during which the humidity ramps linearly, multisine
@@ -8,13 +8,13 @@
 //! `amplitude_m`, random phases), the model's quasi-static current, numbers written compactly.
 
 use crate::calibration_source;
-use crate::simulator::physics::ExactModel;
-use crate::simulator::session::Session;
-use crate::simulator::sweep::Sweep;
-use crate::simulator::{Recording, simulate};
 use anyhow::{Context, Result};
 use ipmc_recording::Metadata;
 use ipmc_recording::write_atomically;
+use ipmc_sim::physics::ExactModel;
+use ipmc_sim::session::Session;
+use ipmc_sim::sweep::Sweep;
+use ipmc_sim::{Recording, simulate};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -56,7 +56,7 @@ pub fn run(a: Args) -> Result<()> {
     let names: Vec<String> = files.iter().map(|f| f.0.display().to_string()).collect();
     eprintln!("wrote {} to {}", rec.summary(), names.join(", "));
     if let Some(path) = &a.strip_calib {
-        let strip = crate::simulator::Strip::of(&session.sample)
+        let strip = ipmc_sim::Strip::of(&session.sample)
             .ok_or_else(|| anyhow::anyhow!("--strip-calib: the session has no `[sample] strip_seed`: its strip has no identity"))?;
         if !calib.departures.is_none() {
             anyhow::bail!("--strip-calib: the calibration simulated from already has a [departures] table");

@@ -2,11 +2,11 @@
 //! unknown broadband base motion, drifting humidity, a sensor with its errors, the strip's own
 //! lag), with the strip's true humidity per second beside it.
 
-use crate::simulator::field::{FieldPlan, simulate_field};
-use crate::simulator::physics::ExactModel;
 use anyhow::Result;
 use ipmc_core::humidity_path::SensorKind;
 use ipmc_recording::{NumberFormat, write_atomically};
+use ipmc_sim::field::{FieldPlan, simulate_field};
+use ipmc_sim::physics::ExactModel;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

@@ -273,7 +273,7 @@ mod tests {
         let uncertainty = Uncertainty { y: 0.05, cs: 0.15, ca: 0.05, kappa_e: 0.0, d: 0.05, current_noise_a_per_rthz: 0.0 };
         let calib = Calibration { uncertainty, ..Calibration::default_preset() };
         let rh_sd = 2.0;
-        let mut rng = crate::simulator::random::SplitMix64(5u64);
+        let mut rng = ipmc_sim::random::SplitMix64(5u64);
         let mut normal = || rng.normal();
         let mut strips = vec![];
         for rh in [45.0, 75.0] {

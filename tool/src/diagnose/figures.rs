@@ -167,9 +167,9 @@ pub fn draw(dir: &Path, d: &Diagnosis, data: &Dataset) -> Result<Vec<Drawn>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulator::concealed::{Format, Strength, make_case};
     use ipmc_diagnose::Effect;
     use ipmc_diagnose::engine;
+    use ipmc_sim::concealed::{Format, Strength, make_case};
 
     /// The held-out score a level's drawn residuals give: their Σ z² with the inflated
     /// variance's normalization, over their number.

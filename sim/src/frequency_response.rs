@@ -5,8 +5,9 @@
 use super::bench::Bench;
 use super::physics::Physics;
 use super::random::SplitMix64;
+use super::sample::{Departure, Strip, sample_at};
 use super::session::Session;
-use super::{Departure, Mains, Room, sample_at};
+use super::surroundings::{Mains, Room};
 use anyhow::{Result, bail};
 use ipmc_core::model::{current_response, jw};
 use ipmc_core::{C, Calibration};
@@ -19,7 +20,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let mut rng = SplitMix64(session.seed);
     let mut bench = Bench::settled(h.levels_pct[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);
-    let strip = super::Strip::of(&session.sample);
+    let strip = Strip::of(&session.sample);
     let mains = Mains::draw(n, &mut rng);
     let room = Room::draw(session, &mut rng);
     let mut points = Vec::with_capacity(h.levels_pct.len() * freqs.len());

@@ -1,5 +1,5 @@
-//! TOML files the tool reads (calibrations, sessions): errors name file, line and column (the
-//! core's calibration file reader locates them, so every TOML file reports alike).
+//! TOML files the simulator reads (sessions): errors name file, line and column (the core's
+//! calibration file reader locates them, so every TOML file reports alike).
 
 use anyhow::Result;
 use ipmc_core::calibration_file::syntax_error;

@@ -33,7 +33,8 @@ pub const FREQS: [f64; 29] = [
 ];
 
 /// What a case is recorded as.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Format {
     /// A stepped-sine frequency response.
     Fr,
@@ -53,7 +54,6 @@ pub struct Case {
     pub recording: Recording,
 }
 
-#[cfg(test)]
 impl Case {
     /// The recording when it is a frequency response.
     pub fn frequency_response(self) -> Option<ipmc_recording::FrequencyResponse> {

@@ -125,7 +125,7 @@ fn unit() -> f64 {
 /// between levels, each log-normal with these standard deviations [%] for Y, Cs, Ca and d.
 /// Without `strip_seed` the scatter is drawn per level from the session's seed (each session its
 /// own strip); with it, the scatter is the strip's: a fixed function of the strip seed and the
-/// humidity the strip is at ([`crate::simulator::Strip`]), the same in every session naming it,
+/// humidity the strip is at ([`crate::Strip`]), the same in every session naming it,
 /// so that a frequency response and a time series are of one strip.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]

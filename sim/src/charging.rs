@@ -5,8 +5,9 @@
 
 use super::physics::Physics;
 use super::random::SplitMix64;
+use super::sample::{Departure, Strip, sample_at};
 use super::session::Session;
-use super::{Departure, Room, sample_at};
+use super::surroundings::Room;
 use anyhow::{Result, bail};
 use ipmc_core::Calibration;
 use ipmc_recording::{Charging, Metadata};
@@ -19,7 +20,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let leakage_a = plan.leakage_ohm.map_or(0.0, |r| plan.voltage_v / r);
     let mut out = vec![];
     let drift = Departure::drift(&session.sample, &mut rng);
-    let strip = super::Strip::of(&session.sample);
+    let strip = Strip::of(&session.sample);
     let room = Room::draw(session, &mut rng);
     // Each level is charged from a discharged, settled sample: hydration lag plays no part.
     for (k, &level) in h.levels_pct.iter().enumerate() {

@@ -1,6 +1,13 @@
-//! Simulated recordings in the interchange formats, from a calibration, a session
-//! ([`session::Session`]) and a physics ([`physics::Physics`]: the seam where an effect the
-//! exact model lacks can be injected). Deterministic for a given seed.
+//! The simulator of ipmc-sense: simulated recordings in the interchange formats, from a
+//! calibration, a session ([`session::Session`]) and a physics ([`physics::Physics`]: the seam
+//! where an effect the exact model lacks can be injected). Deterministic for a given seed: the
+//! bundled recordings, `ipmc prove`'s cases and the tests are what a seed makes.
+//!
+//! It exports [`simulate`] and the [`Recording`] it makes (a frequency response, a time series
+//! or charging recordings); the session file ([`session`]) and the two-level ramp of
+//! `ipmc simulate-sweep` ([`sweep`]); a strip's identity ([`Strip`]); the effects `ipmc prove`
+//! conceals ([`effects`]) and its cases ([`concealed`]); the field mode, a strip in service
+//! ([`field`]); and its random numbers ([`random`]).
 
 mod bench;
 mod charging;
@@ -10,14 +17,19 @@ pub mod field;
 mod frequency_response;
 pub mod physics;
 pub mod random;
+mod sample;
 pub mod session;
 #[cfg(test)]
 mod session_fuzz;
+mod surroundings;
 pub mod sweep;
 mod time_series;
+mod toml_file;
+
+pub use sample::{STRIP_KNOT_PCT, Strip};
 
 use anyhow::Result;
-use ipmc_core::{Calibration, Params};
+use ipmc_core::Calibration;
 use ipmc_recording::{Charging, FrequencyResponse, Metadata, NumberFormat, TimeSeries};
 use physics::Physics;
 use session::{Kind, Session};
@@ -87,156 +99,6 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     }
 }
 
-/// How the sample departs from its calibration at one level: the session's drift times the
-/// level's scatter, as factors on Y, Cs, Ca and d.
-#[derive(Clone, Copy)]
-struct Departure([f64; 4]);
-
-impl Departure {
-    /// The session's drift (draws nothing where the session has none).
-    fn drift(sample: &session::Sample, rng: &mut random::SplitMix64) -> Self {
-        Departure(sample.drift_pct.map(|sd| rng.gauss(sd / 100.0).exp()))
-    }
-
-    /// The drift times one level's scatter (drawn here unless the strip has an identity, whose
-    /// scatter [`sample_at`] applies at the strip's humidity).
-    fn at_level(self, sample: &session::Sample, rng: &mut random::SplitMix64) -> Self {
-        if sample.strip_seed.is_some() {
-            return self;
-        }
-        let mut f = self.0;
-        for (f, sd) in f.iter_mut().zip(sample.scatter_pct) {
-            *f *= rng.gauss(sd / 100.0).exp();
-        }
-        Departure(f)
-    }
-}
-
-/// Mains pickup on the current: the phases of harmonics 1–3, drawn once per session (nothing
-/// drawn without pickup).
-struct Mains {
-    line_hz: f64,
-    rel: f64,
-    phases: [f64; 3],
-}
-
-impl Mains {
-    fn draw(n: &session::Noise, rng: &mut random::SplitMix64) -> Option<Self> {
-        (n.mains_hz > 0.0 && n.mains_rel > 0.0).then(|| Mains {
-            line_hz: n.mains_hz,
-            rel: n.mains_rel,
-            phases: [0; 3].map(|_| 2.0 * std::f64::consts::PI * rng.uniform()),
-        })
-    }
-
-    /// Harmonics k = 1–3: frequency [Hz], amplitude relative to the sample's current at the
-    /// line, phase.
-    fn harmonics(&self) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
-        (1..=3).map(|k| (k as f64 * self.line_hz, self.rel / k as f64, self.phases[k - 1]))
-    }
-}
-
-/// The room's temperature over a session: the session's, drifting by ±`temp_swing_k` in a slow
-/// cycle (an air-conditioning cycle to a morning's warming: 1–3 h), its period and phase drawn
-/// once (nothing drawn without a swing, so other sessions' draws are unchanged).
-struct Room {
-    temp_c: Option<f64>,
-    swing_k: f64,
-    period_s: f64,
-    phase: f64,
-}
-
-impl Room {
-    fn draw(session: &Session, rng: &mut random::SplitMix64) -> Self {
-        let swings = session.temp_c.is_some() && session.temp_swing_k > 0.0;
-        let (period_s, phase) =
-            if swings { (3600.0 * (1.0 + 2.0 * rng.uniform()), 2.0 * std::f64::consts::PI * rng.uniform()) } else { (1.0, 0.0) };
-        Room { temp_c: session.temp_c, swing_k: if swings { session.temp_swing_k } else { 0.0 }, period_s, phase }
-    }
-
-    /// The temperature at `t_s` into the session.
-    fn at(&self, t_s: f64) -> Option<f64> {
-        self.temp_c.map(|t| t + self.swing_k * (2.0 * std::f64::consts::PI * t_s / self.period_s + self.phase).sin())
-    }
-}
-
-/// Spacing of a strip's departure knots [%RH].
-pub const STRIP_KNOT_PCT: f64 = 2.5;
-/// Knots over 0–100 %RH.
-const STRIP_KNOTS: usize = 41;
-
-/// A strip's identity: its departures from the calibration's laws as a fixed function of its
-/// seed and the humidity, ln factors of Y, Cs, Ca and d drawn independently (normal, the
-/// session's `scatter_pct` as standard deviations) at knots every [`STRIP_KNOT_PCT`] %RH and
-/// linear between them. Every session naming the seed (and the same scatter) sees the same strip.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Strip {
-    ln: [[f64; STRIP_KNOTS]; 4],
-}
-
-impl Strip {
-    pub fn new(seed: u64, scatter_pct: [f64; 4]) -> Strip {
-        // Its own stream, drawn in full whatever the scatter, so one seed is one strip.
-        let mut rng = random::SplitMix64(seed ^ 0x5354_5249_505f_4944);
-        let mut ln = [[0.0; STRIP_KNOTS]; 4];
-        for (k, row) in ln.iter_mut().enumerate() {
-            for v in row.iter_mut() {
-                *v = rng.normal() * scatter_pct[k] / 100.0;
-            }
-        }
-        Strip { ln }
-    }
-
-    /// The strip of a session, if it has an identity.
-    pub fn of(sample: &session::Sample) -> Option<Strip> {
-        sample.strip_seed.map(|s| Strip::new(s, sample.scatter_pct))
-    }
-
-    /// ln(strip / law) of Y, Cs, Ca and d at `rh_pct`.
-    pub fn ln_at(&self, rh_pct: f64) -> [f64; 4] {
-        let x = (rh_pct / STRIP_KNOT_PCT).clamp(0.0, (STRIP_KNOTS - 1) as f64);
-        let i = (x.floor() as usize).min(STRIP_KNOTS - 2);
-        let w = x - i as f64;
-        core::array::from_fn(|k| self.ln[k][i] + w * (self.ln[k][i + 1] - self.ln[k][i]))
-    }
-
-    /// The strip as a calibration's `[departures]` table over `rh_lo`–`rh_hi` (its knots
-    /// there, exactly: at most 32 knots, 77.5 %RH).
-    pub fn departures(&self, rh_lo: f64, rh_hi: f64) -> anyhow::Result<ipmc_core::departures::Departures> {
-        let first = (rh_lo / STRIP_KNOT_PCT).floor().max(0.0) as usize;
-        let last = ((rh_hi / STRIP_KNOT_PCT).ceil() as usize).min(STRIP_KNOTS - 1);
-        let grid: Vec<f64> = (first..=last).map(|i| i as f64 * STRIP_KNOT_PCT).collect();
-        let col = |k: usize| self.ln[k][first..=last].to_vec();
-        let (y, cs, ca, d) = (col(0), col(1), col(2), col(3));
-        ipmc_core::departures::Departures::new(&grid, [&y, &cs, &ca, &d]).map_err(|e| anyhow::anyhow!("the strip's table: {e}"))
-    }
-}
-
-/// The sample at humidity `rh_pct`: the calibration's laws there, departed by `dep` and by the
-/// strip's own departures when it has an identity, at the temperature `temp_c` when the session
-/// gives one. Returns the temperature [°C] the physics is told.
-fn sample_at(calib: &Calibration, rh_pct: f64, dep: Departure, strip: Option<&Strip>, temp_c: Option<f64>) -> (Params<f64>, f64) {
-    let mut p: Params<f64> = calib.params_at(rh_pct);
-    let mut dep = dep;
-    if let Some(s) = strip {
-        for (f, ln) in dep.0.iter_mut().zip(s.ln_at(rh_pct)) {
-            *f *= ln.exp();
-        }
-    }
-    let [y, cs, ca, d] = dep.0;
-    p.y *= y;
-    p.cs *= cs;
-    p.ca *= ca;
-    p.d *= d;
-    match temp_c {
-        Some(t) => {
-            p.t_k = t + 273.15;
-            (p, t)
-        }
-        None => (p, p.t_k - 273.15),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::physics::ExactModel;
@@ -246,7 +108,7 @@ mod tests {
     use std::path::{Path, PathBuf};
 
     fn repo() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tool/ is in the repository").to_path_buf()
+        Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("sim/ is in the repository").to_path_buf()
     }
 
     fn session(name: &str) -> Session {

@@ -1,0 +1,162 @@
+//! Field mode: a strip in service. Unknown broadband base motion (a random smooth acceleration
+//! spectrum: a few broad host-structure resonances, plus a few tones), the air's humidity
+//! drifting about a level, the strip hydrating behind it with its own lag, and a humidity sensor
+//! beside it with a bias, a gain error, a lag and noise. The strip's parameters depart from the
+//! calibration's laws as its `[uncertainty]` says a strip may. The current goes through the
+//! physics seam ([`Physics`]) at the strip's humidity, as every recording of the simulator does.
+//!
+//! The base motion is a dense multisine (tones every [`TONE_SPACING_HZ`] with random phases): to
+//! a spectrum of 1 Hz bins, broadband noise.
+
+use super::physics::Physics;
+use super::random::SplitMix64;
+use ipmc_core::humidity_path::SensorKind;
+use ipmc_core::{C, Calibration, Params};
+use ipmc_recording::{Metadata, TimeSeries};
+
+/// Spacing of the base motion's tones [Hz].
+pub const TONE_SPACING_HZ: f64 = 0.1;
+/// Band of the base motion [Hz].
+pub const MOTION_BAND_HZ: (f64, f64) = (5.0, 300.0);
+/// The strip's responses are re-evaluated at its humidity this often [s].
+const UPDATE_S: f64 = 0.25;
+
+/// What one field recording is drawn from.
+#[derive(Clone, Copy, Debug)]
+pub struct FieldPlan {
+    pub seed: u64,
+    pub seconds: f64,
+    pub fs_hz: f64,
+    /// The air's mean humidity [%RH] and the drift's amplitude about it.
+    pub rh_level_pct: f64,
+    pub wander_pct: f64,
+    /// The strip's hydration lag [s].
+    pub tau_strip_s: f64,
+    /// The sensor beside the strip: its kind (accuracy and lag from its datasheet).
+    pub sensor: SensorKind,
+    /// Base acceleration, rms [m/s²].
+    pub a_rms: f64,
+    /// Number of tones on top of the broadband motion.
+    pub tones: usize,
+}
+
+/// The recording and, per second, the strip's true humidity.
+pub struct Field {
+    pub ts: TimeSeries,
+    pub strip_pct: Vec<f64>,
+}
+
+/// A strip off its laws as `[uncertainty]` allows: the laws' parameters, each scaled log-normally.
+struct Scattered<'a> {
+    inner: &'a dyn Physics,
+    z: [f64; 5],
+    calib: &'a Calibration,
+}
+
+impl Physics for Scattered<'_> {
+    fn response(&self, params: &Params<f64>, rh_pct: f64, temp_c: f64, s: C<f64>) -> (C<f64>, C<f64>) {
+        self.inner.response(&self.calib.uncertainty.scattered(*params, &self.z), rh_pct, temp_c, s)
+    }
+}
+
+pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physics) -> Field {
+    let mut rng = SplitMix64(plan.seed);
+    let two_pi = 2.0 * std::f64::consts::PI;
+    // Host structure: three broad resonances (Q 1–3) at random frequencies.
+    let modes: Vec<(f64, f64, f64)> =
+        (0..3).map(|_| (8.0 * (80.0f64 / 8.0).powf(rng.uniform()), 1.0 + 2.0 * rng.uniform(), 0.3 + rng.uniform())).collect();
+    let shape = |f: f64| -> f64 {
+        modes
+            .iter()
+            .map(|&(fm, q, g)| {
+                let w = f / fm;
+                g / ((1.0 - w * w).powi(2) + (w / q).powi(2))
+            })
+            .sum::<f64>()
+    };
+    let mut freqs = vec![];
+    let mut f = MOTION_BAND_HZ.0;
+    while f <= MOTION_BAND_HZ.1 {
+        freqs.push(f);
+        f += TONE_SPACING_HZ;
+    }
+    let accel: Vec<f64> = freqs.iter().map(|&f| shape(f).sqrt()).collect();
+    let mut amps: Vec<f64> = accel.clone();
+    for _ in 0..plan.tones {
+        let k = (rng.uniform() * freqs.len() as f64) as usize % freqs.len();
+        amps[k] *= 10.0;
+    }
+    let rms = (amps.iter().map(|a| a * a / 2.0).sum::<f64>()).sqrt();
+    let amps_m: Vec<f64> = amps.iter().zip(&freqs).map(|(a, f)| a * plan.a_rms / rms / (two_pi * f).powi(2)).collect();
+    let phases: Vec<f64> = freqs.iter().map(|_| two_pi * rng.uniform()).collect();
+    let z = [rng.normal(), rng.normal(), rng.normal(), rng.normal(), rng.normal()];
+    let strip = Scattered { inner: physics, z, calib };
+    // The air's drift: two slow sinusoids.
+    let wander: Vec<(f64, f64, f64)> =
+        (0..2).map(|_| (plan.wander_pct * (0.5 + 0.5 * rng.uniform()), 40.0 + 60.0 * rng.uniform(), two_pi * rng.uniform())).collect();
+    let air = |t: f64| plan.rh_level_pct + wander.iter().map(|&(a, p, ph)| a * (two_pi * t / p + ph).sin()).sum::<f64>();
+    let accuracy = plan.sensor.datasheet_accuracy_pct();
+    let (bias, gain) = (rng.gauss(accuracy * 0.7), 1.0 + rng.gauss(0.01));
+    let sensor_lag = plan.sensor.datasheet_lag_s();
+    let noise_sd = calib.uncertainty.current_noise_a_per_rthz * (plan.fs_hz / 2.0).sqrt();
+
+    let n = (plan.seconds * plan.fs_hz).round() as usize;
+    let dt = 1.0 / plan.fs_hz;
+    let mut ts = TimeSeries {
+        metadata: Metadata::default(),
+        fs_hz: plan.fs_hz,
+        t_s: Vec::with_capacity(n),
+        current_a: Vec::with_capacity(n),
+        rh_pct: Vec::with_capacity(n),
+        base_m: Some(Vec::with_capacity(n)),
+        tip_m: None,
+        temp_c: None,
+    };
+    ts.metadata.set("rh_sensor", plan.sensor.as_str());
+    ts.metadata.set("excitation", "field: unknown broadband base motion (simulated)");
+    let (mut strip_rh, mut sensed) = (air(0.0), air(0.0));
+    let mut strip_pct = vec![];
+    let chunk = (UPDATE_S * plan.fs_hz).round() as usize;
+    let mut reading = air(0.0);
+    let mut i = 0;
+    while i < n {
+        let t0 = i as f64 * dt;
+        let params = calib.params_at(strip_rh);
+        // Phasors of base and current for each tone at the chunk's start, rotated sample by sample.
+        let mut base_ph: Vec<C<f64>> = Vec::with_capacity(freqs.len());
+        let mut cur_ph: Vec<C<f64>> = Vec::with_capacity(freqs.len());
+        let mut step: Vec<C<f64>> = Vec::with_capacity(freqs.len());
+        for k in 0..freqs.len() {
+            let w = two_pi * freqs[k];
+            let (_, h) = strip.response(&params, strip_rh, 20.0, C::new(0.0, w));
+            let b = C::from_polar(amps_m[k], w * t0 + phases[k]);
+            base_ph.push(b);
+            cur_ph.push(b * h);
+            step.push(C::from_polar(1.0, w * dt));
+        }
+        for j in i..(i + chunk).min(n) {
+            let t = j as f64 * dt;
+            let (mut b, mut c) = (0.0, 0.0);
+            for k in 0..freqs.len() {
+                b += base_ph[k].im;
+                c += cur_ph[k].im;
+                base_ph[k] *= step[k];
+                cur_ph[k] *= step[k];
+            }
+            let a = air(t);
+            strip_rh += (a - strip_rh) * dt / plan.tau_strip_s;
+            sensed += (a - sensed) * dt / sensor_lag;
+            // The sensor reports at 1 Hz, to 0.01 %RH.
+            if j % plan.fs_hz as usize == 0 {
+                reading = ((gain * sensed + bias + rng.gauss(0.1)) * 100.0).round() / 100.0;
+                strip_pct.push(strip_rh);
+            }
+            ts.t_s.push(t);
+            ts.base_m.as_mut().expect("base").push(b);
+            ts.current_a.push(c + rng.gauss(noise_sd));
+            ts.rh_pct.push(reading);
+        }
+        i += chunk;
+    }
+    Field { ts, strip_pct }
+}
