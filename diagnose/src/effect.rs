@@ -1,5 +1,5 @@
 //! The effects the paper's model leaves out, by name: what the simulator can conceal in a
-//! session (`simulator::effects`) and what the diagnosis names (`diagnose::candidates`), so
+//! session (`ipmc_sim::effects`) and what the diagnosis names (`diagnose::candidates`), so
 //! that a name is spelled once and a misspelt one is an error, not a clean case.
 
 use std::fmt;

@@ -3,7 +3,7 @@
 //! criterion, and report (`ipmc diagnose`, proved by `ipmc prove`; the tool draws the figures).
 //!
 //! - [`data`]: the recordings as a dataset of `ipmc_fit` levels with the humidity histories.
-//! - [`effect`]: the effects the model leaves out, by name (shared with the tool's simulator).
+//! - [`effect`]: the effects the model leaves out, by name (shared with the simulator, `ipmc-sim`).
 //! - [`candidates`]: the library of candidate physics (what, how it shows, its parameters).
 //! - [`fits`] (`ipmc_fit::refit`): per-level base fits with an extension and a mask, the noise
 //!   from neighbouring points, joint candidate fits.

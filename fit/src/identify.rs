@@ -20,8 +20,8 @@
 //! divided by it, so that it does not leak into Y, Cs and Ca. The current channel's gain is not
 //! identifiable (it scales the current as κe and √d do) and is absorbed into their laws.
 
-// What a level's fit reports and what it reads: here for whoever takes a level fit.
-pub use crate::estimate::Estimate;
+use crate::estimate::Estimate;
+// What a level's fit reads: here for whoever takes a level fit.
 pub use crate::level::LevelData;
 use crate::lsq::{self, Fit, FitError, Tolerance};
 use crate::noise::{self, ChannelNoise};

@@ -1,11 +1,11 @@
 //! The humidity a sample is at and the one its sensor reads, in time. The chamber approaches
 //! each level through a first-order lag (0: it steps) with a random wander; the sample's water
 //! content follows the chamber through a first-order lag with wetting and drying time constants
-//! (0: at once), the law the firmware's strip model runs (`ipmc_core::humidity_path::relax`).
+//! (0: at once), the law the firmware's strip model runs (`ipmc_core::calibration::humidity_path::relax`).
 
 use super::random::SplitMix64;
 use super::session::Humidity;
-use ipmc_core::humidity_path::relax;
+use ipmc_core::calibration::humidity_path::relax;
 
 pub struct Bench {
     chamber: f64,

@@ -20,7 +20,7 @@ use super::effects::{self, ROOM_C};
 use super::random::SplitMix64;
 use super::session::{Frequencies, Humidity, Kind, Noise, Sample, Session, TimeSeriesPlan};
 use super::{Recording, simulate};
-use ipmc_core::model::{current_response, jw, tip_response};
+use ipmc_core::model::exact::{current_response, jw, tip_response};
 use ipmc_core::{Calibration, Params};
 use ipmc_diagnose::Effect;
 use ipmc_recording::Metadata;
@@ -198,7 +198,7 @@ mod tests {
             assert!(matches!(case.recording, Recording::TimeSeries(..)));
             let path = std::env::temp_dir().join(format!("ipmc-concealed-ts-{seed}-{}.csv", std::process::id()));
             std::fs::write(&path, case.recording.to_csv().unwrap()).unwrap();
-            let data = Dataset::read(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE);
+            let data = Dataset::read(std::slice::from_ref(&path), &ipmc_core::calibration::humidity_path::HumidityPath::NONE);
             std::fs::remove_file(&path).unwrap();
             let d = engine::diagnose(&calib, &data.unwrap(), &|_| {}).unwrap();
             assert_eq!(d.verdict, effect.map_or("none", Effect::name));

@@ -13,9 +13,9 @@
 
 use super::physics::Physics;
 use super::random::SplitMix64;
-use ipmc_core::extension::{Extension, responses};
-use ipmc_core::model::{capacitance, first_mode_rad_s};
-use ipmc_core::thermal::Thermal;
+use ipmc_core::model::exact::{capacitance, first_mode_rad_s};
+use ipmc_core::model::extension::{Extension, responses};
+use ipmc_core::model::thermal::Thermal;
 use ipmc_core::{C, Params};
 use ipmc_diagnose::Effect;
 

@@ -10,7 +10,7 @@
 
 use super::physics::Physics;
 use super::random::SplitMix64;
-use ipmc_core::humidity_path::SensorKind;
+use ipmc_core::calibration::humidity_path::SensorKind;
 use ipmc_core::{C, Calibration, Params};
 use ipmc_recording::{Metadata, TimeSeries};
 

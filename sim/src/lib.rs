@@ -103,7 +103,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
 mod tests {
     use super::physics::ExactModel;
     use super::*;
-    use ipmc_core::model::{current_response, jw, tip_response};
+    use ipmc_core::model::exact::{current_response, jw, tip_response};
     use ipmc_recording::Format as _;
     use std::path::{Path, PathBuf};
 

@@ -2,13 +2,13 @@
 //!
 //! Every simulated recording (`ipmc simulate`, `ipmc simulate-sweep`) asks a [`Physics`] for the
 //! sample's response; [`ExactModel`] answers with the core's exact model (eqs. 1–6 of the paper,
-//! `ipmc_core::model`). To simulate an effect the model lacks (a humidity-dependent electrode
+//! `ipmc_core::model::exact`). To simulate an effect the model lacks (a humidity-dependent electrode
 //! resistance, a second relaxation, a temperature coefficient…), implement [`Physics`] —
 //! typically wrapping [`ExactModel`] and modifying its answer — and pass it to
 //! [`super::simulate`]: the session handling, humidity path, noise and writing stay the same.
 //! The effects `ipmc prove` conceals are such implementations (`super::effects`).
 
-use ipmc_core::model::{responses, step_charging_current};
+use ipmc_core::model::exact::{responses, step_charging_current};
 use ipmc_core::{C, Params};
 
 pub trait Physics {
@@ -22,7 +22,7 @@ pub trait Physics {
 
     /// Current [A] at `t_s` after the constant voltage `voltage_v` is applied at t = 0 (a
     /// charging recording; leakage and noise are the simulator's). By default the core's
-    /// RC picture of the strip, `ipmc_core::model::step_charging_current`.
+    /// RC picture of the strip, `ipmc_core::model::exact::step_charging_current`.
     fn charging_current(&self, params: &Params<f64>, _rh_pct: f64, _temp_c: f64, voltage_v: f64, t_s: f64) -> f64 {
         step_charging_current(params, voltage_v, t_s)
     }

@@ -72,13 +72,14 @@ impl Strip {
 
     /// The strip as a calibration's `[departures]` table over `rh_lo`–`rh_hi` (its knots
     /// there, exactly: at most 32 knots, 77.5 %RH).
-    pub fn departures(&self, rh_lo: f64, rh_hi: f64) -> anyhow::Result<ipmc_core::departures::Departures> {
+    pub fn departures(&self, rh_lo: f64, rh_hi: f64) -> anyhow::Result<ipmc_core::calibration::departures::Departures> {
         let first = (rh_lo / STRIP_KNOT_PCT).floor().max(0.0) as usize;
         let last = ((rh_hi / STRIP_KNOT_PCT).ceil() as usize).min(STRIP_KNOTS - 1);
         let grid: Vec<f64> = (first..=last).map(|i| i as f64 * STRIP_KNOT_PCT).collect();
         let col = |k: usize| self.ln[k][first..=last].to_vec();
         let (y, cs, ca, d) = (col(0), col(1), col(2), col(3));
-        ipmc_core::departures::Departures::new(&grid, [&y, &cs, &ca, &d]).map_err(|e| anyhow::anyhow!("the strip's table: {e}"))
+        ipmc_core::calibration::departures::Departures::new(&grid, [&y, &cs, &ca, &d])
+            .map_err(|e| anyhow::anyhow!("the strip's table: {e}"))
     }
 }
 

@@ -18,7 +18,7 @@ use super::sample::{Departure, Strip, sample_at};
 use super::session::Session;
 use super::surroundings::{Mains, Room};
 use anyhow::{Result, bail};
-use ipmc_core::model::{current_response, jw};
+use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{C, Calibration};
 use ipmc_recording::{Metadata, TimeSeries};
 

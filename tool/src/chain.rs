@@ -1,25 +1,25 @@
 //! The firmware's compensation chain run on the host: the f32 [`Compensator`] over blocks of
 //! [`BLOCK_LEN`] samples, retuned when the humidity moves, each block's humidity through the
 //! calibration's humidity path (sensor correction, the strip's hydration lag:
-//! `ipmc_core::block_humidity`) and its expected relative error (`ipmc_core::expected_error`),
+//! `ipmc_core::humidity::block`) and its expected relative error (`ipmc_core::inverse::expected_error`),
 //! exactly as the firmware runs them; or the firmware's own retune schedule replayed bit for bit.
 
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
-use ipmc_core::block_humidity::{BlockHumidity, span_s};
-use ipmc_core::block_hygrometer::{BlockHygrometer, noise_psd};
-use ipmc_core::expected_error::{BlockError, ErrorTable};
-use ipmc_core::humidity_path::HumidityMode;
-use ipmc_core::humidity_path::SensorKind;
-use ipmc_core::operating_point::{asks_for_design, reading_age_s};
-use ipmc_core::strip_humidity::{Refusal, StripRh, strip_rh};
+use ipmc_core::calibration::humidity_path::HumidityMode;
+use ipmc_core::calibration::humidity_path::SensorKind;
+use ipmc_core::humidity::block::{BlockHumidity, span_s};
+use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
+use ipmc_core::humidity::strip::{Refusal, StripRh, strip_rh};
+use ipmc_core::inverse::expected_error::{BlockError, ErrorTable};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, InverseKind, design_inverse};
+use ipmc_core::{firmware::operating_point::asks_for_design, timing::reading_age_s};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::Path;
 
-pub use ipmc_core::filter::BLOCK_LEN;
+pub use ipmc_core::timing::BLOCK_LEN;
 /// Flag bits, the firmware's (defined with the wire format).
-pub use ipmc_core::stream::flags;
+pub use ipmc_core::wire::stream::flags;
 
 /// The humidity reading's uncertainty the firmware of the default board assumes for `calib`.
 pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {

@@ -2,11 +2,11 @@
 //! recording (recording-format.md §3).
 //!
 //! C = Q/U with Q the charge that went into the strip: the integral of the charging current
-//! after its steady tail is subtracted. κe = C·2h/(b·L) (`ipmc_core::model::kappa_e_of_capacitance`)
+//! after its steady tail is subtracted. κe = C·2h/(b·L) (`ipmc_core::model::exact::kappa_e_of_capacitance`)
 //! with the thickness 2h and the electrode area b·L of the calibration at the recording's humidity.
 
 use anyhow::{Result, bail};
-use ipmc_core::model::kappa_e_of_capacitance;
+use ipmc_core::model::exact::kappa_e_of_capacitance;
 use ipmc_core::{Calibration, Params};
 use ipmc_recording::Charging;
 use serde::Serialize;

@@ -1,16 +1,16 @@
 //! The strip as its own hygrometer over a recording, on the host: the firmware's block by block
-//! hygrometer (`ipmc_core::block_hygrometer`) with each fit's result taken at once; what
+//! hygrometer (`ipmc_core::humidity::hygrometer`) with each fit's result taken at once; what
 //! `ipmc compensate --humidity fused` designs at and `ipmc field-table` scores. The model table
 //! the fit interpolates is filled here as build.rs fills the firmware's.
 
 use ipmc_core::Calibration;
 use ipmc_core::Real;
-use ipmc_core::block_humidity::{BlockHumidity, span_s};
-use ipmc_core::block_hygrometer::{BlockHygrometer, noise_psd};
-use ipmc_core::filter::BLOCK_LEN;
-use ipmc_core::humidity_fusion::Estimate;
-use ipmc_core::running_spectrum::{AVERAGING_S, BinGeometry};
-use ipmc_core::strip_humidity::{ModelTable, Refusal, StripRh, TableScale, fill_table, strip_rh, table_nodes};
+use ipmc_core::humidity::block::{BlockHumidity, span_s};
+use ipmc_core::humidity::fusion::Estimate;
+use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
+use ipmc_core::humidity::spectrum::{AVERAGING_S, BinGeometry};
+use ipmc_core::humidity::strip::{ModelTable, Refusal, StripRh, TableScale, fill_table, strip_rh, table_nodes};
+use ipmc_core::timing::BLOCK_LEN;
 use ipmc_recording::TimeSeries;
 
 /// The fit's model table for `calib` at the rate `fs_hz`, owned.

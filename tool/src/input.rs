@@ -44,7 +44,7 @@ mod tests {
             assert!((l.rh_pct - rh).abs() < 0.5, "{} vs {rh}", l.rh_pct);
             let params = calib.params_at(l.rh_pct);
             for pt in &l.points {
-                let (tip, cur) = ipmc_core::model::responses(&params, ipmc_core::model::jw(pt.freq_hz));
+                let (tip, cur) = ipmc_core::model::exact::responses(&params, ipmc_core::model::exact::jw(pt.freq_hz));
                 let c = pt.current.unwrap();
                 assert!((c.gain / cur.norm() - 1.0).abs() < 0.02, "{} Hz: current {} vs {}", pt.freq_hz, c.gain, cur.norm());
                 assert!((pt.tip.unwrap().gain / tip.norm() - 1.0).abs() < 0.02, "{} Hz: tip", pt.freq_hz);

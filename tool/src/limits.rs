@@ -4,7 +4,7 @@
 //! estimate's own rms there), so a user sees whether a better calibration or a stronger signal
 //! would help.
 
-use ipmc_core::expected_error::ErrorTable;
+use ipmc_core::inverse::expected_error::ErrorTable;
 
 /// Width of a row [%RH].
 const ROW_PCT: f32 = 5.0;

@@ -7,7 +7,7 @@
 //! starting on the answer. Noise: 2 % in gain and 1° in phase on both channels, and the
 //! simulator's 1/f current floor (the current is noisiest at low frequency and low humidity).
 
-use ipmc_core::model::{current_response, jw, tip_response};
+use ipmc_core::model::exact::{current_response, jw, tip_response};
 use ipmc_core::{Calibration, LawKind, ParamName, Params, calibration_file};
 use ipmc_recording::{Format as _, FrequencyResponse};
 use serde_json::Value;

@@ -2,8 +2,8 @@
 
 use crate::calibration_source;
 use anyhow::{Result, anyhow};
-use ipmc_core::design::{compensation_error, design_inverse};
-use ipmc_core::rational::{IonicOrder, RationalModel, approximation_error};
+use ipmc_core::inverse::design::{compensation_error, design_inverse};
+use ipmc_core::inverse::rational::{IonicOrder, RationalModel, approximation_error};
 use ipmc_core::{DesignConfig, Inverse, Params};
 
 #[derive(clap::Args)]

@@ -18,7 +18,7 @@ use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
 use crate::scoring::band_score;
 use anyhow::{Result, anyhow};
-use ipmc_core::humidity_path::HumidityMode;
+use ipmc_core::calibration::humidity_path::HumidityMode;
 use ipmc_recording::{Estimates as EstimateFile, write_atomically};
 use std::path::PathBuf;
 

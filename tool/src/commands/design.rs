@@ -2,8 +2,8 @@
 
 use crate::{calibration_source, overrides};
 use anyhow::{Result, anyhow};
-use ipmc_core::design::{compensation_error, design_inverse_for};
-use ipmc_core::rational::{IonicOrder, RationalModel, approximation_error};
+use ipmc_core::inverse::design::{compensation_error, design_inverse_for};
+use ipmc_core::inverse::rational::{IonicOrder, RationalModel, approximation_error};
 use ipmc_core::{DesignConfig, Params};
 use serde_json::json;
 
@@ -51,7 +51,7 @@ pub fn run(a: Args) -> Result<()> {
         "delay_s": inv.delay_s(),
         "gain": inv.gain(),
         "sections": sections,
-        // The firmware runs each section in delta-operator form (core/src/filter.rs); `b`/`a` are the
+        // The firmware runs each section in delta-operator form (core/src/inverse/filter.rs); `b`/`a` are the
         // same sections in z⁻¹ form. The last `fixed_sections` never change with humidity.
         "fixed_sections": inv.tail().len(),
         "error": {

@@ -5,7 +5,7 @@
 use crate::diagnose::figures;
 use anyhow::{Context, Result};
 use ipmc_core::Calibration;
-use ipmc_core::humidity_path::SensorKind;
+use ipmc_core::calibration::humidity_path::SensorKind;
 use ipmc_diagnose::{data::Dataset, engine, report};
 use ipmc_recording::write_atomically;
 use std::path::{Path, PathBuf};
@@ -75,8 +75,8 @@ impl InstrumentArgs {
         if let Some((key, value)) = i.invalid() {
             anyhow::bail!(
                 "instrument {key} = {value}: a tolerance must be within 0–{} %, a delay within 0–{} µs",
-                ipmc_core::instrument::MAX_TOLERANCE_PCT,
-                ipmc_core::instrument::MAX_DELAY_US
+                ipmc_core::calibration::instrument::MAX_TOLERANCE_PCT,
+                ipmc_core::calibration::instrument::MAX_DELAY_US
             );
         }
         Ok(())

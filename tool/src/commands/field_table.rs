@@ -16,7 +16,7 @@ use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
 use anyhow::{Context, Result, anyhow};
 use ipmc_core::Calibration;
-use ipmc_core::running_spectrum::AVERAGING_S;
+use ipmc_core::humidity::spectrum::AVERAGING_S;
 use ipmc_recording::TimeSeries;
 use std::path::PathBuf;
 
@@ -227,8 +227,8 @@ mod tests {
     //! The hygrometer's acceptance on the simulator's field mode (`ipmc_sim::field`), scored by
     //! this command's compensation.
     use super::*;
-    use ipmc_core::humidity_path::{HumidityPath, SensorKind};
-    use ipmc_core::strip_humidity::Refusal;
+    use ipmc_core::calibration::humidity_path::{HumidityPath, SensorKind};
+    use ipmc_core::humidity::strip::Refusal;
     use ipmc_sim::field::{FieldPlan, simulate_field};
     use ipmc_sim::physics::ExactModel;
 

@@ -17,7 +17,8 @@ use ipmc_core::Calibration;
 use ipmc_core::ParamName;
 use ipmc_core::calibration_file;
 use ipmc_fit::departures::StripModel;
-use ipmc_fit::identify::{Estimate, FITTED, LevelData, LevelFit, identify_session};
+use ipmc_fit::estimate::Estimate;
+use ipmc_fit::identify::{FITTED, LevelData, LevelFit, identify_session};
 use ipmc_fit::laws::{LawFit, calibration_from_levels};
 use ipmc_recording::write_atomically;
 use ipmc_recording::{Charging, Format as _, LEVEL_SCATTER_PCT, Level};
@@ -344,7 +345,7 @@ pub fn identify(
     let lengths: Vec<String> = (0..4)
         .filter_map(|k| {
             let [lo, mid, hi] = model.length_quantiles(k)?;
-            Some(format!("{} {mid:.1} ({lo:.1}–{hi:.1})", ipmc_core::departures::DEPARTING[k].as_str()))
+            Some(format!("{} {mid:.1} ({lo:.1}–{hi:.1})", ipmc_core::calibration::departures::DEPARTING[k].as_str()))
         })
         .collect();
     if !lengths.is_empty() {

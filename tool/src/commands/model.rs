@@ -2,7 +2,7 @@
 
 use crate::{calibration_source, overrides};
 use anyhow::{Result, bail};
-use ipmc_core::model::{current_response, jw, tip_response};
+use ipmc_core::model::exact::{current_response, jw, tip_response};
 use ipmc_core::{ComplexMath, Params};
 use std::io::Write;
 

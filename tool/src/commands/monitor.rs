@@ -5,8 +5,8 @@
 //! counted; the stream goes on at the next delimiter.
 
 use anyhow::{Context, Result};
-use ipmc_core::stream::{DecodeError, Deframer, Frame, Header, Hygrometer, MAX_FRAME_LEN, flags};
-use ipmc_core::strip_humidity::Refusal;
+use ipmc_core::humidity::strip::Refusal;
+use ipmc_core::wire::stream::{DecodeError, Deframer, Frame, Header, Hygrometer, MAX_FRAME_LEN, flags};
 use std::{
     fs::File,
     io::{BufWriter, ErrorKind, Read, Write},
@@ -16,7 +16,7 @@ use std::{
 
 /// The firmware's USART1 rate (src/board/b_l475e_iot01a.rs).
 const DEFAULT_BAUD: u32 = 921_600;
-/// The firmware's sample rate (src/app/config.rs); frames carry sample indices, not times.
+/// The firmware's sample rate (src/contract/config.rs); frames carry sample indices, not times.
 const DEFAULT_FS_HZ: u32 = 2_000;
 
 #[derive(clap::Args)]
@@ -278,7 +278,7 @@ fn flag_names(bits: u16) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipmc_core::stream::{encode, max_frame_len};
+    use ipmc_core::wire::stream::{encode, max_frame_len};
 
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];

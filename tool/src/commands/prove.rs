@@ -223,7 +223,7 @@ pub fn run_cases(
         let csv = case.recording.to_csv()?;
         ipmc_recording::write_atomically(&path, csv.as_bytes())?;
         // Blind: the diagnosis sees only the file.
-        let data = Dataset::read(std::slice::from_ref(&path), &ipmc_core::humidity_path::HumidityPath::NONE)?;
+        let data = Dataset::read(std::slice::from_ref(&path), &ipmc_core::calibration::humidity_path::HumidityPath::NONE)?;
         let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;
         progress(&format!("case {i}: {truth}"));
         Ok(Outcome {

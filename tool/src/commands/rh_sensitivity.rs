@@ -5,8 +5,8 @@
 
 use crate::calibration_source;
 use anyhow::{Result, anyhow};
-use ipmc_core::design::{compensation_error, design_inverse};
-use ipmc_core::humidity_path::SensorKind;
+use ipmc_core::calibration::humidity_path::SensorKind;
+use ipmc_core::inverse::design::{compensation_error, design_inverse};
 use ipmc_core::{DesignConfig, Inverse, Params};
 
 /// SHT45's typical accuracy [±%RH] (Sensirion SHT4x datasheet): the firmware's `SensorKind`

@@ -3,7 +3,7 @@
 //! lag), with the strip's true humidity per second beside it.
 
 use anyhow::Result;
-use ipmc_core::humidity_path::SensorKind;
+use ipmc_core::calibration::humidity_path::SensorKind;
 use ipmc_recording::{NumberFormat, write_atomically};
 use ipmc_sim::field::{FieldPlan, simulate_field};
 use ipmc_sim::physics::ExactModel;

@@ -189,7 +189,7 @@ pub fn run(a: Args) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipmc_core::uncertainty::Uncertainty;
+    use ipmc_core::calibration::uncertainty::Uncertainty;
     use ipmc_core::{C, Calibration, Params, current_response};
     use std::f64::consts::PI;
 

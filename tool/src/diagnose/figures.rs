@@ -8,7 +8,7 @@ use crate::plot::bode::{Bode, LevelModel, ModelLine};
 use crate::plot::render;
 use crate::plot::residual_map::{Panel, ResidualMap, Row};
 use anyhow::Result;
-use ipmc_core::extension::Extension;
+use ipmc_core::model::extension::Extension;
 use ipmc_core::{C, Params};
 use ipmc_diagnose::data::{Dataset, LevelData};
 use ipmc_diagnose::fits;

@@ -8,8 +8,8 @@ use super::{
     tick_label,
 };
 use anyhow::Result;
-use ipmc_core::extension::{Extension, responses};
-use ipmc_core::model::jw;
+use ipmc_core::model::exact::jw;
+use ipmc_core::model::extension::{Extension, responses};
 use ipmc_core::{C, Params};
 use ipmc_recording::{Level, unwrap_degrees};
 use plotters::coord::Shift;

@@ -7,7 +7,7 @@
 
 pub mod coverage;
 
-pub use ipmc_core::operating_point::SETTLE_S;
+pub use ipmc_core::firmware::operating_point::SETTLE_S;
 
 /// What an estimate is scored by, in its calibration's band.
 #[derive(Clone, Copy, Debug)]
