@@ -3,10 +3,11 @@
 //! One source of truth for the firmware (f32), the host tests and the host tool (f64): every
 //! function is generic over [`Real`], so the device and the host run the same code.
 //!
-//! The rooms, bottom to top; each imports only from the rooms below it (`cargo xtask imports`
-//! checks it):
+//! The rooms, bottom to top; each imports only from the rooms listed before it (`cargo xtask
+//! imports --list core` prints them by level, and a step of `cargo xtask test` fails on a circle):
 //! - [`numeric`]: the scalar type and the numerical tools with no physics in them;
 //! - [`timing`]: the firmware's clock (sample rate, block length, humidity period);
+//! - [`wire`]: the formats that cross the board's edge (the stream out, the replay file in);
 //! - [`band`]: the band an estimate is good in, and the FIR that keeps it;
 //! - [`model`]: the paper's exact model H(s), its parameters, and the physics it leaves out;
 //! - [`calibration`]: a strip's humidity laws, departures, uncertainty, instrument and humidity
@@ -15,7 +16,6 @@
 //!   and the per-sample filter with glitch-free retuning;
 //! - [`humidity`]: the humidity chain, from a sensor's raw reading and the strip's own current to
 //!   the humidity each block's design is for;
-//! - [`wire`]: the formats that cross the board's edge (the stream out, the replay file in);
 //! - [`firmware`]: what the firmware decides with no hardware (operating point, start-up, a stuck
 //!   input), so the host runs it too;
 //! - [`calibration_file`]: the one reader of the calibration file, which checks that the inverse

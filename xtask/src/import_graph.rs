@@ -502,6 +502,9 @@ pub struct Findings {
     pub file_circles: Vec<(Vec<PathBuf>, Vec<String>)>,
     /// Each circle of rooms under one folder: the folder, its rooms, and the imports that close it.
     pub room_circles: Vec<(String, Vec<String>, Vec<String>)>,
+    /// The crate's top rooms by level, bottom first: a room imports only from lower levels
+    /// (empty where the rooms are in a circle).
+    pub levels: Vec<Vec<String>>,
 }
 
 pub fn check(c: &Crate) -> Findings {
@@ -520,6 +523,7 @@ pub fn check(c: &Crate) -> Findings {
         .collect();
     // Rooms: under each module, the child each file belongs to.
     let mut room_circles = Vec::new();
+    let mut levels = Vec::new();
     let parents: BTreeSet<ModPath> = c.modules.keys().filter(|m| !m.is_empty()).map(|m| m[..m.len() - 1].to_vec()).collect();
     for parent in parents {
         let room_of = |f: usize| -> Option<String> {
@@ -541,14 +545,41 @@ pub fn check(c: &Crate) -> Findings {
                 closing.push((idx(&a), idx(&b), describe(i)));
             }
         }
-        for members in circles(rooms.len(), &room_edges) {
+        let found = circles(rooms.len(), &room_edges);
+        if parent.is_empty() && found.is_empty() {
+            levels = by_level(&rooms, &room_edges);
+        }
+        for members in found {
             let inside: Vec<String> =
                 closing.iter().filter(|(a, b, _)| members.contains(a) && members.contains(b)).map(|(_, _, d)| d.clone()).collect();
             let folder = if parent.is_empty() { "crate".to_string() } else { format!("crate::{}", parent.join("::")) };
             room_circles.push((folder, members.iter().map(|&r| rooms[r].clone()).collect(), inside));
         }
     }
-    Findings { files: c.files.len(), imports: imports.len(), file_circles, room_circles }
+    Findings { files: c.files.len(), imports: imports.len(), file_circles, room_circles, levels }
+}
+
+/// Rooms grouped by level in a graph without circles: level 0 imports no other room, level
+/// n + 1 imports from level n at most.
+fn by_level(rooms: &[String], edges: &[(usize, usize)]) -> Vec<Vec<String>> {
+    fn level(r: usize, edges: &[(usize, usize)], memo: &mut Vec<Option<usize>>) -> usize {
+        if let Some(l) = memo[r] {
+            return l;
+        }
+        let l = edges.iter().filter(|&&(a, _)| a == r).map(|&(_, b)| level(b, edges, memo) + 1).max().unwrap_or(0);
+        memo[r] = Some(l);
+        l
+    }
+    let mut memo = vec![None; rooms.len()];
+    let mut out: Vec<Vec<String>> = Vec::new();
+    for r in 0..rooms.len() {
+        let l = level(r, edges, &mut memo);
+        if out.len() <= l {
+            out.resize(l + 1, Vec::new());
+        }
+        out[l].push(rooms[r].clone());
+    }
+    out
 }
 
 /// The crates of the repository, as (directory, root file).
@@ -589,6 +620,8 @@ pub fn command(list: &[String]) -> Result<()> {
             f.room_circles.len()
         );
         if list.iter().any(|l| Path::new(l) == name) {
+            let levels: Vec<String> = f.levels.iter().map(|l| l.join(", ")).collect();
+            println!("  rooms, bottom to top: {}", levels.join(" → "));
             let mut lines: Vec<String> =
                 c.imports().iter().map(|i| format!("    {} → {}", c.files[i.from].display(), c.files[i.to].display())).collect();
             lines.sort();

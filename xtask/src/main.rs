@@ -70,7 +70,8 @@ enum Task {
     Test { steps: Vec<String> },
     /// Import circles between the files, and between the folders, of every crate.
     Imports {
-        /// Also list every import of the crates whose directory is named (`core`, `.`).
+        /// Also list, for the crates whose directory is named (`core`, `.`), their top rooms by
+        /// level and every import.
         #[arg(long)]
         list: Vec<String>,
     },
