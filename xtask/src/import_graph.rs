@@ -693,6 +693,7 @@ mod tests {
         );
         let f = check(&c);
         assert!(f.file_circles.is_empty() && f.room_circles.is_empty(), "{:?} {:?}", f.file_circles, f.room_circles);
+        assert_eq!(f.levels, [vec!["room".to_string()], vec!["top".to_string()]]);
         let edges: Vec<(String, String)> =
             c.imports().iter().map(|i| (c.files[i.from].display().to_string(), c.files[i.to].display().to_string())).collect();
         // `crate::Low` is followed through both front doors to the file that defines it.
