@@ -12,7 +12,7 @@ use crate::contract::{
     sources::StreamSink,
 };
 
-/// The wire format (documented in ipmc-core's `stream` module) carries at most 255 estimates.
+/// The wire format (documented in ipmc-core's `wire::stream` module) carries at most 255 estimates.
 const _: () = assert!(BLOCK_LEN <= stream::MAX_ESTIMATES);
 const MAX_FRAME_LEN: usize = stream::max_frame_len(BLOCK_LEN);
 

@@ -169,16 +169,13 @@ impl FileWalk<'_> {
                     let line = id.span().start().line;
                     let mut segments = vec![id.to_string()];
                     let mut j = i + 1;
-                    while j + 2 < trees.len() + 1 {
-                        let colons = matches!((&trees.get(j), &trees.get(j + 1)),
-                            (Some(TokenTree::Punct(a)), Some(TokenTree::Punct(b))) if a.as_char() == ':' && b.as_char() == ':');
-                        match (colons, trees.get(j + 2)) {
-                            (true, Some(TokenTree::Ident(next))) => {
-                                segments.push(next.to_string());
-                                j += 3;
-                            }
-                            _ => break,
-                        }
+                    while let (Some(TokenTree::Punct(a)), Some(TokenTree::Punct(b)), Some(TokenTree::Ident(next))) =
+                        (trees.get(j), trees.get(j + 1), trees.get(j + 2))
+                        && a.as_char() == ':'
+                        && b.as_char() == ':'
+                    {
+                        segments.push(next.to_string());
+                        j += 3;
                     }
                     if segments.len() > 1 {
                         self.push_ref(&segments, line);

@@ -1,4 +1,4 @@
-//! Decodes a captured firmware stream (wire format: ipmc-core's `stream` module, the same code
+//! Decodes a captured firmware stream (wire format: ipmc-core's `wire::stream` module, the same code
 //! the firmware encodes with) into owned blocks for scoring and CSV output.
 
 use anyhow::bail;

@@ -1,5 +1,5 @@
 //! `ipmc monitor`: reads the firmware's binary stream (a serial port, a captured file or stdin),
-//! decodes it with ipmc-core's `stream` codec (the one the firmware encodes with), prints a line
+//! decodes it with ipmc-core's `wire::stream` codec (the one the firmware encodes with), prints a line
 //! per second of stream time and optionally writes the estimates as a recording-format CSV.
 //! A frame that does not decode (garbage, joined mid-frame, flipped bits) is skipped and
 //! counted; the stream goes on at the next delimiter.
