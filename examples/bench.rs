@@ -263,12 +263,12 @@ fn main() -> ! {
     semihosting::process::exit(0)
 }
 
-/// The band's linear-phase FIR after the inverse, alone: a cost per sample of its own, not per
-/// section. In a frame of its own: its taps and delay line (several KiB) would otherwise stay on
+/// The band's linear-phase filter after the inverse, alone: a cost per sample of its own, not per
+/// section. In a frame of its own: its taps and histories (several KiB) would otherwise stay on
 /// main's stack under the hygrometer's bench.
 #[inline(never)]
 fn band_fir(band: &ipmc_core::band::Band, codes: &[u16; 2048], conv: f64, instr: &impl Fn(u32) -> f64) {
-    let mut fir = ipmc_core::band::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has an FIR");
+    let mut fir = ipmc_core::band::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has a filter");
     let mut at = 0;
     let t = now();
     for _ in 0..BLOCKS {
@@ -278,7 +278,13 @@ fn band_fir(band: &ipmc_core::band::Band, codes: &[u16; 2048], conv: f64, instr:
         at += BLOCK_LEN;
     }
     println!("band_fir_per_sample {}", instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64) - conv);
-    println!("band_fir_taps {}", fir.taps());
+    let plan = fir.plan();
+    println!("band_stages {}", plan.stages);
+    for (s, n) in plan.half_band_taps[..plan.stages].iter().enumerate() {
+        println!("band_half_band_taps_{s} {n}");
+    }
+    println!("band_taps {}", plan.taps);
+    println!("band_delay_samples {}", plan.delay_samples());
 }
 
 /// A deterministic generator, uniform in (0, 1).

@@ -85,8 +85,8 @@ fn wrap(a: f64) -> f64 {
 
 /// What the compensator runs: the inverse, then the band's linear-phase FIR with its delay.
 fn chain_response(inv: &ipmc_core::Inverse<f64>, f: f64) -> ipmc_core::C<f64> {
-    let kept = ipmc_core::band::Taps::design(&inv.band(), FS).expect("the default band at 2 kHz");
-    inv.response(f) * kept.delayed_response(f, FS)
+    let kept = ipmc_core::band::BandDesign::design(&inv.band(), FS).expect("the default band at 2 kHz");
+    inv.response(f) * kept.delayed_response(f)
 }
 
 const SETTLE: usize = 40_000; // 20 s: the slowest poles (1 Hz high-pass) decay by e^-40

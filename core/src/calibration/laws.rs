@@ -163,9 +163,11 @@ impl core::fmt::Display for ValidationError {
                 write!(
                     f,
                     "band.{key} = {value}: the band's edges must be finite with 0 < low_hz < high_hz, and the firmware keeps \
-                     it at {} Hz only from a lower edge of {:.1} Hz and with the upper edge plus its transition below Nyquist",
+                     it at {} Hz only from a lower edge of {:.1} Hz (with an upper edge of {} Hz) and with the upper edge plus its \
+                     transition below Nyquist",
                     crate::timing::SAMPLE_RATE_HZ,
-                    crate::band::lowest_low_hz(crate::timing::SAMPLE_RATE_HZ as f64)
+                    crate::band::lowest_low_hz(crate::timing::SAMPLE_RATE_HZ as f64, Band::DEFAULT.high_hz),
+                    Band::DEFAULT.high_hz
                 )
             }
             ValidationError::Departures(e) => write!(f, "{e}"),

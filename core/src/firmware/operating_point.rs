@@ -46,7 +46,7 @@ pub const SETTLE_S: f64 = 5.0;
 /// rate (a band the firmware cannot keep is refused when its calibration loads).
 pub fn delay_samples(band: &Band) -> usize {
     let c = DesignConfig::<f64>::firmware();
-    let fir = check(band, c.fs_hz).map_or(0, |n| (n - 1) / 2);
+    let fir = check(band, c.fs_hz).map_or(0, |p| p.delay_samples());
     (c.max_delay_s * c.fs_hz).round() as usize + fir
 }
 
@@ -58,7 +58,7 @@ mod tests {
     fn the_preview_is_whole_samples() {
         let c = DesignConfig::<f64>::firmware();
         let band = Band::DEFAULT;
-        let fir = crate::band::Taps::design(&band, c.fs_hz).unwrap().delay_samples();
+        let fir = crate::band::BandDesign::design(&band, c.fs_hz).unwrap().delay_samples();
         assert_eq!((super::delay_samples(&band) - fir) as f64, c.max_delay_s * c.fs_hz);
         assert_eq!(super::delay_samples(&band), 4 + fir, "the preview is 2 ms, 4 samples");
     }

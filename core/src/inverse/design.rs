@@ -25,7 +25,7 @@
 //! Poles and zeros are mapped by z = e^{sT} (matched pole-zero), which preserves the resonance
 //! frequencies exactly where bilinear would warp them by 2 % at 150 Hz.
 
-use crate::band::{Band, Taps};
+use crate::band::{Band, BandDesign};
 use crate::inverse::rational::{IonicOrder, MAX_ROOTS, RationalModel, Roots};
 use crate::model::exact::jw;
 use crate::numeric::lstsq::lstsq;
@@ -637,11 +637,11 @@ fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: 
 pub fn compensation_error<T: Real>(p: &Params<T>, inv: &Inverse<T>, lo_hz: T, hi_hz: T, n: usize) -> (T, T) {
     let mut sum = T::zero();
     let mut worst = T::zero();
-    let kept = Taps::design(&inv.band, inv.fs_hz.to_f64()).ok();
+    let kept = BandDesign::design(&inv.band, inv.fs_hz.to_f64()).ok();
     for i in 0..n {
         let f = lo_hz + (hi_hz - lo_hz) * T::lit(i as f64 / (n - 1) as f64);
         let w = T::lit(2.0) * T::PI() * f * inv.delay_s;
-        let fir = T::lit(kept.as_ref().map_or(1.0, |t| t.response(f.to_f64(), inv.fs_hz.to_f64())));
+        let fir = T::lit(kept.as_ref().map_or(1.0, |t| t.response(f.to_f64())));
         let e = (crate::model::exact::current_response(p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) * fir - T::one()).cabs();
         sum += e * e;
         worst = worst.max(e);

@@ -13,7 +13,7 @@
 
 use crate::Real;
 use crate::band::Band;
-use crate::band::{BandLimit, Taps};
+use crate::band::{BandDesign, BandLimit};
 use crate::inverse::design::{Inverse, MAX_SECTIONS, Sos};
 
 /// Duration of a retune's crossfade [s]. Measured on a 0.25 % step during a steady 40 Hz sine
@@ -251,7 +251,7 @@ impl<T: Real> Compensator<T> {
         self.warmup_len = (Real::round(WARMUP_S * fs) as u32).max(1);
         self.fade_len = (Real::round(FADE_S * fs) as u32).max(1);
         self.band_spec = *band;
-        match Taps::design(band, fs) {
+        match BandDesign::design(band, fs) {
             Ok(t) => {
                 self.band.load(&t);
                 self.keeps_band = true;
