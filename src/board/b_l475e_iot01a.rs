@@ -32,7 +32,7 @@ use {defmt_rtt as _, panic_probe as _};
 
 use super::Board;
 use crate::contract::{
-    config::{ADC_VREF_V, BLOCK_LEN, STREAM_STALL_LIMIT_MS},
+    config::{ADC_STALL_BLOCKS, ADC_VREF_V, BLOCK_LEN, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
     sources::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
@@ -96,9 +96,8 @@ const SYSCLK_HSI_HZ: u64 = 16_000_000 * 10 / 2;
 /// 80 000 000 / 32 768 = 2441 (truncated from 2441.4): one tick is 2441 clocks of the real SYSCLK,
 /// 32 754.6 Hz with the crystal (−410 ppm), 32 773.5 Hz from HSI16 (+166 ppm).
 const TIME_BASE_DIVIDER: u64 = 80_000_000 / embassy_time::TICK_HZ;
-/// How long the sample path waits for a block before it looks for an ADC overrun: three block
-/// periods. An overrun stops the DMA requests, so no block would come until the watchdog reset.
-const ADC_STALL: Duration = Duration::from_millis(48);
+/// How long the sample path waits for a block before it looks for an ADC overrun.
+const ADC_STALL: Duration = Duration::from_micros(ADC_STALL_BLOCKS * BLOCK_LEN as u64 * 1_000_000 / SAMPLE_RATE_HZ as u64);
 #[cfg(not(feature = "humidity-hih4030"))]
 const I2C_HZ: u32 = 100_000;
 /// Longest I2C transfer [ms]: the longest HTS221 transfer (16 calibration bytes) takes 2 ms at
