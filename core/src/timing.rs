@@ -28,28 +28,32 @@ pub fn reading_age_s() -> f64 {
     HUMIDITY_PERIOD_MS as f64 / 2000.0
 }
 
-/// Samples lost in a gap of `gap_us` between the arrivals of two blocks (an ADC overrun: the
-/// ring buffer restarts and the samples in between are gone). Whole blocks, since the DMA
-/// delivers half-buffers: the gap is rounded to block periods, and one period is the block
-/// that did arrive.
-pub fn samples_lost(gap_us: u64) -> u32 {
-    let period_us = 1_000_000 * BLOCK_LEN as u64 / SAMPLE_RATE_HZ as u64;
-    let periods = (gap_us + period_us / 2) / period_us;
-    (periods.saturating_sub(1) * BLOCK_LEN as u64).min(u32::MAX as u64) as u32
+/// Polls in a row without a new humidity sample after which the reading counts as stale (the
+/// humidity task's own test).
+pub const STALE_AFTER_PERIODS: u64 = 3;
+
+/// Age of the last new reading beyond which the sample path flags it stale itself [ms]: the
+/// humidity task's threshold plus its read timeout (half a period). While that task runs it
+/// flags first; the sample path's test catches the task that no longer runs at all (a wedged I/O
+/// executor), which cannot flag its own silence.
+pub const READING_STALE_MS: u64 = STALE_AFTER_PERIODS * HUMIDITY_PERIOD_MS + HUMIDITY_PERIOD_MS / 2;
+
+/// Whether a reading `age_ms` old is stale, as the sample path judges it.
+pub fn reading_is_stale(age_ms: u64) -> bool {
+    age_ms > READING_STALE_MS
 }
 
 #[cfg(test)]
 mod tests {
     #[test]
-    fn gaps_count_whole_blocks() {
-        use super::{BLOCK_LEN, samples_lost};
-        // 16 ms per block at 2 kHz: an on-time block lost nothing, jitter included.
-        assert_eq!(samples_lost(16_000), 0);
-        assert_eq!(samples_lost(23_000), 0);
-        assert_eq!(samples_lost(0), 0);
-        assert_eq!(samples_lost(25_000), BLOCK_LEN as u32);
-        assert_eq!(samples_lost(48_000), 2 * BLOCK_LEN as u32);
-        assert_eq!(samples_lost(1_000_000), 62 * BLOCK_LEN as u32);
+    fn a_reading_goes_stale_after_the_humidity_task_would_have_said_so() {
+        use super::{HUMIDITY_PERIOD_MS, STALE_AFTER_PERIODS, reading_is_stale};
+        // A sensor with no new sample for a couple of polls is not stale.
+        assert!(!reading_is_stale(2 * HUMIDITY_PERIOD_MS + 400));
+        // The humidity task flags at three periods, once a poll: the sample path only later.
+        assert!(!reading_is_stale(STALE_AFTER_PERIODS * HUMIDITY_PERIOD_MS + 100));
+        // A task that stopped polling: stale within four periods.
+        assert!(reading_is_stale(4 * HUMIDITY_PERIOD_MS));
     }
 
     #[test]

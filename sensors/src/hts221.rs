@@ -30,6 +30,12 @@ const STATUS_H_DA: u8 = 1 << 1;
 /// The reboot takes a few milliseconds (datasheet: BOOT "self-clears after the process").
 const BOOT_POLL_MS: u32 = 2;
 const BOOT_POLLS: u32 = 10;
+/// The first sample after power-on: one output period, 143 ms at 7 Hz. Polled for up to 300 ms
+/// (twice that, and within the humidity task's 500 ms read timeout), so that the first reading
+/// after a cold boot is a sample and not "no new data": without the wait, every cold boot
+/// sampled its first second on the start-up's fallback design.
+const FIRST_SAMPLE_POLL_MS: u32 = 10;
+const FIRST_SAMPLE_POLLS: u32 = 30;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -46,7 +52,8 @@ pub enum Error {
 }
 
 /// Checks the device, reboots it so its calibration registers are loaded, reads and checks the
-/// calibration and starts 7 Hz conversions.
+/// calibration, starts 7 Hz conversions and waits (bounded) for the first of them. A part whose
+/// first sample is late is still set up: the next read then says `NoNewData`, as before.
 pub async fn set_up<I: I2c>(i2c: &mut I, delay: &mut impl DelayNs) -> Result<Hts221Calibration, Error> {
     let mut id = [0u8];
     i2c.write_read(ADDRESS, &[WHO_AM_I], &mut id).await.map_err(|_| Error::Bus)?;
@@ -71,14 +78,25 @@ pub async fn set_up<I: I2c>(i2c: &mut I, delay: &mut impl DelayNs) -> Result<Hts
     i2c.write_read(ADDRESS, &[CALIB_START | AUTO_INCREMENT], &mut regs).await.map_err(|_| Error::Bus)?;
     let calibration = Hts221Calibration::from_registers(&regs).ok_or(Error::BadCalibration)?;
     i2c.write(ADDRESS, &[CTRL_REG1, CTRL_REG1_PD_BDU_7HZ]).await.map_err(|_| Error::Bus)?;
+    for _ in 0..FIRST_SAMPLE_POLLS {
+        if has_new_sample(i2c).await? {
+            break;
+        }
+        delay.delay_ms(FIRST_SAMPLE_POLL_MS).await;
+    }
     Ok(calibration)
+}
+
+/// STATUS_REG's H_DA: a humidity sample not read yet. Reading the status does not clear it.
+async fn has_new_sample<I: I2c>(i2c: &mut I) -> Result<bool, Error> {
+    let mut status = [0u8];
+    i2c.write_read(ADDRESS, &[STATUS_REG], &mut status).await.map_err(|_| Error::Bus)?;
+    Ok(status[0] & STATUS_H_DA != 0)
 }
 
 /// The newest humidity sample in %RH; `NoNewData` if none arrived since the last call.
 pub async fn read_rh_pct<I: I2c>(i2c: &mut I, calibration: &Hts221Calibration) -> Result<f32, Error> {
-    let mut status = [0u8];
-    i2c.write_read(ADDRESS, &[STATUS_REG], &mut status).await.map_err(|_| Error::Bus)?;
-    if status[0] & STATUS_H_DA == 0 {
+    if !has_new_sample(i2c).await? {
         return Err(Error::NoNewData);
     }
     let mut out = [0u8; 2];

@@ -24,6 +24,9 @@ struct FakeHts221 {
     regs: [u8; 0x40],
     /// Polls of CTRL_REG2 before BOOT clears.
     boot_polls_left: u32,
+    /// STATUS reads after power-on that find no sample yet (the first conversion takes one
+    /// output period, 143 ms at 7 Hz); `u32::MAX`: the part never converts.
+    status_reads_before_first_sample: u32,
     /// What went over the bus: (address, bytes written, bytes read).
     traffic: RefCell<Vec<(u8, Vec<u8>, usize)>>,
 }
@@ -39,7 +42,7 @@ impl FakeHts221 {
         regs[0x3A..0x3C].copy_from_slice(&6000i16.to_le_bytes());
         regs[0x27] = 0b10; // H_DA
         regs[0x28..0x2A].copy_from_slice(&2000i16.to_le_bytes()); // 50 %RH
-        FakeHts221 { mode, regs, boot_polls_left: 2, traffic: RefCell::new(vec![]) }
+        FakeHts221 { mode, regs, boot_polls_left: 2, status_reads_before_first_sample: 0, traffic: RefCell::new(vec![]) }
     }
 }
 
@@ -80,6 +83,13 @@ impl embedded_hal_async::i2c::I2c for FakeHts221 {
                     for (k, b) in buf.iter_mut().enumerate() {
                         *b = self.regs[if auto_increment { pointer + k } else { pointer }];
                     }
+                    let powered = self.regs[hts221::CTRL_REG1 as usize] & 0x80 != 0;
+                    if pointer == hts221::STATUS_REG as usize && powered && self.status_reads_before_first_sample > 0 {
+                        buf[0] = 0;
+                        if self.status_reads_before_first_sample != u32::MAX {
+                            self.status_reads_before_first_sample -= 1;
+                        }
+                    }
                     if pointer == hts221::HUMIDITY_OUT_L as usize {
                         self.regs[hts221::STATUS_REG as usize] = 0; // read: no new data until the next conversion
                     }
@@ -111,6 +121,7 @@ fn set_up_and_read_register_traffic() {
         (vec![0x21], 1),       // cleared
         (vec![0xB0], 16),      // calibration, auto-increment
         (vec![0x20, 0x86], 0), // power on, BDU, 7 Hz
+        (vec![0x27], 1),       // STATUS: the first sample is there
         (vec![0x27], 1),       // STATUS
         (vec![0xA8], 2),       // HUMIDITY_OUT, auto-increment
     ];
@@ -166,4 +177,38 @@ fn a_cancelled_read_leaves_the_bus_with_its_owner() {
     bus.mode = Mode::Normal;
     bus.regs[hts221::STATUS_REG as usize] = 0b10;
     assert_eq!(block_on(hts221::read_rh_pct(&mut bus, &cal)), Ok(50.0));
+}
+
+/// Sums the waits asked for [ns].
+struct CountingDelay(u64);
+impl embedded_hal_async::delay::DelayNs for CountingDelay {
+    async fn delay_ns(&mut self, ns: u32) {
+        self.0 += u64::from(ns);
+    }
+}
+
+#[test]
+fn a_cold_boot_waits_for_the_first_sample() {
+    // Recorded at power-on: the first STATUS reads say "no data" until the first conversion
+    // (143 ms at 7 Hz; polled every 10 ms, about 15 reads).
+    let mut bus = FakeHts221::new(Mode::Normal);
+    bus.status_reads_before_first_sample = 15;
+    let mut delay = CountingDelay(0);
+    let cal = block_on(hts221::set_up(&mut bus, &mut delay)).unwrap();
+    // The first read after the set-up is a sample, so the first design is at a reading, not
+    // at the fallback.
+    assert_eq!(block_on(hts221::read_rh_pct(&mut bus, &cal)), Ok(50.0));
+    assert!(delay.0 >= 140_000_000, "waited only {} ms", delay.0 / 1_000_000);
+}
+
+#[test]
+fn the_wait_for_the_first_sample_is_bounded() {
+    // A part that never converts: the set-up still ends, within 300 ms of waiting (and the
+    // humidity task's 500 ms read timeout), and the read says "no new data" as before.
+    let mut bus = FakeHts221::new(Mode::Normal);
+    bus.status_reads_before_first_sample = u32::MAX;
+    let mut delay = CountingDelay(0);
+    let cal = block_on(hts221::set_up(&mut bus, &mut delay)).unwrap();
+    assert!(delay.0 <= 300_000_000 + 20_000_000, "waited {} ms", delay.0 / 1_000_000);
+    assert_eq!(block_on(hts221::read_rh_pct(&mut bus, &cal)), Err(Error::NoNewData));
 }

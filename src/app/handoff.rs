@@ -1,7 +1,7 @@
 //! The only state shared between tasks. Every hand-off is non-blocking for the sample path:
 //! it `try_take`s a finished design and `try_send`s its results.
 
-use core::sync::atomic::{AtomicU16, Ordering};
+use core::sync::atomic::{AtomicU16, AtomicU32, Ordering};
 
 use crate::contract::atomic_f32::AtomicF32;
 
@@ -52,6 +52,20 @@ pub static REPORT_QUEUE: Channel<CriticalSectionRawMutex, ReportItem, 8> = Chann
 /// Latest humidity reading as the sensor gave it [%] (NaN before the first): the sample path
 /// makes the strip's humidity of it, block by block.
 pub static LATEST_READ_RH_PCT: AtomicF32 = AtomicF32::new(f32::NAN);
+/// When the humidity task stored its last new reading [ms of the board's clock, wrapping]: the
+/// sample path judges the reading's age itself, since a task that no longer runs cannot say it
+/// has stopped. (No 64-bit atomics on the Cortex-M4; 49 days of wrap.)
+static LATEST_READ_AT_MS: AtomicU32 = AtomicU32::new(0);
+
+pub fn reading_taken_at(at: embassy_time::Instant) {
+    LATEST_READ_AT_MS.store(at.as_millis() as u32, Ordering::Relaxed);
+}
+
+/// Age of the last reading at `now` [ms].
+pub fn reading_age_ms(now: embassy_time::Instant) -> u64 {
+    u64::from((now.as_millis() as u32).wrapping_sub(LATEST_READ_AT_MS.load(Ordering::Relaxed)))
+}
+
 /// Humidity and design flags (`RH_STALE`, `DESIGN_FAILED`, `RH_FALLBACK`) for the next blocks.
 pub static CONDITION_FLAGS: AtomicU16 = AtomicU16::new(0);
 

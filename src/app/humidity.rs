@@ -9,7 +9,7 @@ use embassy_time::{Duration, Instant, Ticker, with_timeout};
 use ipmc_core::{
     firmware::startup::{Poll, Startup},
     humidity::block::BlockHumidity,
-    timing::reading_age_s,
+    timing::{STALE_AFTER_PERIODS, reading_age_s},
 };
 
 use crate::board::{self, Humidity};
@@ -23,9 +23,6 @@ use crate::contract::{
 
 /// A reading that takes longer than this counts as no response.
 const READ_TIMEOUT: Duration = Duration::from_millis(HUMIDITY_PERIOD_MS / 2);
-
-/// Polls in a row without a new sample after which the reading counts as stale.
-const NO_NEW_DATA_PERIODS: u64 = 3;
 
 #[embassy_executor::task]
 pub async fn humidity_task(mut sensor: Humidity) {
@@ -43,6 +40,7 @@ pub async fn humidity_task(mut sensor: Humidity) {
             Ok(raw) => {
                 last_new = Instant::now();
                 LATEST_READ_RH_PCT.store(raw);
+                handoff::reading_taken_at(last_new);
                 if failures > 0 {
                     defmt::info!("humidity back after {} failed readings", failures);
                 }
@@ -59,7 +57,7 @@ pub async fn humidity_task(mut sensor: Humidity) {
             // The sensor is fine, only not faster than the poll: the last value holds, unless
             // no new sample has come for several periods (a sensor that stopped converting).
             Err(HumidityError::NoNewData) => {
-                if last_new.elapsed() > Duration::from_millis(NO_NEW_DATA_PERIODS * HUMIDITY_PERIOD_MS) {
+                if last_new.elapsed() > Duration::from_millis(STALE_AFTER_PERIODS * HUMIDITY_PERIOD_MS) {
                     handoff::set_condition(flags::RH_STALE, true);
                 }
                 Poll::NothingNew

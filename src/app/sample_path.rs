@@ -16,7 +16,7 @@ use ipmc_core::{
     humidity::block::{BlockHumidity, span_s},
     humidity::hygrometer::BlockHygrometer,
     inverse::expected_error::BlockError,
-    timing::reading_age_s,
+    timing::{reading_age_s, reading_is_stale},
     wire::stream::{Header, Hygrometer},
 };
 use static_cell::StaticCell;
@@ -191,6 +191,11 @@ impl SamplePath {
         block.header.rel_err = self.error_bar.block(self.filter.rh_pct(), &block.base_est_m);
 
         block.header.rh_read_pct = LATEST_READ_RH_PCT.load();
+        // The humidity task flags its own failures; a wedged I/O executor runs no task to do so,
+        // so the reading's age is judged here too (before the first reading, RH_FALLBACK says it).
+        if block.header.rh_read_pct.is_finite() && reading_is_stale(handoff::reading_age_ms(embassy_time::Instant::now())) {
+            block.header.flags |= flags::RH_STALE;
+        }
         // No reading yet: the first design is the humidity task's fallback, and stays.
         let dt_s = span_s(self.since_last, SAMPLE_RATE_HZ);
         if let Some(read) = self.humidity.advance(block.header.rh_read_pct, dt_s) {

@@ -32,7 +32,7 @@ use {defmt_rtt as _, panic_probe as _};
 
 use super::Board;
 use crate::contract::{
-    config::{ADC_VREF_V, BLOCK_LEN, STREAM_STALL_LIMIT_MS},
+    config::{ADC_STALL_BLOCKS, ADC_VREF_V, BLOCK_LEN, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
     sources::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
@@ -45,9 +45,10 @@ use embassy_stm32::peripherals::{DMA1_CH6, DMA1_CH7, I2C1};
 #[cfg(feature = "humidity-hih4030")]
 use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
 use embassy_time::{Duration, Instant, with_timeout};
+use ipmc_core::firmware::lost_samples::RingBlocks;
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use ipmc_core::humidity::sensor::Hts221Calibration;
-use ipmc_core::timing::{sample_period_clocks, samples_lost};
+use ipmc_core::timing::sample_period_clocks;
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use ipmc_sensors::hts221;
 #[cfg(not(feature = "humidity-hih4030"))]
@@ -91,6 +92,12 @@ const MSI_LOCKED_HZ: u64 = 122 * 32_768;
 const SYSCLK_LSE_HZ: u64 = MSI_LOCKED_HZ * 40 / 2;
 /// SYSCLK without it: HSI16 × 10 / 2.
 const SYSCLK_HSI_HZ: u64 = 16_000_000 * 10 / 2;
+/// embassy-stm32's TIM2 time base divides its nominal 80 MHz by a whole prescaler,
+/// 80 000 000 / 32 768 = 2441 (truncated from 2441.4): one tick is 2441 clocks of the real SYSCLK,
+/// 32 754.6 Hz with the crystal (−410 ppm), 32 773.5 Hz from HSI16 (+166 ppm).
+const TIME_BASE_DIVIDER: u64 = 80_000_000 / embassy_time::TICK_HZ;
+/// How long the sample path waits for a block before it looks for an ADC overrun.
+const ADC_STALL: Duration = Duration::from_micros(ADC_STALL_BLOCKS * BLOCK_LEN as u64 * 1_000_000 / SAMPLE_RATE_HZ as u64);
 #[cfg(not(feature = "humidity-hih4030"))]
 const I2C_HZ: u32 = 100_000;
 /// Longest I2C transfer [ms]: the longest HTS221 transfer (16 calibration bytes) takes 2 ms at
@@ -333,7 +340,7 @@ pub fn init() -> Board {
     });
     // After an overrun the ring restarts where the DMA is; reading from the next block boundary
     // of the buffer (whose position 0 was the first sample) loses whole blocks only, which is
-    // what the gap's duration counts (`samples_lost`).
+    // what the blocks' end times count (`ipmc_core::firmware::lost_samples`).
     adc.set_alignment(BLOCK_LEN);
     let trigger = Timer::new(p.TIM6);
     // From the real SYSCLK (TIM6 runs from it, APB1 undivided): embassy's set_frequency would
@@ -380,7 +387,8 @@ pub fn init() -> Board {
         codes: [0; BLOCK_LEN],
         iwdg: Some(p.IWDG),
         watchdog: None,
-        last_block: None,
+        ring: RingBlocks::new(),
+        sysclk_hz,
         first_conversion: true,
         front_end,
         clock_fault: !crystal,
@@ -395,8 +403,10 @@ pub struct Samples {
     /// The IWDG runs from reset with the start-up's timeout; `start` shortens it.
     iwdg: Option<Peri<'static, IWDG>>,
     watchdog: Option<IndependentWatchdog<'static, IWDG>>,
-    /// When the last block arrived: the length of a gap after an overrun.
-    last_block: Option<Instant>,
+    /// When the blocks read ended: what an overrun lost.
+    ring: RingBlocks,
+    /// The real SYSCLK, which the time base counts in (`TIME_BASE_DIVIDER`).
+    sysclk_hz: u64,
     /// The next block's first conversion is the first since calibration (below).
     first_conversion: bool,
     front_end: current_conversion::FrontEnd,
@@ -433,13 +443,28 @@ impl CurrentSource for Samples {
 
     async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
         let mut block_flags = 0;
-        let mut overrun = false;
-        // An overrun means the sample path fell a whole half-buffer behind; the ring buffer
-        // restarts and the gap is flagged.
-        while self.adc.read(&mut self.codes).await.is_err() {
-            block_flags |= flags::SAMPLES_LOST;
-            overrun = true;
-        }
+        let mut gap = false;
+        let ring_holds = loop {
+            match with_timeout(ADC_STALL, self.adc.read(&mut self.codes)).await {
+                Ok(Ok(holds)) => break holds,
+                // The sample path fell a whole half-buffer behind: the ring restarts at the DMA
+                // and the gap is flagged.
+                Ok(Err(_)) => {
+                    block_flags |= flags::SAMPLES_LOST;
+                    gap = true;
+                }
+                // No block for three periods. An ADC overrun blocks the DMA requests until OVR
+                // is cleared; anything else (a hung DMA) is the watchdog's.
+                Err(_) => {
+                    if pac::ADC1.isr().read().ovr() {
+                        self.restart_conversions();
+                        defmt::warn!("ADC overrun: conversions restarted");
+                        block_flags |= flags::ADC_OVERRUN | flags::SAMPLES_LOST;
+                        gap = true;
+                    }
+                }
+            }
+        };
         // Fed by progress: a block arrived, so the previous one was processed.
         if let Some(w) = self.watchdog.as_mut() {
             w.pet();
@@ -447,12 +472,7 @@ impl CurrentSource for Samples {
         if self.clock_fault || crystal_failed() {
             block_flags |= flags::CLOCK_FAULT;
         }
-        let now = Instant::now();
-        let lost_samples = match self.last_block {
-            Some(last) if overrun => samples_lost((now - last).as_micros()),
-            _ => 0,
-        };
-        self.last_block = Some(now);
+        let lost_samples = self.ring.block(self.now_us(), ring_holds, gap);
         // STM32L47x erratum (ES0250, "wrong ADC result if conversion done late after
         // calibration"): the first conversion after calibration may be wrong. embassy discards
         // it in its blocking path, not in the ring-buffered one: hold the second in its place.
@@ -466,6 +486,32 @@ impl CurrentSource for Samples {
             *a = self.front_end.amps(code);
         }
         SampleBlock::Ready { flags: block_flags, lost_samples }
+    }
+}
+
+impl Samples {
+    /// The time base in µs of the real SYSCLK, not of embassy's nominal tick.
+    fn now_us(&self) -> u64 {
+        let clocks = Instant::now().as_ticks() * TIME_BASE_DIVIDER;
+        // In two parts: clocks × 10⁶ overflows u64 after three days.
+        clocks / self.sysclk_hz * 1_000_000 + clocks % self.sysclk_hz * 1_000_000 / self.sysclk_hz
+    }
+
+    /// After an ADC overrun (RM0351, "Managing conversions using the DMA": the DMA requests stay
+    /// blocked until OVR is cleared): stop the conversions, clear OVR, move the ring's read
+    /// position to where the DMA stopped (the block it was filling holds samples from both sides
+    /// of the stop and is skipped) and start again on the next TIM6 trigger. The DMA channel never
+    /// stopped, and CFGR (the trigger) is untouched.
+    fn restart_conversions(&mut self) {
+        let adc = pac::ADC1;
+        if adc.cr().read().adstart() {
+            adc.cr().modify(|w| w.set_adstp(true));
+            while adc.cr().read().adstart() {}
+        }
+        adc.isr().write(|w| w.set_ovr(true));
+        self.adc.clear();
+        adc.cr().modify(|w| w.set_adstart(true));
+        self.ring.restarted();
     }
 }
 

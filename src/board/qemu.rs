@@ -14,6 +14,9 @@
 //! current and RH, and the waits between a recording's bursts. A wait is not replayed in time:
 //! the board lets the humidity task read the next burst's humidity, then reports the wait's
 //! samples as lost, so the strip's hydration moves on through it as it would on the bench.
+//! A current of −inf is an ADC overrun at that sample: as on the board, its DMA requests stop,
+//! the sample path finds no block for `ADC_STALL_BLOCKS` periods, restarts the conversions and
+//! flags `ADC_OVERRUN` with the samples the stop cost.
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -29,7 +32,7 @@ pub use stm32_metapac as pac;
 use super::Board;
 use crate::contract::{
     atomic_f32::AtomicF32,
-    config::{BLOCK_LEN, HUMIDITY_PERIOD_MS, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
+    config::{ADC_STALL_BLOCKS, BLOCK_LEN, HUMIDITY_PERIOD_MS, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
     sources::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
@@ -113,6 +116,7 @@ pub fn init() -> Board {
         wait_count: gaps as usize,
         next_wait: 0,
         delivered: 0,
+        stalled_blocks_left: 0,
     };
 
     pac::RCC.apb2enr().modify(|w| w.set_usart1en(true));
@@ -136,11 +140,38 @@ pub struct Samples {
     next_wait: usize,
     /// Samples delivered so far.
     delivered: u32,
+    /// Blocks still to drop after a replayed ADC overrun.
+    stalled_blocks_left: u32,
 }
 
 impl Samples {
     fn block_period() -> Duration {
         Duration::from_micros(1_000_000 * BLOCK_LEN as u64 / SAMPLE_RATE_HZ as u64)
+    }
+
+    /// The next block of the replay, a block period after the last; None at its end (a partial
+    /// last block is not processed: the estimate count is a whole number of blocks).
+    async fn next_raw_block(&mut self) -> Option<[u8; BLOCK_LEN * BYTES_PER_SAMPLE]> {
+        if let Some(t) = self.ticker.as_mut() {
+            t.next().await;
+        }
+        let left = SAMPLES_LEFT.load(Ordering::Relaxed) as usize;
+        if left < BLOCK_LEN {
+            return None;
+        }
+        let raw = match self.first_block.take() {
+            Some(first) => first,
+            None => {
+                let mut raw = [0u8; BLOCK_LEN * BYTES_PER_SAMPLE];
+                if self.replay.read_exact(&mut raw).is_err() {
+                    defmt::error!("replay file shorter than its header says");
+                    return None;
+                }
+                raw
+            }
+        };
+        SAMPLES_LEFT.store((left - BLOCK_LEN) as u32, Ordering::Relaxed);
+        Some(raw)
     }
 
     /// The samples of the waits before the end of the block starting at `delivered`.
@@ -160,29 +191,33 @@ impl CurrentSource for Samples {
     }
 
     async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
-        if let Some(t) = self.ticker.as_mut() {
-            t.next().await;
-        }
-        let left = SAMPLES_LEFT.load(Ordering::Relaxed) as usize;
-        // A partial last block is not processed: the estimate count is a whole number of blocks.
-        if left < BLOCK_LEN {
-            return SampleBlock::End;
-        }
-        let raw = match self.first_block.take() {
-            Some(first) => first,
-            None => {
-                let mut raw = [0u8; BLOCK_LEN * BYTES_PER_SAMPLE];
-                if self.replay.read_exact(&mut raw).is_err() {
-                    defmt::error!("replay file shorter than its header says");
-                    return SampleBlock::End;
-                }
-                raw
+        let mut overrun_lost = 0u32;
+        let raw = loop {
+            let Some(raw) = self.next_raw_block().await else {
+                return SampleBlock::End;
+            };
+            let overran = raw.as_chunks::<BYTES_PER_SAMPLE>().0.iter().any(|c| replay::Sample::decode(c).current_a == f32::NEG_INFINITY);
+            if overran {
+                // The block being filled when the ADC overran, and the blocks that would have
+                // come while the sample path waited for them: gone.
+                overrun_lost += BLOCK_LEN as u32;
+                self.delivered += BLOCK_LEN as u32;
+                self.stalled_blocks_left = ADC_STALL_BLOCKS as u32;
+            } else if self.stalled_blocks_left > 0 {
+                self.stalled_blocks_left -= 1;
+                overrun_lost += BLOCK_LEN as u32;
+                self.delivered += BLOCK_LEN as u32;
+            } else {
+                break raw;
             }
         };
-        SAMPLES_LEFT.store((left - BLOCK_LEN) as u32, Ordering::Relaxed);
-
         let chunks = raw.as_chunks::<BYTES_PER_SAMPLE>().0;
         let lost_samples = self.lost_before_block_end();
+        let mut block_flags = 0;
+        if overrun_lost > 0 {
+            defmt::warn!("ADC overrun: conversions restarted, {} samples lost", overrun_lost);
+            block_flags |= flags::ADC_OVERRUN | flags::SAMPLES_LOST;
+        }
         if lost_samples > 0 {
             // Off the sample clock for the wait, but not off the humidity sensor: the humidity
             // task reads the next burst's humidity before its first block comes, and the sample
@@ -193,7 +228,6 @@ impl CurrentSource for Samples {
         }
         self.delivered += BLOCK_LEN as u32;
 
-        let mut block_flags = 0;
         for (a, bytes) in amps.iter_mut().zip(chunks) {
             let current = replay::Sample::decode(bytes).current_a;
             *a = if current.is_finite() {
@@ -207,7 +241,7 @@ impl CurrentSource for Samples {
             }
         }
         REPLAY_RH_PCT.store(block_reading(chunks));
-        SampleBlock::Ready { flags: block_flags, lost_samples }
+        SampleBlock::Ready { flags: block_flags, lost_samples: lost_samples + overrun_lost }
     }
 }
 

@@ -10,6 +10,11 @@ pub use ipmc_core::timing::{BLOCK_LEN, SAMPLE_RATE_HZ};
 /// queue (8 blocks, 128 ms) must not fill behind it.
 pub const STREAM_STALL_LIMIT_MS: u64 = 16;
 
+/// Block periods without a block after which the sample path looks for an ADC overrun (which
+/// stops the DMA requests; no block would come until the watchdog reset): 48 ms, far below the
+/// watchdog's 250 ms, far above a late block.
+pub const ADC_STALL_BLOCKS: u64 = 3;
+
 /// Humidity polling period [ms]: the core's, whose trend prediction counts on it.
 pub const HUMIDITY_PERIOD_MS: u64 = ipmc_core::timing::HUMIDITY_PERIOD_MS;
 

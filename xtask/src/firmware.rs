@@ -10,17 +10,20 @@ pub enum Variant {
     Hardware,
     /// The same hardware with an external SHT4x humidity sensor (feature `humidity-sht4x`).
     HardwareSht4x,
+    /// The same hardware with an analog HIH-4030 humidity sensor (feature `humidity-hih4030`).
+    HardwareHih4030,
     /// QEMU replay board layer.
     Qemu,
 }
 
 impl Variant {
-    pub const ALL: [Variant; 3] = [Variant::Hardware, Variant::HardwareSht4x, Variant::Qemu];
+    pub const ALL: [Variant; 4] = [Variant::Hardware, Variant::HardwareSht4x, Variant::HardwareHih4030, Variant::Qemu];
 
     pub fn name(self) -> &'static str {
         match self {
             Variant::Hardware => "board-b-l475e",
             Variant::HardwareSht4x => "b-l475e-sht4x",
+            Variant::HardwareHih4030 => "b-l475e-hih4030",
             Variant::Qemu => "qemu",
         }
     }
@@ -30,6 +33,7 @@ impl Variant {
         match self {
             Variant::Hardware => &[],
             Variant::HardwareSht4x => &["--features", "humidity-sht4x"],
+            Variant::HardwareHih4030 => &["--features", "humidity-hih4030"],
             Variant::Qemu => &["--no-default-features", "--features", "qemu"],
         }
     }

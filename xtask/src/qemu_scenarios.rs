@@ -131,6 +131,54 @@ pub fn qemu_replay_faults() -> Result<()> {
     Ok(())
 }
 
+/// An ADC overrun in the replay (a current of −inf: the board's ADC overran there, which stops
+/// its DMA requests). The firmware must restart the conversions instead of waiting for the
+/// watchdog, flag the block after the stop ADC_OVERRUN and SAMPLES_LOST, and number every later
+/// block as the replay's samples: the block being filled and the three the sample path waited
+/// for (`ADC_STALL_BLOCKS`) are lost, 128 samples.
+pub fn qemu_replay_adc_overrun() -> Result<()> {
+    const BLOCK: u32 = 32;
+    let mut samples = synthetic(3.0, |_| 50.0);
+    let at = FIRMWARE_FS_HZ as usize + 5; // inside the block from sample 2000 (block 62, 1984..2016)
+    samples[at].current_a = f32::NEG_INFINITY;
+    let r = replay("adc-overrun", &samples)?;
+    let overrun: Vec<_> = r.blocks.iter().filter(|b| b.header.flags & flags::ADC_OVERRUN != 0).collect();
+    let [b] = overrun.as_slice() else {
+        bail!(
+            "{} blocks flagged ADC_OVERRUN, expected one
+{}",
+            overrun.len(),
+            r.log
+        );
+    };
+    if b.header.flags & flags::SAMPLES_LOST == 0 {
+        bail!("the block after the ADC overrun is not flagged SAMPLES_LOST");
+    }
+    let lost = 4 * BLOCK;
+    let first_after = (at as u32 / BLOCK) * BLOCK + lost;
+    if b.header.first_sample != first_after {
+        bail!("the block after the overrun starts at sample {}, expected {first_after}", b.header.first_sample);
+    }
+    let mut next = 0u32;
+    for blk in &r.blocks {
+        if blk.header.first_sample == first_after {
+            next = first_after;
+        }
+        if blk.header.first_sample != next {
+            bail!("block numbered {}, expected {next}", blk.header.first_sample);
+        }
+        next += blk.base_est_m.len() as u32;
+    }
+    let want = expected_estimates(samples.len()) - lost as usize;
+    if r.estimates() != want {
+        bail!("{} estimates, expected {want} (all but the {lost} lost)", r.estimates());
+    }
+    println!(
+        "ADC overrun at sample {at}: conversions restarted, {lost} samples lost, the block at {first_after} flagged, numbering on time"
+    );
+    Ok(())
+}
+
 /// More faults through the replayed sources: a humidity sensor that answers too late (slow),
 /// one that returns garbage, humidity beyond the calibration's range, and a current input stuck
 /// at one value for 1.5 s. Every sample still comes back as a finite estimate, each fault is

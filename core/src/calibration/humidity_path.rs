@@ -84,6 +84,18 @@ pub const MAX_UNCERTAINTY_PCT: f64 = 20.0;
 pub const HIH4030_NOMINAL_SUPPLY_V: f64 = 5.0;
 /// Supplies the HIH-4030 works from [V] (Honeywell HIH-4030/31 datasheet, table 1).
 pub const HIH4030_SUPPLY_RANGE_V: (f64, f64) = (4.0, 5.8);
+/// The HIH-4030's supply, relative, when nobody measured it: the USB rail's ±5 %.
+pub const HIH4030_SUPPLY_TOLERANCE_NOMINAL: f64 = 0.05;
+/// … when `supply_v` was measured: a meter's reading, and the rail's drift with load and cable
+/// since (±1 %).
+pub const HIH4030_SUPPLY_TOLERANCE_MEASURED: f64 = 0.01;
+/// The HIH-4030's offset over its slope (datasheet: Vout = Vsupply·(0.0062·RH + 0.16)) [%RH]: a
+/// supply off by a fraction e reads RH off by (RH + 25.8)·e.
+const HIH4030_OFFSET_OVER_SLOPE_PCT: f64 = 0.16 / 0.0062;
+/// The humidity the HIH-4030's supply error is stated at [%RH]: the top of the range the
+/// sensors' accuracies are specified over (the HTS221's 20–80 %RH). Above it the error grows,
+/// by 1 %RH per 20 %RH at 5 %.
+pub const HIH4030_SUPPLY_ERROR_AT_PCT: f64 = 80.0;
 
 /// The `[humidity]` table of a calibration. Every field has a default that leaves the reading
 /// as it is, so calibration files without the table mean what they meant before.
@@ -211,10 +223,22 @@ impl HumidityPath {
     }
 
     /// Uncertainty of a corrected reading from a `kind` sensor [%RH]: the table's
-    /// `uncertainty_pct` when it gives one (a salt calibration, `ipmc diagnose`), else the
-    /// sensor's datasheet accuracy.
+    /// `uncertainty_pct` when it gives one (a salt calibration, `ipmc diagnose`: measured through
+    /// the same supply), else the sensor's datasheet accuracy, for the HIH-4030 with its
+    /// supply's error beside it ([`HumidityPath::hih4030_supply_error_pct`]).
     pub fn uncertainty_pct_for(&self, kind: SensorKind) -> f64 {
-        self.uncertainty_pct.unwrap_or(kind.datasheet_accuracy_pct())
+        self.uncertainty_pct.unwrap_or(match kind {
+            SensorKind::Hih4030 => Real::hypot(kind.datasheet_accuracy_pct(), self.hih4030_supply_error_pct(HIH4030_SUPPLY_ERROR_AT_PCT)),
+            _ => kind.datasheet_accuracy_pct(),
+        })
+    }
+
+    /// What the HIH-4030's supply tolerance makes of a reading of `rh_pct` [±%RH]: its output is
+    /// proportional to a supply the board does not measure (`supply_v` from a meter, else the
+    /// nominal 5 V): 3.8 %RH at 50 %RH and 5.3 at 80 for USB's ±5 %, 1.1 at 80 for a measured one.
+    pub fn hih4030_supply_error_pct(&self, rh_pct: f64) -> f64 {
+        let tolerance = if self.supply_v.is_some() { HIH4030_SUPPLY_TOLERANCE_MEASURED } else { HIH4030_SUPPLY_TOLERANCE_NOMINAL };
+        (rh_pct + HIH4030_OFFSET_OVER_SLOPE_PCT) * tolerance
     }
 
     /// Response time τ63 of a `kind` sensor [s]: the table's `sensor_lag_s`, else the datasheet's.
@@ -330,6 +354,13 @@ mod tests {
         assert_eq!(SensorKind::Hts221.datasheet_accuracy_pct(), 3.5);
         assert_eq!(SensorKind::Sht4x.datasheet_accuracy_pct(), 1.8);
         assert_eq!(SensorKind::Hih4030.datasheet_accuracy_pct(), 3.5);
+        // The HIH-4030's supply: USB's ±5 % is 3.8 %RH at 50 %RH, 5.3 at 80; its stated
+        // uncertainty carries it (6.4 %RH unmeasured, 3.7 with `supply_v` from a meter).
+        let measured = HumidityPath { supply_v: Some(4.9), ..HumidityPath::NONE };
+        assert!((HumidityPath::NONE.hih4030_supply_error_pct(50.0) - 3.79).abs() < 0.01);
+        assert!((HumidityPath::NONE.hih4030_supply_error_pct(80.0) - 5.29).abs() < 0.01);
+        assert!((HumidityPath::NONE.uncertainty_pct_for(SensorKind::Hih4030) - 6.35).abs() < 0.01);
+        assert!((measured.uncertainty_pct_for(SensorKind::Hih4030) - 3.66).abs() < 0.01);
         assert_eq!(HumidityPath::NONE.uncertainty_pct_for(SensorKind::Sht4x), 1.8);
         assert_eq!(HumidityPath::NONE.uncertainty_pct_for(SensorKind::Hts221), 3.5);
         let salted = HumidityPath { sensor: Some(SensorKind::Sht4x), uncertainty_pct: Some(0.6), ..HumidityPath::NONE };

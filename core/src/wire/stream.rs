@@ -76,9 +76,14 @@ pub mod flags {
     pub const FIT_STARTED: u16 = 1 << 12;
     /// The fit's result was taken at this block, before its current went into the spectrum.
     pub const FIT_DONE: u16 = 1 << 13;
+    /// The ADC overran (a conversion finished before the DMA had taken the one before), which
+    /// stops its DMA requests: the firmware restarted the conversions. `SAMPLES_LOST` says how
+    /// many samples the stop cost (to within one sample: after a restart the ring's positions no
+    /// longer count samples, the board's clock does).
+    pub const ADC_OVERRUN: u16 = 1 << 14;
 
     /// Every bit with its name, lowest first (for host displays).
-    pub const NAMES: [(u16, &str); 14] = [
+    pub const NAMES: [(u16, &str); 15] = [
         (CLIPPED, "CLIPPED"),
         (RH_STALE, "RH_STALE"),
         (RH_CLAMPED, "RH_CLAMPED"),
@@ -93,6 +98,7 @@ pub mod flags {
         (OWN_REFUSED, "OWN_REFUSED"),
         (FIT_STARTED, "FIT_STARTED"),
         (FIT_DONE, "FIT_DONE"),
+        (ADC_OVERRUN, "ADC_OVERRUN"),
     ];
 }
 
