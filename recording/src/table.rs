@@ -300,7 +300,7 @@ mod tests {
         let whole = "# fs_hz=2000\nt_s,rh_pct,current_a\n0,45,1e-9\n0.0005,45,-132.501\n";
         assert!(TimeSeries::parse("ts.csv", whole).is_ok());
         let cut = &whole[..whole.find("2.501").unwrap()];
-        let e = TimeSeries::parse("ts.csv", cut).err().expect("refused");
+        let e = TimeSeries::parse("ts.csv", cut).expect_err("refused");
         assert_eq!(e.line, Some(4), "{e}");
         assert!(e.to_string().starts_with("ts.csv:4: ") && e.message.contains("truncated"), "{e}");
         assert!(Table::parse("h.csv", "t_s,current_a").is_err(), "a header cut short");
