@@ -85,13 +85,36 @@ pub fn parse_unvalidated(text: &str) -> Result<Calibration, FileError> {
 /// too). toml's grammar errors come without a message: they get "not valid TOML here: expected "
 /// and `shape`, what the file should look like.
 pub fn syntax_error(text: &str, e: &toml::de::Error, shape: &str) -> FileError {
-    // toml reports a missing field with no span; the whole document is then what is wrong.
-    let (line, column) = e.span().map_or((1, 1), |s| line_col(text, s.start));
+    // toml gives a top-level key that is missing no span: the document, from its start, is at fault.
+    let start = e.span().map_or(0, |s| s.start);
+    let (line, column) = line_col(text, start);
     let message = match e.message().trim() {
         "" => format!("not valid TOML here: expected {shape}"),
-        m => m.to_string(),
+        // toml locates a key missing from a table at the table's header but names only the key;
+        // in a file of many tables with the same keys (`kind`, `coeffs`) the table is the news.
+        m => match table_at(text, start) {
+            Some(table) => format!("{m} in table `[{table}]`"),
+            None => format!("{m} (at the top level, before any `[table]`)"),
+        },
     };
     FileError::Syntax { line, column, message }
+}
+
+/// The name of the `[table]` (or `[[array]]`) whose header is the last one at or before byte
+/// `offset` of `text`; None at the top level.
+fn table_at(text: &str, offset: usize) -> Option<&str> {
+    let (line, _) = line_col(text, offset);
+    text.lines().take(line).filter_map(header_name).last()
+}
+
+/// `y` of a header line `[y]`, `a.b` of `[[a.b]]`; None for any other line (a value's array
+/// starts with `[` after `=`, never at the line's start with a closing `]` and nothing after).
+fn header_name(line: &str) -> Option<&str> {
+    let line = line.split('#').next()?.trim();
+    let inner = line.strip_prefix("[[").and_then(|l| l.strip_suffix("]]")).or_else(|| line.strip_prefix('[')?.strip_suffix(']'))?;
+    let name = inner.trim();
+    let bare = |c: char| c.is_ascii_alphanumeric() || "_-.\"' ".contains(c);
+    (!name.is_empty() && name.chars().all(bare)).then_some(name)
 }
 
 /// The file's text for `c`.
@@ -202,6 +225,25 @@ mod tests {
             let e = parse(&format!("{old}\n[{table}]\n{bad}\n")).unwrap_err().to_string();
             assert!(e.contains(key), "{bad}: {e}");
         }
+    }
+
+    /// Every law table has `kind` and `coeffs`: "missing field `coeffs`" alone does not say
+    /// which of seven tables lacks it.
+    #[test]
+    fn a_key_missing_in_a_table_names_the_table_and_its_line() {
+        let text = to_text(&Calibration::default_preset());
+        let header = text.lines().position(|l| l == "[d]").expect("a [d] table") + 1;
+        let start = text.find("[d]\n").unwrap();
+        let coeffs = start + text[start..].find("coeffs").unwrap();
+        let mut bad = text.clone();
+        bad.replace_range(coeffs..coeffs + text[coeffs..].find('\n').unwrap() + 1, "");
+        let e = parse(&bad).unwrap_err().to_string();
+        assert!(e.starts_with(&format!("{header}:")), "{e}");
+        assert!(e.contains("`coeffs`") && e.contains("table `[d]`"), "{e}");
+        let e = parse(&text.replacen("t_k = 293.0\n", "", 1)).unwrap_err().to_string();
+        assert!(e.contains("`t_k`") && e.contains("top level"), "{e}");
+        assert_eq!(header_name("[[a.b]] # note"), Some("a.b"));
+        assert_eq!(header_name("coeffs = [1.0]"), None);
     }
 
     #[test]

@@ -5,6 +5,7 @@
 //! - [`TimeSeries`]: uniformly sampled bursts (`# fs_hz`).
 //! - [`Charging`]: a constant-voltage charging current (`# voltage_v`).
 //! - [`Estimates`]: the base-motion estimates `ipmc compensate` and the firmware write.
+//! - [`looping`]: short bursts of a periodic excitation repeated by whole periods.
 //! - [`Table`]: the common layer under them (comments, metadata, columns by name, positions).
 //!
 //! Reading never panics on outside data: a bad row is an [`Error`] naming the file, line, column
@@ -14,6 +15,7 @@ mod charging;
 mod error;
 mod estimates;
 mod frequency_response;
+pub mod looping;
 mod metadata;
 mod output;
 mod table;

@@ -97,8 +97,9 @@ impl Table {
     }
 
     /// `source` names the text in errors. An empty text or one with only comments is an error
-    /// (no header); a header with no rows is a valid empty table. Lines end in LF or CRLF; a
-    /// quoted field cannot span lines (the formats hold numbers and names).
+    /// (no header); a header with no rows is a valid empty table. Lines end in LF or CRLF, the
+    /// last one too (a last row without its line end is refused as maybe truncated); a quoted
+    /// field cannot span lines (the formats hold numbers and names).
     pub fn parse(source: &str, text: impl Into<String>) -> Result<Table, Error> {
         let mut text: String = text.into();
         if text.starts_with('\u{feff}') {
@@ -124,6 +125,16 @@ impl Table {
             split_line(&mut reader, line, &mut record);
             if record.iter().all(String::is_empty) {
                 continue; // a blank line (or one of only commas/spaces) carries nothing
+            }
+            if !raw.ends_with('\n') {
+                // Every writer ends its lines; a copy or a download cut short ends inside a row,
+                // whose last field (`-13` of `-132.501`) still parses as a number.
+                return Err(Error::line(
+                    source,
+                    line_no,
+                    "the last line has no line end: the file may be truncated (cut inside this row); \
+                     if it is whole, end it with a newline",
+                ));
             }
             match &header {
                 None => {
@@ -279,6 +290,23 @@ mod tests {
         // The leading space of ` 2` moves the character column, not the value.
         assert_eq!(t.numbers(1, Rule::Finite).err().map(|e| e.line), Some(Some(7)));
         assert_eq!(t.numbers(0, Rule::Finite).unwrap(), vec![1.0, 3.0]);
+    }
+
+    /// A file cut inside its last number (`-13` of `-132.501`) parses as numbers throughout:
+    /// only the missing line end tells.
+    #[test]
+    fn a_last_row_without_its_line_end_is_refused_as_maybe_truncated() {
+        use crate::{Format as _, TimeSeries};
+        let whole = "# fs_hz=2000\nt_s,rh_pct,current_a\n0,45,1e-9\n0.0005,45,-132.501\n";
+        assert!(TimeSeries::parse("ts.csv", whole).is_ok());
+        let cut = &whole[..whole.find("2.501").unwrap()];
+        let e = TimeSeries::parse("ts.csv", cut).expect_err("refused");
+        assert_eq!(e.line, Some(4), "{e}");
+        assert!(e.to_string().starts_with("ts.csv:4: ") && e.message.contains("truncated"), "{e}");
+        assert!(Table::parse("h.csv", "t_s,current_a").is_err(), "a header cut short");
+        // Comments and blank lines carry no data: a last one without its line end loses none.
+        assert_eq!(Table::parse("c.csv", "x\n1\n\n# end").unwrap().len(), 1);
+        assert_eq!(Table::parse("c.csv", "x\r\n1\r\n").unwrap().len(), 1);
     }
 
     #[test]

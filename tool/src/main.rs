@@ -11,7 +11,6 @@ mod hygrometer;
 mod input;
 mod inverse_choice;
 mod limits;
-mod looping;
 mod overrides;
 mod plot;
 mod progress;

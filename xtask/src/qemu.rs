@@ -144,29 +144,29 @@ pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathB
 
 /// `input`, or where its bursts are too short for the chain to settle and be scored (a bench
 /// session's 2 s bursts of a periodic excitation), the recording with each burst repeated by
-/// whole periods (`ipmc loop-bursts`, written into `work`), said aloud.
+/// whole periods (`ipmc_recording::looping`, as `ipmc compensate` and `ipmc loop-bursts` do,
+/// written into `work`), said aloud.
 fn long_enough_to_score(input: &Path, work: &Path) -> Result<PathBuf> {
+    use ipmc_recording::looping::{DEFAULT_PERIOD_S, Looping, SCORED_MIN_S, too_short};
+    let settle_s = ipmc_core::firmware::operating_point::SETTLE_S;
     let rec = recording::time_series(input)?;
-    let shortest = rec.bursts().iter().map(|b| b.len()).min().unwrap_or(0) as f64 / rec.fs_hz;
-    let needed = ipmc_core::firmware::operating_point::SETTLE_S + 1.0;
-    if rec.base_m.is_none() || shortest >= needed {
-        return Ok(input.to_path_buf());
-    }
+    let Some(shortest) = too_short(&rec, settle_s) else { return Ok(input.to_path_buf()) };
+    let needed = settle_s + SCORED_MIN_S;
     fs::create_dir_all(work)?;
-    let looped = work.join("LOOPED.csv");
+    let looped_path = work.join("LOOPED.csv");
     println!(
         "==> {}: its shortest burst is {shortest:.1} s, under the {needed} s the chain needs to settle and be scored; \
-         repeating each burst's whole periods (`cargo ipmc loop-bursts`) into {}",
+         repeating each burst's whole periods (as `cargo ipmc loop-bursts` does) into {}",
         input.display(),
-        looped.display()
+        looped_path.display()
     );
     // The settling and a few seconds to score: QEMU runs in real time.
-    let seconds = format!("{}", needed + 4.0);
-    print!(
-        "{}",
-        ipmc(&["loop-bursts".as_ref(), input.as_os_str(), "--out".as_ref(), looped.as_os_str(), "--seconds".as_ref(), seconds.as_ref()])?
-    );
-    Ok(looped)
+    let looped =
+        Looping { period_s: DEFAULT_PERIOD_S, seconds: needed + 4.0 }.apply(&rec).map_err(|e| anyhow!("{}: {e}", input.display()))?;
+    let text = looped.to_csv(ipmc_recording::NumberFormat::Exact)?;
+    ipmc_recording::write_atomically(&looped_path, text.as_bytes())?;
+    println!("{} bursts, {} samples -> {}", looped.bursts().len(), looped.len(), looped_path.display());
+    Ok(looped_path)
 }
 
 /// Replays the time-series recording `input` in the QEMU build of the firmware (with `calib`

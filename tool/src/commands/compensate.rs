@@ -16,11 +16,12 @@
 use crate::chain::{compensate, compensate_scheduled, error_table, read_schedule, rh_uncertainty};
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
-use crate::scoring::band_score;
-use anyhow::{Result, anyhow};
+use crate::scoring::{SETTLE_S, band_score};
+use anyhow::{Result, anyhow, bail};
 use ipmc_core::calibration::humidity_path::HumidityMode;
-use ipmc_recording::{Estimates as EstimateFile, write_atomically};
-use std::path::PathBuf;
+use ipmc_recording::looping::{DEFAULT_PERIOD_S, DEFAULT_SECONDS, Looping, too_short};
+use ipmc_recording::{Estimates as EstimateFile, TimeSeries, write_atomically};
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -59,6 +60,10 @@ pub struct Args {
     /// error over the reading's uncertainty and the calibration's `[uncertainty]`.
     #[arg(long, value_enum, default_value = "exact")]
     inverse: InverseChoice,
+    /// The excitation's period [s], by which bursts too short for the chain to settle are
+    /// repeated (whole periods of a steady-state periodic excitation, as `ipmc loop-bursts` does).
+    #[arg(long, default_value_t = DEFAULT_PERIOD_S)]
+    period_s: f64,
     /// The humidity the designs are made at: the reading through the humidity path, or that
     /// fused with the humidity the strip's own current says it is at (`ipmc field-table`
     /// measures both); by default the calibration's `[humidity] mode`.
@@ -75,7 +80,8 @@ enum HumidityChoice {
 pub fn run(a: Args) -> Result<()> {
     let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
     let ts = read_time_series(&a.input)?;
-    let measured = ts.metadata.get(crate::looping::NOISE_KEY).and_then(|v| v.parse::<f64>().ok());
+    let (ts, looping) = if a.schedule.is_none() { loop_if_short(&a.input, ts, a.period_s)? } else { (ts, None) };
+    let measured = ts.metadata.get(ipmc_recording::looping::NOISE_KEY).and_then(|v| v.parse::<f64>().ok());
     if let Some(d) = a.current_noise.or(measured) {
         calib.uncertainty.current_noise_a_per_rthz = d;
         calib.validate().map_err(|e| anyhow!("the current's noise: {e}"))?;
@@ -121,6 +127,9 @@ pub fn run(a: Args) -> Result<()> {
     // What `ipmc score` aligns the truth by: the preview's and the band FIR's delay.
     file.metadata.set("delay_samples", est.delay_samples.first().copied().unwrap_or(0));
     file.metadata.set("band_hz", format!("{}-{}", calib.band.low_hz, calib.band.high_hz));
+    if let Some(l) = looping {
+        l.write(&mut file.metadata);
+    }
     file.metadata.set(
         "mode",
         match (&a.schedule, a.fixed_rh) {
@@ -147,4 +156,77 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// `ts`, or where a burst is too short for the chain to settle and be scored (a bench session's
+/// 2 s bursts), each burst repeated by whole periods, said on stderr; an estimate of the short
+/// bursts as they are would be all start-up. Refused, with the command that loops, where the
+/// bursts do not repeat with the period.
+fn loop_if_short(input: &Path, ts: TimeSeries, period_s: f64) -> Result<(TimeSeries, Option<Looping>)> {
+    let Some(shortest) = too_short(&ts, SETTLE_S) else { return Ok((ts, None)) };
+    let looping = Looping { period_s, seconds: DEFAULT_SECONDS };
+    let needed = SETTLE_S + ipmc_recording::looping::SCORED_MIN_S;
+    match looping.apply(&ts) {
+        Ok(looped) => {
+            eprintln!(
+                "{}: its shortest burst is {shortest:.1} s, under the {needed} s the chain needs to settle and be scored: each \
+                 burst's whole {period_s} s periods repeated to {DEFAULT_SECONDS} s (as `ipmc loop-bursts` does); the estimate \
+                 is of the looped bursts, and `ipmc score` and `ipmc plot compensated` loop the recording alike",
+                input.display()
+            );
+            Ok((looped, Some(looping)))
+        }
+        Err(e) => bail!(
+            "{}: its shortest burst is {shortest:.1} s, under the {needed} s the chain needs to settle, and it cannot be looped \
+             by whole periods of {period_s} s: {e}. With the excitation's period P: `ipmc compensate {} --period-s P …`, or \
+             `ipmc loop-bursts {} --period-s P --out LOOPED.csv` and compensate LOOPED.csv",
+            input.display(),
+            input.display(),
+            input.display()
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use ipmc_recording::{Format as _, NumberFormat};
+
+    #[derive(Parser)]
+    struct Compensate {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    #[derive(Parser)]
+    struct Score {
+        #[command(flatten)]
+        args: crate::commands::score::Args,
+    }
+
+    /// A bench time series of 2 s bursts: all of each is the chain's start-up. Compensated as
+    /// it was, its estimate scored "(NaN %)" and `score` failed; looped, it scores.
+    #[test]
+    fn short_bursts_are_looped_and_the_estimate_scores() {
+        let calib = ipmc_core::Calibration::default_preset();
+        let ts = crate::commands::vs_exact::tests::periodic_recording(&calib, &[40.0, 70.0]);
+        assert!(too_short(&ts, SETTLE_S).is_some());
+        let dir = std::env::temp_dir().join(format!("ipmc-compensate-short-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (rec, est) = (dir.join("ts.csv"), dir.join("est.csv"));
+        std::fs::write(&rec, ts.to_csv(NumberFormat::Exact).unwrap()).unwrap();
+        let (rec_s, est_s) = (rec.display().to_string(), est.display().to_string());
+        run(Compensate::parse_from(["c", rec_s.as_str(), "--calib", "default", "--out", est_s.as_str()]).args).unwrap();
+        crate::commands::score::run(Score::parse_from(["s", rec_s.as_str(), est_s.as_str()]).args).expect("scored");
+        let file = EstimateFile::read(&est).unwrap().0;
+        assert_eq!(Looping::read(&file.metadata).unwrap(), Some(Looping { period_s: 1.0, seconds: DEFAULT_SECONDS }));
+        assert_eq!(file.base_est_m.len(), 2 * (DEFAULT_SECONDS * ts.fs_hz) as usize);
+        // Not periodic at the period given: refused, with the commands that loop it.
+        let e = run(Compensate::parse_from(["c", rec_s.as_str(), "--calib", "default", "--out", est_s.as_str(), "--period-s", "0.3"]).args)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("does not repeat every 0.3 s") && e.contains("ipmc loop-bursts") && e.contains("--period-s P"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

@@ -372,7 +372,7 @@ pub fn identify(
     if input.bursts.is_some() {
         let ts = crate::input::read_time_series(recording)?;
         if let Some(per) = ipmc_fit::multisine::excitation_period(&ts, &source)?
-            && let Some(d) = crate::looping::noise_density(&ts, per)
+            && let Some(d) = ipmc_recording::looping::noise_density(&ts, per)
         {
             calib.uncertainty.current_noise_a_per_rthz = d;
             noise_note = "measured from the differences of the bursts' consecutive periods".into();

@@ -1,10 +1,11 @@
 //! `ipmc loop-bursts`: each burst of a periodic excitation repeated by whole periods until it is
-//! long enough for the compensation to settle ([`crate::looping`]), with the current's noise
-//! density measured from period-to-period differences written as metadata.
+//! long enough for the compensation to settle ([`ipmc_recording::looping`], which `ipmc
+//! compensate` loops short bursts with too), with the current's noise density measured from
+//! period-to-period differences and the new layout written as metadata.
 
 use crate::input::checked;
-use crate::looping::loop_bursts;
 use anyhow::Result;
+use ipmc_recording::looping::{DEFAULT_PERIOD_S, DEFAULT_SECONDS, loop_bursts};
 use ipmc_recording::{Format as _, NumberFormat, TimeSeries, write_atomically};
 use std::path::PathBuf;
 
@@ -13,10 +14,10 @@ pub struct Args {
     /// Time-series recording of bursts (each a steady-state periodic excitation).
     input: PathBuf,
     /// The excitation's period [s].
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = DEFAULT_PERIOD_S)]
     period_s: f64,
     /// Length of each looped burst [s] (whole periods, at least this long).
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = DEFAULT_SECONDS)]
     seconds: f64,
     #[arg(long)]
     out: PathBuf,

@@ -100,10 +100,11 @@ pub fn run(a: Args) -> Result<()> {
             render(&ParamsFigure { title, series, calib }, &out.join("params"), (1600, 1100))?
         }
         Figure::Compensated { recording, estimate, baseline, label, baseline_label, delay_ms, seconds, out } => {
-            let ts = checked(TimeSeries::read(&recording))?;
+            let file = checked(Estimates::read(&estimate))?;
+            let ts = ipmc_recording::looping::as_estimated(checked(TimeSeries::read(&recording))?, &file.metadata)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", estimate.display()))?;
             let base = ts.base_m.as_ref().ok_or_else(|| anyhow::anyhow!("{}: no base_m column to plot against", recording.display()))?;
             let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
-            let file = checked(Estimates::read(&estimate))?;
             let delay = match (delay_ms, file.metadata.get("delay_samples")) {
                 (Some(ms), _) => (ms * 1e-3 * ts.fs_hz).round() as usize,
                 (None, Some(d)) => {

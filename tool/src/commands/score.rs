@@ -5,6 +5,7 @@
 use crate::input::{checked, read_time_series};
 use crate::scoring::{SETTLE_S, band_score, coverage};
 use anyhow::{Result, anyhow, bail};
+use ipmc_recording::looping::as_estimated;
 use ipmc_recording::{Estimates, Format as _};
 use std::path::PathBuf;
 
@@ -46,9 +47,10 @@ pub fn parse_band(s: &str) -> Result<(f64, f64)> {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let ts = read_time_series(&a.recording)?;
-    let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("{}: no base_m column to score against", a.recording.display()))?;
     let file = checked(Estimates::read(&a.estimate))?;
+    // An estimate `ipmc compensate` made on short bursts it looped is scored on them looped alike.
+    let ts = as_estimated(read_time_series(&a.recording)?, &file.metadata).map_err(|e| anyhow!("{}: {e}", a.estimate.display()))?;
+    let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("{}: no base_m column to score against", a.recording.display()))?;
     let est = file.base_est_m;
     if est.len() > base.len() {
         bail!("{} has {} estimates for {} samples in {}", a.estimate.display(), est.len(), base.len(), a.recording.display());

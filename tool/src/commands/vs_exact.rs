@@ -11,11 +11,11 @@ use crate::chain::{compensate, error_table, rh_uncertainty};
 use crate::exact;
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
-use crate::looping::loop_bursts;
 use crate::scoring::{SETTLE_S, band_error, band_score};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::InverseKind;
 use ipmc_recording::TimeSeries;
+use ipmc_recording::looping::loop_bursts;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -187,7 +187,7 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use ipmc_core::calibration::uncertainty::Uncertainty;
     use ipmc_core::{C, Calibration, Params, current_response};
@@ -196,7 +196,7 @@ mod tests {
     /// Two bursts of 2 s of a 1 s periodic multisine (lines on the 1 Hz grid, in the band and
     /// above it) through the model, with white noise on the current, as the external
     /// recordings are made.
-    fn periodic_recording(calib: &Calibration, levels: &[f64]) -> TimeSeries {
+    pub(crate) fn periodic_recording(calib: &Calibration, levels: &[f64]) -> TimeSeries {
         let strips: Vec<(f64, Params<f64>)> = levels.iter().map(|&rh| (rh, calib.params_at(rh))).collect();
         recording_of(&strips)
     }

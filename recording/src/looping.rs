@@ -7,9 +7,94 @@
 //! the noise it hides is measured before, from the differences of consecutive periods (the
 //! signal cancels), and written as the metadata [`NOISE_KEY`], which the chain states its
 //! expected error with.
+//!
+//! One implementation for `ipmc loop-bursts`, `ipmc compensate` (which loops short bursts
+//! itself), `ipmc score` and `plot compensated` (which loop the recording as its estimate says
+//! it was), and `cargo xtask qemu`.
 
-use anyhow::{Result, bail};
-use ipmc_recording::TimeSeries;
+use crate::{Metadata, TimeSeries};
+use std::fmt;
+
+/// Why a recording cannot be looped: the bursts are not periodic with the period given, or
+/// shorter than one.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NotLoopable(pub String);
+
+impl fmt::Display for NotLoopable {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for NotLoopable {}
+
+/// The excitation's period [s] where none is given: the bench multisines' (1 s tone grid).
+pub const DEFAULT_PERIOD_S: f64 = 1.0;
+/// A looped burst's length [s] where none is given: the settling and a good stretch to score.
+pub const DEFAULT_SECONDS: f64 = 20.0;
+/// The least a burst must hold past the chain's settling for a score [s].
+pub const SCORED_MIN_S: f64 = 1.0;
+
+/// Metadata of an estimate made on a looped recording: the period and the length its bursts
+/// were looped to, so whoever scores or plots it loops the recording alike.
+pub const LOOPED_PERIOD_KEY: &str = "looped_period_s";
+pub const LOOPED_SECONDS_KEY: &str = "looped_s";
+
+/// How a recording's bursts are looped: whole periods of `period_s`, to at least `seconds`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Looping {
+    pub period_s: f64,
+    pub seconds: f64,
+}
+
+impl Looping {
+    /// Each burst of `ts` looped ([`loop_bursts`]).
+    pub fn apply(&self, ts: &TimeSeries) -> Result<TimeSeries, NotLoopable> {
+        loop_bursts(ts, self.period_s, self.seconds)
+    }
+
+    /// Records the looping in an estimate's metadata.
+    pub fn write(&self, metadata: &mut Metadata) {
+        metadata.set(LOOPED_PERIOD_KEY, self.period_s);
+        metadata.set(LOOPED_SECONDS_KEY, self.seconds);
+    }
+
+    /// The looping an estimate's metadata records; None where it records none.
+    pub fn read(metadata: &Metadata) -> Result<Option<Looping>, NotLoopable> {
+        let number = |key: &str| -> Result<Option<f64>, NotLoopable> {
+            metadata
+                .get(key)
+                .map(|v| {
+                    v.parse::<f64>()
+                        .ok()
+                        .filter(|x| x.is_finite() && *x > 0.0)
+                        .ok_or_else(|| NotLoopable(format!("{key}={v} is not a number > 0")))
+                })
+                .transpose()
+        };
+        match (number(LOOPED_PERIOD_KEY)?, number(LOOPED_SECONDS_KEY)?) {
+            (Some(period_s), Some(seconds)) => Ok(Some(Looping { period_s, seconds })),
+            (None, None) => Ok(None),
+            _ => Err(NotLoopable(format!("`{LOOPED_PERIOD_KEY}` and `{LOOPED_SECONDS_KEY}` come together"))),
+        }
+    }
+}
+
+/// The recording an estimate was made on: `ts` looped as the estimate's metadata records, or
+/// `ts` itself.
+pub fn as_estimated(ts: TimeSeries, estimate: &Metadata) -> Result<TimeSeries, NotLoopable> {
+    match Looping::read(estimate)? {
+        Some(l) => l.apply(&ts),
+        None => Ok(ts),
+    }
+}
+
+/// The shortest burst's length [s] where it is too short for a chain that settles in
+/// `settle_s` to be scored on; None where every burst is long enough.
+pub fn too_short(ts: &TimeSeries, settle_s: f64) -> Option<f64> {
+    let shortest = ts.bursts().iter().map(|b| b.len()).min()? as f64 / ts.fs_hz;
+    (shortest < settle_s + SCORED_MIN_S).then_some(shortest)
+}
 
 /// Metadata key of the current's noise density [A/√Hz].
 pub const NOISE_KEY: &str = "current_noise_a_per_rthz";
@@ -49,10 +134,11 @@ pub fn period_mismatch(x: &[f64], per: usize) -> Option<f64> {
 
 /// Each burst's first whole periods, repeated to at least `seconds`; bursts keep their start
 /// times (moved later where a looped burst would reach the next one).
-pub fn loop_bursts(ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<TimeSeries> {
+/// Its `layout` metadata says the bursts' new length.
+pub fn loop_bursts(ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<TimeSeries, NotLoopable> {
     let per = period_s * ts.fs_hz;
     if !(per >= 1.0 && (per - per.round()).abs() < 1e-6) {
-        bail!("a period of {period_s} s is not a whole number of samples at {} Hz", ts.fs_hz);
+        return Err(NotLoopable(format!("a period of {period_s} s is not a whole number of samples at {} Hz", ts.fs_hz)));
     }
     let per = per.round() as usize;
     for burst in ts.bursts() {
@@ -60,12 +146,12 @@ pub fn loop_bursts(ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<TimeS
         if let Some(r) = period_mismatch(x, per)
             && r > MAX_PERIOD_MISMATCH
         {
-            bail!(
+            return Err(NotLoopable(format!(
                 "the burst at t = {} s does not repeat every {period_s} s (consecutive periods differ by {:.0} % of the current's \
                  rms): looping it would join unrelated stretches; give the excitation's period with --period-s",
                 ts.t_s[burst.start],
                 100.0 * r
-            );
+            )));
         }
     }
     let mut out = TimeSeries { metadata: ts.metadata.clone(), fs_hz: ts.fs_hz, ..Default::default() };
@@ -74,7 +160,7 @@ pub fn loop_bursts(ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<TimeS
     for burst in ts.bursts() {
         let whole = burst.len() / per * per;
         if whole == 0 {
-            bail!("the burst at t = {} s is shorter than one period ({period_s} s)", ts.t_s[burst.start]);
+            return Err(NotLoopable(format!("the burst at t = {} s is shorter than one period ({period_s} s)", ts.t_s[burst.start])));
         }
         let n = (seconds * ts.fs_hz / whole as f64).ceil().max(1.0) as usize * whole;
         let t0 = ts.t_s[burst.start].max(next_free);
@@ -101,7 +187,29 @@ pub fn loop_bursts(ts: &TimeSeries, period_s: f64, seconds: f64) -> Result<TimeS
     if let Some(d) = noise_density(ts, per) {
         out.metadata.set(NOISE_KEY, d);
     }
+    out.metadata.set(LAYOUT_KEY, layout(&out, ts, period_s));
     Ok(out)
+}
+
+/// Metadata key of the free-text description of a time series' bursts (the interchange
+/// generators write `bursts: 10 bursts of 2.0 s, …`).
+pub const LAYOUT_KEY: &str = "layout";
+
+/// `looped`'s layout in the generators' words, and what it was looped from: a copied line would
+/// say its bursts are as long as the original's.
+fn layout(looped: &TimeSeries, original: &TimeSeries, period_s: f64) -> String {
+    let span = |ts: &TimeSeries| {
+        let lengths: Vec<f64> = ts.bursts().iter().map(|b| b.len() as f64 / ts.fs_hz).collect();
+        let (lo, hi) = lengths.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &l| (lo.min(l), hi.max(l)));
+        if hi - lo < 0.05 { format!("{lo:.1} s") } else { format!("{lo:.1}–{hi:.1} s") }
+    };
+    format!(
+        "bursts: {} bursts of {}, uniform rate within a burst, gaps between bursts (t_s jumps); each the whole {period_s} s \
+         periods of a {} burst repeated (ipmc loop-bursts)",
+        looped.bursts().len(),
+        span(looped),
+        span(original)
+    )
 }
 
 #[cfg(test)]
@@ -121,6 +229,7 @@ mod tests {
             }
         }
         ts.base_m = Some(ts.current_a.iter().map(|v| -v).collect());
+        ts.metadata.set(LAYOUT_KEY, "bursts: 2 bursts of 1.0 s, uniform rate within a burst, gaps between bursts (t_s jumps)");
         let l = loop_bursts(&ts, 0.4, 2.0).unwrap();
         let bursts = l.bursts();
         assert_eq!(bursts.len(), 2);
@@ -131,6 +240,9 @@ mod tests {
         assert_eq!(l.t_s[24], 2.4 + 1.0, "moved past the looped first burst");
         assert_eq!(l.rh_pct[24], 43.0);
         assert_eq!(l.metadata.get(NOISE_KEY), Some("0"), "noiseless periods");
+        // The looped file's own layout, not the original's copied.
+        let layout = l.metadata.get(LAYOUT_KEY).unwrap();
+        assert!(layout.starts_with("bursts: 2 bursts of 2.4 s,") && layout.contains("of a 1.0 s burst repeated"), "{layout}");
         assert!(loop_bursts(&ts, 0.45, 2.0).is_err(), "not whole samples");
         assert!(loop_bursts(&ts, 2.0, 2.0).is_err(), "longer than a burst");
         let e = loop_bursts(&ts, 0.3, 2.0).unwrap_err().to_string();
