@@ -31,6 +31,8 @@ use crate::model::exact::jw;
 use crate::numeric::lstsq::lstsq;
 use crate::numeric::real::cis;
 use crate::numeric::roots::poly_roots;
+use crate::numeric::section::Quad;
+pub use crate::numeric::section::Sos;
 use crate::{C, Calibration, ComplexMath, Params, Real};
 
 /// Most second-order sections an inverse can have (10 at fs ≤ 2 kHz; pure-delay sections are
@@ -50,90 +52,6 @@ const BUTTERWORTH5_POLES: [(f64, f64); 5] = [
     (-0.809_016_994_374_947_5, -0.587_785_252_292_473_1),
     (-0.309_016_994_374_947_45, -0.951_056_516_295_153_5),
 ];
-
-/// One biquad: y = (b0 + b1 z⁻¹ + b2 z⁻²)/(1 + a1 z⁻¹ + a2 z⁻²)·x, with a[0] = 1.
-///
-/// `b`/`a` are the interchange form (JSON, plots, stability checks). The filter runs the same
-/// section in delta-operator form, δ⁻¹ = z⁻¹/(1 − z⁻¹):
-/// y = (β0 + β1 δ⁻¹ + β2 δ⁻²)/(1 + α1 δ⁻¹ + α2 δ⁻²)·x, with β0 = b0, β1 = 2b0 + b1,
-/// β2 = b0 + b1 + b2, α1 = 2 + a1, α2 = 1 + a1 + a2. For poles within 1e-3 of z = 1 (the
-/// regularizing high-pass) α1 and α2 are ~1e-3 and ~1e-5: computed from the roots as
-/// Σ(1 − zᵢ) and Π(1 − zᵢ) they keep full relative precision, where 1 + a1 + a2 in f32 would
-/// lose half of it.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct Sos<T> {
-    pub(crate) b: [T; 3],
-    pub(crate) a: [T; 3],
-    pub(crate) beta: [T; 3],
-    pub(crate) alpha: [T; 2],
-}
-
-/// A monic quadratic factor (1 − z₁z⁻¹)(1 − z₂z⁻¹), in both forms (see [`Sos`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Quad<T> {
-    /// [1, −(z₁ + z₂), z₁z₂]
-    poly: [T; 3],
-    /// [(1 − z₁) + (1 − z₂), (1 − z₁)(1 − z₂)]
-    delta: [T; 2],
-}
-
-impl<T: Real> Quad<T> {
-    /// z⁻⁰: both roots at z = 0.
-    fn one() -> Self {
-        Quad { poly: [T::one(), T::zero(), T::zero()], delta: [T::lit(2.0), T::one()] }
-    }
-    fn from_roots(z1: C<T>, z2: C<T>) -> Self {
-        let (u1, u2) = (C::new(T::one(), T::zero()) - z1, C::new(T::one(), T::zero()) - z2);
-        Quad { poly: [T::one(), -(z1 + z2).re, (z1 * z2).re], delta: [(u1 + u2).re, (u1 * u2).re] }
-    }
-}
-
-impl<T: Real> Sos<T> {
-    /// Numerator, interchange form.
-    pub fn b(&self) -> [T; 3] {
-        self.b
-    }
-    /// Denominator, interchange form (a[0] = 1).
-    pub fn a(&self) -> [T; 3] {
-        self.a
-    }
-    /// The form the filter runs: (β, α) of the delta-operator section.
-    pub fn delta(&self) -> ([T; 3], [T; 2]) {
-        (self.beta, self.alpha)
-    }
-    pub fn identity() -> Self {
-        Sos::from_ba([T::one(), T::zero(), T::zero()], [T::one(), T::zero(), T::zero()])
-    }
-    /// From the interchange form; exact for the small-integer sections (delays) it is used for.
-    pub fn from_ba(b: [T; 3], a: [T; 3]) -> Self {
-        let beta = [b[0], T::lit(2.0) * b[0] + b[1], b[0] + b[1] + b[2]];
-        let alpha = [T::lit(2.0) + a[1], T::one() + a[1] + a[2]];
-        Sos { b, a, beta, alpha }
-    }
-    fn from_quads(num: Quad<T>, den: Quad<T>) -> Self {
-        Sos { b: num.poly, a: den.poly, beta: [T::one(), num.delta[0], num.delta[1]], alpha: den.delta }
-    }
-    fn scale(&mut self, k: T) {
-        for v in self.b.iter_mut().chain(self.beta.iter_mut()) {
-            *v *= k;
-        }
-    }
-    /// The response of the delta form, the one the filter runs: δ⁻¹ = z⁻¹/(1 − z⁻¹).
-    pub fn response(&self, zinv: C<T>) -> C<T> {
-        let d = zinv / (C::new(T::one(), T::zero()) - zinv);
-        let d2 = d * d;
-        (d * self.beta[1] + d2 * self.beta[2] + self.beta[0]) / (d * self.alpha[0] + d2 * self.alpha[1] + T::one())
-    }
-    /// Jury's conditions on the denominator, written in α so that poles near z = 1 are judged
-    /// with α's precision.
-    pub fn is_stable(&self) -> bool {
-        let [a1d, a2d] = self.alpha;
-        // z² + a1 z + a2 = (1+δ)² + … ⇒ a1 = α1 − 2, a2 = 1 − α1 + α2; Jury: |a2| < 1, |a1| < 1 + a2,
-        // i.e. α2 > 0 (1 + a1 + a2 > 0), 4 − 2α1 + α2 > 0 (1 − a1 + a2 > 0), 0 < α1 − α2 < 2 (|a2| < 1).
-        let two = T::lit(2.0);
-        a2d > T::zero() && T::lit(4.0) - two * a1d + a2d > T::zero() && a1d - a2d > T::zero() && a1d - a2d < two
-    }
-}
 
 /// What to design for.
 #[derive(Clone, Copy, Debug, PartialEq)]

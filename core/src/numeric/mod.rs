@@ -1,9 +1,11 @@
 //! Numbers without physics: the scalar type the core is generic over ([`real`]: f32 on the
 //! device, f64 on the host, every transcendental through libm so both sides compute the same
 //! bits), polynomial roots ([`roots`]), small least squares ([`lstsq`]) and the real FFT of the
-//! running spectrum ([`fft`]). Nothing here imports another room.
+//! running spectrum ([`fft`]), and the biquad section recursive filters run ([`section`]). Nothing
+//! here imports another room.
 
 pub mod fft;
 pub mod lstsq;
 pub mod real;
 pub mod roots;
+pub mod section;
