@@ -16,7 +16,7 @@ use std::{
 
 use ipmc_core::{
     Calibration, DesignConfig, Law,
-    band::Band,
+    band::{Band, Shape},
     calibration::departures::Departures,
     calibration::humidity_path::{HumidityPath, SensorKind},
     calibration::instrument::Instrument,
@@ -148,8 +148,16 @@ fn calibration_expr(c: &Calibration) -> String {
 }
 
 fn band_expr(band: &Band) -> String {
-    let Band { low_hz, high_hz } = band;
-    format!("ipmc_core::band::Band {{ low_hz: {}, high_hz: {} }}", f64_expr(*low_hz), f64_expr(*high_hz))
+    let Band { low_hz, high_hz, shape } = band;
+    let shape = match shape {
+        Shape::LinearPhase => "LinearPhase",
+        Shape::LowLatency => "LowLatency",
+    };
+    format!(
+        "ipmc_core::band::Band {{ low_hz: {}, high_hz: {}, shape: ipmc_core::band::Shape::{shape} }}",
+        f64_expr(*low_hz),
+        f64_expr(*high_hz)
+    )
 }
 
 fn departures_expr(t: &Departures) -> String {

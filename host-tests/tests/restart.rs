@@ -61,7 +61,7 @@ fn a_used_compensator_restarted_is_a_new_one() {
 #[test]
 fn a_passthrough_for_another_band_and_rate_restarted_is_a_new_one() {
     let b = design(55.0);
-    let mut early = Compensator::<f32>::passthrough(&Band { low_hz: 3.0, high_hz: 400.0 }, 4_000.0);
+    let mut early = Compensator::<f32>::passthrough(&Band { low_hz: 3.0, high_hz: 400.0, ..Band::DEFAULT }, 4_000.0);
     outputs(&mut early, &input(1_000, 3));
     early.restart(&b);
     assert_same(&mut early, &b);
@@ -72,14 +72,14 @@ fn a_passthrough_passes_its_band_only() {
     // Before a design the estimate is the current limited to the band: a tone far below it is
     // gone, one inside it passes with the FIR's delay.
     let fs = 2_000.0f32;
-    let mut p = Compensator::<f32>::passthrough(&Band { low_hz: 10.0, high_hz: 150.0 }, fs);
+    let mut p = Compensator::<f32>::passthrough(&Band::DEFAULT, fs);
     let tone = |f: f32| -> Vec<f32> { (0..8_000).map(|k| 1e-6 * (2.0 * core::f32::consts::PI * f * k as f32 / fs).sin()).collect() };
     // A current of 1 µA amplitude: well inside the input limit.
     let rms = |v: &[f32]| 1e6 * (v[4_000..].iter().map(|x| x * x).sum::<f32>() / 4_000.0).sqrt();
     let mut out = tone(40.0);
     out.chunks_mut(32).for_each(|c| p.process_block(c));
     assert!((rms(&out) - core::f32::consts::FRAC_1_SQRT_2).abs() < 0.02, "in band: rms {}", rms(&out));
-    let mut p = Compensator::<f32>::passthrough(&Band { low_hz: 10.0, high_hz: 150.0 }, fs);
+    let mut p = Compensator::<f32>::passthrough(&Band::DEFAULT, fs);
     let mut out = tone(1.0);
     out.chunks_mut(32).for_each(|c| p.process_block(c));
     assert!(rms(&out) < 0.02, "1 Hz, far below the band: rms {}", rms(&out));

@@ -2,8 +2,12 @@
 //! its precision, and what every figure of error that goes through the band uses.
 
 use super::kaiser;
-use super::spec::{ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_HALF_BAND_TAPS, MAX_STAGES, MAX_TAPS, Plan, check};
-use crate::numeric::real::Real;
+use super::minimum_phase::{self, SECTIONS};
+use super::spec::{
+    ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_HALF_BAND_TAPS, MAX_STAGES, MAX_TAPS, Plan, Shape, check,
+};
+use crate::numeric::real::{C, Real};
+use crate::numeric::section::Sos;
 
 /// Half of a symmetric filter's taps, centre included.
 pub(super) const MAX_HALF: usize = MAX_TAPS / 2 + 1;
@@ -18,6 +22,8 @@ pub struct BandDesign {
     pub(super) half: [f64; MAX_HALF],
     /// Stage `s`'s half-band: `pairs[s][j]` is its tap at ±(2j + 1) from the centre.
     pub(super) pairs: [[f64; MAX_HALF_BAND_PAIRS]; MAX_STAGES],
+    /// The low-latency band's sections (identities for a linear-phase band).
+    pub(super) sections: [Sos<f64>; SECTIONS],
     fs_hz: f64,
 }
 
@@ -26,7 +32,17 @@ impl BandDesign {
     pub fn design(band: &Band, fs_hz: f64) -> Result<Self, BandLimitError> {
         let plan = check(band, fs_hz)?;
         let pi = core::f64::consts::PI;
-        let mut d = BandDesign { plan, half: [0.0; MAX_HALF], pairs: [[0.0; MAX_HALF_BAND_PAIRS]; MAX_STAGES], fs_hz };
+        let mut d = BandDesign {
+            plan,
+            half: [0.0; MAX_HALF],
+            pairs: [[0.0; MAX_HALF_BAND_PAIRS]; MAX_STAGES],
+            sections: [Sos::identity(); SECTIONS],
+            fs_hz,
+        };
+        if plan.shape == Shape::LowLatency {
+            d.sections = minimum_phase::sections(band, fs_hz);
+            return Ok(d);
+        }
         // Half-bands: the ideal low-pass at a quarter of the rate, whose even taps beside the
         // centre are zero: only the odd ones are kept.
         let beta = kaiser::beta(HALF_BAND_ATTENUATION_DB);
@@ -49,7 +65,7 @@ impl BandDesign {
             *h = ideal * kaiser::window(beta, j, m as f64);
         }
         // Unit gain at the band's geometric centre, where the ripple is smallest.
-        let gain = d.response(Real::sqrt(band.low_hz * band.high_hz));
+        let gain = d.linear_phase_response(Real::sqrt(band.low_hz * band.high_hz));
         for h in d.half.iter_mut().take(m + 1) {
             *h /= gain;
         }
@@ -67,16 +83,24 @@ impl BandDesign {
     }
 
     /// The response at `freq_hz` as the filter runs it, with its delay.
-    pub fn delayed_response(&self, freq_hz: f64) -> crate::C<f64> {
+    pub fn delayed_response(&self, freq_hz: f64) -> C<f64> {
         let w = 2.0 * core::f64::consts::PI * freq_hz / self.fs_hz * self.delay_samples() as f64;
-        crate::C::new(Real::cos(w), -Real::sin(w)) * self.response(freq_hz)
+        C::new(Real::cos(w), -Real::sin(w)) * self.response(freq_hz)
     }
 
-    /// The response at `freq_hz`, its delay removed (real: every filter in it is linear-phase):
-    /// each half-band twice (down and up) and the band-pass at the low rate. What a multirate
+    /// The response at `freq_hz`, its pure delay removed: real for the linear-phase band, whose
+    /// phase is all delay; the edges' own phase for the low-latency one, which has no pure delay.
+    pub fn response(&self, freq_hz: f64) -> C<f64> {
+        match self.plan.shape {
+            Shape::LinearPhase => C::new(self.linear_phase_response(freq_hz), 0.0),
+            Shape::LowLatency => minimum_phase::response(&self.sections, freq_hz, self.fs_hz),
+        }
+    }
+
+    /// Each half-band twice (down and up) and the band-pass at the low rate. What a multirate
     /// filter also makes of a tone (its aliases and images) is 60 dB down
     /// ([`HALF_BAND_ATTENUATION_DB`]) and not in it.
-    pub fn response(&self, freq_hz: f64) -> f64 {
+    fn linear_phase_response(&self, freq_hz: f64) -> f64 {
         let two_pi = 2.0 * core::f64::consts::PI;
         let mut g = 1.0;
         let mut rate = self.fs_hz;

@@ -25,17 +25,21 @@
 //! - `spec`: the `[band]` table, and the plan of stages and taps a rate keeps it with;
 //! - `design`: the coefficients in f64, and the response every figure through the band uses;
 //! - `history`: the samples a symmetric filter folds, kept both ways round;
+//! - `minimum_phase`: the low-latency option's edges ([`Shape::LowLatency`]);
 //! - `running`: the filter at the working precision.
 
 mod design;
 mod history;
 mod kaiser;
+pub mod minimum_phase;
 mod running;
 mod spec;
 
 pub use design::BandDesign;
 pub use running::BandLimit;
-pub use spec::{ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_TAPS, Plan, check, lowest_low_hz, transition_hz};
+pub use spec::{
+    ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_TAPS, Plan, Shape, check, lowest_low_hz, transition_hz,
+};
 
 #[cfg(test)]
 mod tests {
@@ -49,12 +53,12 @@ mod tests {
     const SINGLE_RATE_STOP: f64 = 0.01024;
 
     fn ripple(d: &BandDesign) -> f64 {
-        (0..=1400).map(|i| (d.response(10.0 + 0.1 * i as f64) - 1.0).abs()).fold(0.0, f64::max)
+        (0..=1400).map(|i| (d.response(10.0 + 0.1 * i as f64).re - 1.0).abs()).fold(0.0, f64::max)
     }
 
     fn stop(d: &BandDesign) -> f64 {
-        let below = (0..=400).map(|i| d.response(0.01 * i as f64).abs());
-        let above = (0..=8440).map(|i| d.response(156.0 + 0.1 * i as f64).abs());
+        let below = (0..=400).map(|i| d.response(0.01 * i as f64).re.abs());
+        let above = (0..=8440).map(|i| d.response(156.0 + 0.1 * i as f64).re.abs());
         below.chain(above).fold(0.0, f64::max)
     }
 
@@ -67,7 +71,8 @@ mod tests {
         assert!(r <= SINGLE_RATE_RIPPLE, "ripple in band {r}");
         assert!(s <= SINGLE_RATE_STOP, "outside the transitions {s}");
         // The design's depth from a hertz beyond each transition.
-        let deep = (0..=300).map(|i| d.response(0.01 * i as f64).abs()).chain((0..=8430).map(|i| d.response(157.0 + 0.1 * i as f64).abs()));
+        let deep =
+            (0..=300).map(|i| d.response(0.01 * i as f64).re.abs()).chain((0..=8430).map(|i| d.response(157.0 + 0.1 * i as f64).re.abs()));
         let deep = deep.fold(0.0, f64::max);
         assert!(deep <= 10f64.powf(-42.0 / 20.0), "a hertz beyond the transitions {deep}");
     }
@@ -118,12 +123,44 @@ mod tests {
     }
 
     #[test]
+    fn the_low_latency_band_is_quick_and_runs_its_response() {
+        let band = Band::DEFAULT.with_shape(Shape::LowLatency);
+        let d = BandDesign::design(&band, FS).unwrap();
+        assert_eq!(d.delay_samples(), 0);
+        // Group delay −dφ/dω from the response's phase, every 1 Hz from 20 to 150 Hz.
+        let phase = |f: f64| {
+            let h = d.response(f);
+            h.im.atan2(h.re)
+        };
+        let worst = (20..=150)
+            .map(|f| {
+                let f = f as f64;
+                let mut dp = phase(f + 0.01) - phase(f - 0.01);
+                if dp > core::f64::consts::PI {
+                    dp -= 2.0 * core::f64::consts::PI;
+                }
+                -dp / (2.0 * core::f64::consts::PI * 0.02)
+            })
+            .fold(0.0, f64::max);
+        assert!(worst <= minimum_phase::MAX_GROUP_DELAY_S && worst > 0.001, "group delay up to {worst} s");
+        assert!(d.response(2.0).norm() < 0.01 && d.response(300.0).norm() < 0.1, "{} {}", d.response(2.0).norm(), d.response(300.0).norm());
+        let mut f = BandLimit::<f64>::from_design(&d);
+        for f_hz in [3.0, 12.0, 40.0, 150.0, 400.0] {
+            let (ab, rest) = through(&mut f, f_hz, f_hz);
+            // sin(ωi + φ)·|H| = |H| cos φ·sin ωi + |H| sin φ·cos ωi.
+            let h = d.response(f_hz);
+            assert!((ab - crate::C::new(h.re, h.im)).norm() < 1e-6, "{f_hz} Hz: {ab:?} against {h:?}");
+            assert!(rest < 1e-6, "{f_hz} Hz: {rest} beside the tone");
+        }
+    }
+
+    #[test]
     fn refuses_bands_it_cannot_keep() {
-        assert!(matches!(BandDesign::design(&Band { low_hz: 2.0, high_hz: 150.0 }, FS), Err(BandLimitError::TooLow { .. })));
-        assert!(matches!(BandDesign::design(&Band { low_hz: 10.0, high_hz: 996.0 }, FS), Err(BandLimitError::AboveNyquist)));
+        assert!(matches!(BandDesign::design(&Band { low_hz: 2.0, ..Band::DEFAULT }, FS), Err(BandLimitError::TooLow { .. })));
+        assert!(matches!(BandDesign::design(&Band { high_hz: 996.0, ..Band::DEFAULT }, FS), Err(BandLimitError::AboveNyquist)));
         let low = lowest_low_hz(FS, 150.0);
         assert!(
-            check(&Band { low_hz: low, high_hz: 150.0 }, FS).is_ok() && check(&Band { low_hz: low - 0.1, high_hz: 150.0 }, FS).is_err()
+            check(&Band { low_hz: low, ..Band::DEFAULT }, FS).is_ok() && check(&Band { low_hz: low - 0.1, ..Band::DEFAULT }, FS).is_err()
         );
     }
 
@@ -131,7 +168,7 @@ mod tests {
     fn keeps_a_band_at_any_rate_it_allows() {
         for fs in [1000.0, 2000.0, 4000.0, 8000.0, 10_000.0] {
             let d = BandDesign::design(&Band::DEFAULT, fs).unwrap();
-            let r = (0..=140).map(|i| (d.response(10.0 + i as f64) - 1.0).abs()).fold(0.0, f64::max);
+            let r = (0..=140).map(|i| (d.response(10.0 + i as f64).re - 1.0).abs()).fold(0.0, f64::max);
             assert!(r <= 0.01, "{fs} Hz: {:?} ripple {r}", d.plan());
         }
     }

@@ -8,8 +8,10 @@
 
 use super::design::{BandDesign, MAX_HALF_BAND_PAIRS};
 use super::history::{Line, dot, dot_four};
-use super::spec::{Band, BandLimitError, MAX_STAGES, MAX_TAPS, Plan};
+use super::minimum_phase::SECTIONS;
+use super::spec::{Band, BandLimitError, MAX_STAGES, MAX_TAPS, Plan, Shape};
 use crate::numeric::real::Real;
+use crate::numeric::section::{Sos, Stage};
 
 /// Inputs taken at once: the firmware's block. A longer buffer is taken in pieces this long.
 const CHUNK: usize = 32;
@@ -117,6 +119,9 @@ pub struct BandLimit<T> {
     line: Line<T, { MAX_TAPS + 4 * MOST }>,
     /// Outputs made, not yet handed out: one goes out per input.
     ready: Line<T, { 2 * MOST }>,
+    /// The low-latency band's sections and their states (unused by a linear-phase band).
+    sections: [Sos<T>; SECTIONS],
+    states: [[T; 2]; SECTIONS],
 }
 
 impl<T: Real> BandLimit<T> {
@@ -137,11 +142,13 @@ impl<T: Real> BandLimit<T> {
         taps[0] = T::one();
         let none = HalfBand::new(&[0.0], 3);
         let mut b = BandLimit {
-            plan: Plan { stages: 0, half_band_taps: [0; MAX_STAGES], taps: 1 },
+            plan: Plan { shape: Shape::LinearPhase, stages: 0, half_band_taps: [0; MAX_STAGES], taps: 1 },
             stages: [none; MAX_STAGES],
             taps,
             line: Line::zeros(0),
             ready: Line::zeros(0),
+            sections: [Sos::identity(); SECTIONS],
+            states: [[T::zero(); 2]; SECTIONS],
         };
         b.reset();
         b
@@ -150,11 +157,14 @@ impl<T: Real> BandLimit<T> {
     /// Takes the design `d`, in place (no copy of the filter on the stack), with no history.
     pub fn load(&mut self, d: &BandDesign) {
         self.plan = d.plan;
+        for (s, f) in self.sections.iter_mut().zip(&d.sections) {
+            *s = f.narrow();
+        }
         for s in 0..d.plan.stages {
             self.stages[s] = HalfBand::new(&d.pairs[s], d.plan.half_band_taps[s]);
         }
         self.taps = [T::zero(); MAX_TAPS];
-        let n = d.plan.taps;
+        let n = d.plan.taps.max(1);
         for (k, &v) in d.half[..=(n - 1) / 2].iter().enumerate() {
             (self.taps[k], self.taps[n - 1 - k]) = (T::lit(v), T::lit(v));
         }
@@ -176,7 +186,8 @@ impl<T: Real> BandLimit<T> {
         for s in self.stages[..self.plan.stages].iter_mut() {
             s.reset();
         }
-        self.line = Line::zeros(self.plan.taps - 1);
+        self.line = Line::zeros(self.plan.taps.max(1) - 1);
+        self.states = [[T::zero(); 2]; SECTIONS];
         // A group of `factor` inputs makes its outputs on its last input, the first of which
         // goes out on that same input: until then, the zeros of a history at rest.
         self.ready = Line::zeros(self.plan.factor() - 1);
@@ -184,6 +195,17 @@ impl<T: Real> BandLimit<T> {
 
     /// Filters `buf` in place.
     pub fn process_block(&mut self, buf: &mut [T]) {
+        if self.plan.shape == Shape::LowLatency {
+            // Section by section over the whole buffer, each one's state in registers.
+            for (sos, state) in self.sections.iter().zip(self.states.iter_mut()) {
+                let mut stage = Stage::load(sos, *state);
+                for v in buf.iter_mut() {
+                    *v = stage.step(*v);
+                }
+                *state = stage.state();
+            }
+            return;
+        }
         for piece in buf.chunks_mut(CHUNK) {
             let (mut a, mut b) = ([T::zero(); MOST], [T::zero(); MOST]);
             let (mut x, mut y) = (&mut a, &mut b);

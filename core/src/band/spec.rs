@@ -6,18 +6,61 @@ use super::kaiser;
 use crate::numeric::real::Real;
 use crate::timing::SAMPLE_RATE_HZ;
 
-/// Edges of the calibrated band [Hz].
+/// How the band's edges are kept.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+pub enum Shape {
+    /// Linear phase: the band as it is in band, delayed by the filter's centre (233 ms at
+    /// 2 kHz for the default band).
+    #[default]
+    LinearPhase,
+    /// Minimum-phase edges ([`super::minimum_phase`]): 4–11 ms of delay, and the edges' own
+    /// phase and gain in band, which only a comparison through the same band takes out.
+    LowLatency,
+}
+
+impl Shape {
+    /// Its code in the firmware's stream.
+    pub fn code(self) -> u8 {
+        match self {
+            Shape::LinearPhase => 0,
+            Shape::LowLatency => 1,
+        }
+    }
+
+    pub fn from_code(code: u8) -> Option<Shape> {
+        [Shape::LinearPhase, Shape::LowLatency].into_iter().find(|s| s.code() == code)
+    }
+
+    /// As the calibration file spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Shape::LinearPhase => "linear-phase",
+            Shape::LowLatency => "low-latency",
+        }
+    }
+}
+
+/// Edges of the calibrated band [Hz], and how they are kept.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct Band {
     pub low_hz: f64,
     pub high_hz: f64,
+    /// Files from before the key: linear phase.
+    pub shape: Shape,
 }
 
 impl Band {
     /// What the paper's frequency responses and the project's sessions cover.
-    pub const DEFAULT: Band = Band { low_hz: 10.0, high_hz: 150.0 };
+    pub const DEFAULT: Band = Band { low_hz: 10.0, high_hz: 150.0, shape: Shape::LinearPhase };
+
+    /// The same edges, kept as `shape` says.
+    pub fn with_shape(self, shape: Shape) -> Band {
+        Band { shape, ..self }
+    }
 
     /// The key (as the file spells it) and value of the first edge no band can have.
     pub fn invalid(&self) -> Option<(&'static str, f64)> {
@@ -92,10 +135,12 @@ impl core::fmt::Display for BandLimitError {
     }
 }
 
-/// How a band is kept at a rate: `stages` half-bands take the rate down by 2 each, the band-pass
-/// of `taps` taps runs at the low rate, and the same half-bands take it back up.
+/// How a band is kept at a rate: linear-phase, `stages` half-bands take the rate down by 2 each,
+/// the band-pass of `taps` taps runs at the low rate, and the same half-bands take it back up;
+/// low-latency, the minimum-phase sections alone (no stages, no taps).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Plan {
+    pub shape: Shape,
     pub stages: usize,
     /// Taps of stage `s`'s half-band (the same one down and up).
     pub half_band_taps: [usize; MAX_STAGES],
@@ -112,6 +157,10 @@ impl Plan {
     /// The whole filter's delay [samples at the stream's rate]: each filter's centre at its own
     /// rate, counted once down and once up for the half-bands.
     pub fn delay_samples(&self) -> usize {
+        if self.shape == Shape::LowLatency {
+            // No pure delay: its delay is in its response's phase.
+            return 0;
+        }
         let halves: usize = (0..self.stages).map(|s| (1 << (s + 1)) * (self.half_band_taps[s] - 1) / 2).sum();
         self.factor() * (self.taps - 1) / 2 + halves
     }
@@ -123,7 +172,10 @@ pub fn check(band: &Band, fs_hz: f64) -> Result<Plan, BandLimitError> {
     if !(top < fs_hz / 2.0) {
         return Err(BandLimitError::AboveNyquist);
     }
-    let mut plan = Plan { stages: 0, half_band_taps: [0; MAX_STAGES], taps: 0 };
+    let mut plan = Plan { shape: band.shape, stages: 0, half_band_taps: [0; MAX_STAGES], taps: 0 };
+    if band.shape == Shape::LowLatency {
+        return Ok(plan);
+    }
     let mut rate = fs_hz;
     while plan.stages < MAX_STAGES && top <= HALF_BAND_MAX_TOP * rate {
         let n = kaiser::length(HALF_BAND_ATTENUATION_DB, rate / 2.0 - 2.0 * top, rate);
@@ -142,7 +194,7 @@ pub fn check(band: &Band, fs_hz: f64) -> Result<Plan, BandLimitError> {
 /// The lowest lower edge a band with upper edge `high_hz` can have at `fs_hz` (to 0.1 Hz).
 pub fn lowest_low_hz(fs_hz: f64, high_hz: f64) -> f64 {
     let mut low = Real::ceil(high_hz * 10.0) / 10.0;
-    while low > 0.1 && check(&Band { low_hz: low - 0.1, high_hz }, fs_hz).is_ok() {
+    while low > 0.1 && check(&Band { low_hz: low - 0.1, high_hz, shape: Shape::LinearPhase }, fs_hz).is_ok() {
         low -= 0.1;
     }
     low

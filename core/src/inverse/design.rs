@@ -218,7 +218,7 @@ pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfi
     let band = design_band::<T>(calib);
     let cfg = &DesignConfig { band_lo_hz: T::lit(band.low_hz), band_hi_hz: T::lit(band.high_hz), ..*cfg };
     let p: Params<T> = calib.params_at(rh_pct);
-    match cfg.kind {
+    let inv = match cfg.kind {
         InverseKind::Exact => design_inverse_for(&p, rh_pct, cfg),
         InverseKind::Robust { rh_sd_pct } => {
             let mut spread = Spread { moments: [(C::new(T::one(), T::zero()), T::one()); GRID] };
@@ -229,7 +229,9 @@ pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfi
             }
             design_inverse_with(&p, rh_pct, cfg, Some(&spread))
         }
-    }
+    }?;
+    // The edges came through `cfg`; how they are kept is the calibration's too.
+    Ok(Inverse { band, ..inv })
 }
 
 /// The band [`design_inverse`]'s designs in `T` report ([`Inverse::band`]): the calibration's
@@ -237,7 +239,7 @@ pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfi
 /// ([`Compensator::passthrough`](crate::Compensator::passthrough)) starts from this one, so that its
 /// band FIR is the one the designs ask for, bit for bit.
 pub fn design_band<T: Real>(calib: &Calibration) -> Band {
-    Band { low_hz: T::lit(calib.band.low_hz).to_f64(), high_hz: T::lit(calib.band.high_hz).to_f64() }
+    Band { low_hz: T::lit(calib.band.low_hz).to_f64(), high_hz: T::lit(calib.band.high_hz).to_f64(), shape: calib.band.shape }
 }
 
 /// The nominal inverse for explicit parameters (overrides, perturbations); `cfg.kind` must be
@@ -270,7 +272,7 @@ pub fn design_inverse_with<T: Real>(
     {
         return Err(DesignError::Config);
     }
-    let band = Band { low_hz: cfg.band_lo_hz.to_f64(), high_hz: cfg.band_hi_hz.to_f64() };
+    let band = Band { low_hz: cfg.band_lo_hz.to_f64(), high_hz: cfg.band_hi_hz.to_f64(), ..Band::DEFAULT };
     let model = RationalModel::new(p, cfg.ionic).ok_or(DesignError::Model)?;
     let t = fs.recip();
 
@@ -550,8 +552,9 @@ fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: 
     Ok(())
 }
 
-/// RMS and worst |H(jω)·G(e^{jωT})·e^{jωτ} − 1| over `n` evenly spaced frequencies in the band,
-/// with the exact H of `p`: the figure of merit of an inverse.
+/// RMS and worst |H(jω)·G(e^{jωT})·B·e^{jωτ} − 1| over `n` evenly spaced frequencies in the band,
+/// with the exact H of `p` and B the band's response with its pure delay removed: the figure of
+/// merit of an inverse and its band against the ideal band.
 pub fn compensation_error<T: Real>(p: &Params<T>, inv: &Inverse<T>, lo_hz: T, hi_hz: T, n: usize) -> (T, T) {
     let mut sum = T::zero();
     let mut worst = T::zero();
@@ -559,7 +562,8 @@ pub fn compensation_error<T: Real>(p: &Params<T>, inv: &Inverse<T>, lo_hz: T, hi
     for i in 0..n {
         let f = lo_hz + (hi_hz - lo_hz) * T::lit(i as f64 / (n - 1) as f64);
         let w = T::lit(2.0) * T::PI() * f * inv.delay_s;
-        let fir = T::lit(kept.as_ref().map_or(1.0, |t| t.response(f.to_f64())));
+        let fir = kept.as_ref().map_or(C::new(1.0, 0.0), |t| t.response(f.to_f64()));
+        let fir = C::new(T::lit(fir.re), T::lit(fir.im));
         let e = (crate::model::exact::current_response(p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) * fir - T::one()).cabs();
         sum += e * e;
         worst = worst.max(e);

@@ -66,6 +66,12 @@ impl<T: Real> Sos<T> {
     pub(crate) fn from_quads(num: Quad<T>, den: Quad<T>) -> Self {
         Sos { b: num.poly, a: den.poly, beta: [T::one(), num.delta[0], num.delta[1]], alpha: den.delta }
     }
+    /// The same section at another precision, each coefficient narrowed once.
+    pub(crate) fn narrow<U: Real>(&self) -> Sos<U> {
+        let n = |v: &[T]| -> [U; 3] { [U::lit(v[0].to_f64()), U::lit(v[1].to_f64()), U::lit(v.get(2).map_or(0.0, |x| x.to_f64()))] };
+        let alpha = n(&self.alpha);
+        Sos { b: n(&self.b), a: n(&self.a), beta: n(&self.beta), alpha: [alpha[0], alpha[1]] }
+    }
     pub(crate) fn scale(&mut self, k: T) {
         for v in self.b.iter_mut().chain(self.beta.iter_mut()) {
             *v *= k;

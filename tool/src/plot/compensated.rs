@@ -89,8 +89,11 @@ impl Compensated {
             burst_start[r.clone()].fill(b.start);
             // The chain's own band filter, run ahead by its delay: the truth limited exactly as
             // the estimate is (a DFT's band would wrap a non-periodic run's ends into each other).
-            let mut fir = ipmc_core::band::BandLimit::<f64>::new(&ipmc_core::band::Band { low_hz: band.0, high_hz: band.1 }, fs)
-                .map_err(|e| anyhow::anyhow!("the band {}–{} Hz at {fs} Hz: {e}", band.0, band.1))?;
+            let mut fir = ipmc_core::band::BandLimit::<f64>::new(
+                &ipmc_core::band::Band { low_hz: band.0, high_hz: band.1, ..Default::default() },
+                fs,
+            )
+            .map_err(|e| anyhow::anyhow!("the band {}–{} Hz at {fs} Hz: {e}", band.0, band.1))?;
             let m = fir.delay_samples();
             let mut kept: Vec<f64> = delayed[r.clone()].iter().copied().chain(std::iter::repeat_n(0.0, m)).collect();
             fir.process_block(&mut kept);
