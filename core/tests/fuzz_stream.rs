@@ -67,6 +67,8 @@ fn valid_stream(blocks: usize, n: usize) -> Vec<u8> {
             rel_err: 0.01 * k as f32,
             hygrometer: stream::Hygrometer { own_pct: 39.0 + k as f32, own_refusal: (k % 7) as u8, ..stream::Hygrometer::NONE },
             flags: (k % 256) as u16,
+            // Both layouts: version 4 frames (no setup) among version 5 ones.
+            setup: (k % 3 != 0).then_some(stream::Setup { band_shape: (k % 2) as u8, delay_samples: k as u16, humidity_mode: 1 }),
         };
         let len = stream::encode(&h, &est, &mut buf).expect("valid frame encodes");
         out.extend_from_slice(&buf[..len]);

@@ -17,7 +17,7 @@ use ipmc_core::{
     humidity::hygrometer::BlockHygrometer,
     inverse::expected_error::BlockError,
     timing::{reading_age_s, reading_is_stale},
-    wire::stream::{Header, Hygrometer},
+    wire::stream::{Header, Hygrometer, Setup},
 };
 use static_cell::StaticCell;
 
@@ -41,6 +41,12 @@ pub async fn sample_task(mut samples: Samples, path: &'static mut SamplePath) {
     path.start(&first);
     defmt::info!("sampling starts, design for {} %RH", first.rh_pct());
 
+    let calibration = super::compensation::calibration();
+    let setup = Setup {
+        band_shape: calibration.band.shape.code(),
+        delay_samples: ipmc_core::firmware::operating_point::delay_samples(&calibration.band) as u16,
+        humidity_mode: calibration.humidity.mode.code(),
+    };
     samples.start();
     let mut blocks: u32 = 0;
     let mut dropped_since_last = false;
@@ -54,6 +60,7 @@ pub async fn sample_task(mut samples: Samples, path: &'static mut SamplePath) {
                 rel_err: f32::NAN,
                 hygrometer: Hygrometer::NONE,
                 flags: 0,
+                setup: Some(setup),
             },
             base_est_m: [0.0; BLOCK_LEN],
         };

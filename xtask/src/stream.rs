@@ -42,6 +42,8 @@ mod tests {
         fused_sd_pct: 0.25,
     };
 
+    const SETUP: ipmc_core::wire::stream::Setup = ipmc_core::wire::stream::Setup { band_shape: 0, delay_samples: 470, humidity_mode: 0 };
+
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
         let header = Header {
@@ -52,6 +54,7 @@ mod tests {
             rel_err: 0.125,
             hygrometer: HYGROMETER,
             flags,
+            setup: Some(SETUP),
         };
         let n = encode(&header, est, &mut out).unwrap();
         out.truncate(n);
@@ -74,7 +77,8 @@ mod tests {
                     rh_read_pct: 47.5,
                     rel_err: 0.125,
                     hygrometer: HYGROMETER,
-                    flags: 8
+                    flags: 8,
+                    setup: Some(SETUP)
                 },
                 base_est_m: vec![2e-3, -1e-3]
             }

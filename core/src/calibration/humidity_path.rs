@@ -72,6 +72,16 @@ pub enum HumidityMode {
     Fused,
 }
 
+impl HumidityMode {
+    /// Its code in the firmware's stream.
+    pub fn code(self) -> u8 {
+        match self {
+            HumidityMode::Reading => 0,
+            HumidityMode::Fused => 1,
+        }
+    }
+}
+
 /// Largest sensor offset accepted [%RH]: beyond it the "sensor" is broken or is another
 /// quantity, not a humidity sensor in need of a correction.
 pub const MAX_OFFSET_PCT: f64 = 20.0;

@@ -22,6 +22,10 @@
 //!   f32  RH [%] of the reading and the strip's estimate fused, and its 1σ
 //!   f32
 //!   u16  flags (bits: [`flags`])
+//!   u8   the band's shape (`ipmc_core::band::Shape::code`: 0 linear phase, 1 low latency)  } version 5
+//!   u16  the estimates' delay behind the base motion [samples]: the design's preview and the } on; a
+//!        band's pure delay (a low-latency band's own delay is in its phase, not here)       } version 4
+//!   u8   the humidity the designs follow (`HumidityMode::code`: 0 reading, 1 fused)        } frame has none
 //!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
 //!   f32  × n  base displacement estimates [m], one per sample at the firmware's sample rate
 //!   u16  CRC-16/IBM-3740 (poly 0x1021, init 0xFFFF) of all bytes above
@@ -102,15 +106,19 @@ pub mod flags {
     ];
 }
 
-/// Bumped whenever the payload layout changes; decoders refuse other versions. 2: the strip's
-/// humidity and the reading beside the design's (version 1 had one RH, the reading's). 3: the
-/// expected error after the humidities. 4: the strip's own hygrometer (the reading's 1σ, the
-/// strip's estimate and the fused humidity with theirs).
-pub const FRAME_VERSION: u8 = 4;
+/// Bumped whenever the payload layout changes. 2: the strip's humidity and the reading beside
+/// the design's (version 1 had one RH, the reading's). 3: the expected error after the
+/// humidities. 4: the strip's own hygrometer (the reading's 1σ, the strip's estimate and the
+/// fused humidity with theirs). 5: what the firmware runs ([`Setup`]): the band's shape, the
+/// estimates' delay, the humidity mode.
+pub const FRAME_VERSION: u8 = 5;
+/// The oldest version the decoder still reads (its frames have no [`Setup`]).
+pub const OLDEST_VERSION: u8 = 4;
 /// version + first sample + RH of the design, of the strip, as read + expected error +
-/// the hygrometer's + flags + count.
-pub const HEADER_LEN: usize = 1 + 4 + 4 * 4 + HYGROMETER_LEN + 2 + 1;
+/// the hygrometer's + flags + the setup + count.
+pub const HEADER_LEN: usize = 1 + 4 + 4 * 4 + HYGROMETER_LEN + 2 + SETUP_LEN + 1;
 const HYGROMETER_LEN: usize = 5 * 4 + 1;
+const SETUP_LEN: usize = 1 + 2 + 1;
 const CRC_LEN: usize = 2;
 /// The count is one byte.
 pub const MAX_ESTIMATES: usize = u8::MAX as usize;
@@ -147,6 +155,20 @@ pub struct Header {
     pub rel_err: f32,
     pub hygrometer: Hygrometer,
     pub flags: u16,
+    /// What the firmware runs; none in a version 4 frame.
+    pub setup: Option<Setup>,
+}
+
+/// What the firmware runs, as its calibration set it up: what a reader needs to line the
+/// estimates up with the base motion and to know what they mean.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Setup {
+    /// `ipmc_core::band::Shape::code`.
+    pub band_shape: u8,
+    /// The estimates' delay behind the base motion [samples at the firmware's rate].
+    pub delay_samples: u16,
+    /// `ipmc_core::calibration::humidity_path::HumidityMode::code`.
+    pub humidity_mode: u8,
 }
 
 /// The strip's own hygrometer at the block [%RH].
@@ -199,7 +221,8 @@ pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usiz
         digest.update(bytes);
         encoder.push(bytes).map_err(|_| EncodeError::BufferTooSmall)
     };
-    put(&[FRAME_VERSION])?;
+    // Without a setup, the version 4 layout: what a firmware of that release sent.
+    put(&[if header.setup.is_some() { FRAME_VERSION } else { OLDEST_VERSION }])?;
     put(&header.first_sample.to_le_bytes())?;
     put(&header.rh_pct.to_le_bytes())?;
     put(&header.rh_strip_pct.to_le_bytes())?;
@@ -213,6 +236,11 @@ pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usiz
     put(&h.fused_pct.to_le_bytes())?;
     put(&h.fused_sd_pct.to_le_bytes())?;
     put(&header.flags.to_le_bytes())?;
+    if let Some(setup) = header.setup {
+        put(&[setup.band_shape])?;
+        put(&setup.delay_samples.to_le_bytes())?;
+        put(&[setup.humidity_mode])?;
+    }
     put(&[count])?;
     for v in estimates {
         put(&v.to_le_bytes())?;
@@ -250,8 +278,8 @@ impl fmt::Display for DecodeError {
             DecodeError::Crc => write!(f, "CRC mismatch"),
             DecodeError::Version(v) => write!(
                 f,
-                "frame version {v}, this decoder reads version {FRAME_VERSION}: the firmware and the host tool are \
-                 from different releases (build and flash both from one checkout)"
+                "frame version {v}, this decoder reads versions {OLDEST_VERSION}–{FRAME_VERSION}: the firmware and the \
+                 host tool are from different releases (build and flash both from one checkout)"
             ),
             DecodeError::Length { count, payload_len } => {
                 write!(f, "frame says {count} estimates but its payload has {payload_len} bytes")
@@ -296,7 +324,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
         return Err(DecodeError::Crc);
     }
     let (&[version], rest) = body.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
-    if version != FRAME_VERSION {
+    if !(OLDEST_VERSION..=FRAME_VERSION).contains(&version) {
         return Err(DecodeError::Version(version));
     }
     let (first_sample, rest) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
@@ -318,7 +346,14 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     let fused_pct = f32_field(&mut rest)?;
     let fused_sd_pct = f32_field(&mut rest)?;
     let hygrometer = Hygrometer { read_sd_pct, own_pct, own_sd_pct, own_refusal, fused_pct, fused_sd_pct };
-    let (flags, rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
+    let (flags, mut rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
+    let setup = if version >= 5 {
+        let (&[band_shape, d0, d1, humidity_mode], r) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
+        rest = r;
+        Some(Setup { band_shape, delay_samples: u16::from_le_bytes([d0, d1]), humidity_mode })
+    } else {
+        None
+    };
     let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
     let (estimate_bytes, tail) = rest.as_chunks::<4>();
     if estimate_bytes.len() != count as usize || !tail.is_empty() {
@@ -333,6 +368,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
             rel_err: f32::from_le_bytes(*rel_err),
             hygrometer,
             flags: u16::from_le_bytes(*flags),
+            setup,
         },
         estimate_bytes,
     })
@@ -401,6 +437,7 @@ mod tests {
             fused_sd_pct: 0.125,
         },
         flags: 0b1001,
+        setup: Some(Setup { band_shape: 1, delay_samples: 470, humidity_mode: 1 }),
     };
 
     fn frame(header: &Header, est: &[f32]) -> ([u8; MAX_FRAME_LEN], usize) {
@@ -451,10 +488,25 @@ mod tests {
         assert_eq!(p[34..38], 45.875f32.to_le_bytes());
         assert_eq!(p[38..42], 0.125f32.to_le_bytes());
         assert_eq!(p[42..44], 9u16.to_le_bytes());
-        assert_eq!(p[44], 2);
-        assert_eq!(p[45..49], 1.0f32.to_le_bytes());
-        assert_eq!(p[49..53], (-2.0f32).to_le_bytes());
-        assert_eq!(p[53..55], CRC16.checksum(&p[..53]).to_le_bytes());
+        assert_eq!((p[44], &p[45..47], p[47]), (1, &470u16.to_le_bytes()[..], 1));
+        assert_eq!(p[48], 2);
+        assert_eq!(p[49..53], 1.0f32.to_le_bytes());
+        assert_eq!(p[53..57], (-2.0f32).to_le_bytes());
+        assert_eq!(p[57..59], CRC16.checksum(&p[..57]).to_le_bytes());
+    }
+
+    /// A version 4 frame (a firmware of the release before the setup) is read as it was, with
+    /// no setup; its bytes are this layout without the setup's four.
+    #[test]
+    fn reads_the_version_before_the_setup() {
+        let old = Header { setup: None, ..H };
+        let (mut out, len) = frame(&old, &[1.0, -2.0]);
+        let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+        assert_eq!((out[0], n), (OLDEST_VERSION, payload_len(2) - SETUP_LEN));
+        assert_eq!(out[44], 2, "the count right after the flags");
+        let (mut again, len) = frame(&old, &[1.0, -2.0]);
+        let f = decode(&mut again[..len - 1]).unwrap();
+        assert_eq!((f.header, f.len()), (old, 2));
     }
 
     /// A frame of an older layout with a valid CRC: version, first sample 64, `n_rh` humidities
@@ -490,7 +542,7 @@ mod tests {
             let e = decode(&mut encoded[..n]).unwrap_err();
             assert_eq!(e, DecodeError::Version(version));
             let shown = std::string::ToString::to_string(&e);
-            assert!(shown.contains("different releases") && shown.contains("reads version 4"), "{shown}");
+            assert!(shown.contains("different releases") && shown.contains("reads versions 4–5"), "{shown}");
         }
     }
 

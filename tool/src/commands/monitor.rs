@@ -5,8 +5,9 @@
 //! counted; the stream goes on at the next delimiter.
 
 use anyhow::{Context, Result};
+use ipmc_core::band::Shape;
 use ipmc_core::humidity::strip::Refusal;
-use ipmc_core::wire::stream::{DecodeError, Deframer, Frame, Header, Hygrometer, MAX_FRAME_LEN, flags};
+use ipmc_core::wire::stream::{DecodeError, Deframer, Frame, Header, Hygrometer, MAX_FRAME_LEN, Setup, flags};
 use std::{
     fs::File,
     io::{BufWriter, ErrorKind, Read, Write},
@@ -162,6 +163,9 @@ pub struct Monitor {
     last_first_sample: Option<u32>,
     /// Next whole second of stream time at which a status line is due.
     next_status_s: f64,
+    /// The setup of the last frame (its outer None: no frame yet), said when it first comes and
+    /// whenever it changes.
+    setup: Option<Option<Setup>>,
 }
 
 impl Monitor {
@@ -175,6 +179,7 @@ impl Monitor {
             index_offset: 0,
             last_first_sample: None,
             next_status_s: f64::NEG_INFINITY,
+            setup: None,
         }
     }
 
@@ -197,6 +202,10 @@ impl Monitor {
 
     fn on_frame(&mut self, f: &OwnedFrame, emit: &mut impl FnMut(Event)) {
         let h = &f.header;
+        if self.setup != Some(h.setup) {
+            self.setup = Some(h.setup);
+            emit(Event::Status(setup_line(h.setup, self.fs_hz)));
+        }
         let first = h.first_sample;
         // A big step backwards is the u32 index wrapping, not a reordering (frames arrive in order).
         if self.last_first_sample.is_some_and(|last| first < last && last - first > u32::MAX / 2) {
@@ -262,6 +271,24 @@ impl From<&Frame<'_>> for OwnedFrame {
     }
 }
 
+/// What the firmware runs, as its frames say (a version 4 frame says nothing).
+fn setup_line(setup: Option<Setup>, fs_hz: f64) -> String {
+    let Some(s) = setup else {
+        return "setup: not in the stream (a version 4 firmware): a linear-phase band, the humidity its calibration set".into();
+    };
+    let band = Shape::from_code(s.band_shape).map_or_else(|| format!("of unknown shape ({})", s.band_shape), |b| b.name().to_string());
+    let mode = match s.humidity_mode {
+        0 => "the reading".to_string(),
+        1 => "fused".to_string(),
+        m => format!("unknown ({m})"),
+    };
+    format!(
+        "setup: band {band}, estimates {} samples ({:.1} ms) behind the base motion, designs at the humidity {mode}",
+        s.delay_samples,
+        1e3 * s.delay_samples as f64 / fs_hz
+    )
+}
+
 /// The strip's own estimate, or why there is none.
 fn own(h: &Hygrometer) -> String {
     match h.own_refusal {
@@ -280,7 +307,13 @@ mod tests {
     use super::*;
     use ipmc_core::wire::stream::{encode, max_frame_len};
 
+    const SETUP: Setup = Setup { band_shape: 0, delay_samples: 470, humidity_mode: 1 };
+
     fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
+        frame_with(first, rh, flags, est, Some(SETUP))
+    }
+
+    fn frame_with(first: u32, rh: f32, flags: u16, est: &[f32], setup: Option<Setup>) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
         let n = encode(
             &Header {
@@ -298,6 +331,7 @@ mod tests {
                     fused_sd_pct: 0.25,
                 },
                 flags,
+                setup,
             },
             est,
             &mut out,
@@ -317,6 +351,22 @@ mod tests {
             });
         }
         (m, samples, lines)
+    }
+
+    /// A firmware of the release before the setup (version 4 frames) is read as before, and
+    /// said to be one; a change of setup mid-stream is said too.
+    #[test]
+    fn reads_the_old_and_the_new_stream() {
+        let block = [1e-6f32; 32];
+        let mut bytes = frame_with(0, 45.0, 0, &block, None);
+        bytes.extend(frame_with(32, 45.0, 0, &block, None));
+        bytes.extend(frame_with(64, 45.0, 0, &block, Some(Setup { band_shape: 1, delay_samples: 4, humidity_mode: 0 })));
+        let (m, samples, lines) = run_bytes(&bytes, 5);
+        assert_eq!((m.frames, m.bad_frames, samples.len()), (3, 0, 96));
+        let setups: Vec<&String> = lines.iter().filter(|l| l.starts_with("setup:")).collect();
+        assert_eq!(setups.len(), 2, "{lines:?}");
+        assert!(setups[0].contains("version 4"), "{}", setups[0]);
+        assert!(setups[1].contains("band low-latency, estimates 4 samples (2.0 ms)") && setups[1].contains("the reading"), "{}", setups[1]);
     }
 
     #[test]
@@ -346,8 +396,10 @@ mod tests {
             assert!(samples.iter().all(|s| !(3200..3232).contains(&((s.t_s * 2000.0).round() as u64))));
             assert_eq!(samples[3 * 32].flags, flags::RETUNED);
             assert_eq!(samples.last().unwrap().t_s, (201 * 32 - 1) as f64 / 2000.0);
-            // 201 blocks of 16 ms = 3.2 s of stream: lines at 0, 1, 2 and 3 s.
-            assert_eq!(lines.len(), 4, "{lines:?}");
+            // The setup once, then 201 blocks of 16 ms = 3.2 s of stream: lines at 0, 1, 2 and 3 s.
+            assert_eq!(lines.len(), 5, "{lines:?}");
+            assert_eq!(lines[0], "setup: band linear-phase, estimates 470 samples (235.0 ms) behind the base motion, designs at the humidity fused");
+            let lines = &lines[1..];
             assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
             assert!(
                 lines[0].contains("RH  45.00 % (strip  46.00 ± 1.50 %, read  47.00 %; own  45.25 ± 0.50 %, fused  45.50 ± 0.25 %)"),
