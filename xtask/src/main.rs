@@ -54,6 +54,11 @@ enum Task {
         /// Build the firmware with this calibration (TOML) instead of its default.
         #[arg(long)]
         calib: Option<PathBuf>,
+        /// Keep the band `linear-phase` (the default: 233 ms of delay, exact in band) or
+        /// `low-latency` (minimum-phase edges: ≤ 11 ms, its phase in band), whatever the
+        /// calibration says.
+        #[arg(long, value_parser = ["linear-phase", "low-latency"])]
+        band: Option<String>,
     },
     /// Instruction counts of the compute path under QEMU -icount.
     Bench {
@@ -85,7 +90,7 @@ enum Task {
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
-        Task::Qemu { input, out, calib } => qemu::command(input, out, calib),
+        Task::Qemu { input, out, calib, band } => qemu::command(input, out, calib, band),
         Task::Bench { json } => bench::command(json),
         Task::HumidityLoop => humidity_loop::command(),
         Task::Build => firmware::build_all().map(|_| ()),

@@ -110,7 +110,7 @@ fn decode_defmt(elf: &Path, raw: &Path) -> Result<String> {
     Ok(String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
 }
 
-pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathBuf>) -> Result<()> {
+pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathBuf>, band: Option<String>) -> Result<()> {
     let (input, calib) = match input {
         Some(p) => (p, calib),
         None => {
@@ -125,6 +125,10 @@ pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathB
             });
             (rec, calib)
         }
+    };
+    let calib = match band {
+        Some(shape) => Some(with_band_shape(calib.as_deref(), &shape, &repo_root().join("target/qemu-run"))?),
+        None => calib,
     };
     let out = out.unwrap_or_else(|| repo_root().join("target/qemu-run/EST.csv"));
     let input = long_enough_to_score(&input, &repo_root().join("target/qemu-run"))?;
@@ -191,6 +195,28 @@ pub fn replay_recording(input: &Path, out: &Path, calib: Option<&Path>, work: &P
     let replayed = run_replay(&elf, &replay, work)?;
     write_est_csv(out, &rec.t_s, &replayed.blocks, &replay, &band_of(calib)?)?;
     Ok(replayed)
+}
+
+/// `calib` (or the default preset) with its band kept as `shape` says (`linear-phase`,
+/// `low-latency`), written into `work` for the firmware to be built with.
+fn with_band_shape(calib: Option<&Path>, shape: &str, work: &Path) -> Result<PathBuf> {
+    use ipmc_core::band::Shape;
+    let Some(shape) = [Shape::LinearPhase, Shape::LowLatency].into_iter().find(|s| s.name() == shape) else {
+        bail!("--band {shape}: the band is `linear-phase` or `low-latency`");
+    };
+    let mut c = match calib {
+        Some(path) => {
+            let text = fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+            ipmc_core::calibration_file::parse(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?
+        }
+        None => ipmc_core::Calibration::default_preset(),
+    };
+    c.band.shape = shape;
+    fs::create_dir_all(work)?;
+    let path = work.join(format!("calib-{}.toml", shape.name()));
+    fs::write(&path, ipmc_core::calibration_file::to_text(&c)).with_context(|| format!("cannot write {}", path.display()))?;
+    println!("==> the band {}: the firmware is built with {}", shape.name(), path.display());
+    Ok(path)
 }
 
 /// The band the firmware built with `calib` (or the default preset) keeps.
@@ -279,6 +305,7 @@ pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay
     // What `ipmc score` and `ipmc plot compensated` align and score by, as for the host's file.
     est.metadata.set("delay_samples", ipmc_core::firmware::operating_point::delay_samples(band));
     est.metadata.set("band_hz", format!("{}-{}", band.low_hz, band.high_hz));
+    est.metadata.set("band_shape", band.shape.name());
     for b in blocks {
         for (k, &v) in b.base_est_m.iter().enumerate() {
             let i = replay.sample_of(b.header.first_sample) + k;

@@ -69,6 +69,18 @@ pub struct Args {
     /// measures both); by default the calibration's `[humidity] mode`.
     #[arg(long, value_enum, conflicts_with_all = ["schedule", "fixed_rh"])]
     humidity: Option<HumidityChoice>,
+    /// How the band is kept, whatever the calibration's `[band] shape` says: `linear-phase`
+    /// (exact in band, 233 ms behind at 2 kHz) or `low-latency` (minimum-phase edges, ≤ 11 ms
+    /// behind; its phase in band makes the estimate good only against the truth through the
+    /// same band).
+    #[arg(long, value_enum)]
+    band: Option<BandChoice>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum BandChoice {
+    LinearPhase,
+    LowLatency,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -79,6 +91,12 @@ enum HumidityChoice {
 
 pub fn run(a: Args) -> Result<()> {
     let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
+    if let Some(b) = a.band {
+        calib.band.shape = match b {
+            BandChoice::LinearPhase => ipmc_core::band::Shape::LinearPhase,
+            BandChoice::LowLatency => ipmc_core::band::Shape::LowLatency,
+        };
+    }
     let ts = read_time_series(&a.input)?;
     let (ts, looping) = if a.schedule.is_none() { loop_if_short(&a.input, ts, a.period_s)? } else { (ts, None) };
     let measured = ts.metadata.get(ipmc_recording::looping::NOISE_KEY).and_then(|v| v.parse::<f64>().ok());
@@ -127,6 +145,7 @@ pub fn run(a: Args) -> Result<()> {
     // What `ipmc score` aligns the truth by: the preview's and the band FIR's delay.
     file.metadata.set("delay_samples", est.delay_samples.first().copied().unwrap_or(0));
     file.metadata.set("band_hz", format!("{}-{}", calib.band.low_hz, calib.band.high_hz));
+    file.metadata.set("band_shape", calib.band.shape.name());
     if let Some(l) = looping {
         l.write(&mut file.metadata);
     }
