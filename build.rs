@@ -55,9 +55,13 @@ fn main() -> ExitCode {
          /// The expected error of its designs over humidity (`ipmc_core::inverse::expected_error`), for\n\
          /// this firmware's humidity sensor.\n\
          pub const ERROR_TABLE: ipmc_core::inverse::expected_error::ErrorTable = {};\n\
+         /// The band's filter at the firmware's rate, designed here so that the device never\n\
+         /// designs one (`ipmc_core::Compensator::passthrough_designed`).\n\
+         pub const BAND_DESIGN: ipmc_core::band::BandDesign = {};\n\
          {}",
         calibration_expr(&calibration),
         error_table_expr(&calibration),
+        band_design_expr(&calibration),
         model_table_items(&calibration),
     );
     fs::write(out.join("calibration.rs"), generated).expect("OUT_DIR is writable");
@@ -157,6 +161,40 @@ fn band_expr(band: &Band) -> String {
         "ipmc_core::band::Band {{ low_hz: {}, high_hz: {}, shape: ipmc_core::band::Shape::{shape} }}",
         f64_expr(*low_hz),
         f64_expr(*high_hz)
+    )
+}
+
+/// The band the designs in f32 report (`design_band::<f32>`), designed at the firmware's rate
+/// as the device would: every coefficient bit for bit.
+fn band_design_expr(c: &Calibration) -> String {
+    let band = ipmc_core::inverse::design::design_band::<f32>(c);
+    let d = ipmc_core::band::BandDesign::design(&band, SAMPLE_RATE_HZ as f64)
+        .expect("a validated calibration's band is kept at the firmware's rate");
+    let array = |a: &[f64]| format!("[{}]", a.iter().map(|&v| f64_expr(v)).collect::<Vec<_>>().join(", "));
+    let usizes = |a: &[usize]| format!("[{}]", a.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "));
+    let p = d.plan;
+    let shape = match p.shape {
+        Shape::LinearPhase => "LinearPhase",
+        Shape::LowLatency => "LowLatency",
+    };
+    let sections = d
+        .sections
+        .iter()
+        .map(|s| {
+            let (b, a, beta, alpha) = s.parts();
+            format!("ipmc_core::Sos::from_parts({}, {}, {}, {})", array(&b), array(&a), array(&beta), array(&alpha))
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "ipmc_core::band::BandDesign {{ plan: ipmc_core::band::Plan {{ shape: ipmc_core::band::Shape::{shape}, stages: {}, \
+         half_band_taps: {}, taps: {} }}, half: {}, pairs: [{}], sections: [{sections}], fs_hz: {} }}",
+        p.stages,
+        usizes(&p.half_band_taps),
+        p.taps,
+        array(&d.half),
+        d.pairs.iter().map(|r| array(r)).collect::<Vec<_>>().join(", "),
+        f64_expr(d.fs_hz),
     )
 }
 

@@ -41,11 +41,14 @@ impl SamplePathFilter {
     /// (`Compensator::passthrough`), until [`restart`](Self::restart).
     pub fn passthrough() -> Self {
         let calibration = calibration();
-        Self(Compensator::passthrough(&ipmc_core::inverse::design::design_band::<f32>(&calibration), design_config().fs_hz))
+        let band = ipmc_core::inverse::design::design_band::<f32>(&calibration);
+        Self(Compensator::passthrough_designed(&band, &crate::contract::calibration::BAND_DESIGN, design_config().fs_hz))
     }
-    /// Starts on `design` afresh, in place.
+    /// Starts on `design` afresh, in place. Every design is the calibration's, at its band and
+    /// the firmware's rate, which the band's filter was baked for.
     pub fn restart(&mut self, design: &Inverse<f32>) {
-        self.0.restart(design)
+        let kept = self.0.restart_in_band(design);
+        debug_assert!(kept, "a design for another band or rate than the firmware's");
     }
     /// In place: current [A] → base displacement estimate [m]; true if a sample was not a
     /// measurement and was replaced (the compensator counts them).

@@ -108,6 +108,11 @@ pub fn command(json: bool) -> Result<()> {
         fs / (1 << stages) as f64
     );
     println!(
+        "  the low-latency band instead (`[band] shape = \"low-latency\"`: four minimum-phase sections): {:.1} per sample, so {:.1} in all",
+        get("band_low_latency_per_sample")?,
+        ips - fir + get("band_low_latency_per_sample")?
+    );
+    println!(
         "  the sections alone (one cascade, no input check, head/tail split or retune logic): {:.2} per section per sample",
         get("cascade_per_section")?
     );

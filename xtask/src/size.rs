@@ -8,9 +8,11 @@ use crate::{Result, firmware, stack};
 
 /// The STM32L475VG has 1 MiB of flash and 128 KiB of SRAM; the budget leaves most of both to
 /// what a user adds. Raised from 128/32 KiB by the estimate's band FIR (12.8 KB of history) and
-/// the strip's own hygrometer (its running spectrum), as issue 26 set it.
+/// the strip's own hygrometer (its running spectrum), as issue 26 set it; RAM lowered to 40 KiB
+/// by the polyphase band (issue 39). Flash stays at 160 KiB: issue 39's 128 is not reached yet
+/// (155.6 KiB on the hardware build, the band's design baked at build time).
 pub const FLASH_BUDGET: u64 = 160 * 1024;
-pub const RAM_BUDGET: u64 = 48 * 1024;
+pub const RAM_BUDGET: u64 = 40 * 1024;
 /// Stretch goal: fits the 64 KiB / 16 KiB parts.
 const FLASH_STRETCH: u64 = 64 * 1024;
 const RAM_STRETCH: u64 = 16 * 1024;

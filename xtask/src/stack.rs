@@ -214,6 +214,10 @@ impl Function {
         } else if first == "sp" && !(m.starts_with("st") || m.starts_with("vst") || matches!(m, "cmp" | "cmn" | "tst" | "teq")) {
             // Stores and compares read sp; everything else named sp first writes it.
             let rest: Vec<&str> = ops.split(',').map(str::trim).collect();
+            // In an IT block an instruction carries its condition (`addlo`): on the path that
+            // skips it sp is as before, so counting it as if it always ran (an allocation) or
+            // never ran (a release) bounds the depth from above either way.
+            let m = without_condition(m);
             match (m, rest.as_slice()) {
                 ("sub" | "subw", ["sp", imm] | ["sp", "sp", imm]) if imm.starts_with('#') => {
                     self.frame += parse_imm(imm).ok_or_else(|| anyhow!("immediate in `{mnemonic} {ops}`"))?
@@ -233,6 +237,20 @@ impl Function {
         }
         Ok(())
     }
+}
+
+/// `m` without an IT block's condition suffix (`addlo` → `add`), for the instructions that
+/// write sp.
+fn without_condition(m: &str) -> &str {
+    const CONDITIONS: [&str; 16] = ["eq", "ne", "cs", "hs", "cc", "lo", "mi", "pl", "vs", "vc", "hi", "ls", "ge", "lt", "gt", "le"];
+    for stem in ["add", "addw", "sub", "subw"] {
+        if let Some(c) = m.strip_prefix(stem)
+            && CONDITIONS.contains(&c)
+        {
+            return stem;
+        }
+    }
+    m
 }
 
 impl Graph {
@@ -868,6 +886,19 @@ mod tests {
         );
         let e = depth_of(&g, "f").unwrap_err().to_string();
         assert!(e.contains("f: dynamic stack allocation (`sub.w sp, sp, r0`)"), "{e}");
+        // In an IT block: a conditional release is no allocation, a conditional allocation counts.
+        let g = graph(
+            "
+            08000100 <f>:
+            8000100: push {r7, lr}
+            8000102: sub sp, #0x18
+            8000104: it lo
+            8000106: addlo sp, #0x18
+            8000108: it hs
+            800010a: subhs sp, #0x8
+        ",
+        );
+        assert_eq!(depth_of(&g, "f").unwrap(), 8 + 0x18 + 0x8);
     }
 
     /// Two executors, a waker call in a task: each context counts only its own tasks.

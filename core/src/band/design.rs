@@ -10,21 +10,23 @@ use crate::numeric::real::{C, Real};
 use crate::numeric::section::Sos;
 
 /// Half of a symmetric filter's taps, centre included.
-pub(super) const MAX_HALF: usize = MAX_TAPS / 2 + 1;
+pub const MAX_HALF: usize = MAX_TAPS / 2 + 1;
 /// A half-band's distinct non-zero taps beside its centre (which is ½).
-pub(super) const MAX_HALF_BAND_PAIRS: usize = MAX_HALF_BAND_TAPS.div_ceil(4);
+pub const MAX_HALF_BAND_PAIRS: usize = MAX_HALF_BAND_TAPS.div_ceil(4);
 
-/// The band filter at one rate, in f64.
+/// The band filter at one rate, in f64. Its fields are public so that a build script can bake
+/// the firmware's one band into its flash ([`BandDesign::design`] then never runs on the
+/// device, nor the trigonometry and Bessel series it needs).
 #[derive(Clone, Copy)]
 pub struct BandDesign {
-    pub(super) plan: Plan,
+    pub plan: Plan,
     /// The band-pass at the low rate: `half[k]` = h[k] = h[n−1−k] for k ≤ (n−1)/2.
-    pub(super) half: [f64; MAX_HALF],
+    pub half: [f64; MAX_HALF],
     /// Stage `s`'s half-band: `pairs[s][j]` is its tap at ±(2j + 1) from the centre.
-    pub(super) pairs: [[f64; MAX_HALF_BAND_PAIRS]; MAX_STAGES],
+    pub pairs: [[f64; MAX_HALF_BAND_PAIRS]; MAX_STAGES],
     /// The low-latency band's sections (identities for a linear-phase band).
-    pub(super) sections: [Sos<f64>; SECTIONS],
-    fs_hz: f64,
+    pub sections: [Sos<f64>; SECTIONS],
+    pub fs_hz: f64,
 }
 
 impl BandDesign {

@@ -75,8 +75,9 @@ pub fn dot<T: Real>(h: &[T], w: &[T]) -> T {
 /// [`dot`] over four neighbouring windows at once, `w[..n]`, `w[1..n + 1]`, … (`w` is
 /// `h.len() + 3` long): each tap and sample loaded serves four outputs, so a tap costs a
 /// multiply and half a load. Each output is accumulated in the same order as [`dot`] takes it,
-/// so that it has the same bits whichever of the two makes it.
-#[inline(always)]
+/// so that it has the same bits whichever of the two makes it. Out of line: one copy serves
+/// every stage, for the flash its unrolled loop takes.
+#[inline(never)]
 pub fn dot_four<T: Real>(h: &[T], w: &[T]) -> [T; 4] {
     let mut acc = [T::zero(); 4];
     let (mut w0, mut w1, mut w2) = (w[0], w[1], w[2]);

@@ -35,7 +35,7 @@ pub mod minimum_phase;
 mod running;
 mod spec;
 
-pub use design::BandDesign;
+pub use design::{BandDesign, MAX_HALF, MAX_HALF_BAND_PAIRS};
 pub use running::BandLimit;
 pub use spec::{
     ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_TAPS, Plan, Shape, check, lowest_low_hz, transition_hz,

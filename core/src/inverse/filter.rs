@@ -181,7 +181,24 @@ impl<T: Real> Compensator<T> {
     /// twice on that stack: the firmware's sample path, which runs on top of whatever thread
     /// mode is doing, keeps one in a static made at boot and restarts it in place.
     pub fn passthrough(band: &Band, fs_hz: T) -> Self {
-        let mut c = Compensator {
+        let mut c = Self::unbanded(band, fs_hz);
+        c.set_rate_and_band(band, fs_hz);
+        c
+    }
+
+    /// [`passthrough`](Self::passthrough) with the band's filter designed beforehand (`design`,
+    /// for `band` at `fs_hz`): the firmware's, baked at build time, so that the device never
+    /// designs a band. Restart it with [`restart_in_band`](Self::restart_in_band).
+    pub fn passthrough_designed(band: &Band, design: &BandDesign, fs_hz: T) -> Self {
+        let mut c = Self::unbanded(band, fs_hz);
+        c.set_rate(fs_hz);
+        c.band.load(design);
+        c.keeps_band = true;
+        c
+    }
+
+    fn unbanded(band: &Band, fs_hz: T) -> Self {
+        Compensator {
             active: Cascade::from_sections(&[], T::one()),
             tail: Cascade::from_sections(&[], T::one()),
             next: None,
@@ -196,9 +213,7 @@ impl<T: Real> Compensator<T> {
             band_spec: *band,
             fs_hz,
             bad_samples: 0,
-        };
-        c.set_rate_and_band(band, fs_hz);
-        c
+        }
     }
 
     /// Starts afresh on `inv`, in place, as [`new`](Self::new) would make it: no state, no
@@ -210,22 +225,37 @@ impl<T: Real> Compensator<T> {
         self.start_on(inv);
     }
 
+    /// [`restart`](Self::restart) for a design at the band and rate this one keeps: the band's
+    /// filter stays as it is (and no band design is linked in). A design for another band or rate
+    /// is refused: false, nothing changed.
+    pub fn restart_in_band(&mut self, inv: &Inverse<T>) -> bool {
+        if inv.fs_hz() != self.fs_hz || inv.band() != self.band_spec {
+            return false;
+        }
+        self.start_on(inv);
+        true
+    }
+
     /// What depends on the rate and the band, in place. A calibration's band is one the
     /// firmware's rate keeps; at a far higher rate a low edge may need more taps than the band's
     /// FIR has ([`Compensator::keeps_band`]).
     fn set_rate_and_band(&mut self, band: &Band, fs_hz: T) {
-        let fs = fs_hz.to_f64();
-        self.fs_hz = fs_hz;
-        self.warmup_len = (Real::round(WARMUP_S * fs) as u32).max(1);
-        self.fade_len = (Real::round(FADE_S * fs) as u32).max(1);
+        self.set_rate(fs_hz);
         self.band_spec = *band;
-        match BandDesign::design(band, fs) {
+        match BandDesign::design(band, fs_hz.to_f64()) {
             Ok(t) => {
                 self.band.load(&t);
                 self.keeps_band = true;
             }
             Err(_) => self.keeps_band = false,
         }
+    }
+
+    fn set_rate(&mut self, fs_hz: T) {
+        let fs = fs_hz.to_f64();
+        self.fs_hz = fs_hz;
+        self.warmup_len = (Real::round(WARMUP_S * fs) as u32).max(1);
+        self.fade_len = (Real::round(FADE_S * fs) as u32).max(1);
     }
 
     /// The band's FIR where it runs.

@@ -54,6 +54,14 @@ impl<T: Real> Sos<T> {
     pub fn delta(&self) -> ([T; 3], [T; 2]) {
         (self.beta, self.alpha)
     }
+    /// Every coefficient as it is: (b, a, β, α).
+    pub fn parts(&self) -> ([T; 3], [T; 3], [T; 3], [T; 2]) {
+        (self.b, self.a, self.beta, self.alpha)
+    }
+    /// From [`Sos::parts`], bit for bit (a build script bakes sections this way).
+    pub const fn from_parts(b: [T; 3], a: [T; 3], beta: [T; 3], alpha: [T; 2]) -> Self {
+        Sos { b, a, beta, alpha }
+    }
     pub fn identity() -> Self {
         Sos::from_ba([T::one(), T::zero(), T::zero()], [T::one(), T::zero(), T::zero()])
     }

@@ -398,7 +398,10 @@ mod tests {
             assert_eq!(samples.last().unwrap().t_s, (201 * 32 - 1) as f64 / 2000.0);
             // The setup once, then 201 blocks of 16 ms = 3.2 s of stream: lines at 0, 1, 2 and 3 s.
             assert_eq!(lines.len(), 5, "{lines:?}");
-            assert_eq!(lines[0], "setup: band linear-phase, estimates 470 samples (235.0 ms) behind the base motion, designs at the humidity fused");
+            assert_eq!(
+                lines[0],
+                "setup: band linear-phase, estimates 470 samples (235.0 ms) behind the base motion, designs at the humidity fused"
+            );
             let lines = &lines[1..];
             assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
             assert!(
