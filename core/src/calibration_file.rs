@@ -206,12 +206,15 @@ mod tests {
         let c = parse(&old).unwrap();
         assert_eq!((c.band, c.departures, c.instrument), (Band::DEFAULT, Departures::NONE, Instrument::DATASHEET));
         let mut c = Calibration::default_preset();
-        c.band = Band { low_hz: 12.0, high_hz: 200.0, shape: crate::band::Shape::LowLatency };
+        c.band = Band { low_hz: 12.0, high_hz: 200.0, ..Band::DEFAULT };
         c.instrument.tip_gain = 1.006;
         c.departures = Departures::new(&[40.0, 60.0], [&[0.05, -0.02], &[0.0, 0.1], &[0.0, 0.0], &[-0.1, 0.2]]).unwrap();
         let text = to_text(&c);
         assert!(text.contains("[departures]") && text.contains("[band]") && text.contains("[instrument]"), "{text}");
+        c.band.shape = crate::band::Shape::LowLatency;
+        let text = to_text(&c);
         assert!(text.contains("shape = \"low-latency\""), "{text}");
+        assert_eq!(parse(&text).unwrap(), c);
         let without = old.replace("shape = \"linear-phase\"\n", "");
         assert_eq!(parse(&without).unwrap().band, Band::DEFAULT, "files from before the key: linear phase");
         let back = parse(&text).unwrap();

@@ -360,6 +360,28 @@ pub fn qemu_host_equivalence() -> Result<()> {
     host_equivalence_on_ramp("equivalence", 10, 40, 50, &Variant::Qemu.elf(), None).map(|_| ())
 }
 
+/// The equivalence with the low-latency band: a QEMU build whose calibration says
+/// `[band] shape = "low-latency"`, against `compensate` with that calibration, bit for bit as
+/// with the default band.
+pub fn qemu_host_equivalence_low_latency() -> Result<()> {
+    let work = repo_root().join("target/qemu-test/low-latency");
+    std::fs::create_dir_all(&work)?;
+    let mut c = ipmc_core::Calibration::default_preset();
+    c.band.shape = ipmc_core::band::Shape::LowLatency;
+    let calib = work.join("CALIB-low-latency.toml");
+    std::fs::write(&calib, ipmc_core::calibration_file::to_text(&c)).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
+    let elf = firmware::build_with(Variant::Qemu, Some(&calib))?;
+    let blocks = host_equivalence_on_ramp("low-latency", 10, 40, 50, &elf, Some(&calib))?;
+    // The frames must say so: the shape, and a delay of the preview alone.
+    let setup = blocks.first().and_then(|b| b.header.setup).ok_or_else(|| anyhow!("no frame says what the firmware runs"))?;
+    if setup.band_shape != ipmc_core::band::Shape::LowLatency.code()
+        || setup.delay_samples as usize != ipmc_core::firmware::operating_point::delay_samples(&c.band)
+    {
+        bail!("the frames say {setup:?}, the calibration a low-latency band");
+    }
+    Ok(())
+}
+
 /// The humidity path's test calibration: the default preset with a sensor correction and a
 /// hydration lag short enough to act within the ramp (wetting faster than drying).
 fn calibration_with_humidity_path() -> ipmc_core::Calibration {

@@ -5,7 +5,7 @@ use crate::{
     Result, cargo,
     firmware::{self, Variant},
     qemu_scenarios::{
-        qemu_host_equivalence, qemu_host_equivalence_fused, qemu_host_equivalence_with_departures,
+        qemu_host_equivalence, qemu_host_equivalence_fused, qemu_host_equivalence_low_latency, qemu_host_equivalence_with_departures,
         qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_adc_overrun, qemu_replay_bundled,
         qemu_replay_counts_and_retunes, qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_idealized_sweep,
         qemu_replay_no_new_humidity, qemu_replay_no_receiver, qemu_replay_sensor_faults,
@@ -156,6 +156,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("qemu replay: the bundled recording with its strip's own calibration (the main job)", qemu_replay_bundled),
         ("qemu replay: idealized sweep, the design following the humidity of now", qemu_replay_idealized_sweep),
         ("qemu replay: host ↔ QEMU equivalence (RH ramp 40 → 50 %)", qemu_host_equivalence),
+        ("qemu replay: host ↔ QEMU equivalence with the low-latency band", qemu_host_equivalence_low_latency),
         (
             "qemu replay: host ↔ QEMU equivalence with a humidity path (correction and hydration lag)",
             qemu_host_equivalence_with_humidity_path,

@@ -111,10 +111,10 @@ mod tests {
             // sin(ωi − φ) = cos φ·sin ωi − sin φ·cos ωi.
             let want = crate::C::new(w.cos(), -w.sin()) * d.response(f_hz);
             assert!((ab - want).norm() < 1e-4, "{f_hz} Hz: {ab:?} against {want:?}");
-            assert!(rest < 1e-3 * 0.7071, "{f_hz} Hz: {rest} beside the tone");
+            assert!(rest < 1e-3 * core::f64::consts::FRAC_1_SQRT_2, "{f_hz} Hz: {rest} beside the tone");
         }
         // Outside: the rms of everything that comes out, aliases included, 42 dB down.
-        let floor = 10f64.powf(-42.0 / 20.0) * 0.7071;
+        let floor = 10f64.powf(-42.0 / 20.0) * core::f64::consts::FRAC_1_SQRT_2;
         for f_hz in [0.5, 2.0, 3.9, 157.0, 200.0, 344.0, 400.0, 500.0, 656.0, 844.0, 900.0, 1000.0 - 23.0] {
             let (ab, rest) = through(&mut f, f_hz, f_hz);
             let out = (ab.norm_sqr() / 2.0 + rest * rest).sqrt();

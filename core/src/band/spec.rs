@@ -100,10 +100,11 @@ pub const MAX_STAGES: usize = 4;
 /// Most taps of a half-band (of the form 4k + 3, so its end taps are not zero).
 pub const MAX_HALF_BAND_TAPS: usize = 39;
 /// Most taps of the band-pass at the low rate (odd: a type I filter, its delay a whole number of
-/// samples): at 2 kHz, where it runs at 500 Hz, a lower edge down to 6.8 Hz (the default band's
-/// 10 Hz needs 205). Its history, both ways round and doubled, is 4.8 KB of the firmware's RAM
+/// samples). At 2 kHz it runs at 500 Hz for an upper edge to 156 Hz (the default band's 10 Hz
+/// lower edge needs 205 taps; the lowest is 4.5 Hz), at 1 kHz for one to 390 Hz (a lower edge
+/// from 9.1 Hz: the 12–200 Hz band needs 340). Its taps and line are 3.6 KB of the firmware's RAM
 /// in f32.
-pub const MAX_TAPS: usize = 301;
+pub const MAX_TAPS: usize = 451;
 /// A half-band stage is taken while the band's top (its upper edge and transition) stays below
 /// this fraction of the stage's input rate: the half-band's own transition, from the top to the
 /// rate's quarter mirrored, is then at least a tenth of that rate, a few taps.
