@@ -134,7 +134,7 @@ impl SamplePath {
             write_hygrometer(addr_of_mut!((*p).hygrometer));
             addr_of_mut!((*p).stuck).write(StuckDetector::new(SAMPLE_RATE_HZ));
             addr_of_mut!((*p).humidity).write(BlockHumidity::new(&calibration, reading_age_s()));
-            addr_of_mut!((*p).fused_mode).write(calibration.humidity.mode == HumidityMode::Fused);
+            addr_of_mut!((*p).fused_mode).write(calibration.humidity.mode() == HumidityMode::Fused);
             addr_of_mut!((*p).fused).write(BlockHumidity::new(
                 &ipmc_core::Calibration { humidity: calibration.humidity.at_strip(), ..calibration },
                 reading_age_s(),
