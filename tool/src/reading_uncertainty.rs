@@ -62,9 +62,13 @@ pub fn from_data(seconds: &[Second]) -> Option<(f64, usize)> {
 }
 
 /// The fused humidity's uncertainty over a run [%RH]: the rms of its stated 1σ, second by
-/// second (the reading's where no estimate of the strip's was used yet).
+/// second (the reading path's where no estimate of the strip's was used yet). None where the
+/// strip never gave one: the fused humidity is the reading there, and so is its uncertainty (the
+/// path's 1σ adds the sensor's lag times the rate the reading moves, which across the gaps of a
+/// bench session's bursts is a jump between levels, not a rate).
 pub fn fused_sd(seconds: &[Second]) -> Option<f64> {
-    (!seconds.is_empty()).then(|| (seconds.iter().map(|s| s.fused.sd_pct.powi(2)).sum::<f64>() / seconds.len() as f64).sqrt())
+    let any = seconds.iter().any(|s| s.strip.is_ok());
+    any.then(|| (seconds.iter().map(|s| s.fused.sd_pct.powi(2)).sum::<f64>() / seconds.len() as f64).sqrt())
 }
 
 /// Sets `calib`'s reading uncertainty where nothing names a sensor or gives one, from the data
