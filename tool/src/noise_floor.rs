@@ -68,8 +68,7 @@ mod tests {
         // White noise of density D has variance D²·fs/2.
         let density = 3e-10;
         let sd = density * (fs / 2.0f64).sqrt();
-        let mut ts = TimeSeries::default();
-        ts.fs_hz = fs;
+        let mut ts = TimeSeries { fs_hz: fs, ..Default::default() };
         for k in 0..n {
             let t = k as f64 / fs;
             ts.t_s.push(t);
