@@ -240,9 +240,10 @@ fn humidity_path_expr(p: &HumidityPath) -> String {
     let uncertainty = uncertainty_pct.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
     let lag = sensor_lag_s.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
     let supply = supply_v.map_or("None".into(), |v| format!("Some({})", f64_expr(v)));
+    let mode = mode.map_or("None".into(), |m| format!("Some(ipmc_core::calibration::humidity_path::HumidityMode::{m:?})"));
     format!(
         "ipmc_core::calibration::humidity_path::HumidityPath {{ sensor: {sensor}, offset_pct: {}, gain: {}, tau_wet_s: {}, tau_dry_s: {}, \
-         uncertainty_pct: {uncertainty}, sensor_lag_s: {lag}, mode: ipmc_core::calibration::humidity_path::HumidityMode::{mode:?}, \
+         uncertainty_pct: {uncertainty}, sensor_lag_s: {lag}, mode: {mode}, \
          supply_v: {supply} }}",
         f64_expr(*offset_pct),
         f64_expr(*gain),

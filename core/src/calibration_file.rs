@@ -172,7 +172,7 @@ mod tests {
             tau_dry_s: 900.0,
             uncertainty_pct: Some(1.2),
             sensor_lag_s: Some(4.0),
-            mode: crate::calibration::humidity_path::HumidityMode::Fused,
+            mode: Some(crate::calibration::humidity_path::HumidityMode::Fused),
             supply_v: Some(4.85),
         };
         let text = to_text(&c);
@@ -182,6 +182,13 @@ mod tests {
         let only = old.clone() + "\n[humidity]\ntau_wet_s = 300.0\n";
         let p = parse(&only).unwrap().humidity;
         assert_eq!((p.tau_wet_s, p.tau_dry_s, p.gain, p.offset_pct), (300.0, 0.0, 1.0, 0.0), "unset keys keep their defaults");
+        // `mode`: not set is not `reading`; the default applies only where nobody chose.
+        use crate::calibration::humidity_path::HumidityMode;
+        assert_eq!((p.mode, p.mode()), (None, HumidityMode::DEFAULT));
+        assert!(!to_text(&Calibration::default_preset()).contains("mode ="), "not chosen, not written");
+        let chosen = parse(&(only.clone() + "mode = \"reading\"\n")).unwrap().humidity;
+        assert_eq!((chosen.mode, chosen.mode()), (Some(HumidityMode::Reading), HumidityMode::Reading));
+        assert!(to_text(&parse(&(only.clone() + "mode = \"reading\"\n")).unwrap()).contains("mode = \"reading\""));
         for (bad, key) in [
             ("tau_wet_s = -5.0", "humidity.tau_wet_s"),
             ("gain = 0.0", "humidity.gain"),

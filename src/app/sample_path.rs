@@ -45,7 +45,7 @@ pub async fn sample_task(mut samples: Samples, path: &'static mut SamplePath) {
     let setup = Setup {
         band_shape: calibration.band.shape.code(),
         delay_samples: ipmc_core::firmware::operating_point::delay_samples(&calibration.band) as u16,
-        humidity_mode: calibration.humidity.mode.code(),
+        humidity_mode: calibration.humidity.mode().code(),
     };
     samples.start();
     let mut blocks: u32 = 0;
@@ -141,7 +141,7 @@ impl SamplePath {
             write_hygrometer(addr_of_mut!((*p).hygrometer));
             addr_of_mut!((*p).stuck).write(StuckDetector::new(SAMPLE_RATE_HZ));
             addr_of_mut!((*p).humidity).write(BlockHumidity::new(&calibration, reading_age_s()));
-            addr_of_mut!((*p).fused_mode).write(calibration.humidity.mode == HumidityMode::Fused);
+            addr_of_mut!((*p).fused_mode).write(calibration.humidity.mode() == HumidityMode::Fused);
             addr_of_mut!((*p).fused).write(BlockHumidity::new(
                 &ipmc_core::Calibration { humidity: calibration.humidity.at_strip(), ..calibration },
                 reading_age_s(),

@@ -104,7 +104,7 @@ pub fn compensate_scheduled(
     let table = crate::hygrometer::Table::<f32>::new(calib, ts.fs_hz);
     let mut hygrometer = BlockHygrometer::<f32>::new(calib, ts.fs_hz);
     let mut fit_out: Option<Result<StripRh<f32>, Refusal>> = None;
-    let fused_mode = calib.humidity.mode == HumidityMode::Fused;
+    let fused_mode = calib.humidity.mode() == HumidityMode::Fused;
     let mut fused = BlockHumidity::<f32>::new(&Calibration { humidity: calib.humidity.at_strip(), ..*calib }, reading_age_s());
     // The designs the sample path asked for, run here as it runs them (bits of their RH): every
     // retune of the schedule must be one of them.

@@ -59,8 +59,9 @@ pub struct Second {
     pub fused: Estimate<f64>,
 }
 
-/// Runs over a one-burst recording, block by block as the firmware does (each block's reading
-/// its mean, through the humidity path), one [`Second`] per fit.
+/// Runs over a recording, block by block as the firmware does (each block's reading its mean,
+/// through the humidity path, which steps by the recording's clock across gaps between bursts),
+/// one [`Second`] per fit.
 pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
     let table = Table::<f64>::new(calib, ts.fs_hz);
     let noise_psd = noise_psd(calib);
@@ -72,7 +73,13 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
     let mut pos = 0;
     while pos + BLOCK_LEN <= ts.t_s.len() {
         let read = ts.rh_pct[pos..pos + BLOCK_LEN].iter().sum::<f64>() / BLOCK_LEN as f64;
-        let path = humidity.advance(read, if pos == 0 { 0.0 } else { dt }).and(humidity.strip_pct());
+        // Whole blocks inside a burst; across a gap between bursts (a bench session's waits), by
+        // the recording's clock, as the chain steps the strip's hydration.
+        let step = match pos {
+            0 => 0.0,
+            _ => dt.max(ts.t_s[pos] - ts.t_s[pos - BLOCK_LEN]),
+        };
+        let path = humidity.advance(read, step).and(humidity.strip_pct());
         if let Some(p) = path {
             let w = (dt / AVERAGING_S).min(1.0);
             avg = Some(avg.map_or(p, |v| v + w * (p - v)));

@@ -11,9 +11,11 @@ mod hygrometer;
 mod input;
 mod inverse_choice;
 mod limits;
+mod noise_floor;
 mod overrides;
 mod plot;
 mod progress;
+mod reading_uncertainty;
 mod scoring;
 
 use clap::{Parser, Subcommand};

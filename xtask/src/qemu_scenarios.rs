@@ -433,7 +433,7 @@ pub fn qemu_host_equivalence_fused() -> Result<()> {
     let work = repo_root().join("target/qemu-test/fused");
     std::fs::create_dir_all(&work)?;
     let mut c = calibration_with_humidity_path();
-    c.humidity.mode = HumidityMode::Fused;
+    c.humidity.mode = Some(HumidityMode::Fused);
     let calib = work.join("CALIB-fused.toml");
     std::fs::write(&calib, ipmc_core::calibration_file::to_text(&c)).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
     let elf = firmware::build_with(Variant::Qemu, Some(&calib))?;

@@ -61,18 +61,22 @@ impl SensorKind {
 }
 
 /// Which humidity the inverse is designed at.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum HumidityMode {
     /// The sensor's reading, corrected and through the hydration lag.
-    #[default]
     Reading,
     /// The reading fused with the humidity the strip's own current says it is at.
     Fused,
 }
 
 impl HumidityMode {
+    /// Where neither the calibration nor the user chose: the fused humidity, which weighs the
+    /// reading by the sensor's uncertainty and is the reading itself until the strip's own
+    /// estimate is more certain than the sensor.
+    pub const DEFAULT: HumidityMode = HumidityMode::Fused;
+
     /// Its code in the firmware's stream.
     pub fn code(self) -> u8 {
         match self {
@@ -127,8 +131,11 @@ pub struct HumidityPath {
     pub uncertainty_pct: Option<f64>,
     /// The sensor's response time τ63 [s]; none: the sensor's datasheet figure.
     pub sensor_lag_s: Option<f64>,
-    /// Which humidity the inverse is designed at; files without it: the reading.
-    pub mode: HumidityMode,
+    /// Which humidity the inverse is designed at; none (files without the key): not chosen,
+    /// [`HumidityMode::DEFAULT`] ([`HumidityPath::mode`]). Kept apart from a chosen `reading`
+    /// so that a file says what its maker chose and a default can change without rewriting it.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub mode: Option<HumidityMode>,
     /// The HIH-4030's supply as measured on the board [V] (its output is ratiometric, and the
     /// board cannot measure its 5 V rail); none: [`HIH4030_NOMINAL_SUPPLY_V`].
     pub supply_v: Option<f64>,
@@ -164,7 +171,7 @@ impl HumidityPath {
         tau_dry_s: 0.0,
         uncertainty_pct: None,
         sensor_lag_s: None,
-        mode: HumidityMode::Reading,
+        mode: None,
         supply_v: None,
     };
 
@@ -172,6 +179,14 @@ impl HumidityPath {
     /// lag, the sensor and its uncertainty kept for the expected error.
     pub const fn at_strip(&self) -> HumidityPath {
         HumidityPath { sensor: self.sensor, uncertainty_pct: self.uncertainty_pct, ..HumidityPath::NONE }
+    }
+
+    /// The mode in use: the table's, else [`HumidityMode::DEFAULT`].
+    pub const fn mode(&self) -> HumidityMode {
+        match self.mode {
+            Some(m) => m,
+            None => HumidityMode::DEFAULT,
+        }
     }
 
     /// RH of the air at the strip for a reading [%RH].

@@ -65,6 +65,8 @@ pub const MIN_INFORMATION_KEPT: f64 = 0.5;
 /// that explains the spectrum less well than that (narrow-band excitation the spline cannot
 /// follow, a structure the calibration does not have) says nothing reliable.
 pub const MAX_MISFIT: f64 = 4.0;
+/// Width the search narrows the best humidity's bracket to [%RH].
+pub const SEARCH_TOL_PCT: f64 = 0.002;
 /// Half-step of the humidity derivative of the model [%RH].
 const DERIVATIVE_STEP_PCT: f64 = 0.05;
 
@@ -489,7 +491,7 @@ impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
         let mut x1 = a + g * (b - a);
         let mut x2 = b - g * (b - a);
         let (mut c1, mut c2) = (self.cost(x1).0, self.cost(x2).0);
-        while b - a > T::lit(0.002) {
+        while b - a > T::lit(SEARCH_TOL_PCT) {
             if c1 < c2 {
                 b = x2;
                 x2 = x1;
@@ -611,8 +613,11 @@ pub fn strip_rh<T: Real>(table: &ModelTable<'_, T>, s: &SpectrumView<'_, T>, noi
     if !(misfit < T::lit(MAX_MISFIT)) {
         return Err(Refusal::Misfit);
     }
-    // Pinned within a grid step of an edge: the strip is at or beyond it.
-    let margin = T::lit(GRID_STEP_PCT);
+    // Pinned at an edge (the search ran into it): the strip is at or beyond it. A minimum
+    // inside the range, however near its edge, is the model's answer there: refusing every
+    // estimate within a grid step of the edge kept only those that fell below it, and near the
+    // top of the range the fused humidity learned the sensor's bias from them alone.
+    let margin = T::lit(SEARCH_TOL_PCT);
     if !(rh > T::lit(table.rh_min) + margin && rh < T::lit(table.rh_max) - margin) {
         return Err(Refusal::OutOfRange);
     }

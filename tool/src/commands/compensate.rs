@@ -46,14 +46,15 @@ pub struct Args {
     /// was built with (IPMC_CALIB; the default preset otherwise).
     #[arg(long)]
     calib: Option<String>,
-    /// Standard uncertainty of the humidity reading [%RH] for the expected error; by default the
-    /// calibration's `[humidity] uncertainty_pct`, else its sensor's datasheet accuracy, else the
-    /// HTS221's (the board's sensor, as the firmware assumes).
+    /// Standard uncertainty of the design humidity [%RH] for the expected error; by default, with
+    /// the fused humidity, its own 1σ; with the reading, the calibration's `[humidity]
+    /// uncertainty_pct`, else the datasheet accuracy of the sensor the calibration or the
+    /// recording (`# rh_sensor=`) names, else measured against the strip's own estimates.
     #[arg(long)]
     rh_uncertainty: Option<f64>,
     /// The current's noise density [A/√Hz] for the expected error; by default the recording's
-    /// `current_noise_a_per_rthz` metadata (`ipmc loop-bursts` measures it), else the
-    /// calibration's `[uncertainty]`.
+    /// `current_noise_a_per_rthz` metadata (`ipmc loop-bursts` measures it), else measured on
+    /// the recording's spectrum (its top octave, where the strip's motion does not reach).
     #[arg(long)]
     current_noise: Option<f64>,
     /// The inverse designed: the nominal strip's (the firmware's), or the one of least expected
@@ -66,7 +67,7 @@ pub struct Args {
     period_s: f64,
     /// The humidity the designs are made at: the reading through the humidity path, or that
     /// fused with the humidity the strip's own current says it is at (`ipmc field-table`
-    /// measures both); by default the calibration's `[humidity] mode`.
+    /// measures both); by default the calibration's `[humidity] mode`, else fused.
     #[arg(long, value_enum, conflicts_with_all = ["schedule", "fixed_rh"])]
     humidity: Option<HumidityChoice>,
     /// How the band is kept, whatever the calibration's `[band] shape` says: `linear-phase`
@@ -100,26 +101,55 @@ pub fn run(a: Args) -> Result<()> {
     let ts = read_time_series(&a.input)?;
     let (ts, looping) = if a.schedule.is_none() { loop_if_short(&a.input, ts, a.period_s)? } else { (ts, None) };
     let measured = ts.metadata.get(ipmc_recording::looping::NOISE_KEY).and_then(|v| v.parse::<f64>().ok());
-    if let Some(d) = a.current_noise.or(measured) {
+    // A replay of the firmware's schedule runs on what the firmware was built with; else the
+    // recording's own noise and sensor: the calibration's noise is the bench's front end's.
+    let replay = a.schedule.is_some();
+    let (noise, noise_said) = match (a.current_noise, measured) {
+        (Some(d), _) => (Some(d), "given"),
+        (None, Some(d)) => (Some(d), "the recording's, from its consecutive periods"),
+        (None, None) if !replay => (crate::noise_floor::noise_density(&ts), "the recording's, from its spectrum's top octave"),
+        (None, None) => (None, ""),
+    };
+    if let Some(d) = noise {
         calib.uncertainty.current_noise_a_per_rthz = d;
         calib.validate().map_err(|e| anyhow!("the current's noise: {e}"))?;
+        println!("the current's noise: {d:.3e} A/√Hz, {noise_said}");
     }
     let fused = match a.humidity {
         Some(h) => h == HumidityChoice::Fused,
-        None => calib.humidity.mode == HumidityMode::Fused && a.schedule.is_none() && a.fixed_rh.is_none(),
+        None => calib.humidity.mode() == HumidityMode::Fused && a.schedule.is_none() && a.fixed_rh.is_none(),
+    };
+    let reading_said = if replay {
+        "the firmware's calibration's".to_string()
+    } else {
+        let named = crate::reading_uncertainty::name_sensor(&mut calib, &ts);
+        crate::reading_uncertainty::settle(&mut calib, named, |c| crate::hygrometer::run(c, &ts))
     };
     // Fused: the designs follow the fused strip humidity, which is past the path already.
     let read = ts.rh_pct.clone();
-    let (calib, ts) = if fused {
+    let (calib, ts, fused_sd) = if fused {
         let seconds = crate::hygrometer::run(&calib, &ts);
         let ts = crate::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
         let mut at_strip = calib;
         at_strip.humidity = calib.humidity.at_strip();
-        (at_strip, ts)
+        (at_strip, ts, crate::reading_uncertainty::fused_sd(&seconds))
     } else {
-        (calib, ts)
+        (calib, ts, None)
     };
-    let rh_sd = rh_uncertainty(&calib, a.rh_uncertainty);
+    let rh_sd = match (a.rh_uncertainty, fused_sd) {
+        (Some(u), _) => {
+            println!("the humidity's uncertainty: {u:.2} %RH, given");
+            u
+        }
+        (None, Some(u)) => {
+            println!("the humidity's uncertainty: {u:.2} %RH, the fused humidity's (rms of its 1σ); the reading's: {reading_said}");
+            u
+        }
+        (None, None) => {
+            println!("the humidity's uncertainty: the reading's, {reading_said}");
+            rh_uncertainty(&calib, None)
+        }
+    };
     let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
     let mut est = match &a.schedule {
         Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,

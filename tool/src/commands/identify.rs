@@ -368,6 +368,9 @@ pub fn identify(
     if let Some(t) = ipmc_fit::scatter::departures_with_sd(&model, &calib) {
         calib.departures = t;
     }
+    // A mode the base calibration chose stays; otherwise the file says what the tool does by
+    // default, so that a firmware built with it designs as `compensate` does.
+    calib.humidity.mode.get_or_insert(ipmc_core::calibration::humidity_path::HumidityMode::DEFAULT);
     let mut noise_note = "the base calibration's (a frequency response does not carry the current's noise)".to_string();
     if input.bursts.is_some() {
         let ts = crate::input::read_time_series(recording)?;
