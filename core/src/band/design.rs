@@ -100,7 +100,7 @@ impl BandDesign {
     }
 
     /// Each half-band twice (down and up) and the band-pass at the low rate. What a multirate
-    /// filter also makes of a tone (its aliases and images) is 60 dB down
+    /// filter also makes of a tone (its aliases and images) is 70 dB down
     /// ([`HALF_BAND_ATTENUATION_DB`]) and not in it.
     fn linear_phase_response(&self, freq_hz: f64) -> f64 {
         let two_pi = 2.0 * core::f64::consts::PI;

@@ -71,7 +71,7 @@ pub struct Args {
     #[arg(long, value_enum, conflicts_with_all = ["schedule", "fixed_rh"])]
     humidity: Option<HumidityChoice>,
     /// How the band is kept, whatever the calibration's `[band] shape` says: `linear-phase`
-    /// (exact in band, 233 ms behind at 2 kHz) or `low-latency` (minimum-phase edges, ≤ 11 ms
+    /// (exact in band, 237 ms behind at 2 kHz) or `low-latency` (minimum-phase edges, ≤ 11 ms
     /// behind; its phase in band makes the estimate good only against the truth through the
     /// same band).
     #[arg(long, value_enum)]
