@@ -257,40 +257,24 @@ fn main() -> ! {
     println!("conversion_per_sample {}", conv);
     println!("biquad_df2t_per_sample {}", bq_total);
     println!("biquad_df2t_per_section {}", (bq_total - conv) / sections as f64);
-    band_fir(&d45.band(), &codes, conv, &instr);
-    band_low_latency(&d45.band().with_shape(ipmc_core::band::Shape::LowLatency), &codes, conv, &instr);
+    print_plan(&band_filter("band_fir", &d45.band(), &codes, conv, &instr));
+    band_filter("band_low_latency", &d45.band().with_shape(ipmc_core::band::Shape::LowLatency), &codes, conv, &instr);
     hygrometer(instr);
     println!("done");
     semihosting::process::exit(0)
 }
 
-/// The band's linear-phase filter after the inverse, alone: a cost per sample of its own, not per
-/// section. In a frame of its own: its taps and histories (several KiB) would otherwise stay on
-/// main's stack under the hygrometer's bench.
+/// The band's filter after the inverse, alone: a cost per sample of its own, not per section,
+/// printed as `{key}_per_sample`; returns how the band is kept. In a frame of its own: its taps
+/// and histories (several KiB) would otherwise stay on main's stack under the hygrometer's bench.
 #[inline(never)]
-fn band_fir(band: &ipmc_core::band::Band, codes: &[u16; 2048], conv: f64, instr: &impl Fn(u32) -> f64) {
-    let mut fir = ipmc_core::band::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has a filter");
-    let mut at = 0;
-    let t = now();
-    for _ in 0..BLOCKS {
-        let mut block = dma_block(codes, at).map(current_conversion::code_to_amps);
-        fir.process_block(&mut block);
-        black_box(&block);
-        at += BLOCK_LEN;
-    }
-    println!("band_fir_per_sample {}", instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64) - conv);
-    let plan = fir.plan();
-    println!("band_stages {}", plan.stages);
-    for (s, n) in plan.half_band_taps[..plan.stages].iter().enumerate() {
-        println!("band_half_band_taps_{s} {n}");
-    }
-    println!("band_taps {}", plan.taps);
-    println!("band_delay_samples {}", plan.delay_samples());
-}
-
-/// The low-latency band's sections alone, as [`band_fir`] measures the default band.
-#[inline(never)]
-fn band_low_latency(band: &ipmc_core::band::Band, codes: &[u16; 2048], conv: f64, instr: &impl Fn(u32) -> f64) {
+fn band_filter(
+    key: &str,
+    band: &ipmc_core::band::Band,
+    codes: &[u16; 2048],
+    conv: f64,
+    instr: &impl Fn(u32) -> f64,
+) -> ipmc_core::band::Plan {
     let mut f = ipmc_core::band::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has a filter");
     let mut at = 0;
     let t = now();
@@ -300,7 +284,18 @@ fn band_low_latency(band: &ipmc_core::band::Band, codes: &[u16; 2048], conv: f64
         black_box(&block);
         at += BLOCK_LEN;
     }
-    println!("band_low_latency_per_sample {}", instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64) - conv);
+    println!("{key}_per_sample {}", instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64) - conv);
+    f.plan()
+}
+
+/// The default band's plan, as the bench's summary names it.
+fn print_plan(plan: &ipmc_core::band::Plan) {
+    println!("band_stages {}", plan.stages);
+    for (s, n) in plan.half_band_taps[..plan.stages].iter().enumerate() {
+        println!("band_half_band_taps_{s} {n}");
+    }
+    println!("band_taps {}", plan.taps);
+    println!("band_delay_samples {}", plan.delay_samples());
 }
 
 /// A deterministic generator, uniform in (0, 1).
