@@ -4,6 +4,8 @@
 //! - [`FrequencyResponse`]: one row per (humidity level, frequency), grouped into [`Level`]s.
 //! - [`TimeSeries`]: uniformly sampled bursts (`# fs_hz`).
 //! - [`Charging`]: a constant-voltage charging current (`# voltage_v`).
+//! - [`HumidityReference`]: the humidity sensor read at references of known humidity.
+//! - [`Followup`]: what makes a recording a follow-up (`# followup=`, `# strip=`).
 //! - [`Estimates`]: the base-motion estimates `ipmc compensate` and the firmware write.
 //! - [`looping`]: short bursts of a periodic excitation repeated by whole periods.
 //! - [`Table`]: the common layer under them (comments, metadata, columns by name, positions).
@@ -14,7 +16,9 @@
 mod charging;
 mod error;
 mod estimates;
+mod followup;
 mod frequency_response;
+mod humidity_reference;
 pub mod looping;
 mod metadata;
 mod output;
@@ -24,7 +28,9 @@ mod time_series;
 pub use charging::Charging;
 pub use error::{Error, FieldRef, Warning};
 pub use estimates::{Estimates, HYGROMETER_COLUMNS, Hygrometer as HygrometerColumns};
+pub use followup::{Followup, Protocol};
 pub use frequency_response::{FrPoint, FrequencyResponse, LEVEL_SCATTER_PCT, Level, Response, unwrap_degrees};
+pub use humidity_reference::HumidityReference;
 pub use metadata::Metadata;
 pub use output::{write_atomically, write_atomically_with};
 pub use table::{Rule, Table};
