@@ -25,6 +25,11 @@ pub struct Dataset {
     /// response): each line's noise and the current's spectrum between the lines
     /// (`BetweenLines`, where mains and its harmonics show).
     pub bursts: Vec<Vec<ipmc_fit::multisine::Burst>>,
+    /// The humidity sensor read at references (follow-ups of the `reference` protocol): its
+    /// offset and gain, which the sensor-error candidate shares with the levels.
+    pub references: Vec<ipmc_recording::HumidityReference>,
+    /// The protocols of the follow-ups among the recordings (a follow-up is not asked for twice).
+    pub followups: Vec<ipmc_recording::Protocol>,
 }
 
 impl Dataset {
@@ -61,14 +66,27 @@ impl Dataset {
     /// Reads the recording files into the levels a diagnosis fits, at the humidity `path` says
     /// the strip felt (the calibration's `[humidity]`).
     pub fn read(paths: &[std::path::PathBuf], path: &HumidityPath) -> anyhow::Result<Self> {
-        let mut recs = Vec::with_capacity(paths.len());
-        let mut bursts = Vec::with_capacity(paths.len());
-        for p in paths {
-            let r = ipmc_fit::recordings::responses(p)?;
-            recs.push(r.response);
-            bursts.push(r.bursts.unwrap_or_default());
+        let files = crate::strip_files::read(paths)?;
+        Ok(Dataset::of(&files.iter().collect::<Vec<_>>(), path))
+    }
+
+    /// The dataset of `files` (sessions in the order given; references beside them).
+    pub fn of(files: &[&crate::strip_files::StripFile], path: &HumidityPath) -> Self {
+        use crate::strip_files::Content;
+        let mut recs = Vec::new();
+        let mut bursts = Vec::new();
+        let mut references = Vec::new();
+        for f in files {
+            match &f.content {
+                Content::Response(r) => {
+                    recs.push(r.response.clone());
+                    bursts.push(r.bursts.clone().unwrap_or_default());
+                }
+                Content::Reference(r) => references.push(r.clone()),
+            }
         }
-        Ok(Dataset { bursts, ..Dataset::felt(&recs, path) })
+        let followups = files.iter().filter_map(|f| f.followup.as_ref().map(|u| u.protocol)).collect();
+        Dataset { bursts, references, followups, ..Dataset::felt(&recs, path) }
     }
 
     pub fn has_times(&self) -> bool {

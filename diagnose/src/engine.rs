@@ -58,6 +58,8 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         levels: levels.iter().map(|l| instrument.channels.corrected(l)).collect(),
         histories: data.histories.clone(),
         bursts: data.bursts.clone(),
+        references: data.references.clone(),
+        followups: data.followups.clone(),
     };
     let data = &corrected;
     let levels = &data.levels;
@@ -184,6 +186,8 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         .effect()
         .filter(|e| matches!(e, crate::Effect::HydrationLag | crate::Effect::HumiditySensorError))
         .map(|_| crate::humidity_path::fit(&ctx, decision.overdispersion));
+    let humidity_reach = crate::humidity_reach::reach(&ctx);
+    let request = crate::followup_request::request(decision.verdict, &decision.probabilities, &ranked, &humidity_reach, &layout(data));
     Ok(Diagnosis {
         instrument: crate::types::InstrumentReport::of(&instrument, &calib.instrument),
         channels: instrument.channels,
@@ -207,6 +211,20 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         heldout_before_is: before_is,
         heldout_after_is: after_is,
         humidity_path,
-        humidity_reach: crate::humidity_reach::reach(&ctx),
+        humidity_reach,
+        request,
     })
+}
+
+/// The primary sessions' humidity range, band and room temperature, which a follow-up repeats.
+fn layout(data: &Dataset) -> crate::followup_request::Layout {
+    let levels = &data.levels;
+    let fold = |v: &mut dyn Iterator<Item = f64>| v.fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], x| [a.min(x), b.max(x)]);
+    let temps: Vec<f64> = levels.iter().filter_map(|l| l.temp_c).collect();
+    crate::followup_request::Layout {
+        rh_range_pct: fold(&mut levels.iter().map(|l| l.rh_pct)),
+        band_hz: fold(&mut levels.iter().flat_map(|l| l.freqs.iter().copied())),
+        temp_c: (!temps.is_empty() && temps.len() == levels.len()).then(|| temps.iter().sum::<f64>() / temps.len() as f64),
+        taken: data.followups.clone(),
+    }
 }

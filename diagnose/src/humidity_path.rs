@@ -65,13 +65,31 @@ fn path_rh(ctx: &Ctx, path: &HumidityPath) -> Vec<f64> {
 /// `c_hat` is the data's overdispersion: the levels' standard errors are that much too small
 /// in variance, so their likelihood gains are divided by it before BIC prices a parameter.
 fn fit_once(ctx: &Ctx, c_hat: f64) -> HumidityPath {
+    let references = &ctx.data.references;
+    let reference = crate::sensor_reference::SensorReference::of(references);
+    let mut path = fit_levels(ctx, c_hat, reference.as_ref());
+    // Read at references, the sensor's correction is known to its own precision: a corrected
+    // reading is as uncertain as that correction and one reading's scatter together.
+    if let Some(r) = &reference {
+        let s = r.fit();
+        let at_range_ends = if s.free_gain { s.se[1] * 20.0 } else { 0.0 };
+        path.uncertainty_pct = Some(s.se[0].hypot(at_range_ends).hypot(r.reading_sd(references)));
+    }
+    path
+}
+
+fn fit_levels(ctx: &Ctx, c_hat: f64, reference: Option<&crate::sensor_reference::SensorReference>) -> HumidityPath {
     let everyone: Vec<usize> = (0..ctx.n_levels()).collect();
     // BIC's price of one more parameter of the path, on the levels' four parameters each.
     let penalty = c_hat * (4.0 * everyone.len() as f64).ln();
     let read = ctx.read_rh();
     // The sensor's gain only where the data ask for it: a gain the levels cannot pin down
     // trades off against the offset and the lag and moves the humidity at the range's ends.
-    let sensor = |read: &[f64]| -> SensorFit { fit_sensor_parsimonious(ctx, &everyone, read, PATH_FIT_DRIFT, penalty) };
+    let sensor = |read: &[f64]| -> SensorFit {
+        let s = fit_sensor_parsimonious(ctx, &everyone, read, PATH_FIT_DRIFT, penalty);
+        let joint = crate::sensor_reference::with_references(&s, reference);
+        SensorFit { offset: joint.offset, gain: joint.gain, ..s }
+    };
     if !ctx.data.has_times() {
         let s = sensor(&read);
         return laws::sensor_correction(s.offset, s.gain);

@@ -2,6 +2,7 @@
 //! missing physics from a library of candidates, decide on held-out levels and an information
 //! criterion, and report (`ipmc diagnose`, proved by `ipmc prove`; the tool draws the figures).
 //!
+//! - [`strip_files`]: the files of one strip, primaries and follow-ups, checked together.
 //! - [`data`]: the recordings as a dataset of `ipmc_fit` levels with the humidity histories.
 //! - [`effect`]: the effects the model leaves out, by name (shared with the simulator, `ipmc-sim`).
 //! - [`candidates`]: the library of candidate physics (what, how it shows, its parameters).
@@ -19,8 +20,11 @@
 //! - [`humidity_reach`]: the shortest lag and smallest offset a recording could name.
 //! - [`level_bootstrap`]: the evidence's uncertainty over levels (Bayesian bootstrap).
 //! - [`decide`]: the decision rule and its thresholds.
+//! - [`followup_request`]: the follow-up recording a diagnosis asks for when it cannot name.
+//! - [`sensor_reference`]: the humidity sensor's offset and gain from reference readings.
 //! - [`types`]: what a diagnosis reports.
 //! - [`engine`]: the diagnosis in order.
+//! - [`strip_diagnosis`]: one diagnosis from a strip's primary and follow-ups, stage by stage.
 //! - [`report`]: report.json and report.md.
 
 pub mod candidates;
@@ -29,6 +33,7 @@ pub mod data;
 pub mod decide;
 pub mod effect;
 pub mod engine;
+pub mod followup_request;
 pub mod held_out;
 pub mod humidity_path;
 pub mod humidity_reach;
@@ -39,6 +44,9 @@ pub mod mains_between_lines;
 pub mod remap;
 pub mod report;
 pub mod scorers;
+pub mod sensor_reference;
+pub mod strip_diagnosis;
+pub mod strip_files;
 pub mod types;
 
 pub use effect::Effect;

@@ -18,7 +18,7 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -
         "probabilities": d.probabilities,
         "set": d.set,
         "set_rule": format!("the smallest set of hypotheses holding {:.0} % of the probability; a name is stated only when it alone does (else the verdict is undecided)", 100.0 * crate::decide::CONFIDENCE),
-        "separating_measurement": d.separation,
+        "separating_measurement": separating_measurement(d, inputs),
         "humidity_reach": d.humidity_reach,
         "indistinguishable": d.indistinguishable,
         "instrument": d.instrument,
@@ -41,6 +41,61 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -
         "calibration": calib,
         "figures": figures.iter().flat_map(|f| [format!("{}.svg", f.stem), format!("{}.png", f.stem)]).collect::<Vec<_>>(),
     })
+}
+
+/// What would separate the set's leaders (when two share it) and the follow-up to record: the
+/// protocol with its parameters, what it decides between and the recipe; null when the verdict
+/// names an effect.
+fn separating_measurement(d: &Diagnosis, inputs: &[String]) -> serde_json::Value {
+    if d.separation.is_none() && d.request.is_none() {
+        return serde_json::Value::Null;
+    }
+    let mut m = d.separation.as_ref().map_or_else(|| json!({}), |s| json!(s));
+    if let Some(r) = &d.request {
+        let mut protocol = json!(r);
+        protocol["recipe"] = json!(r.recipe(&primary_name(inputs)));
+        m["protocol"] = protocol;
+    }
+    m
+}
+
+/// The file name a follow-up's `# strip=` names: the first recording's.
+fn primary_name(inputs: &[String]) -> String {
+    inputs
+        .first()
+        .map_or("RECORDING.csv".into(), |p| std::path::Path::new(p).file_name().map_or(p.clone(), |n| n.to_string_lossy().into_owned()))
+}
+
+/// The stages of a diagnosis from follow-ups: the probabilities before and after each, and the
+/// fit on each follow-up's levels held out.
+pub fn stages_markdown(stages: &[crate::strip_diagnosis::Stage], fits: &[crate::strip_diagnosis::FollowupFit]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "\n## Follow-ups\n");
+    let _ = writeln!(
+        s,
+        "The strip and the effect are shared by every recording; each session keeps its own levels, read errors and noise. Each stage adds one follow-up to the ones before.\n"
+    );
+    let _ = writeln!(s, "| stage | verdict | probabilities |\n|---|---|---|");
+    for st in stages {
+        let what = match (&st.added, st.protocol) {
+            (Some(f), Some(p)) => format!("+ {f} ({p})"),
+            _ => "the primary alone".into(),
+        };
+        let probs =
+            st.probabilities.iter().take(4).map(|p| format!("{} {:.1} %", p.name, 100.0 * p.probability)).collect::<Vec<_>>().join(", ");
+        let _ = writeln!(s, "| {what} | {} | {probs} |", st.verdict);
+    }
+    if !fits.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nThe follow-ups' levels held out (each in turn, fitted on every other level, the primary's included; χ² per residual, 1 = at the noise), before and after the verdict:\n"
+        );
+        let _ = writeln!(s, "| follow-up | levels | before | after |\n|---|---|---|---|");
+        for f in fits {
+            let _ = writeln!(s, "| {} ({}) | {} | {:.3} | {:.3} |", f.file, f.protocol, f.levels, f.heldout_before, f.heldout_after);
+        }
+    }
+    s
 }
 
 fn fmt_value(v: f64) -> String {
@@ -77,6 +132,9 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     let _ = writeln!(s);
     if let Some(m) = &d.separation {
         let _ = writeln!(s, "**What would separate {} from {}:** {} ({}): {}.\n", m.between[0], m.between[1], m.record, m.band, m.because);
+    }
+    if let Some(r) = &d.request {
+        let _ = writeln!(s, "**The follow-up that would decide: `{}`.** {}\n", r.protocol, r.recipe(&primary_name(inputs)));
     }
     let r = &d.humidity_reach;
     let _ = writeln!(

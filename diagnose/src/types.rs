@@ -322,6 +322,9 @@ pub struct Diagnosis {
     /// The shortest lag and smallest sensor offset this recording could name, and what would
     /// carry the lab-sized ones it cannot.
     pub humidity_reach: HumidityReach,
+    /// The follow-up recording that would decide what this one leaves open (None when it names
+    /// an effect).
+    pub request: Option<crate::followup_request::FollowupRequest>,
 }
 
 impl Diagnosis {
@@ -345,8 +348,12 @@ impl Diagnosis {
         let found = self.humidity_path?;
         let old = calib.humidity;
         let mut out = *calib;
-        out.humidity =
-            HumidityPath { tau_wet_s: old.tau_wet_s + found.tau_wet_s, tau_dry_s: old.tau_dry_s + found.tau_dry_s, ..found.after(&old) };
+        out.humidity = HumidityPath {
+            tau_wet_s: old.tau_wet_s + found.tau_wet_s,
+            tau_dry_s: old.tau_dry_s + found.tau_dry_s,
+            uncertainty_pct: found.uncertainty_pct.or(old.uncertainty_pct),
+            ..found.after(&old)
+        };
         if found.gain != 1.0 || found.offset_pct != 0.0 {
             out.humidity.sensor = Some(sensor);
         }

@@ -6,7 +6,9 @@ use crate::diagnose::figures;
 use anyhow::{Context, Result};
 use ipmc_core::Calibration;
 use ipmc_core::calibration::humidity_path::SensorKind;
-use ipmc_diagnose::{data::Dataset, engine, report};
+use ipmc_diagnose::strip_diagnosis::{self, FollowupFit, Stage};
+use ipmc_diagnose::strip_files::{self, Content};
+use ipmc_diagnose::{data::Dataset, report};
 use ipmc_recording::write_atomically;
 use std::path::{Path, PathBuf};
 
@@ -93,32 +95,61 @@ fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
     }
 }
 
-pub fn write_report(dir: &Path, d: &ipmc_diagnose::Diagnosis, data: &Dataset, inputs: &[String], calib: &str) -> Result<()> {
+/// The report with the stages of a diagnosis from follow-ups (none: one stage).
+pub fn write_report(
+    dir: &Path,
+    d: &ipmc_diagnose::Diagnosis,
+    data: &Dataset,
+    inputs: &[String],
+    calib: &str,
+    stages: &[Stage],
+    fits: &[FollowupFit],
+) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let drawn = figures::draw(dir, d, data)?;
-    let json = report::json(d, inputs, calib, &drawn);
+    let mut json = report::json(d, inputs, calib, &drawn);
+    let mut md = report::markdown(d, inputs, calib, &drawn);
+    if stages.len() > 1 {
+        json["stages"] = serde_json::json!(stages);
+        json["followup_fits"] = serde_json::json!(fits);
+        md.push_str(&report::stages_markdown(stages, fits));
+    }
     write_atomically(&dir.join("report.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
-    write_atomically(&dir.join("report.md"), report::markdown(d, inputs, calib, &drawn).as_bytes())?;
+    write_atomically(&dir.join("report.md"), md.as_bytes())?;
     Ok(())
 }
 
 pub fn run(a: Args) -> Result<()> {
     let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
     a.instrument.apply(&mut calib)?;
-    let data = Dataset::read(&a.recordings, &calib.humidity)?;
-    for (path, bursts) in a.recordings.iter().zip(&data.bursts).filter(|(_, b)| !b.is_empty()) {
-        println!("{}: {}", path.display(), crate::input::summary(bursts));
+    let files = strip_files::read(&a.recordings)?;
+    for f in &files {
+        if let Content::Response(r) = &f.content
+            && let Some(bursts) = &r.bursts
+        {
+            println!("{}: {}", f.name(), crate::input::summary(bursts));
+        }
     }
-    let steps = 2 + ipmc_diagnose::candidates::LIBRARY.len() as u64;
+    let stages = 1 + files.iter().filter(|f| f.followup.is_some()).count() as u64;
+    let steps = stages * (2 + ipmc_diagnose::candidates::LIBRARY.len() as u64);
     let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { crate::progress::bar(steps, "diagnosing") };
-    let d = engine::diagnose(&calib, &data, &|step| {
+    let strip = strip_diagnosis::diagnose(&calib, &files, &calib.humidity, &|step| {
         bar.inc(1);
         bar.set_message(step.to_string());
     })?;
     bar.finish_and_clear();
+    let (d, data) = (&strip.diagnosis, &strip.dataset);
     let inputs: Vec<String> = a.recordings.iter().map(|p| p.display().to_string()).collect();
     let calib_name = a.calib.as_deref().unwrap_or("default");
-    write_report(&a.report, &d, &data, &inputs, calib_name)?;
+    write_report(&a.report, d, data, &inputs, calib_name, &strip.stages, &strip.fits)?;
+    for s in strip.stages.iter().filter(|_| strip.stages.len() > 1) {
+        println!(
+            "{}: {} ({})",
+            s.added.as_deref().map_or("primary alone".to_string(), |f| format!("with {f}")),
+            s.verdict,
+            s.probabilities.iter().take(3).map(|p| format!("{} {:.1} %", p.name, 100.0 * p.probability)).collect::<Vec<_>>().join(", ")
+        );
+    }
     println!("verdict: {}", d.verdict);
     println!("{}", d.explanation);
     let set: Vec<String> = d
@@ -129,6 +160,9 @@ pub fn run(a: Args) -> Result<()> {
     println!("probability: {}", set.join(", "));
     if let Some(m) = &d.separation {
         println!("to separate {} from {}: {} ({})", m.between[0], m.between[1], m.record, m.band);
+    }
+    if let Some(r) = &d.request {
+        println!("follow-up to record: {} (decides between {})", r.protocol, r.decides_between.join(", "));
     }
     println!("where the plain model departs most (before any candidate): {}", d.located.summary);
     println!("held-out χ²/residual: {:.3} → {:.3}", d.heldout_before, d.heldout_after);

@@ -56,6 +56,11 @@ pub struct Args {
     /// every candidate's evidence (what the evidence scale is calibrated from).
     #[arg(long)]
     records: Option<PathBuf>,
+    /// Two steps: diagnose each case, then take the follow-up its report asks for (with
+    /// `--external`: DIR/followups/caseNN-<protocol>.csv) and diagnose the strip again from
+    /// both; prints the outcome tables before and after.
+    #[arg(long)]
+    followups: bool,
 }
 
 /// How a verdict stands against the truth: the outcome table.
@@ -263,7 +268,7 @@ pub fn run_cases(
 
 pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = &a.external {
-        return external(dir, a.calib.as_deref(), a.json, a.records.as_deref());
+        return external(dir, a.calib.as_deref(), a.json, a.records.as_deref(), a.followups);
     }
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
     let dir = match &a.keep {
@@ -403,6 +408,8 @@ pub struct ExternalOutcome {
     pub set: Vec<String>,
     pub top: (String, f64),
     pub record: serde_json::Value,
+    /// The follow-up the report asks for.
+    pub request: Option<ipmc_recording::Protocol>,
 }
 
 impl ExternalOutcome {
@@ -417,7 +424,7 @@ impl ExternalOutcome {
     }
 }
 
-fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Option<&std::path::Path>) -> Result<()> {
+fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Option<&std::path::Path>, followups: bool) -> Result<()> {
     let default_calib = dir.join("nominal.toml");
     let calib_arg = calib.map(str::to_string).unwrap_or_else(|| default_calib.display().to_string());
     let calib = crate::calibration_source::load(Some(&calib_arg))?;
@@ -445,6 +452,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
             set: d.set.clone(),
             top: top_of(&d),
             record: record(&truth, &d),
+            request: d.request.as_ref().map(|r| r.protocol),
             truth,
             seconds,
         };
@@ -505,6 +513,9 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
         clean.len(),
         wrong.len()
     );
+    if followups {
+        external_second_step(dir, &calib, &outcomes)?;
+    }
     if json {
         println!(
             "{}",
@@ -522,6 +533,65 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
             })
         );
     }
+    Ok(())
+}
+
+/// The second step of `--external --followups`: each case with the follow-up its own report
+/// asked for (at most one), diagnosed again from both recordings.
+fn external_second_step(dir: &std::path::Path, calib: &ipmc_core::Calibration, before: &[ExternalOutcome]) -> Result<()> {
+    println!("\nsecond step: each case with the follow-up its report asks for");
+    println!("{:<7} {:<24} {:<12} {:<24} {:>6}  set (probability)", "case", "truth", "follow-up", "verdict", "s");
+    let mut after: Vec<(String, Class)> = Vec::new();
+    let mut stated: Vec<(f64, bool)> = Vec::new();
+    let mut slowest: f64 = 0.0;
+    for o in before {
+        let primary = dir.join(format!("{}.csv", o.case));
+        let followup = o.request.map(|p| dir.join("followups").join(format!("{}-{}.csv", o.case, p)));
+        let Some(followup) = followup.filter(|f| f.exists()) else {
+            println!(
+                "{:<7} {:<24} {:<12} {:<24} {:>6}  (no follow-up {})",
+                o.case,
+                o.truth,
+                "–",
+                o.verdict,
+                "–",
+                if o.request.is_some() { "file" } else { "asked for" }
+            );
+            after.push((o.truth.clone(), o.class()));
+            stated.push((o.top.1, o.top.0 == o.truth));
+            continue;
+        };
+        let t0 = std::time::Instant::now();
+        let files = ipmc_diagnose::strip_files::read(&[primary, followup])?;
+        let strip = ipmc_diagnose::strip_diagnosis::diagnose(calib, &files, &calib.humidity, &|_| {})
+            .with_context(|| format!("{} with its follow-up", o.case))?;
+        let seconds = t0.elapsed().as_secs_f64();
+        slowest = slowest.max(seconds);
+        let d = &strip.diagnosis;
+        let class = Class::of(&o.truth, d.verdict.as_str(), &d.set);
+        let probability_of = |n: &str| d.probabilities.iter().find(|p| p.name == n).map_or(0.0, |p| p.probability);
+        let set: Vec<String> = d.set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
+        let mark = if class == Class::Named { String::new() } else { format!("  ({})", class.label()) };
+        println!(
+            "{:<7} {:<24} {:<12} {:<24} {:>6.2}  {}{mark}",
+            o.case,
+            o.truth,
+            o.request.map_or("–".into(), |p| p.to_string()),
+            d.verdict.to_string(),
+            seconds,
+            set.join(", ")
+        );
+        let top = top_of(d);
+        stated.push((top.1, top.0 == o.truth));
+        after.push((o.truth.clone(), class));
+    }
+    let classes_before: Vec<(&str, Class)> = before.iter().map(|o| (o.truth.as_str(), o.class())).collect();
+    let classes_after: Vec<(&str, Class)> = after.iter().map(|(t, c)| (t.as_str(), *c)).collect();
+    print!("\nbefore the follow-ups:{}", outcome_table(&classes_before));
+    print!("\nafter the follow-ups:{}", outcome_table(&classes_after));
+    print!("{}", reliability_table(&stated));
+    let named = classes_after.iter().filter(|(_, c)| *c == Class::Named).count();
+    println!("\n{named}/{} named after the follow-ups; slowest diagnosis with its follow-up {slowest:.2} s", after.len());
     Ok(())
 }
 
