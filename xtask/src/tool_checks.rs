@@ -97,7 +97,8 @@ pub fn diagnose_prove_external() -> Result<()> {
         println!("no {}: skipped", dir.join("truths.json").display());
         return Ok(());
     }
-    let out = ipmc(&["prove".as_ref(), "--external".as_ref(), dir.as_os_str(), "--json".as_ref()])?;
+    // Both steps: the recordings alone, then each with the follow-up its own report asks for.
+    let out = ipmc(&["prove".as_ref(), "--external".as_ref(), dir.as_os_str(), "--followups".as_ref(), "--json".as_ref()])?;
     print!("{out}");
     let line = out.lines().last().context("ipmc prove printed nothing")?;
     let summary: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc prove --json: {e}: {line}"))?;
@@ -111,6 +112,11 @@ pub fn diagnose_prove_external() -> Result<()> {
     }
     if wrong > 0 {
         println!("external recordings: {wrong} confident wrong name(s): issue 27's target of none is not met yet");
+    }
+    let second = &summary["followups"];
+    let (wrong, alarms) = (json_count(second, "confident_wrong")?, json_count(second, "false_alarms")?);
+    if alarms > 0 || wrong > 0 {
+        bail!("external recordings with their follow-ups: {wrong} confident wrong name(s), {alarms} false alarm(s) (target 0)");
     }
     Ok(())
 }

@@ -179,14 +179,21 @@ pub fn run(a: Args) -> Result<()> {
                     ipmc_core::calibration_file::to_text(&c)
                 );
                 write_atomically(out, text.as_bytes())?;
-                let h = c.humidity;
+                let (was, h) = (calib.humidity, c.humidity);
+                let uncertainty = |u: Option<f64>| u.map_or("datasheet".to_string(), |u| format!("±{u:.2} %RH"));
                 println!(
-                    "calibration -> {}: [humidity] offset {:+.2} %RH, gain {:.4}, τ wet {:.0} s, τ dry {:.0} s",
+                    "calibration -> {}: [humidity] offset {:+.2} → {:+.2} %RH, gain {:.4} → {:.4}, τ wet {:.0} → {:.0} s, τ dry {:.0} → {:.0} s, reading uncertainty {} → {}",
                     out.display(),
+                    was.offset_pct,
                     h.offset_pct,
+                    was.gain,
                     h.gain,
+                    was.tau_wet_s,
                     h.tau_wet_s,
-                    h.tau_dry_s
+                    was.tau_dry_s,
+                    h.tau_dry_s,
+                    uncertainty(was.uncertainty_pct),
+                    uncertainty(h.uncertainty_pct)
                 );
             }
             None => println!("calibration: not written ({} is not a humidity-path finding)", d.verdict),

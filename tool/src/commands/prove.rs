@@ -513,9 +513,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
         clean.len(),
         wrong.len()
     );
-    if followups {
-        external_second_step(dir, &calib, &outcomes)?;
-    }
+    let second = if followups { Some(external_second_step(dir, &calib, &outcomes)?) } else { None };
     if json {
         println!(
             "{}",
@@ -530,6 +528,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
                 "confident_wrong": classes.iter().filter(|(_, c)| *c == Class::ConfidentWrong).count(),
                 "in_set": classes.iter().filter(|(_, c)| *c == Class::InSet).count(),
                 "missed": classes.iter().filter(|(_, c)| *c == Class::Missed).count(),
+                "followups": second,
             })
         );
     }
@@ -538,7 +537,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
 
 /// The second step of `--external --followups`: each case with the follow-up its own report
 /// asked for (at most one), diagnosed again from both recordings.
-fn external_second_step(dir: &std::path::Path, calib: &ipmc_core::Calibration, before: &[ExternalOutcome]) -> Result<()> {
+fn external_second_step(dir: &std::path::Path, calib: &ipmc_core::Calibration, before: &[ExternalOutcome]) -> Result<serde_json::Value> {
     println!("\nsecond step: each case with the follow-up its report asks for");
     println!("{:<7} {:<24} {:<12} {:<24} {:>6}  set (probability)", "case", "truth", "follow-up", "verdict", "s");
     let mut after: Vec<(String, Class)> = Vec::new();
@@ -592,7 +591,15 @@ fn external_second_step(dir: &std::path::Path, calib: &ipmc_core::Calibration, b
     print!("{}", reliability_table(&stated));
     let named = classes_after.iter().filter(|(_, c)| *c == Class::Named).count();
     println!("\n{named}/{} named after the follow-ups; slowest diagnosis with its follow-up {slowest:.2} s", after.len());
-    Ok(())
+    let count = |c: Class| classes_after.iter().filter(|(_, k)| *k == c).count();
+    Ok(serde_json::json!({
+        "named": named,
+        "in_set": count(Class::InSet),
+        "missed": count(Class::Missed),
+        "confident_wrong": count(Class::ConfidentWrong),
+        "false_alarms": count(Class::FalseAlarm),
+        "slowest_s": slowest,
+    }))
 }
 
 fn write_atomically_text(path: &std::path::Path, text: &str) -> Result<()> {
