@@ -39,7 +39,7 @@ use ipmc_core::Calibration;
 use ipmc_core::model::extension::Extension;
 
 /// Runs the whole diagnosis. `progress` is told each step's name.
-pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) -> Result<Diagnosis> {
+pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + Sync)) -> Result<Diagnosis> {
     let levels = &data.levels;
     anyhow::ensure!(levels.len() >= 3, "a diagnosis needs at least three humidity levels, the recordings have {}", levels.len());
     for l in levels {
@@ -90,27 +90,12 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
     progress("locating the mismatch");
     let located = locate::locate(ctx.calib, data, &ctx.sig, &ctx.base, &cal_theta, &simulation)?;
 
-    let mut scores = Vec::new();
-    let mut fitted_of = Vec::new();
-    let mut heldout_of = Vec::new();
-    let mut at_reach = Vec::new();
-    for cand in LIBRARY {
-        progress(cand.name());
-        let t0 = std::time::Instant::now();
-        let s = scorers::score(&ctx, cand, &base)?;
-        if trace {
-            let sc = &s.score;
-            eprintln!(
-                "{}: {:.2} s dBIC {:.1} heldout {:.3} null {:.3} z {:.1} {:?}",
-                cand.label(),
-                t0.elapsed().as_secs_f64(),
-                sc.delta_bic,
-                sc.heldout,
-                sc.heldout_null,
-                sc.heldout_z,
-                sc.params.iter().map(|p| p.value).collect::<Vec<_>>()
-            );
-        }
+    let scored = score_library(&ctx, &base, progress, trace)?;
+    let mut scores = Vec::with_capacity(scored.len());
+    let mut fitted_of = Vec::with_capacity(scored.len());
+    let mut heldout_of = Vec::with_capacity(scored.len());
+    let mut at_reach = Vec::with_capacity(scored.len());
+    for s in scored {
         at_reach.push(s.channels_at_reach);
         scores.push(s.score);
         fitted_of.push(s.fitted);
@@ -214,6 +199,50 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &dyn Fn(&str)) ->
         humidity_reach,
         request,
     })
+}
+
+/// Every candidate of the library scored, in the library's order. The candidates are
+/// independent given the context, so they are shared out over the cores (a diagnosis of a strip
+/// with its follow-ups fits twice the levels, and one candidate's joint fit can take seconds).
+fn score_library(ctx: &Ctx, base: &Baseline, progress: &(dyn Fn(&str) + Sync), trace: bool) -> Result<Vec<scorers::Scored>> {
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<Result<scorers::Scored>>>> = Mutex::new((0..LIBRARY.len()).map(|_| None).collect());
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(LIBRARY.len());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(cand) = LIBRARY.get(i) else { break };
+                    progress(cand.name());
+                    let t0 = std::time::Instant::now();
+                    let s = scorers::score(ctx, cand, base);
+                    if trace && let Ok(s) = &s {
+                        let sc = &s.score;
+                        eprintln!(
+                            "{}: {:.2} s dBIC {:.1} heldout {:.3} null {:.3} z {:.1} {:?}",
+                            cand.label(),
+                            t0.elapsed().as_secs_f64(),
+                            sc.delta_bic,
+                            sc.heldout,
+                            sc.heldout_null,
+                            sc.heldout_z,
+                            sc.params.iter().map(|p| p.value).collect::<Vec<_>>()
+                        );
+                    }
+                    results.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(s);
+                }
+            });
+        }
+    });
+    results
+        .into_inner()
+        .unwrap_or_else(|e| e.into_inner())
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|| Err(anyhow::anyhow!("a candidate was not scored"))))
+        .collect()
 }
 
 /// The primary sessions' humidity range, band and room temperature, which a follow-up repeats.
