@@ -259,18 +259,35 @@ mod tests {
     #[test]
     fn a_followup_measures_the_same_strip_in_a_new_session() {
         const WITHIN: f64 = 0.04;
-        let case = (1..200).map(|s| case(None, s, Format::Fr)).find(|c| (c.strip.levels_pct[0] - 40.0).abs() < 0.3).unwrap();
-        let primary = FrequencyResponse::parse(PRIMARY, &case.recording.to_csv().unwrap()).unwrap().0;
-        let (a, b) = (wideband(&case, 1), wideband(&case, 2));
+        let from_40 = (1..200).map(|s| case(None, s, Format::Fr)).find(|c| (c.strip.levels_pct[0] - 40.0).abs() < 0.3).unwrap();
+        let primary = FrequencyResponse::parse(PRIMARY, &from_40.recording.to_csv().unwrap()).unwrap().0;
+        let (a, b) = (wideband(&from_40, 1), wideband(&from_40, 2));
         assert_ne!(a, b, "a new seed is a new session");
         let (da, db, dp) = (departures(&a), departures(&b), departures(&primary));
         for (x, y) in da.iter().zip(&db) {
             assert!((x.1 - y.1).abs() < WITHIN, "{x:?} against {y:?}");
         }
         assert!((dp[0].1 - da[0].1).abs() < WITHIN, "primary {:?}, follow-up {:?}", dp[0], da[0]);
-        let other = departures(&wideband(&super::tests::case(None, 1000, Format::Fr), 1));
+        let other = departures(&wideband(&case(None, 1000, Format::Fr), 1));
         let apart = da.iter().zip(&other).map(|(x, y)| (x.1 - y.1).abs()).fold(0.0, f64::max);
         assert!(apart > 2.0 * WITHIN, "another strip departs by at most {apart}");
+    }
+
+    /// The step follow-up separates a hydration lag from a sensor offset: 200 and 400 s after
+    /// the step to 60 %RH the chamber has long arrived (τ 30 s), so a clean strip's current is
+    /// the same in both bursts (within its noise and the chamber's wander), an offset sensor's
+    /// too (their current changes by 0.1–0.2 % here), while a lagging strip (τ ≈ 400 s at this
+    /// strength) is still wetting between them (2.5 %: the current's rms is dominated by lines
+    /// that depend on humidity less than the 10 Hz one).
+    #[test]
+    fn a_hydration_lag_keeps_changing_after_the_chamber_has_arrived() {
+        for (effect, changing) in [(Some(Effect::HydrationLag), true), (Some(Effect::HumiditySensorError), false), (None, false)] {
+            let (ts, _) = TimeSeries::parse("s.csv", &followup_csv(&case(effect, 7, Format::Fr), Protocol::Step, 1)).unwrap();
+            let bursts = ts.bursts();
+            let rms = |b: &std::ops::Range<usize>| (ts.current_a[b.clone()].iter().map(|i| i * i).sum::<f64>() / b.len() as f64).sqrt();
+            let change = (rms(&bursts[6]) / rms(&bursts[5])).ln();
+            assert_eq!(change > 0.01, changing, "{effect:?}: ln(rms at 400 s / rms at 200 s) = {change:.4}");
+        }
     }
 
     /// The reference follow-up shows the humidity sensor's drawn error, and a clean bench's
