@@ -500,3 +500,24 @@ impl TimeSeriesPlan {
 pub fn log_spaced(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     (0..n).map(|k| if n == 1 { lo } else { lo * (hi / lo).powf(k as f64 / (n - 1) as f64) }).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const STEP: &str = "kind = \"time-series\"\n[humidity]\nlevels_pct = [45, 60]\nsettle_s = 600\n\
+        [time_series]\nfs_hz = 500\nburst_s = 1\ntones = 3\nfrom_hz = 10\nto_hz = 100\namplitude_m = 1e-5\n";
+
+    /// Bursts after each step must end before the level's hold does, ascend, and count in the
+    /// session's size.
+    #[test]
+    fn bursts_after_each_step_are_checked() {
+        let parse = |after: &str| Session::parse(std::path::Path::new("s.toml"), &format!("{STEP}bursts_after_step_s = {after}\n"));
+        let s = parse("[5, 40, 400]").unwrap();
+        assert_eq!(s.time_series.unwrap().bursts(2), 4);
+        for bad in ["[5, 600]", "[40, 5]", "[]"] {
+            let e = parse(bad).unwrap_err().to_string();
+            assert!(e.contains("bursts_after_step_s"), "{bad}: {e}");
+        }
+    }
+}
