@@ -63,6 +63,12 @@ impl Bench {
     }
 }
 
+/// What the humidity sensor reads when the air is at `rh_pct`: its span and offset, the error it
+/// holds through a level (`held_error_pct`, the caller's draw) and a fresh error per reading.
+pub fn reading(h: &Humidity, rh_pct: f64, held_error_pct: f64, rng: &mut SplitMix64) -> f64 {
+    h.read_gain * rh_pct + h.read_bias_pct + held_error_pct + rng.gauss(h.read_error_pct)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,13 +10,14 @@
 //!   the same 29 lines);
 //! - the sensor's humidity read error (±0.4 % per reading);
 //! - calibration drift (the sample's laws differ from the calibration: Y ±3 %, Cs, Ca, d ±15 %)
-//!   and scatter between levels (Y 1 %, Cs 3 %, Ca 6 %, d 6 %);
+//!   and scatter between levels (Y 1 %, Cs 3 %, Ca 6 %, d 6 %), both the strip's own
+//!   ([`CaseStrip`]): a follow-up (`super::followup`) measures the same strip again;
 //! - noise: relative (0.5–1.5 % in gain, as many radians in phase) plus an absolute floor; in a
 //!   time series, white noise per sample sized to give the median line 0.5–1.5 %;
 //! - temperature recorded at 20 ± 0.1 °C (swinging between levels only in the temperature case).
 
 pub use super::effects::Strength;
-use super::effects::{self, ROOM_C};
+use super::effects::{self, BenchEffect, ROOM_C, SampleEffect};
 use super::random::SplitMix64;
 use super::session::{Frequencies, Humidity, Kind, Noise, Sample, Session, TimeSeriesPlan};
 use super::{Recording, simulate};
@@ -48,10 +49,38 @@ const FS_HZ: f64 = 2000.0;
 /// Base motion per line [m].
 const LINE_AMPLITUDE_M: f64 = 10e-6;
 
-/// A generated case: what was concealed (with its magnitude in words) and the recording.
+/// The strip's departure from its calibration, drawn once per strip: drift [%] of Y, Cs, Ca
+/// and d, and scatter between levels [%].
+const DRIFT_PCT: [f64; 4] = [3.0, 15.0, 15.0, 15.0];
+const SCATTER_PCT: [f64; 4] = [1.0, 3.0, 6.0, 6.0];
+
+/// A generated case: what was concealed (with its magnitude in words), the recording, and the
+/// strip it was made of.
 pub struct Case {
     pub magnitude: String,
     pub recording: Recording,
+    pub strip: CaseStrip,
+}
+
+/// What a case's recordings share: the strip (its concealed effect, its scatter between levels
+/// and drift from the calibration), the instrument it is measured with (the bench's effect,
+/// the noise levels) and the primary session's layout. Every session of the case is made from
+/// it ([`CaseStrip::session`]); what differs between them is the session's seed.
+#[derive(Clone)]
+pub struct CaseStrip {
+    /// The concealed effect's physics, feedthrough set.
+    pub physics: SampleEffect,
+    pub bench: BenchEffect,
+    /// The strip's identity: its scatter between levels ([`crate::Strip`]).
+    pub strip_seed: u64,
+    /// Its drift, as factors on Y, Cs, Ca and d.
+    pub drift: [f64; 4],
+    /// Relative noise of the tip and of the current: in gain, and as many radians in phase.
+    pub noise_rel: [f64; 2],
+    /// The primary session's chamber levels [%RH], in order; the first is the driest.
+    pub levels_pct: Vec<f64>,
+    /// What the primary session recorded.
+    pub format: Format,
 }
 
 impl Case {
@@ -70,88 +99,110 @@ pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strengt
     let p60: Params<f64> = calib.params_at(60.0);
     let effects::Drawn { sample: mut physics, bench, words: magnitude } = effects::draw(effect, &p60, strength, &mut rng);
     let mut uniform = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
-    let (noise_tip, noise_cur) = (uniform(0.005, 0.015), uniform(0.005, 0.015));
+    let noise_rel = [uniform(0.005, 0.015), uniform(0.005, 0.015)];
     // Up in 5 % steps, then down through three of the levels again.
     let start = uniform(37.0, 43.0);
     let mut levels_pct: Vec<f64> = (0..9).map(|k| start + 5.0 * k as f64).collect();
     levels_pct.extend([start + 30.0, start + 20.0, start + 10.0]);
     let p_dry: Params<f64> = calib.params_at(calib.clamp_rh(start).0);
     physics.feedthrough = bench.feedthrough_rel * current_response(&p_dry, jw(10.0)).norm() / (2.0 * std::f64::consts::PI * 10.0);
-    let (hydration_tau_s, tau_dry) = bench.hydration.unwrap_or((0.0, 0.0));
-    let session = Session {
-        kind: Kind::FrequencyResponse,
-        seed: rng.uniform().to_bits(),
-        temp_c: Some(ROOM_C),
-        temp_swing_k: bench.temperature_swing_k,
-        temp_read_error_k: 0.1,
-        humidity: Humidity {
-            levels_pct,
-            settle_s: 120.0,
-            settle_jitter_s: 60.0,
-            chamber_tau_s: 30.0,
-            chamber_wander_pct: 0.02,
-            level_error_pct: 0.7,
-            hydration_tau_s,
-            hydration_tau_dry_s: Some(tau_dry),
-            read_error_pct: 0.4,
-            read_gain: bench.sensor_gain,
-            read_bias_pct: bench.sensor_offset_pct,
-            level_read_error_pct: 0.0,
-        },
-        sample: Sample { drift_pct: [3.0, 15.0, 15.0, 15.0], scatter_pct: [1.0, 3.0, 6.0, 6.0], strip_seed: None },
-        frequencies: None,
-        time_series: None,
-        charging: None,
-        noise: Noise { mains_hz: bench.mains.map_or(0.0, |m| m.0), mains_rel: bench.mains.map_or(0.0, |m| m.1), ..Noise::default() },
-    };
-    let session = match format {
-        Format::Fr => Session {
-            frequencies: Some(Frequencies { list_hz: Some(FREQS.to_vec()), from_hz: None, to_hz: None, points: None, dwell_s: 2.5 }),
-            noise: Noise {
-                tip_gain_pct: 100.0 * noise_tip,
-                tip_phase_deg: noise_tip.to_degrees(),
-                current_gain_pct: 100.0 * noise_cur,
-                current_phase_deg: noise_cur.to_degrees(),
-                tip_floor: 1e-3,
-                current_floor_of_peak: 0.003,
-                ..session.noise
-            },
-            ..session
-        },
-        Format::Ts => {
-            // White noise per sample gives each line of a burst of n samples a relative error of
-            // about σ·√(2/n)/amplitude: sized on the median line at the driest level, so weak
-            // lines are noisier and strong ones quieter, as with a real front end.
-            let per_line = |v: f64, rel: f64| rel * LINE_AMPLITUDE_M * v / (2.0 / (BURST_S * FS_HZ)).sqrt();
-            let median = |r: &dyn Fn(f64) -> f64| {
-                let mut v: Vec<f64> = FREQS.iter().map(|&f| r(f)).collect();
-                v.sort_by(f64::total_cmp);
-                v[v.len() / 2]
-            };
-            let current_a = per_line(median(&|f| current_response(&p_dry, jw(f)).norm()), noise_cur);
-            let tip_m = per_line(median(&|f| tip_response(&p_dry, jw(f)).norm()), noise_tip);
-            Session {
-                kind: Kind::TimeSeries,
-                time_series: Some(TimeSeriesPlan {
-                    fs_hz: FS_HZ,
-                    burst_s: BURST_S,
-                    ramp: false,
-                    tones: FREQS.len(),
-                    from_hz: FREQS[0],
-                    to_hz: FREQS[FREQS.len() - 1],
-                    amplitude_m: LINE_AMPLITUDE_M * FREQS.len() as f64,
-                    record_tip: true,
-                    compact: false,
-                    tone_grid_hz: Some(1.0),
-                }),
-                noise: Noise { current_a, tip_m, ..session.noise },
-                ..session
-            }
-        }
-    };
+    let strip_seed = rng.uniform().to_bits();
+    let drift = DRIFT_PCT.map(|sd| rng.gauss(sd / 100.0).exp());
+    let strip = CaseStrip { physics, bench, strip_seed, drift, noise_rel, levels_pct, format };
+    let session = strip.session(calib, format, rng.uniform().to_bits());
     let mut metadata = Metadata::default();
     metadata.set("generator", format!("ipmc prove seed={seed}"));
-    Ok(Case { magnitude, recording: simulate(calib, &session, &physics, metadata)? })
+    Ok(Case { magnitude, recording: simulate(calib, &session, &strip.physics, metadata)?, strip })
+}
+
+impl CaseStrip {
+    /// A session of this strip on its bench recorded as `format` at the primary session's levels,
+    /// with its own `seed` (its settling, humidity read errors and noise).
+    pub fn session(&self, calib: &Calibration, format: Format, seed: u64) -> Session {
+        let bench = &self.bench;
+        let [noise_tip, noise_cur] = self.noise_rel;
+        let (hydration_tau_s, tau_dry) = bench.hydration.unwrap_or((0.0, 0.0));
+        let session = Session {
+            kind: Kind::FrequencyResponse,
+            seed,
+            temp_c: Some(ROOM_C),
+            temp_swing_k: bench.temperature_swing_k,
+            temp_read_error_k: 0.1,
+            humidity: Humidity {
+                levels_pct: self.levels_pct.clone(),
+                settle_s: 120.0,
+                settle_jitter_s: 60.0,
+                chamber_tau_s: 30.0,
+                chamber_wander_pct: 0.02,
+                level_error_pct: 0.7,
+                hydration_tau_s,
+                hydration_tau_dry_s: Some(tau_dry),
+                read_error_pct: 0.4,
+                read_gain: bench.sensor_gain,
+                read_bias_pct: bench.sensor_offset_pct,
+                level_read_error_pct: 0.0,
+            },
+            sample: Sample { drift_pct: DRIFT_PCT, scatter_pct: SCATTER_PCT, strip_seed: Some(self.strip_seed), drift: Some(self.drift) },
+            frequencies: None,
+            time_series: None,
+            charging: None,
+            noise: Noise { mains_hz: bench.mains.map_or(0.0, |m| m.0), mains_rel: bench.mains.map_or(0.0, |m| m.1), ..Noise::default() },
+        };
+        match format {
+            Format::Fr => Session {
+                frequencies: Some(Frequencies {
+                    list_hz: Some(FREQS.to_vec()),
+                    from_hz: None,
+                    to_hz: None,
+                    points: None,
+                    dwell_s: 2.5,
+                    full_amplitude_to_hz: None,
+                }),
+                noise: Noise {
+                    tip_gain_pct: 100.0 * noise_tip,
+                    tip_phase_deg: noise_tip.to_degrees(),
+                    current_gain_pct: 100.0 * noise_cur,
+                    current_phase_deg: noise_cur.to_degrees(),
+                    tip_floor: 1e-3,
+                    current_floor_of_peak: 0.003,
+                    ..session.noise
+                },
+                ..session
+            },
+            Format::Ts => {
+                // White noise per sample gives each line of a burst of n samples a relative error of
+                // about σ·√(2/n)/amplitude: sized on the median line at the driest level, so weak
+                // lines are noisier and strong ones quieter, as with a real front end.
+                let p_dry: Params<f64> = calib.params_at(calib.clamp_rh(self.levels_pct[0]).0);
+                let per_line = |v: f64, rel: f64| rel * LINE_AMPLITUDE_M * v / (2.0 / (BURST_S * FS_HZ)).sqrt();
+                let median = |r: &dyn Fn(f64) -> f64| {
+                    let mut v: Vec<f64> = FREQS.iter().map(|&f| r(f)).collect();
+                    v.sort_by(f64::total_cmp);
+                    v[v.len() / 2]
+                };
+                let current_a = per_line(median(&|f| current_response(&p_dry, jw(f)).norm()), noise_cur);
+                let tip_m = per_line(median(&|f| tip_response(&p_dry, jw(f)).norm()), noise_tip);
+                Session {
+                    kind: Kind::TimeSeries,
+                    time_series: Some(TimeSeriesPlan {
+                        fs_hz: FS_HZ,
+                        burst_s: BURST_S,
+                        ramp: false,
+                        tones: FREQS.len(),
+                        from_hz: FREQS[0],
+                        to_hz: FREQS[FREQS.len() - 1],
+                        amplitude_m: LINE_AMPLITUDE_M * FREQS.len() as f64,
+                        record_tip: true,
+                        compact: false,
+                        tone_grid_hz: Some(1.0),
+                        bursts_after_step_s: None,
+                    }),
+                    noise: Noise { current_a, tip_m, ..session.noise },
+                    ..session
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! every frequency for `dwell_s`, the way a lock-in sweep in a humidity chamber does. Phases are
 //! reported wrapped to (−180°, 180°], as an instrument reports them.
 
-use super::bench::Bench;
+use super::bench::{Bench, reading};
 use super::physics::Physics;
 use super::random::SplitMix64;
 use super::sample::{Departure, Strip, sample_at};
@@ -23,6 +23,9 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     let strip = Strip::of(&session.sample);
     let mains = Mains::draw(n, &mut rng);
     let room = Room::draw(session, &mut rng);
+    let floor_band = n.current_floor_band_hz.unwrap_or([freqs[0], freqs[freqs.len() - 1]]);
+    let floor_freqs: Vec<f64> = freqs.iter().copied().filter(|f| (floor_band[0]..=floor_band[1]).contains(f)).collect();
+    let floor_freqs = if floor_freqs.is_empty() { floor_band.to_vec() } else { floor_freqs };
     let mut points = Vec::with_capacity(h.levels_pct.len() * freqs.len());
     let mut t = 0.0;
     for &level in &h.levels_pct {
@@ -50,21 +53,25 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
                     }
                 }
             }
+            // Absolute noise referred to base displacement grows as the base moves less.
+            let weak_drive = plan.full_amplitude_to_hz.map_or(1.0, |knee| (f / knee).max(1.0).powi(2));
             // Additive front-end noise on the current phasor, referred to base displacement.
-            let sd = n.current_a * (1.0 + n.current_corner_hz / f).sqrt() / n.base_amplitude_m / std::f64::consts::SQRT_2;
+            let sd = weak_drive * n.current_a * (1.0 + n.current_corner_hz / f).sqrt() / n.base_amplitude_m / std::f64::consts::SQRT_2;
             let current = current + C::new(rng.gauss(sd), rng.gauss(sd));
             // The instruments' absolute floors.
             let current_floor = if n.current_floor_of_peak > 0.0 {
-                n.current_floor_of_peak * freqs.iter().map(|&g| current_response(&params, jw(g)).norm()).fold(0.0, f64::max)
+                weak_drive
+                    * n.current_floor_of_peak
+                    * floor_freqs.iter().map(|&g| current_response(&params, jw(g)).norm()).fold(0.0, f64::max)
             } else {
                 0.0
             };
             let floor = |v: C<f64>, sd: f64, rng: &mut SplitMix64| v + C::new(rng.gauss(sd), rng.gauss(sd)) / std::f64::consts::SQRT_2;
-            let tip = floor(tip, n.tip_floor, &mut rng);
+            let tip = floor(tip, weak_drive * n.tip_floor, &mut rng);
             let current = floor(current, current_floor, &mut rng);
             let tip = measured(tip, n.tip_gain_pct, n.tip_phase_deg, &mut rng);
             let current = measured(current, n.current_gain_pct, n.current_phase_deg, &mut rng);
-            let rh_read = h.read_gain * bench.chamber() + h.read_bias_pct + level_read + rng.gauss(h.read_error_pct);
+            let rh_read = reading(h, bench.chamber(), level_read, &mut rng);
             points.push(FrPoint {
                 line: 0,
                 time_s: Some(t),

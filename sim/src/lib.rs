@@ -6,15 +6,17 @@
 //! It exports [`simulate`] and the [`Recording`] it makes (a frequency response, a time series
 //! or charging recordings); the session file ([`session`]) and the two-level ramp of
 //! `ipmc simulate-sweep` ([`sweep`]); a strip's identity ([`Strip`]); the effects `ipmc prove`
-//! conceals ([`effects`]) and its cases ([`concealed`]); the field mode, a strip in service
-//! ([`field`]); and its random numbers ([`random`]).
+//! conceals ([`effects`]), its cases ([`concealed`]) and their follow-ups ([`followup`]); the
+//! field mode, a strip in service ([`field`]); and its random numbers ([`random`]).
 
 mod bench;
 mod charging;
 pub mod concealed;
 pub mod effects;
 pub mod field;
+pub mod followup;
 mod frequency_response;
+mod humidity_reference;
 pub mod physics;
 pub mod random;
 mod sample;

@@ -11,9 +11,12 @@ use ipmc_core::{Calibration, Params};
 pub struct Departure([f64; 4]);
 
 impl Departure {
-    /// The session's drift (draws nothing where the session has none).
+    /// The session's drift, or the strip's own when the session gives it (then nothing is drawn).
     pub fn drift(sample: &session::Sample, rng: &mut random::SplitMix64) -> Self {
-        Departure(sample.drift_pct.map(|sd| rng.gauss(sd / 100.0).exp()))
+        match sample.drift {
+            Some(factors) => Departure(factors),
+            None => Departure(sample.drift_pct.map(|sd| rng.gauss(sd / 100.0).exp())),
+        }
     }
 
     /// The drift times one level's scatter (drawn here unless the strip has an identity, whose

@@ -136,6 +136,10 @@ pub struct Sample {
     pub scatter_pct: [f64; 4],
     #[serde(default)]
     pub strip_seed: Option<u64>,
+    /// The strip's drift as factors on Y, Cs, Ca and d, instead of a draw with `drift_pct`:
+    /// a strip measured again in a new session departs from its calibration as it did.
+    #[serde(default)]
+    pub drift: Option<[f64; 4]>,
 }
 
 /// Excitation frequencies of a frequency-response session: `list_hz`, or `points` log-spaced
@@ -150,6 +154,11 @@ pub struct Frequencies {
     /// Time spent on each frequency [s] (advances `time_s`).
     #[serde(default = "default_dwell")]
     pub dwell_s: f64,
+    /// Above this frequency [Hz] the shaker's acceleration limit sets the base amplitude, which
+    /// falls as 1/f²: the absolute noise (`noise.tip_floor`, the current's floor, `current_a`),
+    /// referred to base displacement, grows as (f/this)². Absent: the full amplitude throughout.
+    #[serde(default)]
+    pub full_amplitude_to_hz: Option<f64>,
 }
 
 fn default_dwell() -> f64 {
@@ -175,6 +184,12 @@ pub struct TimeSeriesPlan {
     /// Put the tones on this grid [Hz] (the nearest multiple, each once): a periodic multisine
     /// of period 1/grid, as a lab's bench plays it. Absent: log-spaced, off any grid.
     pub tone_grid_hz: Option<f64>,
+    /// Bursts while each level settles: they start these times [s, ascending] after each step
+    /// of the chamber, which holds each level `humidity.settle_s` (plus jitter) in all. The
+    /// first level, where the chamber starts settled, has one burst, at the last of these
+    /// times. Absent: one burst per level, `settle_s` after its step.
+    #[serde(default)]
+    pub bursts_after_step_s: Option<Vec<f64>>,
     /// Write the true tip motion (`tip_m`).
     #[serde(default = "yes")]
     pub record_tip: bool,
@@ -241,6 +256,10 @@ pub struct Noise {
     /// largest current response over the session's frequencies (sd of the phasor).
     #[serde(default)]
     pub current_floor_of_peak: f64,
+    /// The band [Hz] whose largest current sets `current_floor_of_peak`'s floor, instead of the
+    /// session's frequencies: the same front end measured over a wider band keeps its floor.
+    #[serde(default)]
+    pub current_floor_band_hz: Option<[f64; 2]>,
 }
 
 fn default_base_amplitude() -> f64 {
@@ -260,6 +279,7 @@ impl Default for Noise {
             tip_m: 0.0,
             tip_floor: 0.0,
             current_floor_of_peak: 0.0,
+            current_floor_band_hz: None,
             mains_hz: 0.0,
             mains_rel: 0.0,
         }
@@ -321,6 +341,9 @@ impl Session {
         for (k, name) in ["Y", "Cs", "Ca", "d"].iter().enumerate() {
             non_negative(&format!("sample.drift_pct[{k}] ({name})"), self.sample.drift_pct[k])?;
             non_negative(&format!("sample.scatter_pct[{k}] ({name})"), self.sample.scatter_pct[k])?;
+            if let Some(drift) = self.sample.drift {
+                positive(&format!("sample.drift[{k}] ({name})"), drift[k])?;
+            }
         }
         if let Some(t) = self.temp_c
             && !(t.is_finite() && t > -273.15)
@@ -344,6 +367,12 @@ impl Session {
             non_negative(name, v)?;
         }
         positive("noise.base_amplitude_m", n.base_amplitude_m)?;
+        if let Some([lo, hi]) = n.current_floor_band_hz {
+            positive("noise.current_floor_band_hz[0]", lo)?;
+            if !(hi.is_finite() && hi >= lo) {
+                bail!("noise.current_floor_band_hz = [{lo}, {hi}]: expected 0 < low ≤ high");
+            }
+        }
         let sections = [
             ("frequencies", self.frequencies.is_some()),
             ("time_series", self.time_series.is_some()),
@@ -368,13 +397,33 @@ impl Session {
                 bail!("frequencies: {v} Hz is not a positive frequency");
             }
             non_negative("frequencies.dwell_s", f.dwell_s)?;
+            if let Some(f) = f.full_amplitude_to_hz {
+                positive("frequencies.full_amplitude_to_hz", f)?;
+            }
         }
         if let Some(t) = &self.time_series {
             positive("time_series.fs_hz", t.fs_hz)?;
             positive("time_series.burst_s", t.burst_s)?;
-            let samples = h.levels_pct.len() as f64 * t.fs_hz * t.burst_s;
+            if let Some(after) = &t.bursts_after_step_s {
+                if t.ramp {
+                    bail!("time_series.bursts_after_step_s does not apply to a ramp");
+                }
+                if after.is_empty() || after.iter().any(|v| !(v.is_finite() && *v >= 0.0)) || after.windows(2).any(|w| w[1] <= w[0]) {
+                    bail!("time_series.bursts_after_step_s = {after:?}: expected ascending times ≥ 0 s");
+                }
+                let last = after[after.len() - 1];
+                if last + t.burst_s > h.settle_s {
+                    bail!(
+                        "time_series.bursts_after_step_s: the last burst ends {} s after its step, after the level's \
+                         humidity.settle_s = {} s",
+                        last + t.burst_s,
+                        h.settle_s
+                    );
+                }
+            }
+            let samples = t.bursts(h.levels_pct.len()) as f64 * t.fs_hz * t.burst_s;
             if samples > MAX_SAMPLES {
-                bail!("time_series: {samples:e} samples (levels × burst_s × fs_hz): expected at most {MAX_SAMPLES:e}");
+                bail!("time_series: {samples:e} samples (bursts × burst_s × fs_hz): expected at most {MAX_SAMPLES:e}");
             }
             if t.tones > MAX_TONES {
                 bail!("time_series.tones = {}: expected at most {MAX_TONES}", t.tones);
@@ -428,6 +477,14 @@ impl Frequencies {
 }
 
 impl TimeSeriesPlan {
+    /// How many bursts a session of `levels` levels records.
+    pub fn bursts(&self, levels: usize) -> usize {
+        match &self.bursts_after_step_s {
+            Some(after) => 1 + levels.saturating_sub(1) * after.len(),
+            None => levels,
+        }
+    }
+
     /// The multisine's tone frequencies [Hz], ascending.
     pub fn tones_hz(&self) -> Vec<f64> {
         let mut f = log_spaced(self.from_hz, self.to_hz, self.tones);
@@ -442,4 +499,25 @@ impl TimeSeriesPlan {
 /// `n` frequencies log-spaced from `lo` to `hi` inclusive (`lo` alone when n = 1).
 pub fn log_spaced(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     (0..n).map(|k| if n == 1 { lo } else { lo * (hi / lo).powf(k as f64 / (n - 1) as f64) }).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const STEP: &str = "kind = \"time-series\"\n[humidity]\nlevels_pct = [45, 60]\nsettle_s = 600\n\
+        [time_series]\nfs_hz = 500\nburst_s = 1\ntones = 3\nfrom_hz = 10\nto_hz = 100\namplitude_m = 1e-5\n";
+
+    /// Bursts after each step must end before the level's hold does, ascend, and count in the
+    /// session's size.
+    #[test]
+    fn bursts_after_each_step_are_checked() {
+        let parse = |after: &str| Session::parse(std::path::Path::new("s.toml"), &format!("{STEP}bursts_after_step_s = {after}\n"));
+        let s = parse("[5, 40, 400]").unwrap();
+        assert_eq!(s.time_series.unwrap().bursts(2), 4);
+        for bad in ["[5, 600]", "[40, 5]", "[]"] {
+            let e = parse(bad).unwrap_err().to_string();
+            assert!(e.contains("bursts_after_step_s"), "{bad}: {e}");
+        }
+    }
 }

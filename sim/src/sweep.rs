@@ -60,6 +60,7 @@ impl Sweep {
                 record_tip: false,
                 compact: true,
                 tone_grid_hz: None,
+                bursts_after_step_s: None,
             }),
             charging: None,
             noise: Noise { current_a: self.noise_a, ..Noise::default() },
