@@ -9,6 +9,7 @@
 //! table with each case's indistinguishable set, evidence and wall time.
 
 use anyhow::{Context, Result};
+use ipmc_core::calibration::humidity_path::HumidityPath;
 use ipmc_diagnose::data::Dataset;
 use ipmc_diagnose::{Effect, engine};
 use ipmc_sim::concealed::{Format, Strength, make_case};
@@ -185,6 +186,17 @@ pub struct Outcome {
     pub set: Vec<String>,
     pub top: (String, f64),
     pub record: serde_json::Value,
+    /// With `--followups`: the protocol the report asked for and the outcome with it.
+    pub after: Option<AfterFollowup>,
+}
+
+/// A case diagnosed again with the follow-up its report asked for.
+pub struct AfterFollowup {
+    pub protocol: ipmc_recording::Protocol,
+    pub verdict: String,
+    pub set: Vec<String>,
+    pub top: (String, f64),
+    pub seconds: f64,
 }
 
 impl Outcome {
@@ -205,6 +217,8 @@ pub struct Plan {
     pub clean: usize,
     pub strength: Strength,
     pub format: Format,
+    /// Take the follow-up each report asks for and diagnose the strip again from both.
+    pub followups: bool,
 }
 
 /// Runs the cases of `plan`; `dir` receives the recordings. Cases are independent and each is
@@ -212,7 +226,7 @@ pub struct Plan {
 /// depend on how many there are.
 pub fn run_cases(
     calib: &ipmc_core::Calibration,
-    &Plan { seed, per_effect, clean, strength, format }: &Plan,
+    &Plan { seed, per_effect, clean, strength, format, followups }: &Plan,
     dir: &std::path::Path,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Vec<Outcome>> {
@@ -228,8 +242,30 @@ pub fn run_cases(
         let csv = case.recording.to_csv()?;
         ipmc_recording::write_atomically(&path, csv.as_bytes())?;
         // Blind: the diagnosis sees only the file.
-        let data = Dataset::read(std::slice::from_ref(&path), &ipmc_core::calibration::humidity_path::HumidityPath::NONE)?;
+        let data = Dataset::read(std::slice::from_ref(&path), &HumidityPath::NONE)?;
         let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;
+        let after = match d.request.as_ref().filter(|_| followups) {
+            None => None,
+            Some(r) => {
+                let t0 = std::time::Instant::now();
+                let name = path.file_name().expect("a file name").to_string_lossy().into_owned();
+                let up =
+                    ipmc_sim::followup::make_followup(calib, &case, r.protocol, &name, seed.wrapping_mul(7919).wrapping_add(i as u64))?;
+                let up_path = dir.join(format!("case-{i:03}-{truth}-{}.csv", r.protocol));
+                ipmc_recording::write_atomically(&up_path, up.to_csv()?.as_bytes())?;
+                let files = ipmc_diagnose::strip_files::read(&[path.clone(), up_path])?;
+                let strip = ipmc_diagnose::strip_diagnosis::diagnose(calib, &files, &HumidityPath::NONE, &|_| {})
+                    .with_context(|| format!("case {i} ({truth}) with its {} follow-up", r.protocol))?;
+                let d2 = &strip.diagnosis;
+                Some(AfterFollowup {
+                    protocol: r.protocol,
+                    verdict: d2.verdict.to_string(),
+                    set: d2.set.clone(),
+                    top: top_of(d2),
+                    seconds: t0.elapsed().as_secs_f64(),
+                })
+            }
+        };
         progress(&format!("case {i}: {truth}"));
         Ok(Outcome {
             record: record(&truth, &d),
@@ -241,6 +277,7 @@ pub fn run_cases(
             heldout_lowered: d.heldout_lowered(),
             set: d.set.clone(),
             top: top_of(&d),
+            after,
         })
     };
     let next = AtomicUsize::new(0);
@@ -286,7 +323,7 @@ pub fn run(a: Args) -> Result<()> {
     let started = std::time::Instant::now();
     let mut outcomes = Vec::new();
     for seed in a.seed..a.seed + a.seeds {
-        let plan = Plan { seed, per_effect: a.per_effect, clean: a.clean, strength, format: a.format };
+        let plan = Plan { seed, per_effect: a.per_effect, clean: a.clean, strength, format: a.format, followups: a.followups };
         outcomes.extend(run_cases(&calib, &plan, &dir, &|_| bar.inc(1))?);
     }
     let wall_s = started.elapsed().as_secs_f64();
@@ -299,6 +336,7 @@ pub fn run(a: Args) -> Result<()> {
     print!("{}", outcome_table(&classes));
     let stated: Vec<(f64, bool)> = outcomes.iter().map(|o| (o.top.1, o.top.0 == o.truth)).collect();
     print!("{}", reliability_table(&stated));
+    let second = a.followups.then(|| second_step_summary(&outcomes));
     if let Some(path) = &a.records {
         let lines: String = outcomes.iter().map(|o| format!("{}\n", o.record)).collect();
         write_atomically_text(path, &lines)?;
@@ -330,10 +368,46 @@ pub fn run(a: Args) -> Result<()> {
                 "false_alarms": classes.iter().filter(|(_, c)| *c == Class::FalseAlarm).count(),
                 "in_set": classes.iter().filter(|(_, c)| *c == Class::InSet).count(),
                 "missed": classes.iter().filter(|(_, c)| *c == Class::Missed).count(),
+                "followups": second,
             })
         );
     }
     Ok(())
+}
+
+/// `--followups` on the own cases: the outcome table after each case took the follow-up its
+/// report asked for (cases that asked for none keep their verdict), and the summary as JSON.
+fn second_step_summary(outcomes: &[Outcome]) -> serde_json::Value {
+    let after: Vec<(&str, Class)> = outcomes
+        .iter()
+        .map(|o| match &o.after {
+            Some(a) => (o.truth.as_str(), Class::of(&o.truth, &a.verdict, &a.set)),
+            None => (o.truth.as_str(), o.class()),
+        })
+        .collect();
+    let mut asked: BTreeMap<String, usize> = BTreeMap::new();
+    for a in outcomes.iter().filter_map(|o| o.after.as_ref()) {
+        *asked.entry(a.protocol.to_string()).or_default() += 1;
+    }
+    print!(
+        "\nafter the follow-ups (asked for: {}):{}",
+        asked.iter().map(|(p, n)| format!("{p} {n}")).collect::<Vec<_>>().join(", "),
+        outcome_table(&after)
+    );
+    let stated: Vec<(f64, bool)> =
+        outcomes.iter().map(|o| (o.after.as_ref().map_or(&o.top, |a| &a.top), &o.truth)).map(|(t, truth)| (t.1, &t.0 == truth)).collect();
+    print!("{}", reliability_table(&stated));
+    let slowest = outcomes.iter().filter_map(|o| o.after.as_ref()).map(|a| a.seconds).fold(0.0, f64::max);
+    let count = |c: Class| after.iter().filter(|(_, k)| *k == c).count();
+    println!("{}/{} named after the follow-ups; slowest diagnosis with its follow-up {slowest:.2} s", count(Class::Named), after.len());
+    serde_json::json!({
+        "named": count(Class::Named),
+        "in_set": count(Class::InSet),
+        "missed": count(Class::Missed),
+        "confident_wrong": count(Class::ConfidentWrong),
+        "false_alarms": count(Class::FalseAlarm),
+        "slowest_s": slowest,
+    })
 }
 
 /// Per case, then the confusion table (rows: truth, columns: verdict).
@@ -486,6 +560,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
             set: o.set.clone(),
             top: o.top.clone(),
             record: serde_json::Value::Null,
+            after: None,
         })
         .collect();
     let full = table(&as_outcomes);
