@@ -87,8 +87,16 @@ fn fit_levels(ctx: &Ctx, c_hat: f64, reference: Option<&crate::sensor_reference:
     // trades off against the offset and the lag and moves the humidity at the range's ends.
     let sensor = |read: &[f64]| -> SensorFit {
         let s = fit_sensor_parsimonious(ctx, &everyone, read, PATH_FIT_DRIFT, penalty);
-        let joint = crate::sensor_reference::with_references(&s, reference);
-        SensorFit { offset: joint.offset, gain: joint.gain, ..s }
+        // Read at references, the sensor is what they say: the levels' drift-free fit here
+        // takes the strip's drift from its calibration for the sensor's, with an error that
+        // does not know it (the candidate's fit, with a drift, combines the two instead).
+        match reference {
+            Some(r) => {
+                let f = r.fit();
+                SensorFit { offset: f.offset, gain: f.gain, ..s }
+            }
+            None => s,
+        }
     };
     if !ctx.data.has_times() {
         let s = sensor(&read);

@@ -31,7 +31,7 @@ pub struct SensorReference {
 pub struct ReferenceFit {
     pub offset: f64,
     pub gain: f64,
-    /// Standard errors of the offset and the gain (gain: infinite when held at 1).
+    /// Standard errors of the offset and the gain (gain: infinite when nothing bounds it).
     pub se: [f64; 2],
     pub free_gain: bool,
 }
@@ -113,7 +113,14 @@ impl SensorReference {
         let o = (swxx * swy - swx * swxy) / det;
         let both = ReferenceFit { offset: o, gain: 1.0 + slope, se: [(swxx / det).sqrt(), (sw / det).sqrt()], free_gain: true };
         let price = (self.jars.len() as f64).ln();
-        if self.chi2(offset_only.offset, 1.0) - self.chi2(both.offset, both.gain) > price { both } else { offset_only }
+        if self.chi2(offset_only.offset, 1.0) - self.chi2(both.offset, both.gain) > price {
+            both
+        } else {
+            // The gain does not earn its place, but three references still bound it: held at 1,
+            // it keeps the two-parameter fit's uncertainty, which a combination with the
+            // levels' gain must weigh (a gain "held" is not a gain unknown).
+            ReferenceFit { se: [offset_only.se[0], both.se[1]], ..offset_only }
+        }
     }
 }
 
@@ -137,7 +144,8 @@ pub(crate) fn with_references(s: &crate::remap::SensorFit, reference: Option<&Se
 }
 
 /// Two independent estimates of the sensor's offset and gain as one: each parameter by inverse
-/// variance (a gain held at 1 by one side carries no information on it).
+/// variance (a side whose gain has an infinite error carries no information on it; a side that
+/// holds its gain at 1 within a finite error pulls the other's toward 1).
 pub fn combine(a: ReferenceFit, b: ReferenceFit) -> ReferenceFit {
     let one = |x: f64, sx: f64, y: f64, sy: f64| -> (f64, f64) {
         let (wx, wy) = (finite_weight(sx), finite_weight(sy));
@@ -145,13 +153,7 @@ pub fn combine(a: ReferenceFit, b: ReferenceFit) -> ReferenceFit {
     };
     let (offset, se_o) = one(a.offset, a.se[0], b.offset, b.se[0]);
     let free_gain = a.free_gain || b.free_gain;
-    let (gain, se_g) = if free_gain {
-        let (ga, sa) = if a.free_gain { (a.gain, a.se[1]) } else { (1.0, f64::INFINITY) };
-        let (gb, sb) = if b.free_gain { (b.gain, b.se[1]) } else { (1.0, f64::INFINITY) };
-        one(ga, sa, gb, sb)
-    } else {
-        (1.0, f64::INFINITY)
-    };
+    let (gain, se_g) = if free_gain { one(a.gain, a.se[1], b.gain, b.se[1]) } else { (1.0, a.se[1].min(b.se[1])) };
     ReferenceFit { offset, gain, se: [se_o, se_g], free_gain }
 }
 
@@ -187,6 +189,7 @@ mod tests {
         assert!(r.delta_chi2(f.offset, f.gain) > 3.0 * (2.0f64 / 0.3).powi(2) * 0.95);
         let clean = SensorReference::of(&[jars(0.0, 0.0)]).unwrap().fit();
         assert!(clean.offset.abs() < 0.02, "{clean:?}");
+        assert!(f.se[1].is_finite() && f.gain == 1.0, "three references bound a gain they do not free: {f:?}");
         let g = SensorReference::of(&[jars(0.5, 0.08)]).unwrap().fit();
         assert!(g.free_gain && (g.gain - 1.08).abs() < 0.01 && (g.offset - 0.5).abs() < 0.05, "{g:?}");
     }

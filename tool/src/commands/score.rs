@@ -7,7 +7,7 @@ use crate::scoring::{SETTLE_S, band_score, coverage};
 use anyhow::{Result, anyhow, bail};
 use ipmc_recording::looping::as_estimated;
 use ipmc_recording::{Estimates, Format as _};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -46,32 +46,57 @@ pub fn parse_band(s: &str) -> Result<(f64, f64)> {
     }
 }
 
+/// An estimate beside the recording it came from, aligned as every score takes them.
+pub struct Scoring {
+    pub file: Estimates,
+    pub ts: ipmc_recording::TimeSeries,
+    pub delay: usize,
+    pub band: (f64, f64),
+    pub burst_start: Vec<usize>,
+}
+
+impl Scoring {
+    /// `delay_ms` and `band_hz` override the estimate file's own (`delay_samples`, `band_hz`).
+    pub fn load(recording: &Path, estimate: &Path, delay_ms: Option<f64>, band_hz: Option<String>) -> Result<Scoring> {
+        let file = checked(Estimates::read(estimate))?;
+        // An estimate `ipmc compensate` made on short bursts it looped is scored on them looped alike.
+        let ts = as_estimated(read_time_series(recording)?, &file.metadata).map_err(|e| anyhow!("{}: {e}", estimate.display()))?;
+        let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("{}: no base_m column to score against", recording.display()))?;
+        if file.base_est_m.len() > base.len() {
+            bail!("{} has {} estimates for {} samples in {}", estimate.display(), file.base_est_m.len(), base.len(), recording.display());
+        }
+        let delay = match (delay_ms, file.metadata.get("delay_samples")) {
+            (Some(ms), _) => (ms * 1e-3 * ts.fs_hz).round() as usize,
+            (None, Some(d)) => d.parse().map_err(|_| anyhow!("{}: delay_samples={d} is not a whole number", estimate.display()))?,
+            (None, None) => bail!(
+                "{}: the file does not say its delay (no `# delay_samples=`): give --delay-ms (the chain's preview and band filter)",
+                estimate.display()
+            ),
+        };
+        let band_spec = band_hz.or_else(|| file.metadata.get("band_hz").map(str::to_string));
+        let band = match band_spec {
+            Some(b) => parse_band(&b)?,
+            None => (ipmc_core::band::Band::DEFAULT.low_hz, ipmc_core::band::Band::DEFAULT.high_hz),
+        };
+        let mut burst_start = vec![0; ts.t_s.len()];
+        for burst in ts.bursts() {
+            burst_start[burst.clone()].fill(burst.start);
+        }
+        Ok(Scoring { file, ts, delay, band, burst_start })
+    }
+
+    /// The in-band error (None: nothing to score).
+    #[cfg(test)]
+    pub fn band_score(&self) -> Option<crate::scoring::BandScore> {
+        let est = &self.file.base_est_m;
+        band_score(est, &vec![self.delay; est.len()], &self.burst_start, self.ts.base_m.as_ref()?, self.ts.fs_hz, self.band)
+    }
+}
+
 pub fn run(a: Args) -> Result<()> {
-    let file = checked(Estimates::read(&a.estimate))?;
-    // An estimate `ipmc compensate` made on short bursts it looped is scored on them looped alike.
-    let ts = as_estimated(read_time_series(&a.recording)?, &file.metadata).map_err(|e| anyhow!("{}: {e}", a.estimate.display()))?;
-    let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("{}: no base_m column to score against", a.recording.display()))?;
+    let Scoring { file, ts, delay, band, burst_start } = Scoring::load(&a.recording, &a.estimate, a.delay_ms, a.band_hz.clone())?;
+    let base = ts.base_m.as_ref().expect("checked by load");
     let est = file.base_est_m;
-    if est.len() > base.len() {
-        bail!("{} has {} estimates for {} samples in {}", a.estimate.display(), est.len(), base.len(), a.recording.display());
-    }
-    let delay = match (a.delay_ms, file.metadata.get("delay_samples")) {
-        (Some(ms), _) => (ms * 1e-3 * ts.fs_hz).round() as usize,
-        (None, Some(d)) => d.parse().map_err(|_| anyhow!("{}: delay_samples={d} is not a whole number", a.estimate.display()))?,
-        (None, None) => bail!(
-            "{}: the file does not say its delay (no `# delay_samples=`): give --delay-ms (the chain's preview and band filter)",
-            a.estimate.display()
-        ),
-    };
-    let band_spec = a.band_hz.clone().or_else(|| file.metadata.get("band_hz").map(str::to_string));
-    let band = match band_spec {
-        Some(b) => parse_band(&b)?,
-        None => (ipmc_core::band::Band::DEFAULT.low_hz, ipmc_core::band::Band::DEFAULT.high_hz),
-    };
-    let mut burst_start = vec![0; ts.t_s.len()];
-    for burst in ts.bursts() {
-        burst_start[burst.clone()].fill(burst.start);
-    }
     let covered = match a.coverage {
         Some(window_s) => {
             let rel_err = file.rel_err.as_ref().ok_or_else(|| {
