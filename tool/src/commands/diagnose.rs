@@ -291,7 +291,7 @@ mod tests {
         // A strip that follows its calibration: its drift would hide what the sensor costs.
         case.strip.drift = [1.0; 4];
         let session = |strip: &ipmc_sim::concealed::CaseStrip, format| strip.session(&calib, format, 17);
-        let physics = case.strip.physics.clone();
+        let physics = case.strip.physics;
         case.recording = simulate(&calib, &session(&case.strip, Format::Fr), &physics, Default::default()).unwrap();
         std::fs::write(path("fr.csv"), case.recording.to_csv().unwrap()).unwrap();
         let up = make_followup(&calib, &case, ipmc_recording::Protocol::Reference, "fr.csv", 3).unwrap();
