@@ -162,6 +162,27 @@ fn named(probabilities: &[Probability], scores: &[Score]) -> Option<usize> {
     (top.probability >= CONFIDENCE && top.name != NONE).then(|| scores.iter().position(|s| s.name == top.name && s.passes)).flatten()
 }
 
+/// `none` and the candidates below their floor, most probable first, while they hold less
+/// than [`CONFIDENCE`], and whether they hold it together. A floor says what is worth naming:
+/// an offset that moves no level by a percent, interference no worse at its lines than beside
+/// them, is no missing physics that matters, so its probability stands with `none`'s when
+/// nothing is named (and with it in the report, as the hypothesis it is).
+fn nothing_worth_naming(probabilities: &[Probability], scores: &[Score]) -> (Vec<String>, bool) {
+    let below = |name: &str| scores.iter().any(|s| s.name == name && supported(s) && s.below_floor);
+    let mut held = 0.0;
+    let mut set = vec![NONE.to_string()];
+    for p in probabilities.iter().filter(|p| p.name == NONE || below(&p.name)) {
+        if p.name != NONE && held >= CONFIDENCE {
+            break;
+        }
+        held += p.probability;
+        if p.name != NONE {
+            set.push(p.name.clone());
+        }
+    }
+    (set, held >= CONFIDENCE)
+}
+
 /// Corrects the data-space ΔBIC of `scores` (in the order of `candidates`) for overdispersion,
 /// then decides. `fitted` holds each tested candidate's fits, `located` the summary of where
 /// the mismatch lives.
@@ -189,13 +210,17 @@ pub(crate) fn decide(
     let top = &probabilities[0];
     let probability_of = |name: &str| probabilities.iter().find(|p| p.name == name).map_or(0.0, |p| p.probability);
     let named = named(&probabilities, scores);
+    let (nothing, nothing_holds) = nothing_worth_naming(&probabilities, scores);
+    if named.is_none() && nothing_holds {
+        set = nothing;
+    }
     // A candidate holding the probability without the evidence naming needs (ΔBIC just under
     // [`MIN_DELTA_BIC`], or a floor) is not stated alone: "none" stays beside it.
     if top.name != NONE && top.probability >= CONFIDENCE && named.is_none() && !set.iter().any(|n| n == NONE) {
         set.push(NONE.to_string());
     }
     let separation = (set.len() >= 2).then(|| separating(&set[0], &set[1]));
-    if set.len() >= 2 || (top.name != NONE && named.is_none()) {
+    if !(named.is_none() && nothing_holds) && (set.len() >= 2 || (top.name != NONE && named.is_none())) {
         let refit = weighted_mean(&per_level_scores(&ctx.refit_null()), &base.counts);
         let lean: Vec<String> = set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
         let measure = separation
@@ -267,7 +292,14 @@ pub(crate) fn decide(
         if !alternatives.is_empty() {
             explanation += &format!(
                 "; the data lean to {} without the evidence to name it",
-                alternatives.iter().map(|a| format!("{} (ΔBIC {:.1})", a.name, a.delta_bic)).collect::<Vec<_>>().join(", ")
+                alternatives
+                    .iter()
+                    .map(|a| {
+                        let below = scores.iter().any(|s| s.name == a.name && s.below_floor);
+                        format!("{} (ΔBIC {:.1}{})", a.name, a.delta_bic, if below { ", below its floor" } else { "" })
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         }
         return Decision {
@@ -516,7 +548,8 @@ mod tests {
     /// Below its floor a candidate keeps its probability but is not named: the traced up sweep,
     /// where a lag (ΔBIC 27.87) and an offset just under its floor (27.72) tie, is undecided
     /// between them rather than the lag at 99.99 % against `none`; alone and far ahead, a
-    /// candidate below its floor still holds the probability and is still not named.
+    /// candidate below its floor still holds the probability and is still not named: what it
+    /// holds stands with `none`.
     #[test]
     fn a_floor_blocks_naming_not_the_probability() {
         let mut offset = gated("humidity_sensor_error", 27.72);
@@ -528,6 +561,7 @@ mod tests {
         assert!(of(&p, "humidity_sensor_error") > 0.4, "{p:?}");
         assert!(of(&p, "hydration_lag") < CONFIDENCE, "{p:?}");
         assert_eq!(named(&p, &tie), None);
+        assert!(!nothing_worth_naming(&p, &tie).1, "{p:?}");
         let alone = [gated("hydration_lag", 2.0), {
             let mut o = offset;
             o.delta_bic = 40.0;
@@ -537,6 +571,7 @@ mod tests {
         assert_eq!(p[0].name, "humidity_sensor_error");
         assert!(p[0].probability >= CONFIDENCE);
         assert_eq!(named(&p, &alone), None);
+        assert_eq!(nothing_worth_naming(&p, &alone), (vec![NONE.to_string(), "humidity_sensor_error".to_string()], true));
         let passing = [gated("hydration_lag", 2.0), gated("humidity_sensor_error", 40.0)];
         assert_eq!(named(&posterior(&passing, 14, 1, 1.0), &passing), Some(1));
     }

@@ -109,9 +109,13 @@ pub fn run(a: Args) -> Result<()> {
     for (path, bursts) in a.recordings.iter().zip(&data.bursts).filter(|(_, b)| !b.is_empty()) {
         println!("{}: {}", path.display(), crate::input::summary(bursts));
     }
-    let steps = 2 + ipmc_diagnose::candidates::LIBRARY.len() as u64;
+    let steps = 3 + ipmc_diagnose::candidates::LIBRARY.len() as u64;
     let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { crate::progress::bar(steps, "diagnosing") };
     let d = engine::diagnose(&calib, &data, &|step| {
+        // Candidates refitted from the channels' prior mean are steps the count cannot know.
+        if bar.length().is_some_and(|len| bar.position() >= len) {
+            bar.inc_length(1);
+        }
         bar.inc(1);
         bar.set_message(step.to_string());
     })?;
