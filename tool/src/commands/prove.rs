@@ -467,7 +467,9 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
         );
         outcomes.push(o);
     }
-    println!("ΔBIC: of the named candidate; truth ΔBIC: of the true one; – where none is named or the truth has no candidate that could be tested");
+    println!(
+        "ΔBIC: of the named candidate; truth ΔBIC: of the true one; – where none is named or the truth has no candidate that could be tested"
+    );
     let as_outcomes: Vec<Outcome> = outcomes
         .iter()
         .map(|o| Outcome {
