@@ -5,10 +5,13 @@
 //! extension) and each candidate that lowers the held-out χ² with a paired significance over
 //! levels z ≥ [`MIN_HELDOUT_Z`] (a weak gate: the held-out differences between levels are
 //! heavy-tailed, a few levels carry an effect that grows with humidity or temperature, so the
-//! strong evidence is the information criterion) and passes its kind's floor (a humidity remap
-//! must move some level by [`crate::remap::MIN_RH_SHIFT_PCT`], mains lines must stand out from
-//! their neighbours). A hypothesis is stated alone only when it holds [`CONFIDENCE`] of the
-//! probability (a candidate also needs ΔBIC ≥ [`MIN_DELTA_BIC`]); otherwise the verdict is
+//! strong evidence is the information criterion). A hypothesis is stated alone only when it
+//! holds [`CONFIDENCE`] of the probability (a candidate also needs ΔBIC ≥ [`MIN_DELTA_BIC`] and
+//! to pass its kind's floor: a humidity remap must move some level by
+//! [`crate::remap::MIN_RH_SHIFT_PCT`], mains lines must stand out from their neighbours). A floor
+//! says the candidate would not be worth naming, not that the data do not favour it: removed
+//! from the probabilities, its evidence would pass to whichever hypothesis it resembles, so it
+//! keeps its probability and blocks only its own naming; otherwise the verdict is
 //! `undecided`, with the smallest set holding it and the measurement that would separate its two
 //! most probable members. "None" stated alone is "unexplained" when the per-level refit leaves a
 //! structured residual (neighbour correlation, [`fits::structure_z`]). A winner that removes less
@@ -73,7 +76,7 @@ pub(crate) struct Decision {
 pub const NONE: &str = "none";
 
 /// The probability of each hypothesis: `none` (ΔBIC 0) and every applicable candidate that
-/// passes the held-out gates and its floor (a candidate that does not predict held-out levels
+/// passes the held-out gates, floor or not (a candidate that does not predict held-out levels
 /// better is not supported, whatever its ΔBIC), from the prior ([`PRIOR_NONE`], the rest shared
 /// by `n_effects`, an effect's share split between its forms) and the evidence
 /// exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of the marginal likelihood, Kass &
@@ -152,6 +155,34 @@ pub fn credible_set(probabilities: &[Probability]) -> Vec<String> {
     out
 }
 
+/// The candidate the probabilities name: the most probable hypothesis when it holds
+/// [`CONFIDENCE`], is not `none`, and passes every gate (its floor and ΔBIC among them).
+fn named(probabilities: &[Probability], scores: &[Score]) -> Option<usize> {
+    let top = &probabilities[0];
+    (top.probability >= CONFIDENCE && top.name != NONE).then(|| scores.iter().position(|s| s.name == top.name && s.passes)).flatten()
+}
+
+/// `none` and the candidates below their floor, most probable first, while they hold less
+/// than [`CONFIDENCE`], and whether they hold it together. A floor says what is worth naming:
+/// an offset that moves no level by a percent, interference no worse at its lines than beside
+/// them, is no missing physics that matters, so its probability stands with `none`'s when
+/// nothing is named (and with it in the report, as the hypothesis it is).
+fn nothing_worth_naming(probabilities: &[Probability], scores: &[Score]) -> (Vec<String>, bool) {
+    let below = |name: &str| scores.iter().any(|s| s.name == name && supported(s) && s.below_floor);
+    let mut held = 0.0;
+    let mut set = vec![NONE.to_string()];
+    for p in probabilities.iter().filter(|p| p.name == NONE || below(&p.name)) {
+        if p.name != NONE && held >= CONFIDENCE {
+            break;
+        }
+        held += p.probability;
+        if p.name != NONE {
+            set.push(p.name.clone());
+        }
+    }
+    (set, held >= CONFIDENCE)
+}
+
 /// Corrects the data-space ΔBIC of `scores` (in the order of `candidates`) for overdispersion,
 /// then decides. `fitted` holds each tested candidate's fits, `located` the summary of where
 /// the mismatch lives.
@@ -168,7 +199,7 @@ pub(crate) fn decide(
     let c_hat = overdispersion(scores, base.chi2_0, base.n_data - 4.0 * n_levels as f64);
     for sc in scores.iter_mut().filter(|sc| sc.applicable && sc.space == Space::Data) {
         sc.delta_bic = sc.delta_chi2 / c_hat - sc.extra_params as f64 * base.n_data.ln();
-        sc.passes = sc.other_gates && sc.delta_bic >= MIN_DELTA_BIC;
+        sc.passes = sc.other_gates && !sc.below_floor && sc.delta_bic >= MIN_DELTA_BIC;
     }
     keep_better_forms(scores);
     let structure_before =
@@ -178,15 +209,18 @@ pub(crate) fn decide(
     let mut set = credible_set(&probabilities);
     let top = &probabilities[0];
     let probability_of = |name: &str| probabilities.iter().find(|p| p.name == name).map_or(0.0, |p| p.probability);
-    let named =
-        (top.probability >= CONFIDENCE && top.name != NONE).then(|| scores.iter().position(|s| s.name == top.name && s.passes)).flatten();
+    let named = named(&probabilities, scores);
+    let (nothing, nothing_holds) = nothing_worth_naming(&probabilities, scores);
+    if named.is_none() && nothing_holds {
+        set = nothing;
+    }
     // A candidate holding the probability without the evidence naming needs (ΔBIC just under
     // [`MIN_DELTA_BIC`], or a floor) is not stated alone: "none" stays beside it.
     if top.name != NONE && top.probability >= CONFIDENCE && named.is_none() && !set.iter().any(|n| n == NONE) {
         set.push(NONE.to_string());
     }
     let separation = (set.len() >= 2).then(|| separating(&set[0], &set[1]));
-    if set.len() >= 2 || (top.name != NONE && named.is_none()) {
+    if !(named.is_none() && nothing_holds) && (set.len() >= 2 || (top.name != NONE && named.is_none())) {
         let refit = weighted_mean(&per_level_scores(&ctx.refit_null()), &base.counts);
         let lean: Vec<String> = set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
         let measure = separation
@@ -258,7 +292,14 @@ pub(crate) fn decide(
         if !alternatives.is_empty() {
             explanation += &format!(
                 "; the data lean to {} without the evidence to name it",
-                alternatives.iter().map(|a| format!("{} (ΔBIC {:.1})", a.name, a.delta_bic)).collect::<Vec<_>>().join(", ")
+                alternatives
+                    .iter()
+                    .map(|a| {
+                        let below = scores.iter().any(|s| s.name == a.name && s.below_floor);
+                        format!("{} (ΔBIC {:.1}{})", a.name, a.delta_bic, if below { ", below its floor" } else { "" })
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         }
         return Decision {
@@ -343,7 +384,10 @@ pub(crate) fn decide(
 /// a single extension is the most general fitted here.
 pub fn overdispersion(scores: &[Score], chi2_0: f64, dof_0: f64) -> f64 {
     let mut best = chi2_0 / dof_0.max(1.0);
-    for s in scores.iter().filter(|s| s.applicable && s.space == Space::Data && s.other_gates) {
+    // Not a candidate below its floor: a mains fit whose lines are no worse than their
+    // neighbours has absorbed a broad misfit at them, and its χ² would understate the scatter
+    // every other candidate is scored against.
+    for s in scores.iter().filter(|s| s.applicable && s.space == Space::Data && s.other_gates && !s.below_floor) {
         let dof = (dof_0 - s.extra_params as f64).max(1.0);
         best = best.min((chi2_0 - s.delta_chi2) / dof);
     }
@@ -452,6 +496,7 @@ mod tests {
             passes: other_gates && delta_bic >= MIN_DELTA_BIC,
             note: String::new(),
             other_gates,
+            below_floor: false,
         }
     }
 
@@ -498,5 +543,36 @@ mod tests {
         let c = overdispersion(&scores, 500.0, 101.0);
         assert!((c - 200.0 / 100.0).abs() < 1e-12, "{c}");
         assert_eq!(overdispersion(&scores, 50.0, 101.0), 1.0);
+    }
+
+    /// Below its floor a candidate keeps its probability but is not named: the traced up sweep,
+    /// where a lag (ΔBIC 27.87) and an offset just under its floor (27.72) tie, is undecided
+    /// between them rather than the lag at 99.99 % against `none`; alone and far ahead, a
+    /// candidate below its floor still holds the probability and is still not named: what it
+    /// holds stands with `none`.
+    #[test]
+    fn a_floor_blocks_naming_not_the_probability() {
+        let mut offset = gated("humidity_sensor_error", 27.72);
+        offset.below_floor = true;
+        offset.passes = false;
+        let tie = [gated("hydration_lag", 27.87), offset.clone()];
+        let p = posterior(&tie, 14, 1, 1.0);
+        let of = |p: &[Probability], n: &str| p.iter().find(|p| p.name == n).map_or(0.0, |p| p.probability);
+        assert!(of(&p, "humidity_sensor_error") > 0.4, "{p:?}");
+        assert!(of(&p, "hydration_lag") < CONFIDENCE, "{p:?}");
+        assert_eq!(named(&p, &tie), None);
+        assert!(!nothing_worth_naming(&p, &tie).1, "{p:?}");
+        let alone = [gated("hydration_lag", 2.0), {
+            let mut o = offset;
+            o.delta_bic = 40.0;
+            o
+        }];
+        let p = posterior(&alone, 14, 1, 1.0);
+        assert_eq!(p[0].name, "humidity_sensor_error");
+        assert!(p[0].probability >= CONFIDENCE);
+        assert_eq!(named(&p, &alone), None);
+        assert_eq!(nothing_worth_naming(&p, &alone), (vec![NONE.to_string(), "humidity_sensor_error".to_string()], true));
+        let passing = [gated("hydration_lag", 2.0), gated("humidity_sensor_error", 40.0)];
+        assert_eq!(named(&posterior(&passing, 14, 1, 1.0), &passing), Some(1));
     }
 }

@@ -40,14 +40,15 @@ pub(crate) fn reach(ctx: &Ctx) -> HumidityReach {
         } else {
             "a down sweep after the up sweep, each level measured right after the step and again after a dwell of ≥ 3 lags".into()
         },
-        band: format!("every level (this recording names a lag only from {})", shortest_lag_s.map_or("no lag".into(), |t| format!("{t:.0} s"))),
+        // The band is printed in parentheses after the record: no parentheses of its own.
+        band: format!("every level; this recording names a lag only from {}", shortest_lag_s.map_or("no lag".into(), |t| format!("{t:.0} s"))),
         because: "a lag shows as hysteresis between the sweep directions and as settling within a level; measured after the strip has settled it is gone".into(),
     }
     };
     let offset = || Separation {
         between: ["humidity_sensor_error".into(), "none".into()],
         record: "the sensor at a saturated-salt reference (e.g. NaCl, 75.3 %RH) or beside a reference hygrometer".into(),
-        band: format!("one or two humidities (this recording names an offset only from {smallest_offset_pct:.1} %RH)"),
+        band: format!("one or two humidities; this recording names an offset only from {smallest_offset_pct:.1} %RH"),
         because: "the strip's laws alone fix an offset only to the levels' scatter".into(),
     };
     let measurement = match (lag_blind, offset_blind) {

@@ -126,22 +126,69 @@ pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: b
             v
         })
         .collect();
+    // The −2 ln L that scores the map: with the drift the candidate's, without it the path's.
+    let nll_of = |v: &[f64]| {
+        let mapped: Vec<f64> = read.iter().map(|&r| laws::mapped_rh(r, v[0], gain_of(v))).collect();
+        if drift {
+            anchored_nll(ctx, &mapped, train)
+        } else {
+            let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
+            let pred: Vec<Theta> = mapped.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
+            laws::nll(&pick(&pred), &pick(&base.theta), &pick(&base.se), &pick(&ctx.read_gradient))
+        }
+    };
     match lsq::fit(&params, &starts, 4 * train.len(), resid) {
         Ok(f) => {
             let (o, g) = (f.estimates[0], gain_of(&f.estimates));
-            let mapped: Vec<f64> = read.iter().map(|&r| laws::mapped_rh(r, o, g)).collect();
-            let nll = if drift {
-                anchored_nll(ctx, &mapped, train)
-            } else {
-                let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
-                let pred: Vec<Theta> = mapped.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect();
-                laws::nll(&pick(&pred), &pick(&base.theta), &pick(&base.se), &pick(&ctx.read_gradient))
-            };
-            let se_gain = if free_gain { f.std_errors[1] } else { 0.0 };
-            SensorFit { offset: o, gain: g, se: vec![f.std_errors[0], se_gain], nll, free_gain }
+            let mapped_params: Vec<f64> = if free_gain { vec![o, g] } else { vec![o] };
+            let steps: Vec<f64> = if free_gain { vec![OFFSET_STEP_PCT, GAIN_STEP] } else { vec![OFFSET_STEP_PCT] };
+            let mut se = curvature_se(&nll_of, &mapped_params, &steps);
+            se.resize(2, 0.0);
+            SensorFit { offset: o, gain: g, se, nll: nll_of(&mapped_params), free_gain }
         }
         Err(_) => SensorFit { offset: 0.0, gain: 1.0, se: vec![f64::NAN; 2], nll: f64::INFINITY, free_gain },
     }
+}
+
+/// Steps of the sensor's offset [%RH] and gain the curvature of −2 ln L is taken over: small
+/// beside their standard errors on a sweep (tenths of %RH, hundredths of the gain), large
+/// beside the fits' rounding.
+const OFFSET_STEP_PCT: f64 = 0.05;
+const GAIN_STEP: f64 = 0.002;
+
+/// Standard errors of the parameters `at` (the minimum of the −2 ln L `nll`) from its curvature
+/// there, 2 H⁻¹ with H by central differences of `steps`; infinite where it is not curved.
+/// Every candidate whose size is held to a floor (a sensor's offset and gain, a lag) takes its
+/// interval from here: a floor judged with the uncertainty of one definition for one candidate
+/// and of another for its rival would decide between them by the definitions.
+pub(crate) fn curvature_se(nll: &dyn Fn(&[f64]) -> f64, at: &[f64], steps: &[f64]) -> Vec<f64> {
+    let k = at.len();
+    let f = |d: &[(usize, f64)]| {
+        let mut x = at.to_vec();
+        for &(i, s) in d {
+            x[i] += s * steps[i];
+        }
+        nll(&x)
+    };
+    let f0 = nll(at);
+    let mut h = vec![vec![0.0; k]; k];
+    for i in 0..k {
+        h[i][i] = (f(&[(i, 1.0)]) - 2.0 * f0 + f(&[(i, -1.0)])) / (steps[i] * steps[i]);
+        for j in 0..i {
+            let mixed = f(&[(i, 1.0), (j, 1.0)]) - f(&[(i, 1.0), (j, -1.0)]) - f(&[(i, -1.0), (j, 1.0)]) + f(&[(i, -1.0), (j, -1.0)]);
+            h[i][j] = mixed / (4.0 * steps[i] * steps[j]);
+            h[j][i] = h[i][j];
+        }
+    }
+    let inverse_diagonal: Option<Vec<f64>> = match k {
+        1 => (h[0][0] > 0.0).then(|| vec![1.0 / h[0][0]]),
+        2 => {
+            let det = h[0][0] * h[1][1] - h[0][1] * h[1][0];
+            (h[0][0] > 0.0 && det > 0.0).then(|| vec![h[1][1] / det, h[0][0] / det])
+        }
+        _ => None,
+    };
+    inverse_diagonal.map_or_else(|| vec![f64::INFINITY; k], |d| d.iter().map(|v| (2.0 * v).sqrt()).collect())
 }
 
 /// A humidity error or lag that moves no level by [`MIN_RH_SHIFT_PCT`] at the near end of its

@@ -110,7 +110,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     let _ = writeln!(s, "# Diagnosis\n");
     let _ = writeln!(s, "Recordings: {}  \nCalibration: {calib}\n", inputs.join(", "));
     let verdict = match d.verdict {
-        Verdict::None => format!("**No missing physics above the noise** (`none` holds {}).", percent(d, "none")),
+        Verdict::None => format!("**No missing physics above the noise** (`none` holds {}).{}", percent(d, "none"), none_reach(d)),
         Verdict::Unexplained => format!("**Unexplained:** {}.", d.explanation),
         Verdict::Undecided => format!("**Undecided:** {}.", d.explanation),
         Verdict::Named(v) if d.form.is_empty() => {
@@ -127,7 +127,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     );
     let _ = writeln!(s, "| hypothesis | probability | in the set |\n|---|---|---|");
     for p in &d.probabilities {
-        let _ = writeln!(s, "| {} | {:.1} % | {} |", p.name, 100.0 * p.probability, if d.set.contains(&p.name) { "yes" } else { "" });
+        let _ = writeln!(s, "| {} | {} | {} |", p.name, stated(p.probability), if d.set.contains(&p.name) { "yes" } else { "" });
     }
     let _ = writeln!(s);
     if let Some(m) = &d.separation {
@@ -166,7 +166,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     if let Some(c) = d.verdict.effect().and_then(|e| LIBRARY.iter().find(|c| c.effect == e && c.form == d.form)) {
         let _ = writeln!(s, "{}\n", c.doc);
         let _ = writeln!(s, "| parameter | value | standard error | unit |\n|---|---|---|---|");
-        for p in &d.params {
+        for p in d.params.iter().filter(|p| determined(p)) {
             let _ = writeln!(s, "| {} | {} | {} | {} |", p.name, fmt_value(p.value), fmt_value(p.std_error), p.unit);
         }
         let _ = writeln!(s);
@@ -249,8 +249,12 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     );
     let _ = writeln!(s, "| candidate | family | ΔBIC | held-out | z | parameters | note |\n|---|---|---|---|---|---|---|");
     for c in &d.candidates {
-        let params: Vec<String> =
-            c.params.iter().map(|p| format!("{} = {} ± {} {}", p.name, fmt_value(p.value), fmt_value(p.std_error), p.unit)).collect();
+        let params: Vec<String> = c
+            .params
+            .iter()
+            .filter(|p| determined(p))
+            .map(|p| format!("{} = {} ± {} {}", p.name, fmt_value(p.value), fmt_value(p.std_error), p.unit))
+            .collect();
         if c.applicable {
             let _ = writeln!(
                 s,
@@ -293,7 +297,40 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
 
 /// The stated probability of a hypothesis, as a percentage.
 fn percent(d: &Diagnosis, name: &str) -> String {
-    d.probabilities.iter().find(|p| p.name == name).map_or("not determined".into(), |p| format!("{:.1} %", 100.0 * p.probability))
+    d.probabilities.iter().find(|p| p.name == name).map_or("not determined".into(), |p| stated(p.probability))
+}
+
+/// A probability as a percentage: never "100.0 %", which no finite evidence gives; the
+/// probabilities are among the hypotheses the evidence supports, not a certainty.
+fn stated(p: f64) -> String {
+    if p < 1.0 && 100.0 * p >= 99.95 { "> 99.9 %".into() } else { format!("{:.1} %", 100.0 * p) }
+}
+
+/// A parameter the data pin down: one whose standard error is not finite was left where its
+/// fit started (a rate of 1e-128 "± not determined"), and printing its value says nothing.
+fn determined(p: &crate::types::Estimate) -> bool {
+    p.value.is_finite() && p.std_error.is_finite()
+}
+
+/// What `none` means beside the departures located: the largest is what the instrument, the
+/// scatter between levels and the noise model leave, which no candidate explains better; and
+/// `none` rules out only the effects this recording could carry.
+fn none_reach(d: &Diagnosis) -> String {
+    let l = &d.located;
+    let largest = l.channels.iter().chain(&l.frequency).chain(&l.levels).max_by(|a, b| a.z.total_cmp(&b.z));
+    let departure = largest.filter(|r| r.z > 3.0).map_or(String::new(), |r| {
+        format!(
+            " The plain model still departs from the data ({}: χ²/residual {:.2}, z = {:.1}; held-out χ²/residual {:.2}): the instrument's channels, the scatter of the levels' parameters between levels and the noise model estimated from neighbouring points leave that much, and no candidate explains it better than they do.",
+            r.name, r.chi2_per_residual, r.z, d.heldout_before
+        )
+    });
+    let r = &d.humidity_reach;
+    format!(
+        "{departure} `none` rules out only what this recording could name: a hydration lag {}, a sensor offset from {:.1} %RH, and each other effect at the size its candidate would have shown with ΔBIC ≥ {} (the candidates' table gives what each found).",
+        r.shortest_lag_s.map_or("of any length (no lag up to an hour moves a level by the floor)".into(), |t| format!("from {t:.0} s")),
+        r.smallest_offset_pct,
+        crate::decide::MIN_DELTA_BIC
+    )
 }
 
 /// A number with `digits` decimals, or "not determined" where it is not finite.

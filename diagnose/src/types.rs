@@ -118,10 +118,15 @@ pub struct Score {
     pub heldout_between_lines: bool,
     pub passes: bool,
     pub note: String,
-    /// Every gate but the information criterion passed (held-out, floors): `passes` is this and
-    /// ΔBIC ≥ [`crate::decide::MIN_DELTA_BIC`] once ΔBIC is corrected for overdispersion.
+    /// The held-out gates passed: the candidate's evidence is weighed in the probabilities.
+    /// `passes` is this, no floor and ΔBIC ≥ [`crate::decide::MIN_DELTA_BIC`] once ΔBIC is
+    /// corrected for overdispersion.
     #[serde(skip)]
     pub other_gates: bool,
+    /// Its kind's floor (a humidity shift too small to matter, lines no worse than their
+    /// neighbours) keeps it from being named; it keeps its probability.
+    #[serde(skip)]
+    pub below_floor: bool,
 }
 
 /// A candidate the data cannot separate from the verdict, with the evidence.

@@ -22,12 +22,10 @@ impl Scorer for HydrationLagScorer {
         // session (the lagged humidity a scaled integral of the readings) would pass as a
         // change of the laws' shape.
         let everyone: Vec<usize> = (0..levels.len()).collect();
-        let (tau, nll_alt) = fit_lag(ctx, &everyone);
+        let (tau, _) = fit_lag(ctx, &everyone);
         let score_tau = |tau: f64| anchored_nll(ctx, &laws::lagged_rh(levels, histories, tau), &everyone);
-        // Uncertainty of τ from the χ² curvature in ln τ.
-        let h = 0.1f64;
-        let curv = (score_tau(tau * h.exp()) - 2.0 * nll_alt + score_tau(tau * (-h).exp())) / (h * h);
-        let se = if curv > 0.0 { tau * (2.0 / curv).sqrt() } else { f64::INFINITY };
+        // In ln τ, where −2 ln L is nearly quadratic; the same curvature the sensor's floor uses.
+        let se = tau * remap::curvature_se(&|v: &[f64]| score_tau(v[0].exp()), &[tau.ln()], &[0.1])[0];
         let r = remap::score_remap(
             ctx,
             &Remap {

@@ -9,7 +9,7 @@ use crate::candidates::Candidate;
 use crate::context::{Baseline, Ctx, Fitted, total_residuals};
 use crate::fits::{self, Mask};
 use crate::held_out::{HeldOut, REFIT_NULL_IS};
-use crate::mains_between_lines::{MainsEvidence, between_line_mains};
+use crate::mains_between_lines::{MainsEvidence, between_line_mains_per_family};
 use crate::types::{Estimate, HeldOutModel, Space};
 use anyhow::Result;
 use ipmc_core::model::extension::Extension;
@@ -37,20 +37,29 @@ struct LineFit {
 impl Scorer for MainsScorer {
     fn trial(&self, ctx: &Ctx, _cand: &Candidate, base: &Baseline) -> Result<Trial> {
         let bursts: Vec<Burst> = ctx.data.bursts.iter().flatten().cloned().collect();
-        let between = between_line_mains(&bursts).filter(|e| e.delta_bic > 0.0);
-        let mut best: Option<LineFit> = None;
+        let evidence = between_line_mains_per_family(&bursts);
+        // Each family on its own evidence: its lines' values and the power between the lines at
+        // its harmonics, never another family's.
+        let mut best: Option<(Option<LineFit>, MainsEvidence)> = None;
         for line in [50.0, 60.0] {
-            let Some(f) = fit_without_lines(ctx, line, base.chi2_0)? else { continue };
-            if best.as_ref().is_none_or(|b| f.delta_chi2 > b.delta_chi2) {
-                best = Some(f);
+            let fit = fit_without_lines(ctx, line, base.chi2_0)?;
+            let between = own_family(&evidence, line);
+            if fit.is_none() && between.delta_bic <= 0.0 {
+                continue;
+            }
+            let total = |(f, e): &(Option<LineFit>, MainsEvidence)| f.as_ref().map_or(0.0, |f| f.delta_chi2) + e.delta_bic.max(0.0);
+            let here = (fit, between);
+            if best.as_ref().is_none_or(|b| total(&here) > total(b)) {
+                best = Some(here);
             }
         }
-        let Some(LineFit { delta_chi2, fitted, excluded, line_hz, power, specific }) = best else {
-            return Ok(match between {
-                Some(e) => Trial::Fitted(Box::new(seen_between_lines_only(ctx, &e))),
-                None => Trial::NotTestable("no frequency near 50/60 Hz or their harmonics, and none between a time series' lines"),
-            });
+        let Some((fit, between)) = best else {
+            return Ok(Trial::NotTestable("no frequency near 50/60 Hz or their harmonics, and none between a time series' lines"));
         };
+        let Some(LineFit { delta_chi2, fitted, excluded, line_hz, power, specific }) = fit else {
+            return Ok(Trial::Fitted(Box::new(seen_between_lines_only(ctx, &between))));
+        };
+        let between = (between.delta_bic > 0.0).then_some(between);
         // Seen between the lines, the interference needs no help from the lines' specificity.
         let floor = (specific < MIN_LINE_Z && between.is_none())
             .then(|| format!("the values at the lines are no worse than their neighbours (z = {specific:.1})"));
@@ -91,6 +100,21 @@ impl Scorer for MainsScorer {
             held,
         })))
     }
+}
+
+/// The between-line evidence for `line_hz`'s lines: its own family's alone, another family's
+/// power between the lines saying nothing about these values (none where there is no
+/// time series to look between the lines of).
+fn own_family(evidence: &[MainsEvidence], line_hz: f64) -> MainsEvidence {
+    evidence.iter().find(|e| e.family_hz == line_hz).cloned().unwrap_or(MainsEvidence {
+        family_hz: line_hz,
+        harmonics: vec![],
+        delta_bic: 0.0,
+        values: 0,
+        shape: 0.0,
+        c_hat: 1.0,
+        heldout_z: 0.0,
+    })
 }
 
 /// Mains seen only between a time series' lines: the levels' responses are as without it.
@@ -238,4 +262,24 @@ fn heldout(ctx: &Ctx, f: &Fitted) -> Vec<HeldOutModel> {
             model
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn family(family_hz: f64, delta_bic: f64) -> MainsEvidence {
+        MainsEvidence { family_hz, harmonics: vec![], delta_bic, values: 1000, shape: 2.0, c_hat: 1.0, heldout_z: 4.0 }
+    }
+
+    /// The traced case: 60 Hz power between the lines (ΔBIC 8.4) is no evidence for interference
+    /// at a 50 Hz family's line (150 Hz); the 50 Hz family's own is.
+    #[test]
+    fn another_familys_power_between_the_lines_is_not_a_lines_evidence() {
+        let evidence = [family(50.0, 0.0), family(60.0, 8.4)];
+        assert_eq!(own_family(&evidence, 50.0).delta_bic, 0.0);
+        assert_eq!(own_family(&evidence, 60.0).delta_bic, 8.4);
+        assert_eq!(own_family(&[family(50.0, 3.0), family(60.0, 8.4)], 50.0).delta_bic, 3.0);
+        assert_eq!(own_family(&[], 60.0).delta_bic, 0.0);
+    }
 }

@@ -55,8 +55,9 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
         Some(z) => (z, true),
         None => (paired_z(&null_per_level, &per_level, &base.counts), heldout < heldout_null),
     };
-    let other_gates = z >= MIN_HELDOUT_Z && lowered && c.floor.is_none();
-    let passes = delta_bic >= MIN_DELTA_BIC && other_gates;
+    let other_gates = z >= MIN_HELDOUT_Z && lowered;
+    let below_floor = c.floor.is_some();
+    let passes = delta_bic >= MIN_DELTA_BIC && other_gates && !below_floor;
     let note = match c.floor {
         Some(why) if c.note.is_empty() => why,
         Some(why) => format!("{}; {why}", c.note),
@@ -83,6 +84,7 @@ pub(crate) fn score(ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Scor
             passes,
             note,
             other_gates,
+            below_floor,
         },
         channels_at_reach: c.channels_at_reach,
         fitted: Some(c.fitted),
@@ -111,5 +113,6 @@ fn not_applicable(cand: &Candidate, note: &str, before: f64) -> Score {
         passes: false,
         note: note.into(),
         other_gates: false,
+        below_floor: false,
     }
 }

@@ -131,9 +131,13 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     let stages = 1 + files.iter().filter(|f| f.followup.is_some()).count() as u64;
-    let steps = stages * (2 + ipmc_diagnose::candidates::LIBRARY.len() as u64);
+    let steps = stages * (3 + ipmc_diagnose::candidates::LIBRARY.len() as u64);
     let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { crate::progress::bar(steps, "diagnosing") };
     let strip = strip_diagnosis::diagnose(&calib, &files, &calib.humidity, &|step| {
+        // Candidates refitted from the channels' prior mean are steps the count cannot know.
+        if bar.length().is_some_and(|len| bar.position() >= len) {
+            bar.inc_length(1);
+        }
         bar.inc(1);
         bar.set_message(step.to_string());
     })?;

@@ -475,7 +475,8 @@ pub struct ExternalOutcome {
     pub case: String,
     pub truth: String,
     pub verdict: String,
-    pub delta_bic: f64,
+    /// ΔBIC of the named candidate (None for `none`, `undecided` and `unexplained`).
+    pub delta_bic: Option<f64>,
     /// ΔBIC of the true candidate (None for clean cases or when it was not testable).
     pub truth_delta_bic: Option<f64>,
     pub seconds: f64,
@@ -521,7 +522,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
         let o = ExternalOutcome {
             case: case.clone(),
             verdict: d.verdict.to_string(),
-            delta_bic: bic_of(d.verdict.as_str()).unwrap_or(f64::NAN),
+            delta_bic: bic_of(d.verdict.as_str()),
             truth_delta_bic: bic_of(&truth),
             set: d.set.clone(),
             top: top_of(&d),
@@ -537,17 +538,20 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
         let probability_of = |n: &str| d.probabilities.iter().find(|p| p.name == n).map_or(0.0, |p| p.probability);
         let set: Vec<String> = o.set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
         println!(
-            "{:<7} {:<24} {:<24} {:>9.1} {:>9} {:>6.2}  {}{mark}",
+            "{:<7} {:<24} {:<24} {:>9} {:>9} {:>6.2}  {}{mark}",
             o.case,
             o.truth,
             o.verdict,
-            o.delta_bic,
+            o.delta_bic.map_or("–".into(), |b| format!("{b:.1}")),
             o.truth_delta_bic.map_or("–".into(), |b| format!("{b:.1}")),
             o.seconds,
             set.join(", ")
         );
         outcomes.push(o);
     }
+    println!(
+        "ΔBIC: of the named candidate; truth ΔBIC: of the true one; – where none is named or the truth has no candidate that could be tested"
+    );
     let as_outcomes: Vec<Outcome> = outcomes
         .iter()
         .map(|o| Outcome {
@@ -567,6 +571,9 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
     if let Some(at) = full.find("\nconfusion") {
         print!("{}", &full[at..]);
     }
+    println!(
+        "ΔBIC: of the named candidate; truth ΔBIC: of the true one; – where none is named or the truth has no candidate that could be tested"
+    );
     let correct = outcomes.iter().filter(|o| o.correct()).count();
     let clean: Vec<&ExternalOutcome> = outcomes.iter().filter(|o| o.truth == "none").collect();
     let false_alarms = clean.iter().filter(|o| o.class() == Class::FalseAlarm).count();
