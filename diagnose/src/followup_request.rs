@@ -287,6 +287,7 @@ mod tests {
             passes: false,
             note: String::new(),
             other_gates: false,
+            below_floor: false,
         };
         let layout = Layout { rh_range_pct: [38.0, 80.0], band_hz: [10.0, 150.0], temp_c: Some(20.0), taken: vec![] };
         let none = [p("none", 1.0)];

@@ -71,6 +71,25 @@ impl SensorReference {
         if dof > 0.0 { (ss / dof).sqrt() } else { 0.1 }
     }
 
+    /// The references held out one at a time, paired over them (z, as the levels' held-out test):
+    /// each one's χ² under the sensor fitted without it (the other references with the levels'
+    /// estimate `levels`) against its χ² under a perfect sensor.
+    pub fn heldout_z(&self, levels: ReferenceFit) -> f64 {
+        let n = self.jars.len();
+        let (mut null, mut candidate) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for j in 0..n {
+            let without = |keep: &dyn Fn(usize) -> bool| SensorReference {
+                jars: self.jars.iter().enumerate().filter(|(k, _)| keep(*k)).map(|(_, x)| x.clone()).collect(),
+                reference_var: self.reference_var,
+            };
+            let (others, one) = (without(&|k| k != j), without(&|k| k == j));
+            let fit = combine(levels, others.fit());
+            null.push(one.chi2(0.0, 1.0));
+            candidate.push(one.chi2(fit.offset, fit.gain));
+        }
+        crate::held_out::paired_z(&null, &candidate, &vec![1.0; n])
+    }
+
     /// How many references (the units of the evidence).
     pub fn count(&self) -> usize {
         self.jars.len()
@@ -187,6 +206,11 @@ mod tests {
         assert!((f.offset - 2.0).abs() < 0.02 && !f.free_gain, "{f:?}");
         assert!((f.se[0] - (0.09f64 + 0.0005).sqrt() / 3f64.sqrt()).abs() < 0.01, "{f:?}");
         assert!(r.delta_chi2(f.offset, f.gain) > 3.0 * (2.0f64 / 0.3).powi(2) * 0.95);
+        // Held out jar by jar, an offset the levels know nothing of is still predicted by the
+        // other jars; a perfect sensor's jars are not predicted better than by none.
+        let unknown = ReferenceFit { offset: 0.0, gain: 1.0, se: [f64::INFINITY; 2], free_gain: false };
+        assert!(r.heldout_z(unknown) > 3.0, "{}", r.heldout_z(unknown));
+        assert!(SensorReference::of(&[jars(0.0, 0.0)]).unwrap().heldout_z(unknown) < 0.5);
         let clean = SensorReference::of(&[jars(0.0, 0.0)]).unwrap().fit();
         assert!(clean.offset.abs() < 0.02, "{clean:?}");
         assert!(f.se[1].is_finite() && f.gain == 1.0, "three references bound a gain they do not free: {f:?}");

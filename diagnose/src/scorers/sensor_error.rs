@@ -23,7 +23,8 @@ impl Scorer for SensorErrorScorer {
         let everyone: Vec<usize> = (0..levels.len()).collect();
         let reference = SensorReference::of(&ctx.data.references);
         let with_reference = |s: SensorFit| -> ReferenceFit { with_references(&s, reference.as_ref()) };
-        let s = with_reference(fit_sensor(ctx, &everyone));
+        let own = fit_sensor(ctx, &everyone);
+        let s = with_references(&own, reference.as_ref());
         let se_gain = if s.free_gain { s.se[1] } else { 0.0 };
         let mapped = |o: f64, g: f64| levels.iter().map(|l| laws::mapped_rh(l.rh_pct, o, g)).collect::<Vec<f64>>();
         let r = remap::score_remap(
@@ -49,6 +50,17 @@ impl Scorer for SensorErrorScorer {
             base.law0,
             base.n_theta,
         );
+        // With references, the held-out test is the levels' and the references' together
+        // (Stouffer's z over the two): a correction the references fix is tested on data the
+        // levels' test never sees, and a few noisy levels alone would veto what three jars show.
+        let own_heldout_z = reference.as_ref().map(|refs| {
+            let z_levels = crate::held_out::paired_z(
+                &crate::held_out::per_level_scores(&r.held.null),
+                &crate::held_out::per_level_scores(&r.held.candidate),
+                &base.counts,
+            );
+            (z_levels + refs.heldout_z(ReferenceFit::from(&own))) / 2f64.sqrt()
+        });
         Ok(Trial::Fitted(Box::new(Candidacy {
             fitted: r.fitted,
             delta_chi2: r.delta_chi2 + reference.as_ref().map_or(0.0, |r| r.delta_chi2(s.offset, s.gain)),
@@ -58,7 +70,7 @@ impl Scorer for SensorErrorScorer {
             note: r.note,
             floor: r.floor,
             held: r.held,
-            own_heldout_z: None,
+            own_heldout_z,
             occam: None,
             per_level: r.per_level,
             channels_at_reach: None,
