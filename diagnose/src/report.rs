@@ -110,7 +110,17 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     let _ = writeln!(s, "# Diagnosis\n");
     let _ = writeln!(s, "Recordings: {}  \nCalibration: {calib}\n", inputs.join(", "));
     let verdict = match d.verdict {
-        Verdict::None => format!("**No missing physics above the noise** (`none` holds {}).{}", percent(d, "none"), none_reach(d)),
+        Verdict::None => match d.probabilities.iter().find(|p| p.name != "none" && d.set.contains(&p.name)) {
+            // `none` holds the confidence with candidates below their floor: they are named in
+            // the verdict, so that it does not read as "none" against a larger number beside it.
+            Some(_) => format!(
+                "**No missing physics large enough to name** (`none` holds {}; {}, each below its floor: what it would change is too small to matter or to tell from the noise).{}",
+                percent(d, "none"),
+                d.set.iter().filter(|n| *n != "none").map(|n| format!("`{n}` {}", percent(d, n))).collect::<Vec<_>>().join(", "),
+                none_reach(d)
+            ),
+            None => format!("**No missing physics above the noise** (`none` holds {}).{}", percent(d, "none"), none_reach(d)),
+        },
         Verdict::Unexplained => format!("**Unexplained:** {}.", d.explanation),
         Verdict::Undecided => format!("**Undecided:** {}.", d.explanation),
         Verdict::Named(v) if d.form.is_empty() => {
