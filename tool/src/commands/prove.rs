@@ -7,6 +7,10 @@
 //! `ipmc prove --external DIR [--calib DIR/nominal.toml]`: diagnoses recordings made elsewhere
 //! (DIR/caseNN.csv, one at a time, each timed) against DIR/truths.json and prints the same
 //! table with each case's indistinguishable set, evidence and wall time.
+//!
+//! `--followups` adds the second step: each case takes the follow-up its own report asks for (the
+//! simulator makes it for the own cases; DIR/followups/caseNN-<protocol>.csv for external ones)
+//! and the strip is diagnosed again from both; the outcome tables before and after.
 
 use anyhow::{Context, Result};
 use ipmc_core::calibration::humidity_path::HumidityPath;
