@@ -393,6 +393,25 @@ fn second_step_summary(outcomes: &[Outcome]) -> serde_json::Value {
     for a in outcomes.iter().filter_map(|o| o.after.as_ref()) {
         *asked.entry(a.protocol.to_string()).or_default() += 1;
     }
+    // Every case whose outcome the follow-up changed, and every one it leaves short of a name.
+    println!("\ncases the follow-up changed or left short of a name (index in the run: truth (magnitude), before → after with the protocol)");
+    for (i, (o, (_, class))) in outcomes.iter().zip(&after).enumerate() {
+        if let Some(a) = &o.after
+            && (*class != o.class() || *class != Class::Named)
+        {
+            println!(
+                "  {i:>4}: {} ({}): {} → {} with {} ({}: {:.1} %){}",
+                o.truth,
+                o.magnitude,
+                o.verdict,
+                a.verdict,
+                a.protocol,
+                a.top.0,
+                100.0 * a.top.1,
+                if *class == Class::Named { String::new() } else { format!("  [{}]", class.label()) }
+            );
+        }
+    }
     print!(
         "\nafter the follow-ups (asked for: {}):{}",
         asked.iter().map(|(p, n)| format!("{p} {n}")).collect::<Vec<_>>().join(", "),
