@@ -17,6 +17,8 @@ mod plot;
 mod progress;
 mod reading_uncertainty;
 mod scoring;
+#[cfg(test)]
+mod test_cli;
 
 use clap::{Parser, Subcommand};
 

@@ -209,6 +209,7 @@ pub fn run(a: Args) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_cli::parse;
     use ipmc_diagnose::Effect;
     use ipmc_sim::concealed::{Format, Strength, make_case};
 
@@ -262,17 +263,6 @@ mod tests {
                 .contains("augmented")
             );
         }
-    }
-
-    /// A command's arguments as clap parses them from a command line.
-    fn parse<A: clap::Args>(args: &[&str]) -> A {
-        use clap::Parser;
-        #[derive(clap::Parser)]
-        struct Cli<A: clap::Args> {
-            #[command(flatten)]
-            a: A,
-        }
-        Cli::<A>::parse_from(std::iter::once("ipmc").chain(args.iter().copied())).a
     }
 
     /// Issue 40's humidity loop: a sensor reading 1.9 %RH high, which the strip's frequency

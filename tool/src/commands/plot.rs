@@ -152,21 +152,11 @@ fn apply_fitted(params: &mut Params<f64>, fitted: &[serde_json::Map<String, serd
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_cli::parse;
     use ipmc_recording::Metadata;
     use ipmc_sim::physics::ExactModel;
     use ipmc_sim::session::Session;
     use ipmc_sim::simulate;
-
-    /// A command's arguments as clap parses them from a command line.
-    fn parse<A: clap::Args>(args: &[&str]) -> A {
-        use clap::Parser;
-        #[derive(clap::Parser)]
-        struct Cli<A: clap::Args> {
-            #[command(flatten)]
-            a: A,
-        }
-        Cli::<A>::parse_from(std::iter::once("ipmc").chain(args.iter().copied())).a
-    }
 
     fn run_plot(args: &[&str]) -> Result<()> {
         run(parse(args))
