@@ -394,7 +394,9 @@ fn second_step_summary(outcomes: &[Outcome]) -> serde_json::Value {
         *asked.entry(a.protocol.to_string()).or_default() += 1;
     }
     // Every case whose outcome the follow-up changed, and every one it leaves short of a name.
-    println!("\ncases the follow-up changed or left short of a name (index in the run: truth (magnitude), before → after with the protocol)");
+    println!(
+        "\ncases the follow-up changed or left short of a name (index in the run: truth (magnitude), before → after with the protocol)"
+    );
     for (i, (o, (_, class))) in outcomes.iter().zip(&after).enumerate() {
         if let Some(a) = &o.after
             && (*class != o.class() || *class != Class::Named)
