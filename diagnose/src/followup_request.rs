@@ -128,7 +128,9 @@ pub fn expected_information(protocol: Protocol, open: &[Probability]) -> f64 {
     let resolved = |name: &str| resolves(protocol).iter().any(|e| e.name() == name);
     let mut cells: Vec<f64> = open.iter().filter(|p| resolved(&p.name)).map(|p| p.probability).collect();
     cells.push(open.iter().filter(|p| !resolved(&p.name)).map(|p| p.probability).sum());
-    cells.iter().filter(|&&p| p > 0.0).map(|p| -p * p.log2()).sum()
+    let bits: f64 = cells.iter().filter(|&&p| p > 0.0).map(|p| -p * p.log2()).sum();
+    // A single cell holding all of it is no information, not a rounding error's worth of it.
+    if bits < 1e-9 { 0.0 } else { bits }
 }
 
 /// The follow-up to ask for, or None when the verdict names an effect or nothing is left open
@@ -155,12 +157,12 @@ pub fn request(
     if best <= 0.0 {
         return None;
     }
-    let decides_between: Vec<String> = open
-        .iter()
-        .filter(|p| resolves(protocol).iter().any(|e| e.name() == p.name))
-        .map(|p| p.name.clone())
-        .chain(std::iter::once(NONE.to_string()))
-        .collect();
+    // What it decides between, as a reader wants it: the hypotheses it resolves that hold a
+    // percent or more (the rest are listed in the probabilities), and none.
+    let resolved: Vec<&Probability> = open.iter().filter(|p| resolves(protocol).iter().any(|e| e.name() == p.name)).collect();
+    let shown = resolved.iter().filter(|p| p.probability >= 0.01).count().max(1);
+    let decides_between: Vec<String> =
+        resolved.iter().take(shown).map(|p| p.name.clone()).chain(std::iter::once(NONE.to_string())).collect();
     let [lo, hi] = layout.rh_range_pct;
     let mut r = FollowupRequest {
         protocol,
