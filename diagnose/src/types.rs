@@ -8,6 +8,7 @@ use crate::locate::Located;
 use ipmc_core::Calibration;
 use ipmc_core::calibration::humidity_path::{HumidityPath, SensorKind};
 use ipmc_core::model::extension::Extension;
+use ipmc_recording::Protocol;
 use std::fmt;
 
 /// What the diagnosis concludes.
@@ -329,7 +330,7 @@ pub struct Diagnosis {
     pub humidity_reach: HumidityReach,
     /// The follow-up recording that would decide what this one leaves open (None when it names
     /// an effect).
-    pub request: Option<crate::followup_request::FollowupRequest>,
+    pub request: Option<FollowupRequest>,
 }
 
 impl Diagnosis {
@@ -364,4 +365,43 @@ impl Diagnosis {
         }
         Some(out)
     }
+}
+
+/// What a follow-up recording should be, as data (report.json `separating_measurement.protocol`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FollowupRequest {
+    #[serde(serialize_with = "protocol_name")]
+    pub protocol: Protocol,
+    /// The hypotheses it resolves that are still open here, most probable first.
+    pub decides_between: Vec<String>,
+    /// Expected information [bits]: the entropy of the partition it resolves.
+    pub expected_information_bits: f64,
+    /// Every protocol's expected information, for the report.
+    #[serde(serialize_with = "protocols_bits")]
+    pub alternatives_bits: Vec<(Protocol, f64)>,
+    /// Band swept [Hz] (wideband, temperature).
+    pub band_hz: Option<[f64; 2]>,
+    /// Humidity levels or references [%RH], in the order to take them.
+    pub humidities_pct: Vec<f64>,
+    /// How long each level is held [s] (step), or between readings (reference).
+    pub dwell_s: Option<f64>,
+    /// Times after each step at which bursts start [s] (step).
+    pub bursts_after_step_s: Vec<f64>,
+    /// The room's temperature to hold [°C] (temperature).
+    pub temperature_c: Option<f64>,
+    /// Readings per reference (reference).
+    pub readings_per_reference: Option<usize>,
+}
+
+fn protocol_name<S: serde::Serializer>(p: &Protocol, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(p.as_str())
+}
+
+fn protocols_bits<S: serde::Serializer>(v: &[(Protocol, f64)], s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut m = s.serialize_map(Some(v.len()))?;
+    for (p, b) in v {
+        m.serialize_entry(p.as_str(), b)?;
+    }
+    m.end()
 }
