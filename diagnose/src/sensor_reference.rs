@@ -44,7 +44,7 @@ impl SensorReference {
         for r in recordings {
             reference_var = reference_var.max(r.reference_uncertainty_pct.powi(2));
             for h in r.references() {
-                let reads: Vec<f64> = r.reference_rh_pct.iter().zip(&r.rh_pct).filter(|(a, _)| **a == h).map(|(_, b)| *b).collect();
+                let reads = readings_at(r, h);
                 let n = reads.len() as f64;
                 let mean = reads.iter().sum::<f64>() / n;
                 // One reading says nothing of its scatter: a capacitive sensor's resolution-limited
@@ -62,7 +62,7 @@ impl SensorReference {
         let (mut ss, mut dof) = (0.0, 0.0);
         for r in recordings {
             for h in r.references() {
-                let reads: Vec<f64> = r.reference_rh_pct.iter().zip(&r.rh_pct).filter(|(a, _)| **a == h).map(|(_, b)| *b).collect();
+                let reads = readings_at(r, h);
                 let mean = reads.iter().sum::<f64>() / reads.len() as f64;
                 ss += reads.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
                 dof += reads.len() as f64 - 1.0;
@@ -160,6 +160,11 @@ impl From<&crate::remap::SensorFit> for ReferenceFit {
 pub(crate) fn with_references(s: &crate::remap::SensorFit, reference: Option<&SensorReference>) -> ReferenceFit {
     let own = ReferenceFit::from(s);
     reference.map_or(own, |r| combine(own, r.fit()))
+}
+
+/// The sensor's readings at reference `h`.
+fn readings_at(r: &HumidityReference, h: f64) -> Vec<f64> {
+    r.reference_rh_pct.iter().zip(&r.rh_pct).filter(|(a, _)| **a == h).map(|(_, b)| *b).collect()
 }
 
 /// Two independent estimates of the sensor's offset and gain as one: each parameter by inverse
