@@ -106,13 +106,21 @@ pub fn request(
     if matches!(verdict, Verdict::Named(_)) {
         return None;
     }
-    let open = open_hypotheses(probabilities, scores, reach, layout.temp_c.is_some());
-    let bits: Vec<(Protocol, f64)> = Protocol::ALL
-        .into_iter()
-        .filter(|&p| p != Protocol::Temperature || layout.temp_c.is_some())
-        .filter(|p| !layout.taken.contains(p))
-        .map(|p| (p, expected_information(p, &open)))
-        .collect();
+    let offered = || {
+        Protocol::ALL.into_iter().filter(|&p| p != Protocol::Temperature || layout.temp_c.is_some()).filter(|p| !layout.taken.contains(p))
+    };
+    let mut open = open_hypotheses(probabilities, scores, reach, layout.temp_c.is_some());
+    let mut bits: Vec<(Protocol, f64)> = offered().map(|p| (p, expected_information(p, &open))).collect();
+    // A report that stops short of a name always asks. When what it leans to is resolved by no
+    // protocol (mains pickup; a candidate the gates turned down), the effects below this
+    // recording's reach are what a follow-up can still find: weighed among themselves, by
+    // their prior and their evidence here, as `none` weighs them.
+    let nothing = bits.iter().all(|b| b.1 <= 0.0);
+    if nothing && verdict != Verdict::None {
+        let only_none = [Probability { name: NONE.into(), probability: 1.0 }];
+        open = open_hypotheses(&only_none, scores, reach, layout.temp_c.is_some());
+        bits = offered().map(|p| (p, expected_information(p, &open))).collect();
+    }
     let &(protocol, best) = bits.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
     // A protocol that resolves nothing still open gives no information.
     if best <= 0.0 {
@@ -271,5 +279,11 @@ mod tests {
         let r = request(Verdict::None, &none, &[score("hydration_lag", 3.6)], &reach, &layout).unwrap();
         assert!(r.dwell_s.unwrap() >= 600.0 && r.humidities_pct.len() == 5, "{r:?}");
         assert!(r.recipe("case07.csv").contains("# strip=case07.csv"));
+        // Unexplained, leaning wholly to what no protocol resolves (mains pickup that failed its
+        // gates): it still asks, for what is below this recording's reach.
+        let mains = [p("mains_interference", 1.0)];
+        let lag_ahead = [score("hydration_lag", 2.0), score("humidity_sensor_error", -3.0), score("temperature", -4.0)];
+        assert_eq!(request(Verdict::Unexplained, &mains, &lag_ahead, &reach, &layout).map(|r| r.protocol), Some(Protocol::Step));
+        assert!(request(Verdict::None, &mains, &lag_ahead, &reach, &layout).is_none());
     }
 }

@@ -10,6 +10,7 @@ use crate::laws;
 use crate::types::HeldOutModel;
 use ipmc_fit::lsq::{self, Bound, Param};
 use ipmc_fit::scalar::minimize_log;
+use ipmc_fit::stats::nelder_mead;
 
 /// Smallest humidity shift [%RH] a sensor error or hydration lag must cause at some level to
 /// be named: a tenth of a percent is within one reading's scatter and of no use to anyone,
@@ -140,8 +141,21 @@ pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: b
     match lsq::fit(&params, &starts, 4 * train.len(), resid) {
         Ok(f) => {
             let (o, g) = (f.estimates[0], gain_of(&f.estimates));
-            let mapped_params: Vec<f64> = if free_gain { vec![o, g] } else { vec![o] };
             let steps: Vec<f64> = if free_gain { vec![OFFSET_STEP_PCT, GAIN_STEP] } else { vec![OFFSET_STEP_PCT] };
+            // Least squares on the levels' parameters is the start, not the answer: the −2 ln L
+            // that scores the map weighs the levels otherwise, and a large offset's least-squares
+            // point can sit off its minimum, where the curvature is not positive and the
+            // uncertainty would come out infinite.
+            let in_bounds = |v: &[f64]| v[0].abs() <= 25.0 && (!free_gain || (0.6..=1.4).contains(&v[1]));
+            let scaled = |u: &[f64]| u.iter().zip(&steps).map(|(u, s)| u * s).collect::<Vec<f64>>();
+            let objective = |u: &[f64]| {
+                let v = scaled(u);
+                if in_bounds(&v) { nll_of(&v) } else { f64::INFINITY }
+            };
+            let start: Vec<f64> = if free_gain { vec![o / steps[0], g / steps[1]] } else { vec![o / steps[0]] };
+            let (u, polished) = nelder_mead(&objective, &start, 4.0, 1e-6, 400);
+            let mapped_params = if polished <= nll_of(&scaled(&start)) { scaled(&u) } else { scaled(&start) };
+            let (o, g) = (mapped_params[0], if free_gain { mapped_params[1] } else { g });
             let mut se = curvature_se(&nll_of, &mapped_params, &steps);
             se.resize(2, 0.0);
             SensorFit { offset: o, gain: g, se, nll: nll_of(&mapped_params), free_gain }

@@ -479,7 +479,7 @@ fn between_lines(x: &[f64], fs: f64, lines: &[f64], hann_len: Option<usize>) -> 
 }
 
 /// Each channel's noise over all bursts as the fits model it (`noise::ChannelNoise`: σ² =
-/// rel² + floor²/|H|², the same for ln gain and phase), fitted to the lines' own σ: what a fit
+/// rel² + (floor² + rising floor²)/|H|², the same for ln gain and phase), fitted to the lines' own σ: what a fit
 /// can weigh a time series' points with instead of estimating the noise from its residuals.
 /// (tip, current); None for a channel not recorded or with fewer than three finite σ.
 pub fn channel_noise(bursts: &[Burst]) -> (Option<ChannelNoise>, Option<ChannelNoise>) {
@@ -646,7 +646,7 @@ mod tests {
         for l in bursts.iter().flat_map(|b| &b.lines) {
             for (r, h, n) in [(l.tip.unwrap(), tip_h(l.freq_hz), tip), (l.current, current_h(l.freq_hz), cur)] {
                 actual += (r.value - h).norm_sqr() / (2.0 * h.norm_sqr());
-                stated += n.sigma(r.value.norm()).powi(2);
+                stated += n.sigma(r.value.norm(), l.freq_hz).powi(2);
             }
         }
         assert!((0.85..1.15).contains(&(actual / stated)), "actual/stated error power with the noise model {}", actual / stated);

@@ -96,7 +96,12 @@ pub fn summary(bursts: &[Burst]) -> String {
         .iter()
         .flat_map(|b| b.between.freq_hz.iter().zip(&b.between.current_a).map(move |(f, a)| (*f, *a / b.between.floor_a)))
         .fold((0.0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
-    let model = |n: Option<multisine::ChannelNoise>| n.map_or("—".into(), |n| format!("rel {:.2e}, floor {:.2e}", n.rel, n.floor));
+    let model = |n: Option<multisine::ChannelNoise>| {
+        n.map_or("—".into(), |n| {
+            let rising = if n.floor_rising > 0.0 { format!(" + {:.2e} at 1 kHz rising as f²", n.floor_rising) } else { String::new() };
+            format!("rel {:.2e}, floor {:.2e}{rising}", n.rel, n.floor)
+        })
+    };
     let (tip, current) = multisine::channel_noise(bursts);
     format!(
         "time series: {} bursts, {lines} lines, median σ of the current's lines {:.2} %; strongest current between the lines {:.0}× its floor at {:.2} Hz; the lines' noise as the fits model it: tip {}, current {}",

@@ -312,7 +312,7 @@ pub fn estimate_noise(calib: &Calibration, levels: &[LevelData], thetas: &[Theta
         for _ in 0..2 {
             let Some(n) = est else { break };
             let keep: Vec<bool> =
-                e.iter().zip(&g).map(|(e, &g)| e.re.abs() <= 4.0 * n.sigma(g) && e.im.abs() <= 4.0 * n.sigma(g)).collect();
+                e.iter().zip(&g).zip(&pts).map(|((e, &g), p)| e.re.abs().max(e.im.abs()) <= 4.0 * n.sigma(g, p.freq_hz)).collect();
             let kept = |i: &usize| keep[*i];
             let idx: Vec<usize> = (0..keep.len()).filter(kept).collect();
             pts = idx.iter().map(|&i| pts[i]).collect();
@@ -331,13 +331,16 @@ pub fn estimate_noise(calib: &Calibration, levels: &[LevelData], thetas: &[Theta
 
 /// σ of each value from the noise model at the measured gain (fixed through the fits).
 pub fn sigmas(level: &LevelData, noise: &Noise) -> LevelSigmas {
-    let one = |v: &Option<C<f64>>, n: &Option<ChannelNoise>| match (v, n) {
-        (Some(v), Some(n)) => Sigma { ln_gain: n.sigma(v.norm()).max(1e-6), phase: n.sigma(v.norm()).max(1e-6) },
+    let one = |v: &Option<C<f64>>, f: f64, n: &Option<ChannelNoise>| match (v, n) {
+        (Some(v), Some(n)) => {
+            let s = n.sigma(v.norm(), f).max(1e-6);
+            Sigma { ln_gain: s, phase: s }
+        }
         _ => Sigma::UNIT,
     };
     LevelSigmas {
-        tip: level.tip.iter().map(|v| one(v, &noise.tip)).collect(),
-        current: level.current.iter().map(|v| one(v, &noise.current)).collect(),
+        tip: level.tip.iter().zip(&level.freqs).map(|(v, &f)| one(v, f, &noise.tip)).collect(),
+        current: level.current.iter().zip(&level.freqs).map(|(v, &f)| one(v, f, &noise.current)).collect(),
     }
 }
 

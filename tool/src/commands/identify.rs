@@ -140,8 +140,13 @@ fn level_json(number: usize, level: &Level, fit: &LevelFit) -> Value {
     o.insert("dof".into(), json!(fit.fit.dof));
     o.insert("tip_points".into(), json!(fit.tip_points));
     o.insert("current_points".into(), json!(fit.current_points));
-    let noise: Map<String, Value> =
-        fit.noise.iter().map(|(ch, n)| (format!("{ch:?}").to_lowercase(), json!({ "relative": n.rel, "floor": n.floor }))).collect();
+    let noise: Map<String, Value> = fit
+        .noise
+        .iter()
+        .map(|(ch, n)| {
+            (format!("{ch:?}").to_lowercase(), json!({ "relative": n.rel, "floor": n.floor, "floor_rising_at_1khz": n.floor_rising }))
+        })
+        .collect();
     o.insert("noise".into(), Value::Object(noise));
     Value::Object(o)
 }
