@@ -7,7 +7,7 @@
 use crate::context::Ctx;
 use crate::fits;
 use crate::laws::{self, LawWeights, Regressors};
-use crate::remap::{SensorFit, fit_sensor_parsimonious};
+use crate::remap::{SensorFit, Uncertainty, fit_sensor_parsimonious};
 use ipmc_core::calibration::humidity_path::HumidityPath;
 use ipmc_core::model::extension::Extension;
 use ipmc_fit::scalar::minimize_log;
@@ -86,7 +86,7 @@ fn fit_levels(ctx: &Ctx, c_hat: f64, reference: Option<&crate::sensor_reference:
     // The sensor's gain only where the data ask for it: a gain the levels cannot pin down
     // trades off against the offset and the lag and moves the humidity at the range's ends.
     let sensor = |read: &[f64]| -> SensorFit {
-        let s = fit_sensor_parsimonious(ctx, &everyone, read, PATH_FIT_DRIFT, penalty);
+        let s = fit_sensor_parsimonious(ctx, &everyone, read, PATH_FIT_DRIFT, penalty, Uncertainty::NotStated);
         // Read at references, the sensor is what they say: the levels' drift-free fit here
         // takes the strip's drift from its calibration for the sensor's, with an error that
         // does not know it (the candidate's fit, with a drift, combines the two instead).

@@ -226,28 +226,32 @@ fn nll_at(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta], s2: f64
     let own = |l: usize, j: usize| se[l][j].min(1.0).powi(2);
     let mut tau2 = [0.0; 4];
     for (j, t) in tau2.iter_mut().enumerate() {
-        let rows: Vec<usize> = (0..theta.len()).filter(|&l| valid(l, j)).collect();
-        if rows.is_empty() {
-            continue;
+        // Mean square misfit, own variance and read gradient² over the levels that hold θ_j.
+        let (mut n, mut ms, mut own_mean, mut g2) = (0usize, 0.0, 0.0, 0.0);
+        for l in (0..theta.len()).filter(|&l| valid(l, j)) {
+            n += 1;
+            ms += (theta[l][j] - pred[l][j]).powi(2);
+            own_mean += own(l, j);
+            g2 += grad[l][j].powi(2);
         }
-        let n = rows.len() as f64;
-        let mean = |f: &dyn Fn(usize) -> f64| rows.iter().map(|&l| f(l)).sum::<f64>() / n;
-        let ms = mean(&|l| (theta[l][j] - pred[l][j]).powi(2));
-        *t = (ms - mean(&|l| own(l, j)) - s2 * mean(&|l| grad[l][j].powi(2))).max(1e-8);
+        if n > 0 {
+            *t = ((ms - own_mean - s2 * g2) / n as f64).max(1e-8);
+        }
     }
     let mut total = Vec::with_capacity(theta.len());
     for l in 0..theta.len() {
-        // Σ = D + s2·g·gᵀ: Sherman–Morrison for the quadratic form and the determinant.
-        let (mut q, mut logdet, mut rg, mut gg) = (0.0, 0.0, 0.0, 0.0);
+        // Σ = D + s2·g·gᵀ: Sherman–Morrison for the quadratic form and the determinant (one
+        // logarithm of the product: this runs inside every profiled and nested fit).
+        let (mut q, mut det, mut rg, mut gg) = (0.0, 1.0, 0.0, 0.0);
         for j in (0..4).filter(|&j| valid(l, j)) {
             let d = own(l, j) + tau2[j];
             let r = theta[l][j] - pred[l][j];
             q += r * r / d;
-            logdet += d.ln();
+            det *= d;
             rg += r * grad[l][j] / d;
             gg += grad[l][j].powi(2) / d;
         }
-        total.push(q - s2 * rg * rg / (1.0 + s2 * gg) + logdet + (1.0 + s2 * gg).ln());
+        total.push(q - s2 * rg * rg / (1.0 + s2 * gg) + (det * (1.0 + s2 * gg)).ln());
     }
     total
 }

@@ -10,7 +10,6 @@ use crate::laws;
 use crate::types::HeldOutModel;
 use ipmc_fit::lsq::{self, Bound, Param};
 use ipmc_fit::scalar::minimize_log;
-use ipmc_fit::stats::nelder_mead;
 
 /// Smallest humidity shift [%RH] a sensor error or hydration lag must cause at some level to
 /// be named: a tenth of a percent is within one reading's scatter and of no use to anyone,
@@ -76,7 +75,16 @@ pub(crate) struct SensorFit {
 /// `train` at the humidity read, the gain freed only where it earns BIC's price on these levels.
 pub(crate) fn fit_sensor(ctx: &Ctx, train: &[usize]) -> SensorFit {
     let price = (4.0 * train.len() as f64).ln();
-    fit_sensor_parsimonious(ctx, train, &ctx.read_rh(), true, price)
+    fit_sensor_parsimonious(ctx, train, &ctx.read_rh(), true, price, Uncertainty::Curvature)
+}
+
+/// Whether a sensor fit states its uncertainty. The curvature costs up to eight more
+/// evaluations of the −2 ln L per fit: the humidity path, which profiles the fit over a lag
+/// and uses its point alone, asks for none.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Uncertainty {
+    Curvature,
+    NotStated,
 }
 
 /// The sensor's offset, and its gain only where freeing it lowers −2 ln L by more than `price`.
@@ -84,16 +92,17 @@ pub(crate) fn fit_sensor(ctx: &Ctx, train: &[usize]) -> SensorFit {
 /// through a humidity remap (with linear laws the two are the same model), so it has to earn
 /// its place; an offset moves every parameter along its own law at once, which no drift of
 /// the calibration does.
-pub(crate) fn fit_sensor_parsimonious(ctx: &Ctx, train: &[usize], read: &[f64], drift: bool, price: f64) -> SensorFit {
-    let unit = fit_sensor_with(ctx, train, read, drift, false);
-    let free = fit_sensor_with(ctx, train, read, drift, true);
+pub(crate) fn fit_sensor_parsimonious(ctx: &Ctx, train: &[usize], read: &[f64], drift: bool, price: f64, se: Uncertainty) -> SensorFit {
+    let unit = fit_sensor_with(ctx, train, read, drift, false, se);
+    let free = fit_sensor_with(ctx, train, read, drift, true, se);
     if unit.nll - free.nll > price { free } else { unit }
 }
 
 /// The sensor's offset and gain (or the offset alone, the gain 1: `free_gain` false) that map
 /// the levels `train` at humidities `read` onto the calibration, with a free drift per parameter
-/// (`drift`) or none, and the fit's −2 ln L.
-pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: bool, free_gain: bool) -> SensorFit {
+/// (`drift`) or none, and the fit's −2 ln L (with `se` NotStated: the least-squares point, its
+/// standard errors NaN).
+pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: bool, free_gain: bool, se: Uncertainty) -> SensorFit {
     let base = &ctx.base;
     let mut params = vec![Param::new("rh_offset_pct", Bound::Between(-25.0, 25.0))];
     if free_gain {
@@ -139,23 +148,22 @@ pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: b
         }
     };
     match lsq::fit(&params, &starts, 4 * train.len(), resid) {
+        Ok(f) if se == Uncertainty::NotStated => {
+            let (o, g) = (f.estimates[0], gain_of(&f.estimates));
+            let at: Vec<f64> = if free_gain { vec![o, g] } else { vec![o] };
+            SensorFit { offset: o, gain: g, se: vec![f64::NAN; 2], nll: nll_of(&at), free_gain }
+        }
         Ok(f) => {
             let (o, g) = (f.estimates[0], gain_of(&f.estimates));
-            let steps: Vec<f64> = if free_gain { vec![OFFSET_STEP_PCT, GAIN_STEP] } else { vec![OFFSET_STEP_PCT] };
-            // Least squares on the levels' parameters is the start, not the answer: the −2 ln L
-            // that scores the map weighs the levels otherwise, and a large offset's least-squares
-            // point can sit off its minimum, where the curvature is not positive and the
-            // uncertainty would come out infinite.
-            let in_bounds = |v: &[f64]| v[0].abs() <= 25.0 && (!free_gain || (0.6..=1.4).contains(&v[1]));
-            let scaled = |u: &[f64]| u.iter().zip(&steps).map(|(u, s)| u * s).collect::<Vec<f64>>();
-            let objective = |u: &[f64]| {
-                let v = scaled(u);
-                if in_bounds(&v) { nll_of(&v) } else { f64::INFINITY }
-            };
-            let start: Vec<f64> = if free_gain { vec![o / steps[0], g / steps[1]] } else { vec![o / steps[0]] };
-            let (u, polished) = nelder_mead(&objective, &start, 4.0, 1e-6, 400);
-            let mapped_params = if polished <= nll_of(&scaled(&start)) { scaled(&u) } else { scaled(&start) };
-            let (o, g) = (mapped_params[0], if free_gain { mapped_params[1] } else { g });
+            let mapped_params: Vec<f64> = if free_gain { vec![o, g] } else { vec![o] };
+            // The curvature over a stencil as wide as the least-squares standard errors: the
+            // −2 ln L that scores the map profiles the levels' read and law variances, and on
+            // the scale of hundredths of a %RH it is not smooth (its minimum a narrow notch, its
+            // curvature there many times the bowl's); a large offset's least-squares point can
+            // also sit off that notch, where a narrow stencil finds no positive curvature at
+            // all. Over a standard error the stencil measures the bowl.
+            let floor_steps = [OFFSET_STEP_PCT, GAIN_STEP];
+            let steps: Vec<f64> = (0..mapped_params.len()).map(|k| f.std_errors[k].clamp(floor_steps[k], 40.0 * floor_steps[k])).collect();
             let mut se = curvature_se(&nll_of, &mapped_params, &steps);
             se.resize(2, 0.0);
             SensorFit { offset: o, gain: g, se, nll: nll_of(&mapped_params), free_gain }
@@ -164,13 +172,12 @@ pub(crate) fn fit_sensor_with(ctx: &Ctx, train: &[usize], read: &[f64], drift: b
     }
 }
 
-/// Steps of the sensor's offset [%RH] and gain the curvature of −2 ln L is taken over: small
-/// beside their standard errors on a sweep (tenths of %RH, hundredths of the gain), large
-/// beside the fits' rounding.
+/// The least steps of the sensor's offset [%RH] and gain the curvature of −2 ln L is taken
+/// over (the stencil is as wide as the least-squares standard errors, up to 40 of these).
 const OFFSET_STEP_PCT: f64 = 0.05;
 const GAIN_STEP: f64 = 0.002;
 
-/// Standard errors of the parameters `at` (the minimum of the −2 ln L `nll`) from its curvature
+/// Standard errors of the parameters `at` (the fit, at or near the minimum of the −2 ln L `nll`) from its curvature
 /// there, 2 H⁻¹ with H by central differences of `steps`; infinite where it is not curved.
 /// Every candidate whose size is held to a floor (a sensor's offset and gain, a lag) takes its
 /// interval from here: a floor judged with the uncertainty of one definition for one candidate

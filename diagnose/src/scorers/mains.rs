@@ -191,6 +191,7 @@ fn fit_without_lines(ctx: &Ctx, line: f64, chi2_0: f64) -> Result<Option<LineFit
     // worst of k + 1 values with probability 1/(k + 1), a sign test that a smooth misfit (which
     // raises neighbours alike) cannot pass, however heavy its tails.
     let mut at_lines = Vec::new();
+    let mut neighbours: Vec<((usize, usize), f64)> = Vec::new();
     let (mut worst, mut expected, mut variance) = (0.0, 0.0, 0.0);
     for l in 0..n {
         let p = fits::level_params(ctx.calib, &levels[l], &b.theta[l]);
@@ -203,8 +204,15 @@ fn fit_without_lines(ctx: &Ctx, line: f64, chi2_0: f64) -> Result<Option<LineFit
             }
             let Some(here) = chi2_at(i) else { continue };
             at_lines.push(here);
-            let beside: Vec<f64> =
-                [i.wrapping_sub(1), i + 1].into_iter().filter(|&j| j < cur.len() && masks[l].current[j]).filter_map(chi2_at).collect();
+            let beside_at: Vec<usize> = [i.wrapping_sub(1), i + 1].into_iter().filter(|&j| j < cur.len() && masks[l].current[j]).collect();
+            let beside: Vec<f64> = beside_at
+                .iter()
+                .filter_map(|&j| chi2_at(j).map(|c| ((l, j), c)))
+                .map(|(key, c)| {
+                    neighbours.push((key, c));
+                    c
+                })
+                .collect();
             if !beside.is_empty() {
                 let p = 1.0 / (beside.len() + 1) as f64;
                 expected += p;
@@ -223,8 +231,29 @@ fn fit_without_lines(ctx: &Ctx, line: f64, chi2_0: f64) -> Result<Option<LineFit
     let power = (r2 / m - 1.0).max(0.0);
     let nll = chi2 + r2 / (1.0 + power) + m * (1.0 + power).ln();
     let specific = if variance > 0.0 { (worst - expected) / variance.sqrt() } else { 0.0 };
+    // The evidence is what the lines show beyond their neighbours: a misfit that raises the
+    // lines and their neighbours alike (a lag, a missed mode) is scored by one common power,
+    // and the interference earns only what a power of the lines' own adds to it. Against the
+    // plain model alone, any broad misfit would count as interference at the lines it covers.
+    neighbours.sort_by_key(|(key, _)| *key);
+    neighbours.dedup_by_key(|(key, _)| *key);
+    let beside: Vec<f64> = neighbours.iter().map(|(_, c)| *c).collect();
+    let delta_chi2 = if beside.is_empty() { chi2_0 - nll } else { (chi2_0 - nll).min(line_specific_gain(&at_lines, &beside)) };
     let fitted = Fitted { theta: b.theta, se: b.se, ext: vec![Extension::default(); n], masks, regressors: ctx.read.clone() };
-    Ok(Some(LineFit { delta_chi2: chi2_0 - nll, fitted, excluded, line_hz: line, power, specific }))
+    Ok(Some(LineFit { delta_chi2, fitted, excluded, line_hz: line, power, specific }))
+}
+
+/// −2 ln L gained by scoring the lines' values (χ² per value over both components,
+/// `at_lines`) with a power of their own rather than the one they share with their neighbours
+/// (`beside`): each value's two components scattered with variance σ²(1 + P).
+fn line_specific_gain(at_lines: &[f64], beside: &[f64]) -> f64 {
+    let nll = |values: &[&[f64]]| {
+        let m: f64 = values.iter().map(|v| 2.0 * v.len() as f64).sum();
+        let r2: f64 = values.iter().map(|v| v.iter().sum::<f64>()).sum();
+        let p = (r2 / m - 1.0).max(0.0);
+        r2 / (1.0 + p) + m * (1.0 + p).ln()
+    };
+    (nll(&[at_lines, beside]) - nll(&[at_lines]) - nll(&[beside])).max(0.0)
 }
 
 /// Per level: its refit without the line points plus those points scored with the predictive
@@ -281,5 +310,16 @@ mod tests {
         assert_eq!(own_family(&evidence, 60.0).delta_bic, 8.4);
         assert_eq!(own_family(&[family(50.0, 3.0), family(60.0, 8.4)], 50.0).delta_bic, 3.0);
         assert_eq!(own_family(&[], 60.0).delta_bic, 0.0);
+    }
+
+    /// A misfit that raises the lines and their neighbours alike is no evidence of
+    /// interference; lines well above their neighbours are.
+    #[test]
+    fn only_what_the_lines_show_beyond_their_neighbours_counts() {
+        let broad = [9.0, 11.0, 10.0, 8.0, 12.0];
+        let neighbours = [10.0, 9.5, 11.5, 8.5, 10.5, 10.0, 9.0, 11.0, 10.0, 10.0];
+        assert!(line_specific_gain(&broad, &neighbours) < 1.0, "{}", line_specific_gain(&broad, &neighbours));
+        let clean = [2.0, 1.5, 2.5, 2.0, 1.8, 2.2, 2.1, 1.9, 2.0, 2.0];
+        assert!(line_specific_gain(&broad, &clean) > 5.0, "{}", line_specific_gain(&broad, &clean));
     }
 }
