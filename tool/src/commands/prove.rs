@@ -192,6 +192,8 @@ pub struct Outcome {
     pub record: serde_json::Value,
     /// With `--followups`: the protocol the report asked for and the outcome with it.
     pub after: Option<AfterFollowup>,
+    /// The follow-up recorded and not yet diagnosed.
+    pub pending: Option<PendingFollowup>,
 }
 
 /// A case diagnosed again with the follow-up its report asked for.
@@ -248,7 +250,9 @@ pub fn run_cases(
         // Blind: the diagnosis sees only the file.
         let data = Dataset::read(std::slice::from_ref(&path), &HumidityPath::NONE)?;
         let d = engine::diagnose(calib, &data, &|_| {}).with_context(|| format!("case {i} ({truth})"))?;
-        let after = match d.request.as_ref().filter(|_| followups) {
+        // The follow-up is recorded here; it is diagnosed after every case, one at a time, so
+        // that the time printed is a diagnosis's own, not one sharing the cores with others.
+        let pending = match d.request.as_ref().filter(|_| followups) {
             None => None,
             Some(r) => {
                 let name = path.file_name().expect("a file name").to_string_lossy().into_owned();
@@ -256,19 +260,7 @@ pub fn run_cases(
                     ipmc_sim::followup::make_followup(calib, &case, r.protocol, &name, seed.wrapping_mul(7919).wrapping_add(i as u64))?;
                 let up_path = dir.join(format!("case-{i:03}-{truth}-{}.csv", r.protocol));
                 ipmc_recording::write_atomically(&up_path, up.to_csv()?.as_bytes())?;
-                // The diagnosis's time, as a lab waits for it: reading both files and deciding.
-                let t0 = std::time::Instant::now();
-                let files = ipmc_diagnose::strip_files::read(&[path.clone(), up_path])?;
-                let strip = ipmc_diagnose::strip_diagnosis::diagnose(calib, &files, &HumidityPath::NONE, &|_| {})
-                    .with_context(|| format!("case {i} ({truth}) with its {} follow-up", r.protocol))?;
-                let d2 = &strip.diagnosis;
-                Some(AfterFollowup {
-                    protocol: r.protocol,
-                    verdict: d2.verdict.to_string(),
-                    set: d2.set.clone(),
-                    top: top_of(d2),
-                    seconds: t0.elapsed().as_secs_f64(),
-                })
+                Some(PendingFollowup { protocol: r.protocol, files: [path.clone(), up_path] })
             }
         };
         progress(&format!("case {i}: {truth}"));
@@ -282,7 +274,8 @@ pub fn run_cases(
             heldout_lowered: d.heldout_lowered(),
             set: d.set.clone(),
             top: top_of(&d),
-            after,
+            after: None,
+            pending,
         })
     };
     let next = AtomicUsize::new(0);
@@ -300,12 +293,34 @@ pub fn run_cases(
             });
         }
     });
-    results
+    let mut outcomes: Vec<Outcome> = results
         .into_inner()
         .unwrap_or_else(|e| e.into_inner())
         .into_iter()
         .map(|r| r.unwrap_or_else(|| Err(anyhow::anyhow!("a case was not run"))))
-        .collect()
+        .collect::<Result<_>>()?;
+    for (i, o) in outcomes.iter_mut().enumerate() {
+        let Some(PendingFollowup { protocol, files }) = o.pending.take() else { continue };
+        let t0 = std::time::Instant::now();
+        let read = ipmc_diagnose::strip_files::read(&files)?;
+        let strip = ipmc_diagnose::strip_diagnosis::diagnose(calib, &read, &HumidityPath::NONE, &|_| {})
+            .with_context(|| format!("case {i} ({}) with its {protocol} follow-up", o.truth))?;
+        let d2 = &strip.diagnosis;
+        o.after = Some(AfterFollowup {
+            protocol,
+            verdict: d2.verdict.to_string(),
+            set: d2.set.clone(),
+            top: top_of(d2),
+            seconds: t0.elapsed().as_secs_f64(),
+        });
+    }
+    Ok(outcomes)
+}
+
+/// A case's follow-up recording, written, waiting for its diagnosis with the primary.
+pub struct PendingFollowup {
+    protocol: ipmc_recording::Protocol,
+    files: [std::path::PathBuf; 2],
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -396,7 +411,7 @@ fn second_step_summary(outcomes: &[Outcome]) -> serde_json::Value {
     }
     // Every case whose outcome the follow-up changed, and every one it leaves short of a name.
     println!(
-        "\ncases the follow-up changed or left short of a name (index in the run: truth (magnitude), before → after with the protocol; the diagnosis's seconds with both recordings, on a machine running a case per core)"
+        "\ncases the follow-up changed or left short of a name (index in the run: truth (magnitude), before → after with the protocol; the diagnosis's seconds with both recordings, one diagnosis at a time)"
     );
     for (i, (o, (_, class))) in outcomes.iter().zip(&after).enumerate() {
         if o.after.is_none() && *class != Class::Named {
@@ -600,6 +615,7 @@ fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Opt
             top: o.top.clone(),
             record: serde_json::Value::Null,
             after: None,
+            pending: None,
         })
         .collect();
     let full = table(&as_outcomes);
