@@ -122,7 +122,37 @@ pub fn test_step() -> Result<()> {
             stale.push(format!("{id}: README has {missing:?} in `{}`; the command prints:\n{}", cell.trim(), out.trim()));
         }
     }
+    stale.extend(stale_picture(&figures)?);
     if stale.is_empty() { Ok(()) } else { Err(anyhow!("README figures that no command prints:\n{}", stale.join("\n"))) }
+}
+
+/// The README's picture of the main job and the figures its legend states, which `ipmc plot
+/// compensated` writes beside it (`EST.figures.txt` beside `EST.png`; `cargo xtask qemu` draws
+/// both): redrawn, both are copied here together.
+const PICTURE_FIGURES: &str = "docs/img/sweep-40-80.figures.txt";
+
+/// Whether the picture's legend states the firmware's error as the main job prints it (within
+/// the README's tolerance for that figure): a picture drawn before a change of the figure is
+/// stale. None when it is.
+fn stale_picture(figures: &[Figure]) -> Result<Option<String>> {
+    let Some(out) = output_of("sweep")? else { return Ok(None) };
+    let path = repo_root().join(PICTURE_FIGURES);
+    let legend = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    // The first line is the firmware's estimate (the plot's primary series).
+    let first = legend.lines().next().unwrap_or_default();
+    let tolerance = figures.iter().find(|f| f.id == "sweep").map_or(0.0, |f| f.tolerance);
+    let printed = numbers(&out);
+    let missing: Vec<String> = numbers(first).into_iter().filter(|n| !printed_as(n, &out, &printed, tolerance)).collect();
+    if missing.is_empty() {
+        println!("{PICTURE_FIGURES}: {} as the main job prints", first.trim());
+        Ok(None)
+    } else {
+        Ok(Some(format!(
+            "{PICTURE_FIGURES} (the README's picture) states {missing:?} in `{}`: redraw it with `cargo xtask qemu` and copy EST.png and EST.figures.txt from target/qemu-run/; the main job prints:\n{}",
+            first.trim(),
+            out.trim()
+        )))
+    }
 }
 
 #[cfg(test)]

@@ -121,7 +121,14 @@ pub fn run(a: Args) -> Result<()> {
             if let Some(b) = &baseline {
                 series.push(Series { name: baseline_label, color: humidity_color(95.0), est: est(b)?, primary: false, stated: None });
             }
-            render(&Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay, band)?, &out, (1400, 800))?
+            let figure = Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay, band)?;
+            let drawn = render(&figure, &out, (1400, 800))?;
+            // Its legend's figures beside it, so that a copy kept in the docs can be checked
+            // against what the command prints today.
+            let figures = out.with_extension("figures.txt");
+            ipmc_recording::write_atomically(&figures, figure.legend_figures().as_bytes())?;
+            println!("plot: {}", figures.display());
+            drawn
         }
     };
     println!("plot: {}\nplot: {}", svg.display(), png.display());

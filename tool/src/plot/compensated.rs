@@ -119,6 +119,19 @@ impl Compensated {
     }
 }
 
+impl Compensated {
+    /// The figures its legend states, one line a series ("name: 9.78 % over the run"): what a
+    /// picture kept in the docs is checked against.
+    pub fn legend_figures(&self) -> String {
+        self.series.iter().zip(&self.scores).map(|(s, score)| format!("{}: {}\n", s.name, run_figure(score))).collect()
+    }
+}
+
+/// A series' error over the run as its legend writes it.
+fn run_figure(score: &Option<f64>) -> String {
+    score.map_or_else(|| "not scored".to_string(), |v| format!("{:.2} % over the run", 100.0 * v))
+}
+
 impl Figure for Compensated {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>
     where
@@ -143,7 +156,11 @@ where
     let mut bottom_entries: Vec<(String, RGBColor, Mark)> = vec![];
     let t = |i: usize| i as f64 / fs;
     let span = |v: &[f64]| v[w0..w1].iter().filter(|x| x.is_finite()).fold(0.0f64, |m, x| m.max(x.abs()));
-    let ylim = 1.1 * series.iter().map(|s| span(&s.est)).fold(span(truth), f64::max) * 1e6;
+    // The displacement in the unit that puts its largest value in 1…1000 (µm or mm), its ticks
+    // written as numbers are ("500", "-1.5"), not as floats ("5000.0").
+    let ylim_m = 1.1 * series.iter().map(|s| span(&s.est)).fold(span(truth), f64::max);
+    let (per_unit, unit) = super::scaled_unit(ylim_m, "m");
+    let ylim = ylim_m / per_unit;
 
     let mut chart = ChartBuilder::on(&top)
         .caption(format!("Base displacement in {lo_hz}–{hi_hz} Hz: true vs estimates"), ("sans-serif", 22))
@@ -152,8 +169,15 @@ where
         .y_label_area_size(64)
         .build_cartesian_2d(t(w0)..t(w1), -ylim..ylim)
         .map_err(pe)?;
-    chart.configure_mesh().x_desc("t [s]").y_desc("base [µm]").draw().map_err(pe)?;
-    let line = |v: &[f64]| (w0..w1).filter(|&i| v[i].is_finite()).map(|i| (t(i), v[i] * 1e6)).collect::<Vec<_>>();
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_desc(format!("base [{unit}]"))
+        .x_label_formatter(&|v| super::tick_label(*v))
+        .y_label_formatter(&|v| super::tick_label(*v))
+        .draw()
+        .map_err(pe)?;
+    let line = |v: &[f64]| (w0..w1).filter(|&i| v[i].is_finite()).map(|i| (t(i), v[i] / per_unit)).collect::<Vec<_>>();
     // Back to front: the baseline (largest), the truth, then the compensated estimate on top.
     for s in series.iter().rev().filter(|s| !s.primary) {
         chart.draw_series(LineSeries::new(line(&s.est), s.color.mix(0.6).stroke_width(1))).map_err(pe)?;
@@ -208,6 +232,7 @@ where
         .configure_mesh()
         .x_desc("t [s] (samples' time, bursts end to end)")
         .y_desc("error [%]")
+        .x_label_formatter(&|v| super::tick_label(*v))
         .y_labels(6)
         .y_label_formatter(&|v| if *v >= 1.0 { format!("{v:.0}") } else { format!("{v:.2}") })
         .draw()
@@ -232,7 +257,7 @@ where
                 from = k;
             }
         }
-        let figure = score.map_or_else(|| "not scored".to_string(), |v| format!("{:.2} % over the run", 100.0 * v));
+        let figure = run_figure(score);
         bottom_entries.push((format!("{}: {figure}", s.name), s.color, Mark::Line(2)));
     }
     side_legend(&bottom_legend, &bottom_entries)?;
