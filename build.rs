@@ -32,10 +32,11 @@ const CALIB_VAR: &str = "IPMC_CALIB";
 
 fn main() -> ExitCode {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
-    fs::copy("memory.x", out.join("memory.x")).expect("memory.x at the crate root");
+    let root = repo_root();
+    fs::copy(root.join("memory.x"), out.join("memory.x")).expect("memory.x at the repository root");
     println!("cargo:rustc-link-search={}", out.display());
-    println!("cargo:rerun-if-changed=memory.x");
-    println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+    println!("cargo:rerun-if-changed={}", root.join("build.rs").display());
     println!("cargo:rerun-if-env-changed={CALIB_VAR}");
 
     let (calibration, source) = match load_calibration() {
@@ -68,13 +69,19 @@ fn main() -> ExitCode {
     ExitCode::SUCCESS
 }
 
+/// The repository's root: this script builds the `ipmc-firmware` library there, and the
+/// `firmware-bin` package, one level below, runs it too (for its benchmark).
+fn repo_root() -> PathBuf {
+    let dir = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    if dir.ends_with("firmware-bin") { dir.parent().expect("the repository holds firmware-bin").to_path_buf() } else { dir }
+}
+
 /// The calibration and a name for where it came from.
 fn load_calibration() -> Result<(Calibration, String), String> {
     let Some(path) = env::var_os(CALIB_VAR).filter(|p| !p.is_empty()) else {
         return Ok((Calibration::default_preset(), "the default preset".into()));
     };
-    let root = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
-    let path = root.join(Path::new(&path));
+    let path = repo_root().join(Path::new(&path));
     println!("cargo:rerun-if-changed={}", path.display());
     let shown = path.display().to_string();
     let text = fs::read_to_string(&path).map_err(|e| format!("{CALIB_VAR}={shown}: cannot read: {e}"))?;

@@ -1,51 +1,15 @@
-//! IPMC humidity-compensated base-motion sensing firmware.
+//! The firmware's entry point; the firmware itself is the `ipmc-firmware` library (src/lib.rs).
 //!
-//! Data flows one way: board sources (ADC current, humidity) → `app` (ipmc-core compensation)
-//! → reports (defmt logs + framed binary stream). Everything board-specific is in `board`;
-//! `app` is the same code for every board.
-//!
-//! Three priority levels, highest first:
-//! - sample executor (interrupt): per-block compensation, never waits on anything slower;
-//! - I/O executor (interrupt): humidity polling and the report stream;
-//! - thread mode: filter retunes (`design_inverse` is slow and may take many blocks) and the
-//!   strip's own hygrometer's fits (once a second at most).
+//! Why a package of its own (`firmware-bin/`): under fat LTO the whole program is optimized at the
+//! opt-level of the crate that links it, and at "s" LLVM unrolls no loop, the per-sample path's
+//! included (430 instructions a sample instead of 373). Linked here, at opt-level 3, the program
+//! is optimized for speed where a function asks for it: the core's hot calls
+//! (`ipmc_core::firmware::hot`); the library, built for size, marks its own functions so.
 
 #![no_std]
 #![no_main]
 
-#[cfg(all(feature = "board-b-l475e", feature = "qemu"))]
-compile_error!("select exactly one board feature: `board-b-l475e` (default) or `qemu`");
-#[cfg(not(any(feature = "board-b-l475e", feature = "qemu")))]
-compile_error!("select a board feature: `board-b-l475e` (default) or `qemu`");
-
-#[cfg(all(feature = "humidity-hih4030", feature = "humidity-sht4x"))]
-compile_error!("select at most one humidity sensor feature: `humidity-hih4030` or `humidity-sht4x` (none: the on-board HTS221)");
-
-mod app;
-mod board;
-mod contract;
-
-use embassy_executor::Executor;
-use static_cell::StaticCell;
-
-static RETUNE_EXECUTOR: StaticCell<Executor> = StaticCell::new();
-
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    let board = board::init();
-    defmt::info!("ipmc firmware on {}, calibration: {}", board::NAME, contract::calibration::CALIBRATION_SOURCE);
-
-    // Before any executor runs: see `SamplePath::prepare`.
-    let sample_path = app::sample_path::SamplePath::prepare();
-    let sample_spawner = board::start_sample_executor();
-    sample_spawner.spawn(app::sample_path::sample_task(board.samples, sample_path).expect("sample task spawns once"));
-
-    let io_spawner = board::start_io_executor();
-    io_spawner.spawn(app::humidity::humidity_task(board.humidity).expect("humidity task spawns once"));
-    io_spawner.spawn(app::report::report_task(board.stream).expect("report task spawns once"));
-
-    RETUNE_EXECUTOR.init(Executor::new()).run(|spawner| {
-        spawner.spawn(app::retune::retune_task().expect("retune task spawns once"));
-        spawner.spawn(app::hygrometer::fit_task().expect("fit task spawns once"));
-    })
+    ipmc_firmware::run()
 }

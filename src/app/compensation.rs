@@ -2,7 +2,8 @@
 //! tasks read as data flow and the core API is named in one place.
 
 use ipmc_core::{
-    Calibration, Compensator, DesignConfig, DesignError, Inverse, design_inverse,
+    Calibration, Compensator, DesignConfig, DesignError, Inverse,
+    firmware::hot,
     humidity::hygrometer::{Snapshot, noise_psd},
     humidity::strip::{Refusal, StripRh, strip_rh},
     inverse::expected_error::ErrorTable,
@@ -30,7 +31,7 @@ fn design_config() -> DesignConfig<f32> {
 
 /// Slow: runs in the retune task only.
 pub fn design(calibration: &Calibration, rh_pct: f32) -> Result<Inverse<f32>, DesignError> {
-    design_inverse(calibration, rh_pct, &design_config())
+    hot::design(calibration, rh_pct)
 }
 
 /// The per-sample path state.
@@ -55,7 +56,7 @@ impl SamplePathFilter {
     #[inline(always)]
     pub fn process(&mut self, block: &mut [f32]) -> bool {
         let bad_before = self.0.bad_samples;
-        self.0.process_block(block);
+        hot::process_block(&mut self.0, block);
         self.0.bad_samples != bad_before
     }
     /// RH [%] of the design the filter runs (or fades to).
@@ -68,6 +69,6 @@ impl SamplePathFilter {
     }
     /// Glitch-free crossfade to a new design.
     pub fn switch_to(&mut self, design: &Inverse<f32>) {
-        self.0.switch_to(design)
+        hot::switch_to(&mut self.0, design)
     }
 }

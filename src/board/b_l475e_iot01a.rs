@@ -479,11 +479,8 @@ impl CurrentSource for Samples {
         if core::mem::take(&mut self.first_conversion) {
             self.codes[0] = self.codes[1];
         }
-        for (a, &code) in amps.iter_mut().zip(self.codes.iter()) {
-            if current_conversion::is_clipped_code(code) {
-                block_flags |= flags::CLIPPED;
-            }
-            *a = self.front_end.amps(code);
+        if self.front_end.convert(&self.codes, amps) {
+            block_flags |= flags::CLIPPED;
         }
         SampleBlock::Ready { flags: block_flags, lost_samples }
     }

@@ -31,6 +31,13 @@ impl FrontEnd {
     pub fn amps(&self, code: u16) -> f32 {
         (code as f32 - MID_SCALE_CODE) * self.amps_per_code
     }
+
+    /// A block of codes → `amps`, as [`Self::amps`] each; true if one of them is clipped
+    /// ([`is_clipped_code`]). Per sample: made in ipmc-core for speed (`ipmc_core::firmware::hot`).
+    #[inline(always)]
+    pub fn convert(&self, codes: &[u16], amps: &mut [f32]) -> bool {
+        ipmc_core::firmware::hot::codes_to_amps(codes, amps, MID_SCALE_CODE, self.amps_per_code, ADC_CLIP_MARGIN_CODES, ADC_FULL_SCALE_CODE)
+    }
 }
 
 const MID_SCALE_CODE: f32 = TIA_BIAS_V / VOLTS_PER_CODE;
