@@ -362,7 +362,7 @@ fn hygrometer(instr: impl Fn(u32) -> f64) {
     }
     let view = SpectrumView { psd: &psd[..v.psd.len()], segments: 40.0, ..v };
     let t = now();
-    let fit = black_box(ipmc_core::humidity::strip::strip_rh(&generated::STRIP_TABLE, black_box(&view), 0.0));
+    let fit = black_box(ipmc_cold::fit(&generated::STRIP_TABLE, black_box(&view), 0.0));
     println!("instructions_per_fit {}", instr(since(t)));
     match fit {
         Ok(e) => println!("fit_rh_pct {}", e.rh_pct),

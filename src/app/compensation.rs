@@ -5,7 +5,7 @@ use ipmc_core::{
     Calibration, Compensator, DesignConfig, DesignError, Inverse,
     firmware::hot,
     humidity::hygrometer::{Snapshot, noise_psd},
-    humidity::strip::{Refusal, StripRh, strip_rh},
+    humidity::strip::{Refusal, StripRh},
     inverse::expected_error::ErrorTable,
 };
 
@@ -22,7 +22,7 @@ pub fn error_table() -> ErrorTable {
 /// The strip's humidity from a snapshot of its current's spectrum, with the model table baked
 /// for this calibration. Slow: runs in the fit task only.
 pub fn fit(snapshot: &Snapshot<f32>) -> Result<StripRh<f32>, Refusal> {
-    strip_rh(&crate::contract::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(&calibration()))
+    ipmc_cold::fit(&crate::contract::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(&calibration()))
 }
 
 fn design_config() -> DesignConfig<f32> {
