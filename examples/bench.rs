@@ -36,7 +36,7 @@ mod generated {
 use biquad::{Biquad, Coefficients, DirectForm2Transposed};
 use cortex_m::peripheral::{SYST, syst::SystClkSource};
 use current_conversion::FrontEnd;
-use ipmc_core::{Calibration, Cascade, Compensator, DesignConfig, Inverse, firmware::hot, inverse::expected_error::BlockError};
+use ipmc_core::{Calibration, Cascade, Compensator, DesignConfig, Inverse, firmware::device_calls, inverse::expected_error::BlockError};
 use semihosting::println;
 // The device vector table cortex-m-rt links against.
 use stm32_metapac as _;
@@ -118,7 +118,7 @@ fn dma_block(codes: &[u16; 2048], at: usize) -> &[u16; BLOCK_LEN] {
 fn sample_block(comp: &mut Compensator<f32>, codes: &[u16; BLOCK_LEN]) -> bool {
     let mut amps = [0.0f32; BLOCK_LEN];
     let clipped = FrontEnd::NOMINAL.convert(codes, &mut amps);
-    hot::process_block(comp, &mut amps);
+    device_calls::process_block(comp, &mut amps);
     black_box(&amps);
     clipped
 }
@@ -142,7 +142,7 @@ fn biquad_block(sections: &mut [DirectForm2Transposed<f32, f32>], block: &mut [f
 }
 
 fn design(rh: f32) -> Inverse<f32> {
-    match hot::design(&Calibration::default(), rh) {
+    match device_calls::design(&Calibration::default(), rh) {
         Ok(d) => d,
         Err(_) => {
             println!("error design failed at {} %RH", rh);
@@ -195,7 +195,7 @@ fn main() -> ! {
 
     // A retune in the sample path: the switch, then warm-up and crossfade until it completes.
     let t = now();
-    hot::switch_to(&mut comp, &d60);
+    device_calls::switch_to(&mut comp, &d60);
     let switch = instr(since(t));
     let mut blocks = 0u32;
     let t = now();
@@ -212,7 +212,7 @@ fn main() -> ! {
     let t = now();
     for k in 0..BLOCKS {
         est[(k as usize) % BLOCK_LEN] = 1e-5 * (k % 7) as f32;
-        black_box(hot::block_error(&mut bar, black_box(45.0 + (k % 100) as f32 * 0.1), black_box(&est)));
+        black_box(device_calls::block_error(&mut bar, black_box(45.0 + (k % 100) as f32 * 0.1), black_box(&est)));
     }
     println!("instructions_per_block_error {}", instr(since(t)) / BLOCKS as f64);
 
@@ -256,7 +256,7 @@ fn main() -> ! {
     let t = now();
     for _ in 0..BLOCKS {
         let mut block = amps_of(dma_block(&codes, at));
-        hot::cascade_block(&mut cascade, &mut block);
+        device_calls::cascade_block(&mut cascade, &mut block);
         black_box(&block);
         at += BLOCK_LEN;
     }
@@ -288,7 +288,7 @@ fn band_filter(
     let t = now();
     for _ in 0..BLOCKS {
         let mut block = amps_of(dma_block(codes, at));
-        hot::band_block(&mut f, &mut block);
+        device_calls::band_block(&mut f, &mut block);
         black_box(&block);
         at += BLOCK_LEN;
     }
@@ -362,7 +362,7 @@ fn hygrometer(instr: impl Fn(u32) -> f64) {
     }
     let view = SpectrumView { psd: &psd[..v.psd.len()], segments: 40.0, ..v };
     let t = now();
-    let fit = black_box(ipmc_cold::fit(&generated::STRIP_TABLE, black_box(&view), 0.0));
+    let fit = black_box(ipmc_hygrometer_fit::fit(&generated::STRIP_TABLE, black_box(&view), 0.0));
     println!("instructions_per_fit {}", instr(since(t)));
     match fit {
         Ok(e) => println!("fit_rh_pct {}", e.rh_pct),
@@ -389,7 +389,7 @@ fn spectrum_per_sample(
         for v in block.iter_mut() {
             *v = 1e-7 * (rng.next() - 0.5);
         }
-        black_box(hot::push_spectrum(&mut spectrum, black_box(&block)));
+        black_box(device_calls::push_spectrum(&mut spectrum, black_box(&block)));
     }
     let with_push = instr(since(t));
     let t = now();

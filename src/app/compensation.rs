@@ -3,7 +3,7 @@
 
 use ipmc_core::{
     Calibration, Compensator, DesignConfig, DesignError, Inverse,
-    firmware::hot,
+    firmware::device_calls,
     humidity::hygrometer::{Snapshot, noise_psd},
     humidity::strip::{Refusal, StripRh},
     inverse::expected_error::ErrorTable,
@@ -22,7 +22,7 @@ pub fn error_table() -> ErrorTable {
 /// The strip's humidity from a snapshot of its current's spectrum, with the model table baked
 /// for this calibration. Slow: runs in the fit task only.
 pub fn fit(snapshot: &Snapshot<f32>) -> Result<StripRh<f32>, Refusal> {
-    ipmc_cold::fit(&crate::contract::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(&calibration()))
+    ipmc_hygrometer_fit::fit(&crate::contract::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(&calibration()))
 }
 
 fn design_config() -> DesignConfig<f32> {
@@ -31,7 +31,7 @@ fn design_config() -> DesignConfig<f32> {
 
 /// Slow: runs in the retune task only.
 pub fn design(calibration: &Calibration, rh_pct: f32) -> Result<Inverse<f32>, DesignError> {
-    hot::design(calibration, rh_pct)
+    device_calls::design(calibration, rh_pct)
 }
 
 /// The per-sample path state.
@@ -56,7 +56,7 @@ impl SamplePathFilter {
     #[inline(always)]
     pub fn process(&mut self, block: &mut [f32]) -> bool {
         let bad_before = self.0.bad_samples;
-        hot::process_block(&mut self.0, block);
+        device_calls::process_block(&mut self.0, block);
         self.0.bad_samples != bad_before
     }
     /// RH [%] of the design the filter runs (or fades to).
@@ -69,6 +69,6 @@ impl SamplePathFilter {
     }
     /// Glitch-free crossfade to a new design.
     pub fn switch_to(&mut self, design: &Inverse<f32>) {
-        hot::switch_to(&mut self.0, design)
+        device_calls::switch_to(&mut self.0, design)
     }
 }

@@ -10,7 +10,7 @@ use core::ptr::addr_of_mut;
 use ipmc_core::{
     Inverse,
     calibration::humidity_path::HumidityMode,
-    firmware::hot,
+    firmware::device_calls,
     firmware::operating_point::asks_for_design,
     firmware::startup::Request,
     firmware::stuck::StuckDetector,
@@ -174,7 +174,7 @@ impl SamplePath {
         // The strip dried or wetted through the lost samples too.
         self.since_last += lost_samples;
         block.header.flags = source_flags | handoff::conditions();
-        if hot::observe_stuck(&mut self.stuck, &block.base_est_m) {
+        if device_calls::observe_stuck(&mut self.stuck, &block.base_est_m) {
             block.header.flags |= flags::STUCK;
         }
 
@@ -184,7 +184,7 @@ impl SamplePath {
             self.hygrometer.complete(result);
             block.header.flags |= flags::FIT_DONE;
         }
-        if let Some(snapshot) = hot::push_current(&mut self.hygrometer, &block.base_est_m, self.humidity.strip_pct()) {
+        if let Some(snapshot) = device_calls::push_current(&mut self.hygrometer, &block.base_est_m, self.humidity.strip_pct()) {
             FIT_REQUEST.signal(snapshot);
             block.header.flags |= flags::FIT_STARTED;
         }
@@ -196,7 +196,7 @@ impl SamplePath {
         if self.filter.process(&mut block.base_est_m) {
             block.header.flags |= flags::BAD_SAMPLE;
         }
-        block.header.rel_err = hot::block_error(&mut self.error_bar, self.filter.rh_pct(), &block.base_est_m);
+        block.header.rel_err = device_calls::block_error(&mut self.error_bar, self.filter.rh_pct(), &block.base_est_m);
 
         block.header.rh_read_pct = LATEST_READ_RH_PCT.load();
         // The humidity task flags its own failures; a wedged I/O executor runs no task to do so,

@@ -33,10 +33,17 @@ impl FrontEnd {
     }
 
     /// A block of codes → `amps`, as [`Self::amps`] each; true if one of them is clipped
-    /// ([`is_clipped_code`]). Per sample: made in ipmc-core for speed (`ipmc_core::firmware::hot`).
+    /// ([`is_clipped_code`]). Per sample: made in ipmc-core for speed (`ipmc_core::firmware::device_calls`).
     #[inline(always)]
     pub fn convert(&self, codes: &[u16], amps: &mut [f32]) -> bool {
-        ipmc_core::firmware::hot::codes_to_amps(codes, amps, MID_SCALE_CODE, self.amps_per_code, ADC_CLIP_MARGIN_CODES, ADC_FULL_SCALE_CODE)
+        ipmc_core::firmware::device_calls::codes_to_amps(
+            codes,
+            amps,
+            MID_SCALE_CODE,
+            self.amps_per_code,
+            ADC_CLIP_MARGIN_CODES,
+            ADC_FULL_SCALE_CODE,
+        )
     }
 }
 

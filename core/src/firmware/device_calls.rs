@@ -1,7 +1,7 @@
 //! The device's calls with a budget of speed, for f32, made here: the conversion of the ADC's
 //! codes, the compensator, a block's error bar, the stuck input's check and the hygrometer's
 //! running spectrum (per sample), a retune's design, and the band's and the cascade's filters
-//! alone for the bench. Built for size (the `ipmc-cold` crate, where the hygrometer's fit is
+//! alone for the bench. Built for size (the `ipmc-hygrometer-fit` crate, where the hygrometer's fit is
 //! made), the design took 511 750 instructions (budget 500 000) and the spectrum 33.0 a sample
 //! (budget 30).
 //!

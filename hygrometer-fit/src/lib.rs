@@ -6,7 +6,7 @@
 //! firmware and its benchmark both call it, so the benchmark times what the firmware runs (made
 //! in the benchmark itself, at 3, the fit took 2.4 million). A retune's design and the running
 //! spectrum miss their budgets when built for size: they are the core's, at 3
-//! (`ipmc_core::firmware::hot`).
+//! (`ipmc_core::firmware::device_calls`).
 
 #![no_std]
 
