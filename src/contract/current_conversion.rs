@@ -7,12 +7,6 @@ use super::config::{ADC_CLIP_MARGIN_CODES, ADC_FULL_SCALE_CODE, ADC_VREF_V, TIA_
 
 const VOLTS_PER_CODE: f32 = ADC_VREF_V / ADC_FULL_SCALE_CODE as f32;
 
-/// Current in amperes for one ADC code with the nominal reference (`config::ADC_VREF_V`).
-#[inline(always)]
-pub fn code_to_amps(code: u16) -> f32 {
-    FrontEnd::NOMINAL.amps(code)
-}
-
 /// ADC code → current for a reference voltage measured at start-up. The TIA's bias is a
 /// divider of the same supply, so it stays at mid-scale in codes; only the scale follows VDDA.
 #[derive(Clone, Copy)]
@@ -27,13 +21,9 @@ impl FrontEnd {
         FrontEnd { amps_per_code: vref_v / ADC_FULL_SCALE_CODE as f32 / TIA_GAIN_V_PER_A }
     }
 
-    #[inline(always)]
-    pub fn amps(&self, code: u16) -> f32 {
-        (code as f32 - MID_SCALE_CODE) * self.amps_per_code
-    }
-
-    /// A block of codes → `amps`, as [`Self::amps`] each; true if one of them is clipped
-    /// ([`is_clipped_code`]). Per sample: made in ipmc-core for speed (`ipmc_core::firmware::device_calls`).
+    /// A block of codes → `amps`, (code − mid-scale) · amperes per code; true if a code lies
+    /// within `ADC_CLIP_MARGIN_CODES` of either rail. Per sample: made in ipmc-core for speed
+    /// (`ipmc_core::firmware::device_calls`), the one place the conversion is written.
     #[inline(always)]
     pub fn convert(&self, codes: &[u16], amps: &mut [f32]) -> bool {
         ipmc_core::firmware::device_calls::codes_to_amps(
@@ -48,11 +38,6 @@ impl FrontEnd {
 }
 
 const MID_SCALE_CODE: f32 = TIA_BIAS_V / VOLTS_PER_CODE;
-
-#[inline(always)]
-pub fn is_clipped_code(code: u16) -> bool {
-    code <= ADC_CLIP_MARGIN_CODES || code >= ADC_FULL_SCALE_CODE - ADC_CLIP_MARGIN_CODES
-}
 
 /// Largest current the front end can represent without clipping, either sign.
 pub const CLIP_LIMIT_AMPS: f32 = (TIA_BIAS_V - ADC_CLIP_MARGIN_CODES as f32 * VOLTS_PER_CODE) / TIA_GAIN_V_PER_A;
