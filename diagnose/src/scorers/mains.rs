@@ -204,15 +204,13 @@ fn fit_without_lines(ctx: &Ctx, line: f64, chi2_0: f64) -> Result<Option<LineFit
             }
             let Some(here) = chi2_at(i) else { continue };
             at_lines.push(here);
-            let beside_at: Vec<usize> = [i.wrapping_sub(1), i + 1].into_iter().filter(|&j| j < cur.len() && masks[l].current[j]).collect();
-            let beside: Vec<f64> = beside_at
-                .iter()
-                .filter_map(|&j| chi2_at(j).map(|c| ((l, j), c)))
-                .map(|(key, c)| {
-                    neighbours.push((key, c));
-                    c
-                })
+            let beside_at: Vec<(usize, f64)> = [i.wrapping_sub(1), i + 1]
+                .into_iter()
+                .filter(|&j| j < cur.len() && masks[l].current[j])
+                .filter_map(|j| chi2_at(j).map(|c| (j, c)))
                 .collect();
+            neighbours.extend(beside_at.iter().map(|&(j, c)| ((l, j), c)));
+            let beside: Vec<f64> = beside_at.iter().map(|&(_, c)| c).collect();
             if !beside.is_empty() {
                 let p = 1.0 / (beside.len() + 1) as f64;
                 expected += p;
