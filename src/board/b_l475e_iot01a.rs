@@ -45,6 +45,7 @@ use embassy_stm32::peripherals::{DMA1_CH6, DMA1_CH7, I2C1};
 #[cfg(feature = "humidity-hih4030")]
 use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
 use embassy_time::{Duration, Instant, with_timeout};
+use ipmc_core::firmware::block_wait::{BlockWait, Then, Waited};
 use ipmc_core::firmware::lost_samples::RingBlocks;
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use ipmc_core::humidity::sensor::Hts221Calibration;
@@ -442,29 +443,23 @@ impl CurrentSource for Samples {
     }
 
     async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
-        let mut block_flags = 0;
-        let mut gap = false;
+        let mut wait = BlockWait::new();
         let ring_holds = loop {
-            match with_timeout(ADC_STALL, self.adc.read(&mut self.codes)).await {
-                Ok(Ok(holds)) => break holds,
-                // The sample path fell a whole half-buffer behind: the ring restarts at the DMA
-                // and the gap is flagged.
-                Ok(Err(_)) => {
-                    block_flags |= flags::SAMPLES_LOST;
-                    gap = true;
+            let (waited, holds) = match with_timeout(ADC_STALL, self.adc.read(&mut self.codes)).await {
+                Ok(Ok(holds)) => (Waited::Block, holds),
+                Ok(Err(_)) => (Waited::FellBehind, 0),
+                Err(_) => (Waited::Silent { adc_overran: pac::ADC1.isr().read().ovr() }, 0),
+            };
+            match wait.after(waited) {
+                Then::Take => break holds,
+                Then::RestartConversions => {
+                    self.restart_conversions();
+                    defmt::warn!("ADC overrun: conversions restarted");
                 }
-                // No block for three periods. An ADC overrun blocks the DMA requests until OVR
-                // is cleared; anything else (a hung DMA) is the watchdog's.
-                Err(_) => {
-                    if pac::ADC1.isr().read().ovr() {
-                        self.restart_conversions();
-                        defmt::warn!("ADC overrun: conversions restarted");
-                        block_flags |= flags::ADC_OVERRUN | flags::SAMPLES_LOST;
-                        gap = true;
-                    }
-                }
+                Then::WaitAgain => {}
             }
         };
+        let mut block_flags = wait.flags();
         // Fed by progress: a block arrived, so the previous one was processed.
         if let Some(w) = self.watchdog.as_mut() {
             w.pet();
@@ -472,7 +467,7 @@ impl CurrentSource for Samples {
         if self.clock_fault || crystal_failed() {
             block_flags |= flags::CLOCK_FAULT;
         }
-        let lost_samples = self.ring.block(self.now_us(), ring_holds, gap);
+        let lost_samples = self.ring.block(self.now_us(), ring_holds, wait.gap());
         // STM32L47x erratum (ES0250, "wrong ADC result if conversion done late after
         // calibration"): the first conversion after calibration may be wrong. embassy discards
         // it in its blocking path, not in the ring-buffered one: hold the second in its place.

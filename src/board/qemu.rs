@@ -15,13 +15,15 @@
 //! the board lets the humidity task read the next burst's humidity, then reports the wait's
 //! samples as lost, so the strip's hydration moves on through it as it would on the bench.
 //! A current of −inf is an ADC overrun at that sample: as on the board, its DMA requests stop,
-//! the sample path finds no block for `ADC_STALL_BLOCKS` periods, restarts the conversions and
-//! flags `ADC_OVERRUN` with the samples the stop cost.
+//! the sample path finds no block for `ADC_STALL_BLOCKS` periods with the overrun flag set, and
+//! the hardware board's decisions (`ipmc_core::firmware::block_wait`) restart the conversions and
+//! flag `ADC_OVERRUN` with the samples the stop cost: without the restart the replay stays silent.
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m_rt::exception;
 use embassy_time::{Duration, Instant, Ticker, Timer};
+use ipmc_core::firmware::block_wait::{BlockWait, Then, Waited};
 use ipmc_core::wire::replay::{self, BYTES_PER_GAP, BYTES_PER_SAMPLE, Gap};
 use semihosting::{fs::File, io::Read};
 use systick_timer::SystickDriver;
@@ -116,7 +118,7 @@ pub fn init() -> Board {
         wait_count: gaps as usize,
         next_wait: 0,
         delivered: 0,
-        stalled_blocks_left: 0,
+        adc_stopped: false,
     };
 
     pac::RCC.apb2enr().modify(|w| w.set_usart1en(true));
@@ -140,8 +142,8 @@ pub struct Samples {
     next_wait: usize,
     /// Samples delivered so far.
     delivered: u32,
-    /// Blocks still to drop after a replayed ADC overrun.
-    stalled_blocks_left: u32,
+    /// A replayed ADC overrun stopped the DMA requests, until the conversions are restarted.
+    adc_stopped: bool,
 }
 
 impl Samples {
@@ -192,31 +194,45 @@ impl CurrentSource for Samples {
 
     async fn read_block(&mut self, amps: &mut [f32; BLOCK_LEN]) -> SampleBlock {
         let mut overrun_lost = 0u32;
+        let mut wait = BlockWait::new();
         let raw = loop {
-            let Some(raw) = self.next_raw_block().await else {
-                return SampleBlock::End;
-            };
-            let overran = raw.as_chunks::<BYTES_PER_SAMPLE>().0.iter().any(|c| replay::Sample::decode(c).current_a == f32::NEG_INFINITY);
-            if overran {
-                // The block being filled when the ADC overran, and the blocks that would have
-                // come while the sample path waited for them: gone.
-                overrun_lost += BLOCK_LEN as u32;
-                self.delivered += BLOCK_LEN as u32;
-                self.stalled_blocks_left = ADC_STALL_BLOCKS as u32;
-            } else if self.stalled_blocks_left > 0 {
-                self.stalled_blocks_left -= 1;
-                overrun_lost += BLOCK_LEN as u32;
-                self.delivered += BLOCK_LEN as u32;
+            let (waited, raw) = if self.adc_stopped {
+                // The DMA requests stay blocked: the sample path hears nothing for its stall
+                // limit while the replay's samples go by.
+                for _ in 0..ADC_STALL_BLOCKS {
+                    if self.next_raw_block().await.is_none() {
+                        return SampleBlock::End;
+                    }
+                    overrun_lost += BLOCK_LEN as u32;
+                    self.delivered += BLOCK_LEN as u32;
+                }
+                (Waited::Silent { adc_overran: true }, None)
             } else {
-                break raw;
+                let Some(raw) = self.next_raw_block().await else {
+                    return SampleBlock::End;
+                };
+                let overran =
+                    raw.as_chunks::<BYTES_PER_SAMPLE>().0.iter().any(|c| replay::Sample::decode(c).current_a == f32::NEG_INFINITY);
+                if overran {
+                    // The block being filled when the ADC overran: gone, and the DMA stops.
+                    self.adc_stopped = true;
+                    overrun_lost += BLOCK_LEN as u32;
+                    self.delivered += BLOCK_LEN as u32;
+                    continue;
+                }
+                (Waited::Block, Some(raw))
+            };
+            match (wait.after(waited), raw) {
+                (Then::Take, Some(raw)) => break raw,
+                (Then::RestartConversions, _) => self.adc_stopped = false,
+                _ => {}
             }
         };
         let chunks = raw.as_chunks::<BYTES_PER_SAMPLE>().0;
         let lost_samples = self.lost_before_block_end();
-        let mut block_flags = 0;
+        let mut block_flags = wait.flags();
         if overrun_lost > 0 {
             defmt::warn!("ADC overrun: conversions restarted, {} samples lost", overrun_lost);
-            block_flags |= flags::ADC_OVERRUN | flags::SAMPLES_LOST;
         }
         if lost_samples > 0 {
             // Off the sample clock for the wait, but not off the humidity sensor: the humidity
