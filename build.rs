@@ -267,12 +267,13 @@ fn error_table_expr(c: &Calibration) -> String {
     let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
     format!(
         "ipmc_core::inverse::expected_error::ErrorTable {{ rh0_pct: f32::from_bits({:#x}), step_pct: f32::from_bits({:#x}), n: {}, \
-         model_var: [{}], noise_m2: [{}] }}",
+         model_var: [{}], noise_m2: [{}], beyond_var_per_pct2: [{}] }}",
         t.rh0_pct.to_bits(),
         t.step_pct.to_bits(),
         t.n,
         bits(&t.model_var),
-        bits(&t.noise_m2)
+        bits(&t.noise_m2),
+        bits(&t.beyond_var_per_pct2)
     )
 }
 

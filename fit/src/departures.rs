@@ -210,6 +210,9 @@ pub struct StripModel {
     pub degree: [Option<usize>; 4],
     pub has_departures: [bool; 4],
     pub law_tests: [Option<LawTest>; 4],
+    /// Per parameter, what the calibration keeps (law, departures and the reading's error
+    /// together) against each level held out ([`kept_test`]).
+    pub kept_tests: [Option<LawTest>; 4],
     /// Levels per parameter.
     pub levels: [usize; 4],
     center: f64,
@@ -535,6 +538,7 @@ impl StripModel {
         let law_tests = core::array::from_fn(|k| law_test(&problem, k, degree[k]?, spread));
 
         let (_, post) = problem.reml(problem.covariance(&amplitude, &length_pct, spread)).ok_or(ModelError::Singular)?;
+        let kept_tests = core::array::from_fn(|k| kept_test(&post, &problem.h, &problem.obs, k));
         let mixture =
             core::array::from_fn(|k| if gp[k] { over_lengths(&problem, k, &amplitude, &length_pct, spread, max_length) } else { vec![] });
         let amplitude = core::array::from_fn(|k| if gp[k] { amplitude[k] } else { 0.0 });
@@ -544,6 +548,7 @@ impl StripModel {
             degree,
             has_departures: gp,
             law_tests,
+            kept_tests,
             levels: count,
             center,
             half,
@@ -741,6 +746,31 @@ fn law_test(p: &Problem<'_>, k: usize, degree: usize, sd: Spread) -> Option<LawT
     Some(LawTest { chi2, dof, p_value: chi2_tail(chi2, dof) })
 }
 
+/// Each of parameter `k`'s levels against what the rest of the model predicts there, the law's
+/// coefficients refitted without it (leave-one-out, in closed form for a linear model with
+/// known covariance C and mean basis H: with P = C⁻¹ − C⁻¹H(HᵀC⁻¹H)⁻¹HᵀC⁻¹, the held-out
+/// residual is (Py)ᵢ/Pᵢᵢ with variance 1/Pᵢᵢ, and Py is the posterior's α). The sum of the
+/// squared z's has its levels' number as mean when the model the calibration keeps (law,
+/// departures and read errors at their fitted sizes) explains the levels; a level it cannot
+/// predict, a read error beyond σₑ or a law bent by one level, raises it. The law alone is not
+/// the test: a strip with departures misses it by construction.
+fn kept_test(post: &Posterior, h: &DMatrix<f64>, obs: &[(usize, usize)], k: usize) -> Option<LawTest> {
+    let rows: Vec<usize> = (0..obs.len()).filter(|&a| obs[a].0 == k).collect();
+    if rows.len() < 2 {
+        return None;
+    }
+    let cinv = post.chol.inverse();
+    let q = &cinv * h;
+    let chi2 = rows
+        .iter()
+        .map(|&a| {
+            let p_aa = cinv[(a, a)] - (q.row(a) * &post.hch_inv * q.row(a).transpose())[(0, 0)];
+            post.alpha[a] * post.alpha[a] / p_aa
+        })
+        .sum::<f64>();
+    chi2.is_finite().then(|| LawTest { chi2, dof: rows.len(), p_value: chi2_tail(chi2, rows.len()) })
+}
+
 /// The departures table over `rh_range`: [`MAX_DEPARTURE_POINTS`] evenly spaced humidities,
 /// each parameter's departure there plus `law_misfit(k, x)` (what the written law leaves of the
 /// model's law), clamped to what a table may hold.
@@ -868,6 +898,33 @@ mod tests {
         }
     }
 
+    /// What the calibration keeps, each level held out: consistent levels give Σz² near their
+    /// number, the departures of the test below included (the law alone fails there). A level
+    /// read far beyond the stated reading uncertainty is kept as a departure of its size, so the
+    /// calibration states it as uncertainty (the law alone's test fails, the kept one passes):
+    /// what it cannot explain it does not claim to know.
+    #[test]
+    fn the_kept_model_predicts_levels_held_out_and_states_what_it_cannot_explain() {
+        let sp: Vec<f64> = (0..12).map(|i| 36.0 + 4.0 * i as f64).collect();
+        let clean = levels(&sp, &[0.0; 12], 0.01, &|_, _| 0.0);
+        let m = StripModel::fit(&Calibration::default_preset(), &clean, Some(0.1)).unwrap();
+        for k in 0..4 {
+            let t = m.kept_tests[k].unwrap();
+            assert!(t.dof == 12 && t.p_value > 0.01, "{k}: {t:?}");
+        }
+        let quiet_sd = m.posterior_sd(3, 62.0);
+        // One level in the middle read 4 %RH off, the reading's error stated as 0.1 %RH: d
+        // (steep in RH) there is far from what its neighbours say.
+        let mut e = [0.0; 12];
+        e[6] = 4.0;
+        let off = levels(&sp, &e, 0.01, &|_, _| 0.0);
+        let m = StripModel::fit(&Calibration::default_preset(), &off, Some(0.1)).unwrap();
+        assert!(m.law_tests[3].unwrap().p_value < 1e-6, "{:?}", m.law_tests[3]);
+        assert!(m.kept_tests[3].unwrap().p_value > 1e-3, "{:?}", m.kept_tests[3]);
+        let sd = m.posterior_sd(3, 62.0);
+        assert!(sd > 0.1 && sd > 5.0 * quiet_sd, "d's stated sd near the level: {sd} (consistent levels: {quiet_sd})");
+    }
+
     /// Departures far beyond the errors, the same at each setpoint's two visits: kept at the
     /// setpoints, the law test says the law alone does not hold.
     #[test]
@@ -881,6 +938,7 @@ mod tests {
         let lv = levels(&sp, &e, 0.002, &dep);
         let m = StripModel::fit(&Calibration::default_preset(), &lv, None).unwrap();
         assert!(m.law_tests[0].unwrap().p_value < 1e-6, "{:?}", m.law_tests[0]);
+        assert!(m.kept_tests[0].unwrap().p_value > 1e-3, "what is kept explains them: {:?}", m.kept_tests[0]);
         for &x in &[45.0, 55.0, 65.0, 75.0] {
             let got = m.law_ln(0, x) + m.departure(0, x) - ln_base(&Calibration::default_preset(), 0, x);
             assert!((got - dep(0, x)).abs() < 0.015, "Y at {x}: {got} vs {}", dep(0, x));

@@ -38,6 +38,9 @@ pub struct LawFit {
     pub p_value: Option<f64>,
     /// The departures kept ([`crate::departures`]): their amplitude (sd of ln) and length [%RH].
     pub departure: Option<(f64, f64)>,
+    /// What the calibration keeps (law, departures, the reading's error) against each level held
+    /// out: Σz² on the levels' number ([`crate::departures::StripModel::kept_tests`]).
+    pub kept: Option<crate::departures::LawTest>,
     /// Why the kind differs from the usual one, if it does.
     pub note: Option<String>,
 }
@@ -235,6 +238,7 @@ pub fn calibration_from_levels(
             dof: test.map(|t| t.dof),
             p_value: test.map(|t| t.p_value),
             departure: model.has_departures[k].then(|| (model.hyper.amplitude[k], model.hyper.length_pct[k])),
+            kept: model.kept_tests[k],
             note: None,
         });
     }
@@ -275,6 +279,7 @@ pub fn calibration_from_levels(
             dof,
             p_value: chi2.zip(dof).map(|(c, d)| chi2_tail(c, d)),
             departure: None,
+            kept: None,
             note,
         });
     }

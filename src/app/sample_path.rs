@@ -214,6 +214,7 @@ impl SamplePath {
                 block.header.flags |= flags::OWN_REFUSED;
             }
             let now = if self.fused_mode { self.fused.advance(h.fused.rh_pct, dt_s).unwrap_or(read) } else { read };
+            self.error_bar.beyond_range(now.beyond_pct);
             if now.clamped {
                 block.header.flags |= flags::RH_CLAMPED;
             }

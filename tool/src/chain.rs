@@ -145,7 +145,7 @@ pub fn compensate_scheduled(
         }
         let mut block = raw;
         comp.process_block(&mut block);
-        let rel_err = error_bar.block(comp.rh_pct(), &block);
+        let (rel_err, beyond) = (error_bar.block(comp.rh_pct(), &block), error_bar.beyond_pct());
         if !b.rel_err.is_nan() && rel_err.to_bits() != b.rel_err.to_bits() {
             bail!("block at sample {pos}: the firmware's expected error is {}, the host's {rel_err}", b.rel_err);
         }
@@ -171,6 +171,7 @@ pub fn compensate_scheduled(
                 }
             }
             let now = if fused_mode { fused.advance(h.fused.rh_pct, dt).unwrap_or(now) } else { now };
+            error_bar.beyond_range(now.beyond_pct);
             if asks_for_design(design_rh, now.rh_pct, comp.is_retuning()) {
                 design_rh = now.rh_pct;
                 asked.push(now.rh_pct.to_bits());
@@ -185,6 +186,7 @@ pub fn compensate_scheduled(
             est.rh_strip_pct.push(b.rh_strip_pct);
             est.rh_read_pct.push(b.rh_read_pct);
             est.rel_err.push(rel_err);
+            est.beyond_pct.push(beyond);
             est.flags.push(b.flags);
         }
     }
@@ -212,6 +214,8 @@ pub struct Estimates {
     pub rh_read_pct: Vec<f32>,
     /// Per sample: the block's expected relative error, 1σ.
     pub rel_err: Vec<f32>,
+    /// Per sample: how far beyond the calibrated range (signed, %RH) that 1σ took the strip to be.
+    pub beyond_pct: Vec<f32>,
     pub flags: Vec<u16>,
     pub retunes: usize,
 }
@@ -226,6 +230,7 @@ impl Estimates {
             rh_strip_pct: Vec::with_capacity(n),
             rh_read_pct: Vec::with_capacity(n),
             rel_err: Vec::with_capacity(n),
+            beyond_pct: Vec::with_capacity(n),
             flags: Vec::with_capacity(n),
             retunes: 0,
         }
@@ -289,6 +294,7 @@ pub fn compensate(
             let rh_strip = humidity.strip_pct().expect("advanced");
             let rh = now.rh_pct;
             let mut fl = if now.clamped { flags::RH_CLAMPED } else { 0 };
+            error_bar.beyond_range(now.beyond_pct);
             match comp.as_mut() {
                 None => comp = Some(Compensator::new(&design(rh)?)),
                 Some(c) if fixed.is_none() && asks_for_design(c.rh_pct(), rh, c.is_retuning()) => {
@@ -305,7 +311,7 @@ pub fn compensate(
             if c.bad_samples != bad_before {
                 fl |= flags::BAD_SAMPLE;
             }
-            let rel_err = error_bar.block(c.rh_pct(), &block);
+            let (rel_err, beyond) = (error_bar.block(c.rh_pct(), &block), error_bar.beyond_pct());
             let d = (c.delay_s() as f64 * ts.fs_hz).round() as usize;
             bar.inc(block.len() as u64);
             for v in block {
@@ -316,6 +322,7 @@ pub fn compensate(
                 est.rh_strip_pct.push(rh_strip);
                 est.rh_read_pct.push(rh_read);
                 est.rel_err.push(rel_err);
+                est.beyond_pct.push(beyond);
                 est.flags.push(fl);
             }
             pos = end;

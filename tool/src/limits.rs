@@ -15,7 +15,17 @@ const SETTLING_BLOCKS: usize = 64;
 /// One row per [`ROW_PCT`] of design humidity the estimate visited: the medians over its blocks.
 /// `rh_pct`, `rel_err` and `burst_start` are per sample, as the chain gives them; `block_len`
 /// samples share one value.
-pub fn table(errors: &ErrorTable, rh_pct: &[f32], rel_err: &[f32], burst_start: &[usize], block_len: usize, band: (f64, f64)) -> String {
+/// `beyond_pct`: how far beyond the calibrated range each 1σ took the strip to be, which is the
+/// calibration's part too.
+pub fn table(
+    errors: &ErrorTable,
+    rh_pct: &[f32],
+    rel_err: &[f32],
+    beyond_pct: &[f32],
+    burst_start: &[usize],
+    block_len: usize,
+    band: (f64, f64),
+) -> String {
     // (row, stated, calibration's, noise's) per settled block.
     let mut blocks: Vec<(i32, f32, f32, f32)> = vec![];
     for start in (0..rh_pct.len()).step_by(block_len) {
@@ -26,7 +36,7 @@ pub fn table(errors: &ErrorTable, rh_pct: &[f32], rel_err: &[f32], burst_start: 
         if !stated.is_finite() {
             continue;
         }
-        let calibration = errors.calibration_part(rh);
+        let calibration = (errors.at(rh).0 + errors.beyond_var(beyond_pct[start])).sqrt();
         let noise = (stated * stated - calibration * calibration).max(0.0).sqrt();
         blocks.push(((rh / ROW_PCT).floor() as i32, stated, calibration, noise));
     }
@@ -56,6 +66,38 @@ pub fn table(errors: &ErrorTable, rh_pct: &[f32], rel_err: &[f32], burst_start: 
     out
 }
 
+/// What the estimate did outside the calibrated range, said (None where it never left it): how
+/// many samples, how far, and that their 1σ carries the distance.
+pub fn beyond_range(calib: &ipmc_core::Calibration, beyond_pct: &[f32], flags: &[u16]) -> Option<String> {
+    let clamped = flags.iter().filter(|f| *f & ipmc_core::wire::stream::flags::RH_CLAMPED != 0).count();
+    if clamped == 0 {
+        return None;
+    }
+    let (below, above) = beyond_pct.iter().fold((0.0f32, 0.0f32), |(lo, hi), &b| (lo.min(b), hi.max(b)));
+    let mut far = vec![];
+    // Beyond by less than the reading resolves: the trend ahead reached the edge, the strip not.
+    if below < -0.05 {
+        far.push(format!("{:.1} %RH below it", -below));
+    }
+    if above > 0.05 {
+        far.push(format!("{above:.1} %RH above it"));
+    }
+    let far = if far.is_empty() {
+        "the humidity's trend ahead at its edge, the strip not beyond it".to_string()
+    } else {
+        format!("the strip up to {}", far.join(" and "))
+    };
+    Some(format!(
+        "{clamped} of {} samples ({:.0} %) were designed at an edge of the calibrated range {:.1}–{:.1} %RH ({far}; flag \
+         RH_CLAMPED): the calibration says nothing beyond it, so their stated 1σ carries the distance as a humidity error. \
+         A bench session with a level beyond it extends the range.",
+        flags.len(),
+        100.0 * clamped as f64 / flags.len().max(1) as f64,
+        calib.rh_min,
+        calib.rh_max
+    ))
+}
+
 fn median(values: impl Iterator<Item = f32>) -> f32 {
     let mut v: Vec<f32> = values.collect();
     v.sort_by(f32::total_cmp);
@@ -75,7 +117,7 @@ mod tests {
         // Two humidities, a stated error larger than the calibration's part at each.
         let rh: Vec<f32> = (0..n).map(|i| if i < n / 2 { 42.0 } else { 71.0 }).collect();
         let stated: Vec<f32> = rh.iter().map(|&r| (errors.calibration_part(r).powi(2) + 0.1f32.powi(2)).sqrt()).collect();
-        let t = table(&errors, &rh, &stated, &vec![0; n], block, (10.0, 150.0));
+        let t = table(&errors, &rh, &stated, &vec![0.0; n], &vec![0; n], block, (10.0, 150.0));
         let rows: Vec<&str> = t.lines().skip(2).collect();
         assert_eq!(rows.len(), 2, "{t}");
         assert!(rows[0].trim_start().starts_with("40–45") && rows[1].trim_start().starts_with("70–75"), "{t}");
@@ -83,5 +125,22 @@ mod tests {
             let noise: f32 = r.split_whitespace().nth(3).unwrap().parse().unwrap();
             assert!((noise - 10.0).abs() < 0.02, "{t}");
         }
+        // Beyond the range, the distance is the calibration's part, not the noise's.
+        let edge = calib.rh_max as f32;
+        let beyond = vec![2.0f32; n];
+        let stated: Vec<f32> =
+            beyond.iter().map(|&b| (errors.calibration_part(edge).powi(2) + errors.beyond_var(b) + 0.1f32.powi(2)).sqrt()).collect();
+        let t = table(&errors, &vec![edge; n], &stated, &beyond, &vec![0; n], block, (10.0, 150.0));
+        let noise: f32 = t.lines().nth(2).unwrap().split_whitespace().nth(3).unwrap().parse().unwrap();
+        assert!((noise - 10.0).abs() < 0.02, "{t}");
+    }
+
+    #[test]
+    fn designs_beyond_the_range_are_said_with_how_far() {
+        let calib = Calibration::default_preset();
+        let clamped = ipmc_core::wire::stream::flags::RH_CLAMPED;
+        assert_eq!(beyond_range(&calib, &[0.0; 4], &[0; 4]), None);
+        let note = beyond_range(&calib, &[0.0, 0.0, 1.5, 2.25], &[0, 0, clamped, clamped]).expect("said");
+        assert!(note.starts_with("2 of 4 samples (50 %)") && note.contains("2.2 %RH above it") && note.contains("20.0–90.0 %RH"), "{note}");
     }
 }

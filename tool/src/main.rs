@@ -15,6 +15,7 @@ mod noise_floor;
 mod overrides;
 mod plot;
 mod progress;
+mod range_edges;
 mod reading_uncertainty;
 mod scoring;
 #[cfg(test)]

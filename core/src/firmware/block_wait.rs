@@ -16,7 +16,9 @@ pub enum Waited {
     /// The sample path fell a whole half-buffer behind the DMA.
     FellBehind,
     /// No block came within the stall limit; `adc_overran`: the ADC's OVR flag was set.
-    Silent { adc_overran: bool },
+    Silent {
+        adc_overran: bool,
+    },
 }
 
 /// What the board does next.

@@ -31,6 +31,9 @@ pub struct BlockRh<T> {
     pub rh_pct: T,
     /// Whether the clamp had to act, or the strip's humidity itself is beyond the range.
     pub clamped: bool,
+    /// How far the strip's humidity lies outside the range [%RH], signed (below: < 0), 0 inside:
+    /// the humidity error of a design held at the edge (`BlockError::beyond_range`).
+    pub beyond_pct: T,
 }
 
 /// The strip's humidity, run block by block from the readings.
@@ -71,12 +74,19 @@ impl<T: Real> BlockHumidity<T> {
         // The strip beyond the range is flagged at once, even while the trend, which averages
         // over seconds, has not got there yet.
         let strip_out = !(strip >= lo && strip <= hi);
-        Some(if ahead < lo {
-            BlockRh { rh_pct: lo, clamped: true }
-        } else if ahead > hi {
-            BlockRh { rh_pct: hi, clamped: true }
+        let beyond_pct = if strip < lo {
+            strip - lo
+        } else if strip > hi {
+            strip - hi
         } else {
-            BlockRh { rh_pct: ahead, clamped: strip_out }
+            T::zero()
+        };
+        Some(if ahead < lo {
+            BlockRh { rh_pct: lo, clamped: true, beyond_pct }
+        } else if ahead > hi {
+            BlockRh { rh_pct: hi, clamped: true, beyond_pct }
+        } else {
+            BlockRh { rh_pct: ahead, clamped: strip_out, beyond_pct }
         })
     }
 
@@ -106,7 +116,7 @@ mod tests {
         let mut h = BlockHumidity::<f32>::new(&c, 0.5);
         assert_eq!(h.advance(f32::NAN, 0.016), None, "no reading yet");
         let first = h.advance(47.0, 0.016).unwrap();
-        assert_eq!(first, BlockRh { rh_pct: 50.0, clamped: false }, "settled at the first corrected reading");
+        assert_eq!(first, BlockRh { rh_pct: 50.0, clamped: false, beyond_pct: 0.0 }, "settled at the first corrected reading");
         // Ten seconds of blocks toward 60 % (read 57): one time constant.
         for _ in 0..625 {
             h.advance(57.0, span_s(32, 2000)).unwrap();
@@ -117,7 +127,7 @@ mod tests {
         // A reading beyond the range is clamped, the strip keeps its own value.
         let mut h = BlockHumidity::<f32>::new(&calib(HumidityPath::NONE), 0.5);
         let r = h.advance(97.0, 0.016).unwrap();
-        assert_eq!(r, BlockRh { rh_pct: c.rh_max as f32, clamped: true });
+        assert_eq!(r, BlockRh { rh_pct: c.rh_max as f32, clamped: true, beyond_pct: 97.0 - c.rh_max as f32 });
         assert_eq!(h.strip_pct(), Some(97.0));
         // A reading that jumps beyond the range is flagged at once, while the design the trend
         // asks for is still inside it.

@@ -70,6 +70,10 @@ pub struct ErrorTable {
     pub model_var: [f32; TABLE_LEN],
     /// Mean-square noise displacement in the band [m²].
     pub noise_m2: [f32; TABLE_LEN],
+    /// What each %RH² of humidity error adds to `model_var` at the range's lower and upper end:
+    /// a strip beyond the range is designed for at its edge, and the distance is a humidity
+    /// error the design makes ([`BlockError::beyond_range`]).
+    pub beyond_var_per_pct2: [f32; 2],
 }
 
 /// The two terms at one humidity, in f64, for the designs of `cfg` (None where the model or the
@@ -120,13 +124,26 @@ impl ErrorTable {
         let span = calib.rh_max - calib.rh_min;
         let n = ((Real::ceil(span) as usize) + 1).clamp(2, TABLE_LEN);
         let step = span / (n - 1) as f64;
-        let mut t =
-            ErrorTable { rh0_pct: calib.rh_min as f32, step_pct: step as f32, n, model_var: [0.0; TABLE_LEN], noise_m2: [0.0; TABLE_LEN] };
+        let mut t = ErrorTable {
+            rh0_pct: calib.rh_min as f32,
+            step_pct: step as f32,
+            n,
+            model_var: [0.0; TABLE_LEN],
+            noise_m2: [0.0; TABLE_LEN],
+            beyond_var_per_pct2: [0.0; 2],
+        };
         for i in 0..n {
             let rh = if i == n - 1 { calib.rh_max } else { calib.rh_min + step * i as f64 };
             let (v, noise) = terms_at(calib, rh, rh_sd_pct, cfg)?;
             t.model_var[i] = v as f32;
             t.noise_m2[i] = noise as f32;
+        }
+        // The slope of v in the humidity error's variance, over one more %RH² at each end: v is
+        // E|r·y − 1|², second order in the humidity error, so a distance δ beyond the edge adds
+        // about δ² times it.
+        for (k, (edge, i)) in [(calib.rh_min, 0), (calib.rh_max, n - 1)].into_iter().enumerate() {
+            let (wider, _) = terms_at(calib, edge, Real::sqrt(rh_sd_pct * rh_sd_pct + 1.0), cfg)?;
+            t.beyond_var_per_pct2[k] = (wider - t.model_var[i] as f64).max(0.0) as f32;
         }
         Some(t)
     }
@@ -143,6 +160,13 @@ impl ErrorTable {
     /// a base motion of rms X in the band, the noise part of the error is this over X.
     pub fn noise_equivalent_m<T: Real>(&self, rh_pct: T) -> T {
         self.at(rh_pct).1.sqrt()
+    }
+
+    /// What a strip `beyond_pct` outside the range (signed: below < 0) adds to v: the distance
+    /// taken as a humidity error of the design held at the edge.
+    pub fn beyond_var<T: Real>(&self, beyond_pct: T) -> T {
+        let slope = if beyond_pct < T::zero() { self.beyond_var_per_pct2[0] } else { self.beyond_var_per_pct2[1] };
+        T::lit(slope as f64) * beyond_pct * beyond_pct
     }
 
     /// (v, N²) at `rh_pct`, linear between entries, the end entries beyond the range.
@@ -169,6 +193,8 @@ pub struct BlockError<T> {
     state: [[T; 2]; HP_SECTIONS],
     /// The high-pass's mean power gain over the band.
     band_gain: T,
+    /// How far the strip's humidity lies beyond the calibrated range [%RH], signed (below: < 0).
+    beyond_pct: T,
 }
 
 impl<T: Real> BlockError<T> {
@@ -197,7 +223,7 @@ impl<T: Real> BlockError<T> {
             band_gain += g;
         }
         band_gain /= T::lit(BAND_POINTS as f64);
-        BlockError { table: *table, power_m2: None, hp, state: [[T::zero(); 2]; HP_SECTIONS], band_gain }
+        BlockError { table: *table, power_m2: None, hp, state: [[T::zero(); 2]; HP_SECTIONS], band_gain, beyond_pct: T::zero() }
     }
 
     /// The two parts of the expected relative error after the blocks so far, for the design at
@@ -208,7 +234,24 @@ impl<T: Real> BlockError<T> {
     pub fn parts(&self, design_rh_pct: T) -> (T, T) {
         let (v, noise) = self.table.at(design_rh_pct);
         let p = self.power_m2.unwrap_or(T::zero());
-        (v.sqrt(), (noise / p).sqrt())
+        ((v + self.beyond_var()).sqrt(), (noise / p).sqrt())
+    }
+
+    /// The strip's humidity is `beyond_pct` outside the calibrated range (signed: below < 0;
+    /// 0 inside), as the last block's humidity found it ([`crate::humidity::block::BlockRh`]).
+    /// The design stays at the range's edge, whose laws say nothing beyond it: the distance is
+    /// carried in the stated 1σ as a humidity error of that size.
+    pub fn beyond_range(&mut self, beyond_pct: T) {
+        self.beyond_pct = beyond_pct;
+    }
+
+    /// The distance beyond the range the stated 1σ carries now [%RH].
+    pub fn beyond_pct(&self) -> T {
+        self.beyond_pct
+    }
+
+    fn beyond_var(&self) -> T {
+        self.table.beyond_var(self.beyond_pct)
     }
 
     /// The expected relative rms error (a fraction) of `estimates`, made by the design at
@@ -240,7 +283,7 @@ impl<T: Real> BlockError<T> {
         }
         let (v, noise) = self.table.at(design_rh_pct);
         let p = self.power_m2.unwrap_or(T::zero());
-        (v + noise / p).sqrt()
+        (v + self.beyond_var() + noise / p).sqrt()
     }
 }
 
@@ -307,6 +350,19 @@ mod tests {
         Calibration { uncertainty: none, ..Calibration::default_preset() }
     }
 
+    /// The band's mean of |H·G·e^{jωτ} − 1|² of the design `inv` against the strip at `rh`,
+    /// through the same band as the stated error is (the band's response not in it).
+    fn mismatch_ms(c: &Calibration, inv: &crate::inverse::design::Inverse<f64>, cfg: &DesignConfig<f64>, rh: f64) -> f64 {
+        let p: Params<f64> = c.params_at(rh);
+        let df = (cfg.band_hi_hz - cfg.band_lo_hz) / (BAND_POINTS - 1) as f64;
+        let e2 = (0..BAND_POINTS).map(|i| {
+            let f = cfg.band_lo_hz + df * i as f64;
+            let w = 2.0 * core::f64::consts::PI * f * inv.delay_s();
+            (current_response(&p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) - 1.0).norm_sqr()
+        });
+        e2.sum::<f64>() / BAND_POINTS as f64
+    }
+
     /// The humidity term is the design at RH against the model at RH + δ (what `ipmc design`
     /// against `ipmc model` measures): for a small δ the error is |δ|·√(mean |∂ln H/∂RH|²).
     #[test]
@@ -320,17 +376,7 @@ mod tests {
             // Both ways round: the design's own error is not orthogonal to a mismatch's first
             // order, which a reading's symmetric scatter cancels and a one-sided δ would not.
             let inv = crate::inverse::design::design_inverse(&c, rh, &cfg).unwrap();
-            // Through the same band, as the stated error is: the band's response not in it.
-            let ms = |delta: f64| {
-                let p: Params<f64> = c.params_at(rh + delta);
-                let df = (cfg.band_hi_hz - cfg.band_lo_hz) / (BAND_POINTS - 1) as f64;
-                let e2 = (0..BAND_POINTS).map(|i| {
-                    let f = cfg.band_lo_hz + df * i as f64;
-                    let w = 2.0 * core::f64::consts::PI * f * inv.delay_s();
-                    (current_response(&p, jw(f)) * inv.response(f) * C::new(w.cos(), w.sin()) - 1.0).norm_sqr()
-                });
-                e2.sum::<f64>() / BAND_POINTS as f64
-            };
+            let ms = |delta: f64| mismatch_ms(&c, &inv, &cfg, rh + delta);
             let direct = ((ms(0.2) + ms(-0.2)) / 2.0 - v0).sqrt() / 0.2;
             assert!((per_pct / direct - 1.0).abs() < 0.05, "RH {rh}: {per_pct} vs {direct} per %RH");
         }
@@ -371,6 +417,31 @@ mod tests {
         assert_eq!(t.at(99.0f32).0, t.model_var[70]);
         let (v, _) = terms_at(&c, 90.0, 1.0, &cfg).unwrap();
         assert_eq!(t.model_var[70], v as f32);
+    }
+
+    /// A strip beyond the calibrated range is designed for at the edge: the distance is a
+    /// humidity error of the design, and the stated 1σ carries what that error does.
+    #[test]
+    fn beyond_the_range_the_distance_is_stated_as_a_humidity_error() {
+        let c = Calibration::default_preset();
+        let cfg = DesignConfig::<f64>::firmware();
+        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        let edge = c.rh_max;
+        let inv = crate::inverse::design::design_inverse(&c, edge, &cfg).unwrap();
+        let ms = |rh: f64| mismatch_ms(&c, &inv, &cfg, rh);
+        let mut b = BlockError::<f64>::new(&t, &DesignConfig::firmware());
+        let block: std::vec::Vec<f64> = (0..32).map(|k| 1e-6 * (2.0 * core::f64::consts::PI * 40.0 * k as f64 / 2000.0).sin()).collect();
+        b.block(edge, &block);
+        let (inside, _) = b.parts(edge);
+        for delta in [1.0, 2.0] {
+            b.beyond_range(delta);
+            let (beyond, _) = b.parts(edge);
+            let stated = beyond * beyond - inside * inside;
+            let actual = ms(edge + delta) - ms(edge);
+            assert!(stated > 0.5 * actual && stated < 2.0 * actual, "{delta} %RH beyond: {stated} stated, {actual} by the model");
+        }
+        b.beyond_range(0.0);
+        assert_eq!(b.parts(edge).0, inside);
     }
 
     /// The noise term is relative to the estimate's in-band power: a tone anywhere in the band

@@ -197,7 +197,13 @@ pub fn run(a: Args) -> Result<()> {
     };
     println!("{} estimates ({mode}) -> {}", est.base_est_m.len(), a.out.display());
     let band = (calib.band.low_hz, calib.band.high_hz);
-    print!("{}", crate::limits::table(&errors, &est.rh_pct, &est.rel_err, &est.burst_start, crate::chain::BLOCK_LEN, band));
+    print!(
+        "{}",
+        crate::limits::table(&errors, &est.rh_pct, &est.rel_err, &est.beyond_pct, &est.burst_start, crate::chain::BLOCK_LEN, band)
+    );
+    if let Some(note) = crate::limits::beyond_range(&calib, &est.beyond_pct, &est.flags) {
+        eprintln!("warning: {note}");
+    }
     if let Some(base) = &ts.base_m {
         match band_score(&est.base_est_m, &est.delay_samples, &est.burst_start, base, ts.fs_hz, band) {
             Some(score) => println!("{}", score.line(est.delay_samples.first().copied().unwrap_or(0))),

@@ -217,24 +217,32 @@ fn print_summary(fits: &[(usize, LevelFit)], laws: &[LawFit]) {
                 "; no departures beyond the errors".into()
             }
         });
+        let held_out = l.kept.map_or(String::new(), |t| {
+            format!("; what the calibration keeps, each level held out: χ² {:.1} on {} levels, p {}", t.chi2, t.dof, p_text(t.p_value))
+        });
         let kind = if l.kind == "log_poly" { "polynomial in RH of ln" } else { "polynomial in RH" };
         println!(
-            "law {}: {kind}, degree {}{test}{kept}{}",
+            "law {}: {kind}, degree {}{test}{kept}{held_out}{}",
             l.param,
             l.degree,
             l.note.as_ref().map_or(String::new(), |n| format!(" ({n})"))
         );
     }
+    // The test is of what the calibration keeps: a law alone misses a strip with departures by
+    // construction, and said so on every clean strip while the law the top level bent passed.
     for l in laws {
-        if let (Some(c), Some(d), Some(p)) = (l.chi2, l.dof, l.p_value)
+        let (test, what) = match (l.kept, l.chi2, l.dof, l.p_value) {
+            (Some(t), ..) => (
+                Some((t.chi2, t.dof, t.p_value)),
+                "levels held out are not predicted by the rest within their errors: a level read further off than the bench's \
+                 reading uncertainty, a law bent by one level, or a strip that departs on a scale the levels cannot resolve",
+            ),
+            (None, Some(c), Some(d), Some(p)) => (Some((c, d, p)), "the law's shape does not hold, or the levels' errors are too small"),
+            _ => (None, ""),
+        };
+        if let Some((c, d, p)) = test
             && p < LAW_TEST_LEVEL
         {
-            let what = match l.departure {
-                Some((a, _)) if a > 1e-4 => {
-                    "the strip departs from any smooth law of this shape beyond its levels' errors; what the levels show is kept in [departures]"
-                }
-                _ => "the law's shape does not hold, or the levels' errors are too small",
-            };
             eprintln!(
                 "warning: law {}: χ² {c:.1} is far above its {d} degrees of freedom (p {} < {LAW_TEST_LEVEL}): {what}",
                 l.param,
@@ -341,6 +349,7 @@ pub fn identify(
         calibration_from_levels(base, &level_fits, rh_range, rh_given, &revisits).with_context(|| format!("{source}: calibration"))?;
     let rh_sd = model.hyper.rh_sd_pct;
     println!("bench reading uncertainty: {rh_sd:.2} %RH per level ({how})");
+
     if revisits.iter().any(Option::is_some) {
         println!(
             "setpoints visited twice: each one humidity, at its visits' mean reading; the chamber left the visits {:.2} %RH apart (fitted)",
@@ -372,6 +381,11 @@ pub fn identify(
     calib.uncertainty = ipmc_fit::scatter::uncertainty(&model, &calib, &level_fits, rh_sd, &base.uncertainty);
     if let Some(t) = ipmc_fit::scatter::departures_with_sd(&model, &calib) {
         calib.departures = t;
+    }
+    let visits: Vec<crate::range_edges::Visit> =
+        fits.iter().zip(&revisits).map(|((_, l, _), r)| crate::range_edges::Visit { rh_pct: l.rh_pct, revisit_of: *r }).collect();
+    for w in crate::range_edges::warnings(&visits, rh_sd, &calib) {
+        eprintln!("warning: {w}");
     }
     // A mode the base calibration chose stays; otherwise the file says what the tool does by
     // default, so that a firmware built with it designs as `compensate` does.
