@@ -384,7 +384,17 @@ pub fn identify(
     }
     let visits: Vec<crate::range_edges::Visit> =
         fits.iter().zip(&revisits).map(|((_, l, _), r)| crate::range_edges::Visit { rh_pct: l.rh_pct, revisit_of: *r }).collect();
-    for w in crate::range_edges::warnings(&visits, rh_sd, &calib) {
+    let remade = |k: usize, delta: f64| {
+        let mut moved = level_fits.clone();
+        moved[k].rh_pct += delta;
+        let (mut c, _, m) = calibration_from_levels(base, &moved, rh_range, Some(rh_sd), &revisits).ok()?;
+        c.uncertainty = calib.uncertainty;
+        if let Some(t) = ipmc_fit::scatter::departures_with_sd(&m, &c) {
+            c.departures = t;
+        }
+        Some(c)
+    };
+    for w in crate::range_edges::warnings(&visits, rh_sd, &calib, &remade) {
         eprintln!("warning: {w}");
     }
     // A mode the base calibration chose stays; otherwise the file says what the tool does by
