@@ -79,7 +79,9 @@ impl Humidities<f32> {
 /// lag, and a bias learned without the lag follows the last ramp. A thin strip in air takes
 /// tens of seconds to minutes (a Nafion film's uptake; issue 27's bench lags 1–2.5 min); equal
 /// weights on a doubling grid are a log-uniform prior over 7–230 s, and the fits' agreement with
-/// each decides among them as far as the data can.
+/// each decides among them as far as the data can. These are the strip's lags behind the air;
+/// the reading trails the air by its sensor's own lag already, so the path is lagged by the
+/// difference ([`BlockHygrometer::new`]).
 pub const HYDRATION_LAGS_S: [f64; 5] = [10.0, 20.0, 40.0, 80.0, 160.0];
 const LAGS: usize = HYDRATION_LAGS_S.len();
 
@@ -166,7 +168,15 @@ impl<T: Real> BlockHygrometer<T> {
     /// lag from the calibration's `[humidity]` (its sensor, else the board's HTS221).
     pub fn new(calib: &Calibration, fs_hz: f64) -> Self {
         let kind = calib.humidity.sensor.unwrap_or(SensorKind::Hts221);
-        let (lags, n_lags) = if calib.humidity.has_lag() { ([Lag::new(0.0); LAGS], 1) } else { (HYDRATION_LAGS_S.map(Lag::new), LAGS) };
+        let sensor_lag_s = calib.humidity.sensor_lag_s_for(kind);
+        // The reading already trails the air by the sensor's own lag, and on a ramp two lags in a
+        // row trail by their sum: the strip's lag τ is the reading's path lagged by τ less the
+        // sensor's (none where the strip is the quicker, which a lag cannot undo).
+        let (lags, n_lags) = if calib.humidity.has_lag() {
+            ([Lag::new(0.0); LAGS], 1)
+        } else {
+            (HYDRATION_LAGS_S.map(|tau| Lag::new((tau - sensor_lag_s).max(0.0))), LAGS)
+        };
         BlockHygrometer {
             spectrum: RunningSpectrum::new(fs_hz, &calib.band),
             fs_hz: T::lit(fs_hz),
@@ -182,7 +192,7 @@ impl<T: Real> BlockHygrometer<T> {
             n_lags,
             strip: None,
             accuracy_pct: T::lit(calib.humidity.uncertainty_pct_for(kind)),
-            lag_s: T::lit(calib.humidity.sensor_lag_s_for(kind)),
+            lag_s: T::lit(sensor_lag_s),
         }
     }
 
