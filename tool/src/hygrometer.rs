@@ -57,6 +57,8 @@ pub struct Second {
     pub reading_avg_pct: f64,
     pub strip: Result<StripRh<f64>, Refusal>,
     pub fused: Estimate<f64>,
+    /// The fused 1σ without the strip's calibration part (`Humidities::fused_design_sd_pct`).
+    pub fused_design_sd_pct: f64,
 }
 
 /// Runs over a recording, block by block as the firmware does (each block's reading its mean,
@@ -94,6 +96,7 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
                     reading_avg_pct: avg.unwrap_or(p),
                     strip: h.strip.unwrap_or(Err(Refusal::Warming)),
                     fused: h.fused,
+                    fused_design_sd_pct: h.fused_design_sd_pct,
                 });
             }
         }

@@ -61,14 +61,16 @@ pub fn from_data(seconds: &[Second]) -> Option<(f64, usize)> {
     (!d.is_empty()).then(|| ((d.iter().map(|v| v * v).sum::<f64>() / d.len() as f64).sqrt().min(MAX_UNCERTAINTY_PCT), d.len()))
 }
 
-/// The fused humidity's uncertainty over a run [%RH]: the rms of its stated 1σ, second by
-/// second (the reading path's where no estimate of the strip's was used yet). None where the
+/// The fused humidity's uncertainty over a run [%RH], as the error bars take it: the rms of its
+/// 1σ without the strip's calibration part, second by second (the error table states the
+/// calibration's departures already: `SensorBias::variance_without_calibration`; the reading
+/// path's where no estimate of the strip's was used yet). None where the
 /// strip never gave one: the fused humidity is the reading there, and so is its uncertainty (the
 /// path's 1σ adds the sensor's lag times the rate the reading moves, which across the gaps of a
 /// bench session's bursts is a jump between levels, not a rate).
 pub fn fused_sd(seconds: &[Second]) -> Option<f64> {
     let any = seconds.iter().any(|s| s.strip.is_ok());
-    any.then(|| (seconds.iter().map(|s| s.fused.sd_pct.powi(2)).sum::<f64>() / seconds.len() as f64).sqrt())
+    any.then(|| (seconds.iter().map(|s| s.fused_design_sd_pct.powi(2)).sum::<f64>() / seconds.len() as f64).sqrt())
 }
 
 /// Sets `calib`'s reading uncertainty where nothing names a sensor or gives one, from the data

@@ -121,6 +121,25 @@ impl<T: Real> SensorBias<T> {
         (gain * mean, gain * v)
     }
 
+    /// The variance [`Self::correction`] leaves without the fits' calibration part: the bias
+    /// the correction misses of the sensor's, (1 − g)²·prior, and the fits' statistical error it
+    /// takes on, g²·v_stat. The calibration's part is the strip's departures from its laws seen
+    /// as a humidity shift; an error bar that states those departures already (the expected
+    /// error's parameter terms) counts it twice with it. And a design at the humidity the strip's
+    /// own fit finds partly absorbs them: that is where the calibration's model matches the strip.
+    #[inline(never)]
+    pub fn variance_without_calibration(&self, accuracy_pct: T) -> T {
+        if self.weight <= T::zero() {
+            return T::zero();
+        }
+        let stat = self.stat_var / (self.weight * self.weight);
+        let v = stat + self.cal_var / self.weight;
+        let prior = accuracy_pct * accuracy_pct;
+        let gain = prior / (prior + v);
+        let miss = T::one() - gain;
+        miss * miss * prior + gain * gain * stat
+    }
+
     /// The reading path corrected by the bias; never less certain than the reading (its lag's
     /// part, beyond the accuracy, stays).
     pub fn correct(&self, reading: Estimate<T>, accuracy_pct: T) -> Estimate<T> {
@@ -189,6 +208,24 @@ mod tests {
         assert!(c.sd_pct < moving.sd_pct && c.sd_pct > (2.5f64 * 2.5 - acc * acc).sqrt(), "{c:?}");
         assert!((reading_sd(1.8, 4.0, 0.0) - 1.8).abs() < 1e-12);
         assert!(reading_sd(1.8f32, 4.0, 0.1) > 1.8);
+    }
+
+    /// Without a calibration part the two variances are one; with one, the design's leaves it
+    /// out but keeps what the correction misses of the sensor's bias.
+    #[test]
+    fn the_design_variance_leaves_out_the_calibration_part_only() {
+        let acc = 1.8;
+        let mut b = SensorBias::new();
+        b.observe(80.0, &fit(79.0, 0.4, 0.0), 40.0, 40.0, acc);
+        let (_, v) = b.correction(acc);
+        assert!((b.variance_without_calibration(acc) - v).abs() < 1e-12);
+        let mut c = SensorBias::new();
+        c.observe(80.0, &fit(79.0, 0.4, 1.2), 40.0, 40.0, acc);
+        let (_, v) = c.correction(acc);
+        let design = c.variance_without_calibration(acc);
+        let (prior, v_all) = (acc * acc, 0.4f64 * 0.4 + 1.2 * 1.2);
+        let gain = prior / (prior + v_all);
+        assert!(design < v && (design - ((1.0 - gain).powi(2) * prior + gain * gain * 0.16)).abs() < 1e-12, "{design} vs {v}");
     }
 
     #[test]

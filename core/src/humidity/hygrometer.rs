@@ -52,6 +52,10 @@ pub struct Humidities<T> {
     /// The reading path corrected by the bias the strip's estimates show in it: what a `fused`
     /// calibration designs at.
     pub fused: Estimate<T>,
+    /// The fused humidity's 1σ without the strip's calibration part
+    /// ([`crate::humidity::fusion::SensorBias::variance_without_calibration`]): the humidity's
+    /// part of an error bar that states the calibration's departures already.
+    pub fused_design_sd_pct: T,
 }
 
 impl Humidities<f32> {
@@ -94,9 +98,11 @@ struct Lag<T> {
     lagged: Option<T>,
     trend: Option<T>,
     bias: SensorBias<T>,
-    /// From the last fit: the bias taken off and its variance, and the lag's probability.
+    /// From the last fit: the bias taken off and its variance (and that without the fits'
+    /// calibration part), and the lag's probability.
     correction: T,
     var: T,
+    var_design: T,
     probability: T,
 }
 
@@ -112,7 +118,16 @@ impl<T: Real> Lag<T> {
 
     fn new(tau_s: f64) -> Self {
         let z = T::zero();
-        Lag { tau_s: T::lit(tau_s), lagged: None, trend: None, bias: SensorBias::new(), correction: z, var: z, probability: z }
+        Lag {
+            tau_s: T::lit(tau_s),
+            lagged: None,
+            trend: None,
+            bias: SensorBias::new(),
+            correction: z,
+            var: z,
+            var_design: z,
+            probability: z,
+        }
     }
 
     /// The path through this lag `dt_s` after the last snapshot: the strip's hydration as the
@@ -225,6 +240,7 @@ impl<T: Real> BlockHygrometer<T> {
             for l in lags.iter_mut() {
                 let (c, v) = l.bias.correction(self.accuracy_pct);
                 (l.correction, l.var, l.probability) = (c, v, l.bias.scatter_chi2());
+                l.var_design = l.bias.variance_without_calibration(self.accuracy_pct);
                 best = best.min(l.probability);
             }
             let mut total = T::zero();
@@ -283,23 +299,25 @@ impl<T: Real> BlockHygrometer<T> {
     /// mixture of their values.
     pub fn humidities(&self, path_pct: T) -> Humidities<T> {
         let reading = Estimate { rh_pct: path_pct, sd_pct: reading_sd(self.accuracy_pct, self.lag_s, self.rate) };
-        let fused = if self.used_at.is_some() { self.fused(reading) } else { reading };
-        Humidities { reading, strip: self.strip, fused }
+        let (fused, fused_design_sd_pct) = if self.used_at.is_some() { self.fused(reading) } else { (reading, reading.sd_pct) };
+        Humidities { reading, strip: self.strip, fused, fused_design_sd_pct }
     }
 
     /// The mixture over the lags of the reading path through each less its bias. Not inlined,
     /// as [`SensorBias::observe`].
     #[inline(never)]
-    fn fused(&self, reading: Estimate<T>) -> Estimate<T> {
+    /// With the 1σ without the fits' calibration part beside it.
+    fn fused(&self, reading: Estimate<T>) -> (Estimate<T>, T) {
         let dt = T::lit((self.clock - self.snapshot_at) as f64) / self.fs_hz;
         let lags = &self.lags[..self.n_lags];
         let value = |l: &Lag<T>| l.lagged_after(reading.rh_pct, dt) - l.correction;
         let mean = lags.iter().fold(T::zero(), |a, l| a + l.probability * value(l));
-        let var = lags.iter().fold(T::zero(), |a, l| {
+        let (var, var_design) = lags.iter().fold((T::zero(), T::zero()), |(a, b), l| {
             let d = value(l) - mean;
-            a + l.probability * (l.var + d * d)
+            (a + l.probability * (l.var + d * d), b + l.probability * (l.var_design + d * d))
         });
-        Estimate { rh_pct: mean, sd_pct: (var + lag_var(reading, self.accuracy_pct)).sqrt() }
+        let lag = lag_var(reading, self.accuracy_pct);
+        (Estimate { rh_pct: mean, sd_pct: (var + lag).sqrt() }, (var_design + lag).sqrt())
     }
 }
 

@@ -142,7 +142,10 @@ pub fn run(a: Args) -> Result<()> {
             u
         }
         (None, Some(u)) => {
-            println!("the humidity's uncertainty: {u:.2} %RH, the fused humidity's (rms of its 1σ); the reading's: {reading_said}");
+            println!(
+                "the humidity's uncertainty: {u:.2} %RH, the fused humidity's (rms of its 1σ without the strip's calibration part, \
+                 which the calibration's own uncertainty states already); the reading's: {reading_said}"
+            );
             u
         }
         (None, None) => {
