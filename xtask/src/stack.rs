@@ -475,9 +475,9 @@ impl Walk<'_> {
         let f = &g.functions[i];
         if let Some(pos) = self.path.iter().position(|&p| p == i) {
             let cycle = &self.path[pos..];
-            // A panic while panicking (the defmt logger taken re-entrantly): panic-probe's
-            // handler checks its PANICKED flag first and faults, and the QEMU board's handler
-            // checks its own and exits without logging, so a second turn stops in the handler
+            // A panic while panicking (the defmt logger taken re-entrantly): each board's
+            // handler checks its own flag first and faults (hardware) or exits (QEMU) without
+            // logging, so a second turn stops in the handler
             // and one more turn of the cycle bounds it.
             if cycle.iter().any(|&p| short(&g.functions[p].name).ends_with(PANIC_HANDLER)) {
                 return Ok(Depth { bytes: cycle.iter().map(|&p| g.functions[p].frame).sum(), next: None });
