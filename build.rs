@@ -23,7 +23,7 @@ use ipmc_core::{
     calibration::uncertainty::Uncertainty,
     calibration_file,
     humidity::spectrum::BinGeometry,
-    humidity::strip::{fill_table, table_nodes},
+    humidity::strip::{KEY_EVERY, fill_table, pack_codes, table_nodes},
     inverse::expected_error::ErrorTable,
     timing::SAMPLE_RATE_HZ,
 };
@@ -277,25 +277,34 @@ fn error_table_expr(c: &Calibration) -> String {
 }
 
 /// The strip's model at the running spectrum's bins for the firmware's rate
-/// (`ipmc_core::humidity::strip::ModelTable`), as the host tool fills its own: f32 by its bits.
+/// (`ipmc_core::humidity::strip::ModelTable`), as the host tool fills its own: its codes packed,
+/// f32 by its bits.
 fn model_table_items(c: &Calibration) -> String {
     let g = BinGeometry::new(SAMPLE_RATE_HZ as f64, &c.band);
     let nodes = table_nodes(c);
-    let (mut ln_gain, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![0.0f32; nodes]);
-    let scale = fill_table(c, &g, &mut ln_gain, &mut sd_cal);
+    let (mut codes, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![0.0f32; nodes]);
+    let scale = fill_table(c, &g, &mut codes, &mut sd_cal);
+    let (mut bytes, mut keys) = (vec![0u8; 3 * codes.len()], vec![0u32; nodes.div_ceil(KEY_EVERY)]);
+    let used = pack_codes(&codes, g.bins, &mut bytes, &mut keys);
+    bytes.truncate(used);
     let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
-    let codes = ln_gain.iter().map(|q| q.to_string()).collect::<Vec<_>>().join(",");
+    let list = |v: &mut dyn Iterator<Item = String>| v.collect::<Vec<_>>().join(",");
     let BinGeometry { decimation, first_bin, bins, df_hz } = g;
     format!(
-        "/// ln|H|² of the calibration at the running spectrum's bins, node after node.\n\
-         static STRIP_LN_GAIN: [u16; {}] = [{codes}];\n\
+        "/// ln|H|² of the calibration at the running spectrum's bins, node after node, packed.\n\
+         static STRIP_LN_GAIN: [u8; {}] = [{}];\n\
+         static STRIP_LN_GAIN_KEYS: [u32; {}] = [{}];\n\
          static STRIP_SD_CAL: [f32; {nodes}] = [{}];\n\
          /// The strip's model for its own hygrometer's fit.\n\
          pub const STRIP_TABLE: ipmc_core::humidity::strip::ModelTable<'static, f32> = ipmc_core::humidity::strip::ModelTable {{ \
          rh_min: {}, rh_max: {}, geometry: ipmc_core::humidity::spectrum::BinGeometry {{ decimation: {decimation}, \
-         first_bin: {first_bin}, bins: {bins}, df_hz: {} }}, ln_offset: {}, ln_step: {}, ln_gain: &STRIP_LN_GAIN, \
+         first_bin: {first_bin}, bins: {bins}, df_hz: {} }}, ln_offset: {}, ln_step: {}, \
+         ln_gain: ipmc_core::humidity::strip::PackedCodes {{ bytes: &STRIP_LN_GAIN, keys: &STRIP_LN_GAIN_KEYS }}, \
          sd_cal: &STRIP_SD_CAL }};\n",
-        ln_gain.len(),
+        bytes.len(),
+        list(&mut bytes.iter().map(|b| b.to_string())),
+        keys.len(),
+        list(&mut keys.iter().map(|k| k.to_string())),
         bits(&sd_cal),
         f64_expr(c.rh_min),
         f64_expr(c.rh_max),
