@@ -58,11 +58,11 @@ fn main() -> ExitCode {
          pub const ERROR_TABLE: ipmc_core::inverse::expected_error::ErrorTable = {};\n\
          /// The band's filter at the firmware's rate, designed here so that the device never\n\
          /// designs one (`ipmc_core::Compensator::passthrough_designed`).\n\
-         pub const BAND_DESIGN: ipmc_core::band::BandDesign = {};\n\
+         pub const BAND: ipmc_core::band::BandCoefficients<'static, f32> = {};\n\
          {}",
         calibration_expr(&calibration),
         error_table_expr(&calibration),
-        band_design_expr(&calibration),
+        band_filter_expr(&calibration),
         model_table_items(&calibration),
     );
     fs::write(out.join("calibration.rs"), generated).expect("OUT_DIR is writable");
@@ -173,11 +173,15 @@ fn band_expr(band: &Band) -> String {
 
 /// The band the designs in f32 report (`design_band::<f32>`), designed at the firmware's rate
 /// as the device would: every coefficient bit for bit.
-fn band_design_expr(c: &Calibration) -> String {
+fn band_filter_expr(c: &Calibration) -> String {
     let band = ipmc_core::inverse::design::design_band::<f32>(c);
     let d = ipmc_core::band::BandDesign::design(&band, SAMPLE_RATE_HZ as f64)
         .expect("a validated calibration's band is kept at the firmware's rate");
-    let array = |a: &[f64]| format!("[{}]", a.iter().map(|&v| f64_expr(v)).collect::<Vec<_>>().join(", "));
+    let d = d.coefficients();
+    // Narrowed here as the running filter narrows them (`as f32`), so that it narrows them no more.
+    let array = |a: &[f64]| {
+        format!("[{}]", a.iter().map(|&v| format!("f32::from_bits({:#x})", (v as f32).to_bits())).collect::<Vec<_>>().join(", "))
+    };
     let usizes = |a: &[usize]| format!("[{}]", a.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "));
     let p = d.plan;
     let shape = match p.shape {
@@ -194,14 +198,13 @@ fn band_design_expr(c: &Calibration) -> String {
         .collect::<Vec<_>>()
         .join(", ");
     format!(
-        "ipmc_core::band::BandDesign {{ plan: ipmc_core::band::Plan {{ shape: ipmc_core::band::Shape::{shape}, stages: {}, \
-         half_band_taps: {}, taps: {} }}, half: {}, pairs: [{}], sections: [{sections}], fs_hz: {} }}",
+        "ipmc_core::band::BandCoefficients {{ plan: ipmc_core::band::Plan {{ shape: ipmc_core::band::Shape::{shape}, stages: {}, \
+         half_band_taps: {}, taps: {} }}, half: &{}, pairs: [{}], sections: [{sections}] }}",
         p.stages,
         usizes(&p.half_band_taps),
         p.taps,
-        array(&d.half),
-        d.pairs.iter().map(|r| array(r)).collect::<Vec<_>>().join(", "),
-        f64_expr(d.fs_hz),
+        array(d.half),
+        d.pairs.iter().map(|r| format!("&{}", array(r))).collect::<Vec<_>>().join(", "),
     )
 }
 

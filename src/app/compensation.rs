@@ -43,7 +43,7 @@ impl SamplePathFilter {
     pub fn passthrough() -> Self {
         let calibration = calibration();
         let band = ipmc_core::inverse::design::design_band::<f32>(&calibration);
-        Self(Compensator::passthrough_designed(&band, &crate::contract::calibration::BAND_DESIGN, design_config().fs_hz))
+        Self(Compensator::passthrough_designed(&band, &crate::contract::calibration::BAND, design_config().fs_hz))
     }
     /// Starts on `design` afresh, in place. Every design is the calibration's, at its band and
     /// the firmware's rate, which the band's filter was baked for.

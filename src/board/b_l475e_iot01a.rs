@@ -15,6 +15,7 @@
 //! | watchdog                  | IWDG from reset: 16 s fed by the start-up, then 250 ms fed by the sample path (below) |
 //! | clock                     | 32.768 kHz LSE crystal → MSI PLL mode → PLL; HSI16 if the crystal does not start |
 
+use defmt_rtt as _;
 pub use embassy_stm32::pac;
 use embassy_stm32::{
     Config, Peri,
@@ -28,7 +29,6 @@ use embassy_stm32::{
     wdg::IndependentWatchdog,
 };
 use static_cell::StaticCell;
-use defmt_rtt as _;
 
 use super::Board;
 use crate::contract::{

@@ -9,7 +9,9 @@ use ipmc_core::humidity::block::{BlockHumidity, span_s};
 use ipmc_core::humidity::fusion::Estimate;
 use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
 use ipmc_core::humidity::spectrum::{AVERAGING_S, BinGeometry};
-use ipmc_core::humidity::strip::{KEY_EVERY, ModelTable, PackedCodes, Refusal, StripRh, TableScale, fill_table, pack_codes, strip_rh, table_nodes};
+use ipmc_core::humidity::strip::{
+    KEY_EVERY, ModelTable, PackedCodes, Refusal, StripRh, TableScale, fill_table, pack_codes, strip_rh, table_nodes,
+};
 use ipmc_core::timing::BLOCK_LEN;
 use ipmc_recording::TimeSeries;
 

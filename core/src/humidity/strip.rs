@@ -850,7 +850,8 @@ mod tests {
             let packed = PackedCodes { bytes: &bytes[..used], keys: &keys };
             // Each span of up to four rows from scratch, and from whatever the span before left.
             let mut after = Rows::new();
-            for (lo, span) in (0..rows).flat_map(|lo| (1..=4.min(rows - lo)).map(move |n| (lo, n))).chain([(3, 2), (0, 4), (17, 3), (9, 1)]) {
+            for (lo, span) in (0..rows).flat_map(|lo| (1..=4.min(rows - lo)).map(move |n| (lo, n))).chain([(3, 2), (0, 4), (17, 3), (9, 1)])
+            {
                 let mut fresh = Rows::new();
                 for r in [&mut fresh, &mut after] {
                     packed.decode(bins, lo, lo + span - 1, r);
