@@ -59,10 +59,14 @@ fn main() -> ExitCode {
          /// The band's filter at the firmware's rate, designed here so that the device never\n\
          /// designs one (`ipmc_core::Compensator::passthrough_designed`).\n\
          pub const BAND: ipmc_core::band::BandCoefficients<'static, f32> = {};\n\
+         /// Samples the estimate lags the base motion by (`ipmc_core::firmware::operating_point::delay_samples`),\n\
+         /// counted here: on the device the band's plan takes f64 arithmetic in software.\n\
+         pub const DELAY_SAMPLES: u16 = {};\n\
          {}",
         calibration_expr(&calibration),
         error_table_expr(&calibration),
         band_filter_expr(&calibration),
+        u16::try_from(ipmc_core::firmware::operating_point::delay_samples(&calibration.band)).expect("a delay of fewer than 65536 samples"),
         model_table_items(&calibration),
     );
     fs::write(out.join("calibration.rs"), generated).expect("OUT_DIR is writable");

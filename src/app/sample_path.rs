@@ -45,7 +45,7 @@ pub async fn sample_task(mut samples: Samples, path: &'static mut SamplePath) {
     let calibration = super::compensation::calibration();
     let setup = Setup {
         band_shape: calibration.band.shape.code(),
-        delay_samples: ipmc_core::firmware::operating_point::delay_samples(&calibration.band) as u16,
+        delay_samples: crate::contract::calibration::DELAY_SAMPLES,
         humidity_mode: calibration.humidity.mode().code(),
     };
     samples.start();
