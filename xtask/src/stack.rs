@@ -877,6 +877,42 @@ mod tests {
     }
 
     #[test]
+    fn a_call_through_a_register_loaded_from_a_literal_is_a_direct_call() {
+        let g = graph(
+            "
+            08000100 <f>:
+            8000100: push {r4, r8, lr}
+            8000102: ldr.w r8, [pc, #0xc] @ 0x8000110 <f+0x10>
+            8000106: blx r8
+            8000108: mov r0, r4
+            800010a: blx r8
+            800010c: pop {r4, r8, pc}
+            8000110: .word 0x08000201
+            08000200 <g>:
+            8000200: sub sp, #0x40
+            8000202: bx lr
+        ",
+        );
+        assert_eq!(g.callees[0], vec![1]);
+        assert!(g.functions[0].indirect.is_empty());
+        assert_eq!(depth_of(&g, "f").unwrap(), 12 + 0x40);
+        // Once written, the register holds something else: an indirect call again.
+        let g = graph(
+            "
+            08000100 <f>:
+            8000102: ldr r1, [pc, #0xc] @ 0x8000110 <f+0x10>
+            8000104: ldr r1, [r0, #0x24]
+            8000106: bx r1
+            8000110: .word 0x08000201
+            08000200 <g>:
+            8000200: bx lr
+        ",
+        );
+        assert!(g.callees[0].is_empty());
+        assert_eq!(g.functions[0].indirect.len(), 1);
+    }
+
+    #[test]
     fn mapping_symbols_do_not_split_a_function() {
         let g = graph(
             "
