@@ -698,7 +698,7 @@ pub fn finish(_all_reported: bool) -> ! {
 /// What a panic leaves: its place and, when it is a plain string, its message, over defmt; then
 /// a fault (a usage fault, disabled, escalates to the HardFault a debugger stops at; the
 /// watchdog resets the board). A formatted message is not printed: rendering it (panic-probe's
-/// `print-defmt`) linked `core::fmt`'s writer, 0.8 KiB of flash; the place, and probe-rs's
+/// `print-defmt`) linked `core::fmt`'s writer, 0.75 KiB of flash; the place, and probe-rs's
 /// backtrace, say where it came from.
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
