@@ -23,7 +23,7 @@ use ipmc_core::{
     calibration::uncertainty::Uncertainty,
     calibration_file,
     humidity::spectrum::BinGeometry,
-    humidity::strip::{fill_table, table_nodes},
+    humidity::strip::{KEY_EVERY, fill_table, pack_codes, table_nodes},
     inverse::expected_error::ErrorTable,
     timing::SAMPLE_RATE_HZ,
 };
@@ -58,11 +58,15 @@ fn main() -> ExitCode {
          pub const ERROR_TABLE: ipmc_core::inverse::expected_error::ErrorTable = {};\n\
          /// The band's filter at the firmware's rate, designed here so that the device never\n\
          /// designs one (`ipmc_core::Compensator::passthrough_designed`).\n\
-         pub const BAND_DESIGN: ipmc_core::band::BandDesign = {};\n\
+         pub const BAND: ipmc_core::band::BandCoefficients<'static, f32> = {};\n\
+         /// Samples the estimate lags the base motion by (`ipmc_core::firmware::operating_point::delay_samples`),\n\
+         /// counted here: on the device the band's plan takes f64 arithmetic in software.\n\
+         pub const DELAY_SAMPLES: u16 = {};\n\
          {}",
         calibration_expr(&calibration),
         error_table_expr(&calibration),
-        band_design_expr(&calibration),
+        band_filter_expr(&calibration),
+        u16::try_from(ipmc_core::firmware::operating_point::delay_samples(&calibration.band)).expect("a delay of fewer than 65536 samples"),
         model_table_items(&calibration),
     );
     fs::write(out.join("calibration.rs"), generated).expect("OUT_DIR is writable");
@@ -173,11 +177,15 @@ fn band_expr(band: &Band) -> String {
 
 /// The band the designs in f32 report (`design_band::<f32>`), designed at the firmware's rate
 /// as the device would: every coefficient bit for bit.
-fn band_design_expr(c: &Calibration) -> String {
+fn band_filter_expr(c: &Calibration) -> String {
     let band = ipmc_core::inverse::design::design_band::<f32>(c);
     let d = ipmc_core::band::BandDesign::design(&band, SAMPLE_RATE_HZ as f64)
         .expect("a validated calibration's band is kept at the firmware's rate");
-    let array = |a: &[f64]| format!("[{}]", a.iter().map(|&v| f64_expr(v)).collect::<Vec<_>>().join(", "));
+    let d = d.coefficients();
+    // Narrowed here as the running filter narrows them (`as f32`), so that it narrows them no more.
+    let array = |a: &[f64]| {
+        format!("[{}]", a.iter().map(|&v| format!("f32::from_bits({:#x})", (v as f32).to_bits())).collect::<Vec<_>>().join(", "))
+    };
     let usizes = |a: &[usize]| format!("[{}]", a.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "));
     let p = d.plan;
     let shape = match p.shape {
@@ -194,14 +202,13 @@ fn band_design_expr(c: &Calibration) -> String {
         .collect::<Vec<_>>()
         .join(", ");
     format!(
-        "ipmc_core::band::BandDesign {{ plan: ipmc_core::band::Plan {{ shape: ipmc_core::band::Shape::{shape}, stages: {}, \
-         half_band_taps: {}, taps: {} }}, half: {}, pairs: [{}], sections: [{sections}], fs_hz: {} }}",
+        "ipmc_core::band::BandCoefficients {{ plan: ipmc_core::band::Plan {{ shape: ipmc_core::band::Shape::{shape}, stages: {}, \
+         half_band_taps: {}, taps: {} }}, half: &{}, pairs: [{}], sections: [{sections}] }}",
         p.stages,
         usizes(&p.half_band_taps),
         p.taps,
-        array(&d.half),
-        d.pairs.iter().map(|r| array(r)).collect::<Vec<_>>().join(", "),
-        f64_expr(d.fs_hz),
+        array(d.half),
+        d.pairs.iter().map(|r| format!("&{}", array(r))).collect::<Vec<_>>().join(", "),
     )
 }
 
@@ -278,25 +285,34 @@ fn error_table_expr(c: &Calibration) -> String {
 }
 
 /// The strip's model at the running spectrum's bins for the firmware's rate
-/// (`ipmc_core::humidity::strip::ModelTable`), as the host tool fills its own: f32 by its bits.
+/// (`ipmc_core::humidity::strip::ModelTable`), as the host tool fills its own: its codes packed,
+/// f32 by its bits.
 fn model_table_items(c: &Calibration) -> String {
     let g = BinGeometry::new(SAMPLE_RATE_HZ as f64, &c.band);
     let nodes = table_nodes(c);
-    let (mut ln_gain, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![0.0f32; nodes]);
-    let scale = fill_table(c, &g, &mut ln_gain, &mut sd_cal);
+    let (mut codes, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![0.0f32; nodes]);
+    let scale = fill_table(c, &g, &mut codes, &mut sd_cal);
+    let (mut bytes, mut keys) = (vec![0u8; 3 * codes.len()], vec![0u32; nodes.div_ceil(KEY_EVERY)]);
+    let used = pack_codes(&codes, g.bins, &mut bytes, &mut keys);
+    bytes.truncate(used);
     let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
-    let codes = ln_gain.iter().map(|q| q.to_string()).collect::<Vec<_>>().join(",");
+    let list = |v: &mut dyn Iterator<Item = String>| v.collect::<Vec<_>>().join(",");
     let BinGeometry { decimation, first_bin, bins, df_hz } = g;
     format!(
-        "/// ln|H|² of the calibration at the running spectrum's bins, node after node.\n\
-         static STRIP_LN_GAIN: [u16; {}] = [{codes}];\n\
+        "/// ln|H|² of the calibration at the running spectrum's bins, node after node, packed.\n\
+         static STRIP_LN_GAIN: [u8; {}] = [{}];\n\
+         static STRIP_LN_GAIN_KEYS: [u32; {}] = [{}];\n\
          static STRIP_SD_CAL: [f32; {nodes}] = [{}];\n\
          /// The strip's model for its own hygrometer's fit.\n\
          pub const STRIP_TABLE: ipmc_core::humidity::strip::ModelTable<'static, f32> = ipmc_core::humidity::strip::ModelTable {{ \
          rh_min: {}, rh_max: {}, geometry: ipmc_core::humidity::spectrum::BinGeometry {{ decimation: {decimation}, \
-         first_bin: {first_bin}, bins: {bins}, df_hz: {} }}, ln_offset: {}, ln_step: {}, ln_gain: &STRIP_LN_GAIN, \
+         first_bin: {first_bin}, bins: {bins}, df_hz: {} }}, ln_offset: {}, ln_step: {}, \
+         ln_gain: ipmc_core::humidity::strip::PackedCodes {{ bytes: &STRIP_LN_GAIN, keys: &STRIP_LN_GAIN_KEYS }}, \
          sd_cal: &STRIP_SD_CAL }};\n",
-        ln_gain.len(),
+        bytes.len(),
+        list(&mut bytes.iter().map(|b| b.to_string())),
+        keys.len(),
+        list(&mut keys.iter().map(|k| k.to_string())),
         bits(&sd_cal),
         f64_expr(c.rh_min),
         f64_expr(c.rh_max),

@@ -10,8 +10,11 @@ use ipmc_core::{
 };
 
 /// The calibration compiled into this firmware (see `contract::calibration`: chosen at build time).
-pub fn calibration() -> Calibration {
-    crate::contract::calibration::CALIBRATION
+/// By reference: its one copy in flash; taken by value, each caller copied its 3 KB (most of it
+/// the room for a `[departures]` table) to its stack or its task's RAM.
+pub fn calibration() -> &'static Calibration {
+    static CALIBRATION: Calibration = crate::contract::calibration::CALIBRATION;
+    &CALIBRATION
 }
 
 /// The expected error of the calibration's designs over humidity, tabulated at build time.
@@ -22,7 +25,7 @@ pub fn error_table() -> ErrorTable {
 /// The strip's humidity from a snapshot of its current's spectrum, with the model table baked
 /// for this calibration. Slow: runs in the fit task only.
 pub fn fit(snapshot: &Snapshot<f32>) -> Result<StripRh<f32>, Refusal> {
-    ipmc_hygrometer_fit::fit(&crate::contract::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(&calibration()))
+    ipmc_hygrometer_fit::fit(&crate::contract::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(calibration()))
 }
 
 fn design_config() -> DesignConfig<f32> {
@@ -41,9 +44,8 @@ impl SamplePathFilter {
     /// Before the first design: passes the current through the calibration's band
     /// (`Compensator::passthrough`), until [`restart`](Self::restart).
     pub fn passthrough() -> Self {
-        let calibration = calibration();
-        let band = ipmc_core::inverse::design::design_band::<f32>(&calibration);
-        Self(Compensator::passthrough_designed(&band, &crate::contract::calibration::BAND_DESIGN, design_config().fs_hz))
+        let band = ipmc_core::inverse::design::design_band::<f32>(calibration());
+        Self(Compensator::passthrough_designed(&band, &crate::contract::calibration::BAND, design_config().fs_hz))
     }
     /// Starts on `design` afresh, in place. Every design is the calibration's, at its band and
     /// the firmware's rate, which the band's filter was baked for.

@@ -28,7 +28,7 @@ const READ_TIMEOUT: Duration = Duration::from_millis(HUMIDITY_PERIOD_MS / 2);
 pub async fn humidity_task(mut sensor: Humidity) {
     let mut ticker = Ticker::every(Duration::from_millis(HUMIDITY_PERIOD_MS));
     // Later designs come from the sample path.
-    let mut startup = Startup::new(&super::compensation::calibration(), RH_FALLBACK_PCT);
+    let mut startup = Startup::new(super::compensation::calibration(), RH_FALLBACK_PCT);
     let mut failures: u32 = 0;
     let mut last_new = Instant::now();
     loop {
@@ -48,8 +48,7 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 handoff::set_condition(flags::RH_STALE, false);
                 // The strip starts settled at the first reading: the sample path's first block
                 // will be at exactly this humidity.
-                // (The calibration is not held across the awaits: it would stay in the task's RAM.)
-                match BlockHumidity::<f32>::new(&super::compensation::calibration(), reading_age_s()).advance(raw, 0.0) {
+                match BlockHumidity::<f32>::new(super::compensation::calibration(), reading_age_s()).advance(raw, 0.0) {
                     Some(first) => Poll::Reading(first.rh_pct),
                     None => Poll::Failed,
                 }

@@ -14,7 +14,7 @@ pub async fn retune_task() {
     let calibration = compensation::calibration();
     loop {
         let request = RETUNE_REQUEST.wait().await;
-        match compensation::design(&calibration, request.rh_pct) {
+        match compensation::design(calibration, request.rh_pct) {
             Ok(design) => {
                 handoff::set_condition(flags::DESIGN_FAILED, false);
                 handoff::set_condition(flags::RH_FALLBACK, request.fallback);

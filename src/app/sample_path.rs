@@ -45,7 +45,7 @@ pub async fn sample_task(mut samples: Samples, path: &'static mut SamplePath) {
     let calibration = super::compensation::calibration();
     let setup = Setup {
         band_shape: calibration.band.shape.code(),
-        delay_samples: ipmc_core::firmware::operating_point::delay_samples(&calibration.band) as u16,
+        delay_samples: crate::contract::calibration::DELAY_SAMPLES,
         humidity_mode: calibration.humidity.mode().code(),
     };
     samples.start();
@@ -120,7 +120,7 @@ unsafe fn write_filter(slot: *mut SamplePathFilter) {
 #[inline(never)]
 unsafe fn write_hygrometer(slot: *mut BlockHygrometer<f32>) {
     let calibration = super::compensation::calibration();
-    unsafe { slot.write(BlockHygrometer::new(&calibration, SAMPLE_RATE_HZ as f64)) }
+    unsafe { slot.write(BlockHygrometer::new(calibration, SAMPLE_RATE_HZ as f64)) }
 }
 
 impl SamplePath {
@@ -141,10 +141,10 @@ impl SamplePath {
             write_filter(addr_of_mut!((*p).filter));
             write_hygrometer(addr_of_mut!((*p).hygrometer));
             addr_of_mut!((*p).stuck).write(StuckDetector::new(SAMPLE_RATE_HZ));
-            addr_of_mut!((*p).humidity).write(BlockHumidity::new(&calibration, reading_age_s()));
+            addr_of_mut!((*p).humidity).write(BlockHumidity::new(calibration, reading_age_s()));
             addr_of_mut!((*p).fused_mode).write(calibration.humidity.mode() == HumidityMode::Fused);
             addr_of_mut!((*p).fused).write(BlockHumidity::new(
-                &ipmc_core::Calibration { humidity: calibration.humidity.at_strip(), ..calibration },
+                &ipmc_core::Calibration { humidity: calibration.humidity.at_strip(), ..*calibration },
                 reading_age_s(),
             ));
             addr_of_mut!((*p).error_bar).write(BlockError::new(&super::compensation::error_table(), &ipmc_core::DesignConfig::firmware()));

@@ -15,6 +15,7 @@
 //! | watchdog                  | IWDG from reset: 16 s fed by the start-up, then 250 ms fed by the sample path (below) |
 //! | clock                     | 32.768 kHz LSE crystal → MSI PLL mode → PLL; HSI16 if the crystal does not start |
 
+use defmt_rtt as _;
 pub use embassy_stm32::pac;
 use embassy_stm32::{
     Config, Peri,
@@ -28,7 +29,6 @@ use embassy_stm32::{
     wdg::IndependentWatchdog,
 };
 use static_cell::StaticCell;
-use {defmt_rtt as _, panic_probe as _};
 
 use super::Board;
 use crate::contract::{
@@ -688,4 +688,22 @@ impl StreamSink for Stream {
 /// Real hardware never runs out of input.
 pub fn finish(_all_reported: bool) -> ! {
     panic!("the ADC sample source never ends")
+}
+
+/// What a panic leaves: its place and, when it is a plain string, its message, over defmt; then
+/// a fault (a usage fault, disabled, escalates to the HardFault a debugger stops at; the
+/// watchdog resets the board). A formatted message is not printed: rendering it (panic-probe's
+/// `print-defmt`) linked `core::fmt`'s writer, 0.75 KiB of flash; the place, and probe-rs's
+/// backtrace, say where it came from.
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    cortex_m::interrupt::disable();
+    // A panic inside the logger (its lock taken) would panic again on logging, and again, until
+    // the stack ran out: the second one faults without a word.
+    static PANICKING: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
+    if !PANICKING.swap(true, core::sync::atomic::Ordering::Relaxed) {
+        let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
+        defmt::error!("panicked at {=str}:{=u32}: {=str}", file, line, info.message().as_str().unwrap_or("(formatted message)"));
+    }
+    cortex_m::asm::udf()
 }

@@ -9,7 +9,9 @@ use ipmc_core::humidity::block::{BlockHumidity, span_s};
 use ipmc_core::humidity::fusion::Estimate;
 use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
 use ipmc_core::humidity::spectrum::{AVERAGING_S, BinGeometry};
-use ipmc_core::humidity::strip::{ModelTable, Refusal, StripRh, TableScale, fill_table, strip_rh, table_nodes};
+use ipmc_core::humidity::strip::{
+    KEY_EVERY, ModelTable, PackedCodes, Refusal, StripRh, TableScale, fill_table, pack_codes, strip_rh, table_nodes,
+};
 use ipmc_core::timing::BLOCK_LEN;
 use ipmc_recording::TimeSeries;
 
@@ -19,7 +21,9 @@ pub struct Table<T> {
     rh_max: f64,
     geometry: BinGeometry,
     scale: TableScale,
-    ln_gain: Vec<u16>,
+    /// The codes packed, and where their key rows start (`PackedCodes`).
+    ln_gain: Vec<u8>,
+    keys: Vec<u32>,
     sd_cal: Vec<T>,
 }
 
@@ -27,9 +31,12 @@ impl<T: Real> Table<T> {
     pub fn new(calib: &Calibration, fs_hz: f64) -> Self {
         let geometry = BinGeometry::new(fs_hz, &calib.band);
         let nodes = table_nodes(calib);
-        let (mut ln_gain, mut sd_cal) = (vec![0u16; nodes * geometry.bins], vec![T::zero(); nodes]);
-        let scale = fill_table(calib, &geometry, &mut ln_gain, &mut sd_cal);
-        Table { rh_min: calib.rh_min, rh_max: calib.rh_max, geometry, scale, ln_gain, sd_cal }
+        let (mut codes, mut sd_cal) = (vec![0u16; nodes * geometry.bins], vec![T::zero(); nodes]);
+        let scale = fill_table(calib, &geometry, &mut codes, &mut sd_cal);
+        let (mut ln_gain, mut keys) = (vec![0u8; 3 * codes.len()], vec![0u32; nodes.div_ceil(KEY_EVERY)]);
+        let used = pack_codes(&codes, geometry.bins, &mut ln_gain, &mut keys);
+        ln_gain.truncate(used);
+        Table { rh_min: calib.rh_min, rh_max: calib.rh_max, geometry, scale, ln_gain, keys, sd_cal }
     }
 
     pub fn view(&self) -> ModelTable<'_, T> {
@@ -39,7 +46,7 @@ impl<T: Real> Table<T> {
             geometry: self.geometry,
             ln_offset: self.scale.ln_offset,
             ln_step: self.scale.ln_step,
-            ln_gain: &self.ln_gain,
+            ln_gain: PackedCodes { bytes: &self.ln_gain, keys: &self.keys },
             sd_cal: &self.sd_cal,
         }
     }

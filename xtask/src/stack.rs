@@ -91,7 +91,9 @@ enum IndirectKind {
 /// for the code it names, not for indirect calls in general:
 /// - embassy-executor's raw/mod.rs: its only indirect call is the run queue calling
 ///   `task.poll_fn`, which spawn set to the `TaskStorage<F>::poll` of that task; a context's
-///   executor runs only the tasks spawned on it, so the call resolves to those polls.
+///   executor runs only the tasks spawned on it, so the call resolves to those polls. Its
+///   raw/run_queue.rs too: the queue's loop calls what it is handed in line, so the only
+///   indirect call within it is that one (found there when outlined, see `outlined_rule`).
 /// - core's task/wake.rs: `Waker` methods call through the `RawWakerVTable`. Every task runs on
 ///   an embassy executor, whose wakers all come from `embassy_executor::raw::waker`; so the
 ///   deepest of those functions bounds the call.
@@ -100,7 +102,7 @@ enum IndirectKind {
 /// - core's fmt/: formatting calls `dyn Write` and the `Display`/`Debug` impls; it runs only on
 ///   panic paths (defmt logs without core::fmt). Bounded by [`Graph::formatting_bound`].
 fn indirect_rule(source: &str) -> Option<IndirectKind> {
-    if source.contains("embassy-executor") && source.ends_with("/src/raw/mod.rs") {
+    if source.contains("embassy-executor") && (source.ends_with("/src/raw/mod.rs") || source.ends_with("/src/raw/run_queue.rs")) {
         Some(IndirectKind::Dispatch)
     } else if source.ends_with("/core/src/task/wake.rs") {
         Some(IndirectKind::Functions(|name| name.contains("embassy_executor::raw::waker::"), "embassy_executor::raw::waker::*"))
@@ -108,6 +110,13 @@ fn indirect_rule(source: &str) -> Option<IndirectKind> {
         Some(IndirectKind::Functions(
             |name| name.contains("defmt_rtt::channel::Channel::") && name.ends_with("blocking_write"),
             "defmt_rtt::channel::Channel::{blocking_write, nonblocking_write}",
+        ))
+    } else if source.contains("/defmt-") && source.ends_with("/src/export/mod.rs") {
+        // Built for the least size, defmt's encoders call the logger's `extern` functions through
+        // a register loaded with their address, once per function.
+        Some(IndirectKind::Functions(
+            |name| matches!(name, "_defmt_write" | "_defmt_acquire" | "_defmt_release"),
+            "_defmt_{write, acquire, release}",
         ))
     } else if source.contains("/core/src/fmt/") {
         Some(IndirectKind::Formatting)
@@ -127,6 +136,8 @@ struct Function {
     frame: u64,
     /// `bl`/`blx` targets and branches (resolved to tail calls once every function is known).
     calls: Vec<u64>,
+    /// Calls through a register loaded from a literal pool: (where, the literal's address).
+    literal_calls: Vec<(u64, u64)>,
     branches: Vec<u64>,
     /// Indirect calls: (address, source file of the line).
     indirect: Vec<(u64, Option<String>)>,
@@ -239,6 +250,46 @@ impl Function {
     }
 }
 
+/// Built for the least size, a function that calls another several times loads its address from
+/// a literal pool into a register once and calls through that (`ldr r8, [pc, #80]` … `blx r8`):
+/// such a call is a direct one, resolved once the pools' words are read. Tracks the registers
+/// loaded so in `loaded`, forgetting one when an instruction writes it (or a call may), in
+/// address order: LLVM loads the register in the function's entry and keeps it, a callee-saved
+/// one, for the calls. Returns whether the instruction was such a call (recorded in `f`).
+fn literal_call(f: &mut Function, loaded: &mut HashMap<String, u64>, at: u64, mnemonic: &str, ops: &str, all: &str) -> bool {
+    let m = mnemonic.trim_end_matches(".w").trim_end_matches(".n");
+    let first = ops.split(',').next().unwrap_or("").trim();
+    if (is(m, "blx") || is(m, "bx"))
+        && let Some(&literal) = loaded.get(first)
+    {
+        f.literal_calls.push((at, literal));
+        f.instructions += 1;
+        return true;
+    }
+    if m == "ldr"
+        && ops.contains("[pc, #")
+        && let Some(literal) = all.split(" @ 0x").nth(1).and_then(|r| u64::from_str_radix(r.split_whitespace().next()?, 16).ok())
+    {
+        loaded.insert(first.to_string(), literal);
+        return false;
+    }
+    if is(m, "bl") || is(m, "blx") {
+        for r in ["r0", "r1", "r2", "r3", "r12", "lr"] {
+            loaded.remove(r);
+        }
+    } else if m == "pop" || m.starts_with("ldm") {
+        loaded.retain(|r, _| !ops.contains(r.as_str()));
+    } else if !(m.starts_with("st")
+        || m.starts_with("vst")
+        || m.starts_with("push")
+        || m.starts_with("it")
+        || matches!(m, "cmp" | "cmn" | "tst" | "teq"))
+    {
+        loaded.remove(first);
+    }
+    false
+}
+
 /// `m` without an IT block's condition suffix (`addlo` → `add`), for the instructions that
 /// write sp.
 fn without_condition(m: &str) -> &str {
@@ -258,6 +309,9 @@ impl Graph {
     pub fn parse(text: &str, sizes: &HashMap<u64, u64>) -> Result<Graph> {
         let mut functions: Vec<Function> = Vec::new();
         let mut source: Option<String> = None;
+        // The literal pools' words, and the registers last loaded from one in this function.
+        let mut words: HashMap<u64, u64> = HashMap::new();
+        let mut loaded: HashMap<String, u64> = HashMap::new();
         for line in text.lines() {
             if let Some((addr, name)) = label(line) {
                 // Mapping symbols ($t, $d, $a) mark code and data inside a function.
@@ -267,6 +321,7 @@ impl Graph {
                 let end = sizes.get(&addr).map(|size| addr + size);
                 functions.push(Function { name: name.to_string(), start: addr, end, ..Function::default() });
                 source = None;
+                loaded.clear();
                 continue;
             }
             if let Some(path) = line.strip_prefix("; /").or_else(|| line.strip_prefix("; ")).filter(|l| l.contains(".rs:")) {
@@ -281,6 +336,11 @@ impl Graph {
             let Ok(at) = u64::from_str_radix(addr, 16) else { continue };
             let fields: Vec<&str> = rest.split('\t').collect();
             let (Some(f), Some(mnemonic)) = (functions.last_mut(), fields.get(1).map(|m| m.trim())) else { continue };
+            if mnemonic == ".word"
+                && let Some(v) = fields.get(2).and_then(|v| v.trim().strip_prefix("0x")).and_then(|h| u64::from_str_radix(h, 16).ok())
+            {
+                words.insert(at, v);
+            }
             if f.end.is_some_and(|end| at >= end) {
                 continue;
             }
@@ -288,8 +348,11 @@ impl Graph {
             if mnemonic.is_empty() || mnemonic.starts_with('.') || mnemonic.starts_with('<') {
                 continue;
             }
-            let ops = fields[2..].join("\t");
-            let ops = ops.split(" @").next().unwrap_or("").split("\t@").next().unwrap_or("").trim();
+            let all = fields[2..].join("\t");
+            let ops = all.split(" @").next().unwrap_or("").split("\t@").next().unwrap_or("").trim();
+            if literal_call(f, &mut loaded, at, mnemonic, ops, &all) {
+                continue;
+            }
             f.instruction(mnemonic, ops, source.as_ref()).map_err(|e| anyhow!("{} at {at:#x}: {e}", f.name))?;
             if let Some(last) = f.indirect.last_mut().filter(|i| i.0 == 0) {
                 last.0 = at;
@@ -307,6 +370,13 @@ impl Graph {
             let mut c = BTreeSet::new();
             for &t in &f.calls {
                 c.insert(containing(t).ok_or_else(|| anyhow!("{}: call to {t:#x}, outside every function", f.name))?);
+            }
+            for &(at, literal) in &f.literal_calls {
+                let target = words.get(&literal).map(|w| w & !1);
+                match target.and_then(|t| starts.binary_search(&t).ok()) {
+                    Some(j) => c.insert(j),
+                    None => bail!("{} at {at:#x}: a call through the literal at {literal:#x}, which is no function's address", f.name),
+                };
             }
             // A branch out of the function is a tail call (to a start) or a jump into shared code;
             // either way the function holding the target runs on this frame's behalf.
@@ -387,6 +457,9 @@ impl Graph {
     }
 
     fn rule(&self, f: &Function, at: u64, source: &Option<String>) -> Result<IndirectKind> {
+        if source.is_none() && f.name.starts_with("OUTLINED_FUNCTION_") {
+            return self.outlined_rule(f, at);
+        }
         source.as_deref().and_then(indirect_rule).ok_or_else(|| {
             anyhow!(
                 "{} at {at:#x}: indirect call matches no rule of stack.rs (source {})",
@@ -394,6 +467,27 @@ impl Graph {
                 source.as_deref().unwrap_or("unknown")
             )
         })
+    }
+
+    /// LLVM's machine outliner (code built for the least size) moves a sequence that several
+    /// places share into an `OUTLINED_FUNCTION_n` of its own, with no line of source: an indirect
+    /// call there is its callers' (defmt-rtt's channel write, an executor's dispatch), ruled by
+    /// the one source among theirs that a rule names.
+    fn outlined_rule(&self, f: &Function, at: u64) -> Result<IndirectKind> {
+        let me = self.index(&f.name)?;
+        let ruled: BTreeSet<&str> = (0..self.functions.len())
+            .filter(|&c| self.callees[c].contains(&me))
+            .flat_map(|c| self.functions[c].sources.iter().map(String::as_str))
+            .filter(|s| indirect_rule(s).is_some())
+            .collect();
+        match ruled.len() {
+            1 => Ok(indirect_rule(ruled.first().expect("one")).expect("ruled")),
+            _ => bail!(
+                "{} at {at:#x}: an outlined indirect call whose callers' sources name {} rules of stack.rs ({ruled:?})",
+                f.name,
+                ruled.len()
+            ),
+        }
     }
 
     fn matching(&self, accepts: fn(&str) -> bool, what: &str) -> Result<Vec<usize>> {
@@ -475,9 +569,9 @@ impl Walk<'_> {
         let f = &g.functions[i];
         if let Some(pos) = self.path.iter().position(|&p| p == i) {
             let cycle = &self.path[pos..];
-            // A panic while panicking (the defmt logger taken re-entrantly): panic-probe's
-            // handler checks its PANICKED flag first and faults, and the QEMU board's handler
-            // checks its own and exits without logging, so a second turn stops in the handler
+            // A panic while panicking (the defmt logger taken re-entrantly): each board's
+            // handler checks its own flag first and faults (hardware) or exits (QEMU) without
+            // logging, so a second turn stops in the handler
             // and one more turn of the cycle bounds it.
             if cycle.iter().any(|&p| short(&g.functions[p].name).ends_with(PANIC_HANDLER)) {
                 return Ok(Depth { bytes: cycle.iter().map(|&p| g.functions[p].frame).sum(), next: None });
@@ -780,6 +874,42 @@ mod tests {
         assert_eq!(g.callees[0], vec![1]);
         assert_eq!(depth_of(&g, "f").unwrap(), 8 + 0x40);
         assert_eq!(depth_of(&g, "g").unwrap(), 0x40);
+    }
+
+    #[test]
+    fn a_call_through_a_register_loaded_from_a_literal_is_a_direct_call() {
+        let g = graph(
+            "
+            08000100 <f>:
+            8000100: push {r4, r8, lr}
+            8000102: ldr.w r8, [pc, #0xc] @ 0x8000110 <f+0x10>
+            8000106: blx r8
+            8000108: mov r0, r4
+            800010a: blx r8
+            800010c: pop {r4, r8, pc}
+            8000110: .word 0x08000201
+            08000200 <g>:
+            8000200: sub sp, #0x40
+            8000202: bx lr
+        ",
+        );
+        assert_eq!(g.callees[0], vec![1]);
+        assert!(g.functions[0].indirect.is_empty());
+        assert_eq!(depth_of(&g, "f").unwrap(), 12 + 0x40);
+        // Once written, the register holds something else: an indirect call again.
+        let g = graph(
+            "
+            08000100 <f>:
+            8000102: ldr r1, [pc, #0xc] @ 0x8000110 <f+0x10>
+            8000104: ldr r1, [r0, #0x24]
+            8000106: bx r1
+            8000110: .word 0x08000201
+            08000200 <g>:
+            8000200: bx lr
+        ",
+        );
+        assert!(g.callees[0].is_empty());
+        assert_eq!(g.functions[0].indirect.len(), 1);
     }
 
     #[test]

@@ -14,9 +14,7 @@ pub const MAX_HALF: usize = MAX_TAPS / 2 + 1;
 /// A half-band's distinct non-zero taps beside its centre (which is ½).
 pub const MAX_HALF_BAND_PAIRS: usize = MAX_HALF_BAND_TAPS.div_ceil(4);
 
-/// The band filter at one rate, in f64. Its fields are public so that a build script can bake
-/// the firmware's one band into its flash ([`BandDesign::design`] then never runs on the
-/// device, nor the trigonometry and Bessel series it needs).
+/// The band filter at one rate, in f64.
 #[derive(Clone, Copy)]
 pub struct BandDesign {
     pub plan: Plan,
@@ -29,7 +27,31 @@ pub struct BandDesign {
     pub fs_hz: f64,
 }
 
+/// A band filter's coefficients as the running filter takes them ([`super::BandLimit::load`]),
+/// stored in `S`: a [`BandDesign`]'s ([`BandDesign::coefficients`]), or the firmware's one band,
+/// which its build script bakes narrowed to f32 and no longer than the band ([`BandDesign::design`]
+/// then never runs on the device, nor the trigonometry and Bessel series it needs). The running
+/// filter narrows them to its precision: f32 from f32 as from f64, bit for bit. Why not the
+/// design itself: its arrays have room for the longest band, in f64, 2.5 KB of flash against
+/// 0.6 KB.
+#[derive(Clone, Copy, Debug)]
+pub struct BandCoefficients<'a, S> {
+    pub plan: Plan,
+    /// [`BandDesign::half`], its first (taps + 1)/2.
+    pub half: &'a [S],
+    /// [`BandDesign::pairs`], each stage's first (taps + 1)/4.
+    pub pairs: [&'a [S]; MAX_STAGES],
+    pub sections: [Sos<S>; SECTIONS],
+}
+
 impl BandDesign {
+    /// What the running filter takes of this design.
+    pub fn coefficients(&self) -> BandCoefficients<'_, f64> {
+        let p = self.plan;
+        let pairs = core::array::from_fn(|s| if s < p.stages { &self.pairs[s][..p.half_band_taps[s].div_ceil(4)] } else { &[][..] });
+        BandCoefficients { plan: p, half: &self.half[..p.taps.max(1).div_ceil(2)], pairs, sections: self.sections }
+    }
+
     /// The filter keeping `band` at `fs_hz`.
     pub fn design(band: &Band, fs_hz: f64) -> Result<Self, BandLimitError> {
         let plan = check(band, fs_hz)?;

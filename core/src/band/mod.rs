@@ -35,7 +35,7 @@ pub mod minimum_phase;
 mod running;
 mod spec;
 
-pub use design::{BandDesign, MAX_HALF, MAX_HALF_BAND_PAIRS};
+pub use design::{BandCoefficients, BandDesign, MAX_HALF, MAX_HALF_BAND_PAIRS};
 pub use running::BandLimit;
 pub use spec::{
     ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_TAPS, Plan, Shape, check, lowest_low_hz, transition_hz,
@@ -60,6 +60,37 @@ mod tests {
         let below = (0..=400).map(|i| d.response(0.01 * i as f64).re.abs());
         let above = (0..=8440).map(|i| d.response(156.0 + 0.1 * i as f64).re.abs());
         below.chain(above).fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn coefficients_stored_in_f32_run_as_those_in_f64() {
+        // The firmware's band is baked narrowed to f32 (build.rs); its f32 filter must be the one
+        // the design itself makes, bit for bit.
+        for shape in [Shape::LinearPhase, Shape::LowLatency] {
+            let d = BandDesign::design(&Band { shape, ..Band::DEFAULT }, FS).unwrap();
+            let wide = d.coefficients();
+            let narrow = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<std::vec::Vec<_>>();
+            let half = narrow(wide.half);
+            let pairs: std::vec::Vec<_> = wide.pairs.iter().map(|p| narrow(p)).collect();
+            let stored = BandCoefficients {
+                plan: wide.plan,
+                half: &half,
+                pairs: core::array::from_fn(|s| &pairs[s][..]),
+                sections: wide.sections.map(|s| {
+                    let (b, a, beta, alpha) = s.parts();
+                    let n = |v: &[f64]| -> [f32; 3] { core::array::from_fn(|i| v.get(i).map_or(0.0, |&x| x as f32)) };
+                    crate::Sos::from_parts(n(&b), n(&a), n(&beta), [alpha[0] as f32, alpha[1] as f32])
+                }),
+            };
+            let (mut from_wide, mut from_stored) = (BandLimit::<f32>::identity(), BandLimit::<f32>::identity());
+            from_wide.load(&wide);
+            from_stored.load(&stored);
+            let mut x: std::vec::Vec<f32> = (0..2000).map(|i| libm::sinf(0.37 * i as f32) + if i % 97 == 0 { 1.0 } else { 0.0 }).collect();
+            let mut y = x.clone();
+            from_wide.process_block(&mut x);
+            from_stored.process_block(&mut y);
+            assert!(x.iter().zip(&y).all(|(a, b)| a.to_bits() == b.to_bits()), "{shape:?}");
+        }
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! which sets the cost, runs a quarter as often as the stream at 2 kHz, with a quarter of the
 //! taps. Each stage runs over a block of samples at once ([`Line`]).
 
-use super::design::{BandDesign, MAX_HALF_BAND_PAIRS};
+use super::design::{BandCoefficients, BandDesign, MAX_HALF_BAND_PAIRS};
 use super::history::{Line, dot, dot_four};
 use super::minimum_phase::SECTIONS;
 use super::spec::{Band, BandLimitError, MAX_STAGES, MAX_TAPS, Plan, Shape};
@@ -42,7 +42,7 @@ struct HalfBand<T> {
 
 impl<T: Real> HalfBand<T> {
     /// `pairs[j]`: the tap at ±(2j + 1) from the centre, innermost first, as the design has them.
-    fn new(pairs: &[f64], taps: usize) -> Self {
+    fn new<S: Real>(pairs: &[S], taps: usize) -> Self {
         let k = (taps - 3) / 4;
         let mut h = HalfBand {
             taps: [T::zero(); 2 * MAX_HALF_BAND_PAIRS],
@@ -53,7 +53,7 @@ impl<T: Real> HalfBand<T> {
             up: Line::zeros(0),
         };
         for (j, &c) in pairs[..=k].iter().enumerate() {
-            (h.taps[k - j], h.taps[k + 1 + j]) = (T::lit(c), T::lit(c));
+            (h.taps[k - j], h.taps[k + 1 + j]) = (T::lit(c.to_f64()), T::lit(c.to_f64()));
         }
         h.reset();
         h
@@ -132,7 +132,7 @@ impl<T: Real> BandLimit<T> {
 
     pub fn from_design(d: &BandDesign) -> Self {
         let mut b = Self::identity();
-        b.load(d);
+        b.load(&d.coefficients());
         b
     }
 
@@ -140,7 +140,7 @@ impl<T: Real> BandLimit<T> {
     pub fn identity() -> Self {
         let mut taps = [T::zero(); MAX_TAPS];
         taps[0] = T::one();
-        let none = HalfBand::new(&[0.0], 3);
+        let none = HalfBand::new(&[0.0f64], 3);
         let mut b = BandLimit {
             plan: Plan { shape: Shape::LinearPhase, stages: 0, half_band_taps: [0; MAX_STAGES], taps: 1 },
             stages: [none; MAX_STAGES],
@@ -154,19 +154,19 @@ impl<T: Real> BandLimit<T> {
         b
     }
 
-    /// Takes the design `d`, in place (no copy of the filter on the stack), with no history.
-    pub fn load(&mut self, d: &BandDesign) {
+    /// Takes the coefficients `d`, in place (no copy of the filter on the stack), with no history.
+    pub fn load<S: Real>(&mut self, d: &BandCoefficients<'_, S>) {
         self.plan = d.plan;
         for (s, f) in self.sections.iter_mut().zip(&d.sections) {
             *s = f.narrow();
         }
         for s in 0..d.plan.stages {
-            self.stages[s] = HalfBand::new(&d.pairs[s], d.plan.half_band_taps[s]);
+            self.stages[s] = HalfBand::new(d.pairs[s], d.plan.half_band_taps[s]);
         }
         self.taps = [T::zero(); MAX_TAPS];
         let n = d.plan.taps.max(1);
         for (k, &v) in d.half[..=(n - 1) / 2].iter().enumerate() {
-            (self.taps[k], self.taps[n - 1 - k]) = (T::lit(v), T::lit(v));
+            (self.taps[k], self.taps[n - 1 - k]) = (T::lit(v.to_f64()), T::lit(v.to_f64()));
         }
         self.reset();
     }

@@ -11,9 +11,9 @@
 //! and shape carry the humidity even though the motion is unknown.
 //!
 //! The model is tabulated: ln|H(f; RH)|² at the spectrum's bins on a grid of humidities over the
-//! declared range ([`ModelTable`], made by [`fill_table`] in f64 and stored in 16 bits: steps of
+//! declared range ([`ModelTable`], made by [`fill_table`] in f64 and coded in 16 bits: steps of
 //! about 3e-4 over its range, far below the interpolation's own error and the log-periodogram's
-//! scatter, at half the flash of f32), and
+//! scatter, at half the flash of f32; [`pack_codes`] stores those codes in a byte or so each), and
 //! interpolated between its nodes by cubic Hermite polynomials. One model point costs the device
 //! about as much as a whole fit may (the exact model is a beam of complex wave numbers); the
 //! table makes the search a matter of sums, on the device and on the host alike, and both
@@ -132,7 +132,8 @@ pub struct StripRh<T> {
 /// The calibration's model at the spectrum's bins: ln|H(f_k; RH_i)|² at the nodes RH_i of the
 /// declared range, node after node, as `ln_offset + ln_step · code`, and per node the
 /// calibration's `[uncertainty]` carried through it [%RH]. The firmware's is baked by build.rs;
-/// the host fills its own with the same [`fill_table`], so both hold the same numbers.
+/// the host fills its own with the same [`fill_table`] and [`pack_codes`], so both hold the same
+/// numbers.
 #[derive(Clone, Copy, Debug)]
 pub struct ModelTable<'a, T> {
     pub rh_min: f64,
@@ -140,8 +141,124 @@ pub struct ModelTable<'a, T> {
     pub geometry: BinGeometry,
     pub ln_offset: f64,
     pub ln_step: f64,
-    pub ln_gain: &'a [u16],
+    pub ln_gain: PackedCodes<'a>,
     pub sd_cal: &'a [T],
+}
+
+/// A key row every this many rows of [`PackedCodes`]: a row away from the last decoded costs the
+/// decoding of the rows since its key, 3.5 on average (a key row takes a byte a code more; the fit
+/// took 4.1 million instructions with no [`Rows`] kept, 3.1 with).
+pub const KEY_EVERY: usize = 8;
+/// The byte of [`PackedCodes`] that stands for "the code follows whole".
+const ESCAPE: u8 = 0x80;
+
+/// The table's codes ([`fill_table`]), row after row, in about half their 16 bits each: every
+/// [`KEY_EVERY`]-th row whole (two bytes a code, little-endian), every other row as the step from
+/// the row before, bin by bin, each step told by its difference from the step at the bin before
+/// in one signed byte, or [`ESCAPE`] and the code whole (two bytes) where that is not within
+/// ±127. The model is smooth in humidity and frequency but for the resonance's peak, so that
+/// difference fits a byte for 97 % of the codes. Why: the codes were the firmware's largest
+/// item, 20 KB of flash (issue 39: 12 KB packed).
+#[derive(Clone, Copy, Debug)]
+pub struct PackedCodes<'a> {
+    pub bytes: &'a [u8],
+    /// Where each key row starts in `bytes`.
+    pub keys: &'a [u32],
+}
+
+/// Packs `codes` (rows of `bins`) into `bytes` ([`PackedCodes::bytes`]; 3 bytes a code is
+/// always enough) and `keys` (one per [`KEY_EVERY`] rows, rounded up); returns the bytes used.
+pub fn pack_codes(codes: &[u16], bins: usize, bytes: &mut [u8], keys: &mut [u32]) -> usize {
+    let mut at = 0;
+    let mut put = |at: &mut usize, b: &[u8]| {
+        bytes[*at..*at + b.len()].copy_from_slice(b);
+        *at += b.len();
+    };
+    for (i, row) in codes.chunks_exact(bins).enumerate() {
+        if i % KEY_EVERY == 0 {
+            keys[i / KEY_EVERY] = u32::try_from(at).expect("a table of fewer than 4 GB");
+            for q in row {
+                put(&mut at, &q.to_le_bytes());
+            }
+            continue;
+        }
+        let above = &codes[(i - 1) * bins..i * bins];
+        let mut step = 0i32;
+        for (&q, &up) in row.iter().zip(above) {
+            let next = i32::from(q) - i32::from(up);
+            match i8::try_from(next - step) {
+                Ok(d) if d as u8 != ESCAPE => put(&mut at, &[d as u8]),
+                _ => {
+                    let [lo, hi] = q.to_le_bytes();
+                    put(&mut at, &[ESCAPE, lo, hi]);
+                }
+            }
+            step = next;
+        }
+    }
+    at
+}
+
+/// The rows of a [`PackedCodes`] last decoded, up to four: a fit reads the table node after node,
+/// then again and again about its best, and so decodes each row it reads about once.
+#[derive(Clone)]
+struct Rows {
+    /// Rows `from..next` are in `ring`, row r at `r % 4`; `at` is where row `next` starts.
+    from: usize,
+    next: usize,
+    at: usize,
+    ring: [[u16; MAX_BINS]; 4],
+}
+
+impl Rows {
+    fn new() -> Self {
+        Rows { from: 0, next: 0, at: 0, ring: [[0; MAX_BINS]; 4] }
+    }
+
+    /// Row `r`, once [`PackedCodes::decode`] has made it.
+    fn row(&self, r: usize) -> &[u16; MAX_BINS] {
+        &self.ring[r % 4]
+    }
+}
+
+impl PackedCodes<'_> {
+    /// Rows `lo..=hi` (at most four) of `bins` codes each into `rows`: on from the last row
+    /// decoded where that is the shorter way, else from the key row at or before `lo`.
+    fn decode(&self, bins: usize, lo: usize, hi: usize, rows: &mut Rows) {
+        let key = lo / KEY_EVERY * KEY_EVERY;
+        if !(rows.from <= lo && rows.next > key) {
+            (rows.from, rows.next, rows.at) = (key, key, self.keys[lo / KEY_EVERY] as usize);
+        }
+        let b = self.bytes;
+        let mut at = rows.at;
+        for r in rows.next..=hi {
+            if r % KEY_EVERY == 0 {
+                for q in rows.ring[r % 4][..bins].iter_mut() {
+                    *q = u16::from_le_bytes([b[at], b[at + 1]]);
+                    at += 2;
+                }
+            } else {
+                rows.ring[r % 4] = rows.ring[(r - 1) % 4];
+                let mut step = 0i32;
+                for q in rows.ring[r % 4][..bins].iter_mut() {
+                    let d = b[at];
+                    at += 1;
+                    let up = i32::from(*q);
+                    if d == ESCAPE {
+                        *q = u16::from_le_bytes([b[at], b[at + 1]]);
+                        at += 2;
+                        step = i32::from(*q) - up;
+                    } else {
+                        step += i32::from(d as i8);
+                        *q = (up + step) as u16;
+                    }
+                }
+            }
+            rows.next = r + 1;
+            rows.from = rows.from.max(rows.next.saturating_sub(4));
+        }
+        rows.at = at;
+    }
 }
 
 /// How [`fill_table`] coded ln|H|².
@@ -239,26 +356,23 @@ impl<T: Real> ModelTable<'_, T> {
         (i, x - T::lit(i as f64))
     }
 
-    fn row(&self, i: usize) -> &[u16] {
-        let n = self.geometry.bins;
-        &self.ln_gain[i * n..(i + 1) * n]
-    }
-
     /// ln|H|² at `rh`: the node's row at a node, else a Catmull–Rom cubic through the four
-    /// nodes about it (the ends continued linearly).
-    fn ln_gain(&self, rh: T) -> [T; MAX_BINS] {
+    /// nodes about it (the ends continued linearly); `rows` keeps the rows decoded for the next.
+    fn ln_gain(&self, rh: T, rows: &mut Rows) -> [T; MAX_BINS] {
         let n = self.geometry.bins;
         let (i, t) = self.locate(rh);
         let (offset, step) = (T::lit(self.ln_offset), T::lit(self.ln_step));
         let mut h = [T::zero(); MAX_BINS];
         if t == T::zero() || self.nodes() < 2 {
-            for (v, &q) in h.iter_mut().zip(self.row(i)) {
+            self.ln_gain.decode(n, i, i, rows);
+            for (v, &q) in h.iter_mut().zip(&rows.row(i)[..n]) {
                 *v = offset + step * T::from_u16(q);
             }
             return h;
         }
         let last = self.nodes() - 1;
-        let (b, c) = (self.row(i), self.row(i + 1));
+        self.ln_gain.decode(n, i.saturating_sub(1), (i + 2).min(last), rows);
+        let (b, c) = (rows.row(i), rows.row(i + 1));
         let half = T::lit(0.5);
         let (t2, t3) = (t * t, t * t * t);
         let w = [
@@ -270,8 +384,8 @@ impl<T: Real> ModelTable<'_, T> {
         let two = T::lit(2.0);
         for k in 0..n {
             let (bk, ck) = (T::from_u16(b[k]), T::from_u16(c[k]));
-            let a = if i > 0 { T::from_u16(self.row(i - 1)[k]) } else { two * bk - ck };
-            let d = if i + 1 < last { T::from_u16(self.row(i + 2)[k]) } else { two * ck - bk };
+            let a = if i > 0 { T::from_u16(rows.row(i - 1)[k]) } else { two * bk - ck };
+            let d = if i + 1 < last { T::from_u16(rows.row(i + 2)[k]) } else { two * ck - bk };
             h[k] = offset + step * (w[0] * a + w[1] * bk + w[2] * ck + w[3] * d);
         }
         h
@@ -430,6 +544,7 @@ struct Problem<'t, 'a, T> {
     table: &'t ModelTable<'a, T>,
     y: [T; MAX_BINS],
     proj: Projection<T>,
+    rows: Rows,
 }
 
 impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
@@ -446,7 +561,7 @@ impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
             proj.used[k] = s.psd[k] > T::zero() && s.psd[k].is_finite();
         }
         proj.factor();
-        Problem { table, y, proj }
+        Problem { table, y, proj, rows: Rows::new() }
     }
 
     fn n(&self) -> usize {
@@ -454,8 +569,8 @@ impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
     }
 
     /// The profiled cost ‖(I − P)(y − h(RH))‖² and its residuals.
-    fn cost(&self, rh: T) -> (T, [T; MAX_BINS]) {
-        let h = self.table.ln_gain(rh);
+    fn cost(&mut self, rh: T) -> (T, [T; MAX_BINS]) {
+        let h = self.table.ln_gain(rh, &mut self.rows);
         let mut v = [T::zero(); MAX_BINS];
         for k in 0..self.n() {
             v[k] = self.y[k] - h[k];
@@ -465,7 +580,7 @@ impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
     }
 
     /// The profiled cost at the table's nodes (infinite where the laws are not physical).
-    fn grid_costs(&self) -> [T; MAX_GRID] {
+    fn grid_costs(&mut self) -> [T; MAX_GRID] {
         let mut out = [T::infinity(); MAX_GRID];
         for (i, slot) in out.iter_mut().enumerate().take(self.table.nodes()) {
             let c = self.cost(self.table.node_rh(i)).0;
@@ -477,7 +592,7 @@ impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
     }
 
     /// The best RH: the nodes, then golden sections in the best cell; and the nodes' costs.
-    fn best_rh(&self) -> (T, [T; MAX_GRID]) {
+    fn best_rh(&mut self) -> (T, [T; MAX_GRID]) {
         let costs = self.grid_costs();
         let last = self.table.nodes() - 1;
         let mut best = (0, T::infinity());
@@ -510,9 +625,9 @@ impl<'t, 'a, T: Real> Problem<'t, 'a, T> {
     }
 
     /// (I − P)·∂h/∂RH at `rh`.
-    fn sensitivity(&self, rh: T) -> [T; MAX_BINS] {
+    fn sensitivity(&mut self, rh: T) -> [T; MAX_BINS] {
         let d = T::lit(DERIVATIVE_STEP_PCT);
-        let (up, down) = (self.table.ln_gain(rh + d), self.table.ln_gain(rh - d));
+        let (up, down) = (self.table.ln_gain(rh + d, &mut self.rows), self.table.ln_gain(rh - d, &mut self.rows));
         let mut v = [T::zero(); MAX_BINS];
         for k in 0..self.n() {
             v[k] = (up[k] - down[k]) / (d + d);
@@ -707,10 +822,48 @@ mod tests {
     fn fit<T: Real>(c: &Calibration, v: &SpectrumView<'_, T>, noise: T) -> Result<StripRh<T>, Refusal> {
         let g = BinGeometry::new(2000.0, &crate::band::Band::DEFAULT);
         let nodes = table_nodes(c);
-        let (mut ln_gain, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![T::zero(); nodes]);
-        let TableScale { ln_offset, ln_step } = fill_table(c, &g, &mut ln_gain, &mut sd_cal);
-        let table = ModelTable { rh_min: c.rh_min, rh_max: c.rh_max, geometry: g, ln_offset, ln_step, ln_gain: &ln_gain, sd_cal: &sd_cal };
+        let (mut codes, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![T::zero(); nodes]);
+        let TableScale { ln_offset, ln_step } = fill_table(c, &g, &mut codes, &mut sd_cal);
+        let (mut bytes, mut keys) = (vec![0u8; 3 * codes.len()], vec![0u32; nodes.div_ceil(KEY_EVERY)]);
+        let used = pack_codes(&codes, g.bins, &mut bytes, &mut keys);
+        bytes.truncate(used);
+        let ln_gain = PackedCodes { bytes: &bytes, keys: &keys };
+        let table = ModelTable { rh_min: c.rh_min, rh_max: c.rh_max, geometry: g, ln_offset, ln_step, ln_gain, sd_cal: &sd_cal };
         strip_rh(&table, v, noise)
+    }
+
+    #[test]
+    fn packed_codes_are_the_codes() {
+        // The default calibration's table, and one of codes far apart (nearly all escaped), in
+        // rows of the most bins: every row alike from its key row, alone or with those after it.
+        let c = Calibration::default_preset();
+        let g = BinGeometry::new(2000.0, &crate::band::Band::DEFAULT);
+        let nodes = table_nodes(&c);
+        let (mut smooth, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![0.0f64; nodes]);
+        fill_table(&c, &g, &mut smooth, &mut sd_cal);
+        let mut rng = Lcg(3);
+        let rough: Vec<u16> = (0..20 * MAX_BINS).map(|_| (rng.next() * 65536.0) as u16).collect();
+        for (codes, bins) in [(&smooth, g.bins), (&rough, MAX_BINS)] {
+            let rows = codes.len() / bins;
+            let (mut bytes, mut keys) = (vec![0u8; 3 * codes.len()], vec![0u32; rows.div_ceil(KEY_EVERY)]);
+            let used = pack_codes(codes, bins, &mut bytes, &mut keys);
+            let packed = PackedCodes { bytes: &bytes[..used], keys: &keys };
+            // Each span of up to four rows from scratch, and from whatever the span before left.
+            let mut after = Rows::new();
+            for (lo, span) in (0..rows).flat_map(|lo| (1..=4.min(rows - lo)).map(move |n| (lo, n))).chain([(3, 2), (0, 4), (17, 3), (9, 1)])
+            {
+                let mut fresh = Rows::new();
+                for r in [&mut fresh, &mut after] {
+                    packed.decode(bins, lo, lo + span - 1, r);
+                    for row in lo..lo + span {
+                        assert_eq!(&r.row(row)[..bins], &codes[row * bins..(row + 1) * bins], "row {row}");
+                    }
+                }
+            }
+        }
+        let (mut bytes, mut keys) = (vec![0u8; 3 * smooth.len()], vec![0u32; nodes.div_ceil(KEY_EVERY)]);
+        let used = pack_codes(&smooth, g.bins, &mut bytes, &mut keys);
+        assert!(used < smooth.len() * 2 * 2 / 3, "{used} bytes for {} codes", smooth.len());
     }
 
     #[test]

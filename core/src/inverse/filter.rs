@@ -13,7 +13,7 @@
 
 use crate::Real;
 use crate::band::Band;
-use crate::band::{BandDesign, BandLimit};
+use crate::band::{BandCoefficients, BandDesign, BandLimit};
 use crate::inverse::design::{Inverse, MAX_SECTIONS};
 use crate::numeric::section::{Sos, Stage};
 
@@ -186,10 +186,10 @@ impl<T: Real> Compensator<T> {
         c
     }
 
-    /// [`passthrough`](Self::passthrough) with the band's filter designed beforehand (`design`,
-    /// for `band` at `fs_hz`): the firmware's, baked at build time, so that the device never
-    /// designs a band. Restart it with [`restart_in_band`](Self::restart_in_band).
-    pub fn passthrough_designed(band: &Band, design: &BandDesign, fs_hz: T) -> Self {
+    /// [`passthrough`](Self::passthrough) with the band's filter designed beforehand (`design`'s
+    /// coefficients, for `band` at `fs_hz`): the firmware's, baked at build time, so that the
+    /// device never designs a band. Restart it with [`restart_in_band`](Self::restart_in_band).
+    pub fn passthrough_designed<S: Real>(band: &Band, design: &BandCoefficients<'_, S>, fs_hz: T) -> Self {
         let mut c = Self::unbanded(band, fs_hz);
         c.set_rate(fs_hz);
         c.band.load(design);
@@ -244,7 +244,7 @@ impl<T: Real> Compensator<T> {
         self.band_spec = *band;
         match BandDesign::design(band, fs_hz.to_f64()) {
             Ok(t) => {
-                self.band.load(&t);
+                self.band.load(&t.coefficients());
                 self.keeps_band = true;
             }
             Err(_) => self.keeps_band = false,
