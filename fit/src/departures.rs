@@ -211,7 +211,7 @@ pub struct StripModel {
     pub has_departures: [bool; 4],
     pub law_tests: [Option<LawTest>; 4],
     /// Per parameter, what the calibration keeps (law, departures and the reading's error
-    /// together) against each level held out ([`kept_test`]).
+    /// together) against each level held out ([`kept_tests`]).
     pub kept_tests: [Option<LawTest>; 4],
     /// Levels per parameter.
     pub levels: [usize; 4],
@@ -538,7 +538,7 @@ impl StripModel {
         let law_tests = core::array::from_fn(|k| law_test(&problem, k, degree[k]?, spread));
 
         let (_, post) = problem.reml(problem.covariance(&amplitude, &length_pct, spread)).ok_or(ModelError::Singular)?;
-        let kept_tests = core::array::from_fn(|k| kept_test(&post, &problem.h, &problem.obs, k));
+        let kept_tests = kept_tests(&post, &problem.h, &problem.obs);
         let mixture =
             core::array::from_fn(|k| if gp[k] { over_lengths(&problem, k, &amplitude, &length_pct, spread, max_length) } else { vec![] });
         let amplitude = core::array::from_fn(|k| if gp[k] { amplitude[k] } else { 0.0 });
@@ -746,7 +746,7 @@ fn law_test(p: &Problem<'_>, k: usize, degree: usize, sd: Spread) -> Option<LawT
     Some(LawTest { chi2, dof, p_value: chi2_tail(chi2, dof) })
 }
 
-/// Each of parameter `k`'s levels against what the rest of the model predicts there, the law's
+/// Each parameter's levels against what the rest of the model predicts there, the law's
 /// coefficients refitted without it (leave-one-out, in closed form for a linear model with
 /// known covariance C and mean basis H: with P = C⁻¹ − C⁻¹H(HᵀC⁻¹H)⁻¹HᵀC⁻¹, the held-out
 /// residual is (Py)ᵢ/Pᵢᵢ with variance 1/Pᵢᵢ, and Py is the posterior's α). The sum of the
@@ -754,21 +754,20 @@ fn law_test(p: &Problem<'_>, k: usize, degree: usize, sd: Spread) -> Option<LawT
 /// departures and read errors at their fitted sizes) explains the levels; a level it cannot
 /// predict, a read error beyond σₑ or a law bent by one level, raises it. The law alone is not
 /// the test: a strip with departures misses it by construction.
-fn kept_test(post: &Posterior, h: &DMatrix<f64>, obs: &[(usize, usize)], k: usize) -> Option<LawTest> {
-    let rows: Vec<usize> = (0..obs.len()).filter(|&a| obs[a].0 == k).collect();
-    if rows.len() < 2 {
-        return None;
-    }
+fn kept_tests(post: &Posterior, h: &DMatrix<f64>, obs: &[(usize, usize)]) -> [Option<LawTest>; 4] {
     let cinv = post.chol.inverse();
     let q = &cinv * h;
-    let chi2 = rows
-        .iter()
-        .map(|&a| {
+    let z2: Vec<f64> = (0..obs.len())
+        .map(|a| {
             let p_aa = cinv[(a, a)] - (q.row(a) * &post.hch_inv * q.row(a).transpose())[(0, 0)];
             post.alpha[a] * post.alpha[a] / p_aa
         })
-        .sum::<f64>();
-    chi2.is_finite().then(|| LawTest { chi2, dof: rows.len(), p_value: chi2_tail(chi2, rows.len()) })
+        .collect();
+    core::array::from_fn(|k| {
+        let rows: Vec<usize> = (0..obs.len()).filter(|&a| obs[a].0 == k).collect();
+        let chi2 = rows.iter().map(|&a| z2[a]).sum::<f64>();
+        (rows.len() >= 2 && chi2.is_finite()).then(|| LawTest { chi2, dof: rows.len(), p_value: chi2_tail(chi2, rows.len()) })
+    })
 }
 
 /// The departures table over `rh_range`: [`MAX_DEPARTURE_POINTS`] evenly spaced humidities,
