@@ -36,7 +36,7 @@ pub fn table(
         if !stated.is_finite() {
             continue;
         }
-        let calibration = (errors.at(rh).0 + errors.beyond_var(beyond_pct[start])).sqrt();
+        let calibration = errors.calibration_part_beyond(rh, beyond_pct[start]);
         let noise = (stated * stated - calibration * calibration).max(0.0).sqrt();
         blocks.push(((rh / ROW_PCT).floor() as i32, stated, calibration, noise));
     }

@@ -162,6 +162,12 @@ impl ErrorTable {
         self.at(rh_pct).1.sqrt()
     }
 
+    /// [`Self::calibration_part`] of a strip `beyond_pct` outside the range: with
+    /// [`Self::beyond_var`].
+    pub fn calibration_part_beyond<T: Real>(&self, rh_pct: T, beyond_pct: T) -> T {
+        (self.at(rh_pct).0 + self.beyond_var(beyond_pct)).sqrt()
+    }
+
     /// What a strip `beyond_pct` outside the range (signed: below < 0) adds to v: the distance
     /// taken as a humidity error of the design held at the edge.
     pub fn beyond_var<T: Real>(&self, beyond_pct: T) -> T {
@@ -232,9 +238,9 @@ impl<T: Real> BlockError<T> {
     /// ([`ErrorTable::noise_equivalent_m`]) over the estimate's smoothed rms in the band: which
     /// of the two limits an estimate, for the user to see. Infinite noise part before any signal.
     pub fn parts(&self, design_rh_pct: T) -> (T, T) {
-        let (v, noise) = self.table.at(design_rh_pct);
+        let (_, noise) = self.table.at(design_rh_pct);
         let p = self.power_m2.unwrap_or(T::zero());
-        ((v + self.beyond_var()).sqrt(), (noise / p).sqrt())
+        (self.table.calibration_part_beyond(design_rh_pct, self.beyond_pct), (noise / p).sqrt())
     }
 
     /// The strip's humidity is `beyond_pct` outside the calibrated range (signed: below < 0;

@@ -229,7 +229,7 @@ fn print_summary(fits: &[(usize, LevelFit)], laws: &[LawFit]) {
         );
     }
     // The test is of what the calibration keeps: a law alone misses a strip with departures by
-    // construction, and said so on every clean strip while the law the top level bent passed.
+    // construction (it warned on 22 of the six shared clean strips' 24 laws).
     for l in laws {
         let (test, what) = match (l.kept, l.chi2, l.dof, l.p_value) {
             (Some(t), ..) => (
@@ -349,7 +349,6 @@ pub fn identify(
         calibration_from_levels(base, &level_fits, rh_range, rh_given, &revisits).with_context(|| format!("{source}: calibration"))?;
     let rh_sd = model.hyper.rh_sd_pct;
     println!("bench reading uncertainty: {rh_sd:.2} %RH per level ({how})");
-
     if revisits.iter().any(Option::is_some) {
         println!(
             "setpoints visited twice: each one humidity, at its visits' mean reading; the chamber left the visits {:.2} %RH apart (fitted)",
@@ -378,20 +377,15 @@ pub fn identify(
             base.instrument.tip_gain_tolerance_pct
         );
     }
-    calib.uncertainty = ipmc_fit::scatter::uncertainty(&model, &calib, &level_fits, rh_sd, &base.uncertainty);
-    if let Some(t) = ipmc_fit::scatter::departures_with_sd(&model, &calib) {
-        calib.departures = t;
-    }
+    what_remains(&mut calib, &model, &level_fits, rh_sd, base);
     let visits: Vec<crate::range_edges::Visit> =
         fits.iter().zip(&revisits).map(|((_, l, _), r)| crate::range_edges::Visit { rh_pct: l.rh_pct, revisit_of: *r }).collect();
     let remade = |k: usize, delta: f64| {
         let mut moved = level_fits.clone();
         moved[k].rh_pct += delta;
         let (mut c, _, m) = calibration_from_levels(base, &moved, rh_range, Some(rh_sd), &revisits).ok()?;
-        c.uncertainty = calib.uncertainty;
-        if let Some(t) = ipmc_fit::scatter::departures_with_sd(&m, &c) {
-            c.departures = t;
-        }
+        c.instrument.tip_gain = calib.instrument.tip_gain;
+        what_remains(&mut c, &m, &moved, rh_sd, base);
         Some(c)
     };
     for w in crate::range_edges::warnings(&visits, rh_sd, &calib, &remade) {
@@ -452,6 +446,21 @@ pub fn identify(
     header += "# [uncertainty]: what remains unknown of Y, Cs, Ca and d after the laws and departures (rms over the range);\n#   [departures] y_sd … d_sd: the same at each humidity of its grid, which the error bars use.\n";
     let text = format!("{header}{}", calibration_file::to_text(&calib));
     Ok(Identified { calib, fits, model, text })
+}
+
+/// What the laws leave unknown of the strip, into `calib`: `[uncertainty]` over the range and the
+/// `[departures]` table with its sd at each humidity.
+fn what_remains(
+    calib: &mut Calibration,
+    model: &ipmc_fit::departures::StripModel,
+    level_fits: &[LevelFit],
+    rh_sd: f64,
+    base: &Calibration,
+) {
+    calib.uncertainty = ipmc_fit::scatter::uncertainty(model, calib, level_fits, rh_sd, &base.uncertainty);
+    if let Some(t) = ipmc_fit::scatter::departures_with_sd(model, calib) {
+        calib.departures = t;
+    }
 }
 
 /// The base calibration a command starts from, and its name (a missing `--calib` is said by
