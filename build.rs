@@ -105,6 +105,8 @@ fn load_calibration() -> Result<(Calibration, String), String> {
             firmware_sensor().as_str()
         ));
     }
+    // The board reads a named sensor: a bench's unnamed reading's uncertainty is not its own.
+    let calibration = Calibration { humidity: calibration.humidity.for_named_reading(), ..calibration };
     Ok((calibration, shown))
 }
 

@@ -7,7 +7,6 @@
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::calibration::humidity_path::HumidityMode;
-use ipmc_core::calibration::humidity_path::SensorKind;
 use ipmc_core::humidity::block::{BlockHumidity, span_s};
 use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
 use ipmc_core::humidity::strip::{Refusal, StripRh, strip_rh};
@@ -21,9 +20,11 @@ pub use ipmc_core::timing::BLOCK_LEN;
 /// Flag bits, the firmware's (defined with the wire format).
 pub use ipmc_core::wire::stream::flags;
 
-/// The humidity reading's uncertainty the firmware of the default board assumes for `calib`.
+/// The humidity reading's uncertainty for `calib`'s readings: the sensor its `[humidity]` names
+/// (a recording's, set by `reading_uncertainty::name_sensor`), else the bench's unnamed reading
+/// it was measured on, else the default board's HTS221.
 pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
-    given.unwrap_or_else(|| calib.humidity.uncertainty_pct_for(calib.humidity.sensor.unwrap_or(SensorKind::Hts221)))
+    given.unwrap_or_else(|| calib.humidity.reading_uncertainty_pct(calib.humidity.sensor))
 }
 
 /// The expected-error table of `calib`'s designs at the recording's rate (the firmware's build

@@ -113,17 +113,63 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
 }
 
 /// The recording with its `rh_pct` replaced, sample by sample, by `rh(fit)` of the last fit
-/// before the sample (the first fit's for the samples before it).
+/// before the sample in its burst (the burst's first fit's for the samples before it). A fit
+/// never stands for another burst: across a recording's gap the air moved (a bench session's
+/// next level), and a value held over would reach the chain as a step at the burst's first fit.
+/// A burst without a fit keeps its readings.
 pub fn with_humidity(ts: &TimeSeries, seconds: &[Second], rh: impl Fn(&Second) -> f64) -> TimeSeries {
     let mut out = ts.clone();
     let mut k = 0;
-    for (i, v) in out.rh_pct.iter_mut().enumerate() {
-        while k + 1 < seconds.len() && seconds[k + 1].t_s < ts.t_s[i] {
+    for burst in ts.bursts() {
+        let (t0, t1) = (ts.t_s[burst.start], ts.t_s[burst.end - 1]);
+        while k < seconds.len() && seconds[k].t_s < t0 {
             k += 1;
         }
-        if let Some(s) = seconds.get(k) {
-            *v = rh(s);
+        let first = k;
+        let inside = |j: usize| seconds.get(j).is_some_and(|s| s.t_s <= t1);
+        if !inside(first) {
+            continue;
+        }
+        for i in burst {
+            while inside(k + 1) && seconds[k + 1].t_s < ts.t_s[i] {
+                k += 1;
+            }
+            out.rh_pct[i] = rh(&seconds[k]);
+        }
+        while inside(k) {
+            k += 1;
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn second(t_s: f64, rh_pct: f64) -> Second {
+        let e = Estimate { rh_pct, sd_pct: 1.0 };
+        Second { t_s, reading: e, reading_avg_pct: rh_pct, strip: Err(Refusal::Warming), fused: e, fused_design_sd_pct: 1.0 }
+    }
+
+    #[test]
+    fn a_fit_stands_for_its_own_burst_alone() {
+        // Three bursts of 4 s at 10 Hz, 100 s apart, read at 40, 60 and 70 %RH.
+        let mut ts = TimeSeries { fs_hz: 10.0, ..Default::default() };
+        for (b, rh) in [40.0, 60.0, 70.0].into_iter().enumerate() {
+            for i in 0..40 {
+                ts.t_s.push(100.0 * b as f64 + i as f64 / 10.0);
+                ts.rh_pct.push(rh);
+                ts.current_a.push(0.0);
+            }
+        }
+        let seconds = [second(1.0, 41.0), second(2.0, 42.0), second(101.0, 61.0), second(102.0, 62.0)];
+        let out = with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
+        assert!(out.rh_pct[..21].iter().all(|&v| v == 41.0), "the first fit, before it too");
+        assert_eq!(out.rh_pct[21], 42.0, "the next from the first sample after it");
+        assert_eq!(out.rh_pct[39], 42.0);
+        assert_eq!(out.rh_pct[40], 61.0, "the second burst starts at its own first fit, not the first burst's last");
+        assert_eq!(out.rh_pct[79], 62.0);
+        assert!(out.rh_pct[80..].iter().all(|&v| v == 70.0), "a burst without a fit keeps its readings");
+    }
 }

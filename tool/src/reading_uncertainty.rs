@@ -45,6 +45,8 @@ pub fn name_sensor(calib: &mut Calibration, ts: &TimeSeries) -> Named {
             Named::Calibration(c)
         }
         (None, Some(r)) => {
+            // What the calibration measured on its bench's unnamed reading is not this sensor's.
+            calib.humidity = calib.humidity.for_named_reading();
             calib.humidity.sensor = Some(r);
             Named::Recording(r)
         }
@@ -78,6 +80,10 @@ pub fn fused_sd(seconds: &[Second]) -> Option<f64> {
 pub fn settle(calib: &mut Calibration, named: Named, run: impl Fn(&Calibration) -> Vec<Second>) -> String {
     let given = calib.humidity.uncertainty_pct;
     match (named, given) {
+        (Named::Nobody, Some(u)) => format!(
+            "no sensor named (`# {SENSOR_KEY}=`, [humidity] sensor): the calibration's bench reading's, {u:.2} %RH \
+             ([humidity] uncertainty_pct, as `ipmc identify` measured it on the levels' read errors), the same instrument taken"
+        ),
         (_, Some(u)) => format!("the calibration's [humidity] uncertainty_pct, {u:.2} %RH"),
         (Named::Calibration(k), None) => {
             format!("the calibration's sensor ({}): its datasheet's {:.2} %RH", k.as_str(), calib.humidity.uncertainty_pct_for(k))

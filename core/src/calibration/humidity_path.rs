@@ -127,7 +127,9 @@ pub struct HumidityPath {
     pub tau_wet_s: f64,
     /// … while it dries [s]; 0: none.
     pub tau_dry_s: f64,
-    /// Standard uncertainty of a corrected reading [%RH]; none: the sensor's datasheet accuracy.
+    /// Standard uncertainty of a corrected reading [%RH], measured on `sensor`; with no sensor
+    /// named, on the bench's own reading, and then only for readings that name none either
+    /// ([`HumidityPath::reading_uncertainty_pct`]); none: the sensor's datasheet accuracy.
     pub uncertainty_pct: Option<f64>,
     /// The sensor's response time τ63 [s]; none: the sensor's datasheet figure.
     pub sensor_lag_s: Option<f64>,
@@ -247,12 +249,37 @@ impl HumidityPath {
         self.supply_v.unwrap_or(HIH4030_NOMINAL_SUPPLY_V)
     }
 
+    /// The table as a board's named sensor reads through it: a figure measured on the bench's
+    /// unnamed reading is not its sensor's, so it goes (the firmware's build bakes this, and a
+    /// replay of the firmware takes it alike).
+    pub const fn for_named_reading(&self) -> HumidityPath {
+        match self.sensor {
+            None => HumidityPath { uncertainty_pct: None, ..*self },
+            Some(_) => *self,
+        }
+    }
+
     /// Uncertainty of a corrected reading from a `kind` sensor [%RH]: the table's
-    /// `uncertainty_pct` when it gives one (a salt calibration, `ipmc diagnose`: measured through
-    /// the same supply), else the sensor's datasheet accuracy, for the HIH-4030 with its
-    /// supply's error beside it ([`HumidityPath::hih4030_supply_error_pct`]).
+    /// `uncertainty_pct` when it was measured on a named sensor (a salt calibration, `ipmc
+    /// diagnose`: measured through the same supply), else the sensor's datasheet accuracy, for
+    /// the HIH-4030 with its supply's error beside it ([`HumidityPath::hih4030_supply_error_pct`]).
+    /// A figure the table gives with no sensor named is the bench's unnamed reading's (`ipmc
+    /// identify` measures it on the levels' read errors): it says nothing of a `kind` sensor.
     pub fn uncertainty_pct_for(&self, kind: SensorKind) -> f64 {
-        self.uncertainty_pct.unwrap_or(match kind {
+        self.reading_uncertainty_pct(Some(kind))
+    }
+
+    /// Uncertainty of a corrected reading [%RH] from the sensor `reading` names, or from an
+    /// unnamed instrument (`None`): taken to be the one the calibration's own figure was measured
+    /// on when the table names no sensor either (a lab's chamber on the bench and in its time
+    /// series), else the board's HTS221's datasheet accuracy.
+    pub fn reading_uncertainty_pct(&self, reading: Option<SensorKind>) -> f64 {
+        let measured = match (self.sensor, reading) {
+            (None, Some(_)) => None,
+            _ => self.uncertainty_pct,
+        };
+        let kind = reading.unwrap_or(SensorKind::Hts221);
+        measured.unwrap_or(match kind {
             SensorKind::Hih4030 => Real::hypot(kind.datasheet_accuracy_pct(), self.hih4030_supply_error_pct(HIH4030_SUPPLY_ERROR_AT_PCT)),
             _ => kind.datasheet_accuracy_pct(),
         })
@@ -392,5 +419,11 @@ mod tests {
         assert_eq!(salted.uncertainty_pct_for(SensorKind::Sht4x), 0.6);
         // A measured figure stands whatever the sensor: the table is the better knowledge.
         assert_eq!(salted.uncertainty_pct_for(SensorKind::Hih4030), 0.6);
+        // A bench's unnamed reading, measured: it holds for unnamed readings alone.
+        let bench = HumidityPath { uncertainty_pct: Some(0.9), ..HumidityPath::NONE };
+        assert_eq!(bench.reading_uncertainty_pct(None), 0.9);
+        assert_eq!(bench.uncertainty_pct_for(SensorKind::Sht4x), 1.8);
+        assert_eq!(HumidityPath::NONE.reading_uncertainty_pct(None), 3.5);
+        assert_eq!(salted.reading_uncertainty_pct(None), 0.6);
     }
 }

@@ -206,7 +206,7 @@ impl<T: Real> BlockHygrometer<T> {
             lags,
             n_lags,
             strip: None,
-            accuracy_pct: T::lit(calib.humidity.uncertainty_pct_for(kind)),
+            accuracy_pct: T::lit(calib.humidity.reading_uncertainty_pct(calib.humidity.sensor)),
             lag_s: T::lit(sensor_lag_s),
         }
     }

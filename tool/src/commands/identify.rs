@@ -391,6 +391,17 @@ pub fn identify(
     for w in crate::range_edges::warnings(&visits, rh_sd, &calib, &remade) {
         eprintln!("warning: {w}");
     }
+    // Where nothing names the bench's sensor, its reading's uncertainty is what the levels' read
+    // errors show: a recording of the same instrument that names none either is stated with it.
+    let bench_sensor = recording_fr.metadata.get(crate::reading_uncertainty::SENSOR_KEY);
+    let bench_named = base.humidity.sensor.is_some() || bench_sensor.is_some();
+    if !bench_named && base.humidity.uncertainty_pct.is_none() {
+        calib.humidity.uncertainty_pct = Some(rh_sd);
+        println!(
+            "no sensor named (`# {}=`, the base's [humidity] sensor): the bench reading's {rh_sd:.2} %RH written as [humidity] uncertainty_pct, for recordings that name none either",
+            crate::reading_uncertainty::SENSOR_KEY
+        );
+    }
     // A mode the base calibration chose stays; otherwise the file says what the tool does by
     // default, so that a firmware built with it designs as `compensate` does.
     calib.humidity.mode.get_or_insert(ipmc_core::calibration::humidity_path::HumidityMode::DEFAULT);
@@ -441,6 +452,12 @@ pub fn identify(
             "# [instrument] tip_gain: the tip channel's gain identified from the session ({:.5} ± {:.5}).\n",
             g.value,
             g.se * g.value
+        );
+    }
+    if !bench_named && base.humidity.uncertainty_pct.is_none() {
+        header += &format!(
+            "# [humidity] uncertainty_pct: the bench reading's ({rh_sd:.2} %RH, from the levels' read errors; no sensor named), for\n\
+             #   recordings that name no sensor either; a recording or board naming its sensor takes that sensor's accuracy.\n"
         );
     }
     header += "# [uncertainty]: what remains unknown of Y, Cs, Ca and d after the laws and departures (rms over the range);\n#   [departures] y_sd … d_sd: the same at each humidity of its grid, which the error bars use.\n";
