@@ -360,7 +360,9 @@ impl Diagnosis {
             uncertainty_pct: found.uncertainty_pct.or(old.uncertainty_pct),
             ..found.after(&old)
         };
-        if found.gain != 1.0 || found.offset_pct != 0.0 {
+        // The uncertainty too was measured on that sensor: unnamed, it would be taken for a
+        // bench's reading's and left out for every named sensor.
+        if found.gain != 1.0 || found.offset_pct != 0.0 || found.uncertainty_pct.is_some() {
             out.humidity.sensor = Some(sensor);
         }
         Some(out)
