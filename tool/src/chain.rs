@@ -10,7 +10,7 @@ use ipmc_core::calibration::humidity_path::HumidityMode;
 use ipmc_core::humidity::block::{BlockHumidity, span_s};
 use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
 use ipmc_core::humidity::strip::{Refusal, StripRh, strip_rh};
-use ipmc_core::inverse::expected_error::{BlockError, ErrorTable};
+use ipmc_core::inverse::expected_error::{BlockError, ErrorTable, HumiditySlopes};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, InverseKind, design_inverse};
 use ipmc_core::{firmware::operating_point::asks_for_design, timing::reading_age_s};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
@@ -32,6 +32,18 @@ pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
 pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64, kind: InverseKind<f64>) -> Result<ErrorTable> {
     let cfg = DesignConfig { kind, ..DesignConfig::<f64>::at_rate(fs_hz) };
     ErrorTable::new(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
+}
+
+/// The slopes that carry [`error_table`]'s table to a design humidity of another uncertainty.
+pub fn humidity_slopes(
+    calib: &Calibration,
+    fs_hz: f64,
+    rh_sd_pct: f64,
+    kind: InverseKind<f64>,
+    errors: &ErrorTable,
+) -> Result<HumiditySlopes> {
+    let cfg = DesignConfig { kind, ..DesignConfig::<f64>::at_rate(fs_hz) };
+    errors.humidity_slopes(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no humidity slopes: a design over the calibrated range failed"))
 }
 
 /// One firmware block of the retune schedule: where it starts, the RH it reports, its flags.
@@ -147,6 +159,7 @@ pub fn compensate_scheduled(
         let mut block = raw;
         comp.process_block(&mut block);
         let (rel_err, beyond) = (error_bar.block(comp.rh_pct(), &block), error_bar.beyond_pct());
+        let calibration_part = error_bar.parts(comp.rh_pct()).0;
         if !b.rel_err.is_nan() && rel_err.to_bits() != b.rel_err.to_bits() {
             bail!("block at sample {pos}: the firmware's expected error is {}, the host's {rel_err}", b.rel_err);
         }
@@ -188,6 +201,7 @@ pub fn compensate_scheduled(
             est.rh_read_pct.push(b.rh_read_pct);
             est.rel_err.push(rel_err);
             est.beyond_pct.push(beyond);
+            est.rel_err_calibration.push(calibration_part);
             est.flags.push(b.flags);
         }
     }
@@ -217,6 +231,8 @@ pub struct Estimates {
     pub rel_err: Vec<f32>,
     /// Per sample: how far beyond the calibrated range (signed, %RH) that 1σ took the strip to be.
     pub beyond_pct: Vec<f32>,
+    /// Per sample: the calibration's part of that 1σ (`BlockError::parts`); the rest is noise.
+    pub rel_err_calibration: Vec<f32>,
     pub flags: Vec<u16>,
     pub retunes: usize,
 }
@@ -232,6 +248,7 @@ impl Estimates {
             rh_read_pct: Vec::with_capacity(n),
             rel_err: Vec::with_capacity(n),
             beyond_pct: Vec::with_capacity(n),
+            rel_err_calibration: Vec::with_capacity(n),
             flags: Vec::with_capacity(n),
             retunes: 0,
         }
@@ -250,12 +267,21 @@ fn designer(calib: &Calibration, fs_hz: f64, kind: InverseKind<f32>) -> impl Fn(
 /// Each block's reading (its mean) goes through the calibration's humidity path as on the
 /// device (`BlockHumidity`); the strip's hydration runs across bursts, through the time
 /// between them.
+/// A design humidity whose uncertainty changes along the recording (a fused humidity's, as its
+/// fits add up): per sample its 1σ [%RH], and the error table's slopes that carry it into the
+/// stated error.
+pub struct OwnUncertainty<'a> {
+    pub slopes: &'a HumiditySlopes,
+    pub sd_pct: &'a [f64],
+}
+
 pub fn compensate(
     calib: &Calibration,
     ts: &TimeSeries,
     fixed_rh: Option<f64>,
     errors: &ErrorTable,
     kind: InverseKind<f32>,
+    own_sd: Option<&OwnUncertainty>,
 ) -> Result<Estimates> {
     let design = designer(calib, ts.fs_hz, kind);
     let n = ts.t_s.len();
@@ -306,6 +332,10 @@ pub fn compensate(
                 Some(_) => {}
             }
             let c = comp.as_mut().expect("compensator exists");
+            if let Some(u) = own_sd {
+                let sd = u.sd_pct[pos..end].iter().sum::<f64>() / (end - pos) as f64;
+                error_bar.humidity_sd(u.slopes, c.rh_pct(), sd as f32);
+            }
             let mut block: Vec<f32> = ts.current_a[pos..end].iter().map(|&x| x as f32).collect();
             let bad_before = c.bad_samples;
             c.process_block(&mut block);
@@ -313,6 +343,7 @@ pub fn compensate(
                 fl |= flags::BAD_SAMPLE;
             }
             let (rel_err, beyond) = (error_bar.block(c.rh_pct(), &block), error_bar.beyond_pct());
+            let calibration_part = error_bar.parts(c.rh_pct()).0;
             let d = (c.delay_s() as f64 * ts.fs_hz).round() as usize;
             bar.inc(block.len() as u64);
             for v in block {
@@ -324,6 +355,7 @@ pub fn compensate(
                 est.rh_read_pct.push(rh_read);
                 est.rel_err.push(rel_err);
                 est.beyond_pct.push(beyond);
+                est.rel_err_calibration.push(calibration_part);
                 est.flags.push(fl);
             }
             pos = end;

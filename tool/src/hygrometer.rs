@@ -112,32 +112,42 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
     out
 }
 
-/// The recording with its `rh_pct` replaced, sample by sample, by `rh(fit)` of the last fit
-/// before the sample in its burst (the burst's first fit's for the samples before it). A fit
-/// never stands for another burst: across a recording's gap the air moved (a bench session's
-/// next level), and a value held over would reach the chain as a step at the burst's first fit.
-/// A burst without a fit keeps its readings.
-pub fn with_humidity(ts: &TimeSeries, seconds: &[Second], rh: impl Fn(&Second) -> f64) -> TimeSeries {
-    let mut out = ts.clone();
+/// Per sample of `ts`, `value(fit)` of the last fit before the sample in its burst (the burst's
+/// first fit's for the samples before it); None in a burst without a fit. A fit never stands for
+/// another burst: across a recording's gap the air moved (a bench session's next level), and a
+/// value held over would reach the chain as a step at the burst's first fit.
+pub fn per_sample(ts: &TimeSeries, seconds: &[Second], value: impl Fn(&Second) -> f64) -> Vec<Option<f64>> {
+    let mut out = vec![None; ts.t_s.len()];
     let mut k = 0;
     for burst in ts.bursts() {
         let (t0, t1) = (ts.t_s[burst.start], ts.t_s[burst.end - 1]);
         while k < seconds.len() && seconds[k].t_s < t0 {
             k += 1;
         }
-        let first = k;
         let inside = |j: usize| seconds.get(j).is_some_and(|s| s.t_s <= t1);
-        if !inside(first) {
+        if !inside(k) {
             continue;
         }
         for i in burst {
             while inside(k + 1) && seconds[k + 1].t_s < ts.t_s[i] {
                 k += 1;
             }
-            out.rh_pct[i] = rh(&seconds[k]);
+            out[i] = Some(value(&seconds[k]));
         }
         while inside(k) {
             k += 1;
+        }
+    }
+    out
+}
+
+/// The recording with its `rh_pct` replaced by `rh(fit)` ([`per_sample`]); a burst without a
+/// fit keeps its readings.
+pub fn with_humidity(ts: &TimeSeries, seconds: &[Second], rh: impl Fn(&Second) -> f64) -> TimeSeries {
+    let mut out = ts.clone();
+    for (v, fit) in out.rh_pct.iter_mut().zip(per_sample(ts, seconds, rh)) {
+        if let Some(f) = fit {
+            *v = f;
         }
     }
     out

@@ -15,13 +15,13 @@ const SETTLING_BLOCKS: usize = 64;
 /// One row per [`ROW_PCT`] of design humidity the estimate visited: the medians over its blocks.
 /// `rh_pct`, `rel_err` and `burst_start` are per sample, as the chain gives them; `block_len`
 /// samples share one value.
-/// `beyond_pct`: how far beyond the calibrated range each 1σ took the strip to be, which is the
-/// calibration's part too.
+/// `calibration`: each 1σ's calibration part, as the chain split it (a strip beyond the range,
+/// a design humidity of its own uncertainty are in it).
 pub fn table(
     errors: &ErrorTable,
     rh_pct: &[f32],
     rel_err: &[f32],
-    beyond_pct: &[f32],
+    calibration: &[f32],
     burst_start: &[usize],
     block_len: usize,
     band: (f64, f64),
@@ -36,7 +36,7 @@ pub fn table(
         if !stated.is_finite() {
             continue;
         }
-        let calibration = errors.calibration_part_beyond(rh, beyond_pct[start]);
+        let calibration = calibration[start];
         let noise = (stated * stated - calibration * calibration).max(0.0).sqrt();
         blocks.push(((rh / ROW_PCT).floor() as i32, stated, calibration, noise));
     }
@@ -116,8 +116,11 @@ mod tests {
         let (block, n) = (32, 32 * 200);
         // Two humidities, a stated error larger than the calibration's part at each.
         let rh: Vec<f32> = (0..n).map(|i| if i < n / 2 { 42.0 } else { 71.0 }).collect();
-        let stated: Vec<f32> = rh.iter().map(|&r| (errors.calibration_part(r).powi(2) + 0.1f32.powi(2)).sqrt()).collect();
-        let t = table(&errors, &rh, &stated, &vec![0.0; n], &vec![0; n], block, (10.0, 150.0));
+        // The calibration's part as the chain gives it: the table's at the second humidity, twice
+        // that at the first (a strip beyond the range, an uncertain design humidity).
+        let calibration: Vec<f32> = rh.iter().map(|&r| errors.calibration_part(r) * if r < 50.0 { 2.0 } else { 1.0 }).collect();
+        let stated: Vec<f32> = calibration.iter().map(|&c| (c * c + 0.1f32.powi(2)).sqrt()).collect();
+        let t = table(&errors, &rh, &stated, &calibration, &vec![0; n], block, (10.0, 150.0));
         let rows: Vec<&str> = t.lines().skip(2).collect();
         assert_eq!(rows.len(), 2, "{t}");
         assert!(rows[0].trim_start().starts_with("40–45") && rows[1].trim_start().starts_with("70–75"), "{t}");
@@ -125,14 +128,6 @@ mod tests {
             let noise: f32 = r.split_whitespace().nth(3).unwrap().parse().unwrap();
             assert!((noise - 10.0).abs() < 0.02, "{t}");
         }
-        // Beyond the range, the distance is the calibration's part, not the noise's.
-        let edge = calib.rh_max as f32;
-        let beyond = vec![2.0f32; n];
-        let stated: Vec<f32> =
-            beyond.iter().map(|&b| (errors.calibration_part(edge).powi(2) + errors.beyond_var(b) + 0.1f32.powi(2)).sqrt()).collect();
-        let t = table(&errors, &vec![edge; n], &stated, &beyond, &vec![0; n], block, (10.0, 150.0));
-        let noise: f32 = t.lines().nth(2).unwrap().split_whitespace().nth(3).unwrap().parse().unwrap();
-        assert!((noise - 10.0).abs() < 0.02, "{t}");
     }
 
     #[test]

@@ -138,14 +138,30 @@ impl ErrorTable {
             t.model_var[i] = v as f32;
             t.noise_m2[i] = noise as f32;
         }
-        // The slope of v in the humidity error's variance, over one more %RH² at each end: v is
-        // E|r·y − 1|², second order in the humidity error, so a distance δ beyond the edge adds
-        // about δ² times it.
+        // A distance δ beyond an edge is a humidity error of the design held there.
         for (k, (edge, i)) in [(calib.rh_min, 0), (calib.rh_max, n - 1)].into_iter().enumerate() {
-            let (wider, _) = terms_at(calib, edge, Real::sqrt(rh_sd_pct * rh_sd_pct + 1.0), cfg)?;
-            t.beyond_var_per_pct2[k] = (wider - t.model_var[i] as f64).max(0.0) as f32;
+            t.beyond_var_per_pct2[k] = humidity_slope(calib, edge, rh_sd_pct, t.model_var[i] as f64, cfg)? as f32;
         }
         Some(t)
+    }
+
+    /// [`HumiditySlopes`] of this table, made from `calib` with the `rh_sd_pct` and `cfg` it was
+    /// made with. None if a design fails.
+    pub fn humidity_slopes(&self, calib: &Calibration, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<HumiditySlopes> {
+        let mut per_pct2 = [0.0; TABLE_LEN];
+        for (i, slope) in per_pct2.iter_mut().enumerate().take(self.n) {
+            let rh = if i == self.n - 1 { calib.rh_max } else { calib.rh_min + self.step_pct as f64 * i as f64 };
+            // The chord from a humidity known exactly to the table's: a fused humidity's 1σ
+            // lies between them, and v bends (a design's error grows faster than second order
+            // near the wet end's steep laws).
+            *slope = if rh_sd_pct > 0.0 {
+                let (exact, _) = terms_at(calib, rh, 0.0, cfg)?;
+                ((self.model_var[i] as f64 - exact) / (rh_sd_pct * rh_sd_pct)).max(0.0) as f32
+            } else {
+                humidity_slope(calib, rh, rh_sd_pct, self.model_var[i] as f64, cfg)? as f32
+            };
+        }
+        Some(HumiditySlopes { table_sd_pct: rh_sd_pct as f32, per_pct2 })
     }
 
     /// The calibration's part of the expected relative error at `rh_pct` (1σ, a fraction): the
@@ -177,13 +193,47 @@ impl ErrorTable {
 
     /// (v, N²) at `rh_pct`, linear between entries, the end entries beyond the range.
     pub fn at<T: Real>(&self, rh_pct: T) -> (T, T) {
+        (self.lerp(&self.model_var, rh_pct), self.lerp(&self.noise_m2, rh_pct))
+    }
+
+    /// A column on this table's grid at `rh_pct`, linear between entries, the end entries
+    /// beyond the range.
+    fn lerp<T: Real>(&self, column: &[f32; TABLE_LEN], rh_pct: T) -> T {
         let x = (rh_pct - T::lit(self.rh0_pct as f64)) / T::lit(self.step_pct as f64);
         let last = self.n - 1;
         let x = if x.is_nan() || x < T::zero() { T::zero() } else { x.min(T::lit(last as f64)) };
         let i = (x.floor().to_f64() as usize).min(last - 1);
         let u = x - T::lit(i as f64);
-        let lerp = |a: &[f32; TABLE_LEN]| T::lit(a[i] as f64) + (T::lit(a[i + 1] as f64) - T::lit(a[i] as f64)) * u;
-        (lerp(&self.model_var), lerp(&self.noise_m2))
+        T::lit(column[i] as f64) + (T::lit(column[i + 1] as f64) - T::lit(column[i] as f64)) * u
+    }
+}
+
+/// What one more %RH² of the design humidity's error variance adds to v at `rh_pct`, about the
+/// `rh_sd_pct` that gave `v`: v is E|r·y − 1|², second order in the humidity error, so it grows
+/// by this times the variance added.
+fn humidity_slope(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, v: f64, cfg: &DesignConfig<f64>) -> Option<f64> {
+    let (wider, _) = terms_at(calib, rh_pct, Real::sqrt(rh_sd_pct * rh_sd_pct + 1.0), cfg)?;
+    Some((wider - v).max(0.0))
+}
+
+/// The slope of an [`ErrorTable`]'s v in the humidity error's variance at each of its entries:
+/// where the design humidity's uncertainty changes from block to block (a fused humidity, whose
+/// 1σ narrows as the strip's fits add up), what each block's own adds to or takes from the
+/// table's ([`BlockError::humidity_sd`]). Made on the host; the device states its sensor's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HumiditySlopes {
+    /// The humidity uncertainty the table was made with [%RH].
+    pub table_sd_pct: f32,
+    pub per_pct2: [f32; TABLE_LEN],
+}
+
+impl HumiditySlopes {
+    /// What a design humidity `sd_pct` uncertain, rather than the table's, changes v by at
+    /// `rh_pct` (on the table's grid, linear between entries).
+    pub fn var_change<T: Real>(&self, table: &ErrorTable, rh_pct: T, sd_pct: T) -> T {
+        let slope = table.lerp(&self.per_pct2, rh_pct);
+        let table_sd = T::lit(self.table_sd_pct as f64);
+        slope * (sd_pct * sd_pct - table_sd * table_sd)
     }
 }
 
@@ -201,6 +251,8 @@ pub struct BlockError<T> {
     band_gain: T,
     /// How far the strip's humidity lies beyond the calibrated range [%RH], signed (below: < 0).
     beyond_pct: T,
+    /// What the design humidity's own uncertainty, where it is not the table's, changes v by.
+    humidity_var: T,
 }
 
 impl<T: Real> BlockError<T> {
@@ -229,7 +281,15 @@ impl<T: Real> BlockError<T> {
             band_gain += g;
         }
         band_gain /= T::lit(BAND_POINTS as f64);
-        BlockError { table: *table, power_m2: None, hp, state: [[T::zero(); 2]; HP_SECTIONS], band_gain, beyond_pct: T::zero() }
+        BlockError {
+            table: *table,
+            power_m2: None,
+            hp,
+            state: [[T::zero(); 2]; HP_SECTIONS],
+            band_gain,
+            beyond_pct: T::zero(),
+            humidity_var: T::zero(),
+        }
     }
 
     /// The two parts of the expected relative error after the blocks so far, for the design at
@@ -240,7 +300,19 @@ impl<T: Real> BlockError<T> {
     pub fn parts(&self, design_rh_pct: T) -> (T, T) {
         let (_, noise) = self.table.at(design_rh_pct);
         let p = self.power_m2.unwrap_or(T::zero());
-        (self.table.calibration_part_beyond(design_rh_pct, self.beyond_pct), (noise / p).sqrt())
+        (self.model_var(design_rh_pct).sqrt(), (noise / p).sqrt())
+    }
+
+    /// v for the design at `design_rh_pct` with what this block adds: the distance beyond the
+    /// range, the humidity's own uncertainty.
+    fn model_var(&self, design_rh_pct: T) -> T {
+        (self.table.at(design_rh_pct).0 + self.beyond_var() + self.humidity_var).max(T::zero())
+    }
+
+    /// The design humidity is `sd_pct` uncertain (1σ, %RH) from this block on, not what the table
+    /// was made with ([`HumiditySlopes`]).
+    pub fn humidity_sd(&mut self, slopes: &HumiditySlopes, design_rh_pct: T, sd_pct: T) {
+        self.humidity_var = slopes.var_change(&self.table, design_rh_pct, sd_pct);
     }
 
     /// The strip's humidity is `beyond_pct` outside the calibrated range (signed: below < 0;
@@ -287,9 +359,9 @@ impl<T: Real> BlockError<T> {
                 self.state = [[T::zero(); 2]; HP_SECTIONS];
             }
         }
-        let (v, noise) = self.table.at(design_rh_pct);
+        let (_, noise) = self.table.at(design_rh_pct);
         let p = self.power_m2.unwrap_or(T::zero());
-        (v + self.beyond_var() + noise / p).sqrt()
+        (self.model_var(design_rh_pct) + noise / p).sqrt()
     }
 }
 
@@ -448,6 +520,30 @@ mod tests {
         }
         b.beyond_range(0.0);
         assert_eq!(b.parts(edge).0, inside);
+    }
+
+    /// A block whose design humidity is more or less certain than the table's states what a
+    /// table made with its own uncertainty states: the slopes carry the table from one to another.
+    #[test]
+    fn a_block_states_its_own_humidity_uncertainty() {
+        let c = Calibration::default_preset();
+        let cfg = DesignConfig::<f64>::firmware();
+        let t = ErrorTable::new(&c, 2.0, &cfg).unwrap();
+        let slopes = t.humidity_slopes(&c, 2.0, &cfg).unwrap();
+        let mut b = BlockError::<f64>::new(&t, &cfg);
+        for rh in [45.0, 62.5, 78.0] {
+            b.humidity_sd(&slopes, rh, 2.0);
+            assert_eq!(b.parts(rh).0, t.calibration_part(rh), "the table's own uncertainty changes nothing");
+            for sd in [0.0, 0.3, 1.0] {
+                b.humidity_sd(&slopes, rh, sd);
+                let want = ErrorTable::new(&c, sd, &cfg).unwrap().calibration_part(rh);
+                let got = b.parts(rh).0;
+                assert!((got / want - 1.0).abs() < 0.05, "{sd} %RH at {rh} %RH: {got} stated, {want} by its own table");
+            }
+        }
+        // The table's grid is the slopes' grid.
+        assert_eq!(slopes.per_pct2[t.n..], [0.0; TABLE_LEN][t.n..]);
+        assert!(slopes.per_pct2[..t.n].iter().all(|&k| k > 0.0));
     }
 
     /// The noise term is relative to the estimate's in-band power: a tone anywhere in the band

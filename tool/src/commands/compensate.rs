@@ -13,7 +13,7 @@
 //! with the raw estimate's rms over the true base's in band, skipping the first second of each
 //! burst (`scoring::SETTLE_S`).
 
-use crate::chain::{compensate, compensate_scheduled, error_table, read_schedule, rh_uncertainty};
+use crate::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
 use crate::scoring::{SETTLE_S, band_score};
@@ -131,14 +131,19 @@ pub fn run(a: Args) -> Result<()> {
     };
     // Fused: the designs follow the fused strip humidity, which is past the path already.
     let read = ts.rh_pct.clone();
-    let (calib, ts, fused_sd) = if fused {
+    // Each block's own 1σ of the fused humidity: it narrows as the strip's fits add up (the
+    // reading's before a burst's first fit).
+    let (calib, ts, fused_sd, own_sd) = if fused {
         let seconds = crate::hygrometer::run(&calib, &ts);
+        let reading_sd = rh_uncertainty(&calib, None);
+        let own_sd: Vec<f64> =
+            crate::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct).into_iter().map(|v| v.unwrap_or(reading_sd)).collect();
         let ts = crate::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
         let mut at_strip = calib;
         at_strip.humidity = calib.humidity.at_strip();
-        (at_strip, ts, crate::reading_uncertainty::fused_sd(&seconds))
+        (at_strip, ts, crate::reading_uncertainty::fused_sd(&seconds), Some(own_sd))
     } else {
-        (calib, ts, None)
+        (calib, ts, None, None)
     };
     let rh_sd = match (a.rh_uncertainty, fused_sd) {
         (Some(u), _) => {
@@ -147,8 +152,8 @@ pub fn run(a: Args) -> Result<()> {
         }
         (None, Some(u)) => {
             println!(
-                "the humidity's uncertainty: {u:.2} %RH, the fused humidity's (rms of its 1σ without the strip's calibration part, \
-                 which the calibration's own uncertainty states already); the reading's: {reading_said}"
+                "the humidity's uncertainty: the fused humidity's, {u:.2} %RH rms, each block stated with its own (its 1σ without the \
+                 strip's calibration part, which the calibration's own uncertainty states already); the reading's: {reading_said}"
             );
             u
         }
@@ -158,9 +163,14 @@ pub fn run(a: Args) -> Result<()> {
         }
     };
     let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
+    let slopes = match (&own_sd, fused_sd, a.rh_uncertainty) {
+        (Some(_), Some(_), None) => Some(humidity_slopes(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd), &errors)?),
+        _ => None,
+    };
+    let own = slopes.as_ref().zip(own_sd.as_deref()).map(|(slopes, sd_pct)| OwnUncertainty { slopes, sd_pct });
     let mut est = match &a.schedule {
         Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,
-        None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd))?,
+        None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd), own.as_ref())?,
     };
     if fused {
         // The chain saw the fused humidity as its reading: the file keeps the sensor's.
@@ -206,7 +216,7 @@ pub fn run(a: Args) -> Result<()> {
     let band = (calib.band.low_hz, calib.band.high_hz);
     print!(
         "{}",
-        crate::limits::table(&errors, &est.rh_pct, &est.rel_err, &est.beyond_pct, &est.burst_start, crate::chain::BLOCK_LEN, band)
+        crate::limits::table(&errors, &est.rh_pct, &est.rel_err, &est.rel_err_calibration, &est.burst_start, crate::chain::BLOCK_LEN, band)
     );
     if let Some(note) = crate::limits::beyond_range(&calib, &est.beyond_pct, &est.flags) {
         eprintln!("warning: {note}");

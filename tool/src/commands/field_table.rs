@@ -72,7 +72,7 @@ fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<f64> {
     let rh_sd = rh_uncertainty(calib, None);
     let kind = InverseChoice::Exact.kind(rh_sd);
     let errors = error_table(calib, ts.fs_hz, rh_sd, kind)?;
-    let est = compensate(calib, ts, None, &errors, InverseChoice::Exact.kind(rh_sd))?;
+    let est = compensate(calib, ts, None, &errors, InverseChoice::Exact.kind(rh_sd), None)?;
     let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("no base_m column"))?;
     Ok(score(&est.base_est_m, base, ts.fs_hz, est.delay_samples.first().copied().unwrap_or(0)))
 }

@@ -160,7 +160,7 @@ fn load_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibratio
 fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64) -> Result<(Scores, crate::chain::Estimates)> {
     let band = (calib.band.low_hz, calib.band.high_hz);
     let errors = error_table(calib, rec.fs_hz, rh_sd, InverseKind::Exact)?;
-    let est = compensate(calib, rec, None, &errors, InverseKind::Exact)?;
+    let est = compensate(calib, rec, None, &errors, InverseKind::Exact, None)?;
     let base = rec.base_m.as_ref().expect("cut with base");
     let n = rec.t_s.len();
     let chain = band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, band, band);

@@ -103,8 +103,8 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
         let rec = burst_of(&looped, range.start..range.start + settle + scored)?;
         let base = rec.base_m.as_ref().expect("cut with base");
         let n = rec.t_s.len();
-        let est = compensate(calib, &rec, None, &errors, InverseKind::Exact)?;
-        let robust_est = compensate(calib, &rec, None, &robust_errors, InverseChoice::Robust.kind(rh_sd_pct))?;
+        let est = compensate(calib, &rec, None, &errors, InverseKind::Exact, None)?;
+        let robust_est = compensate(calib, &rec, None, &robust_errors, InverseChoice::Robust.kind(rh_sd_pct), None)?;
         let robust = band_error(&robust_est.base_est_m, &robust_est.delay_samples, &robust_est.burst_start, base, rec.fs_hz, band, band)
             .unwrap_or(f64::NAN);
         let causal_in = |b| band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, b, band);
