@@ -353,16 +353,19 @@ impl Diagnosis {
     pub fn calibration_with(&self, calib: &Calibration, sensor: SensorKind) -> Option<Calibration> {
         let found = self.humidity_path?;
         let old = calib.humidity;
+        // The correction and its uncertainty were measured on `sensor`: the table names it (an
+        // unnamed uncertainty is a bench reading's, left out for every named sensor), and a bench
+        // reading's uncertainty the calibration carried is not that sensor's.
+        let names_sensor = found.gain != 1.0 || found.offset_pct != 0.0 || found.uncertainty_pct.is_some();
+        let kept = if names_sensor { old.for_named_reading() } else { old };
         let mut out = *calib;
         out.humidity = HumidityPath {
             tau_wet_s: old.tau_wet_s + found.tau_wet_s,
             tau_dry_s: old.tau_dry_s + found.tau_dry_s,
-            uncertainty_pct: found.uncertainty_pct.or(old.uncertainty_pct),
+            uncertainty_pct: found.uncertainty_pct.or(kept.uncertainty_pct),
             ..found.after(&old)
         };
-        // The uncertainty too was measured on that sensor: unnamed, it would be taken for a
-        // bench's reading's and left out for every named sensor.
-        if found.gain != 1.0 || found.offset_pct != 0.0 || found.uncertainty_pct.is_some() {
+        if names_sensor {
             out.humidity.sensor = Some(sensor);
         }
         Some(out)

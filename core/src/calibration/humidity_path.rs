@@ -425,5 +425,8 @@ mod tests {
         assert_eq!(bench.uncertainty_pct_for(SensorKind::Sht4x), 1.8);
         assert_eq!(HumidityPath::NONE.reading_uncertainty_pct(None), 3.5);
         assert_eq!(salted.reading_uncertainty_pct(None), 0.6);
+        // A board reads a named sensor: the bench's figure goes, a named sensor's stays.
+        assert_eq!(bench.for_named_reading().uncertainty_pct, None);
+        assert_eq!(salted.for_named_reading(), salted);
     }
 }

@@ -307,6 +307,7 @@ mod tests {
         let written = crate::calibration_source::load(Some(&path("written.toml"))).unwrap();
         assert!((written.humidity.offset_pct + 1.9).abs() < 0.5, "written offset {}", written.humidity.offset_pct);
         assert!(written.humidity.uncertainty_pct.is_some_and(|u| u < 0.5), "{:?}", written.humidity.uncertainty_pct);
+        assert!(written.humidity.sensor.is_some(), "the sensor the correction and its uncertainty were measured on");
         // The same strip and session as a time series, read by this sensor and by a perfect one,
         // on a quiet bench (the current's white noise sized at 0.1 % of a line rather than
         // 0.5–1.5 %): through the inverse that noise is most of the in-band error and would
