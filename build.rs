@@ -105,8 +105,13 @@ fn load_calibration() -> Result<(Calibration, String), String> {
             firmware_sensor().as_str()
         ));
     }
-    // The board reads a named sensor: a bench's unnamed reading's uncertainty is not its own.
-    let calibration = Calibration { humidity: calibration.humidity.for_named_reading(), ..calibration };
+    // A board reads a named sensor: a bench's unnamed reading's uncertainty is not its own. Under
+    // QEMU the readings are a recording's, which names none: the instrument that figure was
+    // measured on is taken, as `ipmc compensate` takes it for the same recording.
+    let calibration = match reading_sensor() {
+        Some(_) => Calibration { humidity: calibration.humidity.for_named_reading(), ..calibration },
+        None => calibration,
+    };
     Ok((calibration, shown))
 }
 
@@ -270,7 +275,7 @@ fn humidity_path_expr(p: &HumidityPath) -> String {
 
 /// The table as the host tool makes it for the same calibration and sensor; f32 by its bits.
 fn error_table_expr(c: &Calibration) -> String {
-    let rh_sd = c.humidity.uncertainty_pct_for(firmware_sensor());
+    let rh_sd = c.humidity.reading_uncertainty_pct(reading_sensor());
     // `check` designed at every 5 %RH of the range already; a failure between is as fatal.
     let t = ErrorTable::new(c, rh_sd, &DesignConfig::firmware()).expect("the calibration designs over its range");
     let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
@@ -322,6 +327,12 @@ fn model_table_items(c: &Calibration) -> String {
         f64_expr(scale.ln_offset),
         f64_expr(scale.ln_step),
     )
+}
+
+/// The sensor the firmware's readings come from: the board's, or none named under QEMU, which
+/// replays a recording's.
+fn reading_sensor() -> Option<SensorKind> {
+    env::var_os("CARGO_FEATURE_QEMU").is_none().then(firmware_sensor)
 }
 
 /// The humidity sensor this firmware is built for (its cargo feature).

@@ -250,8 +250,8 @@ impl HumidityPath {
     }
 
     /// The table as a board's named sensor reads through it: a figure measured on the bench's
-    /// unnamed reading is not its sensor's, so it goes (the firmware's build bakes this, and a
-    /// replay of the firmware takes it alike).
+    /// unnamed reading is not its sensor's, so it goes (the hardware boards' build bakes this;
+    /// under QEMU the readings are a recording's, and the table stays as it is).
     pub const fn for_named_reading(&self) -> HumidityPath {
         match self.sensor {
             None => HumidityPath { uncertainty_pct: None, ..*self },

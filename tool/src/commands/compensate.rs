@@ -104,10 +104,6 @@ pub fn run(a: Args) -> Result<()> {
     // A replay of the firmware's schedule runs on what the firmware was built with; else the
     // recording's own noise and sensor: the calibration's noise is the bench's front end's.
     let replay = a.schedule.is_some();
-    if replay {
-        // As the firmware's build baked it.
-        calib.humidity = calib.humidity.for_named_reading();
-    }
     let (noise, noise_said) = match (a.current_noise, measured) {
         (Some(d), _) => (Some(d), "given"),
         (None, Some(d)) => (Some(d), "the recording's, from its consecutive periods"),
