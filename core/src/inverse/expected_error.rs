@@ -178,12 +178,6 @@ impl ErrorTable {
         self.at(rh_pct).1.sqrt()
     }
 
-    /// [`Self::calibration_part`] of a strip `beyond_pct` outside the range: with
-    /// [`Self::beyond_var`].
-    pub fn calibration_part_beyond<T: Real>(&self, rh_pct: T, beyond_pct: T) -> T {
-        (self.at(rh_pct).0 + self.beyond_var(beyond_pct)).sqrt()
-    }
-
     /// What a strip `beyond_pct` outside the range (signed: below < 0) adds to v: the distance
     /// taken as a humidity error of the design held at the edge.
     pub fn beyond_var<T: Real>(&self, beyond_pct: T) -> T {

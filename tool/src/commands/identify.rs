@@ -395,7 +395,8 @@ pub fn identify(
     // errors show: a recording of the same instrument that names none either is stated with it.
     let bench_sensor = recording_fr.metadata.get(crate::reading_uncertainty::SENSOR_KEY);
     let bench_named = base.humidity.sensor.is_some() || bench_sensor.is_some();
-    if !bench_named && base.humidity.uncertainty_pct.is_none() {
+    let keeps_bench_reading = !bench_named && base.humidity.uncertainty_pct.is_none();
+    if keeps_bench_reading {
         calib.humidity.uncertainty_pct = Some(rh_sd);
         println!(
             "no sensor named (`# {}=`, the base's [humidity] sensor): the bench reading's {rh_sd:.2} %RH written as [humidity] uncertainty_pct, for recordings that name none either",
@@ -454,7 +455,7 @@ pub fn identify(
             g.se * g.value
         );
     }
-    if !bench_named && base.humidity.uncertainty_pct.is_none() {
+    if keeps_bench_reading {
         header += &format!(
             "# [humidity] uncertainty_pct: the bench reading's ({rh_sd:.2} %RH, from the levels' read errors; no sensor named), for\n\
              #   recordings that name no sensor either; a recording or board naming its sensor takes that sensor's accuracy.\n"
