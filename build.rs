@@ -208,14 +208,21 @@ fn band_filter_expr(c: &Calibration) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ");
+    let slices = |rows: &[&[f64]]| rows.iter().map(|r| format!("&{}", array(r))).collect::<Vec<_>>().join(", ");
     format!(
         "ipmc_core::band::BandCoefficients {{ plan: ipmc_core::band::Plan {{ shape: ipmc_core::band::Shape::{shape}, stages: {}, \
-         half_band_taps: {}, taps: {} }}, half: &{}, pairs: [{}], sections: [{sections}] }}",
+         half_band_taps: {}, taps: {}, edge_stages: {}, edge_half_band_taps: {}, edge_taps: {} }}, half: &{}, pairs: [{}], \
+         edge_half: &{}, edge_pairs: [{}], sections: [{sections}] }}",
         p.stages,
         usizes(&p.half_band_taps),
         p.taps,
+        p.edge_stages,
+        usizes(&p.edge_half_band_taps),
+        p.edge_taps,
         array(d.half),
-        d.pairs.iter().map(|r| format!("&{}", array(r))).collect::<Vec<_>>().join(", "),
+        slices(&d.pairs),
+        array(d.edge_half),
+        slices(&d.edge_pairs),
     )
 }
 

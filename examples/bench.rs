@@ -303,6 +303,11 @@ fn print_plan(plan: &ipmc_core::band::Plan) {
         println!("band_half_band_taps_{s} {n}");
     }
     println!("band_taps {}", plan.taps);
+    println!("band_edge_stages {}", plan.edge_stages);
+    for (s, n) in plan.edge_half_band_taps[..plan.edge_stages].iter().enumerate() {
+        println!("band_edge_half_band_taps_{s} {n}");
+    }
+    println!("band_edge_taps {}", plan.edge_taps);
     println!("band_delay_samples {}", plan.delay_samples());
 }
 

@@ -45,7 +45,11 @@ impl SamplePathFilter {
     /// (`Compensator::passthrough`), until [`restart`](Self::restart).
     pub fn passthrough() -> Self {
         let band = ipmc_core::inverse::design::design_band::<f32>(calibration());
-        Self(Compensator::passthrough_designed(&band, &crate::contract::calibration::BAND, design_config().fs_hz))
+        Self(Compensator::unbanded(&band, design_config().fs_hz))
+    }
+    /// After [`passthrough`](Self::passthrough), in place: the band's filter, baked at build time.
+    pub fn keep_band(&mut self) {
+        self.0.keep_band_designed(&crate::contract::calibration::BAND);
     }
     /// Starts on `design` afresh, in place. Every design is the calibration's, at its band and
     /// the firmware's rate, which the band's filter was baked for.

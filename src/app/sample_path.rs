@@ -112,7 +112,10 @@ static SAMPLE_PATH: StaticCell<SamplePath> = StaticCell::new();
 /// `slot` is valid for a write.
 #[inline(never)]
 unsafe fn write_filter(slot: *mut SamplePathFilter) {
-    unsafe { slot.write(SamplePathFilter::passthrough()) }
+    unsafe {
+        slot.write(SamplePathFilter::passthrough());
+        (*slot).keep_band();
+    }
 }
 
 /// # Safety

@@ -30,8 +30,13 @@ pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
 /// The expected-error table of `calib`'s designs at the recording's rate (the firmware's build
 /// script makes the same one).
 pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64, kind: InverseKind<f64>) -> Result<ErrorTable> {
-    let cfg = DesignConfig { kind, ..DesignConfig::<f64>::at_rate(fs_hz) };
-    ErrorTable::new(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
+    ErrorTable::new(calib, rh_sd_pct, &design_config(fs_hz, kind))
+        .ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
+}
+
+/// The designs the chain makes at `fs_hz`, of `kind`: what its error table and slopes are for.
+fn design_config(fs_hz: f64, kind: InverseKind<f64>) -> DesignConfig<f64> {
+    DesignConfig { kind, ..DesignConfig::<f64>::at_rate(fs_hz) }
 }
 
 /// The slopes that carry [`error_table`]'s table to a design humidity of another uncertainty.
@@ -42,8 +47,9 @@ pub fn humidity_slopes(
     kind: InverseKind<f64>,
     errors: &ErrorTable,
 ) -> Result<HumiditySlopes> {
-    let cfg = DesignConfig { kind, ..DesignConfig::<f64>::at_rate(fs_hz) };
-    errors.humidity_slopes(calib, rh_sd_pct, &cfg).ok_or_else(|| anyhow!("no humidity slopes: a design over the calibrated range failed"))
+    errors
+        .humidity_slopes(calib, rh_sd_pct, &design_config(fs_hz, kind))
+        .ok_or_else(|| anyhow!("no humidity slopes: a design over the calibrated range failed"))
 }
 
 /// One firmware block of the retune schedule: where it starts, the RH it reports, its flags.

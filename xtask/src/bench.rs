@@ -101,11 +101,18 @@ pub fn command(json: bool) -> Result<()> {
     println!("  of which ADC code → A conversion {conv:.1} per sample");
     let stages = get("band_stages")? as usize;
     let halves = (0..stages).map(|s| get(&format!("band_half_band_taps_{s}")).map(|n| format!("{n:.0}"))).collect::<Result<Vec<_>>>()?;
+    let edge_stages = get("band_edge_stages")? as usize;
+    let edge_halves =
+        (0..edge_stages).map(|s| get(&format!("band_edge_half_band_taps_{s}")).map(|n| format!("{n:.0}"))).collect::<Result<Vec<_>>>()?;
     println!(
-        "  of which the band's linear-phase filter {fir:.1} per sample (half-bands of {} taps down and up, the band-pass's {:.0} taps at {:.0} Hz)",
+        "  of which the band's linear-phase filter {fir:.1} per sample (half-bands of {} taps down and up, the band-pass's {:.0} taps at {:.0} Hz, \
+         the lower edge's low-pass of {:.0} taps at {:.1} Hz behind half-bands of {} taps)",
         halves.join(" and "),
         get("band_taps")?,
-        fs / (1 << stages) as f64
+        fs / (1 << stages) as f64,
+        get("band_edge_taps")?,
+        fs / (1 << (stages + edge_stages)) as f64,
+        edge_halves.join(", ")
     );
     println!(
         "  the low-latency band instead (`[band] shape = \"low-latency\"`: four minimum-phase sections): {:.1} per sample, so {:.1} in all",

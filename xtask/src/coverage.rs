@@ -28,10 +28,8 @@ const PAIRS: [&str; 2] = ["strip101", "strip102"];
 const CASES: [&str; 2] = ["case09", "case25"];
 /// The reading uncertainty the external README gives for them ("~1 %RH humidity read error").
 const RH_UNCERTAINTY_PCT: &str = "1";
-/// Looped length, skipped start-up and window: 2 s windows are whole periods of a looped 2 s
-/// burst; 10 s leaves the 1 Hz regularizer's transient far behind.
+/// Looped length and window: 2 s windows are whole periods of a looped 2 s burst.
 const LOOP_S: &str = "40";
-const SETTLE_S: &str = "10";
 const WINDOW_S: &str = "2";
 /// Share of a normal variable within ±1σ.
 const ONE_SIGMA: f64 = 0.6827;
@@ -54,15 +52,8 @@ fn covered(name: &str, rec: &Path, calib: &Path, rh_uncertainty: Option<&str>, w
     let compensated = ipmc(&args)?;
     let said = compensated.lines().find(|l| l.starts_with("the humidity's uncertainty")).unwrap_or("the humidity's uncertainty: not said");
     let score = |json: bool| {
-        let mut args: Vec<&std::ffi::OsStr> = vec![
-            "score".as_ref(),
-            looped.as_os_str(),
-            est.as_os_str(),
-            "--coverage".as_ref(),
-            WINDOW_S.as_ref(),
-            "--settle-s".as_ref(),
-            SETTLE_S.as_ref(),
-        ];
+        let mut args: Vec<&std::ffi::OsStr> =
+            vec!["score".as_ref(), looped.as_os_str(), est.as_os_str(), "--coverage".as_ref(), WINDOW_S.as_ref()];
         if json {
             args.push("--json".as_ref());
         }

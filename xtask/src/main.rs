@@ -54,7 +54,7 @@ enum Task {
         /// Build the firmware with this calibration (TOML) instead of its default.
         #[arg(long)]
         calib: Option<PathBuf>,
-        /// Keep the band `linear-phase` (the default: 237 ms of delay, exact in band) or
+        /// Keep the band `linear-phase` (the default: 1.11 s of delay, exact in band) or
         /// `low-latency` (minimum-phase edges: ≤ 11 ms, its phase in band), whatever the
         /// calibration says.
         #[arg(long, value_parser = ["linear-phase", "low-latency"])]

@@ -4,13 +4,16 @@
 use super::kaiser;
 use super::minimum_phase::{self, SECTIONS};
 use super::spec::{
-    ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_HALF_BAND_TAPS, MAX_STAGES, MAX_TAPS, Plan, Shape, check,
+    ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_EDGE_STAGES, MAX_EDGE_TAPS, MAX_HALF_BAND_TAPS, MAX_STAGES,
+    MAX_TAPS, Plan, Shape, check, lower_transition_hz, transition_hz,
 };
 use crate::numeric::real::{C, Real};
 use crate::numeric::section::Sos;
 
 /// Half of a symmetric filter's taps, centre included.
 pub const MAX_HALF: usize = MAX_TAPS / 2 + 1;
+/// Half of the lower edge's low-pass's taps, centre included.
+pub const MAX_EDGE_HALF: usize = MAX_EDGE_TAPS / 2 + 1;
 /// A half-band's distinct non-zero taps beside its centre (which is ½).
 pub const MAX_HALF_BAND_PAIRS: usize = MAX_HALF_BAND_TAPS.div_ceil(4);
 
@@ -22,6 +25,10 @@ pub struct BandDesign {
     pub half: [f64; MAX_HALF],
     /// Stage `s`'s half-band: `pairs[s][j]` is its tap at ±(2j + 1) from the centre.
     pub pairs: [[f64; MAX_HALF_BAND_PAIRS]; MAX_STAGES],
+    /// The lower edge's low-pass at its rate, as `half`.
+    pub edge_half: [f64; MAX_EDGE_HALF],
+    /// The lower edge's stage `s`'s half-band, as `pairs`.
+    pub edge_pairs: [[f64; MAX_HALF_BAND_PAIRS]; MAX_EDGE_STAGES],
     /// The low-latency band's sections (identities for a linear-phase band).
     pub sections: [Sos<f64>; SECTIONS],
     pub fs_hz: f64,
@@ -41,6 +48,10 @@ pub struct BandCoefficients<'a, S> {
     pub half: &'a [S],
     /// [`BandDesign::pairs`], each stage's first (taps + 1)/4.
     pub pairs: [&'a [S]; MAX_STAGES],
+    /// [`BandDesign::edge_half`], its first (edge taps + 1)/2.
+    pub edge_half: &'a [S],
+    /// [`BandDesign::edge_pairs`], as `pairs`.
+    pub edge_pairs: [&'a [S]; MAX_EDGE_STAGES],
     pub sections: [Sos<S>; SECTIONS],
 }
 
@@ -49,17 +60,27 @@ impl BandDesign {
     pub fn coefficients(&self) -> BandCoefficients<'_, f64> {
         let p = self.plan;
         let pairs = core::array::from_fn(|s| if s < p.stages { &self.pairs[s][..p.half_band_taps[s].div_ceil(4)] } else { &[][..] });
-        BandCoefficients { plan: p, half: &self.half[..p.taps.max(1).div_ceil(2)], pairs, sections: self.sections }
+        let edge_pairs =
+            core::array::from_fn(|s| if s < p.edge_stages { &self.edge_pairs[s][..p.edge_half_band_taps[s].div_ceil(4)] } else { &[][..] });
+        BandCoefficients {
+            plan: p,
+            half: &self.half[..p.taps.max(1).div_ceil(2)],
+            pairs,
+            edge_half: &self.edge_half[..p.edge_taps.div_ceil(2)],
+            edge_pairs,
+            sections: self.sections,
+        }
     }
 
     /// The filter keeping `band` at `fs_hz`.
     pub fn design(band: &Band, fs_hz: f64) -> Result<Self, BandLimitError> {
         let plan = check(band, fs_hz)?;
-        let pi = core::f64::consts::PI;
         let mut d = BandDesign {
             plan,
             half: [0.0; MAX_HALF],
             pairs: [[0.0; MAX_HALF_BAND_PAIRS]; MAX_STAGES],
+            edge_half: [0.0; MAX_EDGE_HALF],
+            edge_pairs: [[0.0; MAX_HALF_BAND_PAIRS]; MAX_EDGE_STAGES],
             sections: [Sos::identity(); SECTIONS],
             fs_hz,
         };
@@ -67,33 +88,34 @@ impl BandDesign {
             d.sections = minimum_phase::sections(band, fs_hz);
             return Ok(d);
         }
-        // Half-bands: the ideal low-pass at a quarter of the rate, whose even taps beside the
-        // centre are zero: only the odd ones are kept.
-        let beta = kaiser::beta(HALF_BAND_ATTENUATION_DB);
         for s in 0..plan.stages {
-            let m = (plan.half_band_taps[s] - 1) / 2;
-            for (j, c) in d.pairs[s].iter_mut().enumerate().take(m.div_ceil(2)) {
-                let k = (2 * j + 1) as f64;
-                *c = Real::sin(pi * k / 2.0) / (pi * k) * kaiser::window(beta, k, m as f64);
-            }
+            kaiser::half_band(&mut d.pairs[s], plan.half_band_taps[s], HALF_BAND_ATTENUATION_DB);
+        }
+        for s in 0..plan.edge_stages {
+            kaiser::half_band(&mut d.edge_pairs[s], plan.edge_half_band_taps[s], HALF_BAND_ATTENUATION_DB);
         }
         // The band-pass at the low rate: the ideal band-pass from the middle of each transition.
-        let rate = fs_hz / plan.factor() as f64;
-        let half_width = super::spec::transition_hz(band) / 2.0;
-        let (w1, w2) = ((band.low_hz - half_width) / rate, (band.high_hz + half_width) / rate);
-        let m = (plan.taps - 1) / 2;
-        let beta = kaiser::beta(ATTENUATION_DB);
-        for (k, h) in d.half.iter_mut().enumerate().take(m + 1) {
-            let j = k as f64 - m as f64;
-            let ideal = if k == m { 2.0 * (w2 - w1) } else { (Real::sin(2.0 * pi * w2 * j) - Real::sin(2.0 * pi * w1 * j)) / (pi * j) };
-            *h = ideal * kaiser::window(beta, j, m as f64);
-        }
+        // Its lower transition ends where the edge's own starts: below it, it deepens the edge's
+        // stop band; at the edge, its ripple has died down to add little to the complement's.
+        let rate = d.low_rate();
+        let width = transition_hz(band);
+        let low_end = 0.5 * band.low_hz;
+        let (w1, w2) = ((low_end - width / 2.0) / rate, (band.high_hz + width / 2.0) / rate);
+        kaiser::band_pass(&mut d.half, (plan.taps - 1) / 2, w1, w2, ATTENUATION_DB);
+        // The edge's low-pass: the ideal low-pass to the middle of the lower transition.
+        let cut = (band.low_hz - lower_transition_hz(band) / 2.0) / (rate / plan.edge_factor() as f64);
+        kaiser::band_pass(&mut d.edge_half, (plan.edge_taps - 1) / 2, 0.0, cut, ATTENUATION_DB);
         // Unit gain at the band's geometric centre, where the ripple is smallest.
         let gain = d.linear_phase_response(Real::sqrt(band.low_hz * band.high_hz));
-        for h in d.half.iter_mut().take(m + 1) {
+        for h in d.half.iter_mut().take(plan.taps.div_ceil(2)) {
             *h /= gain;
         }
         Ok(d)
+    }
+
+    /// The band-pass's rate [Hz].
+    fn low_rate(&self) -> f64 {
+        self.fs_hz / self.plan.factor() as f64
     }
 
     /// How the band is kept: the stages and the taps.
@@ -121,25 +143,67 @@ impl BandDesign {
         }
     }
 
-    /// Each half-band twice (down and up) and the band-pass at the low rate. What a multirate
-    /// filter also makes of a tone (its aliases and images) is 70 dB down
-    /// ([`HALF_BAND_ATTENUATION_DB`]) and not in it.
-    fn linear_phase_response(&self, freq_hz: f64) -> f64 {
-        let two_pi = 2.0 * core::f64::consts::PI;
-        let mut g = 1.0;
-        let mut rate = self.fs_hz;
-        for s in 0..self.plan.stages {
-            let w = two_pi * freq_hz / rate;
-            let h = 0.5 + self.pairs[s].iter().enumerate().map(|(j, c)| 2.0 * c * Real::cos(w * (2 * j + 1) as f64)).sum::<f64>();
-            g *= h * h;
-            rate /= 2.0;
+    /// Where the filter designed for `band` lets anything through: its gain above its designed stop band
+    /// ([`ATTENUATION_DB`] down) [Hz], found on a grid of a hundredth of the band's lower edge.
+    /// What an estimate carries there counts in any figure taken through the filter; what it
+    /// carries further out does not.
+    pub fn support_hz(&self, band: &Band) -> (f64, f64) {
+        let stop2 = Real::powf(10.0, -ATTENUATION_DB / 10.0);
+        let passes = |f: f64| self.response(f).norm_sqr() >= stop2;
+        let (low, high) = (band.low_hz, band.high_hz);
+        let step = low / 100.0;
+        let mut lo = low;
+        while lo - step > 0.0 && passes(lo - step) {
+            lo -= step;
         }
-        let m = (self.plan.taps - 1) / 2;
-        let w = two_pi * freq_hz / rate;
-        let mut b = self.half[m];
-        for (k, h) in self.half[..m].iter().enumerate() {
-            b += 2.0 * h * Real::cos(w * (m - k) as f64);
+        let mut hi = high;
+        while hi + step < self.fs_hz / 2.0 && passes(hi + step) {
+            hi += step;
         }
-        g * b
+        (lo, hi)
     }
+
+    /// Each half-band twice (down and up), the band-pass at the low rate and the lower edge's
+    /// complement, one less its low-pass (and the low-pass's half-bands, twice each). What a
+    /// multirate filter also makes of a tone (its aliases and images) is 70 dB down
+    /// ([`HALF_BAND_ATTENUATION_DB`]) or the low-pass's stop band, and not in it.
+    fn linear_phase_response(&self, freq_hz: f64) -> f64 {
+        let p = &self.plan;
+        let halves = |pairs: &[[f64; MAX_HALF_BAND_PAIRS]], mut rate: f64| {
+            let mut g = 1.0;
+            for c in pairs {
+                let h = half_band_response(c, freq_hz / rate);
+                g *= h * h;
+                rate /= 2.0;
+            }
+            g
+        };
+        let rate = self.low_rate();
+        let main = halves(&self.pairs[..p.stages], self.fs_hz) * symmetric_response(&self.half[..p.taps.div_ceil(2)], freq_hz / rate);
+        if p.edge_taps == 0 {
+            return main;
+        }
+        let low = rate / p.edge_factor() as f64;
+        let edge =
+            halves(&self.edge_pairs[..p.edge_stages], rate) * symmetric_response(&self.edge_half[..p.edge_taps.div_ceil(2)], freq_hz / low);
+        main * (1.0 - edge)
+    }
+}
+
+/// A half-band's response at `f` [cycles a sample] from its taps beside the centre.
+fn half_band_response(pairs: &[f64], f: f64) -> f64 {
+    let w = 2.0 * core::f64::consts::PI * f;
+    0.5 + pairs.iter().enumerate().map(|(j, c)| 2.0 * c * Real::cos(w * (2 * j + 1) as f64)).sum::<f64>()
+}
+
+/// A symmetric filter's response at `f` [cycles a sample], its delay removed, from its first
+/// half (centre last).
+fn symmetric_response(half: &[f64], f: f64) -> f64 {
+    let m = half.len() - 1;
+    let w = 2.0 * core::f64::consts::PI * f;
+    let mut b = half[m];
+    for (k, h) in half[..m].iter().enumerate() {
+        b += 2.0 * h * Real::cos(w * (m - k) as f64);
+    }
+    b
 }

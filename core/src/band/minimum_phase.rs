@@ -2,7 +2,7 @@
 //! high-pass and low-pass with their corners at the middles of the linear-phase band's
 //! transitions, as four delta-form biquads (bilinear, prewarped at the corners).
 //!
-//! A linear-phase band delays every frequency by its centre, 237 ms at 2 kHz. These edges delay
+//! A linear-phase band delays every frequency by its centre, 1.11 s at 2 kHz. These edges delay
 //! the band by 4–11 ms (the most at its low end, [`MAX_GROUP_DELAY_S`] is checked by a test) at
 //! the price of their phase: in band the estimate is turned and scaled as the band's response
 //! says, so it is good only against the truth through the same band, which a controller that

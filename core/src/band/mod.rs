@@ -14,31 +14,39 @@
 //! already reports. The transitions lie outside the band ([`transition_hz`] each side), so the
 //! band itself keeps the design's accuracy.
 //!
-//! Both transitions are narrow (6 Hz for the default band), which at 2 kHz takes a 793-tap FIR.
-//! The band ends at 150 Hz, so the same band-pass runs at a quarter of the rate behind two
-//! half-bands (polyphase, down and back up), with a quarter of the taps: a tenth of the cost,
-//! the same response in band. Every filter in it is linear-phase, so the whole is too.
+//! Both transitions of the band-pass are narrow (6 Hz for the default band), which at 2 kHz takes
+//! a 793-tap FIR. The band ends at 150 Hz, so the band-pass runs at a quarter of the rate behind
+//! two half-bands (polyphase, down and back up), with a quarter of the taps: a tenth of the cost,
+//! the same response in band. Below the band the inverse lifts the current's noise as 1/f⁴, so
+//! the lower edge wants a transition narrower still ([`lower_transition_hz`], 8–10 Hz): after
+//! the band-pass, at its rate, its output delayed less a low-pass of it run at an eighth of that
+//! rate (the complement, `lower_edge`). Every filter in it is linear-phase, so the whole is too.
 //!
 //! The coefficients are designed once (windowed sinc, Kaiser window) in f64 and narrowed to the
 //! working precision, so the firmware and its host replica run the same bits.
-//! - `kaiser`: the window and the length a transition needs;
+//! - `kaiser`: the window, the length a transition needs, the windowed ideal filters;
 //! - `spec`: the `[band]` table, and the plan of stages and taps a rate keeps it with;
 //! - `design`: the coefficients in f64, and the response every figure through the band uses;
-//! - `history`: the samples a symmetric filter folds, kept both ways round;
+//! - `history`: the samples a filter still needs, the sums over them, and a delay;
+//! - `half_band`: a half-band stage as it runs, down and up;
+//! - `lower_edge`: the lower edge's complement as it runs;
 //! - `minimum_phase`: the low-latency option's edges ([`Shape::LowLatency`]);
 //! - `running`: the filter at the working precision.
 
 mod design;
+mod half_band;
 mod history;
 mod kaiser;
+mod lower_edge;
 pub mod minimum_phase;
 mod running;
 mod spec;
 
-pub use design::{BandCoefficients, BandDesign, MAX_HALF, MAX_HALF_BAND_PAIRS};
+pub use design::{BandCoefficients, BandDesign, MAX_EDGE_HALF, MAX_HALF, MAX_HALF_BAND_PAIRS};
 pub use running::BandLimit;
 pub use spec::{
-    ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_TAPS, Plan, Shape, check, lowest_low_hz, transition_hz,
+    ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_EDGE_DELAY, MAX_EDGE_STAGES, MAX_EDGE_TAPS, MAX_TAPS, Plan, Shape,
+    check, lower_transition_hz, lowest_low_hz, transition_hz,
 };
 
 #[cfg(test)]
@@ -56,10 +64,24 @@ mod tests {
         (0..=1400).map(|i| (d.response(10.0 + 0.1 * i as f64).re - 1.0).abs()).fold(0.0, f64::max)
     }
 
-    fn stop(d: &BandDesign) -> f64 {
-        let below = (0..=400).map(|i| d.response(0.01 * i as f64).re.abs());
-        let above = (0..=8440).map(|i| d.response(156.0 + 0.1 * i as f64).re.abs());
+    /// Largest gain beyond the transitions' far ends: below the lower edge's (8 Hz for the default
+    /// band), above the upper's (156 Hz), or `beyond` Hz further out.
+    fn stop(d: &BandDesign, beyond: f64) -> f64 {
+        let below = (0..=((800.0 - 100.0 * beyond) as usize)).map(|i| d.response(0.01 * i as f64).re.abs());
+        let above = (0..=((8440.0 - 10.0 * beyond) as usize)).map(|i| d.response(156.0 + beyond + 0.1 * i as f64).re.abs());
         below.chain(above).fold(0.0, f64::max)
+    }
+
+    /// What the filter lets through ends where its transitions do: the lower one starts at 0.8
+    /// of the edge, the upper one ends 0.6 of the lower edge above the upper edge; a tenth of a
+    /// transition's width either way is the Kaiser design's own slack at its stop band's level.
+    #[test]
+    fn support_ends_where_the_transitions_do() {
+        let band = Band::DEFAULT;
+        let (lo, hi) = BandDesign::design(&band, FS).unwrap().support_hz(&band);
+        let (lower, upper) = (lower_transition_hz(&band), transition_hz(&band));
+        assert!((lo - (band.low_hz - lower)).abs() <= 0.1 * lower, "{lo}");
+        assert!((hi - (band.high_hz + upper)).abs() <= 0.1 * upper, "{hi}");
     }
 
     #[test]
@@ -70,12 +92,15 @@ mod tests {
             let d = BandDesign::design(&Band { shape, ..Band::DEFAULT }, FS).unwrap();
             let wide = d.coefficients();
             let narrow = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<std::vec::Vec<_>>();
-            let half = narrow(wide.half);
+            let (half, edge_half) = (narrow(wide.half), narrow(wide.edge_half));
             let pairs: std::vec::Vec<_> = wide.pairs.iter().map(|p| narrow(p)).collect();
+            let edge_pairs: std::vec::Vec<_> = wide.edge_pairs.iter().map(|p| narrow(p)).collect();
             let stored = BandCoefficients {
                 plan: wide.plan,
                 half: &half,
                 pairs: core::array::from_fn(|s| &pairs[s][..]),
+                edge_half: &edge_half,
+                edge_pairs: core::array::from_fn(|s| &edge_pairs[s][..]),
                 sections: wide.sections.map(|s| {
                     let (b, a, beta, alpha) = s.parts();
                     let n = |v: &[f64]| -> [f32; 3] { core::array::from_fn(|i| v.get(i).map_or(0.0, |&x| x as f32)) };
@@ -98,27 +123,31 @@ mod tests {
         let d = BandDesign::design(&Band::DEFAULT, FS).unwrap();
         let p = d.plan();
         assert_eq!((p.stages, p.half_band_taps, p.taps), (2, [15, 27, 0, 0], 205), "{p:?}");
-        let (r, s) = (ripple(&d), stop(&d));
+        assert_eq!((p.edge_stages, p.edge_half_band_taps, p.edge_taps), (3, [11, 15, 15], 79), "{p:?}");
+        let r = ripple(&d);
         assert!(r <= SINGLE_RATE_RIPPLE, "ripple in band {r}");
+        // At the transitions' far ends (8 and 156 Hz), as deep as the single-rate FIR was at its
+        // own (4 and 156 Hz); a hertz beyond, the design's depth.
+        let (s, deep) = (stop(&d, 0.0), stop(&d, 1.0));
         assert!(s <= SINGLE_RATE_STOP, "outside the transitions {s}");
-        // The design's depth from a hertz beyond each transition.
-        let deep =
-            (0..=300).map(|i| d.response(0.01 * i as f64).re.abs()).chain((0..=8430).map(|i| d.response(157.0 + 0.1 * i as f64).re.abs()));
-        let deep = deep.fold(0.0, f64::max);
         assert!(deep <= 10f64.powf(-42.0 / 20.0), "a hertz beyond the transitions {deep}");
+        // The lower transition is the edge's, 8–10 Hz: half the band already at 9 Hz.
+        let mid = d.response(9.0).re;
+        assert!((0.3..0.7).contains(&mid), "9 Hz passes {mid}");
     }
 
     /// A tone's output, fitted as a·sin + b·cos at `f_out` over the settled part, and the rms of
     /// what is left (aliases, images, the filter's own rounding).
     fn through(f: &mut BandLimit<f64>, f_in: f64, f_out: f64) -> (crate::C<f64>, f64) {
         f.reset();
-        let n = 16_000;
+        // The band's impulse response is 2.2 s long: scored from 3 s.
+        let n = 20_000;
         let tone = |fr: f64, i: usize| (2.0 * core::f64::consts::PI * fr * i as f64 / FS).sin();
         let mut x: std::vec::Vec<f64> = (0..n).map(|i| tone(f_in, i)).collect();
         for c in x.chunks_mut(37) {
             f.process_block(c);
         }
-        let settled = 4000..n;
+        let settled = 6000..n;
         let (mut ss, mut sc, mut cc, mut ys, mut yc) = (0.0, 0.0, 0.0, 0.0, 0.0);
         let w = 2.0 * core::f64::consts::PI * f_out / FS;
         for i in settled.clone() {
@@ -136,7 +165,7 @@ mod tests {
         let d = BandDesign::design(&Band::DEFAULT, FS).unwrap();
         let mut f = BandLimit::<f64>::from_design(&d);
         // In band: the design's response and delay, and what the rate changes add 70 dB down.
-        for f_hz in [10.0, 23.0, 40.0, 97.0, 150.0] {
+        for f_hz in [10.0, 10.6, 23.0, 40.0, 97.0, 150.0] {
             let (ab, rest) = through(&mut f, f_hz, f_hz);
             let w = 2.0 * core::f64::consts::PI * f_hz / FS * d.delay_samples() as f64;
             // sin(ωi − φ) = cos φ·sin ωi − sin φ·cos ωi.
@@ -146,7 +175,9 @@ mod tests {
         }
         // Outside: the rms of everything that comes out, aliases included, 42 dB down.
         let floor = 10f64.powf(-42.0 / 20.0) * core::f64::consts::FRAC_1_SQRT_2;
-        for f_hz in [0.5, 2.0, 3.9, 157.0, 200.0, 344.0, 400.0, 500.0, 656.0, 844.0, 900.0, 1000.0 - 23.0] {
+        // The lower edge's complement cancels its low-pass's path against the delayed band-pass
+        // only where the two are aligned to the sample: 5–7 Hz tells.
+        for f_hz in [0.5, 2.0, 3.9, 5.0, 6.2, 7.0, 157.0, 200.0, 344.0, 400.0, 500.0, 656.0, 844.0, 900.0, 1000.0 - 23.0] {
             let (ab, rest) = through(&mut f, f_hz, f_hz);
             let out = (ab.norm_sqr() / 2.0 + rest * rest).sqrt();
             assert!(out < floor, "{f_hz} Hz comes out at {out}");
@@ -189,10 +220,33 @@ mod tests {
     fn refuses_bands_it_cannot_keep() {
         assert!(matches!(BandDesign::design(&Band { low_hz: 2.0, ..Band::DEFAULT }, FS), Err(BandLimitError::TooLow { .. })));
         assert!(matches!(BandDesign::design(&Band { high_hz: 996.0, ..Band::DEFAULT }, FS), Err(BandLimitError::AboveNyquist)));
+        // Above 194 Hz the band-pass runs at 1 kHz, where a lower edge needs twice the taps.
+        assert!(matches!(
+            check(&Band { low_hz: 12.0, high_hz: 200.0, ..Band::DEFAULT }, FS),
+            Err(BandLimitError::TooLow { needed: 341, .. })
+        ));
+        assert!(check(&Band { low_hz: 35.0, high_hz: 390.0, ..Band::DEFAULT }, FS).is_ok());
         let low = lowest_low_hz(FS, 150.0);
         assert!(
             check(&Band { low_hz: low, ..Band::DEFAULT }, FS).is_ok() && check(&Band { low_hz: low - 0.1, ..Band::DEFAULT }, FS).is_err()
         );
+    }
+
+    #[test]
+    fn the_edge_holds_what_any_band_the_taps_allow_needs() {
+        // The complement's line is sized by the taps' limits, which set the lowest edge: at no
+        // rate does a band both filters keep need a longer one (its guard in `check` never bites).
+        let mut most = 0;
+        for fs in [500.0, 1000.0, 2000.0, 4000.0, 8000.0] {
+            for high in (20..=2000).step_by(10) {
+                for low in (30..400).map(|l| l as f64 / 10.0).take_while(|&l| l < high as f64) {
+                    if let Ok(p) = check(&Band { low_hz: low, high_hz: high as f64, ..Band::DEFAULT }, fs) {
+                        most = most.max(p.edge_path_delay());
+                    }
+                }
+            }
+        }
+        assert!((406..=MAX_EDGE_DELAY).contains(&most), "{most}");
     }
 
     #[test]

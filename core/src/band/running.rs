@@ -1,111 +1,22 @@
 //! The band filter as it runs, at the working precision: half-bands halve the rate down to the
-//! band-pass and double it back up, with the coefficients narrowed from [`BandDesign`].
+//! band-pass, the lower edge's complement follows it at its rate ([`LowerEdge`]), and the same
+//! half-bands double the rate back up, with the coefficients narrowed from [`BandDesign`].
 //!
-//! Each half-band's output is computed only at the rate it keeps (polyphase): down, once for
-//! every second input; up, one output of each pair is its centre tap alone. So the band-pass,
-//! which sets the cost, runs a quarter as often as the stream at 2 kHz, with a quarter of the
-//! taps. Each stage runs over a block of samples at once ([`Line`]).
+//! Each half-band's output is computed only at the rate it keeps ([`HalfBand`]), so the
+//! band-pass, which sets the cost, runs a quarter as often as the stream at 2 kHz, with a
+//! quarter of the taps. Each stage runs over a block of samples at once ([`Line`]).
 
-use super::design::{BandCoefficients, BandDesign, MAX_HALF_BAND_PAIRS};
-use super::history::{Line, dot, dot_four};
+use super::design::{BandCoefficients, BandDesign};
+use super::half_band::{HalfBand, Piece, down_all, up_all};
+use super::history::{Line, fir};
+use super::lower_edge::LowerEdge;
 use super::minimum_phase::SECTIONS;
-use super::spec::{Band, BandLimitError, MAX_STAGES, MAX_TAPS, Plan, Shape};
+use super::spec::{Band, BandLimitError, CHUNK, MAX_PIECE, MAX_STAGES, MAX_TAPS, Plan, Shape};
 use crate::numeric::real::Real;
 use crate::numeric::section::{Sos, Stage};
 
-/// Inputs taken at once: the firmware's block. A longer buffer is taken in pieces this long.
-const CHUNK: usize = 32;
-/// Most outputs a stage makes from one piece: a piece's inputs, and the samples a group of
-/// `factor` inputs holds back when a piece ends inside one.
-const MOST: usize = CHUNK + (1 << MAX_STAGES);
-/// Lines of a half-band: its pairs' span (2K + 2 ≤ 2·MAX_HALF_BAND_PAIRS) and a piece; the few
-/// samples it keeps move back to the front after each piece ([`Line`]).
-const HALF_BAND_LINE: usize = 2 * MAX_HALF_BAND_PAIRS + MOST;
-
-/// One half-band stage, 4K + 3 taps: the 2K + 2 that are not zero beside its centre, and its
-/// lines down (at its input rate) and up (at its output rate, the low side).
-#[derive(Clone, Copy)]
-struct HalfBand<T> {
-    /// The taps at odd offsets from the centre, from −(2K + 1) to 2K + 1: they meet every
-    /// second sample, the window of one line.
-    taps: [T; 2 * MAX_HALF_BAND_PAIRS],
-    k: usize,
-    /// Going down, the second input of each pair: the samples the pairs' taps meet.
-    seconds: Line<T, HALF_BAND_LINE>,
-    /// Going down, the first input of each pair: the centre tap meets the one K pairs back.
-    firsts: Line<T, HALF_BAND_LINE>,
-    /// Whether the next input going down is the second of its pair (completes an output).
-    second_next: bool,
-    /// Going up, the low-rate inputs.
-    up: Line<T, HALF_BAND_LINE>,
-}
-
-impl<T: Real> HalfBand<T> {
-    /// `pairs[j]`: the tap at ±(2j + 1) from the centre, innermost first, as the design has them.
-    fn new<S: Real>(pairs: &[S], taps: usize) -> Self {
-        let k = (taps - 3) / 4;
-        let mut h = HalfBand {
-            taps: [T::zero(); 2 * MAX_HALF_BAND_PAIRS],
-            k,
-            seconds: Line::zeros(0),
-            firsts: Line::zeros(0),
-            second_next: false,
-            up: Line::zeros(0),
-        };
-        for (j, &c) in pairs[..=k].iter().enumerate() {
-            (h.taps[k - j], h.taps[k + 1 + j]) = (T::lit(c.to_f64()), T::lit(c.to_f64()));
-        }
-        h.reset();
-        h
-    }
-
-    /// A history at rest: the samples before the first output's window, all zero.
-    fn reset(&mut self) {
-        self.seconds = Line::zeros(2 * self.k + 1);
-        self.firsts = Line::zeros(self.k);
-        self.up = Line::zeros(2 * self.k + 1);
-        self.second_next = false;
-    }
-
-    /// Takes `input` at the high rate; returns the outputs at the low rate it completes, in
-    /// `out`, and their number.
-    #[inline(never)]
-    fn down(&mut self, input: &[T], out: &mut [T]) -> usize {
-        for &x in input {
-            if self.second_next {
-                self.seconds.push(x)
-            } else {
-                self.firsts.push(x)
-            }
-            self.second_next = !self.second_next;
-        }
-        let k = self.k;
-        let n = self.seconds.len() - (2 * k + 1);
-        let firsts = self.firsts.as_slice();
-        each_window(&self.taps[..2 * k + 2], self.seconds.as_slice(), n, |i, sum| {
-            out[i] = T::lit(0.5) * firsts[i] + sum;
-        });
-        self.seconds.drop_front(n);
-        self.firsts.drop_front(n);
-        n
-    }
-
-    /// Takes `input` at the low rate; returns the two outputs at the high rate each makes, in
-    /// order, in `out`, and their number: the pairs' sum, then the centre tap alone (the zeros
-    /// stuffed between inputs meet only the other taps). Both twice the taps': a zero in two
-    /// samples halves the level.
-    #[inline(never)]
-    fn up(&mut self, input: &[T], out: &mut [T]) -> usize {
-        self.up.extend(input);
-        let (k, n) = (self.k, input.len());
-        let line = self.up.as_slice();
-        each_window(&self.taps[..2 * k + 2], line, n, |i, sum| {
-            (out[2 * i], out[2 * i + 1]) = (sum + sum, line[i + k + 1]);
-        });
-        self.up.drop_front(n);
-        2 * n
-    }
-}
+/// Most outputs a stage makes from one piece.
+const MOST: usize = MAX_PIECE;
 
 /// The running filter: [`BandDesign`] narrowed to `T`, with its lines.
 #[derive(Clone, Copy)]
@@ -116,9 +27,12 @@ pub struct BandLimit<T> {
     taps: [T; MAX_TAPS],
     /// The band-pass's inputs at the low rate, with room for several pieces: the hundreds it
     /// keeps move back to the front once in several.
-    line: Line<T, { MAX_TAPS + 4 * MOST }>,
+    line: Line<[T; MAX_TAPS + 4 * MOST]>,
     /// Outputs made, not yet handed out: one goes out per input.
-    ready: Line<T, { 2 * MOST }>,
+    ready: Line<[T; 2 * MOST]>,
+    /// A piece on its way down and up (kept here: made afresh it would be zeroed each time).
+    scratch: [Piece<T>; 2],
+    edge: LowerEdge<T>,
     /// The low-latency band's sections and their states (unused by a linear-phase band).
     sections: [Sos<T>; SECTIONS],
     states: [[T; 2]; SECTIONS],
@@ -140,18 +54,18 @@ impl<T: Real> BandLimit<T> {
     pub fn identity() -> Self {
         let mut taps = [T::zero(); MAX_TAPS];
         taps[0] = T::one();
-        let none = HalfBand::new(&[0.0f64], 3);
-        let mut b = BandLimit {
-            plan: Plan { shape: Shape::LinearPhase, stages: 0, half_band_taps: [0; MAX_STAGES], taps: 1 },
-            stages: [none; MAX_STAGES],
+        // Its lines at rest already: no sample before the first.
+        BandLimit {
+            plan: Plan::IDENTITY,
+            stages: [HalfBand::none(); MAX_STAGES],
             taps,
             line: Line::zeros(0),
             ready: Line::zeros(0),
+            scratch: [[T::zero(); MOST]; 2],
+            edge: LowerEdge::none(),
             sections: [Sos::identity(); SECTIONS],
             states: [[T::zero(); 2]; SECTIONS],
-        };
-        b.reset();
-        b
+        }
     }
 
     /// Takes the coefficients `d`, in place (no copy of the filter on the stack), with no history.
@@ -168,6 +82,7 @@ impl<T: Real> BandLimit<T> {
         for (k, &v) in d.half[..=(n - 1) / 2].iter().enumerate() {
             (self.taps[k], self.taps[n - 1 - k]) = (T::lit(v.to_f64()), T::lit(v.to_f64()));
         }
+        self.edge.load(d);
         self.reset();
     }
 
@@ -186,11 +101,12 @@ impl<T: Real> BandLimit<T> {
         for s in self.stages[..self.plan.stages].iter_mut() {
             s.reset();
         }
-        self.line = Line::zeros(self.plan.taps.max(1) - 1);
+        self.line.rest(self.plan.taps.max(1) - 1);
         self.states = [[T::zero(); 2]; SECTIONS];
+        self.edge.reset();
         // A group of `factor` inputs makes its outputs on its last input, the first of which
         // goes out on that same input: until then, the zeros of a history at rest.
-        self.ready = Line::zeros(self.plan.factor() - 1);
+        self.ready.rest(self.plan.factor() - 1);
     }
 
     /// Filters `buf` in place.
@@ -207,52 +123,14 @@ impl<T: Real> BandLimit<T> {
             return;
         }
         for piece in buf.chunks_mut(CHUNK) {
-            let (mut a, mut b) = ([T::zero(); MOST], [T::zero(); MOST]);
-            let (mut x, mut y) = (&mut a, &mut b);
-            x[..piece.len()].copy_from_slice(piece);
-            let mut n = piece.len();
-            for s in self.stages[..self.plan.stages].iter_mut() {
-                n = s.down(&x[..n], y);
-                core::mem::swap(&mut x, &mut y);
-            }
-            n = self.band_pass(&x[..n], y);
-            core::mem::swap(&mut x, &mut y);
-            for s in self.stages[..self.plan.stages].iter_mut().rev() {
-                n = s.up(&x[..n], y);
-                core::mem::swap(&mut x, &mut y);
-            }
-            self.ready.extend(&x[..n]);
-            piece.copy_from_slice(&self.ready.as_slice()[..piece.len()]);
-            self.ready.drop_front(piece.len());
+            let stages = &mut self.stages[..self.plan.stages];
+            let [a, b] = &mut self.scratch;
+            let (x, y, n) = down_all(stages, piece, a, b);
+            let n = fir(&self.taps[..self.plan.taps], &mut self.line, &x[..n], y);
+            self.edge.apply(&mut y[..n]);
+            let (out, _, n) = up_all(stages, y, x, n);
+            self.ready.pass(&out[..n], piece);
         }
-    }
-
-    /// The band-pass at the low rate over `input`, into `out`; returns the outputs' number.
-    #[inline(never)]
-    fn band_pass(&mut self, input: &[T], out: &mut [T]) -> usize {
-        self.line.extend(input);
-        let out = &mut out[..input.len()];
-        each_window(&self.taps[..self.plan.taps], self.line.as_slice(), input.len(), |i, y| out[i] = y);
-        self.line.drop_front(input.len());
-        input.len()
-    }
-}
-
-/// The sums over `taps` of the `n` windows that start at `line[0]`, `line[1]`, …, handed to
-/// `emit` with their window's start: four windows at a time where four are left. In line in
-/// each stage (so `emit` costs nothing), around one [`dot_four`] out of line that all share.
-#[inline(always)]
-fn each_window<T: Real>(taps: &[T], line: &[T], n: usize, mut emit: impl FnMut(usize, T)) {
-    let span = taps.len();
-    let mut i = 0;
-    while i + 4 <= n {
-        for (j, y) in dot_four(taps, &line[i..i + span + 3]).into_iter().enumerate() {
-            emit(i + j, y);
-        }
-        i += 4;
-    }
-    for i in i..n {
-        emit(i, dot(taps, &line[i..i + span]));
     }
 }
 

@@ -137,10 +137,10 @@ impl<T: Real> RunningSpectrum<T> {
         let fs_dec = fs_hz / decimation as f64;
         let mut window = [T::zero(); SEGMENT];
         let mut power = 0.0;
+        // In the working precision: in f64 the device would link a cosine for these values alone.
         for (n, w) in window.iter_mut().enumerate() {
-            let v = 0.5 - 0.5 * libm::cos(2.0 * core::f64::consts::PI * n as f64 / SEGMENT as f64);
-            power += v * v;
-            *w = T::lit(v);
+            *w = T::lit(0.5) - T::lit(0.5) * T::lit(2.0 * core::f64::consts::PI * n as f64 / SEGMENT as f64).cos();
+            power += w.to_f64() * w.to_f64();
         }
         let hop_s = HALF as f64 / fs_dec;
         let d = decimation as f64;

@@ -15,12 +15,15 @@
 //! own error plus the causes' (what it was before the robust design needed the second order:
 //! near a resonance the curvature of H puts a bias into E[r] of the size of the gain sought).
 //!
-//! The front end's noise (density S) adds N² = ∫_band S/|H₀|² df of displacement, which relative
-//! to a signal of mean square P is N²/P: √N² is the noise-equivalent base motion in the band
+//! The front end's noise (density S) adds N² = ∫ S·|G·B|² df of displacement (G the inverse as
+//! designed, B the band filter, over wherever B passes anything above its stop band: its lower
+//! transition passes the noise G lifts below the band), which relative to a signal of mean
+//! square P is N²/P: √N² is the noise-equivalent base motion in the band
 //! ([`ErrorTable::noise_equivalent_m`]), the part of the error no calibration removes, stated
 //! apart from the calibration's ([`BlockError::parts`]). N² is integrated by Simpson's rule on
-//! [`NOISE_POINTS`] frequencies: 1/|H₀|² falls as f⁻⁴ at the band's lower edge, where a coarse
-//! trapezoid overstates it by a quarter. P is the estimate's own in the band, smoothed over
+//! [`NOISE_POINTS`] frequencies over the band and [`NOISE_EDGE_POINTS`] over each transition:
+//! |G|² falls as f⁻⁴ at the band's lower edge, where a coarse trapezoid overstates it by a
+//! quarter. P is the estimate's own in the band, smoothed over
 //! about a second. "In the band": the double integration can leave the estimate a
 //! low-frequency wander (offset and noise) far above the signal (50× on the external
 //! recordings, and the noise the inverse lifts just below the band as large as the signal), so
@@ -38,6 +41,7 @@
 //! the same numbers per block, bit for bit.
 
 use crate::C;
+use crate::band::BandDesign;
 use crate::calibration::laws::Calibration;
 use crate::calibration::moments::response_moments;
 use crate::inverse::design::{DesignConfig, design_inverse};
@@ -58,6 +62,8 @@ pub const HP_SECTIONS: usize = 2;
 pub const HP_CORNER_OF_BAND: f64 = 1.0;
 /// Frequencies of the noise integral over the band (Simpson's rule: an odd number).
 const NOISE_POINTS: usize = 281;
+/// Frequencies of the noise integral over each of the band filter's transitions.
+const NOISE_EDGE_POINTS: usize = 41;
 
 /// v and N² over the calibrated range, at evenly spaced humidities.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -99,22 +105,39 @@ pub fn terms_at(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, cfg: &DesignCo
     }
     let mut noise = 0.0;
     if density > 0.0 {
-        let dn = (band.high_hz - band.low_hz) / (NOISE_POINTS - 1) as f64;
-        for i in 0..NOISE_POINTS {
-            let f = band.low_hz + dn * i as f64;
-            // Simpson: 1, 4, 2, 4, …, 4, 1 (× step/3).
-            let w = if i == 0 || i == NOISE_POINTS - 1 {
-                1.0
-            } else if i % 2 == 1 {
-                4.0
-            } else {
-                2.0
-            };
-            noise += w * density * density / current_response(&p, jw(f)).norm_sqr() * dn / 3.0;
-        }
+        // Through the chain as it runs, the inverse as designed and then the band filter, over
+        // wherever that filter lets anything through: its lower transition passes the noise the
+        // inverse lifts as f⁻⁴ below the band, and every score counts what it passes.
+        let filter = BandDesign::design(&band, inv.fs_hz()).ok()?;
+        let (lo, hi) = filter.support_hz(&band);
+        let through = |f: f64| density * density * (inv.response(f) * filter.response(f)).norm_sqr();
+        noise = simpson(&through, lo, band.low_hz, NOISE_EDGE_POINTS)
+            + simpson(&through, band.low_hz, band.high_hz, NOISE_POINTS)
+            + simpson(&through, band.high_hz, hi, NOISE_EDGE_POINTS);
     }
     let v = var / BAND_POINTS as f64;
     (v.is_finite() && noise.is_finite()).then_some((v, noise))
+}
+
+/// ∫ₐᵇ g by Simpson's rule on `points` frequencies (an odd number); nothing where b ≤ a.
+fn simpson(g: &impl Fn(f64) -> f64, a: f64, b: f64, points: usize) -> f64 {
+    if b <= a {
+        return 0.0;
+    }
+    let h = (b - a) / (points - 1) as f64;
+    let mut sum = 0.0;
+    for i in 0..points {
+        // 1, 4, 2, 4, …, 4, 1 (× step/3).
+        let w = if i == 0 || i == points - 1 {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
+        sum += w * g(a + h * i as f64);
+    }
+    sum * h / 3.0
 }
 
 impl ErrorTable {

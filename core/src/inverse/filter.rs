@@ -191,13 +191,22 @@ impl<T: Real> Compensator<T> {
     /// device never designs a band. Restart it with [`restart_in_band`](Self::restart_in_band).
     pub fn passthrough_designed<S: Real>(band: &Band, design: &BandCoefficients<'_, S>, fs_hz: T) -> Self {
         let mut c = Self::unbanded(band, fs_hz);
-        c.set_rate(fs_hz);
-        c.band.load(design);
-        c.keeps_band = true;
+        c.keep_band_designed(design);
         c
     }
 
-    fn unbanded(band: &Band, fs_hz: T) -> Self {
+    /// Takes `design`'s coefficients for its band, in place: [`passthrough_designed`](Self::passthrough_designed)
+    /// in two steps, for a caller that makes the compensator where it stays (`unbanded` there,
+    /// then this), so that its stack holds no copy of the band's filter.
+    pub fn keep_band_designed<S: Real>(&mut self, design: &BandCoefficients<'_, S>) {
+        self.set_rate(self.fs_hz);
+        self.band.load(design);
+        self.keeps_band = true;
+    }
+
+    /// Passes its input through as it is, until [`keep_band_designed`](Self::keep_band_designed)
+    /// or [`restart`](Self::restart).
+    pub fn unbanded(band: &Band, fs_hz: T) -> Self {
         Compensator {
             active: Cascade::from_sections(&[], T::one()),
             tail: Cascade::from_sections(&[], T::one()),

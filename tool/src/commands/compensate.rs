@@ -16,7 +16,7 @@
 use crate::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
-use crate::scoring::{SETTLE_S, band_score};
+use crate::scoring::{SETTLE_S, Scoring};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::calibration::humidity_path::HumidityMode;
 use ipmc_recording::looping::{DEFAULT_PERIOD_S, DEFAULT_SECONDS, Looping, too_short};
@@ -71,7 +71,7 @@ pub struct Args {
     #[arg(long, value_enum, conflicts_with_all = ["schedule", "fixed_rh"])]
     humidity: Option<HumidityChoice>,
     /// How the band is kept, whatever the calibration's `[band] shape` says: `linear-phase`
-    /// (exact in band, 237 ms behind at 2 kHz) or `low-latency` (minimum-phase edges, ≤ 11 ms
+    /// (exact in band, 1.11 s behind at 2 kHz) or `low-latency` (minimum-phase edges, ≤ 11 ms
     /// behind; its phase in band makes the estimate good only against the truth through the
     /// same band).
     #[arg(long, value_enum)]
@@ -185,7 +185,8 @@ pub fn run(a: Args) -> Result<()> {
         ..Default::default()
     };
     file.metadata.set("fs_hz", ts.fs_hz);
-    // What `ipmc score` aligns the truth by: the preview's and the band FIR's delay.
+    // The chain's delay as it reports it (the preview and the band filter's); `ipmc score` checks it
+    // against the scoring's.
     file.metadata.set("delay_samples", est.delay_samples.first().copied().unwrap_or(0));
     file.metadata.set("band_hz", format!("{}-{}", calib.band.low_hz, calib.band.high_hz));
     file.metadata.set("band_shape", calib.band.shape.name());
@@ -218,9 +219,14 @@ pub fn run(a: Args) -> Result<()> {
         eprintln!("warning: {note}");
     }
     if let Some(base) = &ts.base_m {
-        match band_score(&est.base_est_m, &est.delay_samples, &est.burst_start, base, ts.fs_hz, band) {
-            Some(score) => println!("{}", score.line(est.delay_samples.first().copied().unwrap_or(0))),
-            None => eprintln!("warning: {}", crate::scoring::nothing_scored(&a.input, &ts, band)),
+        let period = crate::scoring::stated_period_s(&ts.metadata, Some(&file.metadata));
+        let scoring = Scoring::new(&calib.band, ts.fs_hz, period)?;
+        let bursts = ts.bursts();
+        let score = scoring.score(&est.base_est_m, &scoring.truth(base, &bursts), &bursts, None);
+        if score.bursts.is_empty() {
+            eprintln!("warning: {}", crate::scoring::nothing_scored(&a.input, &ts, &scoring));
+        } else {
+            println!("{}", crate::scoring::line(&scoring, &score));
         }
     }
     Ok(())

@@ -4,16 +4,14 @@
 //! humidity, and with a perfect hygrometer at the strip; and the strip's own estimate: how often
 //! there is one from 70 %RH, and how often its stated 1σ covers the truth.
 //!
-//! Scored as the README scores: estimate and true base both band-limited to 10–150 Hz over the
-//! whole recording at once (its DFT kept in the band: the estimate is band-limited by the chain's
-//! own filter already, and a softer edge applied to the truth alone would count what lies beyond
-//! the band as error), after the first 20 s, at the best delay of 0–40 samples past the chain's
-//! own.
+//! The compensation's error is scored as every command scores it (`crate::scoring`, as `ipmc
+//! score` prints it for the same estimate); the humidity's figures skip the first 20 s.
 
 use crate::chain::{compensate, error_table, rh_uncertainty};
 use crate::hygrometer::{self, Second};
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
+use crate::scoring::{Scoring, stated_period_s};
 use anyhow::{Context, Result, anyhow};
 use ipmc_core::Calibration;
 use ipmc_core::humidity::spectrum::AVERAGING_S;
@@ -37,44 +35,24 @@ pub struct Args {
     seconds: bool,
 }
 
+/// Seconds of the humidity's start not counted (the strip's hygrometer needs its first fits).
 const SKIP_S: f64 = 20.0;
-const MAX_DELAY: usize = 40;
 const WET_PCT: f64 = 70.0;
-/// The README's band.
-const BAND_HZ: (f64, f64) = (10.0, 150.0);
 
-/// `x` with only its content in 10–150 Hz, over the whole series at once.
-fn band_limited(x: &[f64], fs: f64) -> Vec<f64> {
-    let ks = crate::band::bins(x.len(), fs, BAND_HZ.0, BAND_HZ.1);
-    crate::band::synthesize(&crate::band::dft(x, ks.clone()), ks, x.len())
-}
-
-/// rms(estimate − base delayed) / rms(base delayed) in the band, at the best delay of
-/// `delay0` (the chain's own: its preview and its band filter) plus 0–[`MAX_DELAY`] samples [%].
-pub(crate) fn score(est: &[f32], base: &[f64], fs: f64, delay0: usize) -> f64 {
-    let e = band_limited(&est.iter().map(|&v| v as f64).collect::<Vec<_>>(), fs);
-    let b = band_limited(base, fs);
-    let start = (SKIP_S * fs) as usize;
-    (delay0..=delay0 + MAX_DELAY)
-        .map(|d| {
-            let (mut se, mut sb) = (0.0, 0.0);
-            for k in start.max(d)..e.len().min(b.len() + d) {
-                let t = b[k - d];
-                se += (e[k] - t).powi(2);
-                sb += t * t;
-            }
-            100.0 * (se / sb).sqrt()
-        })
-        .fold(f64::INFINITY, f64::min)
-}
-
-fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<f64> {
+/// The compensation's error [%] and how it was scored.
+fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<(f64, String)> {
     let rh_sd = rh_uncertainty(calib, None);
     let kind = InverseChoice::Exact.kind(rh_sd);
     let errors = error_table(calib, ts.fs_hz, rh_sd, kind)?;
     let est = compensate(calib, ts, None, &errors, InverseChoice::Exact.kind(rh_sd), None)?;
     let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("no base_m column"))?;
-    Ok(score(&est.base_est_m, base, ts.fs_hz, est.delay_samples.first().copied().unwrap_or(0)))
+    let scoring = Scoring::new(&calib.band, ts.fs_hz, stated_period_s(&ts.metadata, None))?;
+    let bursts = ts.bursts();
+    let score = scoring.score(&est.base_est_m, &scoring.truth(base, &bursts), &bursts, None);
+    if score.bursts.is_empty() {
+        anyhow::bail!("{}", crate::scoring::nothing_scored(std::path::Path::new("the recording"), ts, &scoring));
+    }
+    Ok((100.0 * score.pooled.error(), scoring.describe()))
 }
 
 /// One file's figures: (strip %RH, reading, fused, perfect hygrometer).
@@ -159,9 +137,10 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
     // The fused and the perfect designs take the strip's humidity as it is: no second correction.
     let mut at_strip = calib;
     at_strip.humidity = calib.humidity.at_strip();
-    let reading = compensated(&calib, &ts)?;
-    let fused = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| s.fused.rh_pct))?;
-    let perfect = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| strip_at(s.t_s)))?;
+    let (reading, described) = compensated(&calib, &ts)?;
+    let (fused, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| s.fused.rh_pct))?;
+    let (perfect, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| strip_at(s.t_s)))?;
+    notes.push(format!("{stem}: compensation error {described} (as `ipmc score` prints it)"));
     // The strip's estimate against the truth averaged with the spectrum's weights.
     let (mut wet, mut wet_with, mut covered, mut judged) = (0, 0, 0, 0);
     let mut refusals = std::collections::BTreeMap::<&str, usize>::new();
@@ -281,10 +260,10 @@ mod tests {
             c.humidity.sensor = Some(sensor);
             let field = simulate_field(&c, &plan, &ExactModel);
             let seconds = hygrometer::run(&c, &field.ts);
-            let reading = compensated(&c, &field.ts).unwrap();
+            let (reading, _) = compensated(&c, &field.ts).unwrap();
             let mut at_strip = c;
             at_strip.humidity = HumidityPath { sensor: Some(sensor), ..HumidityPath::NONE };
-            let fused = compensated(&at_strip, &hygrometer::with_humidity(&field.ts, &seconds, |s| s.fused.rh_pct)).unwrap();
+            let (fused, _) = compensated(&at_strip, &hygrometer::with_humidity(&field.ts, &seconds, |s| s.fused.rh_pct)).unwrap();
             let mut r = Case { reading, fused, ..Case::default() };
             r.printed = format!("{rh} %RH, {}: reading {reading:.2} %, fused {fused:.2} %\n", sensor.as_str());
             let mut avg: Option<f64> = None;

@@ -61,10 +61,10 @@ enum Figure {
         label: String,
         #[arg(long, default_value = "baseline")]
         baseline_label: String,
-        /// Latency of the estimates [ms]; by default the estimate file's `delay_samples` (the
-        /// chain's preview and band filter).
+        /// The inverse's preview [ms] the truth is shifted by before the band filter; by default
+        /// the design's (as `ipmc score`).
         #[arg(long)]
-        delay_ms: Option<f64>,
+        preview_ms: Option<f64>,
         /// Length of the detail window at the end of the run [s].
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
@@ -99,29 +99,24 @@ pub fn run(a: Args) -> Result<()> {
             let title = format!("{}: identified parameters vs humidity", file_name(&levels));
             render(&ParamsFigure { title, series, calib }, &out.join("params"), (1600, 1100))?
         }
-        Figure::Compensated { recording, estimate, baseline, label, baseline_label, delay_ms, seconds, out } => {
+        Figure::Compensated { recording, estimate, baseline, label, baseline_label, preview_ms, seconds, out } => {
             let file = checked(Estimates::read(&estimate))?;
             let ts = ipmc_recording::looping::as_estimated(checked(TimeSeries::read(&recording))?, &file.metadata)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", estimate.display()))?;
             let base = ts.base_m.as_ref().ok_or_else(|| anyhow::anyhow!("{}: no base_m column to plot against", recording.display()))?;
             let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
-            let delay = match (delay_ms, file.metadata.get("delay_samples")) {
-                (Some(ms), _) => (ms * 1e-3 * ts.fs_hz).round() as usize,
-                (None, Some(d)) => {
-                    d.parse().map_err(|_| anyhow::anyhow!("{}: delay_samples={d} is not a whole number", estimate.display()))?
-                }
-                (None, None) => bail!("{}: the file does not say its delay (no `# delay_samples=`): give --delay-ms", estimate.display()),
-            };
-            let band = match file.metadata.get("band_hz") {
-                Some(b) => crate::commands::score::parse_band(b)?,
-                None => (ipmc_core::band::Band::DEFAULT.low_hz, ipmc_core::band::Band::DEFAULT.high_hz),
-            };
+            let band = crate::commands::score::band_of(&file.metadata, None)?;
+            let mut scoring =
+                crate::scoring::Scoring::new(&band, ts.fs_hz, crate::scoring::stated_period_s(&ts.metadata, Some(&file.metadata)))?;
+            if let Some(ms) = preview_ms {
+                scoring.preview = (ms * 1e-3 * ts.fs_hz).round() as usize;
+            }
             let stated = file.rel_err.map(|v| v.into_iter().map(f64::from).collect());
             let mut series = vec![Series { name: label, color: RGBColor(0, 110, 220), est: est(&estimate)?, primary: true, stated }];
             if let Some(b) = &baseline {
                 series.push(Series { name: baseline_label, color: humidity_color(95.0), est: est(b)?, primary: false, stated: None });
             }
-            let figure = Compensated::new(base, ts.fs_hz, ts.bursts(), series, seconds, delay, band)?;
+            let figure = Compensated::new(base, &scoring, ts.bursts(), series, seconds)?;
             let drawn = render(&figure, &out, (1400, 800))?;
             // Its legend's figures beside it, so that a copy kept in the docs can be checked
             // against what the command prints today.

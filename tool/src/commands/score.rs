@@ -1,10 +1,11 @@
 //! `ipmc score`: an estimate's error against the true base motion of the recording it came
-//! from, scored exactly as `ipmc compensate` scores its own (one scoring for every caller,
-//! including `cargo xtask qemu` for the firmware's estimates).
+//! from, by the one scoring every command uses (`crate::scoring`; `cargo xtask qemu` scores the
+//! firmware's estimates with this command).
 
 use crate::input::{checked, read_time_series};
-use crate::scoring::{SETTLE_S, band_score, coverage};
+use crate::scoring::{Scoring, coverage, stated_period_s};
 use anyhow::{Result, anyhow, bail};
+use ipmc_core::band::Band;
 use ipmc_recording::looping::as_estimated;
 use ipmc_recording::{Estimates, Format as _};
 use std::path::{Path, PathBuf};
@@ -15,10 +16,10 @@ pub struct Args {
     recording: PathBuf,
     /// The estimate (`t_s,base_est_m,…`, as `ipmc compensate` and `cargo xtask qemu` write it).
     estimate: PathBuf,
-    /// Latency of the estimate [ms]; by default the estimate file's `delay_samples` (which
-    /// `ipmc compensate` and `cargo xtask qemu` write: the preview's and the band FIR's delay).
+    /// The inverse's preview [ms], by which the true base is shifted before it goes through the
+    /// band filter; by default the design's (`max_delay_s`).
     #[arg(long)]
-    delay_ms: Option<f64>,
+    preview_ms: Option<f64>,
     /// The band scored in [Hz], as `LOW-HIGH`; by default the estimate file's `band_hz`, else
     /// 10–150 Hz.
     #[arg(long)]
@@ -28,13 +29,10 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// Also how often the estimate's stated 1σ (its `rel_err` column) contains the actual
-    /// in-band error: per burst (expected against actual) and over windows of this many seconds.
+    /// error: per burst (expected against actual) and over windows of about this many seconds
+    /// (whole periods where the recording states its period).
     #[arg(long, value_name = "WINDOW_S")]
     coverage: Option<f64>,
-    /// With --coverage: seconds skipped at the start of each burst (the chain's start-up, which
-    /// the expected error does not speak of; at least the scoring's 5 s).
-    #[arg(long, default_value_t = SETTLE_S)]
-    settle_s: f64,
 }
 
 /// `LOW-HIGH` in Hz.
@@ -46,18 +44,28 @@ pub fn parse_band(s: &str) -> Result<(f64, f64)> {
     }
 }
 
-/// An estimate beside the recording it came from, aligned as every score takes them.
-pub struct Scoring {
-    pub file: Estimates,
-    pub ts: ipmc_recording::TimeSeries,
-    pub delay: usize,
-    pub band: (f64, f64),
-    pub burst_start: Vec<usize>,
+/// The band an estimate file was kept in: its `band_hz`, else the default, in the default's shape
+/// where the file does not say another.
+pub fn band_of(file: &ipmc_recording::Metadata, given: Option<&str>) -> Result<Band> {
+    let mut band = Band::DEFAULT;
+    if let Some(spec) = given.or_else(|| file.get("band_hz")) {
+        (band.low_hz, band.high_hz) = parse_band(spec)?;
+    }
+    Ok(band)
 }
 
-impl Scoring {
-    /// `delay_ms` and `band_hz` override the estimate file's own (`delay_samples`, `band_hz`).
-    pub fn load(recording: &Path, estimate: &Path, delay_ms: Option<f64>, band_hz: Option<String>) -> Result<Scoring> {
+/// An estimate beside the recording it came from and the truth it is scored against, by the
+/// one scoring.
+pub struct Loaded {
+    pub file: Estimates,
+    pub ts: ipmc_recording::TimeSeries,
+    pub scoring: Scoring,
+    pub truth: Vec<f64>,
+}
+
+impl Loaded {
+    /// `preview_ms` and `band_hz` override the design's preview and the estimate file's band.
+    pub fn read(recording: &Path, estimate: &Path, preview_ms: Option<f64>, band_hz: Option<&str>) -> Result<Loaded> {
         let file = checked(Estimates::read(estimate))?;
         // An estimate `ipmc compensate` made on short bursts it looped is scored on them looped alike.
         let ts = as_estimated(read_time_series(recording)?, &file.metadata).map_err(|e| anyhow!("{}: {e}", estimate.display()))?;
@@ -65,47 +73,50 @@ impl Scoring {
         if file.base_est_m.len() > base.len() {
             bail!("{} has {} estimates for {} samples in {}", estimate.display(), file.base_est_m.len(), base.len(), recording.display());
         }
-        let delay = match (delay_ms, file.metadata.get("delay_samples")) {
-            (Some(ms), _) => (ms * 1e-3 * ts.fs_hz).round() as usize,
-            (None, Some(d)) => d.parse().map_err(|_| anyhow!("{}: delay_samples={d} is not a whole number", estimate.display()))?,
-            (None, None) => bail!(
-                "{}: the file does not say its delay (no `# delay_samples=`): give --delay-ms (the chain's preview and band filter)",
-                estimate.display()
-            ),
-        };
-        let band_spec = band_hz.or_else(|| file.metadata.get("band_hz").map(str::to_string));
-        let band = match band_spec {
-            Some(b) => parse_band(&b)?,
-            None => (ipmc_core::band::Band::DEFAULT.low_hz, ipmc_core::band::Band::DEFAULT.high_hz),
-        };
-        let mut burst_start = vec![0; ts.t_s.len()];
-        for burst in ts.bursts() {
-            burst_start[burst.clone()].fill(burst.start);
+        let band = band_of(&file.metadata, band_hz)?;
+        let mut scoring = Scoring::new(&band, ts.fs_hz, stated_period_s(&ts.metadata, Some(&file.metadata)))?;
+        if let Some(ms) = preview_ms {
+            scoring.preview = (ms * 1e-3 * ts.fs_hz).round() as usize;
         }
-        Ok(Scoring { file, ts, delay, band, burst_start })
+        // The file's own statement of its delay, where it has one, must be what the scoring assumes.
+        if let Some(d) = file.metadata.get("delay_samples").and_then(|d| d.parse::<usize>().ok())
+            && d != scoring.preview + scoring.band_delay
+            && preview_ms.is_none()
+        {
+            eprintln!(
+                "warning: {}: delay_samples={d}, where the preview ({}) and the band filter ({}) make {}: give --preview-ms if the chain's preview differs",
+                estimate.display(),
+                scoring.preview,
+                scoring.band_delay,
+                scoring.preview + scoring.band_delay
+            );
+        }
+        let truth = scoring.truth(base, &ts.bursts());
+        Ok(Loaded { file, ts, scoring, truth })
     }
 
-    /// The in-band error (None: nothing to score).
+    /// The error pooled over the scored samples (None: nothing to score).
     #[cfg(test)]
-    pub fn band_score(&self) -> Option<crate::scoring::BandScore> {
-        let est = &self.file.base_est_m;
-        band_score(est, &vec![self.delay; est.len()], &self.burst_start, self.ts.base_m.as_ref()?, self.ts.fs_hz, self.band)
+    pub fn pooled_error(&self) -> Option<f64> {
+        let score = self.scoring.score(&self.file.base_est_m, &self.truth, &self.ts.bursts(), None);
+        (!score.bursts.is_empty()).then(|| score.pooled.error())
     }
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let Scoring { file, ts, delay, band, burst_start } = Scoring::load(&a.recording, &a.estimate, a.delay_ms, a.band_hz.clone())?;
-    let base = ts.base_m.as_ref().expect("checked by load");
+    let Loaded { file, ts, scoring, truth } = Loaded::read(&a.recording, &a.estimate, a.preview_ms, a.band_hz.as_deref())?;
+    let band = scoring.band;
     let est = file.base_est_m;
+    let bursts = ts.bursts();
     let covered = match a.coverage {
         Some(window_s) => {
             let rel_err = file.rel_err.as_ref().ok_or_else(|| {
                 anyhow!("{}: no `rel_err` column (written by this release's `ipmc compensate` and firmware)", a.estimate.display())
             })?;
-            let bursts = coverage::score(&est, rel_err, base, &ts.rh_pct, &ts.bursts(), delay, ts.fs_hz, window_s, a.settle_s);
+            let scored = coverage::score(&scoring, &est, &truth, rel_err, &ts.rh_pct, &bursts, window_s);
             if !a.json {
                 println!("  RH [%]   expected 1σ [%]   actual [%]   windows within");
-                for b in &bursts {
+                for b in &scored {
                     let inside = b.windows.iter().filter(|w| w.covered()).count();
                     println!(
                         "  {:6.2}   {:15.2}   {:10.2}   {inside}/{}",
@@ -116,40 +127,49 @@ pub fn run(a: Args) -> Result<()> {
                     );
                 }
             }
-            Some(coverage::coverage(&bursts))
+            Some(coverage::coverage(&scored))
         }
         None => None,
     };
     let share = |(c, n): (usize, usize)| if n == 0 { f64::NAN } else { c as f64 / n as f64 };
     if let (Some((w, b)), false) = (covered, a.json) {
+        let window = match (a.coverage, scoring.period) {
+            (Some(s), Some(p)) => format!("{} s (whole periods)", ((s * ts.fs_hz / p as f64).round().max(1.0)) * p as f64 / ts.fs_hz),
+            (Some(s), None) => format!("{s} s (not whole periods)"),
+            _ => String::new(),
+        };
         println!(
-            "coverage: the actual in-band error is within the stated 1σ in {} of {} windows of {} s ({:.1} %), {} of {} bursts",
+            "coverage: the actual error is within the stated 1σ in {} of {} windows of {window} ({:.1} %), {} of {} bursts",
             w.0,
             w.1,
-            a.coverage.unwrap_or_default(),
             100.0 * share(w),
             b.0,
             b.1
         );
     }
-    match band_score(&est, &vec![delay; est.len()], &burst_start, base, ts.fs_hz, band) {
-        Some(score) if a.json => {
-            let mut j = serde_json::json!({
-                "band_error": score.error,
-                "estimate_over_truth": score.estimate_over_truth,
-                "band_hz": [band.0, band.1],
-                "bursts": score.bursts,
-            });
-            if let Some((w, b)) = covered {
-                j["coverage"] = share(w).into();
-                j["windows"] = w.1.into();
-                j["levels_covered"] = b.0.into();
-                j["levels"] = b.1.into();
-            }
-            println!("{j}")
+    let score = scoring.score(&est, &truth, &bursts, None);
+    if score.bursts.is_empty() {
+        bail!("{}", crate::scoring::nothing_scored(&a.recording, &ts, &scoring));
+    }
+    if a.json {
+        let mut j = serde_json::json!({
+            "band_error": score.pooled.error(),
+            "rms_over_bursts": score.rms_over_bursts(),
+            "per_burst": score.bursts.iter().map(|b| b.whole.error()).collect::<Vec<_>>(),
+            "estimate_over_truth": score.pooled.estimate_over_truth(),
+            "band_hz": [band.low_hz, band.high_hz],
+            "bursts": score.bursts.len(),
+            "whole_periods": scoring.period.is_some(),
+        });
+        if let Some((w, b)) = covered {
+            j["coverage"] = share(w).into();
+            j["windows"] = w.1.into();
+            j["levels_covered"] = b.0.into();
+            j["levels"] = b.1.into();
         }
-        Some(score) => println!("{}", score.line(delay)),
-        None => bail!("{}", crate::scoring::nothing_scored(&a.recording, &ts, band)),
+        println!("{j}")
+    } else {
+        println!("{}", crate::scoring::line(&scoring, &score));
     }
     Ok(())
 }

@@ -19,7 +19,7 @@ use crate::chain::{compensate, error_table};
 use crate::commands::identify::{base_calibration, identify};
 use crate::exact;
 use crate::input::read_time_series;
-use crate::scoring::{SETTLE_S, band_error};
+use crate::scoring::Scoring;
 use anyhow::{Context, Result, anyhow, bail};
 use ipmc_core::{Calibration, InverseKind, LawKind, ParamName};
 use ipmc_recording::looping::{loop_bursts, noise_density};
@@ -156,23 +156,27 @@ fn load_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibratio
     Ok(Truth::Calibration(Box::new(crate::calibration_source::load(path.to_str())?)))
 }
 
-/// The chain and the exact inverse with `calib` on one looped burst `rec`, scored in the band.
-fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64) -> Result<(Scores, crate::chain::Estimates)> {
-    let band = (calib.band.low_hz, calib.band.high_hz);
+/// The chain and the exact inverse with `calib` on one looped burst `rec`, scored alike by the
+/// one scoring (the exact inverse's output through the same band filter as its truth).
+fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64, period_s: f64) -> Result<(Scores, crate::chain::Estimates)> {
+    let scoring = Scoring::new(&calib.band, rec.fs_hz, Some(period_s))?;
     let errors = error_table(calib, rec.fs_hz, rh_sd, InverseKind::Exact)?;
     let est = compensate(calib, rec, None, &errors, InverseKind::Exact, None)?;
     let base = rec.base_m.as_ref().expect("cut with base");
     let n = rec.t_s.len();
-    let chain = band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, band, band);
+    let whole = 0..n;
+    let bursts = std::slice::from_ref(&whole);
+    let chain = scoring.score(&est.base_est_m, &scoring.truth(base, bursts), bursts, None);
     // The exact inverse at the humidity the chain's first design is for.
     let rh_read = rec.rh_pct.iter().sum::<f64>() / n as f64;
     let (rh, _) = calib.clamp_rh(calib.humidity.correct(rh_read));
-    let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, band);
-    let exact = band_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band);
-    match (chain, exact) {
-        (Some(chain), Some(exact)) => Ok((Scores { chain, exact }, est)),
-        _ => bail!("burst at {rh_read:.1} %RH: no base in the band to score against"),
+    // Wherever the band filter lets anything through, as the chain's estimate is scored.
+    let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, scoring.support_hz()?);
+    let exact = scoring.score(&scoring.filtered(&x, bursts), &scoring.truth_unshifted(base, bursts), bursts, None);
+    if chain.bursts.is_empty() || exact.bursts.is_empty() {
+        bail!("burst at {rh_read:.1} %RH: no base in the band to score against");
     }
+    Ok((Scores { chain: chain.pooled.error(), exact: exact.pooled.error() }, est))
 }
 
 fn rms(v: impl Iterator<Item = f64>) -> f64 {
@@ -221,22 +225,24 @@ pub fn run(a: Args) -> Result<()> {
     let truth = a.truth.as_ref().map(|p| load_truth(p, &a.ts, &ts, &nominal_noisy)).transpose()?;
 
     let period = per.round() as usize;
-    let total = ((SETTLE_S + a.seconds) * ts.fs_hz).round() as usize;
-    if !total.is_multiple_of(period) {
-        bail!("{SETTLE_S} s of settling + {} s scored must be a whole number of {} s periods", a.seconds, a.period_s);
+    let scored = (a.seconds * ts.fs_hz).round() as usize;
+    if !scored.is_multiple_of(period) {
+        bail!("{} s scored must be a whole number of {} s periods", a.seconds, a.period_s);
     }
-    let looped = loop_bursts(&ts, a.period_s, SETTLE_S + a.seconds)?;
-    let settle = (SETTLE_S * ts.fs_hz).round() as usize;
+    // The scoring skips the settling and the band filter's start-up; each level is looped to
+    // that in whole periods and then the seconds scored.
+    let scoring = Scoring::new(&own.band, ts.fs_hz, Some(a.period_s))?;
+    let settle = scoring.skip();
+    let lead = settle.div_ceil(period) * period;
+    let looped = loop_bursts(&ts, a.period_s, (lead + scored) as f64 / ts.fs_hz)?;
     let bar = crate::progress::bar(ts.bursts().len() as u64, "levels");
     let mut levels = vec![];
-    for (k, (burst, range)) in ts.bursts().into_iter().zip(looped.bursts()).enumerate() {
-        let unit = burst.len() / period * period;
-        let scored = (range.len().saturating_sub(settle)) / unit * unit;
-        let rec = crate::commands::vs_exact::burst_of(&looped, range.start..range.start + settle + scored)?;
-        let (own_s, est) = score(&own, &rec, rh_sd)?;
-        let (nominal_s, _) = score(&nominal_noisy, &rec, rh_sd)?;
-        let perfect = truth.as_ref().map(|t| score(t.at(k), &rec, rh_sd).map(|s| s.0)).transpose()?;
-        let tail = &est.rel_err[settle.min(est.rel_err.len())..];
+    for (k, range) in looped.bursts().into_iter().enumerate() {
+        let rec = crate::commands::vs_exact::burst_of(&looped, range.start..(range.start + lead + scored).min(range.end))?;
+        let (own_s, est) = score(&own, &rec, rh_sd, a.period_s)?;
+        let (nominal_s, _) = score(&nominal_noisy, &rec, rh_sd, a.period_s)?;
+        let perfect = truth.as_ref().map(|t| score(t.at(k), &rec, rh_sd, a.period_s).map(|s| s.0)).transpose()?;
+        let tail = &est.rel_err[settle.min(est.rel_err.len())..(settle + scored).min(est.rel_err.len())];
         let stated = tail.iter().map(|&e| e as f64).sum::<f64>() / tail.len().max(1) as f64;
         let errors = error_table(&own, rec.fs_hz, rh_sd, InverseKind::Exact)?;
         let design_rh = est.rh_pct.last().copied().unwrap_or(f32::NAN) as f64;
@@ -254,8 +260,12 @@ pub fn run(a: Args) -> Result<()> {
     bar.finish_and_clear();
 
     println!(
-        "error in {}–{} Hz against base_m, per level (each burst repeated to {SETTLE_S} s + {} s, the first {SETTLE_S} s not scored), %:",
-        own.band.low_hz, own.band.high_hz, a.seconds
+        "error in {}–{} Hz, per level (each burst repeated by whole periods; {} s scored {}; first {:.2} s skipped), %:",
+        own.band.low_hz,
+        own.band.high_hz,
+        a.seconds,
+        scoring.describe(),
+        settle as f64 / ts.fs_hz
     );
     println!(
         "  level  RH read %   nominal chain   own chain   own exact{}   own stated 1σ (calibration, noise)  covered",

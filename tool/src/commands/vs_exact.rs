@@ -11,7 +11,8 @@ use crate::chain::{compensate, error_table, rh_uncertainty};
 use crate::exact;
 use crate::input::read_time_series;
 use crate::inverse_choice::InverseChoice;
-use crate::scoring::{SETTLE_S, band_error, band_score};
+use crate::scoring::spectral::band_error;
+use crate::scoring::{SETTLE_S, Scoring};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::InverseKind;
 use ipmc_recording::TimeSeries;
@@ -105,21 +106,29 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
         let n = rec.t_s.len();
         let est = compensate(calib, &rec, None, &errors, InverseKind::Exact, None)?;
         let robust_est = compensate(calib, &rec, None, &robust_errors, InverseChoice::Robust.kind(rh_sd_pct), None)?;
-        let robust = band_error(&robust_est.base_est_m, &robust_est.delay_samples, &robust_est.burst_start, base, rec.fs_hz, band, band)
-            .unwrap_or(f64::NAN);
+        let scoring = Scoring::new(&calib.band, rec.fs_hz, Some(period_s))?;
+        let whole = 0..n;
+        let bursts = std::slice::from_ref(&whole);
+        let truth = scoring.truth(base, bursts);
+        let scored = |s: crate::scoring::Score| (!s.bursts.is_empty()).then_some(s.pooled);
+        let robust = scored(scoring.score(&robust_est.base_est_m, &truth, bursts, None)).map_or(f64::NAN, |s| s.error());
         let causal_in = |b| band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, b, band);
-        let causal = causal_in(band);
+        let raw = scored(scoring.score(&est.base_est_m, &truth, bursts, None));
+        let causal = raw.map(|s| s.error());
         let below = causal_in((0.5, band.0 - 1e-9));
         let above = causal_in((band.1 + 1e-9, rec.fs_hz / 2.0));
         // The exact inverse at the humidity the chain's first design is for: the reading
         // through the calibration's humidity path (a settled strip), clamped to the range.
         let rh_read = rec.rh_pct.iter().sum::<f64>() / n as f64;
         let (rh, _) = calib.clamp_rh(calib.humidity.correct(rh_read));
-        let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, band);
-        let exact = band_error(&x, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band);
-        let xr = exact::robust_inverse(calib, rh, rh_sd_pct, ROBUST_DRAWS, &rec.current_a, rec.fs_hz, band);
-        let ideal_robust = band_error(&xr, &vec![0; n], &vec![0; n], base, rec.fs_hz, band, band).unwrap_or(f64::NAN);
-        let raw = band_score(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, band);
+        // The exact inverse wherever the band filter lets anything through, so that both are
+        // scored alike through it: the transitions pass the current's noise lifted by either.
+        let support = scoring.support_hz()?;
+        let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, support);
+        let unshifted = scoring.truth_unshifted(base, bursts);
+        let exact = scored(scoring.score(&scoring.filtered(&x, bursts), &unshifted, bursts, None)).map(|s| s.error());
+        let xr = exact::robust_inverse(calib, rh, rh_sd_pct, ROBUST_DRAWS, &rec.current_a, rec.fs_hz, support);
+        let ideal_robust = scored(scoring.score(&scoring.filtered(&xr, bursts), &unshifted, bursts, None)).map_or(f64::NAN, |s| s.error());
         match (causal, exact, raw, below, above) {
             (Some(causal), Some(exact), Some(raw), Some(causal_below_band), Some(causal_above_band)) => out.push(Level {
                 rh_pct: rh_read,
@@ -127,7 +136,7 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
                 exact,
                 robust,
                 ideal_robust,
-                estimate_over_truth: raw.estimate_over_truth,
+                estimate_over_truth: raw.estimate_over_truth(),
                 causal_below_band,
                 causal_above_band,
             }),
@@ -141,12 +150,16 @@ pub fn run(a: Args) -> Result<()> {
     let calib = crate::calibration_source::load(a.calib.as_deref())?;
     let ts = read_time_series(&a.input)?;
     let levels = levels(&calib, &ts, a.period_s, a.seconds, rh_uncertainty(&calib, a.rh_uncertainty))?;
+    let scoring = Scoring::new(&calib.band, ts.fs_hz, Some(a.period_s))?;
     println!(
-        "{}: error in {}–{} Hz against base_m, each burst repeated to at least {SETTLE_S} s + {} s, all but the first {SETTLE_S} s scored",
+        "{}: error in {}–{} Hz {}, each burst repeated to at least {SETTLE_S} s + {} s, all but the first {:.2} s (the settling and the \
+         band filter's start-up) scored; the columns below and above the band: DFT lines of all but the first {SETTLE_S} s",
         a.input.display(),
         calib.band.low_hz,
         calib.band.high_hz,
-        a.seconds
+        scoring.describe(),
+        a.seconds,
+        scoring.skip() as f64 / ts.fs_hz
     );
     println!(
         "{:>8} {:>10} {:>10} {:>7} {:>10} {:>9}   {:>12}   {:>13} {:>13}",

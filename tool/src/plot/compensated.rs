@@ -7,32 +7,48 @@
 //! legends sit beside the charts, never over the data.
 
 use super::{Figure, pe};
+use crate::scoring::{Score, Scoring, Sums};
 use anyhow::{Result, bail};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::ops::Range;
 
-/// Skipped from the error plot: the chain's settling [s] (as the scores skip it).
-const SETTLE_S: f64 = crate::scoring::SETTLE_S;
 /// Share of the figure's width the legends take, right of the charts.
 const LEGEND_SHARE: f64 = 0.27;
+/// The error trace's window [s].
+const TRACE_S: f64 = 0.25;
 
-/// (t, rms(est − truth)/rms(truth) in %) per window of `win` samples, in each burst after its
-/// first `settle` samples (each burst starts a fresh compensator).
-fn windowed_error(est: &[f64], truth: &[f64], bursts: &[Range<usize>], settle: usize, win: usize, fs: f64) -> Vec<(f64, f64)> {
+/// One point of the error trace: the window's middle [s], its stated 1σ [%], and the sums its
+/// error is taken from (so that the trace pools back into the score).
+#[derive(Clone, Copy, Debug)]
+pub struct TracePoint {
+    pub t_s: f64,
+    pub stated_pct: Option<f64>,
+    pub sums: Sums,
+}
+
+/// The scored samples of `score` cut into windows of [`TRACE_S`] (the last of each scored
+/// stretch shorter where it does not divide): every scored sample in one window, none twice.
+fn trace(score: &Score, est: &[f64], truth: &[f64], stated: Option<&[f64]>, fs: f64) -> Vec<TracePoint> {
+    let win = ((TRACE_S * fs).round() as usize).max(1);
     let mut out = vec![];
-    for burst in bursts {
-        let mut i = burst.start + settle;
-        while i + win <= burst.end.min(est.len()).min(truth.len()) {
-            let (mut se, mut sb) = (0.0, 0.0);
-            for k in i..i + win {
-                se += (est[k] - truth[k]).powi(2);
-                sb += truth[k].powi(2);
+    for b in &score.bursts {
+        for (w, _) in &b.windows {
+            let mut i = w.start;
+            while i < w.end {
+                let r = i..(i + win).min(w.end);
+                let mut s = Sums::default();
+                for k in r.clone() {
+                    s.error += (est[k] - truth[k]).powi(2);
+                    s.truth += truth[k] * truth[k];
+                    s.estimate += est[k] * est[k];
+                    s.samples += 1;
+                }
+                let stated_pct = stated.map(|v| 100.0 * (v[r.clone()].iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt());
+                let t_s = (r.start + r.end) as f64 / 2.0 / fs;
+                out.push(TracePoint { t_s, stated_pct, sums: s });
+                i = r.end;
             }
-            if sb > 0.0 && se.is_finite() {
-                out.push(((i + win / 2) as f64 / fs, 100.0 * (se / sb).sqrt()));
-            }
-            i += win;
         }
     }
     out
@@ -48,74 +64,51 @@ pub struct Series {
     pub stated: Option<Vec<f64>>,
 }
 
-/// Estimates against the truth they should equal (the true base delayed by the chain's delay,
-/// band-limited to the calibration's band).
+/// Estimates against the truth they should equal (`crate::scoring`: the true base shifted by
+/// the preview, through the same band filter).
 pub struct Compensated {
     pub fs: f64,
     pub truth: Vec<f64>,
     /// The band [Hz] the truth is limited to and the figures are taken in.
     pub band: (f64, f64),
-    /// Per series, the figure `ipmc score` prints (error in band, fraction).
+    /// Per series, the figure `ipmc score` prints (a fraction).
     pub scores: Vec<Option<f64>>,
+    /// Per series, its error trace.
+    pub traces: Vec<Vec<TracePoint>>,
+    /// How the figures were taken (for the caption).
+    pub described: String,
     pub series: Vec<Series>,
-    /// The recording's uniformly sampled bursts (sample index ranges).
-    pub bursts: Vec<Range<usize>>,
     /// The detail window [samples].
     pub w0: usize,
     pub w1: usize,
 }
 
 impl Compensated {
-    /// `base` sampled at `fs`; an estimate at sample i equals base[i − delay]; the detail window
-    /// is the last `seconds`. Estimates longer than the recording are cut; shorter ones padded.
-    pub fn new(
-        base: &[f64],
-        fs: f64,
-        bursts: Vec<Range<usize>>,
-        mut series: Vec<Series>,
-        seconds: f64,
-        delay: usize,
-        band: (f64, f64),
-    ) -> Result<Self> {
+    /// `base` as the recording has it; the detail window is the last `seconds`. Estimates longer
+    /// than the recording are cut; shorter ones padded.
+    pub fn new(base: &[f64], scoring: &Scoring, bursts: Vec<Range<usize>>, mut series: Vec<Series>, seconds: f64) -> Result<Self> {
+        let fs = scoring.fs_hz;
         let n = series.first().map_or(0, |s| s.est.len()).min(base.len());
-        if n <= delay + 2 {
+        if n <= scoring.preview + 2 {
             bail!("too few estimates to plot ({n})");
         }
-        let delayed: Vec<f64> = (0..n).map(|i| if i >= delay { base[i - delay] } else { 0.0 }).collect();
-        let mut burst_start = vec![0; n];
-        let mut truth = vec![0.0; n];
-        for b in &bursts {
-            let r = b.start.min(n)..b.end.min(n);
-            burst_start[r.clone()].fill(b.start);
-            // The chain's own band filter, run ahead by its delay: the truth limited exactly as
-            // the estimate is (a DFT's band would wrap a non-periodic run's ends into each other).
-            let mut fir = ipmc_core::band::BandLimit::<f64>::new(
-                &ipmc_core::band::Band { low_hz: band.0, high_hz: band.1, ..Default::default() },
-                fs,
-            )
-            .map_err(|e| anyhow::anyhow!("the band {}–{} Hz at {fs} Hz: {e}", band.0, band.1))?;
-            let m = fir.delay_samples();
-            let mut kept: Vec<f64> = delayed[r.clone()].iter().copied().chain(std::iter::repeat_n(0.0, m)).collect();
-            fir.process_block(&mut kept);
-            // Its last `m` samples would need the base after the burst: not drawn, not scored.
-            let end = r.end.saturating_sub(m).max(r.start);
-            kept[m + (end - r.start)..].fill(f64::NAN);
-            truth[r].copy_from_slice(&kept[m..]);
-        }
+        let truth = scoring.truth(&base[..n], &bursts);
         for s in &mut series {
             s.est.resize(n, f64::NAN);
             if let Some(v) = s.stated.as_mut() {
                 v.resize(n, f64::NAN);
             }
         }
-        let scores = series
-            .iter()
-            .map(|s| crate::scoring::band_score(&s.est, &vec![delay; n], &burst_start, base, fs, band).map(|b| b.error))
-            .collect();
-        // The detail window: the last `seconds`, but never the last burst's settling.
-        let settled = bursts.iter().rev().find(|b| b.start < n).map_or(0, |b| b.start + (SETTLE_S * fs).round() as usize);
-        let w0 = n.saturating_sub((seconds * fs).round() as usize).max(delay).max(settled.min(n.saturating_sub(2)));
-        Ok(Compensated { fs, truth, band, scores, series, bursts, w0, w1: n })
+        let scored: Vec<Score> = series.iter().map(|s| scoring.score(&s.est, &truth, &bursts, None)).collect();
+        let scores = scored.iter().map(|s| (!s.bursts.is_empty()).then(|| s.pooled.error())).collect();
+        let traces = series.iter().zip(&scored).map(|(s, sc)| trace(sc, &s.est, &truth, s.stated.as_deref(), fs)).collect();
+        // The detail window: the last `seconds`, but never the last burst's skipped start.
+        let settled = bursts.iter().rev().find(|b| b.start < n).map_or(0, |b| b.start + scoring.skip());
+        let w0 = n.saturating_sub((seconds * fs).round() as usize).max(settled.min(n.saturating_sub(2)));
+        let band = (scoring.band.low_hz, scoring.band.high_hz);
+        let skip_s = scoring.skip() as f64 / fs;
+        let described = format!("rms over {TRACE_S} s / rms of the truth there; first {skip_s:.2} s of each burst skipped");
+        Ok(Compensated { fs, truth, band, scores, traces, described, series, w0, w1: n })
     }
 }
 
@@ -184,45 +177,30 @@ where
         top_entries.push((s.name.clone(), s.color, Mark::Line(2)));
     }
     chart.draw_series(LineSeries::new(line(truth), BLACK.stroke_width(3))).map_err(pe)?;
-    top_entries.push((format!("true base in {lo_hz}–{hi_hz} Hz (delayed as the chain)"), BLACK, Mark::Line(3)));
+    top_entries.push((
+        format!("true base in {lo_hz}–{hi_hz} Hz (shifted by the preview, through the same band filter)"),
+        BLACK,
+        Mark::Line(3),
+    ));
     for s in series.iter().filter(|s| s.primary) {
         chart.draw_series(LineSeries::new(line(&s.est), s.color.stroke_width(1))).map_err(pe)?;
         top_entries.push((s.name.clone(), s.color, Mark::Line(2)));
     }
     side_legend(&top_legend, &top_entries)?;
 
-    let settle = (SETTLE_S * fs).round() as usize;
-    let win = (0.25 * fs).round() as usize;
-    let errs: Vec<Vec<(f64, f64)>> = series.iter().map(|s| windowed_error(&s.est, truth, &fig.bursts, settle, win, fs)).collect();
-    // The stated 1σ per window: rms of the per-sample figure, in %.
-    let bands: Vec<Option<Vec<(f64, f64)>>> = series
-        .iter()
-        .map(|s| {
-            let v = s.stated.as_ref()?;
-            let mut out = vec![];
-            for burst in &fig.bursts {
-                let mut i = burst.start + settle;
-                while i + win <= burst.end.min(v.len()) {
-                    let ms = v[i..i + win].iter().map(|x| x * x).sum::<f64>() / win as f64;
-                    if ms.is_finite() {
-                        out.push(((i + win / 2) as f64 / fs, 100.0 * ms.sqrt()));
-                    }
-                    i += win;
-                }
-            }
-            Some(out)
-        })
-        .collect();
-    let all = errs.iter().flatten().chain(bands.iter().flatten().flatten()).map(|p| p.1).filter(|v| *v > 0.0);
+    let errs: Vec<Vec<(f64, f64)>> = fig.traces.iter().map(|t| t.iter().map(|p| (p.t_s, 100.0 * p.sums.error())).collect()).collect();
+    // The stated 1σ per window, drawn as a line: a shade from the floor up would hide the panel
+    // wherever the bar is large (a field file stated at 75 %).
+    let stated: Vec<Vec<(f64, f64)>> =
+        fig.traces.iter().map(|t| t.iter().filter_map(|p| p.stated_pct.filter(|v| v.is_finite()).map(|v| (p.t_s, v))).collect()).collect();
+    let all = errs.iter().chain(&stated).flatten().map(|p| p.1).filter(|v| *v > 0.0 && v.is_finite());
     let (lo, hi) = all.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
     if !lo.is_finite() {
-        bail!("no error to plot after the first {SETTLE_S} s");
+        bail!("no error to plot after each burst's skipped start");
     }
     let tmax = truth.len() as f64 / fs;
-    let skipped =
-        if fig.bursts.len() > 1 { format!("first {SETTLE_S} s of each burst skipped") } else { format!("first {SETTLE_S} s skipped") };
     let mut chart = ChartBuilder::on(&bottom)
-        .caption(format!("Error in {lo_hz}–{hi_hz} Hz over time (rms over 0.25 s / rms true base there; {skipped})"), ("sans-serif", 18))
+        .caption(format!("Error in {lo_hz}–{hi_hz} Hz over time ({})", fig.described), ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(36)
         .y_label_area_size(64)
@@ -237,25 +215,30 @@ where
         .y_label_formatter(&|v| if *v >= 1.0 { format!("{v:.0}") } else { format!("{v:.2}") })
         .draw()
         .map_err(pe)?;
-    for (s, band) in series.iter().zip(&bands) {
-        let Some(band) = band else { continue };
-        let c = s.color;
-        let floor = lo / 2.0;
-        let half = 0.5 * win as f64 / fs;
-        chart
-            .draw_series(band.iter().map(|&(t, v)| Rectangle::new([(t - half, floor), (t + half, v.max(floor))], c.mix(0.15).filled())))
-            .map_err(pe)?;
-        bottom_entries.push((format!("{}: stated 1σ", s.name), c, Mark::Shade));
-    }
-    for ((s, e), score) in series.iter().zip(errs).zip(&fig.scores) {
-        // One line per burst: nothing was measured between them.
-        let step = 1.5 * win as f64 / fs;
-        let mut from = 0;
-        for k in 1..=e.len() {
-            if k == e.len() || e[k].0 - e[k - 1].0 > step {
-                chart.draw_series(LineSeries::new(e[from..k].iter().copied(), s.color.stroke_width(2))).map_err(pe)?;
-                from = k;
+    // One line per scored stretch: nothing was measured between them.
+    let pieces = |e: &[(f64, f64)]| {
+        let step = 1.5 * TRACE_S;
+        let mut out: Vec<Vec<(f64, f64)>> = vec![];
+        for (k, p) in e.iter().enumerate() {
+            if k == 0 || p.0 - e[k - 1].0 > step {
+                out.push(vec![]);
             }
+            out.last_mut().expect("pushed").push(*p);
+        }
+        out
+    };
+    for (s, st) in series.iter().zip(&stated) {
+        if st.is_empty() {
+            continue;
+        }
+        for piece in pieces(st) {
+            chart.draw_series(LineSeries::new(piece, lighter(s.color).stroke_width(1))).map_err(pe)?;
+        }
+        bottom_entries.push((format!("{}: stated 1σ", s.name), lighter(s.color), Mark::Line(1)));
+    }
+    for ((s, e), score) in series.iter().zip(&errs).zip(&fig.scores) {
+        for piece in pieces(e) {
+            chart.draw_series(LineSeries::new(piece, s.color.stroke_width(2))).map_err(pe)?;
         }
         let figure = run_figure(score);
         bottom_entries.push((format!("{}: {figure}", s.name), s.color, Mark::Line(2)));
@@ -264,11 +247,16 @@ where
     Ok(())
 }
 
-/// How a legend entry is drawn.
+/// How a legend entry is drawn: a line this wide.
 #[derive(Clone, Copy)]
 enum Mark {
     Line(u32),
-    Shade,
+}
+
+/// `c` halfway to white: the stated bar beside its estimate's error.
+fn lighter(c: RGBColor) -> RGBColor {
+    let half = |v: u8| ((v as u16 + 255) / 2) as u8;
+    RGBColor(half(c.0), half(c.1), half(c.2))
 }
 
 /// A legend in its own area beside a chart: a sample of each series and its name, wrapped to
@@ -284,7 +272,6 @@ where
     for (name, color, mark) in entries {
         match *mark {
             Mark::Line(w) => area.draw(&PathElement::new(vec![(4, y), (28, y)], color.stroke_width(w))).map_err(pe)?,
-            Mark::Shade => area.draw(&Rectangle::new([(4, y - 6), (28, y + 6)], color.mix(0.15).filled())).map_err(pe)?,
         }
         for line in wrap(name, chars) {
             area.draw(&Text::new(line, (34, y - 8), style.clone())).map_err(pe)?;
@@ -310,4 +297,34 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
         }
     }
     lines
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_core::band::Band;
+
+    /// The trace's windows pool back into the figure its legend prints, on a noisy estimate of
+    /// two bursts that are not whole periods of anything.
+    #[test]
+    fn the_trace_pools_into_the_score() {
+        let fs = 2000.0;
+        let scoring = Scoring::new(&Band::DEFAULT, fs, None).unwrap();
+        let n = 2 * (scoring.skip() + 5321);
+        let bursts = vec![0..n / 2, n / 2..n];
+        let base: Vec<f64> = (0..n).map(|k| (2.0 * std::f64::consts::PI * 23.7 * k as f64 / fs).sin()).collect();
+        let truth = scoring.truth(&base, &bursts);
+        let est: Vec<f64> = (0..n)
+            .map(|k| if truth[k].is_finite() { truth[k] * 1.05 + 0.1 * ((k * 7919 % 1013) as f64 / 1013.0 - 0.5) } else { 0.0 })
+            .collect();
+        let series = vec![Series { name: "e".into(), color: BLACK, est, primary: true, stated: None }];
+        let fig = Compensated::new(&base, &scoring, bursts, series, 2.0).unwrap();
+        let mut pooled = Sums::default();
+        for p in &fig.traces[0] {
+            pooled.error += p.sums.error;
+            pooled.truth += p.sums.truth;
+        }
+        let score = fig.scores[0].unwrap();
+        assert!((pooled.error() - score).abs() < 1e-12 * score, "{} against {score}", pooled.error());
+    }
 }

@@ -1,22 +1,11 @@
-//! Whether the stated error bars hold: the actual in-band error of an estimate against the
-//! expected error (1σ) it was stated with, window by window and burst by burst. Honest bars
-//! contain the actual error about 68 % of the time.
-//!
-//! "In band" is what the expected error speaks of: the DFT lines of the design band (10–150 Hz)
-//! of each window, error against true base. The double integration leaves the estimate a
-//! low-frequency wander far larger than the signal (50× on the external recordings); a window
-//! that is not a whole number of periods of everything in it would leak that wander into the
-//! band, and a high-pass run over the burst first leaks its own edge transients instead
-//! (measured: 68 % where the exact figure is 28 %). So the windows must be whole periods of a
-//! periodic excitation with the chain settled (`ipmc loop-bursts` makes such recordings), and the
-//! DFT is taken as it is.
+//! Whether the stated error bars hold: the actual error of an estimate (the one definition,
+//! [`super::Scoring`]) against the expected error (1σ) it was stated with, window by window and
+//! burst by burst. Honest bars contain the actual error about 68 % of the time.
 
-use super::SETTLE_S;
-use ipmc_core::DesignConfig;
-use std::ops::Range;
+use super::{Score, Scoring};
 
 /// One scored stretch: the stated 1σ (rms of the per-sample `rel_err` over it) and the actual
-/// relative error (rms of the in-band error over rms of the true base), as fractions.
+/// relative error, as fractions.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scored {
     pub stated: f64,
@@ -37,54 +26,41 @@ pub struct Burst {
     pub windows: Vec<Scored>,
 }
 
-/// Energy of `x` in the DFT lines of the design band, for a window `x.len()` samples long at `fs_hz`.
-fn band_energy(x: &[f64], fs_hz: f64) -> f64 {
-    let cfg = DesignConfig::<f64>::default();
-    crate::band::energy(x, fs_hz, cfg.band_lo_hz, cfg.band_hi_hz)
+/// `score` (windows of the length coverage is counted over) with the stated 1σ beside each window.
+pub fn stated(score: &Score, rel_err: &[f32], rh: &[f64]) -> Vec<Burst> {
+    let ms = |r: std::ops::Range<usize>| rel_err[r].iter().map(|&v| (v as f64).powi(2)).sum::<f64>();
+    score
+        .bursts
+        .iter()
+        .map(|b| {
+            let windows: Vec<Scored> =
+                b.windows.iter().map(|(w, s)| Scored { stated: (ms(w.clone()) / w.len() as f64).sqrt(), actual: s.error() }).collect();
+            let ss: f64 = b.windows.iter().map(|(w, _)| ms(w.clone())).sum();
+            let from = b.windows.first().map_or(b.burst.start, |w| w.0.start);
+            let to = b.windows.last().map_or(b.burst.end, |w| w.0.end);
+            Burst {
+                rh_pct: rh[from..to].iter().sum::<f64>() / (to - from).max(1) as f64,
+                whole: Scored { stated: (ss / b.whole.samples as f64).sqrt(), actual: b.whole.error() },
+                windows,
+            }
+        })
+        .collect()
 }
 
-/// Scores `est` (each sample compared with `base` `delay` samples earlier) against `rel_err` in
-/// each burst after its first `settle_s` (at least [`SETTLE_S`]), in windows of `window_s` (whole periods of the
-/// excitation, so that its lines fall on the DFT's). Bursts with nothing to score are left out.
-#[allow(clippy::too_many_arguments)]
+/// The estimate scored in windows of `window_s` (whole periods where the recording states its
+/// period), each with its stated 1σ.
 pub fn score(
+    scoring: &Scoring,
     est: &[f32],
+    truth: &[f64],
     rel_err: &[f32],
-    base: &[f64],
     rh: &[f64],
-    bursts: &[Range<usize>],
-    delay: usize,
-    fs_hz: f64,
+    bursts: &[std::ops::Range<usize>],
     window_s: f64,
-    settle_s: f64,
 ) -> Vec<Burst> {
-    let settle = (settle_s.max(SETTLE_S) * fs_hz).round() as usize;
-    let win = ((window_s * fs_hz).round() as usize).max(1);
-    let n = est.len().min(rel_err.len()).min(base.len());
-    let mut out = vec![];
-    for b in bursts {
-        let from = (b.start + settle).max(b.start + delay);
-        let to = b.end.min(n);
-        if from >= to {
-            continue;
-        }
-        let err: Vec<f64> = (from..to).map(|k| est[k] as f64 - base[k - delay]).collect();
-        let window = |r: Range<usize>| {
-            let ss: f64 = rel_err[r.clone()].iter().map(|&v| (v as f64).powi(2)).sum();
-            let truth: Vec<f64> = r.clone().map(|k| base[k - delay]).collect();
-            let (se, sb) = (band_energy(&err[r.start - from..r.end - from], fs_hz), band_energy(&truth, fs_hz));
-            (Scored { stated: (ss / r.len() as f64).sqrt(), actual: (se / sb).sqrt() }, ss, se, sb)
-        };
-        let scored: Vec<_> = (0..(to - from) / win).map(|w| window(from + w * win..from + (w + 1) * win)).collect();
-        if scored.is_empty() {
-            continue;
-        }
-        let sum = |f: fn(&(Scored, f64, f64, f64)) -> f64| scored.iter().map(f).sum::<f64>();
-        let whole = Scored { stated: (sum(|s| s.1) / (scored.len() * win) as f64).sqrt(), actual: (sum(|s| s.2) / sum(|s| s.3)).sqrt() };
-        let rh_pct = rh[from..to].iter().sum::<f64>() / (to - from) as f64;
-        out.push(Burst { rh_pct, whole, windows: scored.into_iter().map(|s| s.0).collect() });
-    }
-    out
+    let n = est.len().min(rel_err.len());
+    let window = ((window_s * scoring.fs_hz).round() as usize).max(1);
+    stated(&scoring.score(&est[..n], truth, bursts, Some(window)), rel_err, rh)
 }
 
 /// (covered, total) over every window of every burst, and over the bursts as wholes.
@@ -98,26 +74,29 @@ pub fn coverage(bursts: &[Burst]) -> ((usize, usize), (usize, usize)) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use ipmc_core::band::Band;
 
     /// An estimate off by a known gain in each burst, stated with a known error bar: the
     /// windows and the bursts come out covered exactly where the gain error is within the bar.
     #[test]
     fn counts_what_the_bars_contain() {
         let fs = 1000.0;
-        let len = 8000;
+        let s = Scoring::new(&Band::DEFAULT, fs, Some(1.0)).unwrap();
+        let len = s.skip() + 3 * 1000 + 500;
         let bursts = [0..len, len..2 * len];
         let base: Vec<f64> = (0..2 * len).map(|k| (2.0 * std::f64::consts::PI * 40.0 * k as f64 / fs).sin()).collect();
+        let truth = s.truth(&base, &bursts);
         // 3 % too large in the first burst, 10 % in the second, both stated as 5 %.
-        let est: Vec<f32> = (0..2 * len).map(|k| (base[k] * if k < len { 1.03 } else { 1.10 }) as f32).collect();
+        let est: Vec<f32> = (0..2 * len).map(|k| (truth[k] * if k < len { 1.03 } else { 1.10 }) as f32).collect();
         let rel_err = vec![0.05f32; 2 * len];
         let rh = vec![50.0; 2 * len];
-        let b = score(&est, &rel_err, &base, &rh, &bursts, 0, fs, 1.0, SETTLE_S);
+        let b = score(&s, &est, &truth, &rel_err, &rh, &bursts, 1.0);
         assert_eq!(b.len(), 2);
         assert!((b[0].whole.actual - 0.03).abs() < 2e-3 && (b[1].whole.actual - 0.10).abs() < 5e-3, "{b:?}");
         assert!((b[0].whole.stated - 0.05).abs() < 1e-6);
         let ((wc, wn), (bc, bn)) = coverage(&b);
         assert_eq!((bc, bn), (1, 2));
-        assert_eq!(wn, 2 * 3, "3 whole seconds after the 5 s settling, per burst");
+        assert_eq!(wn, 2 * 3, "3 whole periods after the settling, per burst");
         assert_eq!(wc, 3);
     }
 }
