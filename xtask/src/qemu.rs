@@ -227,12 +227,13 @@ pub fn band_of(calib: Option<&Path>) -> Result<ipmc_core::band::Band> {
     Ok(c.band)
 }
 
-/// Runs `cargo ipmc ARGS…` and returns the figure it prints after "skipped): " (the scoring
-/// lives in the tool, so the firmware and the host are scored by the same code).
-fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<String> {
+/// Runs `cargo ipmc ARGS…` and returns how it scored and the figure it prints: its line
+/// "error in … skipped): FIGURE" split there (the scoring lives in the tool, so the firmware and
+/// the host are scored by the same code, and it says how).
+fn ipmc_figure(args: &[&std::ffi::OsStr]) -> Result<(String, String)> {
     let text = ipmc(args)?;
     text.lines()
-        .find_map(|l| l.split_once("skipped): ").map(|(_, r)| r.to_string()))
+        .find_map(|l| l.split_once("skipped): ").map(|(how, r)| (format!("{how}skipped)"), r.to_string())))
         .ok_or_else(|| anyhow!("no figure in the output of cargo ipmc {args:?}: {text}"))
 }
 
@@ -242,24 +243,19 @@ fn report_accuracy(input: &Path, est_csv: &Path, calib: Option<&Path>) -> Result
     if recording::time_series(input)?.base_m.is_none() {
         return Ok(());
     }
-    let firmware = ipmc_figure(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str()])?;
+    let (how, firmware) = ipmc_figure(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str()])?;
     let fixed_out = repo_root().join("target/qemu-run/EST-fixed45.csv");
     let mut args: Vec<&std::ffi::OsStr> =
         vec!["compensate".as_ref(), input.as_os_str(), "--out".as_ref(), fixed_out.as_os_str(), "--fixed-rh".as_ref(), "45".as_ref()];
     if let Some(c) = calib {
         args.extend(["--calib".as_ref(), c.as_os_str()]);
     }
-    let fixed = ipmc_figure(&args)?;
-    let band = band_of(calib)?;
+    let (_, fixed) = ipmc_figure(&args)?;
     let coverage = ipmc(&["score".as_ref(), input.as_os_str(), est_csv.as_os_str(), "--coverage".as_ref(), "2".as_ref()])?;
     print!("{}", coverage.lines().filter(|l| !l.starts_with("error in")).map(|l| format!("{l}\n")).collect::<String>());
     println!(
-        "accuracy vs true base in {}–{} Hz (delayed {} samples, first {} s of each burst skipped; `cargo ipmc score`):\n  \
-         firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}",
-        band.low_hz,
-        band.high_hz,
-        ipmc_core::firmware::operating_point::delay_samples(&band),
-        ipmc_core::firmware::operating_point::SETTLE_S
+        "accuracy vs the true base (`cargo ipmc score`), {how}:\n  \
+         firmware (compensated):       {firmware}\n  fixed 45 % design (host f32): {fixed}"
     );
     plot(input, est_csv, &fixed_out)
 }
