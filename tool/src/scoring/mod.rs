@@ -21,8 +21,8 @@ pub use definition::{Scoring, stated_period_s};
 pub use figures::{Score, Sums};
 pub use ipmc_core::firmware::operating_point::SETTLE_S;
 
-/// The one wording of the run's figure for every command (`cargo xtask qemu` reads what follows
-/// "skipped): " up to the first " %").
+/// The one wording of the run's figure for every command (`cargo xtask qemu` splits it at
+/// "skipped): ": how it was scored, then the figure).
 pub fn line(scoring: &Scoring, score: &Score) -> String {
     let (lo, hi) = (scoring.band.low_hz, scoring.band.high_hz);
     let levels = if score.bursts.len() > 1 {
