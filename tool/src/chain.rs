@@ -279,9 +279,6 @@ fn designer(calib: &Calibration, fs_hz: f64, kind: InverseKind<f32>) -> impl Fn(
 pub struct OwnUncertainty<'a> {
     pub slopes: &'a HumiditySlopes,
     pub sd_pct: &'a [f64],
-    /// Per sample, what the design humidity takes out of the strip's departures by following
-    /// them [%RH²] (`BlockError::humidity_sd`).
-    pub absorbed_pct2: &'a [f64],
 }
 
 pub fn compensate(
@@ -343,8 +340,7 @@ pub fn compensate(
             let c = comp.as_mut().expect("compensator exists");
             if let Some(u) = own_sd {
                 let sd = u.sd_pct[pos..end].iter().sum::<f64>() / (end - pos) as f64;
-                let absorbed = u.absorbed_pct2[pos..end].iter().sum::<f64>() / (end - pos) as f64;
-                error_bar.humidity_sd(u.slopes, c.rh_pct(), sd as f32, absorbed as f32);
+                error_bar.humidity_sd(u.slopes, c.rh_pct(), sd as f32);
             }
             let mut block: Vec<f32> = ts.current_a[pos..end].iter().map(|&x| x as f32).collect();
             let bad_before = c.bad_samples;

@@ -66,9 +66,6 @@ pub struct Second {
     pub fused: Estimate<f64>,
     /// The fused 1σ without the strip's calibration part (`Humidities::fused_design_sd_pct`).
     pub fused_design_sd_pct: f64,
-    /// What a design at the fused humidity takes out of the strip's departures [%RH²]
-    /// (`Humidities::fused_absorbed_var_pct2`).
-    pub fused_absorbed_var_pct2: f64,
 }
 
 /// Runs over a recording, block by block as the firmware does (each block's reading its mean,
@@ -107,7 +104,6 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
                     strip: h.strip.unwrap_or(Err(Refusal::Warming)),
                     fused: h.fused,
                     fused_design_sd_pct: h.fused_design_sd_pct,
-                    fused_absorbed_var_pct2: hygrometer.fused_absorbed_var_pct2(),
                 });
             }
         }
@@ -163,15 +159,7 @@ mod tests {
 
     fn second(t_s: f64, rh_pct: f64) -> Second {
         let e = Estimate { rh_pct, sd_pct: 1.0 };
-        Second {
-            t_s,
-            reading: e,
-            reading_avg_pct: rh_pct,
-            strip: Err(Refusal::Warming),
-            fused: e,
-            fused_design_sd_pct: 1.0,
-            fused_absorbed_var_pct2: 0.0,
-        }
+        Second { t_s, reading: e, reading_avg_pct: rh_pct, strip: Err(Refusal::Warming), fused: e, fused_design_sd_pct: 1.0 }
     }
 
     #[test]

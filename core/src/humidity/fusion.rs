@@ -140,27 +140,6 @@ impl<T: Real> SensorBias<T> {
         miss * miss * prior + gain * gain * stat
     }
 
-    /// What a design at the fused humidity takes out of the strip's departures, as a humidity
-    /// variance [%RH²]. A departure δ of the strip's parameters shifts the fit by the humidity
-    /// that best matches it, β·δ (the fits' calibration part is that shift's variance, sd_cal²),
-    /// and the fused humidity by g·β·δ (g the correction's gain). The design's error is then
-    /// s·δ − g·β·δ·s_h (s, s_h the strip's response's sensitivities to the parameter and to the
-    /// humidity): against a design at the true humidity, which states s·δ alone, the cross term
-    /// takes 2g·β·σ²·⟨s, s_h⟩ away and the shift adds g²·β²σ²·|s_h|². Where the fit's measure of
-    /// a match is the error's, ⟨s, s_h⟩ = β·|s_h|², so the net is (2g − g²)·sd_cal² times the
-    /// error's slope in the humidity's variance: what [`Self::variance_without_calibration`]
-    /// leaves out and more (0 before any fit).
-    pub fn absorbed_variance(&self, accuracy_pct: T) -> T {
-        if self.weight <= T::zero() {
-            return T::zero();
-        }
-        let cal = self.cal_var / self.weight;
-        let v = self.stat_var / (self.weight * self.weight) + cal;
-        let prior = accuracy_pct * accuracy_pct;
-        let gain = prior / (prior + v);
-        (T::lit(2.0) * gain - gain * gain) * cal
-    }
-
     /// The reading path corrected by the bias; never less certain than the reading (its lag's
     /// part, beyond the accuracy, stays).
     pub fn correct(&self, reading: Estimate<T>, accuracy_pct: T) -> Estimate<T> {
@@ -247,25 +226,6 @@ mod tests {
         let (prior, v_all) = (acc * acc, 0.4f64 * 0.4 + 1.2 * 1.2);
         let gain = prior / (prior + v_all);
         assert!(design < v && (design - ((1.0 - gain).powi(2) * prior + gain * gain * 0.16)).abs() < 1e-12, "{design} vs {v}");
-    }
-
-    /// A fused humidity that follows the strip (a sensor far less certain than its fits) takes
-    /// out all of the departures its fits' calibration part stands for; one that keeps to a
-    /// precise sensor, almost none; none without a calibration part or before any fit.
-    #[test]
-    fn the_absorbed_share_follows_the_gain() {
-        let absorbed = |acc: f64, cal: f64| {
-            let mut b = SensorBias::new();
-            b.observe(80.0, &fit(79.0, 0.3, cal), 40.0, 40.0, acc);
-            b.absorbed_variance(acc)
-        };
-        assert!((absorbed(50.0, 1.2) / 1.44 - 1.0).abs() < 0.01, "{}", absorbed(50.0, 1.2));
-        assert!(absorbed(0.4, 1.2) < 0.2 * 1.44, "{}", absorbed(0.4, 1.2));
-        assert_eq!(absorbed(1.8, 0.0), 0.0);
-        assert_eq!(SensorBias::<f64>::new().absorbed_variance(1.8), 0.0);
-        // Between, (2g − g²) of it: more than the g² the correction's own variance carries.
-        let g = 3.24 / (3.24 + 0.09 + 1.44);
-        assert!((absorbed(1.8, 1.2) - (2.0 * g - g * g) * 1.44).abs() < 1e-12);
     }
 
     #[test]

@@ -303,18 +303,6 @@ impl<T: Real> BlockHygrometer<T> {
         Humidities { reading, strip: self.strip, fused, fused_design_sd_pct }
     }
 
-    /// What a design at the fused humidity takes out of the strip's departures by following
-    /// them, as a humidity variance [%RH²], over the lags as their mixture weighs them
-    /// ([`crate::humidity::fusion::SensorBias::absorbed_variance`]; 0 before the first fit): an
-    /// error bar that states the departures in full subtracts it. The host's error bars use it;
-    /// the device states its sensor's.
-    pub fn fused_absorbed_var_pct2(&self) -> T {
-        if self.used_at.is_none() {
-            return T::zero();
-        }
-        self.lags[..self.n_lags].iter().fold(T::zero(), |a, l| a + l.probability * l.bias.absorbed_variance(self.accuracy_pct))
-    }
-
     /// The mixture over the lags of the reading path through each less its bias. Not inlined,
     /// as [`SensorBias::observe`].
     #[inline(never)]

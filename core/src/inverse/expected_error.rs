@@ -327,17 +327,9 @@ impl<T: Real> BlockError<T> {
     }
 
     /// The design humidity is `sd_pct` uncertain (1σ, %RH) from this block on, not what the table
-    /// was made with ([`HumiditySlopes`]); and it follows the strip's departures from its laws by
-    /// `absorbed_pct2` of humidity variance (a fused humidity:
-    /// [`crate::humidity::fusion::SensorBias::absorbed_variance`]; 0 for a reading), which takes
-    /// that much, through the same slope, out of the departures the table states. Never more
-    /// than the table holds beyond its own humidity's part: the departures and the design's error.
-    pub fn humidity_sd(&mut self, slopes: &HumiditySlopes, design_rh_pct: T, sd_pct: T, absorbed_pct2: T) {
-        let slope = self.table.lerp(&slopes.per_pct2, design_rh_pct);
-        let table_sd = T::lit(slopes.table_sd_pct as f64);
-        let beyond_humidity = (self.table.at(design_rh_pct).0 - slope * table_sd * table_sd).max(T::zero());
-        let absorbed = (slope * absorbed_pct2.max(T::zero())).min(beyond_humidity);
-        self.humidity_var = slopes.var_change(&self.table, design_rh_pct, sd_pct) - absorbed;
+    /// was made with ([`HumiditySlopes`]).
+    pub fn humidity_sd(&mut self, slopes: &HumiditySlopes, design_rh_pct: T, sd_pct: T) {
+        self.humidity_var = slopes.var_change(&self.table, design_rh_pct, sd_pct);
     }
 
     /// The strip's humidity is `beyond_pct` outside the calibrated range (signed: below < 0;
@@ -557,29 +549,15 @@ mod tests {
         let slopes = t.humidity_slopes(&c, 2.0, &cfg).unwrap();
         let mut b = BlockError::<f64>::new(&t, &cfg);
         for rh in [45.0, 62.5, 78.0] {
-            b.humidity_sd(&slopes, rh, 2.0, 0.0);
+            b.humidity_sd(&slopes, rh, 2.0);
             assert_eq!(b.parts(rh).0, t.calibration_part(rh), "the table's own uncertainty changes nothing");
             for sd in [0.0, 0.3, 1.0] {
-                b.humidity_sd(&slopes, rh, sd, 0.0);
+                b.humidity_sd(&slopes, rh, sd);
                 let want = ErrorTable::new(&c, sd, &cfg).unwrap().calibration_part(rh);
                 let got = b.parts(rh).0;
                 assert!((got / want - 1.0).abs() < 0.05, "{sd} %RH at {rh} %RH: {got} stated, {want} by its own table");
             }
         }
-        // A design that follows the departures states less by the slope's share of what it
-        // follows, and never less than its own humidity's part (1 %RH here).
-        for rh in [45.0, 62.5, 78.0] {
-            b.humidity_sd(&slopes, rh, 1.0, 0.0);
-            let full = b.parts(rh).0;
-            b.humidity_sd(&slopes, rh, 1.0, 0.5);
-            let less = b.parts(rh).0;
-            let slope = t.lerp(&slopes.per_pct2, rh);
-            assert!(less < full && (full * full - less * less - 0.5 * slope).abs() < 1e-9, "{rh} %RH: {full} → {less}");
-            b.humidity_sd(&slopes, rh, 1.0, 1e6);
-            let floor = b.parts(rh).0;
-            assert!((floor * floor - slope).abs() < 1e-9, "{rh} %RH: {floor} against {}", slope.sqrt());
-        }
-        b.humidity_sd(&slopes, 62.5, 2.0, 0.0);
         // The table's grid is the slopes' grid.
         assert_eq!(slopes.per_pct2[t.n..], [0.0; TABLE_LEN][t.n..]);
         assert!(slopes.per_pct2[..t.n].iter().all(|&k| k > 0.0));

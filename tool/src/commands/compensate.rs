@@ -134,12 +134,10 @@ pub fn run(a: Args) -> Result<()> {
         let reading_sd = rh_uncertainty(&calib, None);
         let own_sd: Vec<f64> =
             crate::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct).into_iter().map(|v| v.unwrap_or(reading_sd)).collect();
-        let absorbed: Vec<f64> =
-            crate::hygrometer::per_sample(&ts, &seconds, |s| s.fused_absorbed_var_pct2).into_iter().map(|v| v.unwrap_or(0.0)).collect();
         let ts = crate::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
         let mut at_strip = calib;
         at_strip.humidity = calib.humidity.at_strip();
-        (at_strip, ts, crate::reading_uncertainty::fused_sd(&seconds), Some((own_sd, absorbed)))
+        (at_strip, ts, crate::reading_uncertainty::fused_sd(&seconds), Some(own_sd))
     } else {
         (calib, ts, None, None)
     };
@@ -149,11 +147,9 @@ pub fn run(a: Args) -> Result<()> {
             u
         }
         (None, Some(u)) => {
-            let absorbed = own_sd.as_ref().map_or(0.0, |(_, a)| (a.iter().sum::<f64>() / a.len().max(1) as f64).sqrt());
             println!(
                 "the humidity's uncertainty: the fused humidity's, {u:.2} %RH rms, each block stated with its own (its 1σ without the \
-                 strip's calibration part, which the calibration's own uncertainty states already; and following the strip, the \
-                 design takes {absorbed:.2} %RH rms of humidity error's worth out of its departures); the reading's: {reading_said}"
+                 strip's calibration part, which the calibration's own uncertainty states already); the reading's: {reading_said}"
             );
             u
         }
@@ -167,8 +163,7 @@ pub fn run(a: Args) -> Result<()> {
         (Some(_), Some(_), None) => Some(humidity_slopes(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd), &errors)?),
         _ => None,
     };
-    let own =
-        slopes.as_ref().zip(own_sd.as_ref()).map(|(slopes, (sd_pct, absorbed_pct2))| OwnUncertainty { slopes, sd_pct, absorbed_pct2 });
+    let own = slopes.as_ref().zip(own_sd.as_deref()).map(|(slopes, sd_pct)| OwnUncertainty { slopes, sd_pct });
     let mut est = match &a.schedule {
         Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,
         None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd), own.as_ref())?,
