@@ -50,7 +50,7 @@ fn main() {
                 levels.iter().map(|l| l.rh_range.0).fold(f64::INFINITY, f64::min),
                 levels.iter().map(|l| l.rh_range.1).fold(0.0, f64::max),
             );
-            let (calib, _, _) = calibration_from_levels(&base, &fits, range, None, &[]).expect("laws");
+            let (calib, _, _) = calibration_from_levels(&base, &fits, range, None, &[], &[]).expect("laws");
             ms.push(t.elapsed().as_secs_f64() * 1e3);
             cpu.push(cpu_ms() - c);
             evaluations = fits.iter().map(|f| f.fit.evaluations).sum();

@@ -75,6 +75,7 @@
 //! between the setpoints was covered by 37 % of its stated bars). With a revisited setpoint one
 //! humidity the session's data say nothing below the setpoints' spacing, and the answer says so.
 
+use crate::chamber::Placement;
 use crate::identify::LevelFit;
 use crate::stats::{chi2_tail, nelder_mead};
 use ipmc_core::calibration::departures::{DEPARTING, MAX_DEPARTURE_POINTS, MAX_LN_DEPARTURE};
@@ -107,6 +108,8 @@ pub struct LevelTheta {
     /// The earlier level of the same slice at the same setpoint, when the session came back
     /// to it.
     pub revisit_of: Option<usize>,
+    /// The chamber's setpoint for the level, where the session states one ([`crate::chamber`]).
+    pub setpoint_pct: Option<f64>,
 }
 
 impl LevelTheta {
@@ -128,7 +131,7 @@ impl LevelTheta {
                 }
             }
         }
-        LevelTheta { rh_pct: fit.rh_pct, ln, cov, revisit_of: None }
+        LevelTheta { rh_pct: fit.rh_pct, ln, cov, revisit_of: None, setpoint_pct: None }
     }
 }
 
@@ -215,6 +218,8 @@ pub struct StripModel {
     pub kept_tests: [Option<LawTest>; 4],
     /// Levels per parameter.
     pub levels: [usize; 4],
+    /// Where the chamber's setpoints placed the levels (None: at their readings).
+    pub placement: Option<Placement>,
     center: f64,
     half: f64,
     /// Observations: (parameter, humidity, variance of the humidity) in the order of the
@@ -267,6 +272,8 @@ struct Problem<'a> {
     /// Each level's setpoint (the index of its first visit) and how many visits it had.
     site: Vec<usize>,
     visits: Vec<usize>,
+    /// Where the chamber's setpoints placed the levels, when the session states them.
+    placement: Option<Placement>,
     y: DVector<f64>,
     h: DMatrix<f64>,
     slopes: Vec<[f64; 4]>,
@@ -356,6 +363,11 @@ impl<'a> Problem<'a> {
     /// differ by how far the chamber left each.
     fn input_cov(&self, ia: usize, ib: usize, sd: Spread) -> f64 {
         let n = self.visits[ia] as f64;
+        if let Some(p) = &self.placement {
+            let same = self.site[ia] == self.site[ib];
+            let visit = if same && ia == ib && n > 1.0 { sd.setpoint * sd.setpoint } else { 0.0 };
+            return p.input_cov(ia, ib, same, sd.read * sd.read / n) + visit;
+        }
         if self.site[ia] != self.site[ib] {
             0.0
         } else if n == 1.0 {
@@ -450,6 +462,7 @@ impl StripModel {
             pos: vec![],
             site: vec![],
             visits: vec![],
+            placement: None,
             y: DVector::zeros(0),
             h: DMatrix::zeros(0, 0),
             slopes: vec![],
@@ -529,7 +542,14 @@ impl StripModel {
         let (a, l, spread) = unpack(&u_best, estimate_sd, given_sd);
         let rh_sd = spread.read;
         beta = problem.reml(problem.covariance(&a, &l, spread)).ok_or(ModelError::Singular)?.1.beta;
-        // Then with the slopes of that law, each departure at its level's uncertain humidity.
+        // Where the session states its setpoints, the levels move to where they and the
+        // readings place them; then with the slopes of that law, each departure at its level's
+        // uncertain humidity.
+        let setpoints: Vec<Option<f64>> = levels.iter().map(|l| l.setpoint_pct).collect();
+        if let Some(p) = crate::chamber::place(&problem.pos, &setpoints, &problem.site, &problem.visits, rh_sd) {
+            problem.place(p.position.clone())?;
+            problem.placement = Some(p);
+        }
         problem.set_slopes(&beta);
         problem.uncertain_inputs = true;
         u_best.truncate(2 * n_gp + usize::from(revisited));
@@ -545,6 +565,7 @@ impl StripModel {
         Ok(StripModel {
             base: *base,
             hyper: Hyper { amplitude, length_pct, rh_sd_pct: rh_sd, rh_sd_estimated: estimate_sd, setpoint_sd_pct: spread.setpoint },
+            placement: problem.placement.clone(),
             degree,
             has_departures: gp,
             law_tests,
@@ -561,6 +582,14 @@ impl StripModel {
             hch_inv: post.hch_inv,
             mixture,
         })
+    }
+
+    /// The humidities the levels were placed at, ascending, each once.
+    pub fn positions(&self) -> Vec<f64> {
+        let mut x: Vec<f64> = self.obs.iter().map(|o| o.1).collect();
+        x.sort_by(f64::total_cmp);
+        x.dedup();
+        x
     }
 
     /// The posterior of the departure's length of parameter k: (length [%RH], weight) over
@@ -770,21 +799,56 @@ fn kept_tests(post: &Posterior, h: &DMatrix<f64>, obs: &[(usize, usize)]) -> [Op
     })
 }
 
-/// The departures table over `rh_range`: [`MAX_DEPARTURE_POINTS`] evenly spaced humidities,
-/// each parameter's departure there plus `law_misfit(k, x)` (what the written law leaves of the
+/// The departures table over `rh_range`: [`MAX_DEPARTURE_POINTS`] humidities, each
+/// parameter's departure there plus `law_misfit(k, x)` (what the written law leaves of the
 /// model's law), clamped to what a table may hold.
+///
+/// The grid holds every level's humidity, then the midpoints of its widest gaps. Why: the
+/// table interpolates linearly, and a departure shorter than an even grid's step (lengths of
+/// 0.5 %RH against a step of 1.4 %RH) was cut to a fraction of itself at the very level that
+/// measured it (3 % in Y at strip105's 70 %RH).
 pub fn table(model: &StripModel, rh_range: (f64, f64), law_misfit: &dyn Fn(usize, f64) -> f64) -> (Vec<f64>, [Vec<f64>; 4]) {
-    let n = MAX_DEPARTURE_POINTS;
-    let grid: Vec<f64> = (0..n).map(|i| rh_range.0 + (rh_range.1 - rh_range.0) * i as f64 / (n - 1) as f64).collect();
+    let grid = table_grid(&model.positions(), rh_range, MAX_DEPARTURE_POINTS);
     let ln = core::array::from_fn(|k| {
         grid.iter().map(|&x| (model.departure(k, x) + law_misfit(k, x)).clamp(-MAX_LN_DEPARTURE, MAX_LN_DEPARTURE)).collect()
     });
     (grid, ln)
 }
 
+/// `n` ascending humidities over `range`: its ends, the `levels` inside it, then the midpoint of
+/// the widest gap, one at a time.
+fn table_grid(levels: &[f64], range: (f64, f64), n: usize) -> Vec<f64> {
+    let mut grid: Vec<f64> =
+        [range.0, range.1].into_iter().chain(levels.iter().copied().filter(|x| *x > range.0 && *x < range.1)).collect();
+    grid.sort_by(f64::total_cmp);
+    grid.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    grid.truncate(n);
+    while grid.len() < n {
+        let Some(i) = (0..grid.len() - 1).max_by(|&a, &b| (grid[a + 1] - grid[a]).total_cmp(&(grid[b + 1] - grid[b]))) else { break };
+        if grid[i + 1] - grid[i] < 1e-6 {
+            break;
+        }
+        grid.insert(i + 1, 0.5 * (grid[i] + grid[i + 1]));
+    }
+    grid
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_table_grid_holds_every_level_and_fills_the_widest_gaps() {
+        let g = table_grid(&[40.0, 45.0, 60.0, 20.0], (38.0, 62.0), 8);
+        assert_eq!(g.len(), 8);
+        for x in [38.0, 40.0, 45.0, 60.0, 62.0] {
+            assert!(g.contains(&x), "{x} in {g:?}");
+        }
+        assert!(!g.contains(&20.0));
+        assert!(g.windows(2).all(|w| w[1] > w[0]));
+        // The 15 %RH gap is split first, into 3.75 %RH steps.
+        assert!(g.contains(&52.5) && g.contains(&48.75) && g.contains(&56.25), "{g:?}");
+    }
 
     /// Levels of a strip that follows the base laws times departures `dep(k, setpoint)`, read
     /// with errors `e`, each parameter's ln with standard error `se`.
@@ -802,6 +866,7 @@ mod tests {
                     ln: core::array::from_fn(|k| Some(ln_base(&base, k, x) + dep(k, x) + noise(k))),
                     cov: core::array::from_fn(|a| core::array::from_fn(|b| if a == b { se * se } else { 0.0 })),
                     revisit_of: None,
+                    setpoint_pct: None,
                 }
             })
             .collect()

@@ -184,7 +184,8 @@ const WRITTEN_LAW_TOLERANCE: f64 = 1e-5;
 /// and the `[humidity]` path of `base`: the laws of Y, Cs, Ca and d with the strip's departures
 /// from them ([`crate::departures`]: `rh_sd_pct` is the bench reading's standard error, estimated
 /// from the levels when `None`; `revisit_of`: per level, the earlier level of `levels` at the
-/// same setpoint, where the session came back to one), written as ln-polynomials in RH and a `[departures]` table.
+/// same setpoint, where the session came back to one; `setpoints`: per level, the chamber's
+/// setpoint where the session states them, empty otherwise), written as ln-polynomials in RH and a `[departures]` table.
 /// κe's law is refitted (quadratic) only from levels where it was measured; else it is the
 /// base's, copied. Returns the model beside the calibration and the laws' report.
 pub fn calibration_from_levels(
@@ -193,6 +194,7 @@ pub fn calibration_from_levels(
     rh_range: (f64, f64),
     rh_sd_pct: Option<f64>,
     revisit_of: &[Option<usize>],
+    setpoints: &[Option<f64>],
 ) -> Result<(Calibration, Vec<LawFit>, StripModel), LawError> {
     if levels.is_empty() {
         return Err(LawError::NoLevels);
@@ -204,7 +206,8 @@ pub fn calibration_from_levels(
     let thetas: Vec<LevelTheta> = levels
         .iter()
         .zip(revisit_of.iter().chain(core::iter::repeat(&None)))
-        .map(|(l, &revisit_of)| LevelTheta { revisit_of, ..LevelTheta::of(l) })
+        .enumerate()
+        .map(|(i, (l, &revisit_of))| LevelTheta { revisit_of, setpoint_pct: setpoints.get(i).copied().flatten(), ..LevelTheta::of(l) })
         .collect();
     let model = StripModel::fit(base, &thetas, rh_sd_pct).map_err(LawError::Model)?;
     let dense: Vec<f64> = (0..=200).map(|i| rh_range.0 + (rh_range.1 - rh_range.0) * i as f64 / 200.0).collect();

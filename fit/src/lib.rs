@@ -18,6 +18,7 @@
 //! - [`laws`]: humidity laws through the levels, and the calibration they make.
 //! - [`departures`]: the strip's departures from those laws where its levels show them (a
 //!   Gaussian process over humidity, the bench's read errors a random effect), and what remains.
+//! - [`chamber`]: where a session's stated setpoints and its readings place the levels.
 //! - [`stats`]: the χ² distribution's tail and a simplex minimizer.
 //! - [`scatter`]: how far the levels stray from those laws (the calibration's `[uncertainty]`).
 //! - [`scalar`]: minimizing a function of one positive scalar over decades.
@@ -26,6 +27,7 @@
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
 pub mod block_qr;
+pub mod chamber;
 pub mod departures;
 pub mod estimate;
 pub mod identify;

@@ -61,6 +61,9 @@ pub struct Level {
     /// Index of the first earlier level at the same humidity when the session came back to it
     /// (a revisit; comparing the two shows hysteresis or drift), else `None`.
     pub revisit_of: Option<usize>,
+    /// The chamber's setpoint for this visit [%RH], where the recording states its setpoints
+    /// (`# rh_levels=`) one per level found ([`crate::stated_setpoints`]).
+    pub setpoint_pct: Option<f64>,
     pub points: Vec<FrPoint>,
 }
 
@@ -132,7 +135,14 @@ impl FrequencyResponse {
                 .filter(|&(_, d)| d <= LEVEL_SCATTER_PCT)
                 .min_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(k, _)| k);
-            levels.push(Level { rh_pct, rh_range, start_time_s, revisit_of, points });
+            levels.push(Level { rh_pct, rh_range, start_time_s, revisit_of, setpoint_pct: None, points });
+        }
+        // Setpoints pair with levels by visiting order, and only when there is one per level: a
+        // level split or lost would pair every later one with the wrong setpoint.
+        if let Some(order) = crate::stated_setpoints(&self.metadata).filter(|o| o.len() == levels.len()) {
+            for (level, s) in levels.iter_mut().zip(order) {
+                level.setpoint_pct = Some(s);
+            }
         }
         levels
     }

@@ -6,6 +6,7 @@
 //! - [`Charging`]: a constant-voltage charging current (`# voltage_v`).
 //! - [`HumidityReference`]: the humidity sensor read at references of known humidity.
 //! - [`Followup`]: what makes a recording a follow-up (`# followup=`, `# strip=`).
+//! - [`stated_setpoints`]: the chamber's setpoints a session states (`# rh_levels=`).
 //! - [`Estimates`]: the base-motion estimates `ipmc compensate` and the firmware write.
 //! - [`looping`]: short bursts of a periodic excitation repeated by whole periods.
 //! - [`Table`]: the common layer under them (comments, metadata, columns by name, positions).
@@ -22,6 +23,7 @@ mod humidity_reference;
 pub mod looping;
 mod metadata;
 mod output;
+mod setpoints;
 mod table;
 mod time_series;
 
@@ -33,6 +35,7 @@ pub use frequency_response::{FrPoint, FrequencyResponse, LEVEL_SCATTER_PCT, Leve
 pub use humidity_reference::HumidityReference;
 pub use metadata::Metadata;
 pub use output::{write_atomically, write_atomically_with};
+pub use setpoints::{SETPOINTS_KEY, stated_setpoints};
 pub use table::{Rule, Table};
 pub use time_series::{NumberFormat, TimeSeries};
 

@@ -116,6 +116,7 @@ fn level_json(number: usize, level: &Level, fit: &LevelFit) -> Value {
     let var = level.points.iter().map(|p| (p.rh_pct - level.rh_pct).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
     o.insert("rh_se_pct".into(), json!((var / n).sqrt()));
     o.insert("revisit_of".into(), json!(level.revisit_of.map(|k| k + 1)));
+    o.insert("setpoint_pct".into(), json!(level.setpoint_pct));
     for p in FITTED.iter().chain(&[ParamName::KappaE]) {
         if let Some(e) = fit.estimate(*p) {
             o.insert(p.as_str().into(), json!(e.value));
@@ -345,14 +346,35 @@ pub fn identify(
     // Each fitted level's earlier visit of its setpoint, as an index into the fitted levels.
     let revisits: Vec<Option<usize>> =
         fits.iter().map(|(_, l, _)| l.revisit_of.and_then(|r| fits.iter().position(|(k, _, _)| *k == r + 1))).collect();
-    let (mut calib, laws, model) =
-        calibration_from_levels(base, &level_fits, rh_range, rh_given, &revisits).with_context(|| format!("{source}: calibration"))?;
+    let setpoints: Vec<Option<f64>> = fits.iter().map(|(_, l, _)| l.setpoint_pct).collect();
+    if let Some(v) = recording_fr.metadata.get(ipmc_recording::SETPOINTS_KEY)
+        && setpoints.iter().any(Option::is_none)
+    {
+        println!(
+            "setpoints `# {}={v}` not used: they do not pair one to one with the {} levels found; the levels stay at their readings",
+            ipmc_recording::SETPOINTS_KEY,
+            levels.len()
+        );
+    }
+    let (mut calib, laws, model) = calibration_from_levels(base, &level_fits, rh_range, rh_given, &revisits, &setpoints)
+        .with_context(|| format!("{source}: calibration"))?;
     let rh_sd = model.hyper.rh_sd_pct;
     println!("bench reading uncertainty: {rh_sd:.2} %RH per level ({how})");
     if revisits.iter().any(Option::is_some) {
         println!(
             "setpoints visited twice: each one humidity, at its visits' mean reading; the chamber left the visits {:.2} %RH apart (fitted)",
             model.hyper.setpoint_sd_pct
+        );
+    }
+    if let Some(p) = &model.placement {
+        let lambda = p.reading_weight.iter().sum::<f64>() / p.reading_weight.len().max(1) as f64;
+        println!(
+            "chamber setpoints (`# {}=`) taken as the humidity scale: the readings scatter about them as a chamber holding them to {:.2} %RH would (its likelihood's best), so each level sits {:.0} % of the way from its reading to its setpoint; the bench sensor read {:+.2} ± {:.2} %RH off them this session (its bias, taken out of its readings)",
+            ipmc_recording::SETPOINTS_KEY,
+            p.chamber_sd_pct,
+            100.0 * (1.0 - lambda),
+            p.sensor_bias_pct,
+            p.sensor_bias_sd_pct
         );
     }
     let lengths: Vec<String> = (0..4)
@@ -383,7 +405,7 @@ pub fn identify(
     let remade = |k: usize, delta: f64| {
         let mut moved = level_fits.clone();
         moved[k].rh_pct += delta;
-        let (mut c, _, m) = calibration_from_levels(base, &moved, rh_range, Some(rh_sd), &revisits).ok()?;
+        let (mut c, _, m) = calibration_from_levels(base, &moved, rh_range, Some(rh_sd), &revisits, &setpoints).ok()?;
         c.instrument.tip_gain = calib.instrument.tip_gain;
         what_remains(&mut c, &m, &moved, rh_sd, base);
         Some(c)

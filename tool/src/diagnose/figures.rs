@@ -43,7 +43,14 @@ fn as_recorded(level: &LevelData) -> Level {
             current: current[i],
         })
         .collect();
-    Level { rh_pct: level.rh_pct, rh_range: (level.rh_pct, level.rh_pct), start_time_s: None, revisit_of: level.revisit_of, points }
+    Level {
+        rh_pct: level.rh_pct,
+        rh_range: (level.rh_pct, level.rh_pct),
+        start_time_s: None,
+        revisit_of: level.revisit_of,
+        setpoint_pct: None,
+        points,
+    }
 }
 
 /// `data` with the instrument's channels the diagnosis found taken out.
