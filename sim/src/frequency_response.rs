@@ -85,6 +85,13 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
             t += plan.dwell_s;
         }
     }
+    // The chamber's setpoints as a lab's chamber logs them, in the order visited: identify takes
+    // them as the humidity scale (`ipmc_fit::chamber`).
+    let mut metadata = metadata;
+    if metadata.get(ipmc_recording::SETPOINTS_KEY).is_none() {
+        let list: Vec<String> = h.levels_pct.iter().map(|l| l.to_string()).collect();
+        metadata.set(ipmc_recording::SETPOINTS_KEY, format!("{} (steps)", list.join(",")));
+    }
     Ok(FrequencyResponse { metadata, points })
 }
 
