@@ -424,9 +424,10 @@ impl StripModel {
     /// Fits the model to `levels` on the shape of `base`'s laws. `rh_sd_pct`: the bench
     /// reading's standard error when known; estimated from the levels otherwise. Every level
     /// is at its reading, its humidity uncertain by σₑ; a setpoint visited again (a level's
-    /// `revisit_of`) at its visits' mean reading (module doc). Two passes: the first takes the
-    /// departures at the readings (the read error moving the levels along the laws only) and
-    /// estimates σₑ there; the second, with σₑ and the slopes of the first pass's law, takes
+    /// `revisit_of`) at its visits' mean reading (module doc); where every level states its
+    /// chamber setpoint, from the second pass on where [`crate::chamber::place`] puts it. Two
+    /// passes: the first takes the departures at the readings (the read error moving the levels
+    /// along the laws only) and estimates σₑ there; the second, with σₑ and the slopes of the first pass's law, takes
     /// each departure at its uncertain humidity. (Estimated in the second, σₑ shrinks: the
     /// departures' own slopes then explain what the read errors do, and it came out at a
     /// third of the simulated 0.75 %RH.)
@@ -822,7 +823,11 @@ fn table_grid(levels: &[f64], range: (f64, f64), n: usize) -> Vec<f64> {
         [range.0, range.1].into_iter().chain(levels.iter().copied().filter(|x| *x > range.0 && *x < range.1)).collect();
     grid.sort_by(f64::total_cmp);
     grid.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-    grid.truncate(n);
+    if grid.len() > n {
+        // More levels than points: evenly through them, both ends kept.
+        let all = grid;
+        grid = (0..n).map(|i| all[(i * (all.len() - 1) + (n - 1) / 2) / (n - 1)]).collect();
+    }
     while grid.len() < n {
         let Some(i) = (0..grid.len() - 1).max_by(|&a, &b| (grid[a + 1] - grid[a]).total_cmp(&(grid[b + 1] - grid[b]))) else { break };
         if grid[i + 1] - grid[i] < 1e-6 {
@@ -848,6 +853,12 @@ mod tests {
         assert!(g.windows(2).all(|w| w[1] > w[0]));
         // The 15 %RH gap is split first, into 3.75 %RH steps.
         assert!(g.contains(&52.5) && g.contains(&48.75) && g.contains(&56.25), "{g:?}");
+        // More levels than points: the ends stay, the rest evenly through the levels.
+        let many: Vec<f64> = (0..60).map(|i| 20.0 + i as f64).collect();
+        let g = table_grid(&many, (19.5, 80.0), 8);
+        assert_eq!(g.len(), 8);
+        assert_eq!((g[0], g[7]), (19.5, 80.0));
+        assert!(g.windows(2).all(|w| w[1] > w[0]), "{g:?}");
     }
 
     /// Levels of a strip that follows the base laws times departures `dep(k, setpoint)`, read

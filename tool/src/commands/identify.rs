@@ -366,6 +366,13 @@ pub fn identify(
             model.hyper.setpoint_sd_pct
         );
     }
+    if model.placement.is_none() && !setpoints.is_empty() && setpoints.iter().all(Option::is_some) {
+        println!(
+            "setpoints `# {}=` not used: fewer than {} setpoints, or a level the readings take for a revisit states another setpoint; the levels stay at their readings",
+            ipmc_recording::SETPOINTS_KEY,
+            ipmc_fit::chamber::MIN_SITES
+        );
+    }
     if let Some(p) = &model.placement {
         let lambda = p.reading_weight.iter().sum::<f64>() / p.reading_weight.len().max(1) as f64;
         println!(
