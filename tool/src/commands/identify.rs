@@ -471,6 +471,16 @@ pub fn identify(
     header += &format!(
         "#   [departures]: the strip's own departures from them (a Gaussian process over humidity, its amplitude from\n#   the levels by marginal likelihood, its length averaged over what they allow; the bench reading's error,\n#   {rh_sd:.2} %RH, a random effect; a setpoint visited twice is one humidity).\n"
     );
+    if let Some(p) = &model.placement {
+        header += &format!(
+            "#   The levels placed by the chamber's setpoints (`# {}=`, the humidity scale): the chamber held them to\n\
+             #   {:.2} %RH; the bench sensor read {:+.2} ± {:.2} %RH off them this session, taken out of its readings.\n",
+            ipmc_recording::SETPOINTS_KEY,
+            p.chamber_sd_pct,
+            p.sensor_bias_pct,
+            p.sensor_bias_sd_pct
+        );
+    }
     header += if measured_kappa {
         "# κe: fitted through the levels where a charging recording measured it.\n"
     } else {
