@@ -3,6 +3,7 @@
 mod band;
 mod calibration_source;
 mod chain;
+mod chamber_humidity;
 mod charging;
 mod commands;
 mod diagnose;

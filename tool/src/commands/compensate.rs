@@ -67,7 +67,10 @@ pub struct Args {
     period_s: f64,
     /// The humidity the designs are made at: the reading through the humidity path, or that
     /// fused with the humidity the strip's own current says it is at (`ipmc field-table`
-    /// measures both); by default the calibration's `[humidity] mode`, else fused.
+    /// measures both), or each burst at its chamber setpoint (`# rh_levels=`, one per burst,
+    /// placed with the readings as `ipmc identify` places a bench session's levels). By default
+    /// the setpoints where the recording states them one per burst, else the calibration's
+    /// `[humidity] mode`, else fused.
     #[arg(long, value_enum, conflicts_with_all = ["schedule", "fixed_rh"])]
     humidity: Option<HumidityChoice>,
     /// How the band is kept, whatever the calibration's `[band] shape` says: `linear-phase`
@@ -88,6 +91,8 @@ enum BandChoice {
 enum HumidityChoice {
     Reading,
     Fused,
+    /// A bench session's: each burst at its chamber setpoint, placed with the readings.
+    Setpoints,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -125,11 +130,36 @@ pub fn run(a: Args) -> Result<()> {
         let named = crate::reading_uncertainty::name_sensor(&mut calib, &ts);
         crate::reading_uncertainty::settle(&mut calib, named, |c| crate::hygrometer::run(c, &ts))
     };
-    // Fused: the designs follow the fused strip humidity, which is past the path already.
+    // A bench session's chamber setpoints, where they place its bursts, know each burst's
+    // humidity better than its reading: the default there, and what `--humidity setpoints` asks.
+    let chamber = match (a.humidity, replay || a.fixed_rh.is_some()) {
+        (None | Some(HumidityChoice::Setpoints), false) => {
+            match crate::chamber_humidity::place_bursts(&ts, rh_uncertainty(&calib, None)) {
+                Ok(p) => p,
+                Err(why) if a.humidity.is_some() => bail!("{}: --humidity setpoints: {why}", a.input.display()),
+                Err(why) => {
+                    eprintln!("note: {}: the chamber's stated setpoints are not used: {why}", a.input.display());
+                    None
+                }
+            }
+        }
+        _ => None,
+    };
+    if a.humidity == Some(HumidityChoice::Setpoints) && chamber.is_none() {
+        bail!("{}: --humidity setpoints: the recording states no setpoints (`# rh_levels=`)", a.input.display());
+    }
+    let fused = fused && chamber.is_none();
+    // Fused: the designs follow the fused strip humidity, which is past the path already; placed
+    // by the setpoints, each burst's.
     let read = ts.rh_pct.clone();
     // Each block's own 1σ of the fused humidity: it narrows as the strip's fits add up (the
     // reading's before a burst's first fit).
-    let (calib, ts, fused_sd, own_sd) = if fused {
+    let (calib, ts, own_rms_sd, own_sd) = if let Some(placed) = &chamber {
+        println!("{}", placed.describe(rh_uncertainty(&calib, None)));
+        let mut at_chamber = calib;
+        at_chamber.humidity = calib.humidity.at_strip();
+        (at_chamber, placed.apply(&ts), Some(placed.rms_sd()), Some(placed.sd_per_sample(&ts)))
+    } else if fused {
         let seconds = crate::hygrometer::run(&calib, &ts);
         let reading_sd = rh_uncertainty(&calib, None);
         let own_sd: Vec<f64> =
@@ -141,9 +171,16 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         (calib, ts, None, None)
     };
-    let rh_sd = match (a.rh_uncertainty, fused_sd) {
+    let rh_sd = match (a.rh_uncertainty, own_rms_sd) {
         (Some(u), _) => {
             println!("the humidity's uncertainty: {u:.2} %RH, given");
+            u
+        }
+        (None, Some(u)) if chamber.is_some() => {
+            println!(
+                "the humidity's uncertainty: the placed bursts', {u:.2} %RH rms, each burst stated with its own; the reading's: \
+                 {reading_said}"
+            );
             u
         }
         (None, Some(u)) => {
@@ -159,7 +196,7 @@ pub fn run(a: Args) -> Result<()> {
         }
     };
     let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
-    let slopes = match (&own_sd, fused_sd, a.rh_uncertainty) {
+    let slopes = match (&own_sd, own_rms_sd, a.rh_uncertainty) {
         (Some(_), Some(_), None) => Some(humidity_slopes(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd), &errors)?),
         _ => None,
     };
@@ -168,8 +205,8 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,
         None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd), own.as_ref())?,
     };
-    if fused {
-        // The chain saw the fused humidity as its reading: the file keeps the sensor's.
+    if fused || chamber.is_some() {
+        // The chain saw the fused or placed humidity as its reading: the file keeps the sensor's.
         for (block, out) in read.chunks(crate::chain::BLOCK_LEN).zip(est.rh_read_pct.chunks_mut(crate::chain::BLOCK_LEN)) {
             out.fill((block.iter().sum::<f64>() / block.len() as f64) as f32);
         }
@@ -199,6 +236,7 @@ pub fn run(a: Args) -> Result<()> {
             (Some(p), _) => format!("scheduled schedule={}", p.display()),
             (None, Some(r)) => format!("fixed rh_pct={r}"),
             (None, None) if fused => "compensated humidity=fused".into(),
+            (None, None) if chamber.is_some() => "compensated humidity=setpoints".into(),
             (None, None) => "compensated".into(),
         },
     );
@@ -301,6 +339,42 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("does not repeat every 0.3 s") && e.contains("ipmc loop-bursts") && e.contains("--period-s P"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A bench session at three setpoints whose sensor read the wet one 1.2 %RH low: by default
+    /// the designs are at the setpoints (the chamber holds them; the reading's scatter about them
+    /// is its error alone); asked for the reading, the readings.
+    #[test]
+    fn a_sessions_stated_setpoints_place_its_bursts_by_default() {
+        let calib = ipmc_core::Calibration::default_preset();
+        let set = [40.0, 60.0, 78.0];
+        let mut ts = crate::commands::vs_exact::tests::periodic_recording(&calib, &set);
+        for (b, off) in ts.bursts().into_iter().zip([0.4, 0.3, -1.2]) {
+            ts.rh_pct[b].iter_mut().for_each(|r| *r += off);
+        }
+        ts.metadata.set(ipmc_recording::SETPOINTS_KEY, "40,60,78");
+        let dir = std::env::temp_dir().join(format!("ipmc-compensate-setpoints-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (rec, est) = (dir.join("ts.csv"), dir.join("est.csv"));
+        std::fs::write(&rec, ts.to_csv(NumberFormat::Exact).unwrap()).unwrap();
+        let (rec_s, est_s) = (rec.display().to_string(), est.display().to_string());
+        let designs = |extra: &[&str]| {
+            let mut args = vec!["c", rec_s.as_str(), "--calib", "default", "--rh-uncertainty", "1", "--out", est_s.as_str()];
+            args.extend_from_slice(extra);
+            run(Compensate::parse_from(args).args).unwrap();
+            let file = EstimateFile::read(&est).unwrap().0;
+            let rh = file.rh_pct.clone().unwrap();
+            let mode = file.metadata.get("mode").unwrap_or_default().to_string();
+            (rh.chunks(rh.len() / 3).map(|c| c[c.len() - 1] as f64).collect::<Vec<_>>(), mode)
+        };
+        let (placed, mode) = designs(&[]);
+        assert!(mode.contains("humidity=setpoints"), "{mode}");
+        for (x, s) in placed.iter().zip(set) {
+            assert!((x - s).abs() < 0.3, "designed at {x} %RH for the setpoint {s}");
+        }
+        let (read, _) = designs(&["--humidity", "reading"]);
+        assert!((read[2] - 76.8).abs() < 0.3, "the reading path's design {} for a reading of 76.8", read[2]);
         std::fs::remove_dir_all(&dir).ok();
     }
 }

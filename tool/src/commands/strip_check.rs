@@ -74,6 +74,8 @@ struct Scores {
 #[derive(Clone, Debug, serde::Serialize)]
 struct Level {
     rh_read_pct: f64,
+    /// Where the chamber's setpoints placed the burst, the own calibration's humidity.
+    rh_placed_pct: Option<f64>,
     own: Scores,
     nominal: Scores,
     perfect: Option<Scores>,
@@ -223,6 +225,20 @@ pub fn run(a: Args) -> Result<()> {
         println!("wrote {}", out.display());
     }
     let truth = a.truth.as_ref().map(|p| load_truth(p, &a.ts, &ts, &nominal_noisy)).transpose()?;
+    // The own calibration is used as `ipmc compensate` uses it by default: where the session
+    // states its chamber's setpoints one per burst, each burst at its placed humidity. The
+    // nominal and perfect ones stay at the reading, as ../shared/external/strips/README.md's
+    // references are.
+    let chamber = match crate::chamber_humidity::place_bursts(&ts, rh_sd) {
+        Ok(p) => p,
+        Err(why) => {
+            println!("the chamber's stated setpoints are not used: {why}; the own calibration is taken at the reading too");
+            None
+        }
+    };
+    if let Some(p) = &chamber {
+        println!("{}", p.describe(rh_sd));
+    }
 
     let period = per.round() as usize;
     let scored = (a.seconds * ts.fs_hz).round() as usize;
@@ -239,16 +255,26 @@ pub fn run(a: Args) -> Result<()> {
     let mut levels = vec![];
     for (k, range) in looped.bursts().into_iter().enumerate() {
         let rec = crate::commands::vs_exact::burst_of(&looped, range.start..(range.start + lead + scored).min(range.end))?;
-        let (own_s, est) = score(&own, &rec, rh_sd, a.period_s)?;
+        let (own_s, est) = match &chamber {
+            Some(p) => {
+                let mut placed = rec.clone();
+                placed.rh_pct.fill(p.rh_pct[k]);
+                let mut at_chamber = own;
+                at_chamber.humidity = own.humidity.at_strip();
+                score(&at_chamber, &placed, p.sd_pct[k], a.period_s)?
+            }
+            None => score(&own, &rec, rh_sd, a.period_s)?,
+        };
         let (nominal_s, _) = score(&nominal_noisy, &rec, rh_sd, a.period_s)?;
         let perfect = truth.as_ref().map(|t| score(t.at(k), &rec, rh_sd, a.period_s).map(|s| s.0)).transpose()?;
         let tail = &est.rel_err[settle.min(est.rel_err.len())..(settle + scored).min(est.rel_err.len())];
         let stated = tail.iter().map(|&e| e as f64).sum::<f64>() / tail.len().max(1) as f64;
-        let errors = error_table(&own, rec.fs_hz, rh_sd, InverseKind::Exact)?;
+        let errors = error_table(&own, rec.fs_hz, chamber.as_ref().map_or(rh_sd, |p| p.sd_pct[k]), InverseKind::Exact)?;
         let design_rh = est.rh_pct.last().copied().unwrap_or(f32::NAN) as f64;
         let stated_calibration = errors.calibration_part(design_rh);
         levels.push(Level {
             rh_read_pct: rec.rh_pct.iter().sum::<f64>() / rec.rh_pct.len() as f64,
+            rh_placed_pct: chamber.as_ref().map(|p| p.rh_pct[k]),
             own: own_s,
             nominal: nominal_s,
             perfect,
@@ -268,15 +294,17 @@ pub fn run(a: Args) -> Result<()> {
         settle as f64 / ts.fs_hz
     );
     println!(
-        "  level  RH read %   nominal chain   own chain   own exact{}   own stated 1σ (calibration, noise)  covered",
+        "  level  RH read %{}   nominal chain   own chain   own exact{}   own stated 1σ (calibration, noise)  covered",
+        if chamber.is_some() { "   placed %" } else { "" },
         if truth.is_some() { "   perfect chain   perfect exact" } else { "" }
     );
     for (k, l) in levels.iter().enumerate() {
         let noise_part = (l.stated.powi(2) - l.stated_calibration.powi(2)).max(0.0).sqrt();
         println!(
-            "  {:>5}  {:>9.2}  {:>14.2}  {:>10.2}  {:>10.2}{}  {:>13.2} ({:>5.2}, {:>5.2})  {:>12}",
+            "  {:>5}  {:>9.2}{}  {:>14.2}  {:>10.2}  {:>10.2}{}  {:>13.2} ({:>5.2}, {:>5.2})  {:>12}",
             k + 1,
             l.rh_read_pct,
+            l.rh_placed_pct.map_or(String::new(), |x| format!("  {x:>9.2}")),
             100.0 * l.nominal.chain,
             100.0 * l.own.chain,
             100.0 * l.own.exact,
