@@ -94,6 +94,8 @@ impl BurstHumidity {
         let (lo, hi) = p.reading_weight.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &w| (lo.min(w), hi.max(w)));
         let sits = if hi < 0.005 {
             "each burst at its setpoint".to_string()
+        } else if hi - lo < 0.005 {
+            format!("each burst {:.0} % of the way from its setpoint to its reading less the bias", 100.0 * hi)
         } else {
             format!("each burst {:.0}–{:.0} % of the way from its setpoint to its reading less the bias", 100.0 * lo, 100.0 * hi)
         };
