@@ -35,7 +35,7 @@ pub use frequency_response::{FrPoint, FrequencyResponse, LEVEL_SCATTER_PCT, Leve
 pub use humidity_reference::HumidityReference;
 pub use metadata::Metadata;
 pub use output::{write_atomically, write_atomically_with};
-pub use setpoints::{SETPOINTS_KEY, stated_setpoints};
+pub use setpoints::{SETPOINTS_KEY, SetpointForm, setpoints_text, stated_setpoints};
 pub use table::{Rule, Table};
 pub use time_series::{NumberFormat, TimeSeries};
 

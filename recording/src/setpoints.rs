@@ -36,6 +36,22 @@ pub fn stated_setpoints(metadata: &Metadata) -> Option<Vec<f64>> {
     Some(order)
 }
 
+/// How a session's setpoints are stated: visited up once each, or as listed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SetpointForm {
+    Up,
+    Steps,
+}
+
+/// The `# rh_levels=` value stating `levels` in `form`, as [`stated_setpoints`] reads it back.
+pub fn setpoints_text(levels: &[f64], form: SetpointForm) -> String {
+    let list = levels.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(",");
+    match form {
+        SetpointForm::Up => list,
+        SetpointForm::Steps => format!("{list} (steps)"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -51,6 +67,14 @@ mod tests {
         assert_eq!(stated_setpoints(&with("38,40,45")), Some(vec![38.0, 40.0, 45.0]));
         assert_eq!(stated_setpoints(&with("38,40,45 then down")), Some(vec![38.0, 40.0, 45.0, 40.0, 38.0]));
         assert_eq!(stated_setpoints(&with("45,60,75,60,45 (steps)")), Some(vec![45.0, 60.0, 75.0, 60.0, 45.0]));
+    }
+
+    #[test]
+    fn what_is_written_reads_back() {
+        let levels = [45.0, 60.0, 72.5, 60.0, 45.0];
+        assert_eq!(setpoints_text(&levels, SetpointForm::Steps), "45,60,72.5,60,45 (steps)");
+        assert_eq!(stated_setpoints(&with(&setpoints_text(&levels, SetpointForm::Steps))), Some(levels.to_vec()));
+        assert_eq!(stated_setpoints(&with(&setpoints_text(&levels[..3], SetpointForm::Up))), Some(levels[..3].to_vec()));
     }
 
     #[test]

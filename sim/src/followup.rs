@@ -16,7 +16,7 @@ use super::random::SplitMix64;
 use super::session::{Session, log_spaced};
 use super::{Recording, humidity_reference, simulate};
 use ipmc_core::Calibration;
-use ipmc_recording::{Followup, HumidityReference, Metadata, Protocol};
+use ipmc_recording::{Followup, HumidityReference, Metadata, Protocol, SETPOINTS_KEY, SetpointForm, setpoints_text};
 
 /// The wideband session's levels [%RH], up only.
 pub const WIDEBAND_LEVELS_PCT: [f64; 4] = [40.0, 53.0, 67.0, 80.0];
@@ -106,7 +106,7 @@ fn wideband(calib: &Calibration, strip: &CaseStrip, seed: u64, metadata: &mut Me
     // The base's amplitude stays the primary's until the raised acceleration limit meets it.
     plan.full_amplitude_to_hz = Some(band_top * WIDEBAND_ACCELERATION_RAISE.sqrt());
     s.noise.current_floor_band_hz = Some([FREQS[0], band_top]);
-    metadata.set("rh_levels", levels_text(&WIDEBAND_LEVELS_PCT));
+    metadata.set(SETPOINTS_KEY, setpoints_text(&WIDEBAND_LEVELS_PCT, SetpointForm::Up));
     metadata.set(
         "band",
         format!(
@@ -125,7 +125,7 @@ fn step(calib: &Calibration, strip: &CaseStrip, seed: u64, metadata: &mut Metada
     let plan = s.time_series.as_mut().expect("a time-series session");
     plan.burst_s = STEP_BURST_S;
     plan.bursts_after_step_s = Some(STEP_BURSTS_AFTER_S.to_vec());
-    metadata.set("rh_levels", format!("{} (steps)", levels_text(&STEP_LEVELS_PCT)));
+    metadata.set(SETPOINTS_KEY, setpoints_text(&STEP_LEVELS_PCT, SetpointForm::Steps));
     metadata.set(
         "timing",
         format!(

@@ -11,7 +11,7 @@ use super::surroundings::{Mains, Room};
 use anyhow::{Result, bail};
 use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{C, Calibration};
-use ipmc_recording::{FrPoint, FrequencyResponse, Metadata, Response};
+use ipmc_recording::{FrPoint, FrequencyResponse, Metadata, Response, SetpointForm, setpoints_text};
 
 pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, metadata: Metadata) -> Result<FrequencyResponse> {
     let plan = session.frequencies.as_ref().expect("validated: a frequency-response session has [frequencies]");
@@ -89,8 +89,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
     // them as the humidity scale (`ipmc_fit::chamber`).
     let mut metadata = metadata;
     if metadata.get(ipmc_recording::SETPOINTS_KEY).is_none() {
-        let list: Vec<String> = h.levels_pct.iter().map(|l| l.to_string()).collect();
-        metadata.set(ipmc_recording::SETPOINTS_KEY, format!("{} (steps)", list.join(",")));
+        metadata.set(ipmc_recording::SETPOINTS_KEY, setpoints_text(&h.levels_pct, SetpointForm::Steps));
     }
     Ok(FrequencyResponse { metadata, points })
 }
