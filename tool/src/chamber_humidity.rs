@@ -54,12 +54,9 @@ pub fn place_bursts(ts: &TimeSeries, read_sd: f64) -> Result<Option<BurstHumidit
         })
         .collect();
     let stated: Vec<Option<f64>> = setpoints.iter().map(|&s| Some(s)).collect();
-    let placement = place(&site_mean, &stated, &site, &visits, read_sd).ok_or_else(|| {
-        format!("fewer than {} setpoints, or no reading uncertainty to weigh them by", ipmc_fit::chamber::MIN_SITES)
-    })?;
-    let sd_pct = (0..site.len())
-        .map(|i| placement.input_cov(i, i, true, read_sd * read_sd / visits[i] as f64).max(0.0).sqrt())
-        .collect();
+    let placement = place(&site_mean, &stated, &site, &visits, read_sd)
+        .ok_or_else(|| format!("fewer than {} setpoints, or no reading uncertainty to weigh them by", ipmc_fit::chamber::MIN_SITES))?;
+    let sd_pct = (0..site.len()).map(|i| placement.input_cov(i, i, true, read_sd * read_sd / visits[i] as f64).max(0.0).sqrt()).collect();
     Ok(Some(BurstHumidity { rh_pct: placement.position.clone(), sd_pct, reading_pct, placement }))
 }
 

@@ -133,16 +133,14 @@ pub fn run(a: Args) -> Result<()> {
     // A bench session's chamber setpoints, where they place its bursts, know each burst's
     // humidity better than its reading: the default there, and what `--humidity setpoints` asks.
     let chamber = match (a.humidity, replay || a.fixed_rh.is_some()) {
-        (None | Some(HumidityChoice::Setpoints), false) => {
-            match crate::chamber_humidity::place_bursts(&ts, rh_uncertainty(&calib, None)) {
-                Ok(p) => p,
-                Err(why) if a.humidity.is_some() => bail!("{}: --humidity setpoints: {why}", a.input.display()),
-                Err(why) => {
-                    eprintln!("note: {}: the chamber's stated setpoints are not used: {why}", a.input.display());
-                    None
-                }
+        (None | Some(HumidityChoice::Setpoints), false) => match crate::chamber_humidity::place_bursts(&ts, rh_uncertainty(&calib, None)) {
+            Ok(p) => p,
+            Err(why) if a.humidity.is_some() => bail!("{}: --humidity setpoints: {why}", a.input.display()),
+            Err(why) => {
+                eprintln!("note: {}: the chamber's stated setpoints are not used: {why}", a.input.display());
+                None
             }
-        }
+        },
         _ => None,
     };
     if a.humidity == Some(HumidityChoice::Setpoints) && chamber.is_none() {
