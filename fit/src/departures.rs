@@ -685,12 +685,16 @@ impl StripModel {
                 }
                 _ => None,
             };
-            for (weight, (mean, var)) in match straight {
-                Some(s) => [(0.5 * c.weight, (mean, var)), (0.5 * c.weight, s)],
-                None => [(c.weight, (mean, var)), (0.0, (0.0, 0.0))],
-            } {
-                m1 += weight * mean;
-                m2 += weight * (var + mean * mean);
+            match straight {
+                Some((ms, vs)) => {
+                    let half = 0.5 * c.weight;
+                    m1 += half * (mean + ms);
+                    m2 += half * (var + mean * mean + vs + ms * ms);
+                }
+                None => {
+                    m1 += c.weight * mean;
+                    m2 += c.weight * (var + mean * mean);
+                }
             }
         }
         Some((m1, m2 - m1 * m1))
@@ -939,7 +943,8 @@ mod tests {
     /// whether the strip departs again between two of them or goes straight from one's value
     /// to the other's. Midway the stated sd must then hold both: most of the departure's
     /// amplitude, not the interpolation's half of it or less (where the REML point's length
-    /// lands near the spacing, here for Ca and d); and the value is half the straight line's.
+    /// lands near the spacing, here for Ca and d); and the value keeps part of the straight
+    /// line's instead of returning to the law.
     #[test]
     fn white_departures_are_unknown_between_levels() {
         let (sp, e) = setpoints_5_apart();
