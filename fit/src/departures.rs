@@ -105,6 +105,10 @@ const RH_SD_PCT: (f64, f64) = (1e-3, 5.0);
 const LENGTH_GRID: usize = 14;
 /// Weight below which a length's posterior is dropped from the mixture (after normalizing).
 const NEGLIGIBLE_WEIGHT: f64 = 1e-4;
+/// The prior's share of the straight account between two levels, for each departure length
+/// they cannot see (module doc, "Between two levels"): levels at the setpoints alone cannot tell
+/// it from the length's own account, so neither is preferred.
+const STRAIGHT_SHARE: f64 = 0.5;
 /// RH step [%] of the laws' slopes.
 const SLOPE_STEP_PCT: f64 = 0.05;
 
@@ -674,22 +678,28 @@ impl StripModel {
     /// between them (the length's own posterior, back toward the law), or going straight from
     /// one level's value to the other's (module doc, "Between two levels").
     fn mixture_moments(&self, k: usize, x: f64) -> Option<(f64, f64)> {
+        self.moments(k, x, STRAIGHT_SHARE)
+    }
+
+    /// [`Self::mixture_moments`] with the straight account's share of each unseen length
+    /// `straight` (0: the lengths' own posteriors alone; 1: the straight line alone).
+    fn moments(&self, k: usize, x: f64, straight: f64) -> Option<(f64, f64)> {
         let between = self.between_levels(x);
         let (mut m1, mut m2) = (0.0, 0.0);
         for c in &self.mixture[k] {
             let (mean, var, law) = self.component_moments(k, c, x)?;
-            let straight = match between {
+            let line = match between {
                 Some((a, b, w)) if c.length_pct < 0.5 * (b - a) => {
                     let ((ma, va, la), (mb, vb, lb)) = (self.component_moments(k, c, a)?, self.component_moments(k, c, b)?);
                     Some((law + (1.0 - w) * (ma - la) + w * (mb - lb), (1.0 - w).powi(2) * va + w * w * vb))
                 }
                 _ => None,
             };
-            match straight {
+            match line {
                 Some((ms, vs)) => {
-                    let half = 0.5 * c.weight;
-                    m1 += half * (mean + ms);
-                    m2 += half * (var + mean * mean + vs + ms * ms);
+                    let (own, other) = ((1.0 - straight) * c.weight, straight * c.weight);
+                    m1 += own * mean + other * ms;
+                    m2 += own * (var + mean * mean) + other * (vs + ms * ms);
                 }
                 None => {
                     m1 += c.weight * mean;
@@ -954,19 +964,24 @@ mod tests {
         let lv = levels(&sp, &e, 0.002, &dep);
         let m = StripModel::fit(&Calibration::default_preset(), &lv, Some(0.3)).unwrap();
         let mut interpolated = 0;
+        let (mut line_sq, mut reverting_sq) = (0.0, 0.0);
         for k in 0..4 {
             let a = m.hyper.amplitude[k];
             assert!(m.has_departures[k] && a > 0.03, "{k}: {:?}", m.hyper);
             for x in [47.5, 52.5, 57.5, 62.5, 67.5, 72.5] {
                 let (point, mixed) = (m.point_sd(k, x), m.posterior_sd(k, x));
                 assert!(mixed > 0.65 * a && mixed < 1.25 * a, "{k} at {x}: sd {mixed} against amplitude {a}");
-                // Of the lengths too short to see, half go straight between the levels' values:
-                // midway, the value keeps a good part of the straight line's, not the law's.
-                let straight = 0.5 * (m.departure(k, x - 2.5) + m.departure(k, x + 2.5));
-                if straight.abs() > 0.5 * a {
-                    let ratio = m.departure(k, x) / straight;
-                    assert!((0.25..=1.0).contains(&ratio), "{k} at {x}: {} against the straight line's {straight}", m.departure(k, x));
+                // Two accounts, half each: the straight account alone goes through the line
+                // between the two levels' values; the lengths' own posteriors alone are nearer
+                // the law; the answer is their mean.
+                let line = 0.5 * (m.departure(k, x - 2.5) + m.departure(k, x + 2.5));
+                let dep = |share: f64| m.moments(k, x, share).unwrap().0 - m.law_ln(k, x);
+                let short: f64 = m.length_posterior(k).iter().filter(|c| c.0 < 2.5).map(|c| c.1).sum();
+                if short > 0.9 {
+                    assert!((dep(1.0) - line).abs() < 0.15 * a, "{k} at {x}: the straight account {} against the line {line}", dep(1.0));
                 }
+                (line_sq, reverting_sq) = (line_sq + line * line, reverting_sq + dep(0.0).powi(2));
+                assert!((m.departure(k, x) - 0.5 * (dep(0.0) + dep(1.0))).abs() < 1e-9, "{k} at {x}");
                 if m.hyper.length_pct[k] > 2.5 {
                     assert!(mixed > point, "{k} at {x}: sd {mixed} against the point's {point}");
                     interpolated += 1;
@@ -977,6 +992,8 @@ mod tests {
         }
         // The case this test is about happened (the data, not the test, choose the point).
         assert!(interpolated > 0, "{:?}", m.hyper);
+        // The lengths' own posteriors alone fall back toward the law midway.
+        assert!(reverting_sq < 0.5 * line_sq, "{reverting_sq} against the lines' {line_sq}");
     }
 
     /// A smooth departure, several levels per length: the likelihood decides the length, and
