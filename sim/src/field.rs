@@ -96,6 +96,9 @@ pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physi
         (0..2).map(|_| (plan.wander_pct * (0.5 + 0.5 * rng.uniform()), 40.0 + 60.0 * rng.uniform(), two_pi * rng.uniform())).collect();
     let air = |t: f64| plan.rh_level_pct + wander.iter().map(|&(a, p, ph)| a * (two_pi * t / p + ph).sin()).sum::<f64>();
     let accuracy = plan.sensor.datasheet_accuracy_pct();
+    // Narrower than the fusion's prior (the datasheet's typical accuracy taken as 1σ): the
+    // fusion is tested where the sensor is better than it assumes, where trusting the strip
+    // costs the most.
     let (bias, gain) = (rng.gauss(accuracy * 0.7), 1.0 + rng.gauss(0.01));
     let sensor_lag = plan.sensor.datasheet_lag_s();
     let noise_sd = calib.uncertainty.current_noise_a_per_rthz * (plan.fs_hz / 2.0).sqrt();

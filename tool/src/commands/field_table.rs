@@ -30,7 +30,8 @@ pub struct Args {
     #[arg(long)]
     truths: PathBuf,
     /// Also print every second: the truth, its average with the spectrum's weights, the reading
-    /// path, the strip's estimate and its 1σ (or the refusal), the fused value.
+    /// path, the strip's estimate and its 1σ (or the refusal), the fused value with its 1σ, and
+    /// the fused 1σ the error bars state (without the strip's calibration part).
     #[arg(long)]
     seconds: bool,
 }
@@ -132,7 +133,7 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
     };
     let seconds = hygrometer::run(&calib, &ts);
     if a.seconds {
-        println!("t_s,truth,truth_avg,reading_path,reading_avg,strip,strip_sd,misfit,fused,fused_sd");
+        println!("t_s,truth,truth_avg,reading_path,reading_avg,strip,strip_sd,misfit,fused,fused_sd,fused_design_sd");
     }
     // The fused and the perfect designs take the strip's humidity as it is: no second correction.
     let mut at_strip = calib;
@@ -156,13 +157,14 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
                 Err(r) => format!("{},,", r.as_str()),
             };
             println!(
-                "{:.0},{truth:.2},{:.2},{:.2},{:.2},{strip},{:.2},{:.2}",
+                "{:.0},{truth:.2},{:.2},{:.2},{:.2},{strip},{:.2},{:.2},{:.2}",
                 s.t_s,
                 truth_avg.unwrap(),
                 s.reading.rh_pct,
                 s.reading_avg_pct,
                 s.fused.rh_pct,
-                s.fused.sd_pct
+                s.fused.sd_pct,
+                s.fused_design_sd_pct
             );
         }
         if s.t_s < SKIP_S {
