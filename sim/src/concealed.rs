@@ -196,6 +196,7 @@ impl CaseStrip {
                         compact: false,
                         tone_grid_hz: Some(1.0),
                         bursts_after_step_s: None,
+                        state_setpoints: false,
                     }),
                     noise: Noise { current_a, tip_m, ..session.noise },
                     ..session

@@ -196,6 +196,11 @@ pub struct TimeSeriesPlan {
     /// Write numbers compactly (7 digits) instead of exactly.
     #[serde(default)]
     pub compact: bool,
+    /// State the chamber's setpoints in the file (`# rh_levels=`, one per burst), as a lab's
+    /// bench time series does: `ipmc compensate` then places each burst by its setpoint and the
+    /// readings. Off unless set, so that a session tests the reading's own path.
+    #[serde(default)]
+    pub state_setpoints: bool,
 }
 
 fn yes() -> bool {
@@ -421,6 +426,9 @@ impl Session {
                     );
                 }
             }
+            if t.state_setpoints && (t.ramp || t.bursts_after_step_s.is_some()) {
+                bail!("time_series.state_setpoints: setpoints are stated one per burst, which a ramp or bursts after each step are not");
+            }
             let samples = t.bursts(h.levels_pct.len()) as f64 * t.fs_hz * t.burst_s;
             if samples > MAX_SAMPLES {
                 bail!("time_series: {samples:e} samples (bursts × burst_s × fs_hz): expected at most {MAX_SAMPLES:e}");
@@ -518,6 +526,17 @@ mod tests {
         for bad in ["[5, 600]", "[40, 5]", "[]"] {
             let e = parse(bad).unwrap_err().to_string();
             assert!(e.contains("bursts_after_step_s"), "{bad}: {e}");
+        }
+    }
+
+    /// Setpoints are stated one per burst: not beside bursts after each step, nor on a ramp.
+    #[test]
+    fn setpoints_are_stated_one_per_burst_only() {
+        let parse = |extra: &str| Session::parse(std::path::Path::new("s.toml"), &format!("{STEP}state_setpoints = true\n{extra}"));
+        assert!(parse("").is_ok());
+        for bad in ["bursts_after_step_s = [5, 40]\n", "ramp = true\n"] {
+            let e = parse(bad).unwrap_err().to_string();
+            assert!(e.contains("state_setpoints"), "{bad}: {e}");
         }
     }
 }

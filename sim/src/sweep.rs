@@ -61,6 +61,7 @@ impl Sweep {
                 compact: true,
                 tone_grid_hz: None,
                 bursts_after_step_s: None,
+                state_setpoints: false,
             }),
             charging: None,
             noise: Noise { current_a: self.noise_a, ..Noise::default() },

@@ -21,7 +21,7 @@ use super::surroundings::{Mains, Room};
 use anyhow::{Result, bail};
 use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{C, Calibration};
-use ipmc_recording::{Metadata, TimeSeries};
+use ipmc_recording::{Metadata, SetpointForm, TimeSeries, setpoints_text};
 
 struct Tone {
     freq_hz: f64,
@@ -41,6 +41,9 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
         .map(|freq_hz| Tone { freq_hz, amplitude_m: plan.amplitude_m / count, phase: 2.0 * std::f64::consts::PI * rng.uniform() })
         .collect();
     metadata.set("tones_hz", tones.iter().map(|t| format!("{:.3}", t.freq_hz)).collect::<Vec<_>>().join(";"));
+    if plan.state_setpoints {
+        metadata.set(ipmc_recording::SETPOINTS_KEY, setpoints_text(levels, SetpointForm::Steps));
+    }
 
     let per_burst = (plan.burst_s * plan.fs_hz).round() as usize;
     let legs = if plan.ramp { levels.len().saturating_sub(1).max(1) } else { levels.len() };

@@ -141,6 +141,29 @@ mod tests {
         assert_eq!(b.sd_per_sample(&ts).len(), 12);
     }
 
+    /// The project's simulator states a bench time series' setpoints as a lab's does: its
+    /// bursts pair with them, and the chamber that held each setpoint puts the bursts nearer it
+    /// than the readings, read 1 %RH off per level.
+    #[test]
+    fn a_simulated_sessions_stated_setpoints_place_its_bursts() {
+        let text = "kind = \"time-series\"\nseed = 5\n[humidity]\nlevels_pct = [45, 60, 75, 60, 45]\nsettle_s = 300\n\
+            chamber_tau_s = 40\nread_error_pct = 0.1\nlevel_read_error_pct = 1.0\n[time_series]\nfs_hz = 500\nburst_s = 0.5\n\
+            tones = 3\nfrom_hz = 10\nto_hz = 100\namplitude_m = 1e-5\nstate_setpoints = true\n";
+        let session = ipmc_sim::session::Session::parse(std::path::Path::new("s.toml"), text).unwrap();
+        let calib = ipmc_core::Calibration::default_preset();
+        let ipmc_sim::Recording::TimeSeries(ts, _) =
+            ipmc_sim::simulate(&calib, &session, &ipmc_sim::physics::ExactModel, Default::default()).unwrap()
+        else {
+            panic!("a time series")
+        };
+        let placed = place_bursts(&ts, 1.0).unwrap().expect("the setpoints are stated");
+        let setpoints = [45.0, 60.0, 75.0, 60.0, 45.0];
+        let off = |v: &[f64]| v.iter().zip(setpoints).map(|(r, s)| (r - s).powi(2)).sum::<f64>().sqrt();
+        let read: Vec<f64> = ts.bursts().iter().map(|b| ts.rh_pct[b.clone()].iter().sum::<f64>() / b.len() as f64).collect();
+        assert!(off(&read) > 1.0, "the readings are off by their level errors: {read:?}");
+        assert!(off(&placed.rh_pct) < 0.5 * off(&read), "placed {:?} against read {read:?}", placed.rh_pct);
+    }
+
     #[test]
     fn setpoints_that_do_not_pair_one_to_one_are_refused_with_the_reason() {
         assert!(place_bursts(&bursts("40,50,60 then down"), 1.0).unwrap_err().contains("3 bursts and 5 setpoints"));
