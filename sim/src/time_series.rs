@@ -21,7 +21,7 @@ use super::surroundings::{Mains, Room};
 use anyhow::{Result, bail};
 use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{C, Calibration};
-use ipmc_recording::{Metadata, SetpointForm, TimeSeries, setpoints_text};
+use ipmc_recording::{Metadata, SETPOINTS_KEY, SetpointForm, TimeSeries, setpoints_text};
 
 struct Tone {
     freq_hz: f64,
@@ -42,7 +42,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
         .collect();
     metadata.set("tones_hz", tones.iter().map(|t| format!("{:.3}", t.freq_hz)).collect::<Vec<_>>().join(";"));
     if plan.state_setpoints {
-        metadata.set(ipmc_recording::SETPOINTS_KEY, setpoints_text(levels, SetpointForm::Steps));
+        metadata.set(SETPOINTS_KEY, setpoints_text(levels, SetpointForm::Steps));
     }
 
     let per_burst = (plan.burst_s * plan.fs_hz).round() as usize;
