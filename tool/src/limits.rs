@@ -1,8 +1,10 @@
 //! What limits an estimate, per humidity: the stated 1σ split into the calibration's part (what
-//! the calibration and the humidity reading leave unknown; it does not shrink with the signal)
-//! and the current noise's part (the noise-equivalent base motion in the band over the
-//! estimate's own rms there), so a user sees whether a better calibration or a stronger signal
-//! would help.
+//! the calibration leaves unknown of the strip at a humidity known exactly, and the design's own
+//! error), the humidity's part (what the design humidity's own uncertainty adds: the reading's,
+//! the fused or the placed humidity's, a strip beyond the range) and the current noise's part
+//! (the noise-equivalent base motion in the band over the estimate's own rms there). None of the
+//! first two shrinks with the signal; a user sees whether a better calibration, a better
+//! hygrometer or a stronger signal would help.
 
 use ipmc_core::inverse::expected_error::ErrorTable;
 
@@ -15,10 +17,12 @@ const SETTLING_BLOCKS: usize = 64;
 /// One row per [`ROW_PCT`] of design humidity the estimate visited: the medians over its blocks.
 /// `rh_pct`, `rel_err` and `burst_start` are per sample, as the chain gives them; `block_len`
 /// samples share one value.
-/// `calibration`: each 1σ's calibration part, as the chain split it (a strip beyond the range,
-/// a design humidity of its own uncertainty are in it).
+/// `calibration`: each 1σ's model part, as the chain split it (a strip beyond the range, a design
+/// humidity of its own uncertainty are in it); `exact_humidity`: the chain's table made with the
+/// design humidity known exactly, which splits that part into the calibration's and the
+/// humidity's (its noise term is the chain's: the noise does not depend on the humidity's 1σ).
 pub fn table(
-    errors: &ErrorTable,
+    exact_humidity: &ErrorTable,
     rh_pct: &[f32],
     rel_err: &[f32],
     calibration: &[f32],
@@ -26,8 +30,8 @@ pub fn table(
     block_len: usize,
     band: (f64, f64),
 ) -> String {
-    // (row, stated, calibration's, noise's) per settled block.
-    let mut blocks: Vec<(i32, f32, f32, f32)> = vec![];
+    // (row, stated, calibration's, humidity's, noise's) per settled block.
+    let mut blocks: Vec<(i32, f32, f32, f32, f32)> = vec![];
     for start in (0..rh_pct.len()).step_by(block_len) {
         if (start - burst_start[start]) / block_len < SETTLING_BLOCKS {
             continue;
@@ -36,29 +40,32 @@ pub fn table(
         if !stated.is_finite() {
             continue;
         }
-        let calibration = calibration[start];
-        let noise = (stated * stated - calibration * calibration).max(0.0).sqrt();
-        blocks.push(((rh / ROW_PCT).floor() as i32, stated, calibration, noise));
+        let model = calibration[start];
+        let noise = (stated * stated - model * model).max(0.0).sqrt();
+        let own = exact_humidity.calibration_part(rh).min(model);
+        let humidity = (model * model - own * own).max(0.0).sqrt();
+        blocks.push(((rh / ROW_PCT).floor() as i32, stated, own, humidity, noise));
     }
     if blocks.is_empty() {
         return String::new();
     }
     blocks.sort_by_key(|b| b.0);
     let mut out = format!(
-        "what limits the estimate ({}–{} Hz; stated 1σ = calibration ⊕ noise, medians over the settled blocks):\n  \
-         RH %        stated %   calibration %   noise %   noise-equivalent base motion [µm rms]   blocks\n",
+        "what limits the estimate ({}–{} Hz; stated 1σ = calibration ⊕ humidity ⊕ noise, medians over the settled blocks):\n  \
+         RH %        stated %   calibration %   humidity %   noise %   noise-equivalent base motion [µm rms]   blocks\n",
         band.0, band.1
     );
     for row in blocks.chunk_by(|a, b| a.0 == b.0) {
         let lo = row[0].0 as f32 * ROW_PCT;
-        let noise_m = errors.noise_equivalent_m(lo + ROW_PCT / 2.0);
+        let noise_m = exact_humidity.noise_equivalent_m(lo + ROW_PCT / 2.0);
         out += &format!(
-            "  {:>4.0}–{:<4.0} {:>9.2} {:>15.2} {:>9.2} {:>39.3} {:>8}\n",
+            "  {:>4.0}–{:<4.0} {:>9.2} {:>15.2} {:>12.2} {:>9.2} {:>39.3} {:>8}\n",
             lo,
             lo + ROW_PCT,
             100.0 * median(row.iter().map(|b| b.1)),
             100.0 * median(row.iter().map(|b| b.2)),
             100.0 * median(row.iter().map(|b| b.3)),
+            100.0 * median(row.iter().map(|b| b.4)),
             1e6 * noise_m,
             row.len()
         );
@@ -113,6 +120,7 @@ mod tests {
     fn the_parts_add_up_to_the_stated_error_and_rows_follow_the_humidity() {
         let calib = Calibration::default_preset();
         let errors = crate::chain::error_table(&calib, 2000.0, 1.0, InverseKind::Exact).expect("table");
+        let exact = crate::chain::error_table(&calib, 2000.0, 0.0, InverseKind::Exact).expect("table");
         let (block, n) = (32, 32 * 200);
         // Two humidities, a stated error larger than the calibration's part at each.
         let rh: Vec<f32> = (0..n).map(|i| if i < n / 2 { 42.0 } else { 71.0 }).collect();
@@ -120,13 +128,19 @@ mod tests {
         // that at the first (a strip beyond the range, an uncertain design humidity).
         let calibration: Vec<f32> = rh.iter().map(|&r| errors.calibration_part(r) * if r < 50.0 { 2.0 } else { 1.0 }).collect();
         let stated: Vec<f32> = calibration.iter().map(|&c| (c * c + 0.1f32.powi(2)).sqrt()).collect();
-        let t = table(&errors, &rh, &stated, &calibration, &vec![0; n], block, (10.0, 150.0));
+        let t = table(&exact, &rh, &stated, &calibration, &vec![0; n], block, (10.0, 150.0));
         let rows: Vec<&str> = t.lines().skip(2).collect();
         assert_eq!(rows.len(), 2, "{t}");
         assert!(rows[0].trim_start().starts_with("40–45") && rows[1].trim_start().starts_with("70–75"), "{t}");
-        for r in rows {
-            let noise: f32 = r.split_whitespace().nth(3).unwrap().parse().unwrap();
+        for (r, at) in rows.into_iter().zip([42.0f32, 71.0]) {
+            let col = |k: usize| -> f32 { r.split_whitespace().nth(k).unwrap().parse().unwrap() };
+            let (stated, own, humidity, noise) = (col(1), col(2), col(3), col(4));
             assert!((noise - 10.0).abs() < 0.02, "{t}");
+            assert!((stated.powi(2) - own.powi(2) - humidity.powi(2) - noise.powi(2)).abs() < 0.05 * stated.powi(2), "{t}");
+            // The calibration's own part is the exact humidity's table; the 1 %RH the table was
+            // made with is the humidity's part.
+            assert!((own - 100.0 * exact.calibration_part(at)).abs() < 0.01, "{t}");
+            assert!(humidity > 0.0, "{t}");
         }
     }
 

@@ -247,9 +247,18 @@ pub fn run(a: Args) -> Result<()> {
     };
     println!("{} estimates ({mode}) -> {}", est.base_est_m.len(), a.out.display());
     let band = (calib.band.low_hz, calib.band.high_hz);
+    let exact_humidity = error_table(&calib, ts.fs_hz, 0.0, a.inverse.kind(rh_sd))?;
     print!(
         "{}",
-        crate::limits::table(&errors, &est.rh_pct, &est.rel_err, &est.rel_err_calibration, &est.burst_start, crate::chain::BLOCK_LEN, band)
+        crate::limits::table(
+            &exact_humidity,
+            &est.rh_pct,
+            &est.rel_err,
+            &est.rel_err_calibration,
+            &est.burst_start,
+            crate::chain::BLOCK_LEN,
+            band
+        )
     );
     if let Some(note) = crate::limits::beyond_range(&calib, &est.beyond_pct, &est.flags) {
         eprintln!("warning: {note}");
