@@ -132,8 +132,9 @@ pub fn run(a: Args) -> Result<()> {
     };
     // A bench session's chamber setpoints, where they place its bursts, know each burst's
     // humidity better than its reading: the default there, and what `--humidity setpoints` asks.
+    let read_sd = rh_uncertainty(&calib, None);
     let chamber = match (a.humidity, replay || a.fixed_rh.is_some()) {
-        (None | Some(HumidityChoice::Setpoints), false) => match crate::chamber_humidity::place_bursts(&ts, rh_uncertainty(&calib, None)) {
+        (None | Some(HumidityChoice::Setpoints), false) => match crate::chamber_humidity::place_bursts(&ts, read_sd) {
             Ok(p) => p,
             Err(why) if a.humidity.is_some() => bail!("{}: --humidity setpoints: {why}", a.input.display()),
             Err(why) => {
@@ -153,15 +154,14 @@ pub fn run(a: Args) -> Result<()> {
     // Each block's own 1σ of the fused humidity: it narrows as the strip's fits add up (the
     // reading's before a burst's first fit).
     let (calib, ts, own_rms_sd, own_sd) = if let Some(placed) = &chamber {
-        println!("{}", placed.describe(rh_uncertainty(&calib, None)));
+        println!("{}", placed.describe(read_sd));
         let mut at_chamber = calib;
         at_chamber.humidity = calib.humidity.at_strip();
         (at_chamber, placed.apply(&ts), Some(placed.rms_sd()), Some(placed.sd_per_sample(&ts)))
     } else if fused {
         let seconds = crate::hygrometer::run(&calib, &ts);
-        let reading_sd = rh_uncertainty(&calib, None);
         let own_sd: Vec<f64> =
-            crate::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct).into_iter().map(|v| v.unwrap_or(reading_sd)).collect();
+            crate::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct).into_iter().map(|v| v.unwrap_or(read_sd)).collect();
         let ts = crate::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
         let mut at_strip = calib;
         at_strip.humidity = calib.humidity.at_strip();
@@ -190,7 +190,7 @@ pub fn run(a: Args) -> Result<()> {
         }
         (None, None) => {
             println!("the humidity's uncertainty: the reading's, {reading_said}");
-            rh_uncertainty(&calib, None)
+            read_sd
         }
     };
     let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
