@@ -66,6 +66,10 @@ pub struct Second {
     pub fused: Estimate<f64>,
     /// The fused 1σ without the strip's calibration part (`Humidities::fused_design_sd_pct`).
     pub fused_design_sd_pct: f64,
+    /// The lag the fusion puts on the reading path beyond the sensor's own, its probability-
+    /// weighted mean over the lags weighed [s]: while the fits cannot tell the lags apart, the
+    /// prior's.
+    pub path_lag_s: f64,
 }
 
 /// Runs over a recording, block by block as the firmware does (each block's reading its mean,
@@ -104,6 +108,7 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
                     strip: h.strip.unwrap_or(Err(Refusal::Warming)),
                     fused: h.fused,
                     fused_design_sd_pct: h.fused_design_sd_pct,
+                    path_lag_s: hygrometer.lag_weights().map(|(tau, p)| tau * p).sum(),
                 });
             }
         }
@@ -159,7 +164,15 @@ mod tests {
 
     fn second(t_s: f64, rh_pct: f64) -> Second {
         let e = Estimate { rh_pct, sd_pct: 1.0 };
-        Second { t_s, reading: e, reading_avg_pct: rh_pct, strip: Err(Refusal::Warming), fused: e, fused_design_sd_pct: 1.0 }
+        Second {
+            t_s,
+            reading: e,
+            reading_avg_pct: rh_pct,
+            strip: Err(Refusal::Warming),
+            fused: e,
+            fused_design_sd_pct: 1.0,
+            path_lag_s: 0.0,
+        }
     }
 
     #[test]

@@ -303,6 +303,13 @@ impl<T: Real> BlockHygrometer<T> {
         Humidities { reading, strip: self.strip, fused, fused_design_sd_pct }
     }
 
+    /// The hydration lags the reading path is put through, each with its probability after the
+    /// last fit [s] (one, of probability 1, where the calibration's path has its own lag).
+    pub fn lag_weights(&self) -> impl Iterator<Item = (T, T)> + '_ {
+        let one = self.n_lags == 1;
+        self.lags[..self.n_lags].iter().map(move |l| (l.tau_s, if one { T::one() } else { l.probability }))
+    }
+
     /// The mixture over the lags of the reading path through each less its bias. Not inlined,
     /// as [`SensorBias::observe`].
     #[inline(never)]
@@ -326,6 +333,7 @@ mod tests {
     use super::*;
     use crate::humidity::strip::StripRh;
     use std::vec;
+    use std::vec::Vec;
 
     #[test]
     fn snapshots_once_a_second_and_never_while_a_fit_is_out() {
@@ -373,6 +381,13 @@ mod tests {
     /// 1 %RH high; the fits the strip's humidity averaged as the spectrum is. The fused value at
     /// the end, less the strip's humidity; with the lags weighed, or with none.
     fn after_a_ramp(weigh_lags: bool) -> f64 {
+        let (h, path, strip) = ramped(weigh_lags);
+        h.humidities(path).fused.rh_pct - strip
+    }
+
+    /// The hygrometer after [`after_a_ramp`]'s ramp, with the last reading path and the strip's
+    /// humidity.
+    fn ramped(weigh_lags: bool) -> (BlockHygrometer<f64>, f64, f64) {
         let c = Calibration::default_preset();
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         if !weigh_lags {
@@ -390,7 +405,21 @@ mod tests {
                 h.complete(Ok(StripRh { rh_pct: seen, sd_stat_pct: 0.3, sd_cal_pct: 0.2, sd_pct: 0.36, misfit: 1.0, bins_used: 140 }));
             }
         }
-        h.humidities(path).fused.rh_pct - strip
+        (h, path, strip)
+    }
+
+    #[test]
+    fn the_ramp_weighs_the_lags_toward_the_strips() {
+        // The reading has no lag of its own here, the hygrometer takes the HTS221's 10 s: the
+        // strip's 40 s is the path's 30.
+        let (h, _, _) = ramped(true);
+        let (best, _) = h.lag_weights().fold((0.0, 0.0), |(bt, bp), (t, p)| if p > bp { (t, p) } else { (bt, bp) });
+        assert_eq!(best, 30.0, "{:?}", h.lag_weights().collect::<Vec<_>>());
+        let total: f64 = h.lag_weights().map(|(_, p)| p).sum();
+        assert!((total - 1.0).abs() < 1e-9);
+        let (mut one, _, _) = ramped(false);
+        one.lags[0].probability = 0.0;
+        assert_eq!(one.lag_weights().collect::<Vec<_>>(), vec![(0.0, 1.0)], "a single lag is certain");
     }
 
     #[test]

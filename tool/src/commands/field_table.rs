@@ -4,6 +4,13 @@
 //! humidity, and with a perfect hygrometer at the strip; and the strip's own estimate: how often
 //! there is one from 70 %RH, and how often its stated 1σ covers the truth.
 //!
+//! Where the truths give the strip's hydration lag and the sensor's (the shared field files'
+//! `tau_strip_s` and `sensor.tau`), two more designs say what limits the fused humidity: the
+//! fusion told the strip's lag (what is left is the sensor's offset as the strip's fits measure
+//! it), and the reading through that lag less the sensor's mean offset from the strip over the
+//! scored seconds (a correction no data give: what is left is the sensor's noise, gain and the
+//! lag's shape).
+//!
 //! The compensation's error is scored as every command scores it (`crate::scoring`, as `ipmc
 //! score` prints it for the same estimate); the humidity's figures skip the first 20 s.
 
@@ -31,7 +38,8 @@ pub struct Args {
     truths: PathBuf,
     /// Also print every second: the truth, its average with the spectrum's weights, the reading
     /// path, the strip's estimate and its 1σ (or the refusal), the fused value with its 1σ, and
-    /// the fused 1σ the error bars state (without the strip's calibration part).
+    /// the fused 1σ the error bars state (without the strip's calibration part), and the lag the
+    /// fusion puts on the reading path (its probability-weighted mean).
     #[arg(long)]
     seconds: bool,
 }
@@ -56,12 +64,15 @@ fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<(f64, String)> {
     Ok((100.0 * score.pooled.error(), scoring.describe()))
 }
 
-/// One file's figures: (strip %RH, reading, fused, perfect hygrometer).
+/// One file's figures [%].
 struct Row {
     wet: bool,
     reading: f64,
     fused: f64,
     perfect: f64,
+    /// The fused design told the strip's hydration lag, and the reading through it less the
+    /// sensor's mean offset (where the truths give the lags).
+    lag_known: Option<(f64, f64)>,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -69,9 +80,9 @@ pub fn run(a: Args) -> Result<()> {
         anyhow::bail!("{} recordings and {} calibrations: give one --calib per recording", a.inputs.len(), a.calib.len());
     }
     println!(
-        "| file | strip %RH | reading − strip [%RH rms] | fused − strip [%RH rms] | reading [%] | fused [%] | perfect hygrometer [%] | strip estimate: windows from 70 %RH with one | 1σ coverage |"
+        "| file | strip %RH | reading − strip [%RH rms] | fused − strip [%RH rms] | reading [%] | fused [%] | fused, the strip's lag known [%] | the lag and the sensor's offset known [%] | perfect hygrometer [%] | strip estimate: windows from 70 %RH with one | 1σ coverage |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut rows = vec![];
     let mut notes = vec![];
     for (input, calib) in a.inputs.iter().zip(&a.calib) {
@@ -103,6 +114,12 @@ pub fn run(a: Args) -> Result<()> {
             wet.len(),
             if fused <= bound { "yes" } else { "NO" }
         );
+        if wet.iter().all(|r| r.lag_known.is_some()) {
+            let (lag, both) = (rms(&|r| r.lag_known.unwrap().0), rms(&|r| r.lag_known.unwrap().1));
+            println!(
+                "from {WET_PCT} %RH, what limits fused: the strip's lag known {lag:.1} %; the lag and the sensor's mean offset known {both:.1} % (a correction no data give)"
+            );
+        }
     }
     println!("criteria: {}", if ok { "hold" } else { "do NOT hold" });
     Ok(())
@@ -133,7 +150,7 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
     };
     let seconds = hygrometer::run(&calib, &ts);
     if a.seconds {
-        println!("t_s,truth,truth_avg,reading_path,reading_avg,strip,strip_sd,misfit,fused,fused_sd,fused_design_sd");
+        println!("t_s,truth,truth_avg,reading_path,reading_avg,strip,strip_sd,misfit,fused,fused_sd,fused_design_sd,path_lag_s");
     }
     // The fused and the perfect designs take the strip's humidity as it is: no second correction.
     let mut at_strip = calib;
@@ -142,6 +159,28 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
     let (fused, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| s.fused.rh_pct))?;
     let (perfect, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| strip_at(s.t_s)))?;
     notes.push(format!("{stem}: compensation error {described} (as `ipmc score` prints it)"));
+    let scored_mean = |secs: &[Second], f: &dyn Fn(&Second) -> f64| {
+        let kept: Vec<f64> = secs.iter().filter(|s| s.t_s >= SKIP_S).map(f).collect();
+        kept.iter().sum::<f64>() / kept.len().max(1) as f64
+    };
+    let truth = &truths[&stem];
+    let lag_known = match (truth["tau_strip_s"].as_f64(), truth["sensor"]["tau"].as_f64()) {
+        (Some(strip_s), Some(sensor_s)) => {
+            // The reading trails the air by the sensor's lag already: the path adds the rest. A
+            // strip quicker than its sensor has none to add, and the path says so with the least
+            // positive lag (it arrives at once): a path without one has the hygrometer weigh its
+            // grid of lags instead.
+            let mut lagged = calib;
+            let tau = (strip_s - sensor_s).max(f64::MIN_POSITIVE);
+            (lagged.humidity.tau_wet_s, lagged.humidity.tau_dry_s) = (tau, tau);
+            let secs = hygrometer::run(&lagged, &ts);
+            let (fused, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &secs, |s: &Second| s.fused.rh_pct))?;
+            let offset = scored_mean(&secs, &|s| s.reading.rh_pct - strip_at(s.t_s));
+            let (both, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &secs, |s: &Second| s.reading.rh_pct - offset))?;
+            Some((fused, both))
+        }
+        _ => None,
+    };
     // The strip's estimate against the truth averaged with the spectrum's weights.
     let (mut wet, mut wet_with, mut covered, mut judged) = (0, 0, 0, 0);
     let mut refusals = std::collections::BTreeMap::<&str, usize>::new();
@@ -157,14 +196,15 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
                 Err(r) => format!("{},,", r.as_str()),
             };
             println!(
-                "{:.0},{truth:.2},{:.2},{:.2},{:.2},{strip},{:.2},{:.2},{:.2}",
+                "{:.0},{truth:.2},{:.2},{:.2},{:.2},{strip},{:.2},{:.2},{:.2},{:.1}",
                 s.t_s,
                 truth_avg.unwrap(),
                 s.reading.rh_pct,
                 s.reading_avg_pct,
                 s.fused.rh_pct,
                 s.fused.sd_pct,
-                s.fused_design_sd_pct
+                s.fused_design_sd_pct,
+                s.path_lag_s
             );
         }
         if s.t_s < SKIP_S {
@@ -188,9 +228,10 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
     let mean_truth = strip_true.iter().sum::<f64>() / strip_true.len() as f64;
     let pct = |a: usize, b: usize| if b == 0 { f64::NAN } else { 100.0 * a as f64 / b as f64 };
     println!(
-        "| {stem} | {mean_truth:.1} | {:.2} | {:.2} | {reading:.1} | {fused:.1} | {perfect:.1} | {} | {:.0} % ({covered}/{judged}) |",
+        "| {stem} | {mean_truth:.1} | {:.2} | {:.2} | {reading:.1} | {fused:.1} | {} | {perfect:.1} | {} | {:.0} % ({covered}/{judged}) |",
         (sq_read / n as f64).sqrt(),
         (sq_fused / n as f64).sqrt(),
+        lag_known.map_or("– | –".to_string(), |(l, b)| format!("{l:.1} | {b:.1}")),
         if wet == 0 { "no window from 70 %RH".to_string() } else { format!("{:.0} % ({wet_with}/{wet})", pct(wet_with, wet)) },
         pct(covered, judged)
     );
@@ -204,7 +245,7 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
             e.rh_pct, e.sd_pct, e.sd_stat_pct, e.sd_cal_pct, e.misfit, e.bins_used
         ));
     }
-    Ok(Row { wet: mean_truth >= WET_PCT, reading, fused, perfect })
+    Ok(Row { wet: mean_truth >= WET_PCT, reading, fused, perfect, lag_known })
 }
 
 #[cfg(test)]
