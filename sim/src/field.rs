@@ -6,7 +6,8 @@
 //! physics seam ([`Physics`]) at the strip's humidity, as every recording of the simulator does.
 //!
 //! The base motion is a dense multisine (tones every [`TONE_SPACING_HZ`] with random phases): to
-//! a spectrum of 1 Hz bins, broadband noise.
+//! a spectrum of 1 Hz bins, broadband noise. The current carries the amplifier's white noise
+//! ([`AMPLIFIER_NOISE_A_PER_RTHZ`] unless the plan says otherwise).
 
 use super::physics::Physics;
 use super::random::SplitMix64;
@@ -38,7 +39,17 @@ pub struct FieldPlan {
     pub a_rms: f64,
     /// Number of tones on top of the broadband motion.
     pub tones: usize,
+    /// The current's noise density, white [A/√Hz]: the amplifier's, not the calibration's (a
+    /// figure that need not be the recording's: the nominal's is the ADC's quantization alone).
+    pub current_noise_a_per_rthz: f64,
 }
+
+/// The current's noise a field recording gets unless told otherwise [A/√Hz]: the amplifier's, as
+/// the project's time-series sessions take it (`data/sessions/strip-ts.toml`: 1e-8 A per sample
+/// at 2 kHz, white to 1 kHz, is 1e-8/√1000) and as the lab's recordings show it (3.2e-10 on the
+/// shared ones). The ADC's quantization alone
+/// ([`ipmc_core::calibration::uncertainty::FRONT_END_NOISE_A_PER_RTHZ`]) is 40× below it.
+pub const AMPLIFIER_NOISE_A_PER_RTHZ: f64 = 3.162_277_660_168_379_5e-10;
 
 /// The recording and, per second, the strip's true humidity.
 pub struct Field {
@@ -101,7 +112,7 @@ pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physi
     // costs the most.
     let (bias, gain) = (rng.gauss(accuracy * 0.7), 1.0 + rng.gauss(0.01));
     let sensor_lag = plan.sensor.datasheet_lag_s();
-    let noise_sd = calib.uncertainty.current_noise_a_per_rthz * (plan.fs_hz / 2.0).sqrt();
+    let noise_sd = plan.current_noise_a_per_rthz * (plan.fs_hz / 2.0).sqrt();
 
     let n = (plan.seconds * plan.fs_hz).round() as usize;
     let dt = 1.0 / plan.fs_hz;
@@ -162,4 +173,41 @@ pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physi
         i += chunk;
     }
     Field { ts, strip_pct }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A strip that makes no current: what the recording carries is its noise alone.
+    struct Silent;
+    impl Physics for Silent {
+        fn response(&self, _: &Params<f64>, _: f64, _: f64, _: C<f64>) -> (C<f64>, C<f64>) {
+            (C::new(0.0, 0.0), C::new(0.0, 0.0))
+        }
+    }
+
+    #[test]
+    fn the_current_carries_the_plans_noise_not_the_calibrations() {
+        let mut calib = Calibration::default_preset();
+        calib.uncertainty.current_noise_a_per_rthz = 1e-13;
+        let plan = FieldPlan {
+            seed: 7,
+            seconds: 2.0,
+            fs_hz: 2000.0,
+            rh_level_pct: 70.0,
+            wander_pct: 0.5,
+            tau_strip_s: 25.0,
+            sensor: SensorKind::Sht4x,
+            a_rms: 20.0,
+            tones: 0,
+            current_noise_a_per_rthz: AMPLIFIER_NOISE_A_PER_RTHZ,
+        };
+        let field = simulate_field(&calib, &plan, &Silent);
+        let i = &field.ts.current_a;
+        let sd = (i.iter().map(|v| v * v).sum::<f64>() / i.len() as f64).sqrt();
+        // White over 0–1 kHz: the density times √1000 per sample, to the 2 % of 4000 samples.
+        let expected = AMPLIFIER_NOISE_A_PER_RTHZ * 1000f64.sqrt();
+        assert!((sd / expected - 1.0).abs() < 0.05, "{sd:e} against {expected:e}");
+    }
 }

@@ -255,7 +255,7 @@ mod tests {
     use super::*;
     use ipmc_core::calibration::humidity_path::{HumidityPath, SensorKind};
     use ipmc_core::humidity::strip::Refusal;
-    use ipmc_sim::field::{FieldPlan, simulate_field};
+    use ipmc_sim::field::{AMPLIFIER_NOISE_A_PER_RTHZ, FieldPlan, simulate_field};
     use ipmc_sim::physics::ExactModel;
 
     /// One field case's figures and what it printed.
@@ -298,6 +298,7 @@ mod tests {
                 sensor,
                 a_rms: 20.0,
                 tones: 3,
+                current_noise_a_per_rthz: AMPLIFIER_NOISE_A_PER_RTHZ,
             };
             let mut c = calib;
             c.humidity.sensor = Some(sensor);
