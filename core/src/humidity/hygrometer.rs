@@ -304,10 +304,11 @@ impl<T: Real> BlockHygrometer<T> {
     }
 
     /// The hydration lags the reading path is put through, each with its probability after the
-    /// last fit [s] (one, of probability 1, where the calibration's path has its own lag).
+    /// last fit used [s]: before any, the prior's equal weights; one, of probability 1, where the
+    /// calibration's path has its own lag.
     pub fn lag_weights(&self) -> impl Iterator<Item = (T, T)> + '_ {
-        let one = self.n_lags == 1;
-        self.lags[..self.n_lags].iter().map(move |l| (l.tau_s, if one { T::one() } else { l.probability }))
+        let prior = if self.used_at.is_none() || self.n_lags == 1 { Some(T::one() / T::lit(self.n_lags as f64)) } else { None };
+        self.lags[..self.n_lags].iter().map(move |l| (l.tau_s, prior.unwrap_or(l.probability)))
     }
 
     /// The mixture over the lags of the reading path through each less its bias. Not inlined,
@@ -410,6 +411,8 @@ mod tests {
 
     #[test]
     fn the_ramp_weighs_the_lags_toward_the_strips() {
+        let fresh = BlockHygrometer::<f64>::new(&Calibration::default_preset(), 2000.0);
+        assert!(fresh.lag_weights().all(|(_, p)| p == 0.2), "before a fit, the prior");
         // The reading has no lag of its own here, the hygrometer takes the HTS221's 10 s: the
         // strip's 40 s is the path's 30.
         let (h, _, _) = ramped(true);

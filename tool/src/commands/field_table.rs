@@ -163,8 +163,8 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
         let kept: Vec<f64> = secs.iter().filter(|s| s.t_s >= SKIP_S).map(f).collect();
         kept.iter().sum::<f64>() / kept.len().max(1) as f64
     };
-    let truth = &truths[&stem];
-    let lag_known = match (truth["tau_strip_s"].as_f64(), truth["sensor"]["tau"].as_f64()) {
+    let entry = &truths[&stem];
+    let lag_known = match (entry["tau_strip_s"].as_f64(), entry["sensor"]["tau"].as_f64()) {
         (Some(strip_s), Some(sensor_s)) => {
             // The reading trails the air by the sensor's lag already: the path adds the rest. A
             // strip quicker than its sensor has none to add, and the path says so with the least
