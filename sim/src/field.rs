@@ -206,7 +206,8 @@ mod tests {
         let field = simulate_field(&calib, &plan, &Silent);
         let i = &field.ts.current_a;
         let sd = (i.iter().map(|v| v * v).sum::<f64>() / i.len() as f64).sqrt();
-        // White over 0–1 kHz: the density times √1000 per sample, to the 2 % of 4000 samples.
+        // White over 0–1 kHz: the density times √1000 per sample; 4000 samples know their sd to
+        // 1.1 % (1σ).
         let expected = AMPLIFIER_NOISE_A_PER_RTHZ * 1000f64.sqrt();
         assert!((sd / expected - 1.0).abs() < 0.05, "{sd:e} against {expected:e}");
     }

@@ -159,10 +159,6 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
     let (fused, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| s.fused.rh_pct))?;
     let (perfect, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &seconds, |s: &Second| strip_at(s.t_s)))?;
     notes.push(format!("{stem}: compensation error {described} (as `ipmc score` prints it)"));
-    let scored_mean = |secs: &[Second], f: &dyn Fn(&Second) -> f64| {
-        let kept: Vec<f64> = secs.iter().filter(|s| s.t_s >= SKIP_S).map(f).collect();
-        kept.iter().sum::<f64>() / kept.len().max(1) as f64
-    };
     let entry = &truths[&stem];
     let lag_known = match (entry["tau_strip_s"].as_f64(), entry["sensor"]["tau"].as_f64()) {
         (Some(strip_s), Some(sensor_s)) => {
@@ -175,7 +171,8 @@ fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) 
             (lagged.humidity.tau_wet_s, lagged.humidity.tau_dry_s) = (tau, tau);
             let secs = hygrometer::run(&lagged, &ts);
             let (fused, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &secs, |s: &Second| s.fused.rh_pct))?;
-            let offset = scored_mean(&secs, &|s| s.reading.rh_pct - strip_at(s.t_s));
+            let scored: Vec<f64> = secs.iter().filter(|s| s.t_s >= SKIP_S).map(|s| s.reading.rh_pct - strip_at(s.t_s)).collect();
+            let offset = scored.iter().sum::<f64>() / scored.len().max(1) as f64;
             let (both, _) = compensated(&at_strip, &hygrometer::with_humidity(&ts, &secs, |s: &Second| s.reading.rh_pct - offset))?;
             Some((fused, both))
         }
