@@ -35,8 +35,8 @@ pub fn run() -> ! {
     let board = board::init();
     defmt::info!("ipmc firmware on {}, calibration: {}", board::NAME, contract::calibration::CALIBRATION_SOURCE);
 
-    // Before any executor runs: see `SamplePath::prepare`.
-    let sample_path = app::sample_path::SamplePath::prepare();
+    // Before any executor runs: see `compensation::block_step`.
+    let sample_path = app::compensation::block_step();
     let sample_spawner = board::start_sample_executor();
     sample_spawner.spawn(app::sample_path::sample_task(board.samples, sample_path).expect("sample task spawns once"));
 

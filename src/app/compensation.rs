@@ -3,11 +3,16 @@
 
 use ipmc_core::{
     Calibration, Compensator, DesignConfig, DesignError, Inverse,
+    firmware::block_step::BlockStep,
     firmware::device_calls,
-    humidity::hygrometer::{Snapshot, noise_psd},
+    humidity::hygrometer::{BlockHygrometer, Snapshot, noise_psd},
     humidity::strip::{Refusal, StripRh},
     inverse::expected_error::ErrorTable,
+    wire::stream::Setup,
 };
+use static_cell::StaticCell;
+
+use crate::contract::config::SAMPLE_RATE_HZ;
 
 /// The calibration compiled into this firmware (see `contract::calibration`: chosen at build time).
 /// By reference: its one copy in flash; taken by value, each caller copied its 3 KB (most of it
@@ -28,53 +33,46 @@ pub fn fit(snapshot: &Snapshot<f32>) -> Result<StripRh<f32>, Refusal> {
     ipmc_hygrometer_fit::fit(&crate::contract::calibration::STRIP_TABLE, &snapshot.view(), noise_psd(calibration()))
 }
 
-fn design_config() -> DesignConfig<f32> {
-    DesignConfig::firmware()
-}
-
 /// Slow: runs in the retune task only.
 pub fn design(calibration: &Calibration, rh_pct: f32) -> Result<Inverse<f32>, DesignError> {
     device_calls::design(calibration, rh_pct)
 }
 
-/// The per-sample path state.
-pub struct SamplePathFilter(Compensator);
+/// The strip's humidity a first reading gives, as the sample path's first block will have it.
+pub fn first_design_rh(rh_read_pct: f32) -> Option<f32> {
+    BlockStep::first_design_rh(calibration(), rh_read_pct)
+}
 
-impl SamplePathFilter {
-    /// Before the first design: passes the current through the calibration's band
-    /// (`Compensator::passthrough`), until [`restart`](Self::restart).
-    pub fn passthrough() -> Self {
-        let band = ipmc_core::inverse::design::design_band::<f32>(calibration());
-        Self(Compensator::unbanded(&band, design_config().fs_hz))
-    }
-    /// After [`passthrough`](Self::passthrough), in place: the band's filter, baked at build time.
-    pub fn keep_band(&mut self) {
-        self.0.keep_band_designed(&crate::contract::calibration::BAND);
-    }
-    /// Starts on `design` afresh, in place. Every design is the calibration's, at its band and
-    /// the firmware's rate, which the band's filter was baked for.
-    pub fn restart(&mut self, design: &Inverse<f32>) {
-        let kept = self.0.restart_in_band(design);
-        debug_assert!(kept, "a design for another band or rate than the firmware's");
-    }
-    /// In place: current [A] → base displacement estimate [m]; true if a sample was not a
-    /// measurement and was replaced (the compensator counts them).
-    #[inline(always)]
-    pub fn process(&mut self, block: &mut [f32]) -> bool {
-        let bad_before = self.0.bad_samples;
-        device_calls::process_block(&mut self.0, block);
-        self.0.bad_samples != bad_before
-    }
-    /// RH [%] of the design the filter runs (or fades to).
-    pub fn rh_pct(&self) -> f32 {
-        self.0.rh_pct()
-    }
-    /// Whether a retune is still warming up or fading.
-    pub fn is_retuning(&self) -> bool {
-        self.0.is_retuning()
-    }
-    /// Glitch-free crossfade to a new design.
-    pub fn switch_to(&mut self, design: &Inverse<f32>) {
-        device_calls::switch_to(&mut self.0, design)
-    }
+static FILTER: StaticCell<Compensator<f32>> = StaticCell::new();
+static HYGROMETER: StaticCell<BlockHygrometer<f32>> = StaticCell::new();
+static STEP: StaticCell<BlockStep<'static>> = StaticCell::new();
+
+/// The sample path's block step and its two large parts (the filter, 17 KiB, and the strip's
+/// own hygrometer, 11 KiB), each made in its own static at boot, in thread mode before any
+/// executor runs: a construction's stack then meets nothing else there, and leaves with its
+/// frame. The interrupt that runs the step holds one block's temporaries, not the state: that
+/// frame comes on top of whatever thread mode is doing when a block arrives (the hygrometer's
+/// fit at its deepest).
+#[inline(never)]
+pub fn block_step() -> &'static mut BlockStep<'static> {
+    let calibration = calibration();
+    let filter = make_filter(calibration);
+    let hygrometer = HYGROMETER.init_with(|| BlockHygrometer::new(calibration, SAMPLE_RATE_HZ as f64));
+    let setup = Setup {
+        band_shape: calibration.band.shape.code(),
+        delay_samples: crate::contract::calibration::DELAY_SAMPLES,
+        humidity_mode: calibration.humidity.mode().code(),
+    };
+    STEP.init_with(|| BlockStep::new(calibration, &error_table(), SAMPLE_RATE_HZ, filter, hygrometer, Some(setup)))
+}
+
+/// The filter before the first design: the current through the calibration's band, whose
+/// filter was baked at build time (the device never designs a band).
+#[inline(never)]
+fn make_filter(calibration: &Calibration) -> &'static mut Compensator<f32> {
+    // The band as the designs will state it (its edges through f32), at the designs' rate.
+    let band = ipmc_core::inverse::design::design_band::<f32>(calibration);
+    let filter = FILTER.init_with(|| Compensator::unbanded(&band, DesignConfig::<f32>::firmware().fs_hz));
+    filter.keep_band_designed(&crate::contract::calibration::BAND);
+    filter
 }

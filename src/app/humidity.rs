@@ -8,8 +8,7 @@
 use embassy_time::{Duration, Instant, Ticker, with_timeout};
 use ipmc_core::{
     firmware::startup::{Poll, Startup},
-    humidity::block::BlockHumidity,
-    timing::{STALE_AFTER_PERIODS, reading_age_s},
+    timing::STALE_AFTER_PERIODS,
 };
 
 use crate::board::{self, Humidity};
@@ -48,8 +47,8 @@ pub async fn humidity_task(mut sensor: Humidity) {
                 handoff::set_condition(flags::RH_STALE, false);
                 // The strip starts settled at the first reading: the sample path's first block
                 // will be at exactly this humidity.
-                match BlockHumidity::<f32>::new(super::compensation::calibration(), reading_age_s()).advance(raw, 0.0) {
-                    Some(first) => Poll::Reading(first.rh_pct),
+                match super::compensation::first_design_rh(raw) {
+                    Some(rh_pct) => Poll::Reading(rh_pct),
                     None => Poll::Failed,
                 }
             }

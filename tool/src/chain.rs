@@ -6,13 +6,13 @@
 
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
-use ipmc_core::calibration::humidity_path::HumidityMode;
+use ipmc_core::firmware::block_step::{BlockInputs, BlockStep};
+use ipmc_core::firmware::operating_point::asks_for_design;
 use ipmc_core::humidity::block::{BlockHumidity, span_s};
 use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
 use ipmc_core::humidity::strip::{Refusal, StripRh, strip_rh};
 use ipmc_core::inverse::expected_error::{BlockError, ErrorTable, HumiditySlopes};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, InverseKind, design_inverse};
-use ipmc_core::{firmware::operating_point::asks_for_design, timing::reading_age_s};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
 use std::path::Path;
 
@@ -100,11 +100,14 @@ pub fn schedule_of(est: &EstimateFile, name: &str) -> Result<Vec<ScheduledBlock>
     Ok(out)
 }
 
-/// Replays the firmware's schedule over `ts`: one compensator, designed at the first block's
-/// RH, switched at each RETUNED block to a design at that block's RH, blocks of [`BLOCK_LEN`]
-/// exactly as the firmware processes them. Samples past the schedule are not processed.
-/// Where the schedule has the firmware's readings and strip humidities, the strip's model is
-/// run here from the readings too and must give the firmware's values bit for bit.
+/// Replays the firmware's schedule over `ts` through the firmware's own block step
+/// ([`BlockStep`]): blocks of [`BLOCK_LEN`] exactly as the sample path runs them, the designs
+/// the schedule says were ready (its RETUNED blocks, designed here at their RH) and the fits of
+/// the strip's humidity where the firmware's finished (made here from the step's own snapshots).
+/// Samples past the schedule are not processed. Where the schedule has the firmware's readings
+/// and what it made of them, the step must give the firmware's values bit for bit: its strip
+/// humidity, its hygrometer, each block's stated error, a fit started where the firmware started
+/// one, and every retune one the step asked for.
 pub fn compensate_scheduled(
     calib: &Calibration,
     ts: &TimeSeries,
@@ -113,23 +116,19 @@ pub fn compensate_scheduled(
     kind: InverseKind<f32>,
 ) -> Result<Estimates> {
     let design = designer(calib, ts.fs_hz, kind);
-    let mut error_bar = BlockError::<f32>::new(errors, &DesignConfig::at_rate(ts.fs_hz as f32));
+    let fs = whole_hz(ts.fs_hz)?;
     let n = (schedule.len() * BLOCK_LEN).min(ts.t_s.len() / BLOCK_LEN * BLOCK_LEN);
     let mut est = Estimates::with_capacity(n);
-    let mut comp = Compensator::new(&design(schedule[0].rh_pct)?);
-    let mut humidity = BlockHumidity::<f32>::new(calib, reading_age_s());
-    // The strip's own hygrometer as the sample path runs it, its fits taken where the firmware's
-    // finished; with a `fused` calibration the designs follow the fused humidity.
-    let table = crate::hygrometer::Table::<f32>::new(calib, ts.fs_hz);
+    let first = design(schedule[0].rh_pct)?;
+    let mut filter = Compensator::passthrough(&first.band(), first.fs_hz());
     let mut hygrometer = BlockHygrometer::<f32>::new(calib, ts.fs_hz);
+    let mut step = BlockStep::new(calib, errors, fs, &mut filter, &mut hygrometer, None).stating_parts();
+    step.start(&first, schedule[0].flags & flags::RH_FALLBACK != 0);
+    // The strip's own hygrometer's fits, made where the firmware's fit task made them.
+    let table = crate::hygrometer::Table::<f32>::new(calib, ts.fs_hz);
     let mut fit_out: Option<Result<StripRh<f32>, Refusal>> = None;
-    let fused_mode = calib.humidity.mode() == HumidityMode::Fused;
-    let mut fused = BlockHumidity::<f32>::new(&Calibration { humidity: calib.humidity.at_strip(), ..*calib }, reading_age_s());
-    // The designs the sample path asked for, run here as it runs them (bits of their RH): every
-    // retune of the schedule must be one of them.
-    let mut design_rh = schedule[0].rh_pct;
+    // The designs the step asked for (bits of their RH): every retune of the schedule must be one.
     let mut asked: Vec<u32> = vec![];
-    let fs = whole_hz(ts.fs_hz)?;
     for (k, b) in schedule.iter().enumerate() {
         if b.first_sample != k * BLOCK_LEN {
             bail!("schedule block {k} starts at sample {}, expected {}", b.first_sample, k * BLOCK_LEN);
@@ -138,12 +137,28 @@ pub fn compensate_scheduled(
         if pos + BLOCK_LEN > ts.t_s.len() {
             break;
         }
-        let raw: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
-        if b.flags & flags::FIT_DONE != 0 {
-            let result = fit_out.take().ok_or_else(|| anyhow!("block at sample {pos}: a fit finished that never started"))?;
-            hygrometer.complete(result);
-        }
-        match (hygrometer.push(&raw, humidity.strip_pct()), b.flags & flags::FIT_STARTED != 0) {
+        let mut block: Vec<f32> = ts.current_a[pos..pos + BLOCK_LEN].iter().map(|&x| x as f32).collect();
+        let fit = match b.flags & flags::FIT_DONE != 0 {
+            true => Some(fit_out.take().ok_or_else(|| anyhow!("block at sample {pos}: a fit finished that never started"))?),
+            false => None,
+        };
+        let ready = match b.flags & flags::RETUNED != 0 {
+            true => {
+                if !b.rh_read_pct.is_nan() && !asked.contains(&b.rh_pct.to_bits()) {
+                    bail!(
+                        "block at sample {pos}: the firmware retuned to {} %, a humidity the trend run here from its readings never asked for",
+                        b.rh_pct
+                    );
+                }
+                est.retunes += 1;
+                Some(design(b.rh_pct)?)
+            }
+            false => None,
+        };
+        // The firmware's own flags are the schedule's; the step's are not compared.
+        let input = BlockInputs { flags: 0, lost_samples: 0, rh_read_pct: b.rh_read_pct, reading_age_ms: 0, design: ready.as_ref() };
+        let out = step.step(&mut block, fit, &input);
+        match (out.fit_request, b.flags & flags::FIT_STARTED != 0) {
             (Some(snapshot), true) => fit_out = Some(strip_rh(&table.view(), &snapshot.view(), noise_psd(calib))),
             (None, false) => {}
             (_, started) => bail!(
@@ -152,37 +167,20 @@ pub fn compensate_scheduled(
                 if started { "not" } else { "have" }
             ),
         }
-        if b.flags & flags::RETUNED != 0 {
-            if !b.rh_read_pct.is_nan() && !asked.contains(&b.rh_pct.to_bits()) {
-                bail!(
-                    "block at sample {pos}: the firmware retuned to {} %, a humidity the trend run here from its readings never asked for",
-                    b.rh_pct
-                );
-            }
-            comp.switch_to(&design(b.rh_pct)?);
-            est.retunes += 1;
-        }
-        let mut block = raw;
-        comp.process_block(&mut block);
-        let (rel_err, beyond) = (error_bar.block(comp.rh_pct(), &block), error_bar.beyond_pct());
-        let calibration_part = error_bar.parts(comp.rh_pct()).0;
+        let rel_err = out.header.rel_err;
         if !b.rel_err.is_nan() && rel_err.to_bits() != b.rel_err.to_bits() {
             bail!("block at sample {pos}: the firmware's expected error is {}, the host's {rel_err}", b.rel_err);
         }
-        let dt = span_s(if k == 0 { 0 } else { BLOCK_LEN as u32 }, fs);
-        if let Some(now) = humidity.advance(b.rh_read_pct, dt)
-            && !b.rh_strip_pct.is_nan()
-        {
-            let here = humidity.strip_pct().expect("advanced");
+        if !b.rh_read_pct.is_nan() && !b.rh_strip_pct.is_nan() {
+            let here = out.header.rh_strip_pct;
             if here.to_bits() != b.rh_strip_pct.to_bits() {
                 bail!(
                     "block at sample {pos}: the firmware's strip humidity is {} %, the humidity path run here from its readings gives {here} %",
                     b.rh_strip_pct
                 );
             }
-            let h = hygrometer.humidities(here);
             if let Some(theirs) = b.hygrometer {
-                let w = h.to_wire();
+                let w = out.header.hygrometer;
                 let ours = [w.read_sd_pct, w.own_pct, w.own_sd_pct, w.fused_pct, w.fused_sd_pct];
                 if ours.map(f32::to_bits) != theirs.map(f32::to_bits) {
                     bail!(
@@ -190,14 +188,11 @@ pub fn compensate_scheduled(
                     );
                 }
             }
-            let now = if fused_mode { fused.advance(h.fused.rh_pct, dt).unwrap_or(now) } else { now };
-            error_bar.beyond_range(now.beyond_pct);
-            if asks_for_design(design_rh, now.rh_pct, comp.is_retuning()) {
-                design_rh = now.rh_pct;
-                asked.push(now.rh_pct.to_bits());
-            }
         }
-        let d = (comp.delay_s() as f64 * ts.fs_hz).round() as usize;
+        if let Some(request) = out.retune {
+            asked.push(request.rh_pct.to_bits());
+        }
+        let d = (step.delay_s() as f64 * ts.fs_hz).round() as usize;
         for v in block {
             est.base_est_m.push(v);
             est.delay_samples.push(d);
@@ -206,8 +201,8 @@ pub fn compensate_scheduled(
             est.rh_strip_pct.push(b.rh_strip_pct);
             est.rh_read_pct.push(b.rh_read_pct);
             est.rel_err.push(rel_err);
-            est.beyond_pct.push(beyond);
-            est.rel_err_calibration.push(calibration_part);
+            est.beyond_pct.push(out.beyond_pct);
+            est.rel_err_calibration.push(out.calibration_part);
             est.flags.push(b.flags);
         }
     }

@@ -1,10 +1,12 @@
 //! What the firmware decides, written without hardware so the host tests and the tool run the
-//! same code: its operating point (the design it runs, when it retunes, its delay:
+//! same code: what one block of the sample path comes to ([`block_step`], the device's and the
+//! host's replay's one step), its operating point (the design it runs, when it retunes, its delay:
 //! [`operating_point`]), its start-up ([`startup`]), the detection of a stuck current input
 //! ([`stuck`]), what the sample path does while a block does not come ([`block_wait`]) and the
 //! count of samples an overrun lost ([`lost_samples`]); and [`device_calls`], its
 //! per-sample and retune calls made for f32 in this crate, at its opt-level.
 
+pub mod block_step;
 pub mod block_wait;
 pub mod device_calls;
 pub mod lost_samples;

@@ -1,0 +1,216 @@
+//! One block of the firmware's sample path, whole: what happens to a block of current between
+//! the ADC and the stream. The firmware's sample task and the host's replay of it (`ipmc`'s
+//! chain, which checks a QEMU run bit for bit) both call [`BlockStep::step`], so that the device
+//! and the host agree by construction; what differs between them is only where a block's inputs
+//! come from (the tasks' hand-offs, or the firmware's own record of them) and where its requests
+//! go (a retune, a fit of the strip's own humidity).
+//!
+//! In order, for each block: the stuck input's check; the strip's own hygrometer (a finished fit
+//! first, then this block's current into its spectrum, perhaps a snapshot for the next fit); a
+//! design that is ready, crossfaded to; the compensation and the block's stated error; then the
+//! humidity: the reading through the calibration's humidity path, the hygrometer's humidities,
+//! the fused humidity where the calibration asks for it, the distance beyond the calibrated
+//! range, and a design asked for when the humidity moved. The filter and the hygrometer are the
+//! two large parts (17 and 11 KiB in f32): the step borrows them, so that the firmware can make
+//! each in its own static, in place, and the step itself stays small.
+
+use crate::calibration::humidity_path::HumidityMode;
+use crate::calibration::laws::Calibration;
+use crate::firmware::device_calls;
+use crate::firmware::operating_point::asks_for_design;
+use crate::firmware::startup::Request;
+use crate::firmware::stuck::StuckDetector;
+use crate::humidity::block::{BlockHumidity, span_s};
+use crate::humidity::hygrometer::{BlockHygrometer, Snapshot};
+use crate::humidity::strip::{Refusal, StripRh};
+use crate::inverse::design::{DesignConfig, Inverse};
+use crate::inverse::expected_error::{BlockError, ErrorTable};
+use crate::inverse::filter::Compensator;
+use crate::timing::{reading_age_s, reading_is_stale};
+use crate::wire::stream::{Header, Hygrometer, Setup, flags};
+
+/// What a block brings besides its current.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockInputs<'d> {
+    /// The sample source's flags and the other tasks' conditions (`RH_STALE`, `DESIGN_FAILED`,
+    /// `RH_FALLBACK`, ...), carried into the header as they are.
+    pub flags: u16,
+    /// Samples the source lost before this block (an overrun): the numbering and the strip's
+    /// hydration go on through them.
+    pub lost_samples: u32,
+    /// The humidity sensor's latest reading [%] (NaN before the first).
+    pub rh_read_pct: f32,
+    /// How old that reading is [ms]: a reading held too long is flagged `RH_STALE` here too,
+    /// since a task that no longer runs cannot say it has stopped.
+    pub reading_age_ms: u64,
+    /// A design made since the last block, to crossfade to.
+    pub design: Option<&'d Inverse<f32>>,
+}
+
+/// What a block comes to: its header, and what it asks of the slower tasks.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockOutputs {
+    pub header: Header,
+    /// The current's spectrum, for a fit of the strip's own humidity.
+    pub fit_request: Option<Snapshot<f32>>,
+    /// A design to make, the humidity having moved.
+    pub retune: Option<Request>,
+    /// The stated error's two parts as the block's 1σ had them: how far beyond the calibrated
+    /// range it carried the strip [%RH], and the calibration's part (NaN unless asked for with
+    /// [`BlockStep::stating_parts`]: the device streams only their sum).
+    pub beyond_pct: f32,
+    pub calibration_part: f32,
+}
+
+/// The sample path's state from block to block, the filter and the hygrometer borrowed.
+pub struct BlockStep<'a> {
+    filter: &'a mut Compensator<f32>,
+    hygrometer: &'a mut BlockHygrometer<f32>,
+    /// One second of identical samples is no live front end.
+    stuck: StuckDetector<f32>,
+    humidity: BlockHumidity<f32>,
+    /// The fused humidity through the strip's part of the path, where the designs follow it
+    /// (the strip's humidity already: no second correction); None where they follow the reading.
+    fused: Option<BlockHumidity<f32>>,
+    error_bar: BlockError<f32>,
+    /// RH of the active or already requested design.
+    design_rh: f32,
+    /// Whether the active design is the start-up's fallback: the first reading replaces it even
+    /// within the retune threshold, so that `RH_FALLBACK` always clears.
+    on_fallback: bool,
+    /// Samples from the previous block's start to this one's (0 before the first: the strip
+    /// starts settled at the first reading).
+    since_last: u32,
+    first_sample: u32,
+    fs_hz: u32,
+    setup: Option<Setup>,
+    stating_parts: bool,
+}
+
+impl<'a> BlockStep<'a> {
+    /// For `calibration`'s chain at `fs_hz` (a whole number of hertz, as on the device), its
+    /// stated error from `errors`; `filter` passes through until [`start`](Self::start). `setup`
+    /// goes into every header.
+    pub fn new(
+        calibration: &Calibration,
+        errors: &ErrorTable,
+        fs_hz: u32,
+        filter: &'a mut Compensator<f32>,
+        hygrometer: &'a mut BlockHygrometer<f32>,
+        setup: Option<Setup>,
+    ) -> Self {
+        let fused = (calibration.humidity.mode() == HumidityMode::Fused)
+            .then(|| BlockHumidity::new(&Calibration { humidity: calibration.humidity.at_strip(), ..*calibration }, reading_age_s()));
+        BlockStep {
+            filter,
+            hygrometer,
+            stuck: StuckDetector::new(fs_hz),
+            humidity: BlockHumidity::new(calibration, reading_age_s()),
+            fused,
+            error_bar: BlockError::new(errors, &DesignConfig::at_rate(fs_hz as f32)),
+            design_rh: f32::NAN,
+            on_fallback: false,
+            since_last: 0,
+            first_sample: 0,
+            fs_hz,
+            setup,
+            stating_parts: false,
+        }
+    }
+
+    /// Each block's outputs carry the calibration's part of its 1σ (the host's estimate files).
+    pub fn stating_parts(mut self) -> Self {
+        self.stating_parts = true;
+        self
+    }
+
+    /// The strip's humidity a first reading `rh_read_pct` gives the first block, before any:
+    /// what the start-up designs for (None: no humidity in it).
+    pub fn first_design_rh(calibration: &Calibration, rh_read_pct: f32) -> Option<f32> {
+        BlockHumidity::<f32>::new(calibration, reading_age_s()).advance(rh_read_pct, 0.0).map(|first| first.rh_pct)
+    }
+
+    /// Starts on the first design, in place; `fallback`: it is the start-up's fallback. Every
+    /// design is the calibration's, at its band and this rate, which the filter keeps.
+    pub fn start(&mut self, first: &Inverse<f32>, fallback: bool) {
+        let kept = self.filter.restart_in_band(first);
+        debug_assert!(kept, "a design for another band or rate than the filter's");
+        self.design_rh = first.rh_pct();
+        self.on_fallback = fallback;
+    }
+
+    /// One block: `samples` holds its current [A] and leaves with its estimates [m]; `fit` is a
+    /// fit of the strip's humidity finished since the last block.
+    #[inline(never)]
+    pub fn step(&mut self, samples: &mut [f32], fit: Option<Result<StripRh<f32>, Refusal>>, input: &BlockInputs) -> BlockOutputs {
+        self.first_sample = self.first_sample.wrapping_add(input.lost_samples);
+        // The strip dried or wetted through the lost samples too.
+        self.since_last += input.lost_samples;
+        let mut header = Header {
+            first_sample: self.first_sample,
+            rh_pct: 0.0,
+            rh_strip_pct: f32::NAN,
+            rh_read_pct: input.rh_read_pct,
+            rel_err: f32::NAN,
+            hygrometer: Hygrometer::NONE,
+            flags: input.flags,
+            setup: self.setup,
+        };
+        let raise = |on: bool, flag: u16| if on { flag } else { 0 };
+        header.flags |= raise(device_calls::observe_stuck(&mut self.stuck, samples), flags::STUCK);
+
+        // The hygrometer: a finished fit first, then this block's current into the spectrum.
+        header.flags |= raise(fit.is_some(), flags::FIT_DONE);
+        if let Some(result) = fit {
+            self.hygrometer.complete(result);
+        }
+        let fit_request = device_calls::push_current(self.hygrometer, samples, self.humidity.strip_pct());
+        header.flags |= raise(fit_request.is_some(), flags::FIT_STARTED);
+
+        header.flags |= raise(input.design.is_some(), flags::RETUNED);
+        if let Some(design) = input.design {
+            device_calls::switch_to(self.filter, design);
+        }
+        let bad_before = self.filter.bad_samples;
+        device_calls::process_block(self.filter, samples);
+        header.flags |= raise(self.filter.bad_samples != bad_before, flags::BAD_SAMPLE);
+        header.rel_err = device_calls::block_error(&mut self.error_bar, self.filter.rh_pct(), samples);
+        let beyond_pct = self.error_bar.beyond_pct();
+        let calibration_part = if self.stating_parts { self.error_bar.parts(self.filter.rh_pct()).0 } else { f32::NAN };
+
+        header.flags |= raise(input.rh_read_pct.is_finite() && reading_is_stale(input.reading_age_ms), flags::RH_STALE);
+        // No reading yet: the first design is the start-up's fallback, and stays.
+        let mut retune = None;
+        let dt_s = span_s(self.since_last, self.fs_hz);
+        if let Some(read) = self.humidity.advance(input.rh_read_pct, dt_s) {
+            header.rh_strip_pct = self.humidity.strip_pct().unwrap_or(read.rh_pct);
+            let h = self.hygrometer.humidities(header.rh_strip_pct);
+            header.hygrometer = h.to_wire();
+            header.flags |= raise(!matches!(h.strip, Some(Ok(_))), flags::OWN_REFUSED);
+            let now = match self.fused.as_mut() {
+                Some(fused) => fused.advance(h.fused.rh_pct, dt_s).unwrap_or(read),
+                None => read,
+            };
+            self.error_bar.beyond_range(now.beyond_pct);
+            header.flags |= raise(now.clamped, flags::RH_CLAMPED);
+            if core::mem::take(&mut self.on_fallback) | asks_for_design(self.design_rh, now.rh_pct, self.filter.is_retuning()) {
+                self.design_rh = now.rh_pct;
+                retune = Some(Request { rh_pct: now.rh_pct, fallback: false });
+            }
+        }
+        self.since_last = samples.len() as u32;
+        header.rh_pct = self.filter.rh_pct();
+        self.first_sample = self.first_sample.wrapping_add(samples.len() as u32);
+        BlockOutputs { header, fit_request, retune, beyond_pct, calibration_part }
+    }
+
+    /// RH [%] of the design the filter runs (or fades to).
+    pub fn design_rh_pct(&self) -> f32 {
+        self.filter.rh_pct()
+    }
+
+    /// The estimates' delay behind the base motion [s].
+    pub fn delay_s(&self) -> f32 {
+        self.filter.delay_s()
+    }
+}
