@@ -32,7 +32,6 @@ pub fn describe(cmd: &Command) -> String {
     s
 }
 
-/// Runs `cargo ipmc ARGS…` at the repository root and returns what it printed on stdout.
 /// `cargo ipmc score REC EST --json`: the estimate's in-band relative rms error (a fraction).
 pub fn score_inband(rec: &std::path::Path, est: &std::path::Path) -> Result<f64> {
     let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str(), "--json".as_ref()])?;
@@ -40,6 +39,7 @@ pub fn score_inband(rec: &std::path::Path, est: &std::path::Path) -> Result<f64>
     v["band_error"].as_f64().ok_or_else(|| anyhow!("ipmc score --json: no `band_error` in {out}"))
 }
 
+/// Runs `cargo ipmc ARGS…` at the repository root and returns what it printed on stdout.
 pub fn ipmc(args: &[&std::ffi::OsStr]) -> Result<String> {
     let mut cmd = cargo();
     cmd.current_dir(repo_root()).arg("ipmc").args(args);

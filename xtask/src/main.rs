@@ -1,30 +1,16 @@
 //! `cargo xtask <command>`: host-side commands around the firmware (`cargo xtask help`).
 //!
-//! Leaves: `exec` (cargo, run, ipmc), `install` (what a bare machine lacks), `firmware` (the
-//! variants and their builds), `replay`/`stream`/`recording` (the formats). Above them the
-//! commands (`qemu`, `bench`, `humidity_loop`, `size`, `flash`, `imports`: `import_graph`) and the test steps
-//! (`qemu_scenarios`, `tool_checks`, `coverage`), listed by `test_all`.
+//! Rooms, bottom up: `exec` (cargo, run, ipmc), `install` (what a bare machine lacks),
+//! `firmware` (the variants, their builds, flash, size, stack and bench), `qemu` (the formats, a
+//! run under QEMU, `cargo xtask qemu`), `import_graph` (`cargo xtask imports`), and `checks`
+//! (`cargo xtask test`: the suite and its steps).
 
-mod bench;
-mod coverage;
-mod doc_commands;
+mod checks;
 mod exec;
 mod firmware;
-mod flash;
-mod humidity_loop;
 mod import_graph;
 mod install;
 mod qemu;
-mod qemu_scenarios;
-mod readme_figures;
-mod recording;
-mod replay;
-mod size;
-mod stack;
-mod stream;
-mod strip_workflow;
-mod test_all;
-mod tool_checks;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -91,13 +77,13 @@ enum Task {
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Task::Qemu { input, out, calib, band } => qemu::command(input, out, calib, band),
-        Task::Bench { json } => bench::command(json),
-        Task::HumidityLoop => humidity_loop::command(),
+        Task::Bench { json } => firmware::bench::command(json),
+        Task::HumidityLoop => checks::humidity_loop::command(),
         Task::Build => firmware::build_all().map(|_| ()),
-        Task::Size => size::command(),
+        Task::Size => firmware::size::command(),
         Task::Imports { list } => import_graph::command(&list),
-        Task::Test { steps } => test_all::command(&steps),
-        Task::Flash { elf, rest } => flash::command(&elf, &rest),
+        Task::Test { steps } => checks::test(&steps),
+        Task::Flash { elf, rest } => firmware::flash::command(&elf, &rest),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

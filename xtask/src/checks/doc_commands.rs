@@ -46,7 +46,7 @@ pub fn your_data() -> Result<()> {
         print!("{out}");
         all += &out;
     }
-    crate::readme_figures::save("your-data", &all)
+    super::readme_figures::save("your-data", &all)
 }
 
 #[cfg(test)]

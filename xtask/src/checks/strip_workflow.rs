@@ -14,7 +14,7 @@ use crate::exec::{ipmc, repo_root};
 use anyhow::{Context, anyhow, bail};
 use std::path::Path;
 
-/// Largest ratio of the own calibration's rms error to the perfect calibration's (issue 25).
+/// Largest ratio of the own calibration's rms error to the perfect calibration's.
 pub const PERFECT_RATIO_BOUND: f64 = 1.1;
 
 /// Runs `ipmc strip-check` and holds its summary to the bounds; its table is appended to
@@ -130,7 +130,7 @@ pub fn test_step() -> Result<()> {
         println!("no {}: the shared pairs skipped", strips.join("truths.json").display());
     }
     pairs.into_iter().for_each(&mut report);
-    crate::readme_figures::save("strip-check", &printed)?;
+    super::readme_figures::save("strip-check", &printed)?;
     if !failed.is_empty() {
         bail!("{}", failed.join("; "));
     }

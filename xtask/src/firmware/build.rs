@@ -1,4 +1,4 @@
-//! Building the firmware variants.
+//! The firmware variants and their release builds.
 
 use std::path::{Path, PathBuf};
 

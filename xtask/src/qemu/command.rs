@@ -1,114 +1,19 @@
 //! `cargo xtask qemu`: replays a recording through the QEMU build of the firmware and writes
-//! its estimates as EST.csv (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`).
+//! its estimates as EST.csv (`t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags`);
+//! with the true base in the recording, scores and plots them beside the host's fixed design.
 
 use anyhow::{Context, anyhow, bail};
 use std::{
     fs,
     path::{Path, PathBuf},
-    process::{Command, Stdio},
-    time::{Duration, Instant},
 };
 
-use crate::{
-    Result, describe,
-    firmware::{self, Variant},
-    install, ipmc, recording,
-    replay::{self, Replay},
-    repo_root,
-    stream::{self, Block},
-};
-
-/// The firmware's sample rate (the core's operating point).
-pub use ipmc_core::timing::SAMPLE_RATE_HZ as FIRMWARE_FS_HZ;
-
-/// What came back from one QEMU run.
-pub struct Replayed {
-    pub blocks: Vec<Block>,
-    /// Decoded defmt log lines.
-    pub log: String,
-}
-
-impl Replayed {
-    pub fn estimates(&self) -> usize {
-        self.blocks.iter().map(|b| b.base_est_m.len()).sum()
-    }
-    pub fn blocks_with(&self, flag: u16) -> usize {
-        self.blocks.iter().filter(|b| b.header.flags & flag != 0).count()
-    }
-}
-
-/// Flag bits of the stream (defined with the wire format).
-pub use ipmc_core::wire::stream::flags;
-
-/// Runs `elf` in QEMU on `replay` inside `work` (created), and decodes what comes back.
-pub fn run_replay(elf: &Path, replay: &Replay, work: &Path) -> Result<Replayed> {
-    run_replay_to(elf, replay, work, "")
-}
-
-/// The same with the stream going to QEMU chardev `serial` (e.g. `null`: no receiver; no
-/// blocks come back) instead of a file (empty).
-pub fn run_replay_to(elf: &Path, replay: &Replay, work: &Path, serial: &str) -> Result<Replayed> {
-    install::ensure_qemu()?;
-    install::ensure_cargo_tool("defmt-print", "defmt-print")?;
-    fs::create_dir_all(work).map_err(|e| anyhow!("{}: {e}", work.display()))?;
-    fs::write(work.join(replay::FILE_NAME.to_str().expect("ASCII name")), replay.encode(FIRMWARE_FS_HZ))
-        .map_err(|e| anyhow!("writing the replay file: {e}"))?;
-    let stream_path = work.join("stream.bin");
-    let defmt_path = work.join("defmt.bin");
-    let _ = fs::remove_file(&stream_path);
-
-    let mut cmd = Command::new("qemu-system-arm");
-    cmd.current_dir(work)
-        .args(["-M", install::QEMU_MACHINE, "-display", "none", "-monitor", "none"])
-        // No -icount: the executor idles with WFE, which QEMU executes as a busy loop, so
-        // instruction-counted time would run far slower than real time. The replay is paced
-        // by SysTick in real time (about 1 s per 2000 samples).
-        .args(["-semihosting-config", "enable=on,target=native"])
-        .arg("-serial")
-        .arg(if serial.is_empty() { format!("file:{}", stream_path.display()) } else { serial.to_string() })
-        .arg("-kernel")
-        .arg(elf)
-        .stdout(fs::File::create(&defmt_path).map_err(|e| anyhow!("{}: {e}", defmt_path.display()))?)
-        .stdin(Stdio::null());
-    let what = describe(&cmd);
-    let mut child = cmd.spawn().map_err(|e| anyhow!("cannot start qemu-system-arm: {e}"))?;
-    // Real-time pacing plus start-up and the board's wait at each gap, with a wide margin for a
-    // loaded machine.
-    let limit = Duration::from_secs(60 + 4 * replay.samples.len() as u64 / FIRMWARE_FS_HZ as u64 + 4 * replay.gaps.len() as u64);
-    let started = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait()? {
-            break s;
-        }
-        if started.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            bail!("QEMU did not exit within {limit:?}: {what}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-
-    let log = decode_defmt(elf, &defmt_path)?;
-    if !status.success() {
-        bail!("firmware under QEMU exited with {status}; its log:\n{log}");
-    }
-    if !serial.is_empty() {
-        return Ok(Replayed { blocks: Vec::new(), log });
-    }
-    let bytes = fs::read(&stream_path).map_err(|e| anyhow!("{}: {e}", stream_path.display()))?;
-    let blocks = stream::decode_all(&bytes)?;
-    Ok(Replayed { blocks, log })
-}
-
-fn decode_defmt(elf: &Path, raw: &Path) -> Result<String> {
-    let out = Command::new("defmt-print")
-        .arg("-e")
-        .arg(elf)
-        .stdin(fs::File::open(raw)?)
-        .output()
-        .map_err(|e| anyhow!("cannot run defmt-print: {e}"))?;
-    Ok(String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
-}
+use super::est::{band_of, write_est_csv};
+use super::recording;
+use super::replay::Replay;
+use super::run::{FIRMWARE_FS_HZ, Replayed, flags, run_replay};
+use crate::firmware::{self, Variant};
+use crate::{Result, install, ipmc, repo_root};
 
 pub fn command(input: Option<PathBuf>, out: Option<PathBuf>, calib: Option<PathBuf>, band: Option<String>) -> Result<()> {
     let (input, calib) = match input {
@@ -219,14 +124,6 @@ fn with_band_shape(calib: Option<&Path>, shape: &str, work: &Path) -> Result<Pat
     Ok(path)
 }
 
-/// The band the firmware built with `calib` (or the default preset) keeps.
-pub fn band_of(calib: Option<&Path>) -> Result<ipmc_core::band::Band> {
-    let Some(path) = calib else { return Ok(ipmc_core::band::Band::DEFAULT) };
-    let text = fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let c = ipmc_core::calibration_file::parse(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    Ok(c.band)
-}
-
 /// Runs `cargo ipmc ARGS…` and returns how it scored and the figure it prints: its line
 /// "error in … skipped): FIGURE" split there (the scoring lives in the tool, so the firmware and
 /// the host are scored by the same code, and it says how).
@@ -281,44 +178,4 @@ fn plot(input: &Path, est_csv: &Path, fixed_csv: &Path) -> Result<()> {
     ])?;
     print!("{out}");
     Ok(())
-}
-
-/// The firmware's estimates as EST.csv (the format `ipmc compensate` writes, one writer).
-pub fn write_est_csv(path: &Path, t_s: &[f64], blocks: &[Block], replay: &Replay, band: &ipmc_core::band::Band) -> Result<()> {
-    if let Some(dir) = path.parent() {
-        fs::create_dir_all(dir)?;
-    }
-    let mut est = ipmc_recording::Estimates {
-        rh_pct: Some(vec![]),
-        rh_strip_pct: Some(vec![]),
-        rh_read_pct: Some(vec![]),
-        rel_err: Some(vec![]),
-        flags: Some(vec![]),
-        hygrometer: Some(Default::default()),
-        ..Default::default()
-    };
-    est.metadata.set("fs_hz", FIRMWARE_FS_HZ);
-    // What `ipmc score` and `ipmc plot compensated` align and score by, as for the host's file.
-    est.metadata.set("delay_samples", ipmc_core::firmware::operating_point::delay_samples(band));
-    est.metadata.set("band_hz", format!("{}-{}", band.low_hz, band.high_hz));
-    est.metadata.set("band_shape", band.shape.name());
-    for b in blocks {
-        for (k, &v) in b.base_est_m.iter().enumerate() {
-            let i = replay.sample_of(b.header.first_sample) + k;
-            est.t_s.push(t_s.get(i).copied().unwrap_or(i as f64 / FIRMWARE_FS_HZ as f64));
-            est.base_est_m.push(v);
-            est.rh_pct.as_mut().expect("set above").push(b.header.rh_pct);
-            est.rh_strip_pct.as_mut().expect("set above").push(b.header.rh_strip_pct);
-            est.rh_read_pct.as_mut().expect("set above").push(b.header.rh_read_pct);
-            est.rel_err.as_mut().expect("set above").push(b.header.rel_err);
-            est.flags.as_mut().expect("set above").push(b.header.flags);
-            let h = &b.header.hygrometer;
-            let values = [h.read_sd_pct, h.own_pct, h.own_sd_pct, h.fused_pct, h.fused_sd_pct];
-            for (column, v) in est.hygrometer.as_mut().expect("set above").columns_mut().into_iter().zip(values) {
-                column.push(v);
-            }
-        }
-    }
-    let text = est.to_csv()?;
-    Ok(ipmc_recording::write_atomically(path, text.as_bytes())?)
 }

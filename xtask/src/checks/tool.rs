@@ -11,7 +11,7 @@ fn json_count(summary: &serde_json::Value, key: &str) -> Result<u64> {
 }
 
 /// Largest ratio of the f32 chain's in-band error to the exact band-limited inverse's allowed
-/// at any humidity level (issue 13.1).
+/// at any humidity level.
 const EXACT_RATIO_BOUND: &str = "1.1";
 
 /// The f32 chain against the exact band-limited inverse of the nominal model, level by level,
@@ -38,7 +38,7 @@ pub fn vs_exact_external() -> Result<()> {
         print!("{out}");
         all += &out;
     }
-    crate::readme_figures::save("vs-exact", &all)
+    super::readme_figures::save("vs-exact", &all)
 }
 
 /// `ipmc prove` with one case per effect and three clean controls (the README's command runs
@@ -66,8 +66,8 @@ pub fn diagnose_prove() -> Result<()> {
         if fp > 0 {
             bail!("{format}: {fp} clean control(s) diagnosed with an effect");
         }
-        // Issue 27's rule holds on the project's own cases too: no wrong name stated alone
-        // (none in either format of this run, none in 204 of the README's three seeds: see
+        // No wrong name stated alone, on the project's own cases as on the external ones (none in
+        // either format of this run, none in 204 of the README's three seeds: see
         // docs/diagnosis.md).
         let wrong = json_count(&summary, "confident_wrong")?;
         if wrong > 0 {
@@ -80,17 +80,17 @@ pub fn diagnose_prove() -> Result<()> {
     Ok(())
 }
 
+/// Confident wrong names on the external set the suite lets through: a ratchet, not a target.
+/// The target is none, and none is what the set gives with the probabilities averaged over the
+/// levels' bootstrap (docs/diagnosis.md); case08, a viscoelastic relaxation that air
+/// loading fits within a few ΔBIC, is the one nearest to being named wrong.
+const CONFIDENT_WRONG_AT_MOST: u64 = 0;
+
 /// `ipmc prove --external` on the independent simulator's recordings beside the repository
 /// (`../shared/external`; skipped without them): no recording may be given a wrong name alone
 /// (a confident wrong name) and no clean one a name (a false alarm). The counts named, in the
 /// stated set and missed are printed, not held: the recordings are a sample, and a threshold
 /// chosen to get them right would say nothing of the next ones.
-/// Confident wrong names on the external set the suite lets through: a ratchet, not a target.
-/// Issue 27 asks for none, and none is what the set gives since the probabilities are averaged
-/// over the levels' bootstrap (docs/diagnosis.md); case08, a viscoelastic relaxation that air
-/// loading fits within a few ΔBIC, is the one nearest to being named wrong.
-const CONFIDENT_WRONG_AT_MOST: u64 = 0;
-
 pub fn diagnose_prove_external() -> Result<()> {
     let dir = repo_root().join("../shared/external");
     if !dir.join("truths.json").exists() {
@@ -103,7 +103,7 @@ pub fn diagnose_prove_external() -> Result<()> {
     let line = out.lines().last().context("ipmc prove printed nothing")?;
     let summary: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc prove --json: {e}: {line}"))?;
     let (wrong, alarms) = (json_count(&summary, "confident_wrong")?, json_count(&summary, "false_alarms")?);
-    crate::readme_figures::save("prove-external", &out)?;
+    super::readme_figures::save("prove-external", &out)?;
     if alarms > 0 || wrong > CONFIDENT_WRONG_AT_MOST {
         bail!(
             "external recordings: {wrong} confident wrong name(s) (at most {CONFIDENT_WRONG_AT_MOST} today, target 0), \
@@ -111,7 +111,7 @@ pub fn diagnose_prove_external() -> Result<()> {
         );
     }
     if wrong > 0 {
-        println!("external recordings: {wrong} confident wrong name(s): issue 27's target of none is not met yet");
+        println!("external recordings: {wrong} confident wrong name(s): the target of none is not met");
     }
     let second = &summary["followups"];
     let (wrong, alarms) = (json_count(second, "confident_wrong")?, json_count(second, "false_alarms")?);

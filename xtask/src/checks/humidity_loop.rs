@@ -14,7 +14,7 @@ const FR_SESSION: &str = "data/sessions/fr-bias-lag.toml";
 const TS_SESSION: &str = "data/sessions/ts-bias-lag.toml";
 /// The two keys that make the bias and the lag; without them the time-series session is clean.
 const PATH_KEYS: [&str; 2] = ["hydration_tau_s", "read_bias_pct"];
-/// The target: with the written calibration, at most this times the clean series' error.
+/// The target: with the written calibration, at most this times the clean series' error.
 const TARGET_RATIO: f64 = 1.5;
 
 /// The figures of one run.
@@ -125,9 +125,8 @@ pub fn test_step() -> Result<()> {
     if !l.written.contains("offset") {
         bail!("no [humidity] table reported written: {}", l.written);
     }
-    // Since the chain keeps only its band, the clean series' error is the model's alone (0.28 %,
-    // not the 0.63 % of the noise below the band it carried when the target was set), and a
-    // correction a tenth of a %RH off outweighs it. What the written path leaves is judged
+    // The chain keeps only its band, so the clean series' error is the model's alone (0.28 %), and
+    // a correction a tenth of a %RH off outweighs it. What the written path leaves is judged
     // against the chain's own humidity resolution: a design within the retune threshold of the
     // strip is one the firmware keeps running, so a residual worth no more than that at the
     // series' least sensitive humidity is no fault of the correction.

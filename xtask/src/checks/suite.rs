@@ -1,114 +1,23 @@
-//! `cargo xtask test`: every test of the repository, one step after another. A failed step
-//! does not stop the others; the summary names each failed step and the exit code is non-zero.
+//! `cargo xtask test`: every test of the repository, one step after another, in the order of the
+//! list. A failed step does not stop the others; the summary names each failed step and the exit
+//! code is non-zero.
 
-use crate::{
-    Result, cargo,
-    firmware::{self, Variant},
-    qemu_scenarios::{
-        qemu_host_equivalence, qemu_host_equivalence_fused, qemu_host_equivalence_low_latency, qemu_host_equivalence_with_departures,
-        qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_adc_overrun, qemu_replay_bundled,
-        qemu_replay_counts_and_retunes, qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_idealized_sweep,
-        qemu_replay_no_new_humidity, qemu_replay_no_receiver, qemu_replay_sensor_faults,
-    },
-    repo_root, run, size, stack,
-    tool_checks::{diagnose_prove, diagnose_prove_external, vs_exact_external},
-};
 use anyhow::{anyhow, bail};
 
-fn cargo_test(manifest: &str) -> Result<()> {
-    cargo_test_with(manifest, &[])
-}
-
-fn cargo_test_with(manifest: &str, extra: &[&str]) -> Result<()> {
-    let manifest = repo_root().join(manifest);
-    if !manifest.exists() {
-        bail!("{} does not exist", manifest.display());
-    }
-    run(cargo().current_dir(repo_root()).args(["test", "--target", "host-tuple", "--manifest-path"]).arg(manifest).args(extra))
-}
-
-/// Flash and static RAM within the budget, and the worst-case stack within what the statics leave.
-fn size_within_budget() -> Result<()> {
-    let mut over = Vec::new();
-    for v in Variant::ALL {
-        let bytes = std::fs::read(v.elf()).map_err(|e| anyhow!("{} (build step failed?): {e}", v.elf().display()))?;
-        let fp = size::footprint(&bytes)?;
-        println!("{}: flash {} B, RAM {} B", v.name(), fp.flash, fp.ram);
-        if fp.flash > size::FLASH_BUDGET || fp.ram > size::RAM_BUDGET {
-            bail!("{} over budget: {fp:?}", v.name());
-        }
-        let report = stack::analyse(&v.elf())?;
-        println!("{report}");
-        if report.over() {
-            over.push(v.name());
-        }
-    }
-    if over.is_empty() { Ok(()) } else { Err(anyhow!("worst-case stack over the stack region: {}", over.join(", "))) }
-}
+use super::qemu_scenarios::{
+    qemu_host_equivalence, qemu_host_equivalence_fused, qemu_host_equivalence_low_latency, qemu_host_equivalence_with_departures,
+    qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_adc_overrun, qemu_replay_bundled, qemu_replay_counts_and_retunes,
+    qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_idealized_sweep, qemu_replay_no_new_humidity,
+    qemu_replay_no_receiver, qemu_replay_sensor_faults,
+};
+use super::tool::{diagnose_prove, diagnose_prove_external, vs_exact_external};
+use super::workspace::{cargo_test, cargo_test_with, format_check, lint, thumb_target_installs_on_use};
+use super::{coverage, doc_commands, humidity_loop, readme_figures, strip_workflow};
+use crate::Result;
+use crate::firmware::{self, Variant};
 
 /// The long QEMU run takes over 8 minutes of real time: not part of the default suite.
 const OPT_IN_QEMU_LONG: &str = "qemu-long: 1 million samples through the firmware, bit-compared with the host (RH ramp 40 → 70 %)";
-
-/// `cargo fmt --check` over the workspace (rustfmt.toml keeps the code's density).
-fn format_check() -> Result<()> {
-    run(cargo().current_dir(repo_root()).args(["fmt", "--all", "--check"]))
-}
-
-/// `cargo clippy -D warnings`: every host crate with its tests, and each firmware variant
-/// (the lint policy is `[workspace.lints]` in Cargo.toml).
-fn lint() -> Result<()> {
-    for m in ["core", "sensors", "recording", "fit", "diagnose", "sim", "tool", "host-tests", "xtask"] {
-        let manifest = format!("{m}/Cargo.toml");
-        run(cargo().current_dir(repo_root()).args([
-            "clippy",
-            "--target",
-            "host-tuple",
-            "--all-targets",
-            "--manifest-path",
-            &manifest,
-            "--",
-            "-D",
-            "warnings",
-        ]))?;
-    }
-    crate::install::ensure_firmware_tools()?;
-    for v in Variant::ALL {
-        let mut cmd = cargo();
-        cmd.current_dir(repo_root()).args(["clippy", "--release", "--bins", "--examples"]).arg("--target-dir").arg(firmware::target_dir());
-        cmd.args(v.feature_args());
-        run(cmd.args(["--", "-D", "warnings"]))?;
-    }
-    Ok(())
-}
-
-/// A fresh machine has no thumb target and nothing installs it on use (RUSTUP_AUTO_INSTALL=0,
-/// `$CARGO` is not rustup's proxy): remove it, then a plain no_std build for it must bring it back.
-/// Before the wrapper, both README commands stopped at `can't find crate for core`.
-fn thumb_target_installs_on_use() -> Result<()> {
-    use crate::install::{FIRMWARE_TARGET, firmware_target_installed};
-    if std::process::Command::new("rustup").arg("--version").output().is_err() {
-        bail!("rustup is not on PATH: cannot check that the firmware target installs on use");
-    }
-    if firmware_target_installed()? {
-        println!("removing {FIRMWARE_TARGET} to build as a fresh machine would");
-        run(std::process::Command::new("rustup").current_dir(repo_root()).args(["target", "remove", FIRMWARE_TARGET]))?;
-    }
-    if firmware_target_installed()? {
-        bail!("{FIRMWARE_TARGET} still installed after `rustup target remove`");
-    }
-    let target_dir = repo_root().join("target/fresh-target");
-    let built = run(cargo()
-        .current_dir(repo_root())
-        .args(["check", "--manifest-path", "core/Cargo.toml", "--no-default-features"])
-        .arg("--target-dir")
-        .arg(&target_dir));
-    if !firmware_target_installed()? {
-        // Leave the machine as it was for the firmware steps that follow.
-        crate::install::ensure_firmware_tools()?;
-        bail!("a cargo build for {FIRMWARE_TARGET} did not install the target ({built:?})");
-    }
-    built
-}
 
 /// `filter`: when given, only the steps whose name contains one of these strings run.
 pub fn command(filter: &[String]) -> Result<()> {
@@ -133,13 +42,13 @@ pub fn command(filter: &[String]) -> Result<()> {
             diagnose_prove_external,
         ),
         ("vs-exact: f32 chain within 1.1× the exact inverse in band (external recordings)", vs_exact_external),
-        ("humidity path: diagnose → --write-calib → compensate", crate::humidity_loop::test_step),
-        ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", crate::coverage::test_step),
+        ("humidity path: diagnose → --write-calib → compensate", humidity_loop::test_step),
+        ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", coverage::test_step),
         (
             "own strip: identify a frequency response, compensate a time series of the same strip; beats nominal, within 1.1× perfect",
-            crate::strip_workflow::test_step,
+            strip_workflow::test_step,
         ),
-        ("docs/your-data.md: every command of the page, as written", crate::doc_commands::your_data),
+        ("docs/your-data.md: every command of the page, as written", doc_commands::your_data),
         ("hygrometer: field mode — fused no worse than 1.05× the reading, the strip's 1σ covers 68 ± 10 %", || {
             cargo_test_with("tool/Cargo.toml", &["--profile", "host", "field_mode", "--", "--ignored", "--nocapture"])
         }),
@@ -148,7 +57,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("firmware build (board-b-l475e, humidity-sht4x)", || firmware::build(Variant::HardwareSht4x).map(|_| ())),
         ("firmware build (board-b-l475e, humidity-hih4030)", || firmware::build(Variant::HardwareHih4030).map(|_| ())),
         ("firmware build (qemu)", || firmware::build(Variant::Qemu).map(|_| ())),
-        ("firmware size budget", size_within_budget),
+        ("firmware size budget", firmware::size::within_budget),
         ("qemu replay: estimate count and retune", qemu_replay_counts_and_retunes),
         ("qemu replay: humidity step retunes without a glitch", qemu_replay_humidity_step_without_glitch),
         ("qemu replay: fault injection", qemu_replay_faults),
@@ -173,7 +82,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),
         ("qemu replay: humidity sensor with no new data", qemu_replay_no_new_humidity),
         // Last: it reads what the steps above printed.
-        ("README: the headline figures are what their commands print", crate::readme_figures::test_step),
+        ("README: the headline figures are what their commands print", readme_figures::test_step),
         (OPT_IN_QEMU_LONG, qemu_long_run),
     ];
     // Opt-in steps run only when a filter names them.
