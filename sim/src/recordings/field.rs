@@ -9,10 +9,10 @@
 //! a spectrum of 1 Hz bins, broadband noise. The current carries the amplifier's white noise
 //! ([`AMPLIFIER_NOISE_A_PER_RTHZ`] unless the plan says otherwise).
 
-use super::physics::Physics;
-use super::random::SplitMix64;
+use crate::world::physics::Physics;
 use ipmc_core::calibration::humidity_path::SensorKind;
 use ipmc_core::{C, Calibration, Params};
+use ipmc_fit::random::SplitMix64;
 use ipmc_recording::{Metadata, TimeSeries};
 
 /// Spacing of the base motion's tones [Hz].

@@ -5,8 +5,8 @@
 //! `ipmc_core::model::exact`). To simulate an effect the model lacks (a humidity-dependent electrode
 //! resistance, a second relaxation, a temperature coefficient…), implement [`Physics`] —
 //! typically wrapping [`ExactModel`] and modifying its answer — and pass it to
-//! [`super::simulate`]: the session handling, humidity path, noise and writing stay the same.
-//! The effects `ipmc prove` conceals are such implementations (`super::effects`).
+//! [`crate::simulate`]: the session handling, humidity path, noise and writing stay the same.
+//! The effects `ipmc prove` conceals are such implementations ([`crate::effects`]).
 
 use ipmc_core::model::exact::{responses, step_charging_current};
 use ipmc_core::{C, Params};

@@ -1,6 +1,6 @@
 //! Sessions with one concealed effect, for proving `diagnose` (`ipmc prove`): a frequency
-//! response or a time series of the simulator (`super::simulate`) whose sample answers through the effect's
-//! [`Physics`](super::physics::Physics) (`super::effects`), on a bench with everything a real
+//! response or a time series of the simulator ([`simulate`]) whose sample answers through the effect's
+//! [`Physics`](crate::physics::Physics) ([`effects`]), on a bench with everything a real
 //! session has, so that only the effect is a signal:
 //!
 //! - the chamber's time order: humidity stepped up 5 % at a time, then down through three of the
@@ -11,19 +11,19 @@
 //! - the sensor's humidity read error (±0.4 % per reading);
 //! - calibration drift (the sample's laws differ from the calibration: Y ±3 %, Cs, Ca, d ±15 %)
 //!   and scatter between levels (Y 1 %, Cs 3 %, Ca 6 %, d 6 %), both the strip's own
-//!   ([`CaseStrip`]): a follow-up (`super::followup`) measures the same strip again;
+//!   ([`CaseStrip`]): a follow-up ([`crate::followup`]) measures the same strip again;
 //! - noise: relative (0.5–1.5 % in gain, as many radians in phase) plus an absolute floor; in a
 //!   time series, white noise per sample sized to give the median line 0.5–1.5 %;
 //! - temperature recorded at 20 ± 0.1 °C (swinging between levels only in the temperature case).
 
 pub use super::effects::Strength;
 use super::effects::{self, BenchEffect, ROOM_C, SampleEffect};
-use super::random::SplitMix64;
-use super::session::{Frequencies, Humidity, Kind, Noise, Sample, Session, TimeSeriesPlan};
-use super::{Recording, simulate};
+use crate::recordings::{Recording, simulate};
+use crate::session::{Frequencies, Humidity, Kind, Noise, Sample, Session, TimeSeriesPlan};
 use ipmc_core::model::exact::{current_response, jw, tip_response};
 use ipmc_core::{Calibration, Params};
 use ipmc_diagnose::Effect;
+use ipmc_fit::random::SplitMix64;
 use ipmc_recording::Metadata;
 
 /// The stepped-sine frequencies [Hz]: denser around the first resonance (30–38 Hz over the
@@ -257,8 +257,8 @@ mod tests {
         }
     }
 
-    /// Issue 40's two traced kinds on this simulator, recorded as time series of one sweep up
-    /// (the three revisits cut off, one burst per level): clean strips, whose lines sit at 50,
+    /// Clean strips and small sensor offsets on this simulator, recorded as time series of one
+    /// sweep up (the three revisits cut off, one burst per level): clean strips, whose lines sit at 50,
     /// 60, 100, 120 and 150 Hz, and sensor offsets of 2.0–2.8 %RH (the range's low end, with
     /// a gain error of up to 8 %). Either may come out `undecided`, `none` for an offset, or right; never
     /// another name. Slow (minutes):

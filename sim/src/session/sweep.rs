@@ -2,7 +2,7 @@
 //! `cargo xtask test` replays under QEMU) as a session: one continuous burst during which the humidity ramps
 //! linearly, multisine base motion, current noise only.
 
-use super::session::{Frequencies, Humidity, Kind, Noise, Session, TimeSeriesPlan};
+use super::file::{Frequencies, Humidity, Kind, Noise, Session, TimeSeriesPlan};
 
 /// A sweep's settings; the defaults are `simulate-sweep`'s.
 #[derive(Clone, Debug, PartialEq)]

@@ -3,9 +3,9 @@
 //! content follows the chamber through a first-order lag with wetting and drying time constants
 //! (0: at once), the law the firmware's strip model runs (`ipmc_core::calibration::humidity_path::relax`).
 
-use super::random::SplitMix64;
-use super::session::Humidity;
+use crate::session::Humidity;
 use ipmc_core::calibration::humidity_path::relax;
+use ipmc_fit::random::SplitMix64;
 
 pub struct Bench {
     chamber: f64,

@@ -12,15 +12,15 @@
 //! chamber humidity moving linearly from each level to the next over `burst_s`
 //! (`ipmc simulate-sweep` is the two-level ramp).
 
-use super::bench::{Bench, reading};
-use super::physics::Physics;
-use super::random::SplitMix64;
-use super::sample::{Departure, Strip, sample_at};
-use super::session::Session;
-use super::surroundings::{Mains, Room};
+use crate::session::Session;
+use crate::world::bench::{Bench, reading};
+use crate::world::physics::Physics;
+use crate::world::sample::{Departure, Strip, sample_at};
+use crate::world::surroundings::{Mains, Room};
 use anyhow::{Result, bail};
 use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{C, Calibration};
+use ipmc_fit::random::SplitMix64;
 use ipmc_recording::{Metadata, SETPOINTS_KEY, SetpointForm, TimeSeries, setpoints_text};
 
 struct Tone {

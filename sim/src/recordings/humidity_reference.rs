@@ -1,11 +1,11 @@
 //! Humidity-reference recordings (recording-format.md §4): a session's humidity sensor read in
 //! sealed jars over saturated salt solutions, the same sensor model the chamber's readings use
-//! (`super::bench::reading`), against references whose humidity is itself known only so well.
+//! (`world::bench::reading`), against references whose humidity is itself known only so well.
 
-use super::bench::reading;
-use super::random::SplitMix64;
-use super::session::Session;
-use super::surroundings::Room;
+use crate::session::Session;
+use crate::world::bench::reading;
+use crate::world::surroundings::Room;
+use ipmc_fit::random::SplitMix64;
 use ipmc_recording::{HumidityReference, Metadata};
 
 /// The salts and their humidity at 25 °C [%RH].

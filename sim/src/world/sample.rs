@@ -2,8 +2,9 @@
 //! ([`Departure`]), a strip's identity ([`Strip`]), and the two applied to the calibration's laws
 //! at one humidity ([`sample_at`]). The recordings of every kind draw their sample from here.
 
-use super::{random, session};
+use crate::session;
 use ipmc_core::{Calibration, Params};
+use ipmc_fit::random;
 
 /// How the sample departs from its calibration at one level: the session's drift times the
 /// level's scatter, as factors on Y, Cs, Ca and d.

@@ -3,13 +3,13 @@
 //! when the session gives a leakage resistance, plus front-end noise. One recording per level
 //! (the format holds one humidity, `# rh_pct`, which is the sensor's reading).
 
-use super::physics::Physics;
-use super::random::SplitMix64;
-use super::sample::{Departure, Strip, sample_at};
-use super::session::Session;
-use super::surroundings::Room;
+use crate::session::Session;
+use crate::world::physics::Physics;
+use crate::world::sample::{Departure, Strip, sample_at};
+use crate::world::surroundings::Room;
 use anyhow::{Result, bail};
 use ipmc_core::Calibration;
+use ipmc_fit::random::SplitMix64;
 use ipmc_recording::{Charging, Metadata};
 
 pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, metadata: Metadata) -> Result<Vec<Charging>> {

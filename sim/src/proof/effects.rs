@@ -11,13 +11,13 @@
 //! different time constants for wetting and drying (fitted: one). Magnitudes are drawn
 //! log-uniformly over ranges whose low ends are near what 12 levels can detect.
 
-use super::physics::Physics;
-use super::random::SplitMix64;
+use crate::world::physics::Physics;
 use ipmc_core::model::exact::{capacitance, first_mode_rad_s};
 use ipmc_core::model::extension::{Extension, responses};
 use ipmc_core::model::thermal::Thermal;
 use ipmc_core::{C, Params};
 use ipmc_diagnose::Effect;
+use ipmc_fit::random::SplitMix64;
 
 /// The room temperature the sample's laws hold at [°C]; a temperature effect moves away from it.
 pub const ROOM_C: f64 = 20.0;

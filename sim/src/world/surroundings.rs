@@ -1,8 +1,8 @@
 //! What the bench's surroundings add to a session: the room's temperature ([`Room`]) and mains
 //! pickup on the current ([`Mains`]).
 
-use super::random;
-use super::session::{self, Session};
+use crate::session::{self, Session};
+use ipmc_fit::random;
 
 /// Mains pickup on the current: the phases of harmonics 1–3, drawn once per session (nothing
 /// drawn without pickup).
@@ -30,7 +30,8 @@ impl Mains {
 
 /// The room's temperature over a session: the session's, drifting by ±`temp_swing_k` in a slow
 /// cycle (an air-conditioning cycle to a morning's warming: 1–3 h), its period and phase drawn
-/// once (nothing drawn without a swing, so other sessions' draws are unchanged).
+/// once (nothing drawn without a swing: a steady room takes nothing from the session's random
+/// stream).
 pub struct Room {
     temp_c: Option<f64>,
     swing_k: f64,

@@ -10,13 +10,13 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
-use super::session::{Kind, MAX_FREQUENCY_POINTS, MAX_SAMPLES, Session};
+use super::file::{Kind, MAX_FREQUENCY_POINTS, MAX_SAMPLES, Session};
 
 const EXAMPLES: [&str; 4] = [
-    include_str!("../../data/sessions/fr-10-levels.toml"),
-    include_str!("../../data/sessions/fr-one-mode.toml"),
-    include_str!("../../data/sessions/fr-up-down.toml"),
-    include_str!("../../data/sessions/ts-step.toml"),
+    include_str!("../../../data/sessions/fr-10-levels.toml"),
+    include_str!("../../../data/sessions/fr-one-mode.toml"),
+    include_str!("../../../data/sessions/fr-up-down.toml"),
+    include_str!("../../../data/sessions/ts-step.toml"),
 ];
 const CHARGING: &str = "kind = \"charging\"\n[humidity]\nlevels_pct = [50]\n[charging]\nvoltage_v = 0.1\nfs_hz = 1000\nduration_s = 5\n";
 const NUMBERS: &[&str] = &["1e300", "1e18", "18446744073709551615", "-1", "0", "nan", "inf", "-inf", "1e-300", "\"x\"", "[]", "", "true"];

@@ -2,15 +2,15 @@
 //! every frequency for `dwell_s`, the way a lock-in sweep in a humidity chamber does. Phases are
 //! reported wrapped to (−180°, 180°], as an instrument reports them.
 
-use super::bench::{Bench, reading};
-use super::physics::Physics;
-use super::random::SplitMix64;
-use super::sample::{Departure, Strip, sample_at};
-use super::session::Session;
-use super::surroundings::{Mains, Room};
+use crate::session::Session;
+use crate::world::bench::{Bench, reading};
+use crate::world::physics::Physics;
+use crate::world::sample::{Departure, Strip, sample_at};
+use crate::world::surroundings::{Mains, Room};
 use anyhow::{Result, bail};
 use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::{C, Calibration};
+use ipmc_fit::random::SplitMix64;
 use ipmc_recording::{FrPoint, FrequencyResponse, Metadata, Response, SetpointForm, setpoints_text};
 
 pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, metadata: Metadata) -> Result<FrequencyResponse> {

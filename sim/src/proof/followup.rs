@@ -12,10 +12,10 @@
 //! - `reference`: the humidity sensor in saturated-salt jars.
 
 use super::concealed::{Case, CaseStrip, FREQS, Format};
-use super::random::SplitMix64;
-use super::session::{Session, log_spaced};
-use super::{Recording, humidity_reference, simulate};
+use crate::recordings::{Recording, humidity_reference, simulate};
+use crate::session::{Session, log_spaced};
 use ipmc_core::Calibration;
+use ipmc_fit::random::SplitMix64;
 use ipmc_recording::{Followup, HumidityReference, Metadata, Protocol, SETPOINTS_KEY, SetpointForm, setpoints_text};
 
 /// The wideband session's levels [%RH], up only.
@@ -149,7 +149,7 @@ fn temperature(calib: &Calibration, strip: &CaseStrip, seed: u64, metadata: &mut
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::concealed::{Strength, make_case};
+    use crate::proof::concealed::{Strength, make_case};
     use ipmc_core::model::exact::{current_response, jw};
     use ipmc_diagnose::Effect;
     use ipmc_recording::{Format as _, FrequencyResponse, TimeSeries};

@@ -1,0 +1,8 @@
+//! The proof's support: `ipmc prove` conceals one effect the exact model lacks in a session
+//! with everything a real bench has, and asks the diagnosis to name it. Here are the effects,
+//! drawn at a magnitude ([`effects`]), the cases made of them ([`concealed`]) and the follow-up
+//! measurements a case's strip can be given ([`followup`]).
+
+pub mod concealed;
+pub mod effects;
+pub mod followup;
