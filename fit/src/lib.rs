@@ -3,7 +3,8 @@
 //!
 //! - [`numeric`]: generic numerics that know nothing of IPMCs: nonlinear least squares
 //!   ([`lsq`], Levenberg–Marquardt with bounds, standard errors and block-structured problems),
-//!   linear least squares, a value with its standard error, the χ² tail, minimizers, random numbers.
+//!   linear least squares, a value with its standard error, the χ² tail, minimizers, random
+//!   numbers.
 //! - [`measure`]: what a recording measures: measured points and their noise, the frequency
 //!   responses a time series' multisine bursts estimate, recordings as the fits read them, one
 //!   humidity level's data, and where a chamber's setpoints place the levels.

@@ -2,12 +2,12 @@
 //! over what it fits: observations of several independent outputs, each a zero-mean process
 //! with squared-exponential covariance over an input known only up to a variance, plus a mean
 //! that is linear in its coefficients. The hyperparameters are judged by the restricted (REML)
-//! likelihood, which does not let the mean's coefficients absorb what the process explains;
-//! the posterior gives the process's mean and variance anywhere, and each observation's
-//! leave-one-out residual in closed form.
+//! likelihood: the mean's coefficients integrated out, so that fitting them does not bias the
+//! variances low where there are few observations. The posterior gives the process's mean and
+//! variance anywhere, and each observation's leave-one-out residual in closed form.
 
-pub mod kernel;
-pub mod reml;
+mod kernel;
+mod reml;
 
 pub use kernel::{cross_covariances, kernel};
 pub use reml::{Posterior, leave_one_out_z2, posterior_var, reml};

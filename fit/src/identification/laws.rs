@@ -1,7 +1,7 @@
 //! Humidity laws through the identified levels, and the calibration they make.
 //!
 //! Y, Cs, Ca and d: the base calibration's law shape times a quadratic correction in RH, with the
-//! strip's departures from it where its levels show them ([`crate::identification::departures`]), written in ln
+//! strip's departures from it where its levels show them ([`crate::departures`]), written in ln
 //! (a law in the logarithm stays positive) with the departures as the `[departures]` table. κe:
 //! quadratic in RH through the levels where a charging recording measured it, else the base's.
 //! h and m are not identified by a frequency response (only Y·I/m and similar ratios are), so
@@ -37,7 +37,7 @@ pub struct LawFit {
     pub dof: Option<usize>,
     /// The chance of a χ² at least this large if the law held ([`chi2_tail`]).
     pub p_value: Option<f64>,
-    /// The departures kept ([`crate::identification::departures`]): their amplitude (sd of ln) and length [%RH].
+    /// The departures kept ([`crate::departures`]): their amplitude (sd of ln) and length [%RH].
     pub departure: Option<(f64, f64)>,
     /// What the calibration keeps (law, departures, the reading's error) against each level held
     /// out: Σz² on the levels' number ([`StripModel::kept_tests`]).
@@ -149,7 +149,7 @@ const WRITTEN_LAW_TOLERANCE: f64 = 1e-5;
 
 /// The calibration `levels` make, declared on `rh_range`, with every constant, the h and m laws
 /// and the `[humidity]` path of `base`: the laws of Y, Cs, Ca and d with the strip's departures
-/// from them ([`crate::identification::departures`]: `rh_sd_pct` is the bench reading's standard error, estimated
+/// from them ([`crate::departures`]: `rh_sd_pct` is the bench reading's standard error, estimated
 /// from the levels when `None`; `revisit_of`: per level, the earlier level of `levels` at the
 /// same setpoint, where the session came back to one; `setpoints`: per level, the chamber's
 /// setpoint where the session states them, empty otherwise), written as ln-polynomials in RH and a `[departures]` table.

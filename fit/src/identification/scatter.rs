@@ -2,7 +2,7 @@
 //! the expected error of an estimate is made of (`ipmc_core::inverse::expected_error`).
 //!
 //! For Y, Cs, Ca and d the laws and the strip's departures from them come from one model of the
-//! levels ([`crate::identification::departures`]), whose posterior says how well it knows each parameter at
+//! levels ([`crate::departures`]), whose posterior says how well it knows each parameter at
 //! each humidity: the table holds its rms over the calibrated range. The humidity reading's
 //! error at the time of use is not in it (it is counted once, through the humidity term).
 //!

@@ -14,7 +14,7 @@
 //! b the sensor's bias this session. The site sits at Sᵍ + λᵍ(dᵍ − b̂), λᵍ = σ_c²/(σ_c² + uᵍ):
 //! where the chamber holds its setpoints better than the sensor reads them, at the setpoint.
 //! σ_c is the restricted likelihood's maximum (b integrated out), as every other variance of
-//! the model is ([`crate::identification::departures`]), found on a grid from 0 to four times the larger of the
+//! the model is ([`crate::departures`]), found on a grid from 0 to four times the larger of the
 //! readings' spread and a level's read error.
 //!
 //! Why it matters: at the wet end d changes by a quarter per %RH and Y by 4 %, so a top level

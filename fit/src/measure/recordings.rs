@@ -1,6 +1,6 @@
 //! Recordings as the fits take them: the one reader is the `ipmc-recording` crate; here its
 //! warnings (unknown columns…) are shown to the user on stderr, a time series becomes the
-//! frequency response its multisine bursts estimate ([`crate::measure::multisine`]), and the readings go
+//! frequency response its multisine bursts estimate ([`crate::multisine`]), and the readings go
 //! through the calibration's humidity path to the humidity the strip feels.
 
 use crate::measure::multisine::{self, Burst};

@@ -9,8 +9,9 @@ pub(super) const AMPLITUDE: (f64, f64) = (1e-5, 2.0);
 pub(super) const LENGTH_PCT: (f64, f64) = (0.2, 300.0);
 pub(super) const RH_SD_PCT: (f64, f64) = (1e-3, 5.0);
 
-/// The hyperparameters: per parameter of [`DEPARTING`](ipmc_core::calibration::departures::DEPARTING) the departure's amplitude (0: none) and
-/// length, and the bench reading's standard error.
+/// The hyperparameters: per parameter of
+/// [`DEPARTING`](ipmc_core::calibration::departures::DEPARTING) the departure's amplitude (0:
+/// none) and length, and the bench reading's standard error.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Hyper {
     pub amplitude: [f64; 4],

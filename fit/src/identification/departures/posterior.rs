@@ -38,7 +38,8 @@ impl StripModel {
         self.mixture[k].iter().map(|c| (c.length_pct, c.weight)).collect()
     }
 
-    /// The smooth law of parameter k (order of [`DEPARTING`]) at `x`, in ln.
+    /// The smooth law of parameter k (order of
+    /// [`DEPARTING`](ipmc_core::calibration::departures::DEPARTING)) at `x`, in ln.
     pub fn law_ln(&self, k: usize, x: f64) -> f64 {
         ln_base(&self.base, k, x)
             + self.degree[k]

@@ -46,8 +46,8 @@ pub(super) fn tones_from_metadata(ts: &TimeSeries, source: &str) -> Result<Optio
     }
 }
 
-/// The period of a periodic multisine excitation [samples], as [`estimate`](super::estimate) finds it (None for
-/// tones off any grid, named by `tones_hz` metadata).
+/// The period of a periodic multisine excitation [samples], as [`super::estimate`] finds it
+/// (None for tones off any grid, named by `tones_hz` metadata).
 pub fn excitation_period(ts: &TimeSeries, source: &str) -> Result<Option<usize>, Error> {
     let base = ts.base_m.as_ref().ok_or_else(|| Error::file(source, "time series without a `base_m` column"))?;
     if tones_from_metadata(ts, source)?.is_some() {

@@ -22,8 +22,9 @@ pub struct Fit {
     pub dof: usize,
     /// Weighted residuals at the optimum, in the order the residual function writes them.
     pub residuals: Vec<f64>,
-    /// Model evaluations spent over all starts (the cost of the fit; for [`fit_blocks`](super::fit_blocks), block
-    /// evaluations are added up as their share of the residuals).
+    /// Model evaluations spent over all starts (the cost of the fit; for
+    /// [`fit_blocks`](super::fit_blocks), block evaluations are added up as their share of the
+    /// residuals).
     pub evaluations: usize,
 }
 
