@@ -1,45 +1,31 @@
-//! Identification of IPMC model parameters from measured frequency responses.
+//! Identification of IPMC model parameters from measured frequency responses, in four rooms,
+//! each using only those before it:
 //!
-//! - [`lsq`]: bounded, weighted nonlinear least squares (Levenberg–Marquardt) with standard
-//!   errors and correlations: generic, knows nothing of IPMCs.
-//! - [`block_qr`]: the QR factor of a Jacobian whose columns reach one block of rows or all,
-//!   computed block by block ([`lsq::fit_blocks`]'s steps).
-//! - [`response`]: residuals of a measured tip/current response against the core's exact model
-//!   (`ipmc_core::model::exact`), with any subset of the model's parameters fitted by their `--set` names.
-//! - [`multisine`]: tip/base and current/base responses, their noise and the between-line
-//!   spectrum estimated from a time-series recording's multisine bursts.
-//! - [`recordings`]: recording files read as frequency responses at the strip's humidity.
-//! - [`noise`]: each point's σ estimated from a preliminary fit's residual scatter.
-//! - [`estimate`]: a fitted value with its standard error.
-//! - [`level`]: one humidity level's measured responses, as every fit takes them.
-//! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
+//! - [`numeric`]: generic numerics that know nothing of IPMCs: nonlinear least squares
+//!   ([`lsq`], Levenberg–Marquardt with bounds, standard errors and block-structured problems),
+//!   linear least squares, a value with its standard error, the χ² tail, minimizers, random
+//!   numbers.
+//! - [`measure`]: what a recording measures: measured points and their noise, the frequency
+//!   responses a time series' multisine bursts estimate, recordings as the fits read them, one
+//!   humidity level's data, and where a chamber's setpoints place the levels.
+//! - [`gaussian_process`]: Gaussian-process regression with an integrated-out linear mean,
+//!   judged by the restricted likelihood: the engine under the strip's departures.
+//! - [`identification`]: a strip's identification: each level's parameters ([`identify`],
+//!   against [`response`]), humidity laws through the levels ([`laws`]), the strip's departures
+//!   from them ([`departures`]), and what remains unknown ([`scatter`]).
 //! - [`refit`]: levels refitted near a calibration with an extension held and a mask, the
 //!   noise from neighbouring points, joint fits of an extension with every level.
-//! - [`laws`]: humidity laws through the levels, and the calibration they make.
-//! - [`departures`]: the strip's departures from those laws where its levels show them (a
-//!   Gaussian process over humidity, the bench's read errors a random effect), and what remains.
-//! - [`chamber`]: where a session's stated setpoints and its readings place the levels.
-//! - [`stats`]: the χ² distribution's tail and a simplex minimizer.
-//! - [`scatter`]: how far the levels stray from those laws (the calibration's `[uncertainty]`).
-//! - [`scalar`]: minimizing a function of one positive scalar over decades.
-//! - [`random`]: deterministic random numbers (the simulator's recordings, a diagnosis's bootstrap).
 //!
+//! Every module keeps its path at the crate's root too (`ipmc_fit::lsq`, `ipmc_fit::multisine`, …).
 //! The physics is never written here: every model value comes from `ipmc_core`.
 
-pub mod block_qr;
-pub mod chamber;
-pub mod departures;
-pub mod estimate;
-pub mod identify;
-pub mod laws;
-pub mod level;
-pub mod lsq;
-pub mod multisine;
-pub mod noise;
-pub mod random;
-pub mod recordings;
+pub mod gaussian_process;
+pub mod identification;
+pub mod measure;
+pub mod numeric;
 pub mod refit;
-pub mod response;
-pub mod scalar;
-pub mod scatter;
-pub mod stats;
+
+pub use identification::{departures, identify, laws, response, scatter};
+pub use measure::{chamber, level, multisine, noise, recordings};
+pub use numeric::lsq::block_qr;
+pub use numeric::{estimate, lsq, random, scalar, stats};

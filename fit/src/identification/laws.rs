@@ -10,14 +10,15 @@
 //! the laws of κe and d. Each level weighs by its own errors, so a level that did not determine
 //! a parameter does not pull its law.
 
-use crate::departures::{self, LevelTheta, ModelError, StripModel};
-use crate::estimate::Estimate;
-use crate::identify::LevelFit;
-use crate::stats::chi2_tail;
+use crate::identification::departures::{self, LawTest, LevelTheta, ModelError, StripModel};
+use crate::identification::identify::LevelFit;
+use crate::numeric::estimate::Estimate;
+// The linear least squares a law is fitted by, here for whoever fits laws.
+pub use crate::numeric::linear::{Singular, weighted_least_squares};
+use crate::numeric::stats::chi2_tail;
 use ipmc_core::calibration::departures::{DEPARTING, Departures};
 use ipmc_core::calibration::laws::MAX_LAW_COEFFS;
 use ipmc_core::{Calibration, Law, LawKind, ParamName, ValidationError};
-use nalgebra::{DMatrix, DVector};
 
 /// How one law was fitted.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -34,13 +35,13 @@ pub struct LawFit {
     pub chi2: Option<f64>,
     /// Levels minus the law's coefficients.
     pub dof: Option<usize>,
-    /// The chance of a χ² at least this large if the law held ([`crate::stats::chi2_tail`]).
+    /// The chance of a χ² at least this large if the law held ([`chi2_tail`]).
     pub p_value: Option<f64>,
     /// The departures kept ([`crate::departures`]): their amplitude (sd of ln) and length [%RH].
     pub departure: Option<(f64, f64)>,
     /// What the calibration keeps (law, departures, the reading's error) against each level held
-    /// out: Σz² on the levels' number ([`crate::departures::StripModel::kept_tests`]).
-    pub kept: Option<crate::departures::LawTest>,
+    /// out: Σz² on the levels' number ([`StripModel::kept_tests`]).
+    pub kept: Option<LawTest>,
     /// Why the kind differs from the usual one, if it does.
     pub note: Option<String>,
 }
@@ -66,40 +67,6 @@ impl core::fmt::Display for LawError {
 }
 
 impl std::error::Error for LawError {}
-
-/// How [`weighted_least_squares`] treats a design that does not determine every coefficient.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Singular {
-    /// No fit: a law written into a calibration must be determined by its levels.
-    Refuse,
-    /// Directions with a singular value under 1e-10 are left out (minimum-norm solution): a
-    /// prediction from the levels at hand is still wanted.
-    Truncate,
-}
-
-/// Weighted linear least squares: the coefficients c minimizing Σ wᵢ (yᵢ − rowsᵢ·c)², by SVD of
-/// the weighted design. `None` with fewer rows than coefficients, or when singular and refused.
-pub fn weighted_least_squares(rows: &[Vec<f64>], y: &[f64], w: &[f64], singular: Singular) -> Option<Vec<f64>> {
-    let (n, k) = (rows.len(), rows.first()?.len());
-    if n < k {
-        return None;
-    }
-    let a = DMatrix::from_fn(n, k, |i, j| rows[i][j] * w[i].sqrt());
-    let b = DVector::from_fn(n, |i, _| y[i] * w[i].sqrt());
-    let svd = a.svd(true, true);
-    let eps = match singular {
-        Singular::Refuse => {
-            let smax = svd.singular_values.max();
-            // (NaN singular values fail the comparison too)
-            if !svd.singular_values.iter().all(|&s| s > smax * 1e-12) {
-                return None;
-            }
-            0.0
-        }
-        Singular::Truncate => 1e-10,
-    };
-    svd.solve(&b, eps).ok().map(|c| c.iter().copied().collect())
-}
 
 /// Weighted least-squares polynomial in RH, returned in ascending powers of RH itself (the
 /// calibration's form). Fitted in the centred, scaled variable u = (RH − c)/w so the normal

@@ -2,8 +2,8 @@
 //! and what else the recording says of the level (when and at what temperature it was measured,
 //! which session, the earlier visit it repeats, κe measured there).
 
-use crate::estimate::Estimate;
-use crate::response::{Channel, Point};
+use crate::measure::point::{Channel, Point};
+use crate::numeric::estimate::Estimate;
 use ipmc_core::C;
 use ipmc_recording::{FrPoint, Response};
 

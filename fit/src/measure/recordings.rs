@@ -3,7 +3,7 @@
 //! frequency response its multisine bursts estimate ([`crate::multisine`]), and the readings go
 //! through the calibration's humidity path to the humidity the strip feels.
 
-use crate::multisine::{self, Burst};
+use crate::measure::multisine::{self, Burst};
 use ipmc_core::calibration::humidity_path::{HumidityPath, Hydration};
 use ipmc_recording::{Error, Format as _, FrPoint, FrequencyResponse, Level, Table, TimeSeries, Warning};
 use std::collections::HashMap;

@@ -13,9 +13,9 @@
 //! the table gets σ² = Σ r²/(n − k) − mean (SE/p)² − mean (d ln p/dRH)²·σ_RH², r = ln(p/law), k
 //! the law's coefficients, never below zero.
 
-use crate::departures::StripModel;
-use crate::identify::LevelFit;
-use crate::laws::law_degree;
+use crate::identification::departures::StripModel;
+use crate::identification::identify::LevelFit;
+use crate::identification::laws::law_degree;
 use ipmc_core::calibration::uncertainty::Uncertainty;
 use ipmc_core::{Calibration, ParamName};
 
@@ -101,8 +101,8 @@ pub fn departures_with_sd(model: &StripModel, calib: &Calibration) -> Option<ipm
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::Estimate;
-    use crate::lsq::Fit;
+    use crate::numeric::estimate::Estimate;
+    use crate::numeric::lsq::Fit;
     use ipmc_core::{Law, Params};
     use nalgebra::DMatrix;
 

@@ -20,12 +20,13 @@
 //! divided by it, so that it does not leak into Y, Cs and Ca. The current channel's gain is not
 //! identifiable (it scales the current as κe and √d do) and is absorbed into their laws.
 
-use crate::estimate::Estimate;
+use crate::identification::response::{Misfit, ResponseProblem, TIP_GAIN, model_values};
 // What a level's fit reads: here for whoever takes a level fit.
-pub use crate::level::LevelData;
-use crate::lsq::{self, Fit, FitError, Tolerance};
-use crate::noise::{self, ChannelNoise};
-use crate::response::{Channel, Misfit, Point, ResponseProblem, Sigma, TIP_GAIN, model_values};
+pub use crate::measure::level::LevelData;
+use crate::measure::noise::{self, ChannelNoise};
+use crate::measure::point::{Channel, Point, Sigma};
+use crate::numeric::estimate::Estimate;
+use crate::numeric::lsq::{self, Fit, FitError, Tolerance};
 use ipmc_core::{Calibration, ParamName, Params};
 
 /// One level's identified parameters.

@@ -7,7 +7,7 @@
 use nalgebra::{DMatrix, DVector};
 
 /// Which rows a column of J reaches: which residuals a parameter of a block problem moves
-/// ([`crate::lsq::fit_blocks`]).
+/// ([`super::fit_blocks`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Reach {
     /// Every block's.

@@ -14,8 +14,8 @@
 //! the residuals; the rising part is kept only when it pays its parameter (BIC), so a band
 //! below the limit keeps the two-term model.
 
-use crate::response::{Channel, Point, Sigma};
-use crate::scalar::minimize_log;
+use crate::measure::point::{Channel, Point, Sigma};
+use crate::numeric::scalar::minimize_log;
 use ipmc_core::C;
 
 /// Noise of one channel: σ² = rel² + (floor² + floor_rising²·(f/1 kHz)⁴)/|G|², the same for
