@@ -14,8 +14,8 @@
 //!   path: what the `CALIB.toml` file holds, and the parameters it gives at a humidity;
 //! - [`inverse`]: rational approximation, discretized band-limited inverse, its expected error,
 //!   and the per-sample filter with glitch-free retuning;
-//! - [`humidity`]: the humidity chain, from a sensor's raw reading and the strip's own current to
-//!   the humidity each block's design is for;
+//! - [`humidity`]: the humidity chain, from a sensor's reading and the strip's own current to the
+//!   humidity each block's design is for;
 //! - [`firmware`]: what the firmware decides with no hardware (operating point, start-up, a stuck
 //!   input), so the host runs it too;
 //! - [`calibration_file`]: the one reader of the calibration file, which checks that the inverse

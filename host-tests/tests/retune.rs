@@ -1,6 +1,6 @@
 //! Job: glitch-free retuning of the running f32 compensator (`Compensator::switch_to`).
 //!
-//! Scenario (issue 2, point 5: "a switch during a steady sine"): a steady 40 Hz base sine
+//! Scenario, a switch during a steady sine: a steady 40 Hz base sine
 //! u(t) = U·sin ωt; the sensor is at humidity B and delivers the current synthesized from the exact
 //! model, i(t) = U·|H_B(jω)|·sin(ωt + ∠H_B(jω)). The compensator runs the design for RH A (the
 //! humidity it last tuned for) until it has settled; then it is switched (`switch_to`) to the

@@ -204,7 +204,7 @@ fn a_cold_boot_waits_for_the_first_sample() {
 #[test]
 fn the_wait_for_the_first_sample_is_bounded() {
     // A part that never converts: the set-up still ends, within 300 ms of waiting (and the
-    // humidity task's 500 ms read timeout), and the read says "no new data" as before.
+    // humidity task's 500 ms read timeout), and the read says "no new data".
     let mut bus = FakeHts221::new(Mode::Normal);
     bus.status_reads_before_first_sample = u32::MAX;
     let mut delay = CountingDelay(0);

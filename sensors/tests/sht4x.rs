@@ -159,7 +159,7 @@ fn nak_is_a_bus_error() {
 #[test]
 fn datasheet_crc_example() {
     // Sensirion SHT4x datasheet: CRC(0xBEEF) = 0x92.
-    assert_eq!(ipmc_core::humidity::sensor::sht4x_crc8(&[0xBE, 0xEF]), 0x92);
+    assert_eq!(sht4x::crc8(&[0xBE, 0xEF]), 0x92);
     // And the driver takes it as a word: a serial number 0xBEEF_BEEF.
     let (mut bus, log) = FakeSht4x::new(&[&[0xBE, 0xEF, 0x92, 0xBE, 0xEF, 0x92]]);
     assert_eq!(block_on(sht4x::set_up(&mut bus, &mut LoggedDelay(log))), Ok(0xBEEF_BEEF));

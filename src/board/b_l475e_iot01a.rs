@@ -47,11 +47,11 @@ use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
 use embassy_time::{Duration, Instant, with_timeout};
 use ipmc_core::firmware::block_wait::{BlockWait, Then, Waited};
 use ipmc_core::firmware::lost_samples::RingBlocks;
-#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
-use ipmc_core::humidity::sensor::Hts221Calibration;
 use ipmc_core::timing::sample_period_clocks;
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use ipmc_sensors::hts221;
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
+use ipmc_sensors::hts221::Hts221Calibration;
 #[cfg(not(feature = "humidity-hih4030"))]
 use ipmc_sensors::i2c_recovery::{self, BusHealth};
 #[cfg(feature = "humidity-sht4x")]

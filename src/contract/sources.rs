@@ -5,7 +5,7 @@ use super::config::BLOCK_LEN;
 
 /// Outcome of one block read.
 pub enum SampleBlock {
-    /// `BLOCK_LEN` current samples in amperes were written; `flags` are `ports::flags` bits;
+    /// `BLOCK_LEN` current samples in amperes were written; `flags` are `contract::flags` bits;
     /// `lost_samples` were lost before them (an overrun), so the time axis skips them.
     Ready { flags: u16, lost_samples: u32 },
     /// The source has no more data (replay finished). Real hardware never returns this.

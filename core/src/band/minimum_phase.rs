@@ -17,7 +17,8 @@ use crate::numeric::section::{Quad, Sos};
 pub const ORDER: usize = 4;
 /// Sections: two per edge.
 pub const SECTIONS: usize = ORDER;
-/// The most the band delays any frequency from 20 to 150 Hz (issue 39's bound).
+/// The most the band may delay any frequency from 20 to 150 Hz: the latency the low-latency band
+/// is held to.
 pub const MAX_GROUP_DELAY_S: f64 = 0.020;
 
 /// The corners [Hz]: the middles of the linear-phase band's transitions.

@@ -81,7 +81,7 @@ impl Humidities<f32> {
 /// [s]. The strip's humidity follows the air through its water uptake, the reading follows it
 /// at once: while the air moves, reading − strip is the sensor's bias plus the rate times the
 /// lag, and a bias learned without the lag follows the last ramp. A thin strip in air takes
-/// tens of seconds to minutes (a Nafion film's uptake; issue 27's bench lags 1–2.5 min); equal
+/// tens of seconds to minutes (a Nafion film's uptake; lags of 1–2.5 min measured on the lab's bench); equal
 /// weights on a doubling grid are a log-uniform prior over 7–230 s, and the fits' agreement with
 /// each decides among them as far as the data can. These are the strip's lags behind the air;
 /// the reading trails the air by its sensor's own lag already, so the path is lagged by the

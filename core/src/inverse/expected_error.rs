@@ -12,8 +12,8 @@
 //!
 //! E[r] and E|r|² come from [`response_moments`](crate::calibration::moments::response_moments), exact to second order. To first order
 //! (r = 1 + Σₖ sₖδₖ, sₖ = ∂ln H/∂θₖ) this is mean_f |y − 1|² + Σₖ σₖ²·mean_f |sₖ|², the design's
-//! own error plus the causes' (what it was before the robust design needed the second order:
-//! near a resonance the curvature of H puts a bias into E[r] of the size of the gain sought).
+//! own error plus the causes'; the second order is kept because near a resonance the curvature
+//! of H puts a bias into E[r] of the size of the gain sought.
 //!
 //! The front end's noise (density S) adds N² = ∫ S·|G·B|² df of displacement (G the inverse as
 //! designed, B the band filter, over wherever B passes anything above its stop band: its lower
@@ -29,11 +29,11 @@
 //! recordings, and the noise the inverse lifts just below the band as large as the signal), so
 //! P is measured after a fourth-order Butterworth high-pass at the band's lower edge
 //! ([`HP_SECTIONS`] biquads: half the power at the edge, 96 % at 1.5× it, 2·10⁻⁸ at 1 Hz), and
-//! divided by its mean power gain over the band. The four first-order sections at the edge it
-//! replaces kept 6–25 % of the power of tones at 10–17 Hz, so that P was a third low for a base
+//! divided by its mean power gain over the band. Four first-order sections at the edge would
+//! keep 6–25 % of the power of tones at 10–17 Hz, so that P would be a third low for a base
 //! motion whose power lies at the band's low end and the noise part stated 1.3× too large (the
 //! external strips' time series: every level covered, none near its bar); a corner at half the
-//! edge let the noise at 5–10 Hz in and stated it 1.4× too small.
+//! edge would let the noise at 5–10 Hz in and state it 1.4× too small.
 //!
 //! The exact model costs far more than a retune may spend on the MCU, and v and N² depend on the
 //! humidity and the calibration only: they are tabulated over the calibrated range on the host
