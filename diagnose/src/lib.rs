@@ -33,6 +33,7 @@ pub mod data;
 pub mod decide;
 pub mod effect;
 pub mod engine;
+pub mod fits;
 pub mod followup_request;
 pub mod held_out;
 pub mod humidity_path;
@@ -51,6 +52,4 @@ pub mod types;
 
 pub use effect::Effect;
 pub use engine::diagnose;
-/// The per-level refits, noise and joint fits a diagnosis makes are the identification library's.
-pub use ipmc_fit::refit as fits;
 pub use types::{Diagnosis, HeldOutModel, Verdict};

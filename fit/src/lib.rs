@@ -13,8 +13,6 @@
 //! - [`estimate`]: a fitted value with its standard error.
 //! - [`level`]: one humidity level's measured responses, as every fit takes them.
 //! - [`identify`]: one humidity level's Y, Cs, Ca and d, staged as the paper does, then jointly.
-//! - [`refit`]: levels refitted near a calibration with an extension held and a mask, the
-//!   noise from neighbouring points, joint fits of an extension with every level.
 //! - [`laws`]: humidity laws through the levels, and the calibration they make.
 //! - [`departures`]: the strip's departures from those laws where its levels show them (a
 //!   Gaussian process over humidity, the bench's read errors a random effect), and what remains.
@@ -38,7 +36,6 @@ pub mod multisine;
 pub mod noise;
 pub mod random;
 pub mod recordings;
-pub mod refit;
 pub mod response;
 pub mod scalar;
 pub mod scatter;
