@@ -22,18 +22,18 @@
 //! **Information criterion.** BIC differences ΔBIC = Δχ² − Δk·ln N on the data (model and mains
 //! candidates) or on the per-level parameters (candidates acting through humidity).
 //!
-//! **Decision.** [`crate::decide`].
+//! **Decision.** [`crate::verdict::decide`].
 
 use crate::candidates::LIBRARY;
-use crate::context::{Baseline, Ctx};
-use crate::data::Dataset;
-use crate::decide::decide;
+use crate::evidence::context::{Baseline, Ctx};
+use crate::evidence::held_out::{REFIT_NULL_IS, per_level_scores};
+use crate::evidence::laws;
+use crate::evidence::locate;
 use crate::fits;
-use crate::held_out::{REFIT_NULL_IS, per_level_scores};
-use crate::laws;
-use crate::locate;
+use crate::input::data::Dataset;
 use crate::scorers;
-use crate::types::{Diagnosis, LevelModels, LevelSummary};
+use crate::verdict::decide::decide;
+use crate::verdict::types::{Diagnosis, LevelModels, LevelSummary};
 use anyhow::Result;
 use ipmc_core::Calibration;
 use ipmc_core::model::extension::Extension;
@@ -76,8 +76,8 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + 
         .collect();
     let (law_pred_0, law_k_0) = laws::fitted(&ctx.read, &ctx.base.theta, &ctx.base.se);
     let base = Baseline {
-        heldout_before: crate::held_out::weighted_mean(&per_level_scores(&ctx.law_heldout(&ctx.plain())), &counts),
-        n_data: crate::context::total_residuals(&ctx.all) as f64,
+        heldout_before: crate::evidence::held_out::weighted_mean(&per_level_scores(&ctx.law_heldout(&ctx.plain())), &counts),
+        n_data: crate::evidence::context::total_residuals(&ctx.all) as f64,
         chi2_0: ctx.base.chi2.iter().sum(),
         law0: (laws::nll(&law_pred_0, &ctx.base.theta, &ctx.base.se, &ctx.read_gradient), law_k_0),
         n_theta: ctx.base.se.iter().flatten().filter(|s| !s.is_nan()).count() as f64,
@@ -170,11 +170,12 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + 
         .verdict
         .effect()
         .filter(|e| matches!(e, crate::Effect::HydrationLag | crate::Effect::HumiditySensorError))
-        .map(|_| crate::humidity_path::fit(&ctx, decision.overdispersion));
-    let humidity_reach = crate::humidity_reach::reach(&ctx);
-    let request = crate::followup_request::request(decision.verdict, &decision.probabilities, &ranked, &humidity_reach, &layout(data));
+        .map(|_| crate::humidity::path::fit(&ctx, decision.overdispersion));
+    let humidity_reach = crate::humidity::reach::reach(&ctx);
+    let request =
+        crate::verdict::followup_request::request(decision.verdict, &decision.probabilities, &ranked, &humidity_reach, &layout(data));
     Ok(Diagnosis {
-        instrument: crate::types::InstrumentReport::of(&instrument, &calib.instrument),
+        instrument: crate::verdict::types::InstrumentReport::of(&instrument, &calib.instrument),
         channels: instrument.channels,
         verdict: decision.verdict,
         probabilities: decision.probabilities,
@@ -246,11 +247,11 @@ fn score_library(ctx: &Ctx, base: &Baseline, progress: &(dyn Fn(&str) + Sync), t
 }
 
 /// The primary sessions' humidity range, band and room temperature, which a follow-up repeats.
-fn layout(data: &Dataset) -> crate::followup_request::Layout {
+fn layout(data: &Dataset) -> crate::verdict::followup_request::Layout {
     let levels = &data.levels;
     let fold = |v: &mut dyn Iterator<Item = f64>| v.fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], x| [a.min(x), b.max(x)]);
     let temps: Vec<f64> = levels.iter().filter_map(|l| l.temp_c).collect();
-    crate::followup_request::Layout {
+    crate::verdict::followup_request::Layout {
         rh_range_pct: fold(&mut levels.iter().map(|l| l.rh_pct)),
         band_hz: fold(&mut levels.iter().flat_map(|l| l.freqs.iter().copied())),
         temp_c: (!temps.is_empty() && temps.len() == levels.len()).then(|| temps.iter().sum::<f64>() / temps.len() as f64),

@@ -1,7 +1,7 @@
 //! The diagnosis as report.json (for programs) and report.md (for people).
 
 use crate::candidates::LIBRARY;
-use crate::types::{Diagnosis, Verdict};
+use crate::verdict::types::{Diagnosis, Verdict};
 use serde_json::json;
 use std::fmt::Write as _;
 
@@ -17,7 +17,7 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -
         "verdict": d.verdict,
         "probabilities": d.probabilities,
         "set": d.set,
-        "set_rule": format!("the smallest set of hypotheses holding {:.0} % of the probability; a name is stated only when it alone does (else the verdict is undecided)", 100.0 * crate::decide::CONFIDENCE),
+        "set_rule": format!("the smallest set of hypotheses holding {:.0} % of the probability; a name is stated only when it alone does (else the verdict is undecided)", 100.0 * crate::verdict::decide::CONFIDENCE),
         "separating_measurement": separating_measurement(d, inputs),
         "humidity_reach": d.humidity_reach,
         "indistinguishable": d.indistinguishable,
@@ -133,7 +133,7 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         s,
         "Probabilities of the hypotheses the evidence supports (prior: half on no missing physics, the rest shared by the {} effects, an effect fitted in several forms splitting its share; evidence: ΔBIC on Kass & Raftery's approximation); a name is stated only when it alone holds {:.0} %:\n",
         crate::Effect::ALL.len(),
-        100.0 * crate::decide::CONFIDENCE
+        100.0 * crate::verdict::decide::CONFIDENCE
     );
     let _ = writeln!(s, "| hypothesis | probability | in the set |\n|---|---|---|");
     for p in &d.probabilities {
@@ -155,8 +155,8 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
         r.smallest_offset_pct,
         r.measurement.as_ref().map_or(String::new(), |m| format!(
             " Lab-sized ones ({:.0} s, {:.1} %RH) would need: {} ({}).",
-            crate::humidity_reach::LAB_LAG_S,
-            crate::humidity_reach::LAB_OFFSET_PCT,
+            crate::humidity::reach::LAB_LAG_S,
+            crate::humidity::reach::LAB_OFFSET_PCT,
             m.record,
             m.band
         ))
@@ -253,8 +253,8 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     let _ = writeln!(
         s,
         "Passing needs ΔBIC ≥ {} against no extension and a held-out improvement with paired z ≥ {}. ΔBIC on the data are quasi-likelihood: Δχ² divided by the overdispersion ĉ = {:.2} (the best-fitting model's χ² per degree of freedom, at least 1).\n",
-        crate::decide::MIN_DELTA_BIC,
-        crate::decide::MIN_HELDOUT_Z,
+        crate::candidates::score::MIN_DELTA_BIC,
+        crate::candidates::score::MIN_HELDOUT_Z,
         d.overdispersion
     );
     let _ = writeln!(s, "| candidate | family | ΔBIC | held-out | z | parameters | note |\n|---|---|---|---|---|---|---|");
@@ -318,7 +318,7 @@ fn stated(p: f64) -> String {
 
 /// A parameter the data pin down: one whose standard error is not finite was left where its
 /// fit started (a rate of 1e-128 "± not determined"), and printing its value says nothing.
-fn determined(p: &crate::types::Estimate) -> bool {
+fn determined(p: &crate::candidates::score::Estimate) -> bool {
     p.value.is_finite() && p.std_error.is_finite()
 }
 
@@ -339,7 +339,7 @@ fn none_reach(d: &Diagnosis) -> String {
         "{departure} `none` rules out only what this recording could name: a hydration lag {}, a sensor offset from {:.1} %RH, and each other effect at the size its candidate would have shown with ΔBIC ≥ {} (the candidates' table gives what each found).",
         r.shortest_lag_s.map_or("of any length (no lag up to an hour moves a level by the floor)".into(), |t| format!("from {t:.0} s")),
         r.smallest_offset_pct,
-        crate::decide::MIN_DELTA_BIC
+        crate::candidates::score::MIN_DELTA_BIC
     )
 }
 

@@ -5,9 +5,9 @@
 //! The report shows the probabilities at every stage (before and after each follow-up) and the
 //! fit on each follow-up's levels held out, before and after the verdict.
 
-use crate::data::Dataset;
-use crate::strip_files::{Content, StripFile};
-use crate::types::{Diagnosis, Probability};
+use crate::input::data::Dataset;
+use crate::input::strip_files::{Content, StripFile};
+use crate::verdict::types::{Diagnosis, Probability};
 use anyhow::Result;
 use ipmc_core::Calibration;
 use ipmc_core::calibration::humidity_path::HumidityPath;

@@ -1,5 +1,6 @@
 //! Identification of IPMC model parameters from measured frequency responses, in four rooms,
-//! each using only those before it:
+//! each using only those before it (the refits near a calibration
+//! are the diagnosis's, `ipmc_diagnose::fits`):
 //!
 //! - [`numeric`]: generic numerics that know nothing of IPMCs: nonlinear least squares
 //!   ([`lsq`], Levenberg–Marquardt with bounds, standard errors and block-structured problems),
@@ -13,8 +14,6 @@
 //! - [`identification`]: a strip's identification: each level's parameters ([`identify`],
 //!   against [`response`]), humidity laws through the levels ([`laws`]), the strip's departures
 //!   from them ([`departures`]), and what remains unknown ([`scatter`]).
-//! - [`refit`]: levels refitted near a calibration with an extension held and a mask, the
-//!   noise from neighbouring points, joint fits of an extension with every level.
 //!
 //! Every module keeps its path at the crate's root too (`ipmc_fit::lsq`, `ipmc_fit::multisine`, …).
 //! The physics is never written here: every model value comes from `ipmc_core`.
@@ -23,7 +22,6 @@ pub mod gaussian_process;
 pub mod identification;
 pub mod measure;
 pub mod numeric;
-pub mod refit;
 
 pub use identification::{departures, identify, laws, response, scatter};
 pub use measure::{chamber, level, multisine, noise, recordings};

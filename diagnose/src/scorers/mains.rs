@@ -2,15 +2,15 @@
 //! the per-level refit and scored as a random-phase interference of one power; held out, each
 //! level refitted without its line points, those scored by the interference power the other
 //! levels show. A time series also shows mains between its lines, wherever it falls
-//! ([`crate::mains_between_lines`]); that evidence adds its ΔBIC and is held out burst by burst.
+//! ([`crate::evidence::mains_between_lines`]); that evidence adds its ΔBIC and is held out burst by burst.
 
-use super::trial::{Candidacy, Scorer, Trial};
 use crate::candidates::Candidate;
-use crate::context::{Baseline, Ctx, Fitted, total_residuals};
+use crate::candidates::score::{Estimate, Space};
+use crate::candidates::trial::{Candidacy, Scorer, Trial};
+use crate::evidence::context::{Baseline, Ctx, Fitted, total_residuals};
+use crate::evidence::held_out::{HeldOut, HeldOutModel, REFIT_NULL_IS};
+use crate::evidence::mains_between_lines::{MainsEvidence, between_line_mains_per_family};
 use crate::fits::{self, Mask};
-use crate::held_out::{HeldOut, REFIT_NULL_IS};
-use crate::mains_between_lines::{MainsEvidence, between_line_mains_per_family};
-use crate::types::{Estimate, HeldOutModel, Space};
 use anyhow::Result;
 use ipmc_core::model::extension::Extension;
 use ipmc_fit::multisine::Burst;

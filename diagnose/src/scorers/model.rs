@@ -3,12 +3,12 @@
 //! other levels and the held-out level's base parameters with them, against the plain model's
 //! per-level refit.
 
-use super::trial::{Candidacy, Scorer, Trial, estimates};
+use crate::candidates::score::Space;
+use crate::candidates::trial::{Candidacy, Scorer, Trial, estimates};
 use crate::candidates::{Candidate, ExtFn};
-use crate::context::{Baseline, Ctx, Fitted};
+use crate::evidence::context::{Baseline, Ctx, Fitted};
+use crate::evidence::held_out::{HeldOut, HeldOutModel, REFIT_NULL_IS};
 use crate::fits;
-use crate::held_out::{HeldOut, REFIT_NULL_IS};
-use crate::types::{HeldOutModel, Space};
 use anyhow::Result;
 use ipmc_core::model::extension::Extension;
 use ipmc_fit::lsq::{self, Param, Tolerance};

@@ -2,14 +2,14 @@
 //! ionic transport (Arrhenius) and the modulus; held out, both coefficients fitted on the other
 //! levels.
 
-use super::trial::{Candidacy, Scorer, Trial, estimates};
 use crate::candidates::Candidate;
-use crate::context::{Baseline, Ctx, Fitted};
+use crate::candidates::score::Space;
+use crate::candidates::trial::{Candidacy, Scorer, Trial, estimates};
+use crate::evidence::anchored::{anchored, anchored_nll, with_drift};
+use crate::evidence::context::{Baseline, Ctx, Fitted};
+use crate::evidence::held_out::{ANCHORED_NULL_IS, HeldOut, HeldOutModel};
+use crate::evidence::laws;
 use crate::fits::{self, Theta};
-use crate::held_out::{ANCHORED_NULL_IS, HeldOut};
-use crate::laws;
-use crate::remap::{anchored, anchored_nll, with_drift};
-use crate::types::{HeldOutModel, Space};
 use anyhow::Result;
 use ipmc_core::model::thermal::Thermal;
 use ipmc_fit::lsq::{self, Bound, Param};

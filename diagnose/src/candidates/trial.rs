@@ -1,11 +1,11 @@
-//! What a kind's scorer does for [`super::score`]: the [`Scorer`] each kind implements, the
+//! What a kind's scorer does for [`crate::scorers::score`]: the [`Scorer`] each kind implements, the
 //! [`Trial`] it returns (a [`Candidacy`] fitted, or why the candidate cannot be tested), and the
 //! candidate's parameters as [`estimates`], which every kind reports.
 
 use crate::candidates::Candidate;
-use crate::context::{Baseline, Ctx, Fitted};
-use crate::held_out::HeldOut;
-use crate::types::{Estimate, Space};
+use crate::candidates::score::{Estimate, Space};
+use crate::evidence::context::{Baseline, Ctx, Fitted};
+use crate::evidence::held_out::HeldOut;
 use anyhow::Result;
 
 /// A candidate fitted: what its kind's scorer found.

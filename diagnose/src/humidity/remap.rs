@@ -1,13 +1,14 @@
 //! Candidates that act through the humidity: the calibration at a remapped humidity (read
 //! through a sensor error, or behind a hydration lag) plus a constant drift per parameter,
-//! against the calibration at the humidity as read plus that drift. The fits of the sensor's
-//! offset and gain and of the lag, and the scores such a remap gets.
+//! against the calibration at the humidity as read plus that drift (both
+//! [`crate::evidence::anchored`]). The fits of the sensor's offset and gain and of the lag, and
+//! the scores such a remap gets.
 
-use crate::context::{Ctx, Fitted};
+use crate::evidence::anchored::{anchored, anchored_nll, anchored_nll_per_level};
+use crate::evidence::context::{Ctx, Fitted};
+use crate::evidence::held_out::{ANCHORED_NULL_IS, HeldOut, HeldOutModel};
+use crate::evidence::laws;
 use crate::fits::{self, Theta};
-use crate::held_out::{ANCHORED_NULL_IS, HeldOut};
-use crate::laws;
-use crate::types::HeldOutModel;
 use ipmc_fit::lsq::{self, Bound, Param};
 use ipmc_fit::scalar::minimize_log;
 
@@ -19,40 +20,6 @@ pub const MIN_RH_SHIFT_PCT: f64 = 1.0;
 /// standard errors toward no shift: a fit whose shift could as well be under the floor has not
 /// shown a sensor or a lag that matters, only a reading's scatter that happens to lean.
 pub const SHIFT_FLOOR_SE: f64 = 2.0;
-
-/// The calibration at humidities `rh` plus a constant drift per parameter, the drift the
-/// weighted mean over the levels `train` of θ − calibration: the per-level θ a humidity remap
-/// predicts (the null when `rh` is the humidity read).
-pub(crate) fn anchored(ctx: &Ctx, rh: &[f64], train: &[usize]) -> Vec<Theta> {
-    with_drift(ctx, rh.iter().map(|&h| fits::calibration_theta(ctx.calib, h)).collect(), train)
-}
-
-/// `cal` plus the weighted mean over the levels `train` of θ − `cal` per parameter.
-pub(crate) fn with_drift(ctx: &Ctx, cal: Vec<Theta>, train: &[usize]) -> Vec<Theta> {
-    let mut delta = [0.0; 4];
-    for (j, d) in delta.iter_mut().enumerate() {
-        let (mut sw, mut s) = (0.0, 0.0);
-        for &l in train {
-            let w = ctx.weights.weight(&ctx.base.se[l], j);
-            s += w * (ctx.base.theta[l][j] - cal[l][j]);
-            sw += w;
-        }
-        *d = if sw > 0.0 { s / sw } else { 0.0 };
-    }
-    cal.iter().map(|c| [c[0] + delta[0], c[1] + delta[1], c[2] + delta[2], c[3] + delta[3]]).collect()
-}
-
-/// −2 ln L of the levels `train`'s θ under [`anchored`] at humidities `rh`.
-pub(crate) fn anchored_nll(ctx: &Ctx, rh: &[f64], train: &[usize]) -> f64 {
-    anchored_nll_per_level(ctx, rh, train).iter().sum()
-}
-
-/// [`anchored_nll`] level by level, in the order of `train`.
-pub(crate) fn anchored_nll_per_level(ctx: &Ctx, rh: &[f64], train: &[usize]) -> Vec<f64> {
-    let pred = anchored(ctx, rh, train);
-    let pick = |v: &[Theta]| train.iter().map(|&l| v[l]).collect::<Vec<Theta>>();
-    laws::nll_per_level(&pick(&pred), &pick(&ctx.base.theta), &pick(&ctx.base.se), &pick(&ctx.read_gradient))
-}
 
 /// The hydration lag τ [s] that best maps the levels `train` onto the calibration, and its −2 ln L.
 pub(crate) fn fit_lag(ctx: &Ctx, train: &[usize]) -> (f64, f64) {

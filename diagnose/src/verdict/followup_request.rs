@@ -5,7 +5,7 @@
 //! **Which hypotheses are left.** `undecided` and `unexplained`: those the evidence supports,
 //! with their probabilities. `none` (and the others too) also keeps the effects this recording
 //! cannot carry at the sizes labs meet (a sensor offset under its reach, a lag under its reach,
-//! a temperature dependence: [`crate::humidity_reach`]), each weighed against `none` by its
+//! a temperature dependence: [`crate::humidity::reach`]), each weighed against `none` by its
 //! prior and its own evidence here, exp(ΔBIC/2), whether or not it passed the gates naming
 //! needs: a gate decides what may be stated, not what is worth measuring.
 //!
@@ -15,8 +15,11 @@
 //! entropy of that partition of the probabilities; the protocol with the most is asked for.
 
 use crate::Effect;
-use crate::decide::{NONE, PRIOR_NONE};
-use crate::types::{FollowupRequest, HumidityReach, Probability, Score, Verdict};
+use crate::candidates::effect::NONE;
+use crate::candidates::score::Score;
+use crate::humidity::reach::HumidityReach;
+use crate::verdict::decide::PRIOR_NONE;
+use crate::verdict::types::{FollowupRequest, Probability, Verdict};
 use ipmc_recording::Protocol;
 
 /// The effects a protocol resolves, as this diagnosis fits them.
@@ -56,8 +59,8 @@ pub struct Layout {
 pub fn open_hypotheses(probabilities: &[Probability], scores: &[Score], reach: &HumidityReach, temperatures: bool) -> Vec<Probability> {
     let mut open: Vec<Probability> = probabilities.to_vec();
     let p_none = probabilities.iter().find(|p| p.name == NONE).map_or(0.0, |p| p.probability);
-    let lag_open = reach.shortest_lag_s.is_none_or(|t| t > crate::humidity_reach::LAB_LAG_S);
-    let offset_open = reach.smallest_offset_pct > crate::humidity_reach::LAB_OFFSET_PCT;
+    let lag_open = reach.shortest_lag_s.is_none_or(|t| t > crate::humidity::reach::LAB_LAG_S);
+    let offset_open = reach.smallest_offset_pct > crate::humidity::reach::LAB_OFFSET_PCT;
     let below_reach = [(Effect::HumiditySensorError, offset_open), (Effect::HydrationLag, lag_open), (Effect::Temperature, temperatures)];
     if p_none > 0.0 {
         let ln_prior_effect = ((1.0 - PRIOR_NONE) / Effect::ALL.len() as f64).ln();
@@ -157,7 +160,7 @@ pub fn request(
             r.humidities_pct = vec![a, b, c, b, a];
             // Three of the longest lag this recording could not name, and ten minutes at least:
             // the lag's settling must be seen to end.
-            let lag = reach.shortest_lag_s.unwrap_or(crate::humidity_reach::LONGEST_LAG_S / 10.0);
+            let lag = reach.shortest_lag_s.unwrap_or(crate::humidity::reach::LONGEST_LAG_S / 10.0);
             r.dwell_s = Some((3.0 * lag).max(600.0));
             r.bursts_after_step_s = vec![5.0, 15.0, 40.0, 90.0, 200.0, 400.0];
         }
@@ -248,7 +251,7 @@ mod tests {
             delta_chi2_per_level: vec![],
             extra_params: 1,
             delta_bic,
-            space: crate::types::Space::LevelParameters,
+            space: crate::candidates::score::Space::LevelParameters,
             heldout: 1.0,
             heldout_per_level: vec![],
             heldout_null: 1.0,

@@ -2,11 +2,35 @@
 //! the other levels, scored by its χ² per residual, and the paired comparison of two such
 //! scores over levels.
 
-use crate::context::{Ctx, Fitted};
-use crate::fits::{self, Theta};
-use crate::laws::{self, LawWeights};
-use crate::types::HeldOutModel;
+use crate::evidence::context::{Ctx, Fitted};
+use crate::evidence::laws::{self, LawWeights};
+use crate::fits::{self, Mask, Theta};
 use ipmc_core::model::extension::Extension;
+
+/// The model that scored one level held out (see [`crate::engine`] for each kind of candidate).
+#[derive(Clone, Debug)]
+pub struct HeldOutModel {
+    pub params: ipmc_core::Params<f64>,
+    pub extension: Extension<f64>,
+    /// Values scored with their variance σ² multiplied by the factor: the mains candidate's line
+    /// points, by 1 + the interference power of the other levels.
+    pub inflated: Option<(Mask, f64)>,
+    /// The level's held-out score: (Σ (residual/σ)² over all its values, σ inflated where
+    /// `inflated` says, + [`HeldOutModel::normalization`]) / number of residuals.
+    pub chi2_per_residual: f64,
+    /// The instrument's channels as the candidate moved them beside its own fit, on top of
+    /// those every candidate is scored with: the level this model scores is the recording with
+    /// them taken out too (None: no move).
+    pub channels: Option<crate::fits::Channels>,
+}
+
+impl HeldOutModel {
+    /// The inflated variance's share of −2 ln L (m ln factor for m inflated residuals): without
+    /// it, inflating σ would lower the score for free.
+    pub fn normalization(&self) -> f64 {
+        self.inflated.as_ref().map_or(0.0, |(mask, factor)| mask.count() as f64 * factor.ln())
+    }
+}
 
 /// A candidate's held-out models per level and its null's, and what each is.
 pub(crate) struct HeldOut {

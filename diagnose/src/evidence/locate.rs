@@ -7,8 +7,8 @@
 //! residuals are those of the per-level refit, weighted by the noise estimated from the data, so
 //! z ≈ 0 ± 1 where the model is complete.
 
-use super::data::{Dataset, LevelData};
-use super::fits::{self, BASE, BaseFits, LevelSigmas, Mask, Theta};
+use crate::fits::{self, BASE, BaseFits, LevelSigmas, Mask, Theta};
+use crate::input::data::{Dataset, LevelData};
 use anyhow::Result;
 use ipmc_core::model::exact::jw;
 use ipmc_core::model::extension::{Extension, responses};

@@ -7,11 +7,10 @@
 //! ±0.8 %RH. A `none` there says nothing about the humidity path, and the report must say so
 //! with the numbers of this recording rather than let "no missing physics" stand for it.
 
-use crate::context::Ctx;
-use crate::laws;
-use crate::remap::{MIN_RH_SHIFT_PCT, SHIFT_FLOOR_SE, fit_sensor};
-// A diagnosis reports the reach, so its type lives with the report's (types.rs).
-use crate::types::{HumidityReach, Separation};
+use crate::candidates::separation::Separation;
+use crate::evidence::context::Ctx;
+use crate::evidence::laws;
+use crate::humidity::remap::{MIN_RH_SHIFT_PCT, SHIFT_FLOOR_SE, fit_sensor};
 
 /// The longest lag searched [s].
 pub const LONGEST_LAG_S: f64 = 3600.0;
@@ -19,6 +18,22 @@ pub const LONGEST_LAG_S: f64 = 3600.0;
 /// (Nafion's sorption times at room temperature; HTS221/HIH-4030 accuracy).
 pub const LAB_LAG_S: f64 = 60.0;
 pub const LAB_OFFSET_PCT: f64 = 1.5;
+
+/// The recording's reach on the humidity path (what `reach` finds).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct HumidityReach {
+    /// The shortest hydration lag [s] that moves some level by
+    /// [`crate::humidity::remap::MIN_RH_SHIFT_PCT`] at the levels' timing (None without times, or when no
+    /// lag up to [`crate::humidity::reach::LONGEST_LAG_S`] does).
+    pub shortest_lag_s: Option<f64>,
+    /// Whether a level is revisited in the other sweep direction (a lag's hysteresis).
+    pub both_directions: bool,
+    /// The smallest sensor offset [%RH] the levels could name: the floor plus
+    /// [`crate::humidity::remap::SHIFT_FLOOR_SE`] standard errors of the offset fitted to every level.
+    pub smallest_offset_pct: f64,
+    /// What would carry the lab-sized effects this recording cannot (None when it carries both).
+    pub measurement: Option<Separation>,
+}
 
 pub(crate) fn reach(ctx: &Ctx) -> HumidityReach {
     let levels = &ctx.data.levels;

@@ -2,9 +2,9 @@
 //! per-level base fits of the plain model and the humidity laws' weights, and the plain model's
 //! figures every candidate is scored against.
 
-use crate::data::Dataset;
+use crate::evidence::laws::{LawWeights, Regressors};
 use crate::fits::{self, BaseFits, LevelSigmas, Mask, Theta};
-use crate::laws::{LawWeights, Regressors};
+use crate::input::data::Dataset;
 use anyhow::Result;
 use ipmc_core::Calibration;
 use ipmc_core::model::extension::Extension;
@@ -20,7 +20,7 @@ pub(crate) struct Ctx<'a> {
     /// The humidity as read, the regressor of the plain laws.
     pub read: Regressors,
     pub weights: LawWeights,
-    /// ∂θ/∂RH of the calibration at each level's reading ([`crate::laws::read_gradient`]).
+    /// ∂θ/∂RH of the calibration at each level's reading ([`crate::evidence::laws::read_gradient`]).
     pub read_gradient: Vec<Theta>,
     /// The instrument's channels as the plain model left them, for a model candidate's joint
     /// fit to move under their prior (None: every tolerance zero).
@@ -71,7 +71,7 @@ impl<'a> Ctx<'a> {
         let base = fits::fit_levels(calib, levels, &sig, &all, &none, &first.theta)?;
         let read = Regressors { x: levels.iter().map(|l| l.rh_pct).collect(), temperature: None };
         let weights = LawWeights::estimate(&read, &base.theta, &base.se);
-        let read_gradient = crate::laws::read_gradient(calib, &read.x);
+        let read_gradient = crate::evidence::laws::read_gradient(calib, &read.x);
         Ok((
             Ctx {
                 calib,

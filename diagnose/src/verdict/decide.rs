@@ -3,12 +3,12 @@
 //!
 //! Every hypothesis the evidence supports gets a probability ([`posterior`]): "none" (no
 //! extension) and each candidate that lowers the held-out χ² with a paired significance over
-//! levels z ≥ [`MIN_HELDOUT_Z`] (a weak gate: the held-out differences between levels are
+//! levels z ≥ [`crate::candidates::score::MIN_HELDOUT_Z`] (a weak gate: the held-out differences between levels are
 //! heavy-tailed, a few levels carry an effect that grows with humidity or temperature, so the
 //! strong evidence is the information criterion). A hypothesis is stated alone only when it
 //! holds [`CONFIDENCE`] of the probability (a candidate also needs ΔBIC ≥ [`MIN_DELTA_BIC`] and
 //! to pass its kind's floor: a humidity remap must move some level by
-//! [`crate::remap::MIN_RH_SHIFT_PCT`], mains lines must stand out from their neighbours). A floor
+//! [`crate::humidity::remap::MIN_RH_SHIFT_PCT`], mains lines must stand out from their neighbours). A floor
 //! says the candidate would not be worth naming, not that the data do not favour it: removed
 //! from the probabilities, its evidence would pass to whichever hypothesis it resembles, so it
 //! keeps its probability and blocks only its own naming; otherwise the verdict is
@@ -19,15 +19,16 @@
 //! remainder reported.
 
 use crate::candidates::Candidate;
-use crate::context::{Baseline, Ctx, Fitted};
+use crate::candidates::effect::NONE;
+use crate::candidates::score::{Estimate, MIN_DELTA_BIC, Score, Space};
+use crate::candidates::separation::{Separation, separating, separating_measurement};
+use crate::evidence::context::{Baseline, Ctx, Fitted};
+use crate::evidence::held_out::{per_level_scores, weighted_mean};
+use crate::evidence::level_bootstrap::{Evidence, averaged_posterior};
 use crate::fits;
-use crate::held_out::{per_level_scores, weighted_mean};
-use crate::level_bootstrap::{Evidence, averaged_posterior};
-use crate::types::{Alternative, Estimate, Probability, Score, Separation, Space, Verdict};
+use crate::verdict::types::{Alternative, Probability, Verdict};
 use ipmc_core::model::extension::Extension;
 
-/// Very strong evidence on Kass & Raftery's scale (ΔBIC > 10 ⇔ Bayes factor > 150).
-pub const MIN_DELTA_BIC: f64 = 10.0;
 /// A hypothesis is stated alone only when it holds this much of the probability; otherwise the
 /// verdict is `undecided` and the smallest set holding it is reported.
 pub const CONFIDENCE: f64 = 0.9;
@@ -39,15 +40,13 @@ pub const CONFIDENCE: f64 = 0.9;
 pub const PRIOR_NONE: f64 = 0.5;
 /// The scale of the evidence in the probabilities: ln p ∝ ΔBIC / (2·EVIDENCE_SCALE). ΔBIC is
 /// already a quasi-likelihood (divided by the overdispersion) and the probabilities are averaged
-/// over the levels' bootstrap ([`crate::level_bootstrap`]), which is where the candidates'
+/// over the levels' bootstrap ([`crate::evidence::level_bootstrap`]), which is where the candidates'
 /// approximate models and correlated residuals are paid for. Checked on the project's own
 /// `prove` (docs/diagnosis.md): the log score of the truth over 204 cases is −0.547 at 0.5,
 /// −0.559 at 1 and −0.574 at 1.5, flat enough that BIC's own scale is kept, and stated ≥ 90 %
 /// is right 98 % (fr) and 95 % (ts) of the time at 1.
 pub const EVIDENCE_SCALE: f64 = 1.0;
 
-/// Paired improvement of the held-out χ² over levels, in standard errors.
-pub const MIN_HELDOUT_Z: f64 = 0.5;
 /// z of the neighbour correlation of residuals ([`fits::structure_z`]) above which a residual
 /// counts as structured.
 pub const STRUCTURED_Z: f64 = 5.0;
@@ -72,16 +71,13 @@ pub(crate) struct Decision {
     pub separation: Option<Separation>,
 }
 
-/// Name of the hypothesis "no extension" among the probabilities.
-pub const NONE: &str = "none";
-
 /// The probability of each hypothesis: `none` (ΔBIC 0) and every applicable candidate that
 /// passes the held-out gates, floor or not (a candidate that does not predict held-out levels
 /// better is not supported, whatever its ΔBIC), from the prior ([`PRIOR_NONE`], the rest shared
 /// by `n_effects`, an effect's share split between its forms) and the evidence
 /// exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of the marginal likelihood, Kass &
 /// Raftery 1995; on the data ΔBIC is divided by the overdispersion `c_hat`), averaged over the
-/// levels' bootstrap ([`crate::level_bootstrap`]: how much of a lead the `n_levels` levels
+/// levels' bootstrap ([`crate::evidence::level_bootstrap`]: how much of a lead the `n_levels` levels
 /// share). Most probable first.
 pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64) -> Vec<Probability> {
     let ln_prior_effect = ((1.0 - PRIOR_NONE) / n_effects.max(1) as f64).ln();
@@ -331,7 +327,7 @@ pub(crate) fn decide(
                 heldout: b.heldout,
                 heldout_z: b.heldout_z,
                 heldout_z_vs_verdict: shared_null
-                    .then(|| crate::held_out::paired_z(&b.heldout_per_level, &s.heldout_per_level, &base.counts)),
+                    .then(|| crate::evidence::held_out::paired_z(&b.heldout_per_level, &s.heldout_per_level, &base.counts)),
                 separate_by: separating_measurement(&s.name, &b.name),
                 probability: probability_of(&b.name),
             }
@@ -394,83 +390,6 @@ pub fn overdispersion(scores: &[Score], chi2_0: f64, dof_0: f64) -> f64 {
     best.max(1.0)
 }
 
-/// The measurement that would separate two hypotheses the data cannot tell apart (`none` is
-/// one of them when the data lean to a candidate without the evidence to name it), as data.
-pub fn separating(a: &str, b: &str) -> Separation {
-    let pair = |x: &str, y: &str| (a == x && b == y) || (a == y && b == x);
-    let has = |x: &str| a == x || b == x;
-    let (record, band, because) = if pair("current_timing", "amplifier_bandwidth") {
-        (
-            "the current response, or the amplifier alone with a test current",
-            "to ≥ 1 kHz",
-            "a pole rolls the current's gain off and its phase bends away from a line in f; a delay's does not",
-        )
-    } else if pair("electrode_resistance", "amplifier_bandwidth") || pair("electrode_resistance", "current_timing") {
-        (
-            "the amplifier with a test current through a known capacitor, or the electrodes' surface resistance (four-point probe)",
-            "past 1/(2πτ), ≥ 1 kHz",
-            "the amplifier's pole stays with a capacitor, the electrodes' line goes; an RC line's phase tends to −45°, a pole's to −90°",
-        )
-    } else if pair("viscoelastic_relaxation", "air_loading") {
-        (
-            "the same sweep in vacuum or at reduced pressure, or a sweep through the second mode",
-            "10–400 Hz",
-            "air loading goes with the air, the polymer's law stays; the two scale differently at the second mode",
-        )
-    } else if has("tip_mass")
-        && (has("air_loading") || has("viscoelastic_relaxation") || has("clamp_compliance") || has("hysteretic_damping") || has(NONE))
-    {
-        (
-            "a sweep through the second mode, or the tip weighed",
-            "to ≥ 250 Hz (≈ 6.3 f₁)",
-            "a tip mass lowers the second mode far more than the first",
-        )
-    } else if has("clamp_compliance") {
-        ("a sweep through the second mode, or the root's rotation", "to ≥ 250 Hz (≈ 6.3 f₁)", "a clamp's compliance shows as root slope")
-    } else if has("temperature") {
-        (
-            "the temperature per point, or the session held within ±0.5 K",
-            "every level",
-            "the humidity candidates and a drifting room move the same parameters",
-        )
-    } else if pair("hydration_lag", "humidity_sensor_error") {
-        (
-            "levels revisited in both sweep directions with a dwell of ≥ 3 lags, or the sensor at a saturated-salt reference",
-            "every level, both directions",
-            "a lag's error changes sign with the sweep's direction and fades with the dwell, an offset does neither",
-        )
-    } else if has("hydration_lag") {
-        (
-            "a down sweep after the up sweep (or levels revisited), each level with a dwell of ≥ 3 lags",
-            "every level, both directions",
-            "a lag shows as hysteresis between directions and as settling within a level's window",
-        )
-    } else if has("humidity_sensor_error") {
-        (
-            "the sensor at a saturated-salt reference (e.g. NaCl, 75.3 %RH) or beside a reference hygrometer",
-            "one or two humidities",
-            "an offset or gain of the reading is fixed by a known humidity; the strip cannot tell it from its laws alone",
-        )
-    } else if has("tip_timing") {
-        ("the tip sensor's delay against a reference (a step, or an accelerometer at the tip)", "to ≥ 1 kHz", "a delay's phase grows in f")
-    } else if has("mains_interference") {
-        ("a recording with the shaker off, or the excitation lines moved off 50/60 Hz", "45–185 Hz", "mains lines stay without the drive")
-    } else if has("capacitive_feedthrough") {
-        ("a recording with the strip disconnected, or the current input shielded", "the same band", "feedthrough stays without the strip")
-    } else {
-        ("more humidity levels, a wider band, or a second session in the other sweep direction", "10–400 Hz", "more data")
-    };
-    let mut between = [a.to_string(), b.to_string()];
-    between.sort();
-    Separation { between, record: record.into(), band: band.into(), because: because.into() }
-}
-
-/// [`separating`] in words.
-pub fn separating_measurement(a: &str, b: &str) -> String {
-    let m = separating(a, b);
-    format!("{} ({}): {}", m.record, m.band, m.because)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -504,8 +423,7 @@ mod tests {
         score(name, 0.0, delta_bic, true)
     }
 
-    /// Probabilities sum to one; a candidate failing the held-out gates gets none; the
-    /// separating measurement does not depend on the order of the pair.
+    /// Probabilities sum to one; a candidate failing the held-out gates gets none.
     #[test]
     fn probabilities_cover_the_supported_hypotheses() {
         let scores = [gated("a", 30.0), gated("b", 20.0), score("c", 0.0, 50.0, false)];
@@ -514,13 +432,6 @@ mod tests {
         assert!((p.iter().map(|p| p.probability).sum::<f64>() - 1.0).abs() < 1e-12);
         assert_eq!(p[0].name, "a");
         assert!(p.iter().all(|p| p.name != "c"));
-        for (a, b) in
-            [("current_timing", "amplifier_bandwidth"), ("viscoelastic_relaxation", "air_loading"), ("temperature", "hydration_lag")]
-        {
-            assert_eq!(separating(a, b), separating(b, a));
-        }
-        assert!(separating("current_timing", "amplifier_bandwidth").band.contains("1 kHz"));
-        assert!(separating_measurement("none", "temperature").contains("temperature"));
     }
 
     /// The smallest set holding CONFIDENCE: one hypothesis far ahead stands alone; two a few

@@ -8,8 +8,8 @@
 //! between levels that no law explains (estimated once, under the plain law, and then held for
 //! every candidate so that their χ² are comparable).
 
-use super::data::{LevelData, RhHistory};
-use super::fits::{BASE, Theta};
+use crate::fits::{BASE, Theta};
+use crate::input::data::{LevelData, RhHistory};
 use ipmc_core::calibration::humidity_path::{HumidityPath, Hydration};
 use ipmc_fit::laws::{Singular, weighted_least_squares};
 use ipmc_fit::scalar::minimize_log;
@@ -262,7 +262,7 @@ pub fn read_gradient(calib: &ipmc_core::Calibration, rh: &[f64]) -> Vec<Theta> {
     const STEP: f64 = 0.5;
     rh.iter()
         .map(|&h| {
-            let (a, b) = (super::fits::calibration_theta(calib, h + STEP), super::fits::calibration_theta(calib, h - STEP));
+            let (a, b) = (crate::fits::calibration_theta(calib, h + STEP), crate::fits::calibration_theta(calib, h - STEP));
             std::array::from_fn(|j| (a[j] - b[j]) / (2.0 * STEP))
         })
         .collect()

@@ -4,10 +4,10 @@
 //! offset and gain beside a short lag take its hysteresis for a span error), and what goes
 //! into a calibration is the path, not the one part the verdict names.
 
-use crate::context::Ctx;
+use crate::evidence::context::Ctx;
+use crate::evidence::laws::{self, LawWeights, Regressors};
 use crate::fits;
-use crate::laws::{self, LawWeights, Regressors};
-use crate::remap::{SensorFit, Uncertainty, fit_sensor_parsimonious};
+use crate::humidity::remap::{SensorFit, Uncertainty, fit_sensor_parsimonious};
 use ipmc_core::calibration::humidity_path::HumidityPath;
 use ipmc_core::model::extension::Extension;
 use ipmc_fit::scalar::minimize_log;
@@ -66,7 +66,7 @@ fn path_rh(ctx: &Ctx, path: &HumidityPath) -> Vec<f64> {
 /// in variance, so their likelihood gains are divided by it before BIC prices a parameter.
 fn fit_once(ctx: &Ctx, c_hat: f64) -> HumidityPath {
     let references = &ctx.data.references;
-    let reference = crate::sensor_reference::SensorReference::of(references);
+    let reference = crate::humidity::sensor_reference::SensorReference::of(references);
     let mut path = fit_levels(ctx, c_hat, reference.as_ref());
     // Read at references, the sensor's correction is known to its own precision: a corrected
     // reading is as uncertain as that correction and one reading's scatter together.
@@ -78,7 +78,7 @@ fn fit_once(ctx: &Ctx, c_hat: f64) -> HumidityPath {
     path
 }
 
-fn fit_levels(ctx: &Ctx, c_hat: f64, reference: Option<&crate::sensor_reference::SensorReference>) -> HumidityPath {
+fn fit_levels(ctx: &Ctx, c_hat: f64, reference: Option<&crate::humidity::sensor_reference::SensorReference>) -> HumidityPath {
     let everyone: Vec<usize> = (0..ctx.n_levels()).collect();
     // BIC's price of one more parameter of the path, on the levels' four parameters each.
     let penalty = c_hat * (4.0 * everyone.len() as f64).ln();

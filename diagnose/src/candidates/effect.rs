@@ -5,6 +5,9 @@
 use std::fmt;
 use std::str::FromStr;
 
+/// Name of the hypothesis "no extension" among the probabilities, beside the effects' names.
+pub const NONE: &str = "none";
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Effect {
     ClampCompliance,

@@ -66,13 +66,13 @@ impl Dataset {
     /// Reads the recording files into the levels a diagnosis fits, at the humidity `path` says
     /// the strip felt (the calibration's `[humidity]`).
     pub fn read(paths: &[std::path::PathBuf], path: &HumidityPath) -> anyhow::Result<Self> {
-        let files = crate::strip_files::read(paths)?;
+        let files = crate::input::strip_files::read(paths)?;
         Ok(Dataset::of(&files.iter().collect::<Vec<_>>(), path))
     }
 
     /// The dataset of `files` (sessions in the order given; references beside them).
-    pub fn of(files: &[&crate::strip_files::StripFile], path: &HumidityPath) -> Self {
-        use crate::strip_files::Content;
+    pub fn of(files: &[&crate::input::strip_files::StripFile], path: &HumidityPath) -> Self {
+        use crate::input::strip_files::Content;
         let mut recs = Vec::new();
         let mut bursts = Vec::new();
         let mut references = Vec::new();

@@ -1,15 +1,16 @@
 //! Hydration lag: the levels' parameters follow the calibration at the humidity behind a
 //! first-order lag τ of the readings; held out, τ fitted on the other levels.
 
-use super::trial::{Candidacy, Scorer, Trial, estimates};
 use crate::candidates::Candidate;
-use crate::context::{Baseline, Ctx};
-use crate::laws;
-use crate::remap::{self, Remap, anchored_nll, fit_lag};
-use crate::types::Space;
+use crate::candidates::score::Space;
+use crate::candidates::trial::{Candidacy, Scorer, Trial, estimates};
+use crate::evidence::anchored::anchored_nll;
+use crate::evidence::context::{Baseline, Ctx};
+use crate::evidence::laws;
+use crate::humidity::remap::{self, Remap, fit_lag};
 use anyhow::Result;
 
-pub(super) struct HydrationLagScorer;
+pub(crate) struct HydrationLagScorer;
 
 impl Scorer for HydrationLagScorer {
     fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial> {

@@ -6,16 +6,16 @@
 //! references' χ² gained joins the levels'. The references are independent of every level, so
 //! a held-out level is scored with them in its training data.
 
-use super::trial::{Candidacy, Scorer, Trial, estimates};
 use crate::candidates::Candidate;
-use crate::context::{Baseline, Ctx};
-use crate::laws;
-use crate::remap::{self, Remap, SensorFit, fit_sensor};
-use crate::sensor_reference::{ReferenceFit, SensorReference, with_references};
-use crate::types::Space;
+use crate::candidates::score::Space;
+use crate::candidates::trial::{Candidacy, Scorer, Trial, estimates};
+use crate::evidence::context::{Baseline, Ctx};
+use crate::evidence::laws;
+use crate::humidity::remap::{self, Remap, SensorFit, fit_sensor};
+use crate::humidity::sensor_reference::{ReferenceFit, SensorReference, with_references};
 use anyhow::Result;
 
-pub(super) struct SensorErrorScorer;
+pub(crate) struct SensorErrorScorer;
 
 impl Scorer for SensorErrorScorer {
     fn trial(&self, ctx: &Ctx, cand: &Candidate, base: &Baseline) -> Result<Trial> {
@@ -54,9 +54,9 @@ impl Scorer for SensorErrorScorer {
         // (Stouffer's z over the two): a correction the references fix is tested on data the
         // levels' test never sees, and a few noisy levels alone would veto what three jars show.
         let own_heldout_z = reference.as_ref().map(|refs| {
-            let z_levels = crate::held_out::paired_z(
-                &crate::held_out::per_level_scores(&r.held.null),
-                &crate::held_out::per_level_scores(&r.held.candidate),
+            let z_levels = crate::evidence::held_out::paired_z(
+                &crate::evidence::held_out::per_level_scores(&r.held.null),
+                &crate::evidence::held_out::per_level_scores(&r.held.candidate),
                 &base.counts,
             );
             (z_levels + refs.heldout_z(ReferenceFit::from(&own))) / 2f64.sqrt()

@@ -2,12 +2,15 @@
 //! cannot separate from the verdict, the humidity path's reach, per-level summaries and the
 //! models the figures draw.
 
-use crate::effect::Effect;
-use crate::fits::{Mask, Noise};
-use crate::locate::Located;
+use crate::candidates::effect::Effect;
+use crate::candidates::score::{Estimate, Score};
+use crate::candidates::separation::Separation;
+use crate::evidence::held_out::HeldOutModel;
+use crate::evidence::locate::Located;
+use crate::fits::Noise;
+use crate::humidity::reach::HumidityReach;
 use ipmc_core::Calibration;
 use ipmc_core::calibration::humidity_path::{HumidityPath, SensorKind};
-use ipmc_core::model::extension::Extension;
 use ipmc_recording::Protocol;
 use std::fmt;
 
@@ -18,7 +21,7 @@ pub enum Verdict {
     None,
     /// A structured residual no candidate explains.
     Unexplained,
-    /// No hypothesis alone holds [`crate::decide::CONFIDENCE`] of the probability: the data lean
+    /// No hypothesis alone holds [`crate::verdict::decide::CONFIDENCE`] of the probability: the data lean
     /// to a set of them ([`Diagnosis::set`]) and a measurement would separate it.
     Undecided,
     /// The candidate for this effect explains the mismatch.
@@ -68,68 +71,6 @@ impl serde::Serialize for Verdict {
     }
 }
 
-/// What a candidate's χ² and BIC are computed on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub enum Space {
-    /// The measured values (model and mains candidates).
-    #[serde(rename = "data")]
-    Data,
-    /// The per-level base parameters (candidates acting through the humidity).
-    #[serde(rename = "level parameters")]
-    LevelParameters,
-    /// The candidate could not be tested on these recordings.
-    #[serde(rename = "")]
-    NotTested,
-}
-
-/// One candidate's fitted parameter.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Estimate {
-    pub name: String,
-    pub unit: String,
-    pub value: f64,
-    pub std_error: f64,
-}
-
-/// A candidate's scores.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Score {
-    pub name: String,
-    /// Which form of the effect, where the library fits more than one (else empty).
-    pub form: String,
-    pub family: String,
-    /// Whether the data allow testing it (times for hydration, varying temperature…).
-    pub applicable: bool,
-    pub params: Vec<Estimate>,
-    /// χ² improvement over no extension (data or per-level parameters, see `space`).
-    pub delta_chi2: f64,
-    /// `delta_chi2` level by level where the fit decomposes so (model candidates), else empty.
-    pub delta_chi2_per_level: Vec<f64>,
-    pub extra_params: usize,
-    pub delta_bic: f64,
-    pub space: Space,
-    pub heldout: f64,
-    pub heldout_per_level: Vec<f64>,
-    /// The same held-out score of the candidate's null (no extension, the humidity as read).
-    pub heldout_null: f64,
-    pub heldout_null_per_level: Vec<f64>,
-    pub heldout_z: f64,
-    /// `heldout_z` is of a held-out test of the candidate's own outside the levels' responses
-    /// (mains between a time series' lines, burst by burst); the levels' held-out χ² need not fall.
-    pub heldout_between_lines: bool,
-    pub passes: bool,
-    pub note: String,
-    /// The held-out gates passed: the candidate's evidence is weighed in the probabilities.
-    /// `passes` is this, no floor and ΔBIC ≥ [`crate::decide::MIN_DELTA_BIC`] once ΔBIC is
-    /// corrected for overdispersion.
-    #[serde(skip)]
-    pub other_gates: bool,
-    /// Its kind's floor (a humidity shift too small to matter, lines no worse than their
-    /// neighbours) keeps it from being named; it keeps its probability.
-    #[serde(skip)]
-    pub below_floor: bool,
-}
-
 /// A candidate the data cannot separate from the verdict, with the evidence.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Alternative {
@@ -153,35 +94,6 @@ pub struct Alternative {
 pub struct Probability {
     pub name: String,
     pub probability: f64,
-}
-
-/// The measurement that would separate two hypotheses the data cannot tell apart, as data.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Separation {
-    /// The two hypotheses it separates.
-    pub between: [String; 2],
-    /// What to record.
-    pub record: String,
-    /// Over which band or span.
-    pub band: String,
-    /// Why it separates them.
-    pub because: String,
-}
-
-/// The recording's reach on the humidity path ([`crate::humidity_reach`]).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct HumidityReach {
-    /// The shortest hydration lag [s] that moves some level by
-    /// [`crate::remap::MIN_RH_SHIFT_PCT`] at the levels' timing (None without times, or when no
-    /// lag up to [`crate::humidity_reach::LONGEST_LAG_S`] does).
-    pub shortest_lag_s: Option<f64>,
-    /// Whether a level is revisited in the other sweep direction (a lag's hysteresis).
-    pub both_directions: bool,
-    /// The smallest sensor offset [%RH] the levels could name: the floor plus
-    /// [`crate::remap::SHIFT_FLOOR_SE`] standard errors of the offset fitted to every level.
-    pub smallest_offset_pct: f64,
-    /// What would carry the lab-sized effects this recording cannot (None when it carries both).
-    pub measurement: Option<Separation>,
 }
 
 /// One of the instrument's channels as the plain model fitted it, with the prior it had.
@@ -248,31 +160,6 @@ pub struct LevelSummary {
     pub heldout_after: f64,
 }
 
-/// The model that scored one level held out (see the module's doc for each kind of candidate).
-#[derive(Clone, Debug)]
-pub struct HeldOutModel {
-    pub params: ipmc_core::Params<f64>,
-    pub extension: Extension<f64>,
-    /// Values scored with their variance σ² multiplied by the factor: the mains candidate's line
-    /// points, by 1 + the interference power of the other levels.
-    pub inflated: Option<(Mask, f64)>,
-    /// The level's held-out score: (Σ (residual/σ)² over all its values, σ inflated where
-    /// `inflated` says, + [`HeldOutModel::normalization`]) / number of residuals.
-    pub chi2_per_residual: f64,
-    /// The instrument's channels as the candidate moved them beside its own fit, on top of
-    /// those every candidate is scored with: the level this model scores is the recording with
-    /// them taken out too (None: no move).
-    pub channels: Option<crate::fits::Channels>,
-}
-
-impl HeldOutModel {
-    /// The inflated variance's share of −2 ln L (m ln factor for m inflated residuals): without
-    /// it, inflating σ would lower the score for free.
-    pub fn normalization(&self) -> f64 {
-        self.inflated.as_ref().map_or(0.0, |(mask, factor)| mask.count() as f64 * factor.ln())
-    }
-}
-
 /// The models a level's figures draw.
 #[derive(Clone, Debug)]
 pub struct LevelModels {
@@ -289,9 +176,9 @@ pub struct LevelModels {
 pub struct Diagnosis {
     pub verdict: Verdict,
     /// Every hypothesis the evidence supports (`none` and each candidate passing the held-out
-    /// gates) with its probability, most probable first ([`crate::decide::posterior`]).
+    /// gates) with its probability, most probable first ([`crate::verdict::decide::posterior`]).
     pub probabilities: Vec<Probability>,
-    /// The smallest set of hypotheses holding [`crate::decide::CONFIDENCE`] of the probability:
+    /// The smallest set of hypotheses holding [`crate::verdict::decide::CONFIDENCE`] of the probability:
     /// the verdict alone when it is named (or `none`).
     pub set: Vec<String>,
     /// What would separate the set's two most probable members (None when one alone holds it).
@@ -303,7 +190,7 @@ pub struct Diagnosis {
     pub channels: crate::fits::Channels,
     /// The candidates in [`Diagnosis::set`] other than the verdict.
     pub indistinguishable: Vec<Alternative>,
-    /// Overdispersion ĉ of the data's χ² (see [`crate::decide::overdispersion`]) that data-space ΔBIC are divided by.
+    /// Overdispersion ĉ of the data's χ² (see [`crate::verdict::decide::overdispersion`]) that data-space ΔBIC are divided by.
     pub overdispersion: f64,
     pub family: String,
     /// The named candidate's form, where its effect has more than one (else empty).
@@ -322,7 +209,7 @@ pub struct Diagnosis {
     pub heldout_before_is: String,
     pub heldout_after_is: Option<String>,
     /// When the verdict is a part of the humidity path (hydration lag, sensor error): the whole
-    /// path fitted at once (see [`crate::humidity_path::fit`]), relative to the humidity the levels are
+    /// path fitted at once (see [`crate::humidity::path::fit`]), relative to the humidity the levels are
     /// at (the readings through the calibration's own path).
     pub humidity_path: Option<HumidityPath>,
     /// The shortest lag and smallest sensor offset this recording could name, and what would

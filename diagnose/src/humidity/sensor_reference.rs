@@ -7,7 +7,7 @@
 //! references, each its mean reading with variance σ_ref² + g²·s²/n. Twenty readings of one jar
 //! fix that jar's reading, not the sensor's offset, to better than the jar's humidity is known.
 
-use crate::laws::{SENSOR_PIVOT_PCT, mapped_rh};
+use crate::evidence::laws::{SENSOR_PIVOT_PCT, mapped_rh};
 use ipmc_recording::HumidityReference;
 
 /// One reference: its humidity, the sensor's mean reading there and that mean's variance from
@@ -87,7 +87,7 @@ impl SensorReference {
             null.push(one.chi2(0.0, 1.0));
             candidate.push(one.chi2(fit.offset, fit.gain));
         }
-        crate::held_out::paired_z(&null, &candidate, &vec![1.0; n])
+        crate::evidence::held_out::paired_z(&null, &candidate, &vec![1.0; n])
     }
 
     /// How many references (the units of the evidence).
@@ -143,10 +143,10 @@ impl SensorReference {
     }
 }
 
-impl From<&crate::remap::SensorFit> for ReferenceFit {
+impl From<&crate::humidity::remap::SensorFit> for ReferenceFit {
     /// The levels' own estimate in the references' terms (a gain held at 1 carries no
     /// information on the gain).
-    fn from(s: &crate::remap::SensorFit) -> Self {
+    fn from(s: &crate::humidity::remap::SensorFit) -> Self {
         ReferenceFit {
             offset: s.offset,
             gain: s.gain,
@@ -157,7 +157,7 @@ impl From<&crate::remap::SensorFit> for ReferenceFit {
 }
 
 /// The levels' estimate `s` with the references' (when any) as one.
-pub(crate) fn with_references(s: &crate::remap::SensorFit, reference: Option<&SensorReference>) -> ReferenceFit {
+pub(crate) fn with_references(s: &crate::humidity::remap::SensorFit, reference: Option<&SensorReference>) -> ReferenceFit {
     let own = ReferenceFit::from(s);
     reference.map_or(own, |r| combine(own, r.fit()))
 }

@@ -5,7 +5,7 @@
 //! Parameters are fitted in display units (ms, Ω, %RH…) so that every fitted number is of order
 //! one to a thousand: the fitter's finite-difference steps are absolute for unbounded parameters.
 
-use crate::effect::Effect;
+use crate::candidates::effect::Effect;
 use ipmc_core::Params;
 use ipmc_core::model::extension::Extension;
 use ipmc_fit::lsq::Bound;

@@ -1,0 +1,20 @@
+//! The fits a diagnosis makes near the calibration, each with a model extension held and a mask
+//! of the values that take part: the base model per humidity level, the noise from neighbouring
+//! points, the instrument's channels with their tolerances as priors, and a candidate's global
+//! parameters jointly with every level's. Least squares, levels and responses are
+//! `ipmc_fit`'s; every model value is `ipmc_core`'s.
+
+pub mod base;
+pub mod instrument;
+pub mod joint;
+pub mod noise;
+#[cfg(test)]
+mod test_levels;
+
+pub use base::{
+    BASE, BaseFits, LevelSigmas, Mask, PerPoint, RefitError, Theta, calibration_theta, chi2, fit_level, fit_levels, level_params,
+    log_ratios, unit_sigmas, write_residuals,
+};
+pub use instrument::{ChannelPrior, Channels, InstrumentFit, fit_instrument, shift_residuals};
+pub use joint::{ChannelStart, Extend, JointFit, fit_joint, inside_tight};
+pub use noise::{Noise, estimate_noise, sigmas, structure_z};
