@@ -57,7 +57,7 @@ fn main() -> ExitCode {
          /// this firmware's humidity sensor.\n\
          pub const ERROR_TABLE: ipmc_core::inverse::expected_error::ErrorTable = {};\n\
          /// The band's filter at the firmware's rate, designed here so that the device never\n\
-         /// designs one (`ipmc_core::Compensator::passthrough_designed`).\n\
+         /// designs one (`ipmc_core::Compensator::keep_band_designed`).\n\
          pub const BAND: ipmc_core::band::BandCoefficients<'static, f32> = {};\n\
          /// Samples the estimate lags the base motion by (`ipmc_core::firmware::operating_point::delay_samples`),\n\
          /// counted here: on the device the band's plan takes f64 arithmetic in software.\n\

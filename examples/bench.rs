@@ -8,7 +8,7 @@
 //! is measured, not assumed: two asm loops of `nop`s whose instruction counts are known exactly
 //! are timed and their difference gives instructions per tick. DWT CYCCNT is not emulated.
 //!
-//! Output (semihosting stdout), one `key value` per line, read by xtask/src/bench.rs.
+//! Output (semihosting stdout), one `key value` per line, read by xtask/src/firmware/bench.rs.
 //!
 //! The per-sample path is the firmware's: ADC code → amperes with the clip check
 //! (src/contract/current_conversion.rs, the same file) and `Compensator::process_block` per block of

@@ -1,12 +1,14 @@
-//! The firmware's compensation chain run on the host: the f32 [`Compensator`] over blocks of
-//! [`BLOCK_LEN`] samples, retuned when the humidity moves, each block's humidity through the
-//! calibration's humidity path (sensor correction, the strip's hydration lag:
-//! `ipmc_core::humidity::block`) and its expected relative error (`ipmc_core::inverse::expected_error`),
-//! exactly as the firmware runs them; or the firmware's own retune schedule replayed bit for bit.
+//! The firmware's compensation chain run on the host, two ways. [`compensate_scheduled`] replays
+//! a firmware run's own schedule through the firmware's block step (`ipmc_core::firmware::block_step`),
+//! bit for bit. [`compensate`] is the host's chain over a recording of bursts: the f32
+//! [`Compensator`] over blocks of [`BLOCK_LEN`] samples with the block step's filter part, each
+//! block's humidity through the calibration's humidity path (sensor correction, the strip's
+//! hydration lag: `ipmc_core::humidity::block`), a design made at once when the humidity moved
+//! rather than blocks later by a retune task, and a fresh filter for each burst.
 
 use crate::input::checked;
 use anyhow::{Result, anyhow, bail};
-use ipmc_core::firmware::block_step::{BlockInputs, BlockStep};
+use ipmc_core::firmware::block_step::{BlockInputs, BlockStep, Filtered, filter_block};
 use ipmc_core::firmware::operating_point::asks_for_design;
 use ipmc_core::humidity::block::{BlockHumidity, span_s};
 use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
@@ -338,12 +340,10 @@ pub fn compensate(
                 error_bar.humidity_sd(u.slopes, c.rh_pct(), sd as f32);
             }
             let mut block: Vec<f32> = ts.current_a[pos..end].iter().map(|&x| x as f32).collect();
-            let bad_before = c.bad_samples;
-            c.process_block(&mut block);
-            if c.bad_samples != bad_before {
+            let Filtered { bad_sample, rel_err, beyond_pct: beyond } = filter_block(c, &mut error_bar, &mut block);
+            if bad_sample {
                 fl |= flags::BAD_SAMPLE;
             }
-            let (rel_err, beyond) = (error_bar.block(c.rh_pct(), &block), error_bar.beyond_pct());
             let calibration_part = error_bar.parts(c.rh_pct()).0;
             let d = (c.delay_s() as f64 * ts.fs_hz).round() as usize;
             bar.inc(block.len() as u64);

@@ -90,8 +90,7 @@ impl Default for Band {
 /// narrow (designed for 42 dB, the band-pass rippled 0.91 % in band at 2 kHz and 1.08 % at
 /// 3 kHz), so the design asks for 43: the noise a hertz beyond the transitions 42 dB down, about
 /// 10⁴ in power. The lower edge's complement turns its low-pass's stop band into ripple in band,
-/// so the two ripples meet at the lower edge: 0.79 % at most together (the single-rate FIR's
-/// 0.91 %).
+/// so the two ripples meet at the lower edge: 0.79 % at most together.
 pub const ATTENUATION_DB: f64 = 43.0;
 /// Stop-band attenuation of each half-band [dB]. Four of them sit in series with the band-pass
 /// (two down, two up): their ripple in band adds under 0.01 %. What they alias into the band is

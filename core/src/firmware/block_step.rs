@@ -62,6 +62,26 @@ pub struct BlockOutputs {
     pub calibration_part: f32,
 }
 
+/// The filter's part of a block, which every chain runs as the sample path does.
+#[derive(Clone, Copy, Debug)]
+pub struct Filtered {
+    /// A sample was not a measurement and was replaced (`BAD_SAMPLE`).
+    pub bad_sample: bool,
+    /// The block's stated error, 1σ (a fraction), and how far beyond the calibrated range it
+    /// carried the strip [%RH].
+    pub rel_err: f32,
+    pub beyond_pct: f32,
+}
+
+/// The filter's part of a block: `samples` compensated in place, then their stated error. The
+/// host's own chain (designs made at once, a fresh filter per burst) runs this too.
+pub fn filter_block(filter: &mut Compensator<f32>, error_bar: &mut BlockError<f32>, samples: &mut [f32]) -> Filtered {
+    let bad_before = filter.bad_samples;
+    device_calls::process_block(filter, samples);
+    let rel_err = device_calls::block_error(error_bar, filter.rh_pct(), samples);
+    Filtered { bad_sample: filter.bad_samples != bad_before, rel_err, beyond_pct: error_bar.beyond_pct() }
+}
+
 /// The sample path's state from block to block, the filter and the hygrometer borrowed.
 pub struct BlockStep<'a> {
     filter: &'a mut Compensator<f32>,
@@ -171,11 +191,10 @@ impl<'a> BlockStep<'a> {
         if let Some(design) = input.design {
             device_calls::switch_to(self.filter, design);
         }
-        let bad_before = self.filter.bad_samples;
-        device_calls::process_block(self.filter, samples);
-        header.flags |= raise(self.filter.bad_samples != bad_before, flags::BAD_SAMPLE);
-        header.rel_err = device_calls::block_error(&mut self.error_bar, self.filter.rh_pct(), samples);
-        let beyond_pct = self.error_bar.beyond_pct();
+        let filtered = filter_block(self.filter, &mut self.error_bar, samples);
+        header.flags |= raise(filtered.bad_sample, flags::BAD_SAMPLE);
+        header.rel_err = filtered.rel_err;
+        let beyond_pct = filtered.beyond_pct;
         let calibration_part = if self.stating_parts { self.error_bar.parts(self.filter.rh_pct()).0 } else { f32::NAN };
 
         header.flags |= raise(input.rh_read_pct.is_finite() && reading_is_stale(input.reading_age_ms), flags::RH_STALE);

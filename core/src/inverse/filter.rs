@@ -186,18 +186,11 @@ impl<T: Real> Compensator<T> {
         c
     }
 
-    /// [`passthrough`](Self::passthrough) with the band's filter designed beforehand (`design`'s
-    /// coefficients, for `band` at `fs_hz`): the firmware's, baked at build time, so that the
-    /// device never designs a band. Restart it with [`restart_in_band`](Self::restart_in_band).
-    pub fn passthrough_designed<S: Real>(band: &Band, design: &BandCoefficients<'_, S>, fs_hz: T) -> Self {
-        let mut c = Self::unbanded(band, fs_hz);
-        c.keep_band_designed(design);
-        c
-    }
-
-    /// Takes `design`'s coefficients for its band, in place: [`passthrough_designed`](Self::passthrough_designed)
-    /// in two steps, for a caller that makes the compensator where it stays (`unbanded` there,
-    /// then this), so that its stack holds no copy of the band's filter.
+    /// Takes `design`'s coefficients for its band (designed beforehand for the band and rate of
+    /// [`unbanded`](Self::unbanded), e.g. baked at build time), in place: for a caller that makes
+    /// the compensator where it stays (`unbanded` there, then this), so that its stack holds no
+    /// copy of the band's filter and the device never designs a band. Start it with
+    /// [`restart_in_band`](Self::restart_in_band).
     pub fn keep_band_designed<S: Real>(&mut self, design: &BandCoefficients<'_, S>) {
         self.set_rate(self.fs_hz);
         self.band.load(design);
