@@ -23,7 +23,7 @@ use ipmc_core::{
     calibration::uncertainty::Uncertainty,
     calibration_file,
     humidity::spectrum::BinGeometry,
-    humidity::strip::{KEY_EVERY, fill_table, pack_codes, table_nodes},
+    humidity::strip::OwnedTable,
     inverse::expected_error::ErrorTable,
     timing::SAMPLE_RATE_HZ,
 };
@@ -299,16 +299,11 @@ fn error_table_expr(c: &Calibration) -> String {
 }
 
 /// The strip's model at the running spectrum's bins for the firmware's rate
-/// (`ipmc_core::humidity::strip::ModelTable`), as the host tool fills its own: its codes packed,
+/// (`ipmc_core::humidity::strip::ModelTable`), made by the one maker the tool uses too: its codes packed,
 /// f32 by its bits.
 fn model_table_items(c: &Calibration) -> String {
-    let g = BinGeometry::new(SAMPLE_RATE_HZ as f64, &c.band);
-    let nodes = table_nodes(c);
-    let (mut codes, mut sd_cal) = (vec![0u16; nodes * g.bins], vec![0.0f32; nodes]);
-    let scale = fill_table(c, &g, &mut codes, &mut sd_cal);
-    let (mut bytes, mut keys) = (vec![0u8; 3 * codes.len()], vec![0u32; nodes.div_ceil(KEY_EVERY)]);
-    let used = pack_codes(&codes, g.bins, &mut bytes, &mut keys);
-    bytes.truncate(used);
+    let OwnedTable { geometry: g, scale, ln_gain: bytes, keys, sd_cal, .. } = OwnedTable::<f32>::new(c, SAMPLE_RATE_HZ as f64);
+    let nodes = sd_cal.len();
     let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
     let list = |v: &mut dyn Iterator<Item = String>| v.collect::<Vec<_>>().join(",");
     let BinGeometry { decimation, first_bin, bins, df_hz } = g;
