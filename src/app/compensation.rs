@@ -3,7 +3,7 @@
 
 use ipmc_core::{
     Calibration, Compensator, DesignConfig, DesignError, Inverse,
-    firmware::block_step::BlockStep,
+    firmware::block_step::{self, BlockStep},
     firmware::device_calls,
     humidity::hygrometer::{BlockHygrometer, Snapshot, noise_psd},
     humidity::strip::{Refusal, StripRh},
@@ -40,7 +40,7 @@ pub fn design(calibration: &Calibration, rh_pct: f32) -> Result<Inverse<f32>, De
 
 /// The strip's humidity a first reading gives, as the sample path's first block will have it.
 pub fn first_design_rh(rh_read_pct: f32) -> Option<f32> {
-    BlockStep::first_design_rh(calibration(), rh_read_pct)
+    block_step::first_design_rh(calibration(), rh_read_pct)
 }
 
 static FILTER: StaticCell<Compensator<f32>> = StaticCell::new();

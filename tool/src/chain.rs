@@ -124,7 +124,7 @@ pub fn compensate_scheduled(
     let first = design(schedule[0].rh_pct)?;
     let mut filter = Compensator::passthrough(&first.band(), first.fs_hz());
     let mut hygrometer = BlockHygrometer::<f32>::new(calib, ts.fs_hz);
-    let mut step = BlockStep::new(calib, errors, fs, &mut filter, &mut hygrometer, None).stating_parts();
+    let mut step = BlockStep::<true>::new(calib, errors, fs, &mut filter, &mut hygrometer, None);
     step.start(&first, schedule[0].flags & flags::RH_FALLBACK != 0);
     // The strip's own hygrometer's fits, made where the firmware's fit task made them.
     let table = crate::hygrometer::Table::<f32>::new(calib, ts.fs_hz);

@@ -13,6 +13,10 @@
 //! range, and a design asked for when the humidity moved. The filter and the hygrometer are the
 //! two large parts (17 and 11 KiB in f32): the step borrows them, so that the firmware can make
 //! each in its own static, in place, and the step itself stays small.
+//!
+//! The step's own functions are `#[inline]`: compiled in the crate that calls them, at its
+//! opt-level (the firmware's is built for size), while the per-sample work they call is the
+//! core's, at its own ([`device_calls`]).
 
 use crate::calibration::humidity_path::HumidityMode;
 use crate::calibration::laws::Calibration;
@@ -55,9 +59,9 @@ pub struct BlockOutputs {
     pub fit_request: Option<Snapshot<f32>>,
     /// A design to make, the humidity having moved.
     pub retune: Option<Request>,
-    /// The stated error's two parts as the block's 1σ had them: how far beyond the calibrated
-    /// range it carried the strip [%RH], and the calibration's part (NaN unless asked for with
-    /// [`BlockStep::stating_parts`]: the device streams only their sum).
+    /// The stated error's parts as the block's 1σ had them: how far beyond the calibrated range
+    /// it carried the strip [%RH], and the calibration's part (NaN in a step that does not state
+    /// it, `PARTS` false: the device streams only the whole).
     pub beyond_pct: f32,
     pub calibration_part: f32,
 }
@@ -75,6 +79,7 @@ pub struct Filtered {
 
 /// The filter's part of a block: `samples` compensated in place, then their stated error. The
 /// host's own chain (designs made at once, a fresh filter per burst) runs this too.
+#[inline]
 pub fn filter_block(filter: &mut Compensator<f32>, error_bar: &mut BlockError<f32>, samples: &mut [f32]) -> Filtered {
     let bad_before = filter.bad_samples;
     device_calls::process_block(filter, samples);
@@ -82,8 +87,17 @@ pub fn filter_block(filter: &mut Compensator<f32>, error_bar: &mut BlockError<f3
     Filtered { bad_sample: filter.bad_samples != bad_before, rel_err, beyond_pct: error_bar.beyond_pct() }
 }
 
+/// The strip's humidity a first reading `rh_read_pct` gives the first block, before any:
+/// what the start-up designs for (None: no humidity in it).
+#[inline]
+pub fn first_design_rh(calibration: &Calibration, rh_read_pct: f32) -> Option<f32> {
+    BlockHumidity::<f32>::new(calibration, reading_age_s()).advance(rh_read_pct, 0.0).map(|first| first.rh_pct)
+}
+
 /// The sample path's state from block to block, the filter and the hygrometer borrowed.
-pub struct BlockStep<'a> {
+/// `PARTS`: each block's outputs carry the calibration's part of its 1σ (the host's estimate
+/// files); the device's step, without, has no code for it.
+pub struct BlockStep<'a, const PARTS: bool = false> {
     filter: &'a mut Compensator<f32>,
     hygrometer: &'a mut BlockHygrometer<f32>,
     /// One second of identical samples is no live front end.
@@ -104,13 +118,13 @@ pub struct BlockStep<'a> {
     first_sample: u32,
     fs_hz: u32,
     setup: Option<Setup>,
-    stating_parts: bool,
 }
 
-impl<'a> BlockStep<'a> {
+impl<'a, const PARTS: bool> BlockStep<'a, PARTS> {
     /// For `calibration`'s chain at `fs_hz` (a whole number of hertz, as on the device), its
     /// stated error from `errors`; `filter` passes through until [`start`](Self::start). `setup`
     /// goes into every header.
+    #[inline]
     pub fn new(
         calibration: &Calibration,
         errors: &ErrorTable,
@@ -134,24 +148,12 @@ impl<'a> BlockStep<'a> {
             first_sample: 0,
             fs_hz,
             setup,
-            stating_parts: false,
         }
-    }
-
-    /// Each block's outputs carry the calibration's part of its 1σ (the host's estimate files).
-    pub fn stating_parts(mut self) -> Self {
-        self.stating_parts = true;
-        self
-    }
-
-    /// The strip's humidity a first reading `rh_read_pct` gives the first block, before any:
-    /// what the start-up designs for (None: no humidity in it).
-    pub fn first_design_rh(calibration: &Calibration, rh_read_pct: f32) -> Option<f32> {
-        BlockHumidity::<f32>::new(calibration, reading_age_s()).advance(rh_read_pct, 0.0).map(|first| first.rh_pct)
     }
 
     /// Starts on the first design, in place; `fallback`: it is the start-up's fallback. Every
     /// design is the calibration's, at its band and this rate, which the filter keeps.
+    #[inline]
     pub fn start(&mut self, first: &Inverse<f32>, fallback: bool) {
         let kept = self.filter.restart_in_band(first);
         debug_assert!(kept, "a design for another band or rate than the filter's");
@@ -161,7 +163,7 @@ impl<'a> BlockStep<'a> {
 
     /// One block: `samples` holds its current [A] and leaves with its estimates [m]; `fit` is a
     /// fit of the strip's humidity finished since the last block.
-    #[inline(never)]
+    #[inline]
     pub fn step(&mut self, samples: &mut [f32], fit: Option<Result<StripRh<f32>, Refusal>>, input: &BlockInputs) -> BlockOutputs {
         self.first_sample = self.first_sample.wrapping_add(input.lost_samples);
         // The strip dried or wetted through the lost samples too.
@@ -195,7 +197,7 @@ impl<'a> BlockStep<'a> {
         header.flags |= raise(filtered.bad_sample, flags::BAD_SAMPLE);
         header.rel_err = filtered.rel_err;
         let beyond_pct = filtered.beyond_pct;
-        let calibration_part = if self.stating_parts { self.error_bar.parts(self.filter.rh_pct()).0 } else { f32::NAN };
+        let calibration_part = if PARTS { self.error_bar.parts(self.filter.rh_pct()).0 } else { f32::NAN };
 
         header.flags |= raise(input.rh_read_pct.is_finite() && reading_is_stale(input.reading_age_ms), flags::RH_STALE);
         // No reading yet: the first design is the start-up's fallback, and stays.
