@@ -1,24 +1,6 @@
 //! `ipmc`: the host tool of ipmc-sense.
 
-mod band;
-mod calibration_source;
-mod chain;
-mod chamber_humidity;
-mod charging;
 mod commands;
-mod diagnose;
-mod exact;
-mod hygrometer;
-mod input;
-mod inverse_choice;
-mod limits;
-mod noise_floor;
-mod overrides;
-mod plot;
-mod progress;
-mod range_edges;
-mod reading_uncertainty;
-mod scoring;
 #[cfg(test)]
 mod test_cli;
 

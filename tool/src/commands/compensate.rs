@@ -1,4 +1,4 @@
-//! `ipmc compensate`: runs the firmware's compensation chain ([`crate::chain`]) over a
+//! `ipmc compensate`: runs the firmware's compensation chain ([`ipmc_tool::chain`]) over a
 //! time-series recording on the host, and writes the base-motion estimates as
 //! `t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags` (the firmware's EST.csv;
 //! `rel_err` the block's expected relative error, 1σ, as the firmware computes it).
@@ -13,14 +13,14 @@
 //! with the raw estimate's rms over the true base's in band, skipping the first second of each
 //! burst (`scoring::SETTLE_S`).
 
-use crate::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
-use crate::input::read_time_series;
-use crate::inverse_choice::InverseChoice;
-use crate::scoring::{SETTLE_S, Scoring};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::calibration::humidity_path::HumidityMode;
 use ipmc_recording::looping::{DEFAULT_PERIOD_S, DEFAULT_SECONDS, Looping, too_short};
 use ipmc_recording::{Estimates as EstimateFile, TimeSeries, write_atomically};
+use ipmc_tool::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
+use ipmc_tool::input::read_time_series;
+use ipmc_tool::inverse_choice::InverseChoice;
+use ipmc_tool::scoring::{SETTLE_S, Scoring};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -96,7 +96,7 @@ enum HumidityChoice {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = ipmc_tool::calibration_source::load(a.calib.as_deref())?;
     if let Some(b) = a.band {
         calib.band.shape = match b {
             BandChoice::LinearPhase => ipmc_core::band::Shape::LinearPhase,
@@ -112,7 +112,7 @@ pub fn run(a: Args) -> Result<()> {
     let (noise, noise_said) = match (a.current_noise, measured) {
         (Some(d), _) => (Some(d), "given"),
         (None, Some(d)) => (Some(d), "the recording's, from its consecutive periods"),
-        (None, None) if !replay => (crate::noise_floor::noise_density(&ts), "the recording's, from its spectrum's top octave"),
+        (None, None) if !replay => (ipmc_tool::noise_floor::noise_density(&ts), "the recording's, from its spectrum's top octave"),
         (None, None) => (None, ""),
     };
     if let Some(d) = noise {
@@ -127,14 +127,14 @@ pub fn run(a: Args) -> Result<()> {
     let reading_said = if replay {
         "the firmware's calibration's".to_string()
     } else {
-        let named = crate::reading_uncertainty::name_sensor(&mut calib, &ts);
-        crate::reading_uncertainty::settle(&mut calib, named, |c| crate::hygrometer::run(c, &ts))
+        let named = ipmc_tool::reading_uncertainty::name_sensor(&mut calib, &ts);
+        ipmc_tool::reading_uncertainty::settle(&mut calib, named, |c| ipmc_tool::hygrometer::run(c, &ts))
     };
     // A bench session's chamber setpoints, where they place its bursts, know each burst's
     // humidity better than its reading: the default there, and what `--humidity setpoints` asks.
     let read_sd = rh_uncertainty(&calib, None);
     let chamber = match (a.humidity, replay || a.fixed_rh.is_some()) {
-        (None | Some(HumidityChoice::Setpoints), false) => match crate::chamber_humidity::place_bursts(&ts, read_sd) {
+        (None | Some(HumidityChoice::Setpoints), false) => match ipmc_tool::chamber_humidity::place_bursts(&ts, read_sd) {
             Ok(p) => p,
             Err(why) if a.humidity.is_some() => bail!("{}: --humidity setpoints: {why}", a.input.display()),
             Err(why) => {
@@ -159,13 +159,13 @@ pub fn run(a: Args) -> Result<()> {
         at_chamber.humidity = calib.humidity.at_strip();
         (at_chamber, placed.apply(&ts), Some(placed.rms_sd()), Some(placed.sd_per_sample(&ts)))
     } else if fused {
-        let seconds = crate::hygrometer::run(&calib, &ts);
+        let seconds = ipmc_tool::hygrometer::run(&calib, &ts);
         let own_sd: Vec<f64> =
-            crate::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct).into_iter().map(|v| v.unwrap_or(read_sd)).collect();
-        let ts = crate::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
+            ipmc_tool::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct).into_iter().map(|v| v.unwrap_or(read_sd)).collect();
+        let ts = ipmc_tool::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
         let mut at_strip = calib;
         at_strip.humidity = calib.humidity.at_strip();
-        (at_strip, ts, crate::reading_uncertainty::fused_sd(&seconds), Some(own_sd))
+        (at_strip, ts, ipmc_tool::reading_uncertainty::fused_sd(&seconds), Some(own_sd))
     } else {
         (calib, ts, None, None)
     };
@@ -205,7 +205,7 @@ pub fn run(a: Args) -> Result<()> {
     };
     if fused || chamber.is_some() {
         // The chain saw the fused or placed humidity as its reading: the file keeps the sensor's.
-        for (block, out) in read.chunks(crate::chain::BLOCK_LEN).zip(est.rh_read_pct.chunks_mut(crate::chain::BLOCK_LEN)) {
+        for (block, out) in read.chunks(ipmc_tool::chain::BLOCK_LEN).zip(est.rh_read_pct.chunks_mut(ipmc_tool::chain::BLOCK_LEN)) {
             out.fill((block.iter().sum::<f64>() / block.len() as f64) as f32);
         }
     }
@@ -250,28 +250,28 @@ pub fn run(a: Args) -> Result<()> {
     let exact_humidity = error_table(&calib, ts.fs_hz, 0.0, a.inverse.kind(rh_sd))?;
     print!(
         "{}",
-        crate::limits::table(
+        ipmc_tool::limits::table(
             &exact_humidity,
             &est.rh_pct,
             &est.rel_err,
             &est.rel_err_calibration,
             &est.burst_start,
-            crate::chain::BLOCK_LEN,
+            ipmc_tool::chain::BLOCK_LEN,
             band
         )
     );
-    if let Some(note) = crate::limits::beyond_range(&calib, &est.beyond_pct, &est.flags) {
+    if let Some(note) = ipmc_tool::limits::beyond_range(&calib, &est.beyond_pct, &est.flags) {
         eprintln!("warning: {note}");
     }
     if let Some(base) = &ts.base_m {
-        let period = crate::scoring::stated_period_s(&ts.metadata, Some(&file.metadata));
+        let period = ipmc_tool::scoring::stated_period_s(&ts.metadata, Some(&file.metadata));
         let scoring = Scoring::new(&calib.band, ts.fs_hz, period)?;
         let bursts = ts.bursts();
         let score = scoring.score(&est.base_est_m, &scoring.truth(base, &bursts), &bursts, None);
         if score.bursts.is_empty() {
-            eprintln!("warning: {}", crate::scoring::nothing_scored(&a.input, &ts, &scoring));
+            eprintln!("warning: {}", ipmc_tool::scoring::nothing_scored(&a.input, &ts, &scoring));
         } else {
-            println!("{}", crate::scoring::line(&scoring, &score));
+            println!("{}", ipmc_tool::scoring::line(&scoring, &score));
         }
     }
     Ok(())

@@ -1,8 +1,7 @@
 //! `ipmc diagnose REC.csv... [--calib CALIB] --report DIR`: why simulation and recordings
 //! differ. Writes DIR/report.md, DIR/report.json and the figures (SVG and PNG; see
-//! `ipmc_diagnose`; the figures are `crate::diagnose::figures`).
+//! `ipmc_diagnose`; the figures are `ipmc_tool::diagnose::figures`).
 
-use crate::diagnose::figures;
 use anyhow::{Context, Result};
 use ipmc_core::Calibration;
 use ipmc_core::calibration::humidity_path::SensorKind;
@@ -10,6 +9,7 @@ use ipmc_diagnose::strip_diagnosis::{self, FollowupFit, Stage};
 use ipmc_diagnose::strip_files::{self, Content};
 use ipmc_diagnose::{data::Dataset, report};
 use ipmc_recording::write_atomically;
+use ipmc_tool::diagnose::figures;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -120,19 +120,19 @@ pub fn write_report(
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = ipmc_tool::calibration_source::load(a.calib.as_deref())?;
     a.instrument.apply(&mut calib)?;
     let files = strip_files::read(&a.recordings)?;
     for f in &files {
         if let Content::Response(r) = &f.content
             && let Some(bursts) = &r.bursts
         {
-            println!("{}: {}", f.name(), crate::input::summary(bursts));
+            println!("{}: {}", f.name(), ipmc_tool::input::summary(bursts));
         }
     }
     let stages = 1 + files.iter().filter(|f| f.followup.is_some()).count() as u64;
     let steps = stages * (3 + ipmc_diagnose::candidates::LIBRARY.len() as u64);
-    let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { crate::progress::bar(steps, "diagnosing") };
+    let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { ipmc_tool::progress::bar(steps, "diagnosing") };
     let strip = strip_diagnosis::diagnose(&calib, &files, &calib.humidity, &|step| {
         // Candidates refitted from the channels' prior mean are steps the count cannot know.
         if bar.length().is_some_and(|len| bar.position() >= len) {
@@ -304,7 +304,7 @@ mod tests {
         let alone = diagnose(&["fr.csv"], None);
         assert_ne!(alone, "humidity_sensor_error", "the premise: a frequency response alone does not name a 1.9 %RH offset");
         assert_eq!(diagnose(&["fr.csv", "fr-reference.csv"], Some("written.toml")), "humidity_sensor_error");
-        let written = crate::calibration_source::load(Some(&path("written.toml"))).unwrap();
+        let written = ipmc_tool::calibration_source::load(Some(&path("written.toml"))).unwrap();
         assert!((written.humidity.offset_pct + 1.9).abs() < 0.5, "written offset {}", written.humidity.offset_pct);
         assert!(written.humidity.uncertainty_pct.is_some_and(|u| u < 0.5), "{:?}", written.humidity.uncertainty_pct);
         assert!(written.humidity.sensor.is_some(), "the sensor the correction and its uncertainty were measured on");

@@ -11,18 +11,18 @@
 //! scored seconds (a correction no data give: what is left is the sensor's noise, gain and the
 //! lag's shape).
 //!
-//! The compensation's error is scored as every command scores it (`crate::scoring`, as `ipmc
+//! The compensation's error is scored as every command scores it (`ipmc_tool::scoring`, as `ipmc
 //! score` prints it for the same estimate); the humidity's figures skip the first 20 s.
 
-use crate::chain::{compensate, error_table, rh_uncertainty};
-use crate::hygrometer::{self, Second};
-use crate::input::read_time_series;
-use crate::inverse_choice::InverseChoice;
-use crate::scoring::{Scoring, stated_period_s};
 use anyhow::{Context, Result, anyhow};
 use ipmc_core::Calibration;
 use ipmc_core::humidity::spectrum::AVERAGING_S;
 use ipmc_recording::TimeSeries;
+use ipmc_tool::chain::{compensate, error_table, rh_uncertainty};
+use ipmc_tool::hygrometer::{self, Second};
+use ipmc_tool::input::read_time_series;
+use ipmc_tool::inverse_choice::InverseChoice;
+use ipmc_tool::scoring::{Scoring, stated_period_s};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -59,7 +59,7 @@ fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<(f64, String)> {
     let bursts = ts.bursts();
     let score = scoring.score(&est.base_est_m, &scoring.truth(base, &bursts), &bursts, None);
     if score.bursts.is_empty() {
-        anyhow::bail!("{}", crate::scoring::nothing_scored(std::path::Path::new("the recording"), ts, &scoring));
+        anyhow::bail!("{}", ipmc_tool::scoring::nothing_scored(std::path::Path::new("the recording"), ts, &scoring));
     }
     Ok((100.0 * score.pooled.error(), scoring.describe()))
 }
@@ -126,12 +126,12 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 fn one(a: &Args, input: &std::path::Path, calib: &str, notes: &mut Vec<String>) -> Result<Row> {
-    let mut calib = crate::calibration_source::load(Some(calib))?;
+    let mut calib = ipmc_tool::calibration_source::load(Some(calib))?;
     let ts = read_time_series(input)?;
     // As `compensate` runs by default: the recording's sensor and its current's noise.
-    crate::reading_uncertainty::name_sensor(&mut calib, &ts);
+    ipmc_tool::reading_uncertainty::name_sensor(&mut calib, &ts);
     calib.uncertainty.current_noise_a_per_rthz =
-        crate::noise_floor::noise_density(&ts).unwrap_or(calib.uncertainty.current_noise_a_per_rthz);
+        ipmc_tool::noise_floor::noise_density(&ts).unwrap_or(calib.uncertainty.current_noise_a_per_rthz);
     let stem = input.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
     let truths: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&a.truths)?)?;
     let per = &truths[&stem]["per_second"];

@@ -7,11 +7,6 @@
 //! (`ipmc_fit::laws`). Outputs: the calibration (TOML, what `--calib` and `IPMC_CALIB` read) and
 //! every level's estimates with standard errors and correlations (JSON).
 
-use crate::charging;
-use crate::plot::bode::{Bode, LevelModel};
-use crate::plot::params::{ParamsFigure, levels_series};
-use crate::plot::render;
-use crate::{calibration_source, input::checked, progress};
 use anyhow::{Context, Result, bail};
 use ipmc_core::Calibration;
 use ipmc_core::ParamName;
@@ -22,6 +17,11 @@ use ipmc_fit::identify::{FITTED, LevelData, LevelFit, identify_session};
 use ipmc_fit::laws::{LawFit, calibration_from_levels};
 use ipmc_recording::write_atomically;
 use ipmc_recording::{Charging, Format as _, LEVEL_SCATTER_PCT, Level};
+use ipmc_tool::charging;
+use ipmc_tool::plot::bode::{Bode, LevelModel};
+use ipmc_tool::plot::params::{ParamsFigure, levels_series};
+use ipmc_tool::plot::render;
+use ipmc_tool::{calibration_source, input::checked, progress};
 use serde_json::{Map, Value, json};
 use std::path::{Path, PathBuf};
 
@@ -284,12 +284,12 @@ pub fn identify(
     rh_uncertainty: Option<f64>,
 ) -> Result<Identified> {
     let source = recording.display().to_string();
-    let input = crate::input::responses(recording)?;
+    let input = ipmc_tool::input::responses(recording)?;
     let recording_fr = input.response;
     // The laws are fitted at the humidity the strip felt: the base calibration's humidity path
     // (sensor correction, hydration lag) applied to the readings, and kept in the result.
     let mut levels = recording_fr.levels();
-    crate::input::levels_felt(&recording_fr, &mut levels, &base.humidity, &source);
+    ipmc_tool::input::levels_felt(&recording_fr, &mut levels, &base.humidity, &source);
     print_levels(&levels);
     let kappas = charging_kappas(charging, base)?;
     for (rh, _, path) in &kappas {
@@ -407,8 +407,8 @@ pub fn identify(
         );
     }
     what_remains(&mut calib, &model, &level_fits, rh_sd, base);
-    let visits: Vec<crate::range_edges::Visit> =
-        fits.iter().zip(&revisits).map(|((_, l, _), r)| crate::range_edges::Visit { rh_pct: l.rh_pct, revisit_of: *r }).collect();
+    let visits: Vec<ipmc_tool::range_edges::Visit> =
+        fits.iter().zip(&revisits).map(|((_, l, _), r)| ipmc_tool::range_edges::Visit { rh_pct: l.rh_pct, revisit_of: *r }).collect();
     let remade = |k: usize, delta: f64| {
         let mut moved = level_fits.clone();
         moved[k].rh_pct += delta;
@@ -417,19 +417,19 @@ pub fn identify(
         what_remains(&mut c, &m, &moved, rh_sd, base);
         Some(c)
     };
-    for w in crate::range_edges::warnings(&visits, rh_sd, &calib, &remade) {
+    for w in ipmc_tool::range_edges::warnings(&visits, rh_sd, &calib, &remade) {
         eprintln!("warning: {w}");
     }
     // Where nothing names the bench's sensor, its reading's uncertainty is what the levels' read
     // errors show: a recording of the same instrument that names none either is stated with it.
-    let bench_sensor = recording_fr.metadata.get(crate::reading_uncertainty::SENSOR_KEY);
+    let bench_sensor = recording_fr.metadata.get(ipmc_tool::reading_uncertainty::SENSOR_KEY);
     let bench_named = base.humidity.sensor.is_some() || bench_sensor.is_some();
     let keeps_bench_reading = !bench_named && base.humidity.uncertainty_pct.is_none();
     if keeps_bench_reading {
         calib.humidity.uncertainty_pct = Some(rh_sd);
         println!(
             "no sensor named (`# {}=`, the base's [humidity] sensor): the bench reading's {rh_sd:.2} %RH written as [humidity] uncertainty_pct, for recordings that name none either",
-            crate::reading_uncertainty::SENSOR_KEY
+            ipmc_tool::reading_uncertainty::SENSOR_KEY
         );
     }
     // A mode the base calibration chose stays; otherwise the file says what the tool does by
@@ -437,7 +437,7 @@ pub fn identify(
     calib.humidity.mode.get_or_insert(ipmc_core::calibration::humidity_path::HumidityMode::DEFAULT);
     let mut noise_note = "the base calibration's (a frequency response does not carry the current's noise)".to_string();
     if input.bursts.is_some() {
-        let ts = crate::input::read_time_series(recording)?;
+        let ts = ipmc_tool::input::read_time_series(recording)?;
         if let Some(per) = ipmc_fit::multisine::excitation_period(&ts, &source)?
             && let Some(d) = ipmc_recording::looping::noise_density(&ts, per)
         {

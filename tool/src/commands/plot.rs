@@ -2,15 +2,15 @@
 //! level (`bode`), identified parameters against humidity with the calibration's laws
 //! (`params`), and a compensated estimate against the true base motion (`compensated`).
 
-use crate::calibration_source;
-use crate::input::checked;
-use crate::plot::bode::{Bode, LevelModel};
-use crate::plot::compensated::{Compensated, Series};
-use crate::plot::params::{ParamsFigure, level_objects, read_levels};
-use crate::plot::{humidity_color, render};
 use anyhow::{Result, bail};
 use ipmc_core::{ParamName, Params};
 use ipmc_recording::{Estimates, Format as _, FrequencyResponse, LEVEL_SCATTER_PCT, TimeSeries};
+use ipmc_tool::calibration_source;
+use ipmc_tool::input::checked;
+use ipmc_tool::plot::bode::{Bode, LevelModel};
+use ipmc_tool::plot::compensated::{Compensated, Series};
+use ipmc_tool::plot::params::{ParamsFigure, level_objects, read_levels};
+use ipmc_tool::plot::{humidity_color, render};
 use plotters::style::RGBColor;
 use std::path::{Path, PathBuf};
 
@@ -107,7 +107,7 @@ pub fn run(a: Args) -> Result<()> {
             let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
             let band = crate::commands::score::band_of(&file.metadata, None)?;
             let mut scoring =
-                crate::scoring::Scoring::new(&band, ts.fs_hz, crate::scoring::stated_period_s(&ts.metadata, Some(&file.metadata)))?;
+                ipmc_tool::scoring::Scoring::new(&band, ts.fs_hz, ipmc_tool::scoring::stated_period_s(&ts.metadata, Some(&file.metadata)))?;
             if let Some(ms) = preview_ms {
                 scoring.preview = (ms * 1e-3 * ts.fs_hz).round() as usize;
             }
@@ -207,7 +207,7 @@ mod tests {
         assert!(!svg.contains("[m/m] [deg]") && svg.contains("phase of tip / base  [°]"), "phase title");
         let texts = svg_texts(&svg);
         let f_max = checked(FrequencyResponse::read(Path::new(&fr))).unwrap().points.iter().map(|p| p.freq_hz).fold(0.0, f64::max);
-        let end = crate::plot::tick_label(crate::plot::round_sig(f_max, 2));
+        let end = ipmc_tool::plot::tick_label(ipmc_tool::plot::round_sig(f_max, 2));
         assert!(texts.contains(&end) && texts.iter().any(|t| t == "10"), "no tick at 10 Hz or at the data's end {end}: {texts:?}");
         assert!(!texts.iter().any(|t| t.contains("e0") || t.contains("e1") || t.contains("e-")), "exponent ticks: {texts:?}");
         // The legend lies beside the panels: its entries start right of every axis label.

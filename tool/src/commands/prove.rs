@@ -327,7 +327,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = &a.external {
         return external(dir, a.calib.as_deref(), a.json, a.records.as_deref(), a.followups);
     }
-    let calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let calib = ipmc_tool::calibration_source::load(a.calib.as_deref())?;
     let dir = match &a.keep {
         Some(d) => d.clone(),
         None => std::env::temp_dir().join(format!("ipmc-prove-{}", std::process::id())),
@@ -335,7 +335,7 @@ pub fn run(a: Args) -> Result<()> {
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
     let total = a.seeds * (a.per_effect * Effect::ALL.len() + a.clean) as u64;
-    let bar = crate::progress::bar(total, "cases");
+    let bar = ipmc_tool::progress::bar(total, "cases");
     if let Some(at) = a.at {
         anyhow::ensure!((0.0..=1.0).contains(&at), "--at must be within 0 and 1, not {at}");
     }
@@ -552,7 +552,7 @@ impl ExternalOutcome {
 fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Option<&std::path::Path>, followups: bool) -> Result<()> {
     let default_calib = dir.join("nominal.toml");
     let calib_arg = calib.map(str::to_string).unwrap_or_else(|| default_calib.display().to_string());
-    let calib = crate::calibration_source::load(Some(&calib_arg))?;
+    let calib = ipmc_tool::calibration_source::load(Some(&calib_arg))?;
     let truths_path = dir.join("truths.json");
     let truths: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&truths_path).with_context(|| format!("cannot read {}", truths_path.display()))?)

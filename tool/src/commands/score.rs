@@ -1,13 +1,13 @@
 //! `ipmc score`: an estimate's error against the true base motion of the recording it came
-//! from, by the one scoring every command uses (`crate::scoring`; `cargo xtask qemu` scores the
+//! from, by the one scoring every command uses (`ipmc_tool::scoring`; `cargo xtask qemu` scores the
 //! firmware's estimates with this command).
 
-use crate::input::{checked, read_time_series};
-use crate::scoring::{Scoring, coverage, stated_period_s};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::band::Band;
 use ipmc_recording::looping::as_estimated;
 use ipmc_recording::{Estimates, Format as _};
+use ipmc_tool::input::{checked, read_time_series};
+use ipmc_tool::scoring::{Scoring, coverage, stated_period_s};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -149,7 +149,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let score = scoring.score(&est, &truth, &bursts, None);
     if score.bursts.is_empty() {
-        bail!("{}", crate::scoring::nothing_scored(&a.recording, &ts, &scoring));
+        bail!("{}", ipmc_tool::scoring::nothing_scored(&a.recording, &ts, &scoring));
     }
     if a.json {
         let mut j = serde_json::json!({
@@ -169,7 +169,7 @@ pub fn run(a: Args) -> Result<()> {
         }
         println!("{j}")
     } else {
-        println!("{}", crate::scoring::line(&scoring, &score));
+        println!("{}", ipmc_tool::scoring::line(&scoring, &score));
     }
     Ok(())
 }

@@ -15,15 +15,15 @@
 //! Per level it prints those errors, the error the chain states (1σ) and how much of it is the
 //! current's noise; then the rms over the levels and the ratios the workflow is judged by.
 
-use crate::chain::{compensate, error_table};
 use crate::commands::identify::{base_calibration, identify};
-use crate::exact;
-use crate::input::read_time_series;
-use crate::scoring::Scoring;
 use anyhow::{Context, Result, anyhow, bail};
 use ipmc_core::{Calibration, InverseKind, LawKind, ParamName};
 use ipmc_recording::looping::{loop_bursts, noise_density};
 use ipmc_recording::{TimeSeries, write_atomically};
+use ipmc_tool::chain::{compensate, error_table};
+use ipmc_tool::exact;
+use ipmc_tool::input::read_time_series;
+use ipmc_tool::scoring::Scoring;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -155,12 +155,12 @@ fn load_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibratio
     if path.extension().is_some_and(|e| e == "json") {
         return Ok(Truth::PerBurst(external_truth(path, ts_path, ts, nominal)?));
     }
-    Ok(Truth::Calibration(Box::new(crate::calibration_source::load(path.to_str())?)))
+    Ok(Truth::Calibration(Box::new(ipmc_tool::calibration_source::load(path.to_str())?)))
 }
 
 /// The chain and the exact inverse with `calib` on one looped burst `rec`, scored alike by the
 /// one scoring (the exact inverse's output through the same band filter as its truth).
-fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64, period_s: f64) -> Result<(Scores, crate::chain::Estimates)> {
+fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64, period_s: f64) -> Result<(Scores, ipmc_tool::chain::Estimates)> {
     let scoring = Scoring::new(&calib.band, rec.fs_hz, Some(period_s))?;
     let errors = error_table(calib, rec.fs_hz, rh_sd, InverseKind::Exact)?;
     let est = compensate(calib, rec, None, &errors, InverseKind::Exact, None)?;
@@ -229,7 +229,7 @@ pub fn run(a: Args) -> Result<()> {
     // states its chamber's setpoints one per burst, each burst at its placed humidity. The
     // nominal and perfect ones stay at the reading, as ../shared/external/strips/README.md's
     // references are.
-    let chamber = match crate::chamber_humidity::place_bursts(&ts, rh_sd) {
+    let chamber = match ipmc_tool::chamber_humidity::place_bursts(&ts, rh_sd) {
         Ok(p) => p,
         Err(why) => {
             println!("the chamber's stated setpoints are not used: {why}; the own calibration is taken at the reading too");
@@ -251,7 +251,7 @@ pub fn run(a: Args) -> Result<()> {
     let settle = scoring.skip();
     let lead = settle.div_ceil(period) * period;
     let looped = loop_bursts(&ts, a.period_s, (lead + scored) as f64 / ts.fs_hz)?;
-    let bar = crate::progress::bar(ts.bursts().len() as u64, "levels");
+    let bar = ipmc_tool::progress::bar(ts.bursts().len() as u64, "levels");
     let mut levels = vec![];
     for (k, range) in looped.bursts().into_iter().enumerate() {
         let rec = crate::commands::vs_exact::burst_of(&looped, range.start..(range.start + lead + scored).min(range.end))?;

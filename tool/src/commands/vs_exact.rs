@@ -7,16 +7,16 @@
 //! them, the chain with the robust inverse (`--inverse robust` of `compensate`, issue 13.2) and
 //! its non-causal ideal, E[H*]/E[|H|²] per bin (`exact::robust_inverse`).
 
-use crate::chain::{compensate, error_table, rh_uncertainty};
-use crate::exact;
-use crate::input::read_time_series;
-use crate::inverse_choice::InverseChoice;
-use crate::scoring::spectral::band_error;
-use crate::scoring::{SETTLE_S, Scoring};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::InverseKind;
 use ipmc_recording::TimeSeries;
 use ipmc_recording::looping::loop_bursts;
+use ipmc_tool::chain::{compensate, error_table, rh_uncertainty};
+use ipmc_tool::exact;
+use ipmc_tool::input::read_time_series;
+use ipmc_tool::inverse_choice::InverseChoice;
+use ipmc_tool::scoring::spectral::band_error;
+use ipmc_tool::scoring::{SETTLE_S, Scoring};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -110,7 +110,7 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
         let whole = 0..n;
         let bursts = std::slice::from_ref(&whole);
         let truth = scoring.truth(base, bursts);
-        let scored = |s: crate::scoring::Score| (!s.bursts.is_empty()).then_some(s.pooled);
+        let scored = |s: ipmc_tool::scoring::Score| (!s.bursts.is_empty()).then_some(s.pooled);
         let robust = scored(scoring.score(&robust_est.base_est_m, &truth, bursts, None)).map_or(f64::NAN, |s| s.error());
         let causal_in = |b| band_error(&est.base_est_m, &est.delay_samples, &est.burst_start, base, rec.fs_hz, b, band);
         let raw = scored(scoring.score(&est.base_est_m, &truth, bursts, None));
@@ -147,7 +147,7 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let calib = ipmc_tool::calibration_source::load(a.calib.as_deref())?;
     let ts = read_time_series(&a.input)?;
     let levels = levels(&calib, &ts, a.period_s, a.seconds, rh_uncertainty(&calib, a.rh_uncertainty))?;
     let scoring = Scoring::new(&calib.band, ts.fs_hz, Some(a.period_s))?;
