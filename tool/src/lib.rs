@@ -17,6 +17,7 @@ pub mod noise_floor;
 pub mod overrides;
 pub mod plot;
 pub mod progress;
+pub mod prove;
 pub mod range_edges;
 pub mod reading_uncertainty;
 pub mod scoring;

@@ -327,7 +327,10 @@ mod tests {
             let out = path(&format!("{rec}-{calib_file}.est.csv"));
             crate::commands::compensate::run(parse(&[&path(rec), "--out", &out, "--calib", &path(calib_file), "--humidity", "reading"]))
                 .unwrap();
-            crate::commands::score::Loaded::read(&dir.join(rec), std::path::Path::new(&out), None, None).unwrap().pooled_error().unwrap()
+            ipmc_tool::scoring::estimate_file::Loaded::read(&dir.join(rec), std::path::Path::new(&out), None, None)
+                .unwrap()
+                .pooled_error()
+                .unwrap()
         };
         let (corrected, perfect, uncorrected) =
             (error("ts-offset.csv", "written.toml"), error("ts-perfect.csv", "default.toml"), error("ts-offset.csv", "default.toml"));

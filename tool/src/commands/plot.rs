@@ -105,7 +105,7 @@ pub fn run(a: Args) -> Result<()> {
                 .map_err(|e| anyhow::anyhow!("{}: {e}", estimate.display()))?;
             let base = ts.base_m.as_ref().ok_or_else(|| anyhow::anyhow!("{}: no base_m column to plot against", recording.display()))?;
             let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
-            let band = crate::commands::score::band_of(&file.metadata, None)?;
+            let band = ipmc_tool::scoring::estimate_file::band_of(&file.metadata, None)?;
             let mut scoring =
                 ipmc_tool::scoring::Scoring::new(&band, ts.fs_hz, ipmc_tool::scoring::stated_period_s(&ts.metadata, Some(&file.metadata)))?;
             if let Some(ms) = preview_ms {
