@@ -18,8 +18,8 @@ use ipmc_core::calibration::humidity_path::HumidityMode;
 use ipmc_recording::looping::{DEFAULT_PERIOD_S, DEFAULT_SECONDS, Looping, too_short};
 use ipmc_recording::{Estimates as EstimateFile, TimeSeries, write_atomically};
 use ipmc_tool::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
+use ipmc_tool::exact::InverseChoice;
 use ipmc_tool::input::read_time_series;
-use ipmc_tool::inverse_choice::InverseChoice;
 use ipmc_tool::scoring::{SETTLE_S, Scoring};
 use std::path::{Path, PathBuf};
 
@@ -329,7 +329,7 @@ mod tests {
     #[test]
     fn short_bursts_are_looped_and_the_estimate_scores() {
         let calib = ipmc_core::Calibration::default_preset();
-        let ts = crate::commands::vs_exact::tests::periodic_recording(&calib, &[40.0, 70.0]);
+        let ts = ipmc_tool::synthetic::periodic_recording(&calib, &[40.0, 70.0]);
         assert!(too_short(&ts, SETTLE_S).is_some());
         let dir = std::env::temp_dir().join(format!("ipmc-compensate-short-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -356,7 +356,7 @@ mod tests {
     fn a_sessions_stated_setpoints_place_its_bursts_by_default() {
         let calib = ipmc_core::Calibration::default_preset();
         let set = [40.0, 60.0, 78.0];
-        let mut ts = crate::commands::vs_exact::tests::periodic_recording(&calib, &set);
+        let mut ts = ipmc_tool::synthetic::periodic_recording(&calib, &set);
         for (b, off) in ts.bursts().into_iter().zip([0.4, 0.3, -1.2]) {
             ts.rh_pct[b].iter_mut().for_each(|r| *r += off);
         }

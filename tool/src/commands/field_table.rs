@@ -19,9 +19,9 @@ use ipmc_core::Calibration;
 use ipmc_core::humidity::spectrum::AVERAGING_S;
 use ipmc_recording::TimeSeries;
 use ipmc_tool::chain::{compensate, error_table, rh_uncertainty};
+use ipmc_tool::exact::InverseChoice;
 use ipmc_tool::hygrometer::{self, Second};
 use ipmc_tool::input::read_time_series;
-use ipmc_tool::inverse_choice::InverseChoice;
 use ipmc_tool::scoring::{Scoring, stated_period_s};
 use std::path::PathBuf;
 

@@ -15,13 +15,13 @@
 //! Per level it prints those errors, the error the chain states (1σ) and how much of it is the
 //! current's noise; then the rms over the levels and the ratios the workflow is judged by.
 
-use crate::commands::identify::{base_calibration, identify};
 use anyhow::{Context, Result, anyhow, bail};
 use ipmc_core::{Calibration, InverseKind, LawKind, ParamName};
 use ipmc_recording::looping::{loop_bursts, noise_density};
 use ipmc_recording::{TimeSeries, write_atomically};
 use ipmc_tool::chain::{compensate, error_table};
 use ipmc_tool::exact;
+use ipmc_tool::identify::{base_calibration, identify};
 use ipmc_tool::input::read_time_series;
 use ipmc_tool::scoring::Scoring;
 use serde_json::json;
@@ -254,7 +254,7 @@ pub fn run(a: Args) -> Result<()> {
     let bar = ipmc_tool::progress::bar(ts.bursts().len() as u64, "levels");
     let mut levels = vec![];
     for (k, range) in looped.bursts().into_iter().enumerate() {
-        let rec = crate::commands::vs_exact::burst_of(&looped, range.start..(range.start + lead + scored).min(range.end))?;
+        let rec = ipmc_tool::exact::against_chain::burst_of(&looped, range.start..(range.start + lead + scored).min(range.end))?;
         let (own_s, est) = match &chamber {
             Some(p) => {
                 let mut placed = rec.clone();
