@@ -13,6 +13,7 @@ pub mod hygrometer;
 pub mod identify;
 pub mod input;
 pub mod limits;
+pub mod monitor;
 pub mod noise_floor;
 pub mod overrides;
 pub mod plot;
