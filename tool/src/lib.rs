@@ -9,6 +9,7 @@ pub mod chamber_humidity;
 pub mod charging;
 pub mod diagnose;
 pub mod exact;
+pub mod field_table;
 pub mod hygrometer;
 pub mod identify;
 pub mod input;
