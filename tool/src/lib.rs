@@ -23,4 +23,5 @@ pub mod prove;
 pub mod range_edges;
 pub mod reading_uncertainty;
 pub mod scoring;
+pub mod strip_check;
 pub mod synthetic;
