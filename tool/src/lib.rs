@@ -7,6 +7,7 @@ pub mod calibration_source;
 pub mod chain;
 pub mod chamber_humidity;
 pub mod charging;
+pub mod compensation;
 pub mod diagnose;
 pub mod exact;
 pub mod field_table;
