@@ -15,9 +15,9 @@
 
 use crate::chain::{compensate, error_table, rh_uncertainty};
 use crate::exact::InverseChoice;
-use crate::hygrometer::{self, Second};
-use crate::input::read_time_series;
+use crate::humidity::hygrometer::{self, Second};
 use crate::scoring::{Scoring, stated_period_s};
+use crate::support::input::read_time_series;
 use anyhow::{Context, Result, anyhow};
 use ipmc_core::Calibration;
 use ipmc_core::humidity::spectrum::AVERAGING_S;
@@ -58,12 +58,12 @@ pub struct Row {
 /// One field recording with its calibration: its row of the table printed (with `print_seconds`,
 /// every second before it), its notes appended to `notes`, its figures returned.
 pub fn one(truths_path: &Path, print_seconds: bool, input: &Path, calib: &str, notes: &mut Vec<String>) -> Result<Row> {
-    let mut calib = crate::calibration_source::load(Some(calib))?;
+    let mut calib = crate::support::calibration_source::load(Some(calib))?;
     let ts = read_time_series(input)?;
     // As `compensate` runs by default: the recording's sensor and its current's noise.
-    crate::reading_uncertainty::name_sensor(&mut calib, &ts);
+    crate::error_budget::reading_uncertainty::name_sensor(&mut calib, &ts);
     calib.uncertainty.current_noise_a_per_rthz =
-        crate::noise_floor::noise_density(&ts).unwrap_or(calib.uncertainty.current_noise_a_per_rthz);
+        crate::error_budget::noise_floor::noise_density(&ts).unwrap_or(calib.uncertainty.current_noise_a_per_rthz);
     let stem = input.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
     let truths: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(truths_path)?)?;
     let per = &truths[&stem]["per_second"];

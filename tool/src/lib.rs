@@ -1,28 +1,31 @@
 //! `ipmc_tool`: the host tool's library. The `ipmc` binary (`main.rs`, `commands/`) parses the
-//! command line and calls in here; everything a command computes, reads or draws lives here, so
-//! that other programs (xtask) can call it without running the binary.
+//! command line and calls in here; everything a command computes, reads, writes or draws lives
+//! here, so that other programs (xtask) can call it without running the binary.
+//!
+//! Bottom to top: `support` (recordings, calibrations, progress), `brickwall` (the FFT's ideal
+//! band limit), `humidity` (the strip's own hygrometer, the chamber's setpoints), `chain` (the
+//! firmware's chain on the host), `scoring` (one definition of an estimate's error), `error_budget`,
+//! `exact` (the reference inverse); then the commands' own rooms (`compensation`, `identify`,
+//! `field_table`, `strip_check`, `monitor`, `prove`) and the figures (`plot`, `diagnose`).
 
 pub mod brickwall;
-pub mod calibration_source;
 pub mod chain;
-pub mod chamber_humidity;
 pub mod charging;
 pub mod compensation;
 pub mod diagnose;
+pub mod error_budget;
 pub mod exact;
 pub mod field_table;
-pub mod hygrometer;
+pub mod humidity;
 pub mod identify;
-pub mod input;
-pub mod limits;
 pub mod monitor;
-pub mod noise_floor;
-pub mod overrides;
 pub mod plot;
-pub mod progress;
 pub mod prove;
-pub mod range_edges;
-pub mod reading_uncertainty;
 pub mod scoring;
 pub mod strip_check;
+pub mod support;
 pub mod synthetic;
+
+// `chain` names these by their paths at the crate's root.
+pub use humidity::hygrometer;
+pub use support::{input, progress};

@@ -104,7 +104,7 @@ pub fn load_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibr
     if path.extension().is_some_and(|e| e == "json") {
         return Ok(Truth::PerBurst(external_truth(path, ts_path, ts, nominal)?));
     }
-    Ok(Truth::Calibration(Box::new(crate::calibration_source::load(path.to_str())?)))
+    Ok(Truth::Calibration(Box::new(crate::support::calibration_source::load(path.to_str())?)))
 }
 
 /// The chain and the exact inverse with `calib` on one looped burst `rec`, scored alike by the

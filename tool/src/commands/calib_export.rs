@@ -53,7 +53,7 @@ fn render(name: &str, calib: &Calibration) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipmc_tool::calibration_source;
+    use ipmc_tool::support::calibration_source;
     use std::path::Path;
 
     #[test]

@@ -4,7 +4,7 @@
 use anyhow::{Result, bail};
 use ipmc_recording::{Charging, Format as _, write_atomically};
 use ipmc_tool::charging::{TAIL_FRACTION, analyse};
-use ipmc_tool::{calibration_source, input::checked};
+use ipmc_tool::support::{calibration_source, input::checked};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

@@ -20,7 +20,7 @@ use ipmc_recording::write_atomically;
 use ipmc_tool::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
 use ipmc_tool::compensation::{current_noise, estimate_file, humidity_uncertainty, loop_if_short, print_figures};
 use ipmc_tool::exact::InverseChoice;
-use ipmc_tool::input::read_time_series;
+use ipmc_tool::support::input::read_time_series;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -96,7 +96,7 @@ enum HumidityChoice {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut calib = ipmc_tool::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     if let Some(b) = a.band {
         calib.band.shape = match b {
             BandChoice::LinearPhase => ipmc_core::band::Shape::LinearPhase,
@@ -119,14 +119,14 @@ pub fn run(a: Args) -> Result<()> {
     let reading_said = if replay {
         "the firmware's calibration's".to_string()
     } else {
-        let named = ipmc_tool::reading_uncertainty::name_sensor(&mut calib, &ts);
-        ipmc_tool::reading_uncertainty::settle(&mut calib, named, |c| ipmc_tool::hygrometer::run(c, &ts))
+        let named = ipmc_tool::error_budget::reading_uncertainty::name_sensor(&mut calib, &ts);
+        ipmc_tool::error_budget::reading_uncertainty::settle(&mut calib, named, |c| ipmc_tool::humidity::hygrometer::run(c, &ts))
     };
     // A bench session's chamber setpoints, where they place its bursts, know each burst's
     // humidity better than its reading: the default there, and what `--humidity setpoints` asks.
     let read_sd = rh_uncertainty(&calib, None);
     let chamber = match (a.humidity, replay || a.fixed_rh.is_some()) {
-        (None | Some(HumidityChoice::Setpoints), false) => match ipmc_tool::chamber_humidity::place_bursts(&ts, read_sd) {
+        (None | Some(HumidityChoice::Setpoints), false) => match ipmc_tool::humidity::chamber::place_bursts(&ts, read_sd) {
             Ok(p) => p,
             Err(why) if a.humidity.is_some() => bail!("{}: --humidity setpoints: {why}", a.input.display()),
             Err(why) => {
@@ -151,13 +151,15 @@ pub fn run(a: Args) -> Result<()> {
         at_chamber.humidity = calib.humidity.at_strip();
         (at_chamber, placed.apply(&ts), Some(placed.rms_sd()), Some(placed.sd_per_sample(&ts)))
     } else if fused {
-        let seconds = ipmc_tool::hygrometer::run(&calib, &ts);
-        let own_sd: Vec<f64> =
-            ipmc_tool::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct).into_iter().map(|v| v.unwrap_or(read_sd)).collect();
-        let ts = ipmc_tool::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
+        let seconds = ipmc_tool::humidity::hygrometer::run(&calib, &ts);
+        let own_sd: Vec<f64> = ipmc_tool::humidity::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct)
+            .into_iter()
+            .map(|v| v.unwrap_or(read_sd))
+            .collect();
+        let ts = ipmc_tool::humidity::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
         let mut at_strip = calib;
         at_strip.humidity = calib.humidity.at_strip();
-        (at_strip, ts, ipmc_tool::reading_uncertainty::fused_sd(&seconds), Some(own_sd))
+        (at_strip, ts, ipmc_tool::error_budget::reading_uncertainty::fused_sd(&seconds), Some(own_sd))
     } else {
         (calib, ts, None, None)
     };

@@ -83,19 +83,19 @@ impl InstrumentArgs {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut calib = ipmc_tool::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     a.instrument.apply(&mut calib)?;
     let files = strip_files::read(&a.recordings)?;
     for f in &files {
         if let Content::Response(r) = &f.content
             && let Some(bursts) = &r.bursts
         {
-            println!("{}: {}", f.name(), ipmc_tool::input::summary(bursts));
+            println!("{}: {}", f.name(), ipmc_tool::support::input::summary(bursts));
         }
     }
     let stages = 1 + files.iter().filter(|f| f.followup.is_some()).count() as u64;
     let steps = stages * (3 + ipmc_diagnose::candidates::LIBRARY.len() as u64);
-    let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { ipmc_tool::progress::bar(steps, "diagnosing") };
+    let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { ipmc_tool::support::progress::bar(steps, "diagnosing") };
     let strip = strip_diagnosis::diagnose(&calib, &files, &calib.humidity, &|step| {
         // Candidates refitted from the channels' prior mean are steps the count cannot know.
         if bar.length().is_some_and(|len| bar.position() >= len) {
@@ -215,7 +215,7 @@ mod tests {
         let alone = diagnose(&["fr.csv"], None);
         assert_ne!(alone, "humidity_sensor_error", "the premise: a frequency response alone does not name a 1.9 %RH offset");
         assert_eq!(diagnose(&["fr.csv", "fr-reference.csv"], Some("written.toml")), "humidity_sensor_error");
-        let written = ipmc_tool::calibration_source::load(Some(&path("written.toml"))).unwrap();
+        let written = ipmc_tool::support::calibration_source::load(Some(&path("written.toml"))).unwrap();
         assert!((written.humidity.offset_pct + 1.9).abs() < 0.5, "written offset {}", written.humidity.offset_pct);
         assert!(written.humidity.uncertainty_pct.is_some_and(|u| u < 0.5), "{:?}", written.humidity.uncertainty_pct);
         assert!(written.humidity.sensor.is_some(), "the sensor the correction and its uncertainty were measured on");

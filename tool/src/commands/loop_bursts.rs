@@ -6,7 +6,7 @@
 use anyhow::Result;
 use ipmc_recording::looping::{DEFAULT_PERIOD_S, DEFAULT_SECONDS, loop_bursts};
 use ipmc_recording::{Format as _, NumberFormat, TimeSeries, write_atomically};
-use ipmc_tool::input::checked;
+use ipmc_tool::support::input::checked;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

@@ -3,7 +3,7 @@
 use anyhow::{Result, bail};
 use ipmc_core::model::exact::{current_response, jw, tip_response};
 use ipmc_core::{ComplexMath, Params};
-use ipmc_tool::{calibration_source, overrides};
+use ipmc_tool::support::{calibration_source, overrides};
 use std::io::Write;
 
 #[derive(clap::Args)]

@@ -5,12 +5,12 @@
 use anyhow::{Result, bail};
 use ipmc_core::{ParamName, Params};
 use ipmc_recording::{Estimates, Format as _, FrequencyResponse, LEVEL_SCATTER_PCT, TimeSeries};
-use ipmc_tool::calibration_source;
-use ipmc_tool::input::checked;
 use ipmc_tool::plot::bode::{Bode, LevelModel};
 use ipmc_tool::plot::compensated::{Compensated, Series};
 use ipmc_tool::plot::params::{ParamsFigure, level_objects, read_levels};
 use ipmc_tool::plot::{humidity_color, render};
+use ipmc_tool::support::calibration_source;
+use ipmc_tool::support::input::checked;
 use plotters::style::RGBColor;
 use std::path::{Path, PathBuf};
 

@@ -70,7 +70,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = &a.external {
         return external(dir, a.calib.as_deref(), a.json, a.records.as_deref(), a.followups);
     }
-    let calib = ipmc_tool::calibration_source::load(a.calib.as_deref())?;
+    let calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     let dir = match &a.keep {
         Some(d) => d.clone(),
         None => std::env::temp_dir().join(format!("ipmc-prove-{}", std::process::id())),
@@ -78,7 +78,7 @@ pub fn run(a: Args) -> Result<()> {
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
     let total = a.seeds * (a.per_effect * Effect::ALL.len() + a.clean) as u64;
-    let bar = ipmc_tool::progress::bar(total, "cases");
+    let bar = ipmc_tool::support::progress::bar(total, "cases");
     if let Some(at) = a.at {
         anyhow::ensure!((0.0..=1.0).contains(&at), "--at must be within 0 and 1, not {at}");
     }

@@ -14,7 +14,7 @@ use ipmc_sim::physics::ExactModel;
 use ipmc_sim::session::Session;
 use ipmc_sim::sweep::Sweep;
 use ipmc_sim::{Recording, simulate};
-use ipmc_tool::calibration_source;
+use ipmc_tool::support::calibration_source;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -46,7 +46,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(strip) = session.sample.strip_seed {
         metadata.set("strip_seed", strip);
     }
-    let spin = ipmc_tool::progress::spinner("simulating");
+    let spin = ipmc_tool::support::progress::spinner("simulating");
     let rec = simulate(&calib, &session, &ExactModel, metadata)?;
     spin.finish_and_clear();
     let files = rec.files(&a.out)?;
@@ -143,7 +143,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
     if let Some(c) = &a.calib {
         metadata.set("calib", c);
     }
-    let spin = ipmc_tool::progress::spinner("simulating");
+    let spin = ipmc_tool::support::progress::spinner("simulating");
     let rec = simulate(&calibration_source::load(a.calib.as_deref())?, &session, &ExactModel, metadata)?;
     spin.finish_and_clear();
     for (path, text) in rec.files(&a.out)? {

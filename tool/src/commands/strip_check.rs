@@ -21,9 +21,9 @@ use ipmc_recording::looping::{loop_bursts, noise_density};
 use ipmc_recording::write_atomically;
 use ipmc_tool::chain::error_table;
 use ipmc_tool::identify::{base_calibration, identify};
-use ipmc_tool::input::read_time_series;
 use ipmc_tool::scoring::Scoring;
 use ipmc_tool::strip_check::{Level, load_truth, rms, score};
+use ipmc_tool::support::input::read_time_series;
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -106,7 +106,7 @@ pub fn run(a: Args) -> Result<()> {
     // states its chamber's setpoints one per burst, each burst at its placed humidity. The
     // nominal and perfect ones stay at the reading, as ../shared/external/strips/README.md's
     // references are.
-    let chamber = match ipmc_tool::chamber_humidity::place_bursts(&ts, rh_sd) {
+    let chamber = match ipmc_tool::humidity::chamber::place_bursts(&ts, rh_sd) {
         Ok(p) => p,
         Err(why) => {
             println!("the chamber's stated setpoints are not used: {why}; the own calibration is taken at the reading too");
@@ -128,7 +128,7 @@ pub fn run(a: Args) -> Result<()> {
     let settle = scoring.skip();
     let lead = settle.div_ceil(period) * period;
     let looped = loop_bursts(&ts, a.period_s, (lead + scored) as f64 / ts.fs_hz)?;
-    let bar = ipmc_tool::progress::bar(ts.bursts().len() as u64, "levels");
+    let bar = ipmc_tool::support::progress::bar(ts.bursts().len() as u64, "levels");
     let mut levels = vec![];
     for (k, range) in looped.bursts().into_iter().enumerate() {
         let rec = ipmc_tool::exact::against_chain::burst_of(&looped, range.start..(range.start + lead + scored).min(range.end))?;

@@ -7,8 +7,8 @@
 use anyhow::{Result, bail};
 use ipmc_tool::chain::rh_uncertainty;
 use ipmc_tool::exact::against_chain::{Level, levels};
-use ipmc_tool::input::read_time_series;
 use ipmc_tool::scoring::{SETTLE_S, Scoring};
+use ipmc_tool::support::input::read_time_series;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -35,7 +35,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let calib = ipmc_tool::calibration_source::load(a.calib.as_deref())?;
+    let calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     let ts = read_time_series(&a.input)?;
     let levels = levels(&calib, &ts, a.period_s, a.seconds, rh_uncertainty(&calib, a.rh_uncertainty))?;
     let scoring = Scoring::new(&calib.band, ts.fs_hz, Some(a.period_s))?;

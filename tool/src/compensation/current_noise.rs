@@ -12,7 +12,7 @@ pub fn current_noise(given: Option<f64>, ts: &TimeSeries, replay: bool) -> (Opti
     match (given, measured) {
         (Some(d), _) => (Some(d), "given"),
         (None, Some(d)) => (Some(d), "the recording's, from its consecutive periods"),
-        (None, None) if !replay => (crate::noise_floor::noise_density(ts), "the recording's, from its spectrum's top octave"),
+        (None, None) if !replay => (crate::error_budget::noise_floor::noise_density(ts), "the recording's, from its spectrum's top octave"),
         (None, None) => (None, ""),
     }
 }

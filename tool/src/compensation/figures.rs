@@ -24,7 +24,7 @@ pub fn print_figures(
     let exact_humidity = error_table(calib, ts.fs_hz, 0.0, kind)?;
     print!(
         "{}",
-        crate::limits::table(
+        crate::error_budget::limits::table(
             &exact_humidity,
             &est.rh_pct,
             &est.rel_err,
@@ -34,7 +34,7 @@ pub fn print_figures(
             band
         )
     );
-    if let Some(note) = crate::limits::beyond_range(calib, &est.beyond_pct, &est.flags) {
+    if let Some(note) = crate::error_budget::limits::beyond_range(calib, &est.beyond_pct, &est.flags) {
         eprintln!("warning: {note}");
     }
     if let Some(base) = &ts.base_m {

@@ -2,7 +2,7 @@
 //! of those taken within the humidity sensor's scatter of it.
 
 use crate::charging;
-use crate::input::checked;
+use crate::support::input::checked;
 use anyhow::{Context, Result};
 use ipmc_core::Calibration;
 use ipmc_fit::estimate::Estimate;

@@ -4,7 +4,7 @@
 
 use super::kappa::{charging_kappas, kappa_at};
 use super::printed::{print_levels, print_summary};
-use crate::{calibration_source, progress};
+use crate::support::{calibration_source, progress};
 use anyhow::{Context, Result, bail};
 use ipmc_core::Calibration;
 use ipmc_core::calibration_file;
@@ -34,12 +34,12 @@ pub fn identify(
     rh_uncertainty: Option<f64>,
 ) -> Result<Identified> {
     let source = recording.display().to_string();
-    let input = crate::input::responses(recording)?;
+    let input = crate::support::input::responses(recording)?;
     let recording_fr = input.response;
     // The laws are fitted at the humidity the strip felt: the base calibration's humidity path
     // (sensor correction, hydration lag) applied to the readings, and kept in the result.
     let mut levels = recording_fr.levels();
-    crate::input::levels_felt(&recording_fr, &mut levels, &base.humidity, &source);
+    crate::support::input::levels_felt(&recording_fr, &mut levels, &base.humidity, &source);
     print_levels(&levels);
     let kappas = charging_kappas(charging, base)?;
     for (rh, _, path) in &kappas {
@@ -157,8 +157,11 @@ pub fn identify(
         );
     }
     what_remains(&mut calib, &model, &level_fits, rh_sd, base);
-    let visits: Vec<crate::range_edges::Visit> =
-        fits.iter().zip(&revisits).map(|((_, l, _), r)| crate::range_edges::Visit { rh_pct: l.rh_pct, revisit_of: *r }).collect();
+    let visits: Vec<crate::error_budget::range_edges::Visit> = fits
+        .iter()
+        .zip(&revisits)
+        .map(|((_, l, _), r)| crate::error_budget::range_edges::Visit { rh_pct: l.rh_pct, revisit_of: *r })
+        .collect();
     let remade = |k: usize, delta: f64| {
         let mut moved = level_fits.clone();
         moved[k].rh_pct += delta;
@@ -167,19 +170,19 @@ pub fn identify(
         what_remains(&mut c, &m, &moved, rh_sd, base);
         Some(c)
     };
-    for w in crate::range_edges::warnings(&visits, rh_sd, &calib, &remade) {
+    for w in crate::error_budget::range_edges::warnings(&visits, rh_sd, &calib, &remade) {
         eprintln!("warning: {w}");
     }
     // Where nothing names the bench's sensor, its reading's uncertainty is what the levels' read
     // errors show: a recording of the same instrument that names none either is stated with it.
-    let bench_sensor = recording_fr.metadata.get(crate::reading_uncertainty::SENSOR_KEY);
+    let bench_sensor = recording_fr.metadata.get(crate::error_budget::reading_uncertainty::SENSOR_KEY);
     let bench_named = base.humidity.sensor.is_some() || bench_sensor.is_some();
     let keeps_bench_reading = !bench_named && base.humidity.uncertainty_pct.is_none();
     if keeps_bench_reading {
         calib.humidity.uncertainty_pct = Some(rh_sd);
         println!(
             "no sensor named (`# {}=`, the base's [humidity] sensor): the bench reading's {rh_sd:.2} %RH written as [humidity] uncertainty_pct, for recordings that name none either",
-            crate::reading_uncertainty::SENSOR_KEY
+            crate::error_budget::reading_uncertainty::SENSOR_KEY
         );
     }
     // A mode the base calibration chose stays; otherwise the file says what the tool does by
@@ -187,7 +190,7 @@ pub fn identify(
     calib.humidity.mode.get_or_insert(ipmc_core::calibration::humidity_path::HumidityMode::DEFAULT);
     let mut noise_note = "the base calibration's (a frequency response does not carry the current's noise)".to_string();
     if input.bursts.is_some() {
-        let ts = crate::input::read_time_series(recording)?;
+        let ts = crate::support::input::read_time_series(recording)?;
         if let Some(per) = ipmc_fit::multisine::excitation_period(&ts, &source)?
             && let Some(d) = ipmc_recording::looping::noise_density(&ts, per)
         {

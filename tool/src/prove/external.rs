@@ -58,7 +58,7 @@ impl ExternalOutcome {
 pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Option<&std::path::Path>, followups: bool) -> Result<()> {
     let default_calib = dir.join("nominal.toml");
     let calib_arg = calib.map(str::to_string).unwrap_or_else(|| default_calib.display().to_string());
-    let calib = crate::calibration_source::load(Some(&calib_arg))?;
+    let calib = crate::support::calibration_source::load(Some(&calib_arg))?;
     let truths_path = dir.join("truths.json");
     let truths: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&truths_path).with_context(|| format!("cannot read {}", truths_path.display()))?)

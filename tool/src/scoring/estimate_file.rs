@@ -3,7 +3,7 @@
 //! prints, as a struct for programs ([`figures`]).
 
 use super::{Score, Scoring, coverage, nothing_scored, stated_period_s};
-use crate::input::{checked, read_time_series};
+use crate::support::input::{checked, read_time_series};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::band::Band;
 use ipmc_recording::looping::as_estimated;
