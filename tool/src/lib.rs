@@ -2,11 +2,13 @@
 //! command line and calls in here; everything a command computes, reads, writes or draws lives
 //! here, so that other programs (xtask) can call it without running the binary.
 //!
-//! Bottom to top: `support` (recordings, calibrations, progress), `brickwall` (the FFT's ideal
-//! band limit), `humidity` (the strip's own hygrometer, the chamber's setpoints), `chain` (the
-//! firmware's chain on the host), `scoring` (one definition of an estimate's error), `error_budget`,
-//! `exact` (the reference inverse); then the commands' own rooms (`compensation`, `identify`,
-//! `field_table`, `strip_check`, `monitor`, `prove`) and the figures (`plot`, `diagnose`).
+//! Rooms, bottom to top: the leaves (`support`: recordings, calibrations, progress; `brickwall`:
+//! the FFT's ideal band limit; `humidity`: the strip's own hygrometer and the chamber's
+//! setpoints; `charging`; `monitor`: the firmware's stream; `synthetic`: a test recording), then
+//! `chain` (the firmware's chain on the host), `scoring` (the one definition of an estimate's
+//! error), `error_budget` and `prove`; then `exact` (the reference inverse), `compensation`,
+//! `identify` and `plot`; at the top `diagnose` (its figures and report), `field_table` and
+//! `strip_check`.
 
 pub mod brickwall;
 pub mod chain;

@@ -89,7 +89,7 @@ pub fn print_summary(fits: &[(usize, LevelFit)], laws: &[LawFit]) {
         );
     }
     // The test is of what the calibration keeps: a law alone misses a strip with departures by
-    // construction (it warned on 22 of the six shared clean strips' 24 laws).
+    // construction (it would warn on 22 of the six shared clean strips' 24 laws).
     for l in laws {
         let (test, what) = match (l.kept, l.chi2, l.dof, l.p_value) {
             (Some(t), ..) => (

@@ -3,6 +3,7 @@
 
 pub mod bode;
 pub mod compensated;
+pub mod from_files;
 pub mod params;
 pub mod residual_map;
 
@@ -412,7 +413,7 @@ mod tests {
         assert_eq!(scaled_unit(3e-15, "m²/s"), (1e-15, "10⁻¹⁵ m²/s".to_string()));
     }
 
-    /// Over a sweep's span, levels 5 %RH apart differ clearly in colour (the fixed scale gave
+    /// Over a sweep's span, levels 5 %RH apart differ clearly in colour (a fixed scale would give
     /// near-identical greens), and the order dry → wet is kept.
     #[test]
     fn neighbouring_humidities_differ_in_colour() {
