@@ -1,4 +1,5 @@
-//! `ipmc`: the host tool of ipmc-sense.
+//! `ipmc`: the host tool of ipmc-sense. The command line parsed by clap and dispatched to
+//! `commands/`, each a call into the library (`ipmc_tool`).
 
 mod commands;
 #[cfg(test)]
