@@ -1,24 +1,7 @@
-//! `ipmc`: the host tool of ipmc-sense.
+//! `ipmc`: the host tool of ipmc-sense. The command line parsed by clap and dispatched to
+//! `commands/`, each a call into the library (`ipmc_tool`).
 
-mod band;
-mod calibration_source;
-mod chain;
-mod chamber_humidity;
-mod charging;
 mod commands;
-mod diagnose;
-mod exact;
-mod hygrometer;
-mod input;
-mod inverse_choice;
-mod limits;
-mod noise_floor;
-mod overrides;
-mod plot;
-mod progress;
-mod range_edges;
-mod reading_uncertainty;
-mod scoring;
 #[cfg(test)]
 mod test_cli;
 

@@ -1,10 +1,10 @@
 //! `ipmc accuracy`: the figures of the core over humidity, and the baseline they beat.
 
-use crate::calibration_source;
 use anyhow::{Result, anyhow};
 use ipmc_core::inverse::design::{compensation_error, design_inverse};
 use ipmc_core::inverse::rational::{IonicOrder, RationalModel, approximation_error};
 use ipmc_core::{DesignConfig, Inverse, Params};
+use ipmc_tool::support::calibration_source;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -41,7 +41,7 @@ pub fn run(a: Args) -> Result<()> {
         "", "mag %", "phase °", "order", "rms %", "max %", "rms %", "max %"
     );
     let mut worst = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    let bar = crate::progress::bar(15, "humidities");
+    let bar = ipmc_tool::support::progress::bar(15, "humidities");
     for i in 0..=14 {
         bar.inc(1);
         let rh = 20.0 + 5.0 * i as f64;

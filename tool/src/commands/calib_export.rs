@@ -53,7 +53,7 @@ fn render(name: &str, calib: &Calibration) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration_source;
+    use ipmc_tool::support::calibration_source;
     use std::path::Path;
 
     #[test]

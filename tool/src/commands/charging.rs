@@ -1,10 +1,10 @@
 //! `ipmc charging`: the capacitance and the effective dielectric constant κe from one
-//! constant-voltage charging recording ([`crate::charging`]).
+//! constant-voltage charging recording ([`ipmc_tool::charging`]).
 
-use crate::charging::{TAIL_FRACTION, analyse};
-use crate::{calibration_source, input::checked};
 use anyhow::{Result, bail};
 use ipmc_recording::{Charging, Format as _, write_atomically};
+use ipmc_tool::charging::{TAIL_FRACTION, analyse};
+use ipmc_tool::support::{calibration_source, input::checked};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

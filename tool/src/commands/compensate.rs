@@ -1,4 +1,4 @@
-//! `ipmc compensate`: runs the firmware's compensation chain ([`crate::chain`]) over a
+//! `ipmc compensate`: runs the firmware's compensation chain ([`ipmc_tool::chain`]) over a
 //! time-series recording on the host, and writes the base-motion estimates as
 //! `t_s,base_est_m,rh_pct,rh_strip_pct,rh_read_pct,rel_err,flags` (the firmware's EST.csv;
 //! `rel_err` the block's expected relative error, 1σ, as the firmware computes it).
@@ -13,15 +13,15 @@
 //! with the raw estimate's rms over the true base's in band, skipping the first second of each
 //! burst (`scoring::SETTLE_S`).
 
-use crate::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
-use crate::input::read_time_series;
-use crate::inverse_choice::InverseChoice;
-use crate::scoring::{SETTLE_S, Scoring};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::calibration::humidity_path::HumidityMode;
-use ipmc_recording::looping::{DEFAULT_PERIOD_S, DEFAULT_SECONDS, Looping, too_short};
-use ipmc_recording::{Estimates as EstimateFile, TimeSeries, write_atomically};
-use std::path::{Path, PathBuf};
+use ipmc_recording::looping::DEFAULT_PERIOD_S;
+use ipmc_recording::write_atomically;
+use ipmc_tool::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
+use ipmc_tool::compensation::{current_noise, estimate_file, humidity_uncertainty, loop_if_short, print_figures};
+use ipmc_tool::exact::InverseChoice;
+use ipmc_tool::support::input::read_time_series;
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -96,7 +96,7 @@ enum HumidityChoice {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     if let Some(b) = a.band {
         calib.band.shape = match b {
             BandChoice::LinearPhase => ipmc_core::band::Shape::LinearPhase,
@@ -105,16 +105,8 @@ pub fn run(a: Args) -> Result<()> {
     }
     let ts = read_time_series(&a.input)?;
     let (ts, looping) = if a.schedule.is_none() { loop_if_short(&a.input, ts, a.period_s)? } else { (ts, None) };
-    let measured = ts.metadata.get(ipmc_recording::looping::NOISE_KEY).and_then(|v| v.parse::<f64>().ok());
-    // A replay of the firmware's schedule runs on what the firmware was built with; else the
-    // recording's own noise and sensor: the calibration's noise is the bench's front end's.
     let replay = a.schedule.is_some();
-    let (noise, noise_said) = match (a.current_noise, measured) {
-        (Some(d), _) => (Some(d), "given"),
-        (None, Some(d)) => (Some(d), "the recording's, from its consecutive periods"),
-        (None, None) if !replay => (crate::noise_floor::noise_density(&ts), "the recording's, from its spectrum's top octave"),
-        (None, None) => (None, ""),
-    };
+    let (noise, noise_said) = current_noise(a.current_noise, &ts, replay);
     if let Some(d) = noise {
         calib.uncertainty.current_noise_a_per_rthz = d;
         calib.validate().map_err(|e| anyhow!("the current's noise: {e}"))?;
@@ -127,14 +119,14 @@ pub fn run(a: Args) -> Result<()> {
     let reading_said = if replay {
         "the firmware's calibration's".to_string()
     } else {
-        let named = crate::reading_uncertainty::name_sensor(&mut calib, &ts);
-        crate::reading_uncertainty::settle(&mut calib, named, |c| crate::hygrometer::run(c, &ts))
+        let named = ipmc_tool::error_budget::reading_uncertainty::name_sensor(&mut calib, &ts);
+        ipmc_tool::error_budget::reading_uncertainty::settle(&mut calib, named, |c| ipmc_tool::humidity::hygrometer::run(c, &ts))
     };
     // A bench session's chamber setpoints, where they place its bursts, know each burst's
     // humidity better than its reading: the default there, and what `--humidity setpoints` asks.
     let read_sd = rh_uncertainty(&calib, None);
     let chamber = match (a.humidity, replay || a.fixed_rh.is_some()) {
-        (None | Some(HumidityChoice::Setpoints), false) => match crate::chamber_humidity::place_bursts(&ts, read_sd) {
+        (None | Some(HumidityChoice::Setpoints), false) => match ipmc_tool::humidity::chamber::place_bursts(&ts, read_sd) {
             Ok(p) => p,
             Err(why) if a.humidity.is_some() => bail!("{}: --humidity setpoints: {why}", a.input.display()),
             Err(why) => {
@@ -159,40 +151,19 @@ pub fn run(a: Args) -> Result<()> {
         at_chamber.humidity = calib.humidity.at_strip();
         (at_chamber, placed.apply(&ts), Some(placed.rms_sd()), Some(placed.sd_per_sample(&ts)))
     } else if fused {
-        let seconds = crate::hygrometer::run(&calib, &ts);
-        let own_sd: Vec<f64> =
-            crate::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct).into_iter().map(|v| v.unwrap_or(read_sd)).collect();
-        let ts = crate::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
+        let seconds = ipmc_tool::humidity::hygrometer::run(&calib, &ts);
+        let own_sd: Vec<f64> = ipmc_tool::humidity::hygrometer::per_sample(&ts, &seconds, |s| s.fused_design_sd_pct)
+            .into_iter()
+            .map(|v| v.unwrap_or(read_sd))
+            .collect();
+        let ts = ipmc_tool::humidity::hygrometer::with_humidity(&ts, &seconds, |s| s.fused.rh_pct);
         let mut at_strip = calib;
         at_strip.humidity = calib.humidity.at_strip();
-        (at_strip, ts, crate::reading_uncertainty::fused_sd(&seconds), Some(own_sd))
+        (at_strip, ts, ipmc_tool::error_budget::reading_uncertainty::fused_sd(&seconds), Some(own_sd))
     } else {
         (calib, ts, None, None)
     };
-    let rh_sd = match (a.rh_uncertainty, own_rms_sd) {
-        (Some(u), _) => {
-            println!("the humidity's uncertainty: {u:.2} %RH, given");
-            u
-        }
-        (None, Some(u)) if chamber.is_some() => {
-            println!(
-                "the humidity's uncertainty: the placed bursts', {u:.2} %RH rms, each burst stated with its own; the reading's: \
-                 {reading_said}"
-            );
-            u
-        }
-        (None, Some(u)) => {
-            println!(
-                "the humidity's uncertainty: the fused humidity's, {u:.2} %RH rms, each block stated with its own (its 1σ without the \
-                 strip's calibration part, which the calibration's own uncertainty states already); the reading's: {reading_said}"
-            );
-            u
-        }
-        (None, None) => {
-            println!("the humidity's uncertainty: the reading's, {reading_said}");
-            read_sd
-        }
-    };
+    let rh_sd = humidity_uncertainty(a.rh_uncertainty, own_rms_sd, chamber.is_some(), read_sd, &reading_said);
     let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
     let slopes = match (&own_sd, own_rms_sd, a.rh_uncertainty) {
         (Some(_), Some(_), None) => Some(humidity_slopes(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd), &errors)?),
@@ -205,39 +176,11 @@ pub fn run(a: Args) -> Result<()> {
     };
     if fused || chamber.is_some() {
         // The chain saw the fused or placed humidity as its reading: the file keeps the sensor's.
-        for (block, out) in read.chunks(crate::chain::BLOCK_LEN).zip(est.rh_read_pct.chunks_mut(crate::chain::BLOCK_LEN)) {
+        for (block, out) in read.chunks(ipmc_tool::chain::BLOCK_LEN).zip(est.rh_read_pct.chunks_mut(ipmc_tool::chain::BLOCK_LEN)) {
             out.fill((block.iter().sum::<f64>() / block.len() as f64) as f32);
         }
     }
-    let mut file = EstimateFile {
-        t_s: ts.t_s[..est.base_est_m.len()].to_vec(),
-        base_est_m: est.base_est_m.clone(),
-        rh_pct: Some(est.rh_pct.clone()),
-        rh_strip_pct: Some(est.rh_strip_pct.clone()),
-        rh_read_pct: Some(est.rh_read_pct.clone()),
-        rel_err: Some(est.rel_err.clone()),
-        flags: Some(est.flags.clone()),
-        ..Default::default()
-    };
-    file.metadata.set("fs_hz", ts.fs_hz);
-    // The chain's delay as it reports it (the preview and the band filter's); `ipmc score` checks it
-    // against the scoring's.
-    file.metadata.set("delay_samples", est.delay_samples.first().copied().unwrap_or(0));
-    file.metadata.set("band_hz", format!("{}-{}", calib.band.low_hz, calib.band.high_hz));
-    file.metadata.set("band_shape", calib.band.shape.name());
-    if let Some(l) = looping {
-        l.write(&mut file.metadata);
-    }
-    file.metadata.set(
-        "mode",
-        match (&a.schedule, a.fixed_rh) {
-            (Some(p), _) => format!("scheduled schedule={}", p.display()),
-            (None, Some(r)) => format!("fixed rh_pct={r}"),
-            (None, None) if fused => "compensated humidity=fused".into(),
-            (None, None) if chamber.is_some() => "compensated humidity=setpoints".into(),
-            (None, None) => "compensated".into(),
-        },
-    );
+    let file = estimate_file(&ts, &est, &calib, looping, a.schedule.as_deref(), a.fixed_rh, fused, chamber.is_some());
     let s = file.to_csv()?;
     write_atomically(&a.out, s.as_bytes())?;
     let mode = match (&a.schedule, a.fixed_rh) {
@@ -246,71 +189,17 @@ pub fn run(a: Args) -> Result<()> {
         (None, None) => format!("compensated, {} retunes", est.retunes),
     };
     println!("{} estimates ({mode}) -> {}", est.base_est_m.len(), a.out.display());
-    let band = (calib.band.low_hz, calib.band.high_hz);
-    let exact_humidity = error_table(&calib, ts.fs_hz, 0.0, a.inverse.kind(rh_sd))?;
-    print!(
-        "{}",
-        crate::limits::table(
-            &exact_humidity,
-            &est.rh_pct,
-            &est.rel_err,
-            &est.rel_err_calibration,
-            &est.burst_start,
-            crate::chain::BLOCK_LEN,
-            band
-        )
-    );
-    if let Some(note) = crate::limits::beyond_range(&calib, &est.beyond_pct, &est.flags) {
-        eprintln!("warning: {note}");
-    }
-    if let Some(base) = &ts.base_m {
-        let period = crate::scoring::stated_period_s(&ts.metadata, Some(&file.metadata));
-        let scoring = Scoring::new(&calib.band, ts.fs_hz, period)?;
-        let bursts = ts.bursts();
-        let score = scoring.score(&est.base_est_m, &scoring.truth(base, &bursts), &bursts, None);
-        if score.bursts.is_empty() {
-            eprintln!("warning: {}", crate::scoring::nothing_scored(&a.input, &ts, &scoring));
-        } else {
-            println!("{}", crate::scoring::line(&scoring, &score));
-        }
-    }
+    print_figures(&a.input, &calib, &ts, &est, &file.metadata, a.inverse.kind(rh_sd))?;
     Ok(())
-}
-
-/// `ts`, or where a burst is too short for the chain to settle and be scored (a bench session's
-/// 2 s bursts), each burst repeated by whole periods, said on stderr; an estimate of the short
-/// bursts as they are would be all start-up. Refused, with the command that loops, where the
-/// bursts do not repeat with the period.
-fn loop_if_short(input: &Path, ts: TimeSeries, period_s: f64) -> Result<(TimeSeries, Option<Looping>)> {
-    let Some(shortest) = too_short(&ts, SETTLE_S) else { return Ok((ts, None)) };
-    let looping = Looping { period_s, seconds: DEFAULT_SECONDS };
-    let needed = SETTLE_S + ipmc_recording::looping::SCORED_MIN_S;
-    match looping.apply(&ts) {
-        Ok(looped) => {
-            eprintln!(
-                "{}: its shortest burst is {shortest:.1} s, under the {needed} s the chain needs to settle and be scored: each \
-                 burst's whole {period_s} s periods repeated to {DEFAULT_SECONDS} s (as `ipmc loop-bursts` does); the estimate \
-                 is of the looped bursts, and `ipmc score` and `ipmc plot compensated` loop the recording alike",
-                input.display()
-            );
-            Ok((looped, Some(looping)))
-        }
-        Err(e) => bail!(
-            "{}: its shortest burst is {shortest:.1} s, under the {needed} s the chain needs to settle, and it cannot be looped \
-             by whole periods of {period_s} s: {e}. With the excitation's period P: `ipmc compensate {} --period-s P …`, or \
-             `ipmc loop-bursts {} --period-s P --out LOOPED.csv` and compensate LOOPED.csv",
-            input.display(),
-            input.display(),
-            input.display()
-        ),
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use clap::Parser;
-    use ipmc_recording::{Format as _, NumberFormat};
+    use ipmc_recording::looping::{DEFAULT_SECONDS, Looping, too_short};
+    use ipmc_recording::{Estimates as EstimateFile, Format as _, NumberFormat};
+    use ipmc_tool::scoring::SETTLE_S;
 
     #[derive(Parser)]
     struct Compensate {
@@ -324,12 +213,12 @@ mod tests {
         args: crate::commands::score::Args,
     }
 
-    /// A bench time series of 2 s bursts: all of each is the chain's start-up. Compensated as
-    /// it was, its estimate scored "(NaN %)" and `score` failed; looped, it scores.
+    /// A bench time series of 2 s bursts: all of each is the chain's start-up, which scores
+    /// nothing; looped, it scores.
     #[test]
     fn short_bursts_are_looped_and_the_estimate_scores() {
         let calib = ipmc_core::Calibration::default_preset();
-        let ts = crate::commands::vs_exact::tests::periodic_recording(&calib, &[40.0, 70.0]);
+        let ts = ipmc_tool::synthetic::periodic_recording(&calib, &[40.0, 70.0]);
         assert!(too_short(&ts, SETTLE_S).is_some());
         let dir = std::env::temp_dir().join(format!("ipmc-compensate-short-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -356,7 +245,7 @@ mod tests {
     fn a_sessions_stated_setpoints_place_its_bursts_by_default() {
         let calib = ipmc_core::Calibration::default_preset();
         let set = [40.0, 60.0, 78.0];
-        let mut ts = crate::commands::vs_exact::tests::periodic_recording(&calib, &set);
+        let mut ts = ipmc_tool::synthetic::periodic_recording(&calib, &set);
         for (b, off) in ts.bursts().into_iter().zip([0.4, 0.3, -1.2]) {
             ts.rh_pct[b].iter_mut().for_each(|r| *r += off);
         }

@@ -1,10 +1,10 @@
 //! `ipmc design`: the inverse the firmware computes at one humidity, as JSON.
 
-use crate::{calibration_source, overrides};
 use anyhow::{Result, anyhow};
 use ipmc_core::inverse::design::{compensation_error, design_inverse_for};
 use ipmc_core::inverse::rational::{IonicOrder, RationalModel, approximation_error};
 use ipmc_core::{DesignConfig, Params};
+use ipmc_tool::support::{calibration_source, overrides};
 use serde_json::json;
 
 #[derive(clap::Args)]

@@ -1,16 +1,13 @@
 //! `ipmc diagnose REC.csv... [--calib CALIB] --report DIR`: why simulation and recordings
 //! differ. Writes DIR/report.md, DIR/report.json and the figures (SVG and PNG; see
-//! `ipmc_diagnose`; the figures are `crate::diagnose::figures`).
+//! `ipmc_diagnose`; the figures are `ipmc_tool::diagnose::figures`).
 
-use crate::diagnose::figures;
-use anyhow::{Context, Result};
+use anyhow::Result;
 use ipmc_core::Calibration;
-use ipmc_core::calibration::humidity_path::SensorKind;
-use ipmc_diagnose::strip_diagnosis::{self, FollowupFit, Stage};
+use ipmc_diagnose::strip_diagnosis;
 use ipmc_diagnose::strip_files::{self, Content};
-use ipmc_diagnose::{data::Dataset, report};
-use ipmc_recording::write_atomically;
-use std::path::{Path, PathBuf};
+use ipmc_tool::diagnose::report::{print_findings, sensor_kind, write_calibration, write_report};
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -85,54 +82,20 @@ impl InstrumentArgs {
     }
 }
 
-fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind> {
-    match arg {
-        None => Ok(calib.humidity.sensor.unwrap_or(SensorKind::Hts221)),
-        Some(s) => [SensorKind::Hts221, SensorKind::Sht4x, SensorKind::Hih4030]
-            .into_iter()
-            .find(|k| k.as_str() == s)
-            .ok_or_else(|| anyhow::anyhow!("--humidity-sensor {s}: expected hts221, sht4x or hih4030")),
-    }
-}
-
-/// The report with the stages of a diagnosis from follow-ups (none: one stage).
-pub fn write_report(
-    dir: &Path,
-    d: &ipmc_diagnose::Diagnosis,
-    data: &Dataset,
-    inputs: &[String],
-    calib: &str,
-    stages: &[Stage],
-    fits: &[FollowupFit],
-) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let drawn = figures::draw(dir, d, data)?;
-    let mut json = report::json(d, inputs, calib, &drawn);
-    let mut md = report::markdown(d, inputs, calib, &drawn);
-    if stages.len() > 1 {
-        json["stages"] = serde_json::json!(stages);
-        json["followup_fits"] = serde_json::json!(fits);
-        md.push_str(&report::stages_markdown(stages, fits));
-    }
-    write_atomically(&dir.join("report.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
-    write_atomically(&dir.join("report.md"), md.as_bytes())?;
-    Ok(())
-}
-
 pub fn run(a: Args) -> Result<()> {
-    let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     a.instrument.apply(&mut calib)?;
     let files = strip_files::read(&a.recordings)?;
     for f in &files {
         if let Content::Response(r) = &f.content
             && let Some(bursts) = &r.bursts
         {
-            println!("{}: {}", f.name(), crate::input::summary(bursts));
+            println!("{}: {}", f.name(), ipmc_tool::support::input::summary(bursts));
         }
     }
     let stages = 1 + files.iter().filter(|f| f.followup.is_some()).count() as u64;
     let steps = stages * (3 + ipmc_diagnose::candidates::LIBRARY.len() as u64);
-    let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { crate::progress::bar(steps, "diagnosing") };
+    let bar = if a.quiet { indicatif::ProgressBar::hidden() } else { ipmc_tool::support::progress::bar(steps, "diagnosing") };
     let strip = strip_diagnosis::diagnose(&calib, &files, &calib.humidity, &|step| {
         // Candidates refitted from the channels' prior mean are steps the count cannot know.
         if bar.length().is_some_and(|len| bar.position() >= len) {
@@ -146,62 +109,10 @@ pub fn run(a: Args) -> Result<()> {
     let inputs: Vec<String> = a.recordings.iter().map(|p| p.display().to_string()).collect();
     let calib_name = a.calib.as_deref().unwrap_or("default");
     write_report(&a.report, d, data, &inputs, calib_name, &strip.stages, &strip.fits)?;
-    for s in strip.stages.iter().filter(|_| strip.stages.len() > 1) {
-        println!(
-            "{}: {} ({})",
-            s.added.as_deref().map_or("primary alone".to_string(), |f| format!("with {f}")),
-            s.verdict,
-            s.probabilities.iter().take(3).map(|p| format!("{} {:.1} %", p.name, 100.0 * p.probability)).collect::<Vec<_>>().join(", ")
-        );
-    }
-    println!("verdict: {}", d.verdict);
-    println!("{}", d.explanation);
-    let set: Vec<String> = d
-        .set
-        .iter()
-        .map(|n| format!("{n} {:.1} %", 100.0 * d.probabilities.iter().find(|p| &p.name == n).map_or(0.0, |p| p.probability)))
-        .collect();
-    println!("probability: {}", set.join(", "));
-    if let Some(m) = &d.separation {
-        println!("to separate {} from {}: {} ({})", m.between[0], m.between[1], m.record, m.band);
-    }
-    if let Some(r) = &d.request {
-        println!("follow-up to record: {} (decides between {})", r.protocol, r.decides_between.join(", "));
-    }
-    println!("where the plain model departs most (before any candidate): {}", d.located.summary);
-    println!("held-out χ²/residual: {:.3} → {:.3}", d.heldout_before, d.heldout_after);
+    print_findings(d, &strip.stages);
     println!("report: {}", a.report.join("report.md").display());
     if let Some(out) = &a.write_calib {
-        match d.calibration_with(&calib, sensor_kind(a.humidity_sensor.as_deref(), &calib)?) {
-            Some(c) => {
-                ipmc_core::calibration_file::check(&c)
-                    .map_err(|e| anyhow::anyhow!("the calibration with the finding is not usable: {e}"))?;
-                let text = format!(
-                    "# {calib_name} with what `ipmc diagnose {}` found: {}\n{}",
-                    inputs.join(" "),
-                    d.verdict,
-                    ipmc_core::calibration_file::to_text(&c)
-                );
-                write_atomically(out, text.as_bytes())?;
-                let (was, h) = (calib.humidity, c.humidity);
-                let uncertainty = |u: Option<f64>| u.map_or("datasheet".to_string(), |u| format!("±{u:.2} %RH"));
-                println!(
-                    "calibration -> {}: [humidity] offset {:+.2} → {:+.2} %RH, gain {:.4} → {:.4}, τ wet {:.0} → {:.0} s, τ dry {:.0} → {:.0} s, reading uncertainty {} → {}",
-                    out.display(),
-                    was.offset_pct,
-                    h.offset_pct,
-                    was.gain,
-                    h.gain,
-                    was.tau_wet_s,
-                    h.tau_wet_s,
-                    was.tau_dry_s,
-                    h.tau_dry_s,
-                    uncertainty(was.uncertainty_pct),
-                    uncertainty(h.uncertainty_pct)
-                );
-            }
-            None => println!("calibration: not written ({} is not a humidity-path finding)", d.verdict),
-        }
+        write_calibration(out, d, &calib, calib_name, &inputs, sensor_kind(a.humidity_sensor.as_deref(), &calib)?)?;
     }
     Ok(())
 }
@@ -265,7 +176,7 @@ mod tests {
         }
     }
 
-    /// Issue 40's humidity loop: a sensor reading 1.9 %RH high, which the strip's frequency
+    /// The humidity loop: a sensor reading 1.9 %RH high, which the strip's frequency
     /// response alone does not name, is named from its reference follow-up and written by
     /// `--write-calib`; a time series of the same strip and sensor compensated with the written
     /// calibration then comes within 1.5× the error of the same series read by a perfect sensor.
@@ -304,7 +215,7 @@ mod tests {
         let alone = diagnose(&["fr.csv"], None);
         assert_ne!(alone, "humidity_sensor_error", "the premise: a frequency response alone does not name a 1.9 %RH offset");
         assert_eq!(diagnose(&["fr.csv", "fr-reference.csv"], Some("written.toml")), "humidity_sensor_error");
-        let written = crate::calibration_source::load(Some(&path("written.toml"))).unwrap();
+        let written = ipmc_tool::support::calibration_source::load(Some(&path("written.toml"))).unwrap();
         assert!((written.humidity.offset_pct + 1.9).abs() < 0.5, "written offset {}", written.humidity.offset_pct);
         assert!(written.humidity.uncertainty_pct.is_some_and(|u| u < 0.5), "{:?}", written.humidity.uncertainty_pct);
         assert!(written.humidity.sensor.is_some(), "the sensor the correction and its uncertainty were measured on");
@@ -327,7 +238,10 @@ mod tests {
             let out = path(&format!("{rec}-{calib_file}.est.csv"));
             crate::commands::compensate::run(parse(&[&path(rec), "--out", &out, "--calib", &path(calib_file), "--humidity", "reading"]))
                 .unwrap();
-            crate::commands::score::Loaded::read(&dir.join(rec), std::path::Path::new(&out), None, None).unwrap().pooled_error().unwrap()
+            ipmc_tool::scoring::estimate_file::Loaded::read(&dir.join(rec), std::path::Path::new(&out), None, None)
+                .unwrap()
+                .pooled_error()
+                .unwrap()
         };
         let (corrected, perfect, uncorrected) =
             (error("ts-offset.csv", "written.toml"), error("ts-perfect.csv", "default.toml"), error("ts-offset.csv", "default.toml"));

@@ -3,10 +3,10 @@
 //! compensate` loops short bursts with too), with the current's noise density measured from
 //! period-to-period differences and the new layout written as metadata.
 
-use crate::input::checked;
 use anyhow::Result;
 use ipmc_recording::looping::{DEFAULT_PERIOD_S, DEFAULT_SECONDS, loop_bursts};
 use ipmc_recording::{Format as _, NumberFormat, TimeSeries, write_atomically};
+use ipmc_tool::support::input::checked;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]

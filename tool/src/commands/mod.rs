@@ -1,3 +1,6 @@
+//! The `ipmc` commands, one per file: each its clap arguments, their checks, the calls into the
+//! library (`ipmc_tool`) and what it prints.
+
 pub mod accuracy;
 pub mod calib_export;
 pub mod charging;

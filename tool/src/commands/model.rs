@@ -1,9 +1,9 @@
 //! `ipmc model`: the exact tip response and current at chosen frequencies.
 
-use crate::{calibration_source, overrides};
 use anyhow::{Result, bail};
 use ipmc_core::model::exact::{current_response, jw, tip_response};
 use ipmc_core::{ComplexMath, Params};
+use ipmc_tool::support::{calibration_source, overrides};
 use std::io::Write;
 
 #[derive(clap::Args)]

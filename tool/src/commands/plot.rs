@@ -2,17 +2,11 @@
 //! level (`bode`), identified parameters against humidity with the calibration's laws
 //! (`params`), and a compensated estimate against the true base motion (`compensated`).
 
-use crate::calibration_source;
-use crate::input::checked;
-use crate::plot::bode::{Bode, LevelModel};
-use crate::plot::compensated::{Compensated, Series};
-use crate::plot::params::{ParamsFigure, level_objects, read_levels};
-use crate::plot::{humidity_color, render};
-use anyhow::{Result, bail};
-use ipmc_core::{ParamName, Params};
-use ipmc_recording::{Estimates, Format as _, FrequencyResponse, LEVEL_SCATTER_PCT, TimeSeries};
-use plotters::style::RGBColor;
-use std::path::{Path, PathBuf};
+use anyhow::Result;
+use ipmc_tool::plot::params::{ParamsFigure, read_levels};
+use ipmc_tool::plot::{from_files, render};
+use ipmc_tool::support::calibration_source;
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -78,45 +72,17 @@ pub fn run(a: Args) -> Result<()> {
     let (svg, png) = match a.figure {
         Figure::Bode { recording, calib, levels, out } => {
             let calib = calibration_source::load(calib.as_deref())?;
-            let fr = checked(FrequencyResponse::read(&recording))?;
-            let fitted = levels.as_deref().map(level_objects).transpose()?;
-            let level_list = fr.levels();
-            let mut models = Vec::with_capacity(level_list.len());
-            for (k, level) in level_list.into_iter().enumerate() {
-                let mut params: Params<f64> = calib.params_at(level.rh_pct);
-                if let Some(fitted) = &fitted {
-                    apply_fitted(&mut params, fitted, k, level.rh_pct)?;
-                }
-                models.push(LevelModel::new(level, params));
-            }
-            let source = if levels.is_some() { "identified parameters" } else { "calibration" };
-            let title = format!("{}: measured (markers) vs model from the {source} (lines)", file_name(&recording));
-            render(&Bode { title, levels: models }, &out.join("bode"), (1600, 1000))?
+            render(&from_files::bode(&recording, &calib, levels.as_deref())?, &out.join("bode"), (1600, 1000))?
         }
         Figure::Params { levels, calib, out } => {
             let calib = calibration_source::load(calib.as_deref())?;
             let series = read_levels(&levels)?;
-            let title = format!("{}: identified parameters vs humidity", file_name(&levels));
+            let title = format!("{}: identified parameters vs humidity", from_files::file_name(&levels));
             render(&ParamsFigure { title, series, calib }, &out.join("params"), (1600, 1100))?
         }
         Figure::Compensated { recording, estimate, baseline, label, baseline_label, preview_ms, seconds, out } => {
-            let file = checked(Estimates::read(&estimate))?;
-            let ts = ipmc_recording::looping::as_estimated(checked(TimeSeries::read(&recording))?, &file.metadata)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", estimate.display()))?;
-            let base = ts.base_m.as_ref().ok_or_else(|| anyhow::anyhow!("{}: no base_m column to plot against", recording.display()))?;
-            let est = |p: &Path| -> Result<Vec<f64>> { Ok(checked(Estimates::read(p))?.base_est_m.into_iter().map(f64::from).collect()) };
-            let band = crate::commands::score::band_of(&file.metadata, None)?;
-            let mut scoring =
-                crate::scoring::Scoring::new(&band, ts.fs_hz, crate::scoring::stated_period_s(&ts.metadata, Some(&file.metadata)))?;
-            if let Some(ms) = preview_ms {
-                scoring.preview = (ms * 1e-3 * ts.fs_hz).round() as usize;
-            }
-            let stated = file.rel_err.map(|v| v.into_iter().map(f64::from).collect());
-            let mut series = vec![Series { name: label, color: RGBColor(0, 110, 220), est: est(&estimate)?, primary: true, stated }];
-            if let Some(b) = &baseline {
-                series.push(Series { name: baseline_label, color: humidity_color(95.0), est: est(b)?, primary: false, stated: None });
-            }
-            let figure = Compensated::new(base, &scoring, ts.bursts(), series, seconds)?;
+            let files = from_files::EstimateFiles { recording, estimate, baseline, label, baseline_label, preview_ms };
+            let figure = from_files::compensated(&files, seconds)?;
             let drawn = render(&figure, &out, (1400, 800))?;
             // Its legend's figures beside it, so that a copy kept in the docs can be checked
             // against what the command prints today.
@@ -130,35 +96,16 @@ pub fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-fn file_name(p: &Path) -> String {
-    p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
-}
-
-/// Sets the parameters level `k` of the recording was identified with: the k-th object when
-/// its `rh_pct` matches the level's, else the first object within the sensor's scatter.
-fn apply_fitted(params: &mut Params<f64>, fitted: &[serde_json::Map<String, serde_json::Value>], k: usize, rh_pct: f64) -> Result<()> {
-    let near = |o: &serde_json::Map<String, serde_json::Value>| {
-        o.get("rh_pct").and_then(|v| v.as_f64()).is_some_and(|r| (r - rh_pct).abs() <= LEVEL_SCATTER_PCT)
-    };
-    let Some(obj) = fitted.get(k).filter(|o| near(o)).or_else(|| fitted.iter().find(|o| near(o))) else {
-        bail!("no level of the LEVELS file is within {LEVEL_SCATTER_PCT} % of the recording's level at {rh_pct:.1} %");
-    };
-    for (key, value) in obj {
-        if let (Some(name), Some(v)) = (ParamName::parse(key), value.as_f64()) {
-            params.set(name, v);
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::test_cli::parse;
-    use ipmc_recording::Metadata;
+    use ipmc_recording::{Format as _, FrequencyResponse, Metadata};
     use ipmc_sim::physics::ExactModel;
     use ipmc_sim::session::Session;
     use ipmc_sim::simulate;
+    use ipmc_tool::support::input::checked;
+    use std::path::Path;
 
     fn run_plot(args: &[&str]) -> Result<()> {
         run(parse(args))
@@ -207,7 +154,7 @@ mod tests {
         assert!(!svg.contains("[m/m] [deg]") && svg.contains("phase of tip / base  [°]"), "phase title");
         let texts = svg_texts(&svg);
         let f_max = checked(FrequencyResponse::read(Path::new(&fr))).unwrap().points.iter().map(|p| p.freq_hz).fold(0.0, f64::max);
-        let end = crate::plot::tick_label(crate::plot::round_sig(f_max, 2));
+        let end = ipmc_tool::plot::tick_label(ipmc_tool::plot::round_sig(f_max, 2));
         assert!(texts.contains(&end) && texts.iter().any(|t| t == "10"), "no tick at 10 Hz or at the data's end {end}: {texts:?}");
         assert!(!texts.iter().any(|t| t.contains("e0") || t.contains("e1") || t.contains("e-")), "exponent ticks: {texts:?}");
         // The legend lies beside the panels: its entries start right of every axis label.

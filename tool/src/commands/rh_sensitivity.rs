@@ -3,11 +3,11 @@
 //! rms of |H(RH)·G(RH+δ)·e^{jωτ} − 1|, the figure `ipmc accuracy` prints for δ = 0, with the
 //! same functions.
 
-use crate::calibration_source;
 use anyhow::{Result, anyhow};
 use ipmc_core::calibration::humidity_path::SensorKind;
 use ipmc_core::inverse::design::{compensation_error, design_inverse};
 use ipmc_core::{DesignConfig, Inverse, Params};
+use ipmc_tool::support::calibration_source;
 
 /// SHT45's typical accuracy [±%RH] (Sensirion SHT4x datasheet): the firmware's `SensorKind`
 /// cannot tell it from an SHT40, so the core's table carries the SHT40's 1.8 %RH.
@@ -50,7 +50,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     println!();
     let rhs: Vec<f64> = (3..=8).map(|k| 10.0 * k as f64).collect();
-    let bar = crate::progress::bar(rhs.len() as u64, "humidities");
+    let bar = ipmc_tool::support::progress::bar(rhs.len() as u64, "humidities");
     for &rh in &rhs {
         bar.inc(1);
         let p: Params<f64> = calib.params_at(rh);

@@ -7,7 +7,6 @@
 //! base motion (`tones` log-spaced tones over [`f_lo`, `f_hi`], equal amplitudes summing to
 //! `amplitude_m`, random phases), the model's quasi-static current, numbers written compactly.
 
-use crate::calibration_source;
 use anyhow::{Context, Result};
 use ipmc_recording::Metadata;
 use ipmc_recording::write_atomically;
@@ -15,6 +14,7 @@ use ipmc_sim::physics::ExactModel;
 use ipmc_sim::session::Session;
 use ipmc_sim::sweep::Sweep;
 use ipmc_sim::{Recording, simulate};
+use ipmc_tool::support::calibration_source;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -46,7 +46,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(strip) = session.sample.strip_seed {
         metadata.set("strip_seed", strip);
     }
-    let spin = crate::progress::spinner("simulating");
+    let spin = ipmc_tool::support::progress::spinner("simulating");
     let rec = simulate(&calib, &session, &ExactModel, metadata)?;
     spin.finish_and_clear();
     let files = rec.files(&a.out)?;
@@ -143,7 +143,7 @@ pub fn run_sweep(a: SweepArgs) -> Result<()> {
     if let Some(c) = &a.calib {
         metadata.set("calib", c);
     }
-    let spin = crate::progress::spinner("simulating");
+    let spin = ipmc_tool::support::progress::spinner("simulating");
     let rec = simulate(&calibration_source::load(a.calib.as_deref())?, &session, &ExactModel, metadata)?;
     spin.finish_and_clear();
     for (path, text) in rec.files(&a.out)? {

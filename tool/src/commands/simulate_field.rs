@@ -42,7 +42,7 @@ enum Sensor {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut calib = crate::calibration_source::load(a.calib.as_deref())?;
+    let mut calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     let sensor = match a.sensor {
         Sensor::Hts221 => SensorKind::Hts221,
         Sensor::Sht4x => SensorKind::Sht4x,

@@ -5,7 +5,7 @@
 use super::SETTLE_S;
 
 /// The error's content in `band` over the true base's content in `reference` (each
-/// `(lo_hz, hi_hz)`; `band::energy` per burst after its settling, the base delayed by `delay`),
+/// `(lo_hz, hi_hz)`; `brickwall::energy` per burst after its settling, the base delayed by `delay`),
 /// as a ratio of rms values: what an estimate adds outside the design band, on the scale of the
 /// signal in it.
 pub fn band_error<E: Copy + Into<f64>>(
@@ -20,8 +20,8 @@ pub fn band_error<E: Copy + Into<f64>>(
     let (mut se, mut sb) = (0.0f64, 0.0f64);
     for (err, truth) in scored_bursts(est, delay, burst_start, base, fs_hz) {
         if err.len() > 2 {
-            se += crate::band::energy(&err, fs_hz, band.0, band.1);
-            sb += crate::band::energy(&truth, fs_hz, reference.0, reference.1);
+            se += crate::brickwall::energy(&err, fs_hz, band.0, band.1);
+            sb += crate::brickwall::energy(&truth, fs_hz, reference.0, reference.1);
         }
     }
     (sb > 0.0).then(|| (se / sb).sqrt())

@@ -4,7 +4,7 @@
 //! sensor, the data: how far the reading lies from the strip's own estimates of its humidity.
 //! The fusion weighs the reading by it, and the error bars state it.
 
-use crate::hygrometer::Second;
+use crate::humidity::hygrometer::Second;
 use ipmc_core::Calibration;
 use ipmc_core::calibration::humidity_path::{MAX_UNCERTAINTY_PCT, SensorKind};
 use ipmc_recording::TimeSeries;

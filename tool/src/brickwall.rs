@@ -1,7 +1,9 @@
-//! A signal's content in a frequency band, by the discrete Fourier transform of the whole
-//! signal (an FFT: a field recording of 90 s at 2 kHz has 12 600 bins in 10–150 Hz, and a direct
-//! sum over them took seconds per signal). The signal is taken as one period of a periodic one:
-//! exact for a whole number of periods of a periodic recording, with the usual leakage otherwise.
+//! The ideal brickwall band limit: a signal's content in a frequency band, every bin inside kept
+//! and every bin outside dropped (not the firmware's FIR band filter, `ipmc_core::band`). By the
+//! discrete Fourier transform of the whole signal, an FFT: a field recording of 90 s at 2 kHz has
+//! 12 600 bins in 10–150 Hz, and a direct sum over them costs seconds per signal. The signal is
+//! taken as one period of a periodic one: exact for a whole number of periods of a periodic
+//! recording, with the usual leakage otherwise.
 //!
 //! One implementation for the uses that must agree on what "in band" means: scoring an
 //! estimate's error in the band (`scoring`: a burst's error and each window's coverage), the

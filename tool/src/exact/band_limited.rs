@@ -3,7 +3,7 @@
 //! and no arithmetic to speak of: what the model itself allows, the reference the causal f32
 //! chain is held to (`ipmc vs-exact`).
 
-use crate::band;
+use crate::brickwall;
 use ipmc_core::{C, Calibration, current_response};
 use std::f64::consts::PI;
 
@@ -13,13 +13,13 @@ use std::f64::consts::PI;
 pub fn inverse(calib: &Calibration, rh_pct: f64, current_a: &[f64], fs_hz: f64, (lo_hz, hi_hz): (f64, f64)) -> Vec<f64> {
     let n = current_a.len();
     let p = calib.params_at(rh_pct);
-    let ks = band::bins(n, fs_hz, lo_hz, hi_hz);
-    let base: Vec<C<f64>> = band::dft(current_a, ks.clone())
+    let ks = brickwall::bins(n, fs_hz, lo_hz, hi_hz);
+    let base: Vec<C<f64>> = brickwall::dft(current_a, ks.clone())
         .into_iter()
         .zip(ks.clone())
         .map(|(i, k)| i / current_response(&p, C::new(0.0, 2.0 * PI * k as f64 * fs_hz / n as f64)))
         .collect();
-    band::synthesize(&base, ks, n)
+    brickwall::synthesize(&base, ks, n)
 }
 
 /// The inverse that minimizes the expected squared error over what the calibration does not
@@ -37,7 +37,7 @@ pub fn robust_inverse(
     (lo_hz, hi_hz): (f64, f64),
 ) -> Vec<f64> {
     let n = current_a.len();
-    let ks = band::bins(n, fs_hz, lo_hz, hi_hz);
+    let ks = brickwall::bins(n, fs_hz, lo_hz, hi_hz);
     let mut rng = ipmc_sim::random::SplitMix64(0x9e37_79b9_7f4a_7c15u64);
     let mut normal = || rng.normal();
     let strips: Vec<ipmc_core::Params<f64>> = (0..draws)
@@ -46,7 +46,7 @@ pub fn robust_inverse(
             calib.uncertainty_at(rh_pct).scattered(p, &std::array::from_fn(|_| normal()))
         })
         .collect();
-    let base: Vec<C<f64>> = band::dft(current_a, ks.clone())
+    let base: Vec<C<f64>> = brickwall::dft(current_a, ks.clone())
         .into_iter()
         .zip(ks.clone())
         .map(|(i, k)| {
@@ -60,7 +60,7 @@ pub fn robust_inverse(
             i * mean.conj() / power
         })
         .collect();
-    band::synthesize(&base, ks, n)
+    brickwall::synthesize(&base, ks, n)
 }
 
 #[cfg(test)]

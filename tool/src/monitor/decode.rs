@@ -1,0 +1,313 @@
+//! The firmware's binary stream decoded into samples and status lines, with ipmc-core's
+//! `wire::stream` codec (the one the firmware encodes with), independent of where the bytes come
+//! from. A frame that does not decode (garbage, joined mid-frame, flipped bits) is skipped and
+//! counted; the stream goes on at the next delimiter.
+
+use ipmc_core::band::Shape;
+use ipmc_core::humidity::strip::Refusal;
+use ipmc_core::wire::stream::{DecodeError, Deframer, Frame, Header, Hygrometer, MAX_FRAME_LEN, Setup, flags};
+
+/// One estimate, as a CSV row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub t_s: f64,
+    pub base_est_m: f32,
+    pub rh_pct: f32,
+    pub rh_strip_pct: f32,
+    pub rh_read_pct: f32,
+    pub rel_err: f32,
+    pub hygrometer: Hygrometer,
+    pub flags: u16,
+}
+
+pub enum Event {
+    Sample(Sample),
+    /// The once-a-second display line.
+    Status(String),
+}
+
+/// Stream bytes → samples and status lines; independent of where the bytes come from.
+pub struct Monitor {
+    deframer: Box<Deframer<MAX_FRAME_LEN>>,
+    fs_hz: f64,
+    pub frames: u64,
+    pub bad_frames: u64,
+    last_error: Option<DecodeError>,
+    /// 2³² per wrap of the firmware's u32 sample index (every 24.8 days at 2 kHz).
+    index_offset: u64,
+    last_first_sample: Option<u32>,
+    /// Next whole second of stream time at which a status line is due.
+    next_status_s: f64,
+    /// The setup of the last frame (its outer None: no frame yet), said when it first comes and
+    /// whenever it changes.
+    setup: Option<Option<Setup>>,
+}
+
+impl Monitor {
+    pub fn new(fs_hz: u32) -> Self {
+        Self {
+            deframer: Box::new(Deframer::new()),
+            fs_hz: fs_hz.max(1) as f64,
+            frames: 0,
+            bad_frames: 0,
+            last_error: None,
+            index_offset: 0,
+            last_first_sample: None,
+            next_status_s: f64::NEG_INFINITY,
+            setup: None,
+        }
+    }
+
+    pub fn feed(&mut self, bytes: &[u8], mut emit: impl FnMut(Event)) {
+        for &b in bytes {
+            match self.deframer.push(b) {
+                Some(Ok(frame)) => {
+                    let frame = OwnedFrame::from(&frame);
+                    self.frames += 1;
+                    self.on_frame(&frame, &mut emit);
+                }
+                Some(Err(e)) => {
+                    self.bad_frames += 1;
+                    self.last_error = Some(e);
+                }
+                None => {}
+            }
+        }
+    }
+
+    fn on_frame(&mut self, f: &OwnedFrame, emit: &mut impl FnMut(Event)) {
+        let h = &f.header;
+        if self.setup != Some(h.setup) {
+            self.setup = Some(h.setup);
+            emit(Event::Status(setup_line(h.setup, self.fs_hz)));
+        }
+        let first = h.first_sample;
+        // A big step backwards is the u32 index wrapping, not a reordering (frames arrive in order).
+        if self.last_first_sample.is_some_and(|last| first < last && last - first > u32::MAX / 2) {
+            self.index_offset += 1 << 32;
+        }
+        self.last_first_sample = Some(first);
+        let base_index = self.index_offset + first as u64;
+        for (k, &v) in f.estimates.iter().enumerate() {
+            let t_s = (base_index + k as u64) as f64 / self.fs_hz;
+            let s = Sample {
+                t_s,
+                base_est_m: v,
+                rh_pct: h.rh_pct,
+                rh_strip_pct: h.rh_strip_pct,
+                rh_read_pct: h.rh_read_pct,
+                rel_err: h.rel_err,
+                hygrometer: h.hygrometer,
+                flags: h.flags,
+            };
+            emit(Event::Sample(s));
+            if t_s >= self.next_status_s {
+                self.next_status_s = t_s.floor() + 1.0;
+                emit(Event::Status(self.status_line(&s)));
+            }
+        }
+    }
+
+    fn status_line(&self, s: &Sample) -> String {
+        format!(
+            "t {:10.3} s  base {:+.4e} m ± {:.1} %  RH {:6.2} % (strip {:6.2} ± {:.2} %, read {:6.2} %; own {}, fused {:6.2} ± {:.2} %)  flags {:#06x}{}  (frames {}, bad {})",
+            s.t_s,
+            s.base_est_m,
+            100.0 * s.rel_err,
+            s.rh_pct,
+            s.rh_strip_pct,
+            s.hygrometer.read_sd_pct,
+            s.rh_read_pct,
+            own(&s.hygrometer),
+            s.hygrometer.fused_pct,
+            s.hygrometer.fused_sd_pct,
+            s.flags,
+            flag_names(s.flags),
+            self.frames,
+            self.bad_frames
+        )
+    }
+
+    pub fn summary(&self) -> String {
+        let last = self.last_error.map(|e| format!(" (last: {e})")).unwrap_or_default();
+        format!("{} frames decoded, {} skipped{last}", self.frames, self.bad_frames)
+    }
+}
+
+/// A frame copied out of the deframer's buffer, so the deframer can take the next byte.
+struct OwnedFrame {
+    header: Header,
+    estimates: Vec<f32>,
+}
+
+impl From<&Frame<'_>> for OwnedFrame {
+    fn from(f: &Frame<'_>) -> Self {
+        Self { header: f.header, estimates: f.estimates().collect() }
+    }
+}
+
+/// What the firmware runs, as its frames say (a version 4 frame says nothing).
+fn setup_line(setup: Option<Setup>, fs_hz: f64) -> String {
+    let Some(s) = setup else {
+        return "setup: not in the stream (a version 4 firmware): a linear-phase band, the humidity its calibration set".into();
+    };
+    let band = Shape::from_code(s.band_shape).map_or_else(|| format!("of unknown shape ({})", s.band_shape), |b| b.name().to_string());
+    let mode = match s.humidity_mode {
+        0 => "the reading".to_string(),
+        1 => "fused".to_string(),
+        m => format!("unknown ({m})"),
+    };
+    format!(
+        "setup: band {band}, estimates {} samples ({:.1} ms) behind the base motion, designs at the humidity {mode}",
+        s.delay_samples,
+        1e3 * s.delay_samples as f64 / fs_hz
+    )
+}
+
+/// The strip's own estimate, or why there is none.
+fn own(h: &Hygrometer) -> String {
+    match h.own_refusal {
+        0 => format!("{:6.2} ± {:.2} %", h.own_pct, h.own_sd_pct),
+        Hygrometer::NO_FIT_YET => "no fit yet".into(),
+        code => Refusal::of_code(code).map_or_else(|| format!("refused ({code})"), |r| format!("refused: {}", r.as_str())),
+    }
+}
+
+fn flag_names(bits: u16) -> String {
+    flags::NAMES.iter().filter(|(b, _)| bits & b != 0).map(|(_, n)| format!(" {n}")).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_core::wire::stream::{encode, max_frame_len};
+
+    const SETUP: Setup = Setup { band_shape: 0, delay_samples: 470, humidity_mode: 1 };
+
+    fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
+        frame_with(first, rh, flags, est, Some(SETUP))
+    }
+
+    fn frame_with(first: u32, rh: f32, flags: u16, est: &[f32], setup: Option<Setup>) -> Vec<u8> {
+        let mut out = vec![0; max_frame_len(est.len())];
+        let n = encode(
+            &Header {
+                first_sample: first,
+                rh_pct: rh,
+                rh_strip_pct: rh + 1.0,
+                rh_read_pct: rh + 2.0,
+                rel_err: 0.05,
+                hygrometer: Hygrometer {
+                    read_sd_pct: 1.5,
+                    own_pct: 45.25,
+                    own_sd_pct: 0.5,
+                    own_refusal: 0,
+                    fused_pct: 45.5,
+                    fused_sd_pct: 0.25,
+                },
+                flags,
+                setup,
+            },
+            est,
+            &mut out,
+        )
+        .unwrap();
+        out.truncate(n);
+        out
+    }
+
+    fn run_bytes(bytes: &[u8], chunk: usize) -> (Monitor, Vec<Sample>, Vec<String>) {
+        let mut m = Monitor::new(2_000);
+        let (mut samples, mut lines) = (vec![], vec![]);
+        for c in bytes.chunks(chunk) {
+            m.feed(c, |e| match e {
+                Event::Sample(s) => samples.push(s),
+                Event::Status(l) => lines.push(l),
+            });
+        }
+        (m, samples, lines)
+    }
+
+    /// Frames without the setup (stream version 4) and with it (version 5) are both read: the
+    /// first are said to be a version 4 stream, and a change of setup mid-stream is said too.
+    #[test]
+    fn reads_version_4_frames_without_setup_and_version_5_frames_with_it() {
+        let block = [1e-6f32; 32];
+        let mut bytes = frame_with(0, 45.0, 0, &block, None);
+        bytes.extend(frame_with(32, 45.0, 0, &block, None));
+        bytes.extend(frame_with(64, 45.0, 0, &block, Some(Setup { band_shape: 1, delay_samples: 4, humidity_mode: 0 })));
+        let (m, samples, lines) = run_bytes(&bytes, 5);
+        assert_eq!((m.frames, m.bad_frames, samples.len()), (3, 0, 96));
+        let setups: Vec<&String> = lines.iter().filter(|l| l.starts_with("setup:")).collect();
+        assert_eq!(setups.len(), 2, "{lines:?}");
+        assert!(setups[0].contains("version 4"), "{}", setups[0]);
+        assert!(setups[1].contains("band low-latency, estimates 4 samples (2.0 ms)") && setups[1].contains("the reading"), "{}", setups[1]);
+    }
+
+    #[test]
+    fn decodes_skips_garbage_and_bad_crc_and_counts() {
+        let block: Vec<f32> = (0..32).map(|k| k as f32 * 1e-6).collect();
+        let mut bytes = vec![0x13, 0x37, 0xFF, 0x42]; // joined mid-frame: garbage before the first delimiter
+        bytes.push(0);
+        for i in 0..200u32 {
+            let mut f = frame(i * 32, 45.0 + i as f32 * 0.01, if i == 3 { flags::RETUNED } else { 0 }, &block);
+            if i == 100 {
+                let mid = f.len() / 2;
+                f[mid] ^= 0x01; // corrupted on the wire: CRC (or COBS) rejects it
+            }
+            bytes.extend(f);
+        }
+        bytes.extend([0xAA; 5000]); // line noise longer than any frame
+        bytes.push(0);
+        bytes.extend(frame(200 * 32, 47.0, 0, &block));
+
+        for chunk in [1, 7, 4096] {
+            let (m, samples, lines) = run_bytes(&bytes, chunk);
+            assert_eq!(m.frames, 200, "chunk {chunk}");
+            assert_eq!(m.bad_frames, 3, "chunk {chunk}"); // garbage, corrupted frame, noise
+            assert_eq!(samples.len(), 200 * 32);
+            assert!(samples.iter().all(|s| s.base_est_m.is_finite()));
+            // The corrupted frame is missing: its 32 sample times are absent, the others in order.
+            assert!(samples.iter().all(|s| !(3200..3232).contains(&((s.t_s * 2000.0).round() as u64))));
+            assert_eq!(samples[3 * 32].flags, flags::RETUNED);
+            assert_eq!(samples.last().unwrap().t_s, (201 * 32 - 1) as f64 / 2000.0);
+            // The setup once, then 201 blocks of 16 ms = 3.2 s of stream: lines at 0, 1, 2 and 3 s.
+            assert_eq!(lines.len(), 5, "{lines:?}");
+            assert_eq!(
+                lines[0],
+                "setup: band linear-phase, estimates 470 samples (235.0 ms) behind the base motion, designs at the humidity fused"
+            );
+            let lines = &lines[1..];
+            assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
+            assert!(
+                lines[0].contains("RH  45.00 % (strip  46.00 ± 1.50 %, read  47.00 %; own  45.25 ± 0.50 %, fused  45.50 ± 0.25 %)"),
+                "{}",
+                lines[0]
+            );
+            assert!(lines[0].contains("m ± 5.0 %"), "the expected error: {}", lines[0]);
+            assert!(samples.iter().all(|s| s.rel_err == 0.05));
+            assert!(lines.iter().any(|l| l.contains("bad 2")));
+        }
+    }
+
+    #[test]
+    fn sample_index_wrap_keeps_time_increasing() {
+        let mut bytes = frame(u32::MAX - 31, 45.0, 0, &[0.0; 32]);
+        bytes.extend(frame(0, 45.0, 0, &[0.0; 32]));
+        let (_, samples, _) = run_bytes(&bytes, 64);
+        assert!(samples.windows(2).all(|w| w[1].t_s > w[0].t_s));
+    }
+
+    #[test]
+    fn the_strips_own_estimate_or_why_not() {
+        assert_eq!(own(&Hygrometer::NONE), "no fit yet");
+        assert_eq!(own(&Hygrometer { own_refusal: Refusal::Ambiguous.code(), ..Hygrometer::NONE }), "refused: ambiguous");
+        assert_eq!(own(&Hygrometer { own_refusal: 0, own_pct: 72.5, own_sd_pct: 0.25, ..Hygrometer::NONE }), " 72.50 ± 0.25 %");
+    }
+
+    #[test]
+    fn flag_names_list_set_bits() {
+        assert_eq!(flag_names(flags::CLIPPED | flags::RETUNED), " CLIPPED RETUNED");
+        assert_eq!(flag_names(0), "");
+    }
+}
