@@ -12,7 +12,7 @@ use ipmc_core::firmware::block_step::{BlockInputs, BlockStep, Filtered, filter_b
 use ipmc_core::firmware::operating_point::asks_for_design;
 use ipmc_core::humidity::block::{BlockHumidity, span_s};
 use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
-use ipmc_core::humidity::strip::{Refusal, StripRh, strip_rh};
+use ipmc_core::humidity::strip::{OwnedTable, Refusal, StripRh, strip_rh};
 use ipmc_core::inverse::expected_error::{BlockError, ErrorTable, HumiditySlopes};
 use ipmc_core::{Calibration, Compensator, DesignConfig, Inverse, InverseKind, design_inverse};
 use ipmc_recording::{Estimates as EstimateFile, Format as _, TimeSeries};
@@ -127,7 +127,7 @@ pub fn compensate_scheduled(
     let mut step = BlockStep::<true>::new(calib, errors, fs, &mut filter, &mut hygrometer, None);
     step.start(&first, schedule[0].flags & flags::RH_FALLBACK != 0);
     // The strip's own hygrometer's fits, made where the firmware's fit task made them.
-    let table = crate::hygrometer::Table::<f32>::new(calib, ts.fs_hz);
+    let table = OwnedTable::<f32>::new(calib, ts.fs_hz);
     let mut fit_out: Option<Result<StripRh<f32>, Refusal>> = None;
     // The designs the step asked for (bits of their RH): every retune of the schedule must be one.
     let mut asked: Vec<u32> = vec![];

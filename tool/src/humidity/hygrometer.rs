@@ -1,56 +1,16 @@
 //! The strip as its own hygrometer over a recording, on the host: the firmware's block by block
 //! hygrometer (`ipmc_core::humidity::hygrometer`) with each fit's result taken at once; what
 //! `ipmc compensate --humidity fused` designs at and `ipmc field-table` scores. The model table
-//! the fit interpolates is filled here as build.rs fills the firmware's.
+//! the fit interpolates is the core's, made as build.rs makes the firmware's.
 
 use ipmc_core::Calibration;
-use ipmc_core::Real;
 use ipmc_core::humidity::block::{BlockHumidity, span_s};
 use ipmc_core::humidity::fusion::Estimate;
 use ipmc_core::humidity::hygrometer::{BlockHygrometer, noise_psd};
-use ipmc_core::humidity::spectrum::{AVERAGING_S, BinGeometry};
-use ipmc_core::humidity::strip::{
-    KEY_EVERY, ModelTable, PackedCodes, Refusal, StripRh, TableScale, fill_table, pack_codes, strip_rh, table_nodes,
-};
+use ipmc_core::humidity::spectrum::AVERAGING_S;
+use ipmc_core::humidity::strip::{OwnedTable, Refusal, StripRh, strip_rh};
 use ipmc_core::timing::BLOCK_LEN;
 use ipmc_recording::TimeSeries;
-
-/// The fit's model table for `calib` at the rate `fs_hz`, owned.
-pub struct Table<T> {
-    rh_min: f64,
-    rh_max: f64,
-    geometry: BinGeometry,
-    scale: TableScale,
-    /// The codes packed, and where their key rows start (`PackedCodes`).
-    ln_gain: Vec<u8>,
-    keys: Vec<u32>,
-    sd_cal: Vec<T>,
-}
-
-impl<T: Real> Table<T> {
-    pub fn new(calib: &Calibration, fs_hz: f64) -> Self {
-        let geometry = BinGeometry::new(fs_hz, &calib.band);
-        let nodes = table_nodes(calib);
-        let (mut codes, mut sd_cal) = (vec![0u16; nodes * geometry.bins], vec![T::zero(); nodes]);
-        let scale = fill_table(calib, &geometry, &mut codes, &mut sd_cal);
-        let (mut ln_gain, mut keys) = (vec![0u8; 3 * codes.len()], vec![0u32; nodes.div_ceil(KEY_EVERY)]);
-        let used = pack_codes(&codes, geometry.bins, &mut ln_gain, &mut keys);
-        ln_gain.truncate(used);
-        Table { rh_min: calib.rh_min, rh_max: calib.rh_max, geometry, scale, ln_gain, keys, sd_cal }
-    }
-
-    pub fn view(&self) -> ModelTable<'_, T> {
-        ModelTable {
-            rh_min: self.rh_min,
-            rh_max: self.rh_max,
-            geometry: self.geometry,
-            ln_offset: self.scale.ln_offset,
-            ln_step: self.scale.ln_step,
-            ln_gain: PackedCodes { bytes: &self.ln_gain, keys: &self.keys },
-            sd_cal: &self.sd_cal,
-        }
-    }
-}
 
 /// One fit of the run.
 #[derive(Clone, Copy, Debug)]
@@ -76,7 +36,7 @@ pub struct Second {
 /// through the humidity path, which steps by the recording's clock across gaps between bursts),
 /// one [`Second`] per fit.
 pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
-    let table = Table::<f64>::new(calib, ts.fs_hz);
+    let table = OwnedTable::<f64>::new(calib, ts.fs_hz);
     let noise_psd = noise_psd(calib);
     let mut hygrometer = BlockHygrometer::<f64>::new(calib, ts.fs_hz);
     let mut humidity = BlockHumidity::<f64>::new(calib, BLOCK_LEN as f64 / 2.0 / ts.fs_hz);
