@@ -32,11 +32,9 @@ pub fn describe(cmd: &Command) -> String {
     s
 }
 
-/// `cargo ipmc score REC EST --json`: the estimate's in-band relative rms error (a fraction).
+/// The estimate's in-band relative rms error (a fraction), as `ipmc score REC EST` gives it.
 pub fn score_inband(rec: &std::path::Path, est: &std::path::Path) -> Result<f64> {
-    let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str(), "--json".as_ref()])?;
-    let v: serde_json::Value = serde_json::from_str(out.trim()).map_err(|e| anyhow!("ipmc score --json: {e}: {out}"))?;
-    v["band_error"].as_f64().ok_or_else(|| anyhow!("ipmc score --json: no `band_error` in {out}"))
+    Ok(ipmc_tool::scoring::estimate_file::figures(rec, est, &Default::default())?.band_error)
 }
 
 /// Runs `cargo ipmc ARGS…` at the repository root and returns what it printed on stdout.

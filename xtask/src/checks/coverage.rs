@@ -20,6 +20,7 @@
 use crate::Result;
 use crate::exec::{ipmc, repo_root};
 use anyhow::{Context, anyhow, bail};
+use ipmc_tool::scoring::estimate_file::{Options, figures};
 use std::path::Path;
 
 /// The shared pairs: a frequency response and a time series of one strip each.
@@ -30,7 +31,7 @@ const CASES: [&str; 2] = ["case09", "case25"];
 const RH_UNCERTAINTY_PCT: &str = "1";
 /// Looped length and window: 2 s windows are whole periods of a looped 2 s burst.
 const LOOP_S: &str = "40";
-const WINDOW_S: &str = "2";
+const WINDOW_S: f64 = 2.0;
 /// Share of a normal variable within ±1σ.
 const ONE_SIGMA: f64 = 0.6827;
 
@@ -51,20 +52,12 @@ fn covered(name: &str, rec: &Path, calib: &Path, rh_uncertainty: Option<&str>, w
     }
     let compensated = ipmc(&args)?;
     let said = compensated.lines().find(|l| l.starts_with("the humidity's uncertainty")).unwrap_or("the humidity's uncertainty: not said");
-    let score = |json: bool| {
-        let mut args: Vec<&std::ffi::OsStr> =
-            vec!["score".as_ref(), looped.as_os_str(), est.as_os_str(), "--coverage".as_ref(), WINDOW_S.as_ref()];
-        if json {
-            args.push("--json".as_ref());
-        }
-        ipmc(&args)
-    };
-    printed.push_str(&format!("{name}: {said}\n{}", score(false)?));
-    let out = score(true)?;
-    let line = out.lines().last().context("ipmc score printed nothing")?;
-    let j: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc score --json: {e}: {line}"))?;
-    let count = |k: &str| j.get(k).and_then(serde_json::Value::as_u64).ok_or_else(|| anyhow!("no `{k}` in {line}"));
-    Ok((count("levels_covered")?, count("levels")?))
+    let printed_score =
+        ipmc(&["score".as_ref(), looped.as_os_str(), est.as_os_str(), "--coverage".as_ref(), WINDOW_S.to_string().as_ref()])?;
+    printed.push_str(&format!("{name}: {said}\n{printed_score}"));
+    let options = Options { coverage_window_s: Some(WINDOW_S), ..Default::default() };
+    let coverage = figures(&looped, &est, &options)?.coverage.context("ipmc score gave no coverage")?;
+    Ok((coverage.levels_covered as u64, coverage.levels as u64))
 }
 
 /// The bench reading uncertainty `ipmc identify` printed (estimated or given) [%RH].

@@ -1,7 +1,7 @@
 //! Scenarios on recordings: the bundled one with its strip's own calibration (the main job), and
 //! an idealized sweep where what remains is the chain's own error.
 
-use anyhow::{Context, anyhow, bail};
+use anyhow::{Context, bail};
 
 use super::harness::check_count;
 use crate::Result;
@@ -11,6 +11,7 @@ use crate::firmware::{self, Variant};
 use crate::qemu::replay::Replay;
 use crate::qemu::{self, recording};
 use crate::{ipmc, repo_root};
+use ipmc_tool::scoring::estimate_file::{Options, figures};
 
 /// The main job: the bundled recording (a strip in service through a 40 → 80 %RH ramp, its
 /// current's noise and its sensor's errors) with the strip's own calibration baked in, as
@@ -32,18 +33,11 @@ pub fn qemu_replay_bundled() -> Result<()> {
     check_count(&r, replay.samples.len())?;
     let est = repo_root().join("target/qemu-test/bundled/EST.csv");
     qemu::write_est_csv(&est, &rec.t_s, &r.blocks, &replay, &qemu::band_of(calib.as_deref())?)?;
-    let score = |json: &[&str]| {
-        let mut args: Vec<&std::ffi::OsStr> =
-            vec!["score".as_ref(), path.as_os_str(), est.as_os_str(), "--coverage".as_ref(), "2".as_ref()];
-        args.extend(json.iter().map(|a: &&str| -> &std::ffi::OsStr { a.as_ref() }));
-        ipmc(&args)
-    };
-    save("sweep", &score(&[])?)?;
-    let out = score(&["--json"])?;
-    let line = out.lines().last().context("ipmc score printed nothing")?;
-    let v: serde_json::Value = serde_json::from_str(line).map_err(|e| anyhow!("ipmc score --json: {e}: {line}"))?;
-    let (error, coverage) = (v["band_error"].as_f64(), v["coverage"].as_f64());
-    let (Some(error), Some(coverage)) = (error, coverage) else { bail!("ipmc score --json: no band_error or coverage in {line}") };
+    let printed = ipmc(&["score".as_ref(), path.as_os_str(), est.as_os_str(), "--coverage".as_ref(), "2".as_ref()])?;
+    save("sweep", &printed)?;
+    let options = Options { coverage_window_s: Some(2.0), ..Default::default() };
+    let scored = figures(&path, &est, &options)?;
+    let (error, coverage) = (scored.band_error, scored.coverage.context("ipmc score gave no coverage")?.coverage);
     println!(
         "bundled recording under QEMU: in-band {:.2} % rms, the stated 1σ covering {:.0} % of 2 s windows",
         error * 100.0,
