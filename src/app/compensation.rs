@@ -49,14 +49,30 @@ static STEP: StaticCell<BlockStep<'static>> = StaticCell::new();
 
 /// The sample path's block step and its two large parts (the filter, 17 KiB, and the strip's
 /// own hygrometer, 11 KiB), each made in its own static at boot, in thread mode before any
-/// executor runs: a construction's stack then meets nothing else there, and leaves with its
-/// frame. The interrupt that runs the step holds one block's temporaries, not the state: that
-/// frame comes on top of whatever thread mode is doing when a block arrives (the hygrometer's
-/// fit at its deepest).
+/// executor runs, by a function of its own: a construction's stack then meets nothing else
+/// there, and leaves with its frame. The interrupt that runs the step holds one block's
+/// temporaries, not the state: that frame comes on top of whatever thread mode is doing when a
+/// block arrives (the hygrometer's fit at its deepest).
 #[inline(never)]
 pub fn block_step() -> &'static mut BlockStep<'static> {
+    make_step(make_filter())
+}
+
+/// The filter before the first design: the current through the calibration's band, whose
+/// filter was baked at build time (the device never designs a band).
+#[inline(never)]
+fn make_filter() -> &'static mut Compensator<f32> {
+    // The band as the designs will state it (its edges through f32), at the designs' rate.
+    let band = ipmc_core::inverse::design::design_band::<f32>(calibration());
+    let filter = FILTER.init_with(|| Compensator::unbanded(&band, DesignConfig::<f32>::firmware().fs_hz));
+    filter.keep_band_designed(&crate::contract::calibration::BAND);
+    filter
+}
+
+/// The hygrometer and the step around the filter.
+#[inline(never)]
+fn make_step(filter: &'static mut Compensator<f32>) -> &'static mut BlockStep<'static> {
     let calibration = calibration();
-    let filter = make_filter(calibration);
     let hygrometer = HYGROMETER.init_with(|| BlockHygrometer::new(calibration, SAMPLE_RATE_HZ as f64));
     let setup = Setup {
         band_shape: calibration.band.shape.code(),
@@ -64,15 +80,4 @@ pub fn block_step() -> &'static mut BlockStep<'static> {
         humidity_mode: calibration.humidity.mode().code(),
     };
     STEP.init_with(|| BlockStep::new(calibration, &error_table(), SAMPLE_RATE_HZ, filter, hygrometer, Some(setup)))
-}
-
-/// The filter before the first design: the current through the calibration's band, whose
-/// filter was baked at build time (the device never designs a band).
-#[inline(never)]
-fn make_filter(calibration: &Calibration) -> &'static mut Compensator<f32> {
-    // The band as the designs will state it (its edges through f32), at the designs' rate.
-    let band = ipmc_core::inverse::design::design_band::<f32>(calibration);
-    let filter = FILTER.init_with(|| Compensator::unbanded(&band, DesignConfig::<f32>::firmware().fs_hz));
-    filter.keep_band_designed(&crate::contract::calibration::BAND);
-    filter
 }
