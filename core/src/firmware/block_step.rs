@@ -235,3 +235,68 @@ impl<'a, const PARTS: bool> BlockStep<'a, PARTS> {
         self.filter.delay_s()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design_inverse;
+    use crate::timing::{BLOCK_LEN, SAMPLE_RATE_HZ};
+    use std::vec;
+    use std::vec::Vec;
+
+    /// One step after another: the numbering through lost samples, a fit asked for once a
+    /// second of current has come, a design crossfaded to where one is given, a retune asked for
+    /// when the humidity moved, a sample that is no measurement flagged.
+    #[test]
+    fn a_block_comes_to_its_header_and_requests() {
+        let calib = Calibration::default_preset();
+        let cfg = DesignConfig::<f32>::firmware();
+        let errors = ErrorTable::new(&calib, 1.0, &DesignConfig::<f64>::firmware()).unwrap();
+        let first = design_inverse::<f32>(&calib, 50.0, &cfg).unwrap();
+        let mut filter = Compensator::passthrough(&first.band(), first.fs_hz());
+        let mut hygrometer = BlockHygrometer::new(&calib, SAMPLE_RATE_HZ as f64);
+        let mut step = BlockStep::<true>::new(&calib, &errors, SAMPLE_RATE_HZ, &mut filter, &mut hygrometer, None);
+        step.start(&first, false);
+        let tone = |k: usize| -> [f32; BLOCK_LEN] { core::array::from_fn(|i| 1e-8 * libm::sinf(0.3 * (k * BLOCK_LEN + i) as f32)) };
+        let input = |rh: f32, lost: u32| BlockInputs { flags: 0, lost_samples: lost, rh_read_pct: rh, reading_age_ms: 0, design: None };
+
+        let out = step.step(&mut tone(0), None, &input(50.0, 0));
+        assert_eq!(out.header.first_sample, 0);
+        // The band's filter has not let anything through yet: no signal to be relative to.
+        assert!(out.header.rh_strip_pct.is_finite() && out.calibration_part.is_finite() && out.header.rel_err.is_infinite());
+        let out = step.step(&mut tone(1), None, &input(50.0, 5));
+        assert_eq!(out.header.first_sample, BLOCK_LEN as u32 + 5, "lost samples count in the numbering");
+
+        let mut fits: Vec<usize> = vec![];
+        for k in 2..70 {
+            let out = step.step(&mut tone(k), None, &input(50.0, 0));
+            assert_eq!(out.fit_request.is_some(), out.header.flags & flags::FIT_STARTED != 0);
+            if out.fit_request.is_some() {
+                fits.push(k);
+            }
+            assert!(out.retune.is_none(), "the humidity did not move: no design asked for");
+        }
+        // A second of samples (2000) is reached in the 63rd block, the 5 lost ones counted.
+        assert_eq!(fits, vec![62], "one fit asked for, once a second of current has come");
+
+        let mut asked = None;
+        for k in 70..400 {
+            if let Some(r) = step.step(&mut tone(k), None, &input(60.0, 0)).retune {
+                asked = Some(r.rh_pct);
+                break;
+            }
+        }
+        let asked = asked.expect("the humidity moved by 10 %RH: a design is asked for");
+        let next = design_inverse::<f32>(&calib, asked, &cfg).unwrap();
+        let out = step.step(&mut tone(400), None, &BlockInputs { design: Some(&next), ..input(60.0, 0) });
+        assert!(out.header.flags & flags::RETUNED != 0);
+        assert_eq!(out.header.rh_pct, asked);
+
+        let mut bad = tone(401);
+        bad[3] = f32::NAN;
+        let out = step.step(&mut bad, None, &input(60.0, 0));
+        assert!(out.header.flags & flags::BAD_SAMPLE != 0 && bad.iter().all(|v| v.is_finite()));
+        let out = step.step(&mut tone(402), None, &input(f32::NAN, 0));
+        assert!(out.header.rh_strip_pct.is_nan() && out.retune.is_none(), "no reading, no humidity");
+    }
+}
