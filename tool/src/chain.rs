@@ -6,7 +6,7 @@
 //! hydration lag: `ipmc_core::humidity::block`), a design made at once when the humidity moved
 //! rather than blocks later by a retune task, and a fresh filter for each burst.
 
-use crate::input::checked;
+use crate::support::input::checked;
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::firmware::block_step::{BlockInputs, BlockStep, Filtered, filter_block};
 use ipmc_core::firmware::operating_point::asks_for_design;
@@ -289,7 +289,7 @@ pub fn compensate(
     let design = designer(calib, ts.fs_hz, kind);
     let n = ts.t_s.len();
     let mut est = Estimates::with_capacity(n);
-    let bar = crate::progress::bar(n as u64, "samples");
+    let bar = crate::support::progress::bar(n as u64, "samples");
     let fixed = match fixed_rh {
         Some(r) => {
             let (r, clamped) = calib.clamp_rh(r as f32);

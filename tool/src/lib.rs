@@ -27,7 +27,3 @@ pub mod scoring;
 pub mod strip_check;
 pub mod support;
 pub mod synthetic;
-
-// `chain` names these by their paths at the crate's root.
-pub use humidity::hygrometer;
-pub use support::{input, progress};

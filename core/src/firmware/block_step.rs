@@ -225,11 +225,6 @@ impl<'a, const PARTS: bool> BlockStep<'a, PARTS> {
         BlockOutputs { header, fit_request, retune, beyond_pct, calibration_part }
     }
 
-    /// RH [%] of the design the filter runs (or fades to).
-    pub fn design_rh_pct(&self) -> f32 {
-        self.filter.rh_pct()
-    }
-
     /// The estimates' delay behind the base motion [s].
     pub fn delay_s(&self) -> f32 {
         self.filter.delay_s()
