@@ -1,23 +1,14 @@
 //! The HTS221 driver against a fake bus: the register traffic of a set-up and a read, the
 //! calibration sanity, "no new data", NAKs, a bus that never answers and a held SDA.
 
+mod fake_bus;
+
 use std::cell::RefCell;
 
 use embassy_futures::{block_on, select};
-use embedded_hal::i2c::{ErrorKind, NoAcknowledgeSource, Operation};
+use embedded_hal::i2c::{ErrorKind, Operation};
+use fake_bus::Mode;
 use ipmc_sensors::hts221::{self, Error};
-
-/// What the fake part does.
-#[derive(Clone, Copy, PartialEq)]
-enum Mode {
-    Normal,
-    /// Every transfer NAKs (no part on the bus).
-    Nak,
-    /// A slave holds SDA low: the controller sees the bus busy and gives up.
-    SdaHeld,
-    /// Transfers never complete (the application's timeout must cancel them).
-    Hang,
-}
 
 struct FakeHts221 {
     mode: Mode,
@@ -52,12 +43,7 @@ impl embedded_hal::i2c::ErrorType for FakeHts221 {
 
 impl embedded_hal_async::i2c::I2c for FakeHts221 {
     async fn transaction(&mut self, address: u8, ops: &mut [Operation<'_>]) -> Result<(), ErrorKind> {
-        match self.mode {
-            Mode::Nak => return Err(ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address)),
-            Mode::SdaHeld => return Err(ErrorKind::Bus),
-            Mode::Hang => core::future::pending::<()>().await,
-            Mode::Normal => {}
-        }
+        fake_bus::before_transfer(self.mode).await?;
         assert_eq!(address, hts221::ADDRESS);
         let mut pointer = 0usize;
         let mut auto_increment = false;
