@@ -267,6 +267,7 @@ fn main() -> ! {
     println!("biquad_df2t_per_section {}", (bq_total - conv) / sections as f64);
     print_plan(&band_filter("band_fir", &d45.band(), &codes, conv, &instr));
     band_filter("band_low_latency", &d45.band().with_shape(ipmc_core::band::Shape::LowLatency), &codes, conv, &instr);
+    resampler(&instr);
     hygrometer(instr);
     println!("done");
     semihosting::process::exit(0)
@@ -376,6 +377,48 @@ fn hygrometer(instr: impl Fn(u32) -> f64) {
     let t = now();
     black_box(ipmc_core::model::exact::current_response(&params, ipmc_core::model::exact::jw(black_box(31.0f32))));
     println!("instructions_per_model_point {}", instr(since(t)));
+}
+
+/// The accelerometer's resampler onto the ADC's clock, per ADC sample: a second of the part's
+/// samples pushed (1 667, as its bursts bring them) and 2 000 values read at the ADC's instants
+/// a block at a time,
+/// the part 100 ppm fast.
+#[inline(never)]
+fn resampler(instr: &impl Fn(u32) -> f64) {
+    use ipmc_core::resample::{clock_map::ClockMap, resampler::Resampler};
+    let mut map = ClockMap::new(2000.0, 0.999);
+    map.push(0, 0);
+    map.push(1_000_000, 1_999_800_000);
+    let mut r = Resampler::<f32>::new();
+    let mut rng = Lcg(3);
+    let period = 80e6 / SAMPLE_RATE_HZ as f64;
+    let (mut k, mut sum) = (0u64, 0.0f32);
+    let seconds = 4u32;
+    let mut block = [0.0f32; BLOCK_LEN];
+    let t = now();
+    for s in 0..seconds {
+        let board = s as u64 * 80_000_000;
+        r.retime(&map, board + 4_000_000, period, 0, 24.0, 36.0);
+        for _ in 0..SAMPLE_RATE_HZ as usize / BLOCK_LEN {
+            // The part's samples in time for the reads (the bursts' lead, on average).
+            while r.lead() < 80 {
+                black_box(&mut r).push(k, rng.next());
+                k += 1;
+            }
+            black_box(&mut r).next_block(&mut block);
+            sum += black_box(&block)[0];
+        }
+    }
+    black_box(sum);
+    let total = instr(since(t));
+    let mut making = 0.0f32;
+    let t = now();
+    for _ in 0..k {
+        making += rng.next();
+    }
+    black_box(making);
+    let made = instr(since(t));
+    println!("resampler_per_sample {}", (total - made) / (seconds as f64 * SAMPLE_RATE_HZ as f64));
 }
 
 /// Instructions per sample of the running spectrum of `band` over 2 500 blocks of white noise,

@@ -8,6 +8,7 @@
 //! - [`numeric`]: the scalar type and the numerical tools with no physics in them;
 //! - [`timing`]: the firmware's clock (sample rate, block length, humidity period);
 //! - [`wire`]: the formats that cross the board's edge (the stream out, the replay file in);
+//! - [`resample`]: the board's accelerometer onto the ADC's clock (clock map, interpolation);
 //! - [`band`]: the band an estimate is good in, and the FIR that keeps it;
 //! - [`model`]: the paper's exact model H(s), its parameters, and the physics it leaves out;
 //! - [`calibration`]: a strip's humidity laws, departures, uncertainty, instrument and humidity
@@ -35,6 +36,7 @@ pub mod humidity;
 pub mod inverse;
 pub mod model;
 pub mod numeric;
+pub mod resample;
 pub mod timing;
 pub mod wire;
 
