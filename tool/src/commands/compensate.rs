@@ -20,7 +20,7 @@ use ipmc_recording::write_atomically;
 use ipmc_tool::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
 use ipmc_tool::compensation::{current_noise, estimate_file, humidity_uncertainty, loop_if_short, print_figures};
 use ipmc_tool::exact::InverseChoice;
-use ipmc_tool::support::input::read_time_series;
+use ipmc_tool::support::input::time_series;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -103,7 +103,7 @@ pub fn run(a: Args) -> Result<()> {
             BandChoice::LowLatency => ipmc_core::band::Shape::LowLatency,
         };
     }
-    let ts = read_time_series(&a.input)?;
+    let (ts, replaced) = time_series(&a.input)?;
     let (ts, looping) = if a.schedule.is_none() { loop_if_short(&a.input, ts, a.period_s)? } else { (ts, None) };
     let replay = a.schedule.is_some();
     let (noise, noise_said) = current_noise(a.current_noise, &ts, replay);
@@ -174,6 +174,10 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,
         None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd), own.as_ref())?,
     };
+    if looping.is_none() {
+        // The samples replaced as no measurement: each one's block flagged, as the device flags it.
+        est.flag_replaced(&replaced.iter().map(|b| b.index).collect::<Vec<_>>());
+    }
     if fused || chamber.is_some() {
         // The chain saw the fused or placed humidity as its reading: the file keeps the sensor's.
         for (block, out) in read.chunks(ipmc_tool::chain::BLOCK_LEN).zip(est.rh_read_pct.chunks_mut(ipmc_tool::chain::BLOCK_LEN)) {
