@@ -84,8 +84,20 @@ pub struct Filtered {
 /// host's own chain (designs made at once, a fresh filter per burst) runs this too.
 #[inline]
 pub fn filter_block(filter: &mut Compensator<f32>, error_bar: &mut BlockError<f32>, samples: &mut [f32]) -> Filtered {
+    filtered(filter, error_bar, samples, device_calls::process_block)
+}
+
+/// [`filter_block`] with the filter's part `process`: the block step's, on samples its screen
+/// has made all measurements, has no input check of its own.
+#[inline]
+fn filtered(
+    filter: &mut Compensator<f32>,
+    error_bar: &mut BlockError<f32>,
+    samples: &mut [f32],
+    process: fn(&mut Compensator<f32>, &mut [f32]),
+) -> Filtered {
     let bad_before = filter.bad_samples;
-    device_calls::process_block(filter, samples);
+    process(filter, samples);
     let rel_err = device_calls::block_error(error_bar, filter.rh_pct(), samples);
     Filtered { bad_sample: filter.bad_samples != bad_before, rel_err, beyond_pct: error_bar.beyond_pct() }
 }
@@ -185,7 +197,9 @@ impl<'a, const PARTS: bool> BlockStep<'a, PARTS> {
             setup: self.setup,
         };
         let raise = |on: bool, flag: u16| if on { flag } else { 0 };
-        let replaced = device_calls::screen_block(&mut self.screen, samples);
+        // Made here, at the calling crate's opt-level (the firmware's is built for size): a
+        // scan and a pass a block, outside the per-sample budget of `device_calls`.
+        let replaced = self.screen.block(samples, |_, _, _| {});
         header.flags |= raise(device_calls::observe_stuck(&mut self.stuck, samples), flags::STUCK);
 
         // The hygrometer: a finished fit first, then this block's current into the spectrum.
@@ -200,7 +214,7 @@ impl<'a, const PARTS: bool> BlockStep<'a, PARTS> {
         if let Some(design) = input.design {
             device_calls::switch_to(self.filter, design);
         }
-        let filtered = filter_block(self.filter, &mut self.error_bar, samples);
+        let filtered = filtered(self.filter, &mut self.error_bar, samples, device_calls::process_screened_block);
         header.flags |= raise(replaced > 0 || filtered.bad_sample, flags::BAD_SAMPLE);
         header.rel_err = filtered.rel_err;
         let beyond_pct = filtered.beyond_pct;

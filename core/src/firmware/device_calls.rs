@@ -1,5 +1,5 @@
 //! The device's calls with a budget of speed, for f32, made here: the conversion of the ADC's
-//! codes, the compensator, a block's error bar, the screen for samples that are no measurement, the stuck input's check and the hygrometer's
+//! codes, the compensator, a block's error bar, the stuck input's check and the hygrometer's
 //! running spectrum (per sample), a retune's design, and the band's and the cascade's filters
 //! alone for the bench. Built for size (the `ipmc-hygrometer-fit` crate, where the hygrometer's fit is
 //! made), the design took 511 750 instructions (budget 500 000) and the spectrum 33.0 a sample
@@ -16,7 +16,6 @@ use crate::{
     Calibration, Cascade, Compensator, DesignConfig, DesignError, Inverse,
     band::BandLimit,
     design_inverse,
-    firmware::screen::Screen,
     firmware::stuck::StuckDetector,
     humidity::hygrometer::{BlockHygrometer, Snapshot},
     humidity::spectrum::RunningSpectrum,
@@ -39,6 +38,12 @@ pub fn codes_to_amps(codes: &[u16], amps: &mut [f32], mid_code: f32, amps_per_co
 #[inline(never)]
 pub fn process_block(c: &mut Compensator<f32>, block: &mut [f32]) {
     c.process_block(block)
+}
+
+/// [`Compensator::process_screened_block`]: the sample path's, after the block step's screen.
+#[inline(never)]
+pub fn process_screened_block(c: &mut Compensator<f32>, block: &mut [f32]) {
+    c.process_screened_block(block)
 }
 
 /// [`Compensator::switch_to`].
@@ -71,12 +76,6 @@ pub fn push_current(h: &mut BlockHygrometer<f32>, current: &[f32], path_pct: Opt
 #[inline(never)]
 pub fn push_spectrum(s: &mut RunningSpectrum<f32>, samples: &[f32]) -> usize {
     s.push(samples)
-}
-
-/// [`Screen::block`]: the samples of a block that are no measurement, replaced; how many.
-#[inline(never)]
-pub fn screen_block(s: &mut Screen<f32>, block: &mut [f32]) -> u32 {
-    s.block(block, |_, _, _| {})
 }
 
 /// [`StuckDetector::observe`].
