@@ -35,11 +35,11 @@ pub enum Cause {
     Impulse { times_scale: f32 },
 }
 
-/// The screen's state from block to block: the last two samples as they were passed on, and the
-/// count of replaced samples.
+/// The screen's state from block to block: the last sample as it was passed on (NaN before the
+/// first), and the count of replaced samples.
 #[derive(Clone, Copy, Debug)]
 pub struct Screen<T> {
-    last: [T; 2],
+    last: T,
     /// Samples replaced since construction or the last [`reset`](Self::reset).
     pub replaced: u32,
 }
@@ -52,7 +52,7 @@ impl<T: Real> Default for Screen<T> {
 
 impl<T: Real> Screen<T> {
     pub fn new() -> Self {
-        Screen { last: [T::nan(); 2], replaced: 0 }
+        Screen { last: T::nan(), replaced: 0 }
     }
 
     /// Forgets the samples before (a new burst: no neighbours across the gap) and the count.
@@ -86,11 +86,8 @@ impl<T: Real> Screen<T> {
                 None => break,
             }
         }
-        let n = block.len();
-        if n >= 2 {
-            self.last = [block[n - 2], block[n - 1]];
-        } else if n == 1 {
-            self.last = [self.last[1], block[0]];
+        if let Some(&v) = block.last() {
+            self.last = v;
         }
         self.replaced = self.replaced.wrapping_add(count);
         count
@@ -99,7 +96,7 @@ impl<T: Real> Screen<T> {
     /// What sample `i`'s neighbours say, those within `limit`: the mean of the nearest on each
     /// side, the one side where the other has none, zero where neither has.
     fn between(&self, block: &[T], i: usize, limit: T) -> T {
-        let left = if i > 0 { Some(block[i - 1]) } else { Some(self.last[1]).filter(|v| v.is_finite()) };
+        let left = if i > 0 { Some(block[i - 1]) } else { Some(self.last).filter(|v| v.is_finite()) };
         let right = block[i + 1..].iter().copied().find(|v| v.abs() <= limit);
         match (left, right) {
             (Some(l), Some(r)) => (l + r) * T::lit(0.5),
@@ -115,7 +112,7 @@ impl<T: Real> Screen<T> {
         if n < 4 {
             return None;
         }
-        let before = self.last[1];
+        let before = self.last;
         // The first sample's left neighbour is the previous block's last, where there is one.
         let start = if before.is_finite() { 0 } else { 1 };
         let left = |x: &[T], i: usize| if i == 0 { before } else { x[i - 1] };
@@ -135,7 +132,14 @@ impl<T: Real> Screen<T> {
         if k == usize::MAX {
             return None;
         }
-        let others = (start..n - 1).filter(|&i| i + 1 >= k && i <= k + 1).map(|i| e(x, i)).fold(T::zero(), |s, a| s + a);
+        // The impulse's own |e| and its neighbours', where they were summed.
+        let mut others = e(x, k);
+        if k > start {
+            others += e(x, k - 1);
+        }
+        if k + 2 < n {
+            others += e(x, k + 1);
+        }
         let m = (n - 1 - start).saturating_sub(3).max(1);
         let scale = (sum - others).max(T::zero()) / T::lit(m as f64);
         let factor = T::lit(SPIKE_FACTOR);
