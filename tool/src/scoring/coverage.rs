@@ -115,13 +115,14 @@ mod tests {
         let fs = 1000.0;
         let s = Scoring::new(&Band::DEFAULT, fs, None).unwrap();
         let len = s.skip() + 2 * 1000 + 700;
-        let bursts = [0..len];
+        let whole = 0..len;
+        let bursts = std::slice::from_ref(&whole);
         let base: Vec<f64> = (0..len).map(|k| (2.0 * std::f64::consts::PI * 40.0 * k as f64 / fs).sin()).collect();
-        let truth = s.truth(&base, &bursts);
+        let truth = s.truth(&base, bursts);
         // 2 % too large, then 12 % in the tail that no whole window of 1 s holds.
         let est: Vec<f32> = (0..len).map(|k| (truth[k] * if k < len - 700 { 1.02 } else { 1.12 }) as f32).collect();
-        let b = score(&s, &est, &truth, &vec![0.05f32; len], &vec![50.0; len], &bursts, 1.0);
-        let summary = s.score(&est, &truth, &bursts, None).pooled.error();
+        let b = score(&s, &est, &truth, &vec![0.05f32; len], &vec![50.0; len], bursts, 1.0);
+        let summary = s.score(&est, &truth, bursts, None).pooled.error();
         assert_eq!(b[0].windows.len(), 2);
         assert!((b[0].whole.actual - summary).abs() < 1e-12, "{} against {summary}", b[0].whole.actual);
         assert!(summary > 0.05, "the tail counts: {summary}");
