@@ -36,7 +36,8 @@ mod generated {
 use biquad::{Biquad, Coefficients, DirectForm2Transposed};
 use cortex_m::peripheral::{SYST, syst::SystClkSource};
 use current_conversion::FrontEnd;
-use ipmc_core::{Calibration, Cascade, Compensator, DesignConfig, Inverse, firmware::device_calls, inverse::expected_error::BlockError};
+use ipmc_core::firmware::{device_calls, screen::Screen};
+use ipmc_core::{Calibration, Cascade, Compensator, DesignConfig, Inverse, inverse::expected_error::BlockError};
 use semihosting::println;
 // The device vector table cortex-m-rt links against.
 use stm32_metapac as _;
@@ -113,14 +114,25 @@ fn dma_block(codes: &[u16; 2048], at: usize) -> &[u16; BLOCK_LEN] {
 }
 
 /// One block of the firmware's per-sample path: conversion and clip check (the hardware board's
-/// `read_block` loop), then the compensator.
+/// `read_block` loop), then the compensator as the block step runs it, after its screen (timed
+/// apart, [`screen_block`]).
 #[inline(never)]
 fn sample_block(comp: &mut Compensator<f32>, codes: &[u16; BLOCK_LEN]) -> bool {
     let mut amps = [0.0f32; BLOCK_LEN];
     let clipped = FrontEnd::NOMINAL.convert(codes, &mut amps);
-    device_calls::process_block(comp, &mut amps);
+    device_calls::process_screened_block(comp, &mut amps);
     black_box(&amps);
     clipped
+}
+
+/// The block step's screen for samples that are no measurement, as the firmware makes it (in
+/// its own crate, built for size), on a converted block.
+#[inline(never)]
+fn screen_block(screen: &mut Screen<f32>, codes: &[u16; BLOCK_LEN]) -> u32 {
+    let mut amps = amps_of(codes);
+    let n = screen.block(&mut amps, |_, _, _| {});
+    black_box(&amps);
+    n
 }
 
 /// The conversion alone, as [`sample_block`] runs it.
@@ -215,6 +227,20 @@ fn main() -> ! {
         black_box(device_calls::block_error(&mut bar, black_box(45.0 + (k % 100) as f32 * 0.1), black_box(&est)));
     }
     println!("instructions_per_block_error {}", instr(since(t)) / BLOCKS as f64);
+
+    // The block step's screen, per sample, its conversion taken out.
+    let mut screen = Screen::<f32>::new();
+    let t = now();
+    for k in 0..BLOCKS {
+        black_box(screen_block(&mut screen, dma_block(&codes, k as usize * BLOCK_LEN)));
+    }
+    let screened = instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64);
+    let t = now();
+    for k in 0..BLOCKS {
+        black_box(amps_of(dma_block(&codes, k as usize * BLOCK_LEN)));
+    }
+    let converted = instr(since(t)) / (BLOCKS as f64 * BLOCK_LEN as f64);
+    println!("screen_per_sample {}", screened - converted);
 
     let sections = d45.sections().len();
     println!("block_len {}", BLOCK_LEN);

@@ -49,11 +49,35 @@ impl Format for TimeSeries {
             None => return Err(Error::file(&t.source, "no `# fs_hz=N` metadata and too few samples to infer the rate")),
         };
         let ts = TimeSeries { metadata: t.metadata.clone(), fs_hz, t_s, current_a, rh_pct, base_m, tip_m, temp_c };
+        ts.check_spacing(t)?;
         Ok((ts, t.unknown_columns(&COLUMNS)))
     }
 }
 
 impl TimeSeries {
+    /// The samples are at `fs_hz`: most of `t_s`'s steps are 1/fs_hz (the others start bursts).
+    /// Where most are not, every sample would be a burst of its own: refused at the first such
+    /// step, with the step and the rate.
+    fn check_spacing(&self, t: &Table) -> Result<(), Error> {
+        let starts: Vec<usize> = self.bursts().iter().skip(1).map(|b| b.start).collect();
+        let steps = self.t_s.len().saturating_sub(1);
+        match starts.first() {
+            Some(&i) if steps >= 2 && 2 * starts.len() > steps => Err(Error::line(
+                &t.source,
+                t.line_of(i),
+                format!(
+                    "`t_s` steps by {} s from the row before, where `# fs_hz={}` spaces the samples {} s apart; {} of the \
+                     {steps} steps are not 1/fs_hz: the samples are not at the rate `fs_hz` states (correct `# fs_hz` or `t_s`)",
+                    self.t_s[i] - self.t_s[i - 1],
+                    self.fs_hz,
+                    1.0 / self.fs_hz,
+                    starts.len()
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.t_s.len()
@@ -152,6 +176,19 @@ mod tests {
         assert!(TimeSeries::parse("r.csv", "t_s,current_a,rh_pct\n0,1,45\n").is_err());
         let e = TimeSeries::parse("r.csv", "# fs_hz=-5\nt_s,current_a,rh_pct\n0,1,45\n").unwrap_err();
         assert!(e.message.contains("fs_hz=-5"), "{e}");
+    }
+
+    /// Samples not at the rate `fs_hz` states: refused at the first step that is not 1/fs_hz,
+    /// naming the step and the rate; bursts apart by gaps are not.
+    #[test]
+    fn samples_not_at_fs_hz_are_refused_by_their_line() {
+        let rows = |dt: f64| (0..10).map(|i| format!("{},1e-9,45\n", i as f64 * dt)).collect::<String>();
+        let e = TimeSeries::parse("r.csv", &format!("# fs_hz=2000\nt_s,current_a,rh_pct\n{}", rows(0.001))).unwrap_err();
+        assert_eq!(e.line, Some(4), "{e}");
+        assert!(e.message.contains("`t_s` steps by 0.001 s") && e.message.contains("fs_hz=2000") && e.message.contains("0.0005 s"), "{e}");
+        assert!(TimeSeries::parse("r.csv", &format!("# fs_hz=2000\nt_s,current_a,rh_pct\n{}", rows(0.0005))).is_ok());
+        let gapped = format!("# fs_hz=2000\nt_s,current_a,rh_pct\n{}5,1e-9,45\n5.0005,1e-9,45\n", rows(0.0005));
+        assert_eq!(TimeSeries::parse("r.csv", &gapped).unwrap().0.bursts().len(), 2);
     }
 
     #[test]

@@ -241,6 +241,22 @@ pub struct Estimates {
 }
 
 impl Estimates {
+    /// Flags `BAD_SAMPLE` the blocks (of [`BLOCK_LEN`] from their burst's start, as
+    /// [`compensate`] runs them) that held one of the samples `replaced`, samples of the
+    /// recording these estimates are of, one for one.
+    pub fn flag_replaced(&mut self, replaced: &[usize]) {
+        let n = self.flags.len();
+        for &i in replaced.iter().filter(|&&i| i < n) {
+            let b0 = self.burst_start[i];
+            let start = b0 + (i - b0) / BLOCK_LEN * BLOCK_LEN;
+            for k in start..(start + BLOCK_LEN).min(n) {
+                if self.burst_start[k] == b0 {
+                    self.flags[k] |= flags::BAD_SAMPLE;
+                }
+            }
+        }
+    }
+
     fn with_capacity(n: usize) -> Self {
         Estimates {
             base_est_m: Vec::with_capacity(n),

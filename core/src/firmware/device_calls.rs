@@ -40,6 +40,12 @@ pub fn process_block(c: &mut Compensator<f32>, block: &mut [f32]) {
     c.process_block(block)
 }
 
+/// [`Compensator::process_screened_block`]: the sample path's, after the block step's screen.
+#[inline(never)]
+pub fn process_screened_block(c: &mut Compensator<f32>, block: &mut [f32]) {
+    c.process_screened_block(block)
+}
+
 /// [`Compensator::switch_to`].
 #[inline(never)]
 pub fn switch_to(c: &mut Compensator<f32>, design: &Inverse<f32>) {

@@ -11,5 +11,6 @@ pub mod block_wait;
 pub mod device_calls;
 pub mod lost_samples;
 pub mod operating_point;
+pub mod screen;
 pub mod startup;
 pub mod stuck;

@@ -340,6 +340,13 @@ impl<T: Real> Compensator<T> {
                 }
             }
         }
+        self.process_screened_block(block);
+    }
+
+    /// [`process_block`](Self::process_block) for a block whose samples are all finite and
+    /// within [`INPUT_LIMIT_A`] already (the block step's screen, `firmware::screen`, replaced
+    /// those that were not): no scan of its own.
+    pub fn process_screened_block(&mut self, block: &mut [T]) {
         for chunk in block.chunks_mut(CHUNK) {
             self.process_head(chunk);
             self.tail.process_block(chunk);

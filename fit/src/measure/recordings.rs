@@ -1,8 +1,10 @@
 //! Recordings as the fits take them: the one reader is the `ipmc-recording` crate; here its
-//! warnings (unknown columns…) are shown to the user on stderr, a time series becomes the
+//! warnings (unknown columns…) are shown to the user on stderr, a time series' current samples
+//! that are no measurement are replaced, each said by its line ([`bad_samples`]), a time series becomes the
 //! frequency response its multisine bursts estimate ([`crate::multisine`]), and the readings go
 //! through the calibration's humidity path to the humidity the strip feels.
 
+use crate::measure::bad_samples::{self, BadSample};
 use crate::measure::multisine::{self, Burst};
 use ipmc_core::calibration::humidity_path::{HumidityPath, Hydration};
 use ipmc_recording::{Error, Format as _, FrPoint, FrequencyResponse, Level, Table, TimeSeries, Warning};
@@ -18,6 +20,15 @@ pub fn checked<T>(read: Result<(T, Vec<Warning>), Error>) -> anyhow::Result<T> {
     Ok(value)
 }
 
+/// A time series, its warnings printed and its current's samples that are no measurement
+/// replaced (each warned with its line, [`bad_samples`]).
+pub fn time_series(path: &Path) -> anyhow::Result<(TimeSeries, Vec<BadSample>)> {
+    let table = Table::read(path)?;
+    let mut ts = checked(TimeSeries::from_table(&table))?;
+    let bad = bad_samples::screen(&mut ts, &table);
+    Ok((ts, bad))
+}
+
 /// A recording as frequency responses: a frequency-response file as read, a time series
 /// (`t_s` and no `freq_hz` column) through the multisine estimator, its bursts kept beside (the
 /// noise per line and the spectrum between the lines).
@@ -29,7 +40,8 @@ pub struct Responses {
 pub fn responses(path: &Path) -> anyhow::Result<Responses> {
     let table = Table::read(path)?;
     if table.find("freq_hz").is_none() && table.find("t_s").is_some() {
-        let ts = checked(TimeSeries::from_table(&table))?;
+        let mut ts = checked(TimeSeries::from_table(&table))?;
+        bad_samples::screen(&mut ts, &table);
         let bursts = multisine::estimate(&ts, &path.display().to_string())?;
         let response = multisine::to_frequency_response(&bursts, &ts.metadata);
         return Ok(Responses { response, bursts: Some(bursts) });

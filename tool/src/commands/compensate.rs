@@ -15,12 +15,11 @@
 
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::calibration::humidity_path::HumidityMode;
-use ipmc_recording::looping::DEFAULT_PERIOD_S;
 use ipmc_recording::write_atomically;
 use ipmc_tool::chain::{OwnUncertainty, compensate, compensate_scheduled, error_table, humidity_slopes, read_schedule, rh_uncertainty};
 use ipmc_tool::compensation::{current_noise, estimate_file, humidity_uncertainty, loop_if_short, print_figures};
 use ipmc_tool::exact::InverseChoice;
-use ipmc_tool::support::input::read_time_series;
+use ipmc_tool::support::input::time_series;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -62,9 +61,11 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "exact")]
     inverse: InverseChoice,
     /// The excitation's period [s], by which bursts too short for the chain to settle are
-    /// repeated (whole periods of a steady-state periodic excitation, as `ipmc loop-bursts` does).
-    #[arg(long, default_value_t = DEFAULT_PERIOD_S)]
-    period_s: f64,
+    /// repeated (whole periods of a steady-state periodic excitation, as `ipmc loop-bursts` does);
+    /// by default the one the recording states (`# excitation=… period X s`), else 1 s where it
+    /// states no excitation (the bench multisines').
+    #[arg(long)]
+    period_s: Option<f64>,
     /// The humidity the designs are made at: the reading through the humidity path, or that
     /// fused with the humidity the strip's own current says it is at (`ipmc field-table`
     /// measures both), or each burst at its chamber setpoint (`# rh_levels=`, one per burst,
@@ -103,7 +104,7 @@ pub fn run(a: Args) -> Result<()> {
             BandChoice::LowLatency => ipmc_core::band::Shape::LowLatency,
         };
     }
-    let ts = read_time_series(&a.input)?;
+    let (ts, replaced) = time_series(&a.input)?;
     let (ts, looping) = if a.schedule.is_none() { loop_if_short(&a.input, ts, a.period_s)? } else { (ts, None) };
     let replay = a.schedule.is_some();
     let (noise, noise_said) = current_noise(a.current_noise, &ts, replay);
@@ -174,6 +175,10 @@ pub fn run(a: Args) -> Result<()> {
         Some(p) => compensate_scheduled(&calib, &ts, &read_schedule(p)?, &errors, a.inverse.kind(rh_sd))?,
         None => compensate(&calib, &ts, a.fixed_rh, &errors, a.inverse.kind(rh_sd), own.as_ref())?,
     };
+    if looping.is_none() {
+        // The samples replaced as no measurement: each one's block flagged, as the device flags it.
+        est.flag_replaced(&replaced.iter().map(|b| b.index).collect::<Vec<_>>());
+    }
     if fused || chamber.is_some() {
         // The chain saw the fused or placed humidity as its reading: the file keeps the sensor's.
         for (block, out) in read.chunks(ipmc_tool::chain::BLOCK_LEN).zip(est.rh_read_pct.chunks_mut(ipmc_tool::chain::BLOCK_LEN)) {
@@ -235,6 +240,36 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("does not repeat every 0.3 s") && e.contains("ipmc loop-bursts") && e.contains("--period-s P"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The true causes where a short recording cannot be looped: a 1e30 in a bench time series
+    /// is named by its line and replaced, and the recording loops and compensates; a 2 s field
+    /// recording is refused as one with no period, not for a period it was never given.
+    #[test]
+    fn a_bad_sample_and_a_short_field_recording_are_said_as_they_are() {
+        let calib = ipmc_core::Calibration::default_preset();
+        let mut ts = ipmc_tool::synthetic::periodic_recording(&calib, &[40.0, 70.0]);
+        ts.current_a[1234] = 1e30;
+        let dir = std::env::temp_dir().join(format!("ipmc-compensate-causes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (rec, est) = (dir.join("ts.csv"), dir.join("est.csv"));
+        let text = ts.to_csv(NumberFormat::Exact).unwrap();
+        std::fs::write(&rec, &text).unwrap();
+        let header = text.lines().position(|l| l.starts_with("t_s")).unwrap() + 1;
+        let (_, bad) = time_series(&rec).unwrap();
+        assert_eq!(bad.iter().map(|b| (b.line, b.value)).collect::<Vec<_>>(), vec![(header + 1 + 1234, 1e30)]);
+        let (rec_s, est_s) = (rec.display().to_string(), est.display().to_string());
+        run(Compensate::parse_from(["c", rec_s.as_str(), "--calib", "default", "--out", est_s.as_str()]).args)
+            .expect("looped and compensated");
+
+        ts.current_a[1234] = ts.current_a[1233];
+        ts.metadata.set("excitation", "field: unknown broadband base motion");
+        std::fs::write(&rec, ts.to_csv(NumberFormat::Exact).unwrap()).unwrap();
+        let e =
+            run(Compensate::parse_from(["c", rec_s.as_str(), "--calib", "default", "--out", est_s.as_str()]).args).unwrap_err().to_string();
+        assert!(e.contains("a field recording has no period") && e.contains("its shortest burst is 2.0 s"), "{e}");
+        assert!(e.contains("record at least"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -41,7 +41,7 @@ pub fn run(a: Args) -> Result<()> {
         for b in &c.bursts {
             let inside = b.windows.iter().filter(|w| w.covered()).count();
             println!(
-                "  {:6.2}   {:15.2}   {:10.2}   {inside}/{}",
+                "  {:6.2}   {:15.3}   {:10.3}   {inside}/{}",
                 b.rh_pct,
                 100.0 * b.whole.stated,
                 100.0 * b.whole.actual,

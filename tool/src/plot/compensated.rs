@@ -10,6 +10,7 @@ use super::{Figure, pe};
 use crate::scoring::{Score, Scoring, Sums};
 use anyhow::{Result, bail};
 use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use std::ops::Range;
 
@@ -166,7 +167,8 @@ where
         .configure_mesh()
         .x_desc("t [s]")
         .y_desc(format!("base [{unit}]"))
-        .x_label_formatter(&|v| super::tick_label(*v))
+        .x_labels(TIME_TICKS)
+        .x_label_formatter(&|v| super::span_tick_label(*v, t(w0), t(w1), TIME_TICKS))
         .y_label_formatter(&|v| super::tick_label(*v))
         .draw()
         .map_err(pe)?;
@@ -199,20 +201,21 @@ where
         bail!("no error to plot after each burst's skipped start");
     }
     let tmax = truth.len() as f64 / fs;
+    let (y_lo, y_hi) = (lo / 2.0, hi * 2.0);
     let mut chart = ChartBuilder::on(&bottom)
         .caption(format!("Error in {lo_hz}–{hi_hz} Hz over time ({})", fig.described), ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(36)
         .y_label_area_size(64)
-        .build_cartesian_2d(0.0..tmax, (lo / 2.0..hi * 2.0).log_scale())
+        .build_cartesian_2d(0.0..tmax, error_axis(y_lo, y_hi))
         .map_err(pe)?;
     chart
         .configure_mesh()
         .x_desc("t [s] (samples' time, bursts end to end)")
         .y_desc("error [%]")
-        .x_label_formatter(&|v| super::tick_label(*v))
-        .y_labels(6)
-        .y_label_formatter(&|v| if *v >= 1.0 { format!("{v:.0}") } else { format!("{v:.2}") })
+        .x_labels(TIME_TICKS)
+        .x_label_formatter(&|v| super::span_tick_label(*v, 0.0, tmax, TIME_TICKS))
+        .y_label_formatter(&|v| super::log_tick_label(*v, y_lo, y_hi))
         .draw()
         .map_err(pe)?;
     // One line per scored stretch: nothing was measured between them.
@@ -231,10 +234,11 @@ where
         if st.is_empty() {
             continue;
         }
+        let color = stated_color(s.color);
         for piece in pieces(st) {
-            chart.draw_series(LineSeries::new(piece, lighter(s.color).stroke_width(1))).map_err(pe)?;
+            chart.draw_series(DashedLineSeries::new(piece, DASH.0, DASH.1, color.stroke_width(2))).map_err(pe)?;
         }
-        bottom_entries.push((format!("{}: stated 1σ", s.name), lighter(s.color), Mark::Line(1)));
+        bottom_entries.push((format!("{}: stated 1σ", s.name), color, Mark::Dashed(2)));
     }
     for ((s, e), score) in series.iter().zip(&errs).zip(&fig.scores) {
         for piece in pieces(e) {
@@ -247,16 +251,35 @@ where
     Ok(())
 }
 
-/// How a legend entry is drawn: a line this wide.
+/// How a legend entry is drawn: a line this wide, whole or dashed.
 #[derive(Clone, Copy)]
 enum Mark {
     Line(u32),
+    Dashed(u32),
 }
 
-/// `c` halfway to white: the stated bar beside its estimate's error.
-fn lighter(c: RGBColor) -> RGBColor {
-    let half = |v: u8| ((v as u16 + 255) / 2) as u8;
-    RGBColor(half(c.0), half(c.1), half(c.2))
+/// The stated 1σ's dashes and gaps [px].
+const DASH: (u32, u32) = (7, 5);
+
+/// About this many labelled ticks on a time axis.
+const TIME_TICKS: usize = 8;
+
+/// The error axis over `lo..hi` %: logarithmic, labelled at 1-1.5-2-3-5-7 (or 1-2-5, or
+/// decades) as its span allows, so that a span under a decade reads at more than one label.
+fn error_axis(lo: f64, hi: f64) -> plotters::coord::combinators::WithKeyPoints<LogCoord<f64>> {
+    super::log_axis(lo, hi, &[])
+}
+
+/// The colour the stated 1σ of an estimate drawn in `c` is drawn in: another hue than `c`'s
+/// (its complement, darkened; orange for a grey or black estimate), never a tint of it, so that
+/// bar and error read apart where they cross (the bar is dashed as well).
+fn stated_color(c: RGBColor) -> RGBColor {
+    let (hi, lo) = (c.0.max(c.1).max(c.2), c.0.min(c.1).min(c.2));
+    if hi - lo < 60 {
+        return RGBColor(220, 110, 0);
+    }
+    let opposite = |v: u8| ((255 - v as u16) * 3 / 5) as u8;
+    RGBColor(opposite(c.0), opposite(c.1), opposite(c.2))
 }
 
 /// A legend in its own area beside a chart: a sample of each series and its name, wrapped to
@@ -272,6 +295,9 @@ where
     for (name, color, mark) in entries {
         match *mark {
             Mark::Line(w) => area.draw(&PathElement::new(vec![(4, y), (28, y)], color.stroke_width(w))).map_err(pe)?,
+            Mark::Dashed(w) => {
+                area.draw(&DashedPathElement::new(vec![(4, y), (28, y)], DASH.0, DASH.1, color.stroke_width(w))).map_err(pe)?
+            }
         }
         for line in wrap(name, chars) {
             area.draw(&Text::new(line, (34, y - 8), style.clone())).map_err(pe)?;
@@ -303,6 +329,28 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
 mod tests {
     use super::*;
     use ipmc_core::band::Band;
+
+    /// The error axis reads at several labels over less than a decade (it had one), and the
+    /// stated 1σ is drawn apart from its estimate's error: another hue, not a tint of its colour.
+    #[test]
+    fn the_error_axis_is_labelled_and_the_stated_bar_drawn_apart() {
+        for (lo, hi) in [(1.6, 7.0), (3.0, 18.0), (0.4, 40.0), (0.01, 300.0)] {
+            let labels: Vec<String> = error_axis(lo, hi).bold_points().iter().map(|&v| crate::plot::log_tick_label(v, lo, hi)).collect();
+            assert!(labels.len() >= 3, "{lo}–{hi} %: {labels:?}");
+            assert!(labels.windows(2).all(|w| w[0] != w[1]), "{labels:?}");
+        }
+        // How far a colour lies from every tint of `c` (the segment from `c` to white).
+        let off_tints = |x: RGBColor, c: RGBColor| {
+            let (x, c) = ([x.0, x.1, x.2].map(f64::from), [c.0, c.1, c.2].map(f64::from));
+            let d: [f64; 3] = core::array::from_fn(|k| 255.0 - c[k]);
+            let along =
+                ((0..3).map(|k| (x[k] - c[k]) * d[k]).sum::<f64>() / d.iter().map(|v| v * v).sum::<f64>().max(1e-9)).clamp(0.0, 1.0);
+            (0..3).map(|k| (x[k] - c[k] - along * d[k]).powi(2)).sum::<f64>().sqrt()
+        };
+        for c in [RGBColor(200, 30, 30), RGBColor(20, 90, 200), BLACK, RGBColor(0, 150, 110), RGBColor(128, 128, 128)] {
+            assert!(off_tints(stated_color(c), c) > 80.0, "{c:?}: stated in {:?}, a tint of it", stated_color(c));
+        }
+    }
 
     /// The trace's windows pool back into the figure its legend prints, on a noisy estimate of
     /// two bursts that are not whole periods of anything.

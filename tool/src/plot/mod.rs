@@ -14,4 +14,7 @@ pub mod scales;
 
 pub use legend::{LegendEntry, Marker, draw_markers, legend_width, side_legend};
 pub use output::{Figure, pe, register_font, render};
-pub use scales::{humidity_color, humidity_color_in, log_axis, log_tick_label, log_ticks, round_sig, scaled_unit, superscript, tick_label};
+pub use scales::{
+    humidity_color, humidity_color_in, log_axis, log_tick_label, log_ticks, round_sig, scaled_unit, span_tick_label, superscript,
+    tick_label,
+};

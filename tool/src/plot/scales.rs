@@ -73,6 +73,20 @@ pub fn log_axis(lo: f64, hi: f64, ends: &[f64]) -> WithKeyPoints<LogCoord<f64>> 
     (lo..hi).log_scale().with_key_points(ticks).with_light_points(light)
 }
 
+/// A tick label on a linear axis over `lo..hi` with at most `count` ticks (plotters' own, 1, 2,
+/// 2.5 or 5 × 10ⁿ apart), with the decimals such a step needs and no trailing zeros: a few
+/// seconds' window at 198 s reads "198", "198.5", "199", never "198" three times.
+pub fn span_tick_label(v: f64, lo: f64, hi: f64, count: usize) -> String {
+    let finest = (hi - lo) / count.max(1) as f64;
+    if !(finest > 0.0 && finest.is_finite()) {
+        return tick_label(v);
+    }
+    let decimals = (1 - finest.log10().floor() as i32).clamp(0, 12) as usize;
+    let s = format!("{v:.decimals$}");
+    let s = if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s };
+    if s == "-0" { "0".into() } else { s }
+}
+
 /// A tick label as written by hand: plain digits from 0.001 to 99 999 with no trailing zeros
 /// ("0.95", "150", "-180"), else "10⁻⁵" or "2×10⁻⁵".
 pub fn tick_label(v: f64) -> String {
@@ -199,6 +213,12 @@ mod tests {
         assert_eq!(log_tick_label(1e-5, 5e-6, 2e-2), "10⁻⁵");
         assert_eq!(log_tick_label(5e-4, 1e-5, 4e-3), "5×10⁻⁴");
         assert_eq!(log_tick_label(0.002, 1e-5, 4e-3), "2×10⁻³");
+        // A window of a few seconds late in a long recording: every time tick its own label.
+        let time = |ticks: &[f64], lo: f64, hi: f64| ticks.iter().map(|&v| span_tick_label(v, lo, hi, 8)).collect::<Vec<_>>();
+        assert_eq!(time(&[198.0, 198.5, 199.0, 199.5], 197.6, 200.0), ["198", "198.5", "199", "199.5"]);
+        assert_eq!(time(&[198.0, 198.25, 198.5], 197.9, 199.9), ["198", "198.25", "198.5"]);
+        assert_eq!(time(&[197.9, 198.0, 198.1], 197.9, 198.6), ["197.9", "198", "198.1"]);
+        assert_eq!(time(&[0.0, 10.0, 20.0], 0.0, 90.0), ["0", "10", "20"]);
         assert_eq!(scaled_unit(9.5e8, "Pa"), (1e6, "MPa".to_string()));
         assert_eq!(scaled_unit(7e4, "Pa·s"), (1e3, "kPa·s".to_string()));
         assert_eq!(scaled_unit(1.7e-3, "F/m"), (1e-3, "mF/m".to_string()));

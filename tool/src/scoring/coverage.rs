@@ -26,21 +26,27 @@ pub struct Burst {
     pub windows: Vec<Scored>,
 }
 
-/// `score` (windows of the length coverage is counted over) with the stated 1σ beside each window.
-pub fn stated(score: &Score, rel_err: &[f32], rh: &[f64]) -> Vec<Burst> {
-    let ms = |r: std::ops::Range<usize>| rel_err[r].iter().map(|&v| (v as f64).powi(2)).sum::<f64>();
-    score
+/// Per burst of `whole` (each burst scored as a whole, as the run's figure pools it), its
+/// windows from `windowed` (the length coverage is counted over), each with its stated 1σ: the
+/// burst's actual error is the figure the run's summary pools, over the same samples.
+pub fn stated(windowed: &Score, whole: &Score, rel_err: &[f32], rh: &[f64]) -> Vec<Burst> {
+    let ms = |r: &std::ops::Range<usize>| rel_err[r.clone()].iter().map(|&v| (v as f64).powi(2)).sum::<f64>() / r.len().max(1) as f64;
+    whole
         .bursts
         .iter()
         .map(|b| {
-            let windows: Vec<Scored> =
-                b.windows.iter().map(|(w, s)| Scored { stated: (ms(w.clone()) / w.len() as f64).sqrt(), actual: s.error() }).collect();
-            let ss: f64 = b.windows.iter().map(|(w, _)| ms(w.clone())).sum();
+            let windows: Vec<Scored> = windowed
+                .bursts
+                .iter()
+                .filter(|w| w.burst == b.burst)
+                .flat_map(|w| &w.windows)
+                .map(|(w, s)| Scored { stated: ms(w).sqrt(), actual: s.error() })
+                .collect();
             let from = b.windows.first().map_or(b.burst.start, |w| w.0.start);
             let to = b.windows.last().map_or(b.burst.end, |w| w.0.end);
             Burst {
                 rh_pct: rh[from..to].iter().sum::<f64>() / (to - from).max(1) as f64,
-                whole: Scored { stated: (ss / b.whole.samples as f64).sqrt(), actual: b.whole.error() },
+                whole: Scored { stated: ms(&(from..to)).sqrt(), actual: b.whole.error() },
                 windows,
             }
         })
@@ -48,7 +54,7 @@ pub fn stated(score: &Score, rel_err: &[f32], rh: &[f64]) -> Vec<Burst> {
 }
 
 /// The estimate scored in windows of `window_s` (whole periods where the recording states its
-/// period), each with its stated 1σ.
+/// period), each with its stated 1σ, and each burst as a whole.
 pub fn score(
     scoring: &Scoring,
     est: &[f32],
@@ -60,7 +66,8 @@ pub fn score(
 ) -> Vec<Burst> {
     let n = est.len().min(rel_err.len());
     let window = ((window_s * scoring.fs_hz).round() as usize).max(1);
-    stated(&scoring.score(&est[..n], truth, bursts, Some(window)), rel_err, rh)
+    let windowed = scoring.score(&est[..n], truth, bursts, Some(window));
+    stated(&windowed, &scoring.score(&est[..n], truth, bursts, None), rel_err, rh)
 }
 
 /// (covered, total) over every window of every burst, and over the bursts as wholes.
@@ -98,5 +105,26 @@ mod tests {
         assert_eq!((bc, bn), (1, 2));
         assert_eq!(wn, 2 * 3, "3 whole periods after the settling, per burst");
         assert_eq!(wc, 3);
+    }
+
+    /// A burst whose scored stretch is no whole number of windows: its actual error is the
+    /// figure over all of it, as the run's summary pools it (the windows' sum left its tail
+    /// out, and the table printed another figure than the summary's line).
+    #[test]
+    fn a_bursts_figure_is_the_summarys() {
+        let fs = 1000.0;
+        let s = Scoring::new(&Band::DEFAULT, fs, None).unwrap();
+        let len = s.skip() + 2 * 1000 + 700;
+        let whole = 0..len;
+        let bursts = std::slice::from_ref(&whole);
+        let base: Vec<f64> = (0..len).map(|k| (2.0 * std::f64::consts::PI * 40.0 * k as f64 / fs).sin()).collect();
+        let truth = s.truth(&base, bursts);
+        // 2 % too large, then 12 % in the tail that no whole window of 1 s holds.
+        let est: Vec<f32> = (0..len).map(|k| (truth[k] * if k < len - 700 { 1.02 } else { 1.12 }) as f32).collect();
+        let b = score(&s, &est, &truth, &vec![0.05f32; len], &vec![50.0; len], bursts, 1.0);
+        let summary = s.score(&est, &truth, bursts, None).pooled.error();
+        assert_eq!(b[0].windows.len(), 2);
+        assert!((b[0].whole.actual - summary).abs() < 1e-12, "{} against {summary}", b[0].whole.actual);
+        assert!(summary > 0.05, "the tail counts: {summary}");
     }
 }

@@ -3,10 +3,10 @@
 
 pub use ipmc_fit::recordings::*;
 
-/// A time-series recording, its warnings printed.
+/// A time-series recording, its warnings printed, its current's samples that are no
+/// measurement replaced and each said by its line (`ipmc_fit::measure::bad_samples`).
 pub fn read_time_series(path: &std::path::Path) -> anyhow::Result<ipmc_recording::TimeSeries> {
-    use ipmc_recording::Format as _;
-    checked(ipmc_recording::TimeSeries::read(path))
+    Ok(time_series(path)?.0)
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use super::qemu_scenarios::{
     qemu_host_equivalence, qemu_host_equivalence_fused, qemu_host_equivalence_low_latency, qemu_host_equivalence_with_departures,
     qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_adc_overrun, qemu_replay_bundled, qemu_replay_counts_and_retunes,
     qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_idealized_sweep, qemu_replay_no_new_humidity,
-    qemu_replay_no_receiver, qemu_replay_sensor_faults,
+    qemu_replay_no_receiver, qemu_replay_one_bad_sample, qemu_replay_sensor_faults,
 };
 use super::tool::{diagnose_prove, diagnose_prove_external, vs_exact_external};
 use super::workspace::{cargo_test, cargo_test_with, format_check, lint, thumb_target_installs_on_use};
@@ -61,6 +61,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ("qemu replay: estimate count and retune", qemu_replay_counts_and_retunes),
         ("qemu replay: humidity step retunes without a glitch", qemu_replay_humidity_step_without_glitch),
         ("qemu replay: fault injection", qemu_replay_faults),
+        ("qemu replay: one bad sample is one bad sample (a 1 mA spike, flagged and replaced)", qemu_replay_one_bad_sample),
         ("qemu replay: an ADC overrun restarts the conversions, flagged, numbering on time", qemu_replay_adc_overrun),
         ("qemu replay: the bundled recording with its strip's own calibration (the main job)", qemu_replay_bundled),
         ("qemu replay: idealized sweep, the design following the humidity of now", qemu_replay_idealized_sweep),

@@ -120,8 +120,12 @@ pub fn command(json: bool) -> Result<()> {
         1e3 * block / fs
     );
     println!(
-        "per-sample compute path (conversion + Compensator::process_block per block, {sections} sections, the band's filter): {ips:.1} instructions (target ≤ {SAMPLE_PATH_BUDGET}: {})",
+        "per-sample compute path (conversion + Compensator::process_screened_block per block, {sections} sections, the band's filter): {ips:.1} instructions (target ≤ {SAMPLE_PATH_BUDGET}: {})",
         verdict(ips <= SAMPLE_PATH_BUDGET)
+    );
+    println!(
+        "the block step's screen for samples that are no measurement (before the compensator, in the firmware's crate, built for size): {:.1} instructions a sample",
+        get("screen_per_sample")?
     );
     println!(
         "  the inverse {per_section:.2} per section per sample (target ≤ {SECTION_BUDGET}: {}; stretch {SECTION_STRETCH})",

@@ -14,5 +14,5 @@ pub use equivalence::{
 pub use recordings::{qemu_replay_bundled, qemu_replay_idealized_sweep};
 pub use synthetic::{
     qemu_replay_adc_overrun, qemu_replay_counts_and_retunes, qemu_replay_faults, qemu_replay_humidity_step_without_glitch,
-    qemu_replay_no_new_humidity, qemu_replay_no_receiver, qemu_replay_sensor_faults,
+    qemu_replay_no_new_humidity, qemu_replay_no_receiver, qemu_replay_one_bad_sample, qemu_replay_sensor_faults,
 };
