@@ -119,13 +119,16 @@ pub fn command(json: bool) -> Result<()> {
         1e3 * block / fs,
         1e3 * block / fs
     );
+    let screen = get("screen_per_sample")?;
     println!(
-        "per-sample compute path (conversion + Compensator::process_screened_block per block, {sections} sections, the band's filter): {ips:.1} instructions (target ≤ {SAMPLE_PATH_BUDGET}: {})",
-        verdict(ips <= SAMPLE_PATH_BUDGET)
+        "per-sample compute path (the block step's screen, conversion + Compensator::process_screened_block per block, {sections} sections, \
+         the band's filter): {:.1} instructions (target ≤ {SAMPLE_PATH_BUDGET}: {})",
+        ips + screen,
+        verdict(ips + screen <= SAMPLE_PATH_BUDGET)
     );
     println!(
-        "the block step's screen for samples that are no measurement (before the compensator, in the firmware's crate, built for size): {:.1} instructions a sample",
-        get("screen_per_sample")?
+        "  of which the screen for samples that are no measurement (before the compensator, in the firmware's crate, built for size) \
+         {screen:.1}, the rest {ips:.1}"
     );
     println!(
         "  the inverse {per_section:.2} per section per sample (target ≤ {SECTION_BUDGET}: {}; stretch {SECTION_STRETCH})",
@@ -150,7 +153,7 @@ pub fn command(json: bool) -> Result<()> {
     println!(
         "  the low-latency band instead (`[band] shape = \"low-latency\"`: four minimum-phase sections): {:.1} per sample, so {:.1} in all",
         get("band_low_latency_per_sample")?,
-        ips - fir + get("band_low_latency_per_sample")?
+        ips + screen - fir + get("band_low_latency_per_sample")?
     );
     println!(
         "  the sections alone (one cascade, no input check, head/tail split or retune logic): {:.2} per section per sample",
