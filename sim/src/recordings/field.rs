@@ -125,6 +125,7 @@ pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physi
         base_m: Some(Vec::with_capacity(n)),
         tip_m: None,
         temp_c: None,
+        accel_mps2: None,
     };
     ts.metadata.set("rh_sensor", plan.sensor.as_str());
     ts.metadata.set("excitation", "field: unknown broadband base motion (simulated)");
