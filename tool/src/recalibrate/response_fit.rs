@@ -31,6 +31,8 @@ pub const ACCEL_GAIN_SD: f64 = 0.01;
 /// Its filter chain's delay, 0.3–1.5 ms (datasheet and resampling), as its mean and the
 /// standard deviation of a uniform over that range [s].
 pub const ACCEL_DELAY_S: (f64, f64) = (0.9e-3, 1.2e-3 / 3.464_101_615_137_754);
+/// Its output data rate [Hz]: the firmware resamples from it onto the ADC's clock.
+pub const ACCEL_ODR_HZ: f64 = 1660.0;
 /// Its low-pass: second order (Butterworth) at 666 Hz.
 pub const ACCEL_LOWPASS_HZ: f64 = 666.0;
 
