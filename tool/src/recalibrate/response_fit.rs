@@ -61,6 +61,9 @@ pub struct CheckFit {
     pub fit: lsq::Fit,
     /// Per parameter of [`DRIFTING`], its prior 1σ in ln (0: held).
     pub prior_sd: [f64; 7],
+    /// Of it, the calibration's own uncertainty at the checks' humidity, and the drift's prior.
+    pub calibration_sd: [f64; 7],
+    pub drift_sd: f64,
     pub layout: Layout,
     /// ln of the evidence (Laplace): how well the hypothesis explains the checks, its Occam
     /// factor included.
@@ -162,12 +165,12 @@ pub fn fit_checks(
     sensor_sd_pct: f64,
     drift_sd: f64,
 ) -> Option<CheckFit> {
+    let drift_sd = if hypothesis == Hypothesis::Drifted { drift_sd } else { 0.0 };
     let mean_rh = checks.iter().map(|c| c.reading_pct).sum::<f64>() / checks.len() as f64;
-    let mut prior_sd = calibration_sd(calib, mean_rh);
-    if hypothesis == Hypothesis::Drifted {
-        for sd in &mut prior_sd {
-            *sd = sd.hypot(drift_sd);
-        }
+    let calibration_sd = calibration_sd(calib, mean_rh);
+    let mut prior_sd = calibration_sd;
+    for sd in &mut prior_sd {
+        *sd = sd.hypot(drift_sd);
     }
     let layout = Layout { free: (0..DRIFTING.len()).filter(|&k| prior_sd[k] > 0.0).collect() };
     let mut params = vec![Param::new("offset_pct", Bound::Free)];
@@ -231,7 +234,7 @@ pub fn fit_checks(
     }
     let fit = lsq::fit(&params, &[first.estimates.clone()], n_data + n_prior, residuals(&scale)).ok()?;
     let ln_evidence = ln_evidence(&fit, &layout, &prior_sd, sensor_sd_pct, checks);
-    Some(CheckFit { hypothesis, fit, prior_sd, layout, ln_evidence, n_checks: checks.len() })
+    Some(CheckFit { hypothesis, fit, prior_sd, calibration_sd, drift_sd, layout, ln_evidence, n_checks: checks.len() })
 }
 
 /// −½χ² − ½ ln det(posterior precision) + ½ ln det(prior precision), over the parameters with a
@@ -264,8 +267,17 @@ impl CheckFit {
         self.layout.factor(k).map_or((0.0, 0.0), |i| self.value(i))
     }
 
-    /// Whether the checks, not the prior, decide factor `k`: its 1σ under half its prior's.
+    /// The strip's drift since its bench session in parameter `k`'s ln, and its 1σ: the factor
+    /// the checks find on the calibration, whose own error at the checks' humidity (what the bench
+    /// left unknown) is in it too.
+    pub fn drift(&self, k: usize) -> (f64, f64) {
+        let (ln, sd) = self.ln_factor(k);
+        (ln, sd.hypot(self.calibration_sd[k]))
+    }
+
+    /// Whether the checks, not the prior, decide the drift of parameter `k`: its 1σ under half
+    /// the drift's prior.
     pub fn decides(&self, k: usize) -> bool {
-        self.prior_sd[k] > 0.0 && self.ln_factor(k).1 < 0.5 * self.prior_sd[k]
+        self.prior_sd[k] > 0.0 && self.drift(k).1 < 0.5 * self.drift_sd
     }
 }

@@ -85,17 +85,24 @@ pub fn table(o: &Outcome) -> String {
              above; a check at another humidity (5 %RH or more away) parts them"
         );
     }
-    let _ = writeln!(s, "  parameter   prior 1σ   factor ± 1σ (drifted)     decided by the checks");
+    let _ = writeln!(
+        s,
+        "  parameter   calibration's 1σ   drift prior   strip / calibration ± 1σ   drift since the bench ± 1σ   decided by the checks"
+    );
     for (k, name) in DRIFTING.into_iter().enumerate() {
-        let (v, sd) = o.drifted.ln_factor(k);
-        let decided = if o.drifted.decides(k) { "yes" } else { "no (the prior's)" };
+        let d = &o.drifted;
+        let ((v, sd), (_, drift_sd)) = (d.ln_factor(k), d.drift(k));
+        let decided = if d.decides(k) { "yes" } else { "no (the prior's)" };
         let _ = writeln!(
             s,
-            "  {:<10}  {:>7.1} %   {:.4} ± {:.4}        {decided}",
+            "  {:<10}  {:>15.1} %  {:>10.1} %   {:>12.4} ± {:.4}   {:>14.4} ± {:.4}     {decided}",
             name.as_str(),
-            100.0 * o.drifted.prior_sd[k],
+            100.0 * d.calibration_sd[k],
+            100.0 * d.drift_sd,
             v.exp(),
-            sd * v.exp()
+            sd * v.exp(),
+            v.exp(),
+            drift_sd * v.exp()
         );
     }
     let (tau2, tau2_sd) = chosen.value(chosen.layout.tau2());
