@@ -135,26 +135,20 @@ mod tests {
     use super::*;
     use ipmc_fit::random::SplitMix64 as Rng;
 
-    /// A current that is a known filter of the drive plus noise, the drive recorded by a clock
-    /// 30 ppm fast: the ratio, its rate and its 1σ come back.
+    /// A current that is a known filter of the drive plus noise, the drive (lines off the bins,
+    /// evaluated exactly at any time) recorded by a clock 30 ppm fast: the ratio, its rate and its
+    /// 1σ come back.
     #[test]
     fn recovers_a_known_ratio_and_the_rate() {
         let fs = 2000.0;
         let n = 60 * 2000;
         let mut rng = Rng(3);
-        let drive: Vec<f64> = (0..n + 10).map(|_| rng.gauss(1.0)).collect();
+        let lines: Vec<(f64, f64)> = (3..250).map(|k| (k as f64 + 0.37, 2.0 * std::f64::consts::PI * rng.uniform())).collect();
+        let drive = |t: f64| lines.iter().map(|&(f, ph)| (2.0 * std::f64::consts::PI * f * t + ph).cos()).sum::<f64>();
         let ppm = 30.0;
-        // The accelerometer reads the drive at t·(1 + ε): linear interpolation of a white
-        // drive would colour it, so the drive is smooth (a 3-tap average) and read at bins ≤ 200 Hz.
-        let smooth: Vec<f64> = (1..n + 9).map(|i| (drive[i - 1] + 2.0 * drive[i] + drive[i + 1]) / 4.0).collect();
-        let at = |x: f64| {
-            let i = x.floor() as usize;
-            let f = x - i as f64;
-            smooth[i] * (1.0 - f) + smooth[i + 1] * f
-        };
-        let accel: Vec<f64> = (0..n).map(|i| at(i as f64 * (1.0 + ppm * 1e-6))).collect();
-        // current = 2·drive delayed one sample, plus noise.
-        let current: Vec<f64> = (0..n).map(|i| 2.0 * if i > 0 { smooth[i - 1] } else { 0.0 } + rng.gauss(0.3)).collect();
+        let accel: Vec<f64> = (0..n).map(|i| drive(i as f64 / fs * (1.0 + ppm * 1e-6))).collect();
+        // current = 2·drive one sample late, plus noise.
+        let current: Vec<f64> = (0..n).map(|i| 2.0 * drive((i as f64 - 1.0) / fs) + rng.gauss(3.0)).collect();
         let m = measure(&current, &accel, fs, (5.0, 200.0)).unwrap();
         assert!((m.rate_ppm.abs() - ppm).abs() < 1.0, "rate {}", m.rate_ppm);
         let mut z2 = 0.0;

@@ -281,3 +281,54 @@ impl CheckFit {
         self.prior_sd[k] > 0.0 && self.drift(k).1 < 0.5 * self.drift_sd
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_fit::random::SplitMix64;
+
+    /// A check made from the model itself: the strip at 71 %RH with its Y scaled, the reading at
+    /// 70, the accelerometer 0.5 % high and 1.1 ms late, each bin's log scattered by its 1σ.
+    fn measured(calib: &Calibration, y_factor: f64, rng: &mut SplitMix64) -> Measured {
+        let layout = Layout { free: (0..DRIFTING.len()).collect() };
+        let mut theta = vec![0.0; 2 + DRIFTING.len() + 3];
+        theta[layout.factor(0).unwrap()] = y_factor.ln();
+        theta[layout.tau2()] = 0.0;
+        let [h, g, d] = layout.check(0);
+        (theta[h], theta[g], theta[d]) = (71.0, 1.005, 1.1);
+        let p = strip_params(calib, &layout, &theta, 0);
+        let freq_hz: Vec<f64> = (5..400).map(f64::from).collect();
+        let sd = 0.01;
+        let ratio = freq_hz.iter().map(|&f| model(&p, &layout, &theta, 0, f) * C::new(rng.gauss(sd), rng.gauss(sd)).exp()).collect();
+        Measured {
+            sd_ln: vec![sd; freq_hz.len()],
+            coherence: vec![0.99; freq_hz.len()],
+            freq_hz,
+            ratio,
+            rate_ppm: 0.0,
+            segments_eff: 100.0,
+        }
+    }
+
+    #[test]
+    fn finds_the_offset_of_an_undrifted_strip_and_the_drift_of_a_drifted_one() {
+        let calib = Calibration::default_preset();
+        let mut rng = SplitMix64(7);
+        let m = measured(&calib, 1.0, &mut rng);
+        let data = [CheckData { measured: &m, reading_pct: 70.0, spread_pct: 0.05 }];
+        let f = fit_checks(&calib, &data, Hypothesis::AsCalibrated, 1.8, 0.2).unwrap();
+        let (o, sd) = f.value(f.layout.offset());
+        // The preset's own uncertainty (Y 3.5 %, d 5 %) is worth some 0.4 %RH at 71 %RH.
+        assert!((o - 1.0).abs() < 2.0 * sd && sd < 0.6, "offset {o} ± {sd}");
+        let (gain, gain_sd) = f.value(f.layout.check(0)[1]);
+        assert!((gain - 1.005).abs() < 2.0 * gain_sd, "gain {gain} ± {gain_sd}");
+
+        let m = measured(&calib, 1.15, &mut rng);
+        let data = [CheckData { measured: &m, reading_pct: 70.0, spread_pct: 0.05 }];
+        let held = fit_checks(&calib, &data, Hypothesis::AsCalibrated, 1.8, 0.2).unwrap();
+        let drifted = fit_checks(&calib, &data, Hypothesis::Drifted, 1.8, 0.2).unwrap();
+        assert!(drifted.ln_evidence > held.ln_evidence, "{} vs {}", drifted.ln_evidence, held.ln_evidence);
+        let (ln_y, sd_y) = drifted.drift(0);
+        assert!(drifted.decides(0) && (ln_y - 1.15f64.ln()).abs() < 2.0 * sd_y, "Y × {} ± {sd_y}", ln_y.exp());
+    }
+}

@@ -27,6 +27,31 @@ pub fn iso_date(t: std::time::SystemTime) -> String {
     format!("{:04}-{m:02}-{d:02}", yoe + era * 400 + i64::from(m <= 2))
 }
 
+/// Days since 1970 of a YYYY-MM-DD date (Hinnant's inverse); None if it is not one.
+pub fn days_of(date: &str) -> Option<i64> {
+    let mut it = date.get(..10)?.split('-').map(|p| p.parse::<i64>().ok());
+    let (y, m, d) = (it.next()??, it.next()??, it.next()??);
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let doy = (153 * (m + if m > 2 { -3 } else { 9 }) + 2) / 5 + d - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    Some(era * 146_097 + doe - 719_468)
+}
+
+/// What `ipmc compensate` says of a calibration file's provenance: which calibration, and how
+/// old its last check is on `today` (YYYY-MM-DD). None for a file without provenance lines.
+pub fn provenance_said(text: &str, today: &str) -> Option<String> {
+    let lines: Vec<&str> = text.lines().filter_map(|l| l.strip_prefix(PROVENANCE)).map(str::trim).collect();
+    let first = lines.first()?;
+    let last = lines.iter().rev().find_map(|l| l.strip_prefix("last check "))?;
+    let age = match (days_of(today), days_of(last)) {
+        (Some(t), Some(c)) => format!("{} days ago", t - c),
+        _ => "its age unknown".to_string(),
+    };
+    Some(format!("the calibration: {first}; its last check {last} ({age})"))
+}
+
 fn pct(ln: f64) -> f64 {
     100.0 * (ln.exp() - 1.0)
 }
@@ -224,5 +249,23 @@ impl Outcome {
             }
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dates_round_trip_and_the_age_is_said() {
+        for days in [0i64, 59, 60, 365, 10_957, 20_794] {
+            let t = std::time::UNIX_EPOCH + std::time::Duration::from_secs(days as u64 * 86_400);
+            assert_eq!(days_of(&iso_date(t)), Some(days), "{}", iso_date(t));
+        }
+        assert_eq!(iso_date(std::time::UNIX_EPOCH + std::time::Duration::from_secs(20_794 * 86_400)), "2026-12-07");
+        let text = format!("{PROVENANCE} recalibrated 2026-12-07 from b.toml\n{PROVENANCE} last check 2026-11-30\ny = 1\n");
+        let said = provenance_said(&text, "2026-12-07").unwrap();
+        assert!(said.contains("recalibrated 2026-12-07") && said.contains("(7 days ago)"), "{said}");
+        assert_eq!(provenance_said("y = 1\n", "2026-12-07"), None);
     }
 }
