@@ -232,7 +232,7 @@ pub fn fit_checks(
         scale.push((chi2 / n as f64).max(1.0).sqrt());
         r += n;
     }
-    let fit = lsq::fit(&params, &[first.estimates.clone()], n_data + n_prior, residuals(&scale)).ok()?;
+    let fit = lsq::fit(&params, std::slice::from_ref(&first.estimates), n_data + n_prior, residuals(&scale)).ok()?;
     let ln_evidence = ln_evidence(&fit, &layout, &prior_sd, sensor_sd_pct, checks);
     Some(CheckFit { hypothesis, fit, prior_sd, calibration_sd, drift_sd, layout, ln_evidence, n_checks: checks.len() })
 }
