@@ -1,11 +1,12 @@
 //! Time-series recordings (recording-format.md §2): uniformly sampled bursts of current,
-//! humidity and optionally the true base and tip motion, and their writer.
+//! humidity and optionally the true base and tip motion, and their writer. A time series with
+//! the board's accelerometer (`accel_mps2`, §5) is a check.
 
 use crate::{Error, Format, Metadata, Rule, Table, Warning};
 use std::fmt::Write as _;
 use std::ops::Range;
 
-const COLUMNS: [&str; 6] = ["t_s", "base_m", "tip_m", "current_a", "rh_pct", "temp_c"];
+const COLUMNS: [&str; 7] = ["t_s", "base_m", "tip_m", "current_a", "rh_pct", "temp_c", "accel_mps2"];
 
 /// A time-series recording.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -20,6 +21,9 @@ pub struct TimeSeries {
     pub base_m: Option<Vec<f64>>,
     pub tip_m: Option<Vec<f64>>,
     pub temp_c: Option<Vec<f64>>,
+    /// The board's accelerometer on the strip's base, resampled onto the ADC's clock [m/s²]:
+    /// present, the recording is a check (§5).
+    pub accel_mps2: Option<Vec<f64>>,
 }
 
 /// How the writer prints numbers.
@@ -39,6 +43,7 @@ impl Format for TimeSeries {
         let rh_pct = t.numbers(t.require("rh_pct")?, Rule::Humidity)?;
         let optional = |name: &str| t.find(name).map(|c| t.numbers(c, Rule::Finite)).transpose();
         let (base_m, tip_m, temp_c) = (optional("base_m")?, optional("tip_m")?, optional("temp_c")?);
+        let accel_mps2 = optional("accel_mps2")?;
         if t_s.is_empty() {
             return Err(Error::line(&t.source, t.header_line, "no data rows after the header"));
         }
@@ -48,7 +53,7 @@ impl Format for TimeSeries {
             None if t_s.len() >= 2 && t_s[1] > t_s[0] => 1.0 / (t_s[1] - t_s[0]),
             None => return Err(Error::file(&t.source, "no `# fs_hz=N` metadata and too few samples to infer the rate")),
         };
-        let ts = TimeSeries { metadata: t.metadata.clone(), fs_hz, t_s, current_a, rh_pct, base_m, tip_m, temp_c };
+        let ts = TimeSeries { metadata: t.metadata.clone(), fs_hz, t_s, current_a, rh_pct, base_m, tip_m, temp_c, accel_mps2 };
         ts.check_spacing(t)?;
         Ok((ts, t.unknown_columns(&COLUMNS)))
     }
@@ -87,6 +92,11 @@ impl TimeSeries {
         self.t_s.is_empty()
     }
 
+    /// Whether the recording is a check: the board's accelerometer recorded the drive.
+    pub fn is_check(&self) -> bool {
+        self.accel_mps2.is_some()
+    }
+
     /// Index ranges of the uniformly sampled bursts: a step in `t_s` more than half a sample
     /// period away from 1/fs starts a new one.
     pub fn bursts(&self) -> Vec<Range<usize>> {
@@ -103,7 +113,7 @@ impl TimeSeries {
     }
 
     /// The recording as CSV: `# fs_hz` first, then the other metadata, then the columns it
-    /// carries in the order t_s, base_m, tip_m, current_a, rh_pct, temp_c.
+    /// carries in the order t_s, base_m, tip_m, current_a, rh_pct, temp_c, accel_mps2.
     pub fn to_csv(&self, format: NumberFormat) -> Result<String, Error> {
         let n = self.t_s.len();
         let cols: Vec<(&str, &[f64])> = [
@@ -113,6 +123,7 @@ impl TimeSeries {
             ("current_a", Some(&self.current_a)),
             ("rh_pct", Some(&self.rh_pct)),
             ("temp_c", self.temp_c.as_ref()),
+            ("accel_mps2", self.accel_mps2.as_ref()),
         ]
         .into_iter()
         .filter_map(|(name, v)| v.map(|v| (name, v.as_slice())))
@@ -167,6 +178,20 @@ mod tests {
         assert_eq!(e.to_string(), "r.csv:3:5: column 2 (`current_a`): expected a finite number, found `x`");
         let e = TimeSeries::parse("r.csv", "t_s,current_a\n0,1\n").unwrap_err();
         assert!(e.to_string().starts_with("r.csv:1:") && e.message.contains("`rh_pct`"), "{e}");
+    }
+
+    #[test]
+    fn a_check_has_the_accelerometer_and_no_base() {
+        let text = "# fs_hz=2000\nt_s,current_a,rh_pct,accel_mps2\n0,1e-7,79,0.5\n0.0005,2e-7,79,-1.25\n";
+        let (ts, w) = TimeSeries::parse("c.csv", text).unwrap();
+        assert!(ts.is_check() && ts.base_m.is_none() && w.is_empty(), "{w:?}");
+        assert_eq!(ts.accel_mps2, Some(vec![0.5, -1.25]));
+        let (back, _) = TimeSeries::parse("c.csv", &ts.to_csv(NumberFormat::Exact).unwrap()).unwrap();
+        assert_eq!(back.accel_mps2, ts.accel_mps2);
+        let (plain, _) = TimeSeries::parse("r.csv", "t_s,current_a,rh_pct\n0,1,45\n0.5,1,45\n").unwrap();
+        assert!(!plain.is_check());
+        let e = TimeSeries::parse("c.csv", "t_s,current_a,rh_pct,accel_mps2\n0,1,45,nan\n").unwrap_err();
+        assert!(e.to_string().contains("`accel_mps2`"), "{e}");
     }
 
     #[test]

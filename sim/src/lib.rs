@@ -25,5 +25,5 @@ pub use ipmc_fit::random;
 pub use proof::{concealed, effects, followup};
 pub use recordings::{Recording, field, simulate};
 pub use session::sweep;
-pub use world::physics;
 pub use world::sample::{STRIP_KNOT_PCT, Strip};
+pub use world::{aging, physics};

@@ -23,6 +23,7 @@ pub mod identify;
 pub mod monitor;
 pub mod plot;
 pub mod prove;
+pub mod recalibrate;
 pub mod scoring;
 pub mod strip_check;
 pub mod support;

@@ -25,6 +25,9 @@ enum Command {
     Accuracy(commands::accuracy::Args),
     /// Compensation error against a humidity-sensor error: per %RH, and at each sensor's
     /// datasheet accuracy (which sensor to buy).
+    /// Keep a strip's calibration true from checks in service (the board's accelerometer as
+    /// the reference): the sensor's offset, the strip's drift, a new calibration.
+    Recalibrate(commands::recalibrate::Args),
     RhSensitivity(commands::rh_sensitivity::Args),
     /// Synthetic time-series recording: multisine base motion, humidity ramp, model current.
     SimulateSweep(commands::simulate::SweepArgs),
@@ -78,6 +81,7 @@ fn main() {
         Command::Model(a) => commands::model::run(a),
         Command::Design(a) => commands::design::run(a),
         Command::Accuracy(a) => commands::accuracy::run(a),
+        Command::Recalibrate(a) => commands::recalibrate::run(a),
         Command::RhSensitivity(a) => commands::rh_sensitivity::run(a),
         Command::SimulateSweep(a) => commands::simulate::run_sweep(a),
         Command::Simulate(a) => commands::simulate::run(a),

@@ -36,6 +36,7 @@ pub fn recording_of(strips: &[(f64, Params<f64>)]) -> TimeSeries {
         base_m: Some(vec![]),
         tip_m: None,
         temp_c: None,
+        accel_mps2: None,
     };
     for (b, &(rh, p)) in strips.iter().enumerate() {
         let h: Vec<C<f64>> = lines.iter().map(|&(f, _, _)| current_response(&p, C::new(0.0, 2.0 * PI * f))).collect();

@@ -175,6 +175,10 @@ pub struct BlockHygrometer<T> {
     n_lags: usize,
     strip: Option<Result<StripRh<T>, Refusal>>,
     accuracy_pct: T,
+    /// The fits' gate: a fit less certain than this is left out. For a named sensor its
+    /// datasheet accuracy at least: a check's tighter prior on the sensor's bias (the
+    /// calibration's `uncertainty_pct`) does not turn away the fits that tell the strip's lag.
+    fit_gate_pct: T,
     lag_s: T,
 }
 
@@ -207,6 +211,10 @@ impl<T: Real> BlockHygrometer<T> {
             n_lags,
             strip: None,
             accuracy_pct: T::lit(calib.humidity.reading_uncertainty_pct(calib.humidity.sensor)),
+            fit_gate_pct: T::lit(match calib.humidity.sensor {
+                Some(named) => calib.humidity.reading_uncertainty_pct(Some(named)).max(named.datasheet_accuracy_pct()),
+                None => calib.humidity.reading_uncertainty_pct(None),
+            }),
             lag_s: T::lit(sensor_lag_s),
         }
     }
@@ -230,7 +238,7 @@ impl<T: Real> BlockHygrometer<T> {
         let mut used = false;
         for l in self.lags[..self.n_lags].iter_mut() {
             if let Some(trend) = l.trend {
-                used |= l.bias.observe(trend, s, new_data, window, self.accuracy_pct);
+                used |= l.bias.observe(trend, s, new_data, window, self.fit_gate_pct);
             }
         }
         if used {

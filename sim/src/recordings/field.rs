@@ -70,7 +70,55 @@ impl Physics for Scattered<'_> {
     }
 }
 
+/// The board's accelerometer on the strip's base, as a check records it (LSM6DSL-like): its
+/// sensitivity error, its filter chain's delay, its 2nd-order (Butterworth) low-pass, its noise,
+/// its quantization, and its clock's rate against the ADC's, resampled onto the ADC's clock.
+#[derive(Clone, Copy, Debug)]
+pub struct Accelerometer {
+    pub gain_error: f64,
+    pub delay_s: f64,
+    pub lowpass_hz: f64,
+    pub noise_g_per_rthz: f64,
+    pub lsb_g: f64,
+    pub rate_ppm: f64,
+}
+
+impl Accelerometer {
+    /// Drawn from its datasheet's spread: sensitivity ±1 % (1σ), delay 0.3–1.5 ms, ±20 ppm
+    /// (1σ); low-pass 666 Hz, 90 µg/√Hz, 0.488 mg a count (±16 g).
+    pub fn drawn(rng: &mut SplitMix64) -> Self {
+        Accelerometer {
+            gain_error: rng.gauss(0.01),
+            delay_s: 0.3e-3 + 1.2e-3 * rng.uniform(),
+            lowpass_hz: 666.0,
+            noise_g_per_rthz: 90e-6,
+            lsb_g: 0.488e-3,
+            rate_ppm: rng.gauss(20.0),
+        }
+    }
+
+    /// Its chain at angular frequency `w`: what a base acceleration of 1 reads as.
+    fn chain(&self, w: f64) -> C<f64> {
+        let x = C::new(0.0, w / (2.0 * std::f64::consts::PI * self.lowpass_hz));
+        let one = C::new(1.0, 0.0);
+        C::from_polar(1.0 + self.gain_error, -w * self.delay_s) / (one + x * std::f64::consts::SQRT_2 + x * x)
+    }
+}
+
+/// Standard gravity [m/s²], the accelerometer's unit.
+const G_MPS2: f64 = 9.806_65;
+
 pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physics) -> Field {
+    simulate_field_or_check(calib, plan, physics, None)
+}
+
+/// A check: the field recording's strip and air with the board's accelerometer on its base
+/// (`accel_mps2`) and no laser (`base_m` left out).
+pub fn simulate_check(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physics, accel: &Accelerometer) -> Field {
+    simulate_field_or_check(calib, plan, physics, Some(accel))
+}
+
+fn simulate_field_or_check(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physics, accelerometer: Option<&Accelerometer>) -> Field {
     let mut rng = SplitMix64(plan.seed);
     let two_pi = 2.0 * std::f64::consts::PI;
     // Host structure: three broad resonances (Q 1–3) at random frequencies.
@@ -125,7 +173,9 @@ pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physi
         base_m: Some(Vec::with_capacity(n)),
         tip_m: None,
         temp_c: None,
+        accel_mps2: accelerometer.map(|_| Vec::with_capacity(n)),
     };
+    let accel_noise_sd = accelerometer.map_or(0.0, |a| a.noise_g_per_rthz * G_MPS2 * (plan.fs_hz / 2.0).sqrt());
     ts.metadata.set("rh_sensor", plan.sensor.as_str());
     ts.metadata.set("excitation", "field: unknown broadband base motion (simulated)");
     let (mut strip_rh, mut sensed) = (air(0.0), air(0.0));
@@ -140,6 +190,11 @@ pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physi
         let mut base_ph: Vec<C<f64>> = Vec::with_capacity(freqs.len());
         let mut cur_ph: Vec<C<f64>> = Vec::with_capacity(freqs.len());
         let mut step: Vec<C<f64>> = Vec::with_capacity(freqs.len());
+        // The accelerometer's clock runs (1 + ε) against the ADC's: its samples, resampled onto
+        // the ADC's, read the base at t·(1 + ε).
+        let rate = 1.0 + accelerometer.map_or(0.0, |a| a.rate_ppm * 1e-6);
+        let mut acc_ph: Vec<C<f64>> = Vec::with_capacity(freqs.len());
+        let mut acc_step: Vec<C<f64>> = Vec::with_capacity(freqs.len());
         for k in 0..freqs.len() {
             let w = two_pi * freqs[k];
             let (_, h) = strip.response(&params, strip_rh, 20.0, C::new(0.0, w));
@@ -147,15 +202,23 @@ pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physi
             base_ph.push(b);
             cur_ph.push(b * h);
             step.push(C::from_polar(1.0, w * dt));
+            if let Some(acc) = accelerometer {
+                acc_ph.push(C::from_polar(amps_m[k], w * t0 * rate + phases[k]) * (acc.chain(w) * -(w * w)));
+                acc_step.push(C::from_polar(1.0, w * dt * rate));
+            }
         }
         for j in i..(i + chunk).min(n) {
             let t = j as f64 * dt;
-            let (mut b, mut c) = (0.0, 0.0);
+            let (mut b, mut c, mut acc) = (0.0, 0.0, 0.0);
             for k in 0..freqs.len() {
                 b += base_ph[k].im;
                 c += cur_ph[k].im;
                 base_ph[k] *= step[k];
                 cur_ph[k] *= step[k];
+            }
+            for (p, s) in acc_ph.iter_mut().zip(&acc_step) {
+                acc += p.im;
+                *p *= s;
             }
             let a = air(t);
             strip_rh += (a - strip_rh) * dt / plan.tau_strip_s;
@@ -169,8 +232,16 @@ pub fn simulate_field(calib: &Calibration, plan: &FieldPlan, physics: &dyn Physi
             ts.base_m.as_mut().expect("base").push(b);
             ts.current_a.push(c + rng.gauss(noise_sd));
             ts.rh_pct.push(reading);
+            if let (Some(a), Some(column)) = (accelerometer, ts.accel_mps2.as_mut()) {
+                let lsb = a.lsb_g * G_MPS2;
+                column.push(((acc + rng.gauss(accel_noise_sd)) / lsb).round() * lsb);
+            }
         }
         i += chunk;
+    }
+    if accelerometer.is_some() {
+        ts.base_m = None;
+        ts.metadata.set("accel", "the board's accelerometer on the strip's base, resampled onto the ADC's clock [m/s^2] (simulated)");
     }
     Field { ts, strip_pct }
 }

@@ -57,6 +57,7 @@ pub fn simulate(calib: &Calibration, session: &Session, physics: &dyn Physics, m
         base_m: Some(Vec::with_capacity(total)),
         tip_m: plan.record_tip.then(|| Vec::with_capacity(total)),
         temp_c: session.temp_c.map(|_| Vec::with_capacity(total)),
+        accel_mps2: None,
     };
     let mut bench = Bench::settled(levels[0], h);
     let drift = Departure::drift(&session.sample, &mut rng);

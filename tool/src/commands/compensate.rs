@@ -98,6 +98,12 @@ enum HumidityChoice {
 
 pub fn run(a: Args) -> Result<()> {
     let mut calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
+    if let Some(said) = a.calib.as_deref().and_then(|p| std::fs::read_to_string(p).ok()).and_then(|text| {
+        let today = ipmc_tool::recalibrate::update::iso_date(std::time::SystemTime::now());
+        ipmc_tool::recalibrate::update::provenance_said(&text, &today)
+    }) {
+        println!("{said}");
+    }
     if let Some(b) = a.band {
         calib.band.shape = match b {
             BandChoice::LinearPhase => ipmc_core::band::Shape::LinearPhase,

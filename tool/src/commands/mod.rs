@@ -14,6 +14,7 @@ pub mod model;
 pub mod monitor;
 pub mod plot;
 pub mod prove;
+pub mod recalibrate;
 pub mod rh_sensitivity;
 pub mod score;
 pub mod simulate;

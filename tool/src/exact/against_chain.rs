@@ -52,6 +52,7 @@ pub fn burst_of(ts: &TimeSeries, range: std::ops::Range<usize>) -> Result<TimeSe
         base_m: Some(base[range].to_vec()),
         tip_m: None,
         temp_c: None,
+        accel_mps2: None,
     })
 }
 

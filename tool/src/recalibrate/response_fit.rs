@@ -1,0 +1,334 @@
+//! The checks' responses against the calibration: one least-squares fit over every check, the
+//! model the core's (the calibration's parameters at each check's humidity, the distributed RC
+//! line of a cracked electrode from the core's extension), the accelerometer's errors nuisance
+//! parameters with their datasheet priors, and the priors as residuals of their own.
+//!
+//! Parameters: the sensor's offset o (strip − corrected reading, shared by the checks; prior
+//! the sensor's accuracy), ln factors on the strip's parameters (shared; prior the calibration's
+//! own uncertainty, and under [`Hypothesis::Drifted`] the drift's too), the electrode's RC time
+//! τ (shared, no prior; fitted as τ², its delay left to the accelerometer's), and per check the strip's humidity hₖ (prior: its reading, corrected,
+//! plus o, within how far the reading moved during the check), the accelerometer's gain (with
+//! the current channel's: one product is seen) and its chain's delay.
+//!
+//! At one humidity, a shift of the humidity and a drift of the laws along the laws' own slopes
+//! give one response: the priors alone part them. Checks at two humidities part them by data.
+
+use ipmc_core::calibration::departures::DEPARTING;
+use ipmc_core::model::exact::{current_response, jw};
+use ipmc_core::model::extension::Extension;
+use ipmc_core::{C, Calibration, ComplexMath, ParamName};
+use ipmc_fit::lsq::{self, Bound, Param};
+
+use super::cross_spectrum::Measured;
+
+/// The strip's parameters a check may find drifted: those its current depends on and the
+/// calibration keeps per strip (geometry, mass and temperature are not the strip's to drift).
+pub const DRIFTING: [ParamName; 7] =
+    [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::KappaE, ParamName::D, ParamName::Alpha0, ParamName::CMinus];
+
+/// The accelerometer's sensitivity (LSM6DSL-like part, 1σ, datasheet) [relative].
+pub const ACCEL_GAIN_SD: f64 = 0.01;
+/// Its filter chain's delay, 0.3–1.5 ms (datasheet and resampling), as its mean and the
+/// standard deviation of a uniform over that range [s].
+pub const ACCEL_DELAY_S: (f64, f64) = (0.9e-3, 1.2e-3 / 3.464_101_615_137_754);
+/// Its output data rate [Hz]: the firmware resamples from it onto the ADC's clock.
+pub const ACCEL_ODR_HZ: f64 = 1660.0;
+/// Its low-pass: second order (Butterworth) at 666 Hz.
+pub const ACCEL_LOWPASS_HZ: f64 = 666.0;
+
+/// What the fit assumes of the strip since its calibration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hypothesis {
+    /// The strip as calibrated, within the calibration's own uncertainty.
+    AsCalibrated,
+    /// The strip drifted: every parameter of [`DRIFTING`] free within the drift's prior too.
+    Drifted,
+}
+
+/// One check as the fit reads it.
+pub struct CheckData<'a> {
+    pub measured: &'a Measured,
+    /// The reading over the check through the strip's hydration lag, corrected [%RH].
+    pub reading_pct: f64,
+    /// How far the strip's humidity may lie from it beyond the sensor's offset (the spread over
+    /// the lags it may have) [%RH].
+    pub spread_pct: f64,
+}
+
+/// The fit's outcome.
+pub struct CheckFit {
+    pub hypothesis: Hypothesis,
+    pub fit: lsq::Fit,
+    /// Per parameter of [`DRIFTING`], its prior 1σ in ln (0: held).
+    pub prior_sd: [f64; 7],
+    /// Of it, the calibration's own uncertainty at the checks' humidity, and the drift's prior.
+    pub calibration_sd: [f64; 7],
+    pub drift_sd: f64,
+    pub layout: Layout,
+    /// ln of the evidence (Laplace): how well the hypothesis explains the checks, its Occam
+    /// factor included.
+    pub ln_evidence: f64,
+    pub n_checks: usize,
+}
+
+/// The accelerometer chain a, as measured, over the base's acceleration.
+fn accel_chain(gain: f64, delay_s: f64, s: C<f64>) -> C<f64> {
+    let w0 = 2.0 * std::f64::consts::PI * ACCEL_LOWPASS_HZ;
+    let x = s / w0;
+    let one = C::new(1.0, 0.0);
+    let lowpass = one / (one + x * std::f64::consts::SQRT_2 + x * x);
+    lowpass * (-s * delay_s).cexp() * gain
+}
+
+/// Where each quantity sits in the fit's vector: the offset, the factors the hypothesis frees
+/// (a factor with no prior 1σ is held at 1 and not fitted), τ, then per check its humidity,
+/// gain and delay. Delays are fitted in milliseconds and τ² in (100 µs)², so that every column of
+/// the Jacobian is of a size the fit's singular-value cut can compare.
+#[derive(Clone, Debug)]
+pub struct Layout {
+    pub free: Vec<usize>,
+}
+
+impl Layout {
+    pub fn offset(&self) -> usize {
+        0
+    }
+    /// Factor `k` of [`DRIFTING`]: its index, None where held.
+    pub fn factor(&self, k: usize) -> Option<usize> {
+        self.free.iter().position(|&f| f == k).map(|i| 1 + i)
+    }
+    /// The electrode line's τ² in (100 µs)².
+    pub fn tau2(&self) -> usize {
+        1 + self.free.len()
+    }
+    /// Check `c`'s humidity [%RH], gain and delay [ms].
+    pub fn check(&self, c: usize) -> [usize; 3] {
+        let base = 2 + self.free.len() + 3 * c;
+        [base, base + 1, base + 2]
+    }
+    fn ln_factors(&self, theta: &[f64]) -> [f64; 7] {
+        let mut ln = [0.0; 7];
+        for (i, &k) in self.free.iter().enumerate() {
+            ln[k] = theta[1 + i];
+        }
+        ln
+    }
+}
+
+/// The electrode's distributed RC line (the core's) without its low-frequency delay τ/3, which
+/// the accelerometer's delay takes: what is left is a fall of the gain, 7/90·(ωτ)² at first
+/// order, a function of τ² (`tau2` in (100 µs)²). Below zero, its continuation at that order,
+/// so that the fit's 1σ holds where the data put τ at none.
+pub fn electrode_line(tau2: f64, s: C<f64>) -> C<f64> {
+    let one = C::new(1.0, 0.0);
+    if tau2 <= 0.0 {
+        return one + s * s * (1e-8 * tau2 * 7.0 / 90.0);
+    }
+    let tau = 1e-4 * tau2.sqrt();
+    let ext = Extension { electrode_tau_distributed: tau, ..Default::default() };
+    ext.current_chain(s) * (s * (tau / 3.0)).cexp()
+}
+
+/// The strip's parameters at check `c` for `theta`.
+fn strip_params(calib: &Calibration, layout: &Layout, theta: &[f64], c: usize) -> ipmc_core::Params<f64> {
+    let mut p = calib.params_at(theta[layout.check(c)[0]]);
+    for (name, ln) in DRIFTING.into_iter().zip(layout.ln_factors(theta)) {
+        p.set(name, p.get(name) * ln.exp());
+    }
+    p
+}
+
+/// The model's I/a at `f` for the strip `p`, the parameters `theta` and check `c`.
+pub fn model(p: &ipmc_core::Params<f64>, layout: &Layout, theta: &[f64], c: usize, freq_hz: f64) -> C<f64> {
+    let [_, g, delay_ms] = layout.check(c).map(|i| theta[i]);
+    let s = jw(freq_hz);
+    current_response(p, s) * electrode_line(theta[layout.tau2()], s) / (s * s * accel_chain(g, 1e-3 * delay_ms, s))
+}
+
+/// The calibration's own 1σ of each parameter's ln at `rh_pct` (0 where it states none).
+fn calibration_sd(calib: &Calibration, rh_pct: f64) -> [f64; 7] {
+    let u = calib.uncertainty_at(rh_pct);
+    let mut sd = [0.0; 7];
+    for (k, name) in DRIFTING.into_iter().enumerate() {
+        sd[k] = u.relative_sds().into_iter().find(|(n, _)| *n == name).map_or(0.0, |(_, s)| s);
+    }
+    debug_assert!(DEPARTING.iter().all(|n| DRIFTING.contains(n)));
+    sd
+}
+
+/// Fits every check under `hypothesis`; `sensor_sd_pct` the reading's accuracy (the offset's
+/// prior), `drift_sd` the drift's prior 1σ in ln.
+pub fn fit_checks(
+    calib: &Calibration,
+    checks: &[CheckData],
+    hypothesis: Hypothesis,
+    sensor_sd_pct: f64,
+    drift_sd: f64,
+) -> Option<CheckFit> {
+    let drift_sd = if hypothesis == Hypothesis::Drifted { drift_sd } else { 0.0 };
+    let mean_rh = checks.iter().map(|c| c.reading_pct).sum::<f64>() / checks.len() as f64;
+    let calibration_sd = calibration_sd(calib, mean_rh);
+    let mut prior_sd = calibration_sd;
+    for sd in &mut prior_sd {
+        *sd = sd.hypot(drift_sd);
+    }
+    let layout = Layout { free: (0..DRIFTING.len()).filter(|&k| prior_sd[k] > 0.0).collect() };
+    let mut params = vec![Param::new("offset_pct", Bound::Free)];
+    for &k in &layout.free {
+        params.push(Param::new(format!("ln_{}", DRIFTING[k].as_str()), Bound::Free));
+    }
+    params.push(Param::new("electrode_tau2", Bound::Free));
+    let mut start = vec![0.0; 1 + layout.free.len()];
+    start.push(0.1);
+    for (c, check) in checks.iter().enumerate() {
+        params.push(Param::new(format!("rh{c}_pct"), Bound::Free));
+        params.push(Param::new(format!("accel{c}_gain"), Bound::Positive));
+        params.push(Param::new(format!("accel{c}_delay_ms"), Bound::Free));
+        start.extend([check.reading_pct, 1.0, 1e3 * ACCEL_DELAY_S.0]);
+    }
+    let n_data: usize = checks.iter().map(|c| 2 * c.measured.freq_hz.len()).sum();
+    let n_prior = 1 + layout.free.len() + 3 * checks.len();
+    let gain_sd = ACCEL_GAIN_SD.hypot(calib.instrument.current_gain_tolerance_pct / 100.0);
+    let residuals = |scale: &[f64]| {
+        let scale = scale.to_vec();
+        let layout = &layout;
+        move |theta: &[f64], out: &mut [f64]| {
+            let mut r = 0;
+            for (c, check) in checks.iter().enumerate() {
+                let m = check.measured;
+                let p = strip_params(calib, layout, theta, c);
+                for (b, &f) in m.freq_hz.iter().enumerate() {
+                    let misfit = (m.ratio[b] / model(&p, layout, theta, c, f)).ln();
+                    out[r] = misfit.re / (scale[c] * m.sd_ln[b]);
+                    out[r + 1] = misfit.im / (scale[c] * m.sd_ln[b]);
+                    r += 2;
+                }
+            }
+            out[r] = theta[layout.offset()] / sensor_sd_pct;
+            r += 1;
+            for (i, &k) in layout.free.iter().enumerate() {
+                out[r] = theta[1 + i] / prior_sd[k];
+                r += 1;
+            }
+            for (c, check) in checks.iter().enumerate() {
+                let [h, g, delay_ms] = layout.check(c).map(|i| theta[i]);
+                out[r] = (h - check.reading_pct - theta[layout.offset()]) / check.spread_pct;
+                out[r + 1] = g.ln() / gain_sd;
+                out[r + 2] = (1e-3 * delay_ms - ACCEL_DELAY_S.0) / ACCEL_DELAY_S.1;
+                r += 3;
+            }
+        }
+    };
+    // The bins' 1σ from their coherence leave out what the model does not hold (the strip's
+    // departures between the factors' reach, neighbouring bins' leakage): where a check's
+    // misfit exceeds them, they are widened by its reduced χ², and the fit made again, so that
+    // the priors keep their own weight beside the data.
+    let first = lsq::fit(&params, &[start], n_data + n_prior, residuals(&vec![1.0; checks.len()])).ok()?;
+    let mut scale = vec![];
+    let mut r = 0;
+    for check in checks {
+        let n = 2 * check.measured.freq_hz.len();
+        let chi2: f64 = first.residuals[r..r + n].iter().map(|x| x * x).sum();
+        scale.push((chi2 / n as f64).max(1.0).sqrt());
+        r += n;
+    }
+    let fit = lsq::fit(&params, std::slice::from_ref(&first.estimates), n_data + n_prior, residuals(&scale)).ok()?;
+    let ln_evidence = ln_evidence(&fit, &layout, &prior_sd, sensor_sd_pct, checks);
+    Some(CheckFit { hypothesis, fit, prior_sd, calibration_sd, drift_sd, layout, ln_evidence, n_checks: checks.len() })
+}
+
+/// −½χ² − ½ ln det(posterior precision) + ½ ln det(prior precision), over the parameters with a
+/// prior; the held factors (prior 1σ 0) drop out of both.
+fn ln_evidence(fit: &lsq::Fit, layout: &Layout, prior_sd: &[f64; 7], sensor_sd: f64, checks: &[CheckData]) -> f64 {
+    let scale = fit.reduced_chi2().max(f64::MIN_POSITIVE);
+    let mut keep: Vec<(usize, f64)> = vec![(layout.offset(), sensor_sd)];
+    for &k in &layout.free {
+        keep.push((layout.factor(k).unwrap_or_default(), prior_sd[k]));
+    }
+    for (c, check) in checks.iter().enumerate() {
+        keep.push((layout.check(c)[0], check.spread_pct));
+    }
+    let idx: Vec<usize> = keep.iter().map(|k| k.0).collect();
+    let cov = fit.covariance.select_rows(&idx).select_columns(&idx) / scale;
+    let ln_det_cov = cov.cholesky().map_or(f64::NAN, |ch| 2.0 * ch.l().diagonal().iter().map(|d| d.ln()).sum::<f64>());
+    let ln_det_prior: f64 = keep.iter().map(|(_, sd)| -2.0 * sd.ln()).sum();
+    -0.5 * fit.chi2 + 0.5 * ln_det_cov + 0.5 * ln_det_prior
+}
+
+impl CheckFit {
+    /// Parameter `i`'s estimate and 1σ: from the information the data (their 1σ widened by
+    /// their misfit) and the priors carry, not scaled again by the whole fit's χ².
+    pub fn value(&self, i: usize) -> (f64, f64) {
+        (self.fit.estimates[i], (self.fit.covariance[(i, i)] / self.fit.reduced_chi2().max(f64::MIN_POSITIVE)).sqrt())
+    }
+
+    /// Factor `k`'s ln and its 1σ ((0, 0) where held).
+    pub fn ln_factor(&self, k: usize) -> (f64, f64) {
+        self.layout.factor(k).map_or((0.0, 0.0), |i| self.value(i))
+    }
+
+    /// The strip's drift since its bench session in parameter `k`'s ln, and its 1σ: the factor
+    /// the checks find on the calibration, whose own error at the checks' humidity (what the bench
+    /// left unknown) is in it too.
+    pub fn drift(&self, k: usize) -> (f64, f64) {
+        let (ln, sd) = self.ln_factor(k);
+        (ln, sd.hypot(self.calibration_sd[k]))
+    }
+
+    /// Whether the checks, not the prior, decide the drift of parameter `k`: its 1σ under half
+    /// the drift's prior.
+    pub fn decides(&self, k: usize) -> bool {
+        self.prior_sd[k] > 0.0 && self.drift(k).1 < 0.5 * self.drift_sd
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_fit::random::SplitMix64;
+
+    /// A check made from the model itself: the strip at 71 %RH with its Y scaled, the reading at
+    /// 70, the accelerometer 0.5 % high and 1.1 ms late, each bin's log scattered by its 1σ.
+    fn measured(calib: &Calibration, y_factor: f64, rng: &mut SplitMix64) -> Measured {
+        let layout = Layout { free: (0..DRIFTING.len()).collect() };
+        let mut theta = vec![0.0; 2 + DRIFTING.len() + 3];
+        theta[layout.factor(0).unwrap()] = y_factor.ln();
+        theta[layout.tau2()] = 0.0;
+        let [h, g, d] = layout.check(0);
+        (theta[h], theta[g], theta[d]) = (71.0, 1.005, 1.1);
+        let p = strip_params(calib, &layout, &theta, 0);
+        let freq_hz: Vec<f64> = (5..400).map(f64::from).collect();
+        let sd = 0.01;
+        let ratio = freq_hz.iter().map(|&f| model(&p, &layout, &theta, 0, f) * C::new(rng.gauss(sd), rng.gauss(sd)).exp()).collect();
+        Measured {
+            sd_ln: vec![sd; freq_hz.len()],
+            coherence: vec![0.99; freq_hz.len()],
+            freq_hz,
+            ratio,
+            rate_ppm: 0.0,
+            segments_eff: 100.0,
+        }
+    }
+
+    #[test]
+    fn finds_the_offset_of_an_undrifted_strip_and_the_drift_of_a_drifted_one() {
+        let calib = Calibration::default_preset();
+        let mut rng = SplitMix64(7);
+        let m = measured(&calib, 1.0, &mut rng);
+        let data = [CheckData { measured: &m, reading_pct: 70.0, spread_pct: 0.05 }];
+        let f = fit_checks(&calib, &data, Hypothesis::AsCalibrated, 1.8, 0.2).unwrap();
+        let (o, sd) = f.value(f.layout.offset());
+        // The preset's own uncertainty (Y 3.5 %, d 5 %) is worth some 0.4 %RH at 71 %RH.
+        assert!((o - 1.0).abs() < 2.0 * sd && sd < 0.6, "offset {o} ± {sd}");
+        let (gain, gain_sd) = f.value(f.layout.check(0)[1]);
+        assert!((gain - 1.005).abs() < 2.0 * gain_sd, "gain {gain} ± {gain_sd}");
+
+        let m = measured(&calib, 1.15, &mut rng);
+        let data = [CheckData { measured: &m, reading_pct: 70.0, spread_pct: 0.05 }];
+        let held = fit_checks(&calib, &data, Hypothesis::AsCalibrated, 1.8, 0.2).unwrap();
+        let drifted = fit_checks(&calib, &data, Hypothesis::Drifted, 1.8, 0.2).unwrap();
+        assert!(drifted.ln_evidence > held.ln_evidence, "{} vs {}", drifted.ln_evidence, held.ln_evidence);
+        let (ln_y, sd_y) = drifted.drift(0);
+        assert!(drifted.decides(0) && (ln_y - 1.15f64.ln()).abs() < 2.0 * sd_y, "Y × {} ± {sd_y}", ln_y.exp());
+    }
+}
