@@ -65,7 +65,12 @@ pub fn thumb_target_installs_on_use() -> Result<()> {
     if firmware_target_installed()? {
         bail!("{FIRMWARE_TARGET} still installed after `rustup target remove`");
     }
+    // A fresh machine has no build directory either: with one from an earlier run, nothing is
+    // compiled and the wrapper that installs the target is never asked to.
     let target_dir = repo_root().join("target/fresh-target");
+    if target_dir.exists() {
+        std::fs::remove_dir_all(&target_dir)?;
+    }
     let built = run(cargo()
         .current_dir(repo_root())
         .args(["check", "--manifest-path", "core/Cargo.toml", "--no-default-features"])
