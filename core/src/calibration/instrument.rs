@@ -65,3 +65,18 @@ impl Default for Instrument {
         Instrument::DATASHEET
     }
 }
+
+/// The board's accelerometer's low-pass (LSM6DSL-like part, its anti-aliasing and digital
+/// filters as the firmware sets them, in one second-order Butterworth) [Hz].
+pub const ACCELEROMETER_LOWPASS_HZ: f64 = 666.0;
+
+/// The board's accelerometer's chain at `s` (rad/s, complex): what a base acceleration of 1
+/// reads as, for a sensitivity `gain`, a delay `delay_s` and its second-order Butterworth
+/// low-pass at `lowpass_hz`. The one model of it the simulator draws checks with and
+/// `recalibrate` fits.
+pub fn accelerometer_chain<T: crate::Real>(gain: T, delay_s: T, lowpass_hz: T, s: crate::C<T>) -> crate::C<T> {
+    use crate::ComplexMath;
+    let x = s / (T::lit(2.0) * T::PI() * lowpass_hz);
+    let one = crate::C::new(T::one(), T::zero());
+    (-s * delay_s).cexp() * gain / (one + x * T::SQRT_2() + x * x)
+}

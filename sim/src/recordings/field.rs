@@ -11,6 +11,7 @@
 
 use crate::world::physics::Physics;
 use ipmc_core::calibration::humidity_path::SensorKind;
+use ipmc_core::calibration::instrument::{ACCELEROMETER_LOWPASS_HZ, accelerometer_chain};
 use ipmc_core::{C, Calibration, Params};
 use ipmc_fit::random::SplitMix64;
 use ipmc_recording::{Metadata, TimeSeries};
@@ -90,7 +91,7 @@ impl Accelerometer {
         Accelerometer {
             gain_error: rng.gauss(0.01),
             delay_s: 0.3e-3 + 1.2e-3 * rng.uniform(),
-            lowpass_hz: 666.0,
+            lowpass_hz: ACCELEROMETER_LOWPASS_HZ,
             noise_g_per_rthz: 90e-6,
             lsb_g: 0.488e-3,
             rate_ppm: rng.gauss(20.0),
@@ -99,9 +100,7 @@ impl Accelerometer {
 
     /// Its chain at angular frequency `w`: what a base acceleration of 1 reads as.
     fn chain(&self, w: f64) -> C<f64> {
-        let x = C::new(0.0, w / (2.0 * std::f64::consts::PI * self.lowpass_hz));
-        let one = C::new(1.0, 0.0);
-        C::from_polar(1.0 + self.gain_error, -w * self.delay_s) / (one + x * std::f64::consts::SQRT_2 + x * x)
+        accelerometer_chain(1.0 + self.gain_error, self.delay_s, self.lowpass_hz, C::new(0.0, w))
     }
 }
 

@@ -14,6 +14,7 @@
 //! give one response: the priors alone part them. Checks at two humidities part them by data.
 
 use ipmc_core::calibration::departures::DEPARTING;
+use ipmc_core::calibration::instrument::{ACCELEROMETER_LOWPASS_HZ, accelerometer_chain};
 use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::model::extension::Extension;
 use ipmc_core::{C, Calibration, ComplexMath, ParamName};
@@ -33,8 +34,8 @@ pub const ACCEL_GAIN_SD: f64 = 0.01;
 pub const ACCEL_DELAY_S: (f64, f64) = (0.9e-3, 1.2e-3 / 3.464_101_615_137_754);
 /// Its output data rate [Hz]: the firmware resamples from it onto the ADC's clock.
 pub const ACCEL_ODR_HZ: f64 = 1660.0;
-/// Its low-pass: second order (Butterworth) at 666 Hz.
-pub const ACCEL_LOWPASS_HZ: f64 = 666.0;
+/// Its low-pass: second order (Butterworth).
+pub const ACCEL_LOWPASS_HZ: f64 = ACCELEROMETER_LOWPASS_HZ;
 
 /// What the fit assumes of the strip since its calibration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,11 +74,7 @@ pub struct CheckFit {
 
 /// The accelerometer chain a, as measured, over the base's acceleration.
 fn accel_chain(gain: f64, delay_s: f64, s: C<f64>) -> C<f64> {
-    let w0 = 2.0 * std::f64::consts::PI * ACCEL_LOWPASS_HZ;
-    let x = s / w0;
-    let one = C::new(1.0, 0.0);
-    let lowpass = one / (one + x * std::f64::consts::SQRT_2 + x * x);
-    lowpass * (-s * delay_s).cexp() * gain
+    accelerometer_chain(gain, delay_s, ACCEL_LOWPASS_HZ, s)
 }
 
 /// Where each quantity sits in the fit's vector: the offset, the factors the hypothesis frees
