@@ -217,21 +217,51 @@ pub fn fit_checks(
         }
     };
     // The bins' 1σ from their coherence leave out what the model does not hold (the strip's
-    // departures between the factors' reach, neighbouring bins' leakage): where a check's
-    // misfit exceeds them, they are widened by its reduced χ², and the fit made again, so that
-    // the priors keep their own weight beside the data.
+    // departures between the factors' reach, neighbouring bins' leakage) and that neighbouring
+    // bins are not independent (Hann segments share their spectral window's main lobe; a
+    // misfit is smooth along frequency): where a check's misfit exceeds them, they are widened
+    // by its reduced χ², and by the bins' correlation (n bins worth n/τ independent ones), and
+    // the fit made again, so that the priors keep their own weight beside the data.
     let first = lsq::fit(&params, &[start], n_data + n_prior, residuals(&vec![1.0; checks.len()])).ok()?;
     let mut scale = vec![];
     let mut r = 0;
     for check in checks {
         let n = 2 * check.measured.freq_hz.len();
-        let chi2: f64 = first.residuals[r..r + n].iter().map(|x| x * x).sum();
-        scale.push((chi2 / n as f64).max(1.0).sqrt());
+        let res = &first.residuals[r..r + n];
+        let chi2: f64 = res.iter().map(|x| x * x).sum();
+        let parts = |part: usize| res.iter().skip(part).step_by(2).copied().collect::<Vec<f64>>();
+        let tau = 0.5 * (autocorrelation_time(&parts(0)) + autocorrelation_time(&parts(1)));
+        scale.push(((chi2 / n as f64).max(1.0) * tau.max(1.0)).sqrt());
         r += n;
     }
     let fit = lsq::fit(&params, std::slice::from_ref(&first.estimates), n_data + n_prior, residuals(&scale)).ok()?;
     let ln_evidence = ln_evidence(&fit, &layout, &prior_sd, sensor_sd_pct, checks);
     Some(CheckFit { hypothesis, fit, prior_sd, calibration_sd, drift_sd, layout, ln_evidence, n_checks: checks.len() })
+}
+
+/// The integrated autocorrelation time τ of a sequence (n values average as n/τ independent
+/// ones): 1 + 2·Σρₖ over Geyer's initial positive sequence (the sums of neighbouring pairs of
+/// lags taken while positive), the standard estimate that needs no chosen cut-off.
+pub fn autocorrelation_time(x: &[f64]) -> f64 {
+    let n = x.len();
+    if n < 4 {
+        return 1.0;
+    }
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let c = |lag: usize| x[..n - lag].iter().zip(&x[lag..]).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>() / n as f64;
+    let c0 = c(0);
+    if c0 <= 0.0 {
+        return 1.0;
+    }
+    let mut tau = -1.0;
+    for k in 0..n / 2 - 1 {
+        let pair = (c(2 * k) + c(2 * k + 1)) / c0;
+        if pair <= 0.0 {
+            break;
+        }
+        tau += 2.0 * pair;
+    }
+    tau.max(1.0)
 }
 
 /// −½χ² − ½ ln det(posterior precision) + ½ ln det(prior precision), over the parameters with a
@@ -272,6 +302,37 @@ impl CheckFit {
         (ln, sd.hypot(self.calibration_sd[k]))
     }
 
+    /// The indices of the offset and the freed factors, in that order.
+    fn frame(&self) -> Vec<usize> {
+        let mut idx = vec![self.layout.offset()];
+        idx.extend((0..DRIFTING.len()).filter_map(|k| self.layout.factor(k)));
+        idx
+    }
+
+    /// The sensor's offset's 1σ given the factors the new calibration holds: at one humidity a
+    /// shift of the humidity and a drift of the laws give one response, so the offset alone is
+    /// uncertain along that ridge, but with the laws fixed where the fit put them, the response
+    /// the check measured fixes the offset. The calibration file holds those laws, so its
+    /// offset is uncertain by this much, not by the ridge's length. (The posterior of the offset
+    /// and the factors, the data's 1σ widened by their misfit as [`Self::value`] states them.)
+    pub fn offset_sd_given_factors(&self) -> f64 {
+        let idx = self.frame();
+        let scale = self.fit.reduced_chi2().max(f64::MIN_POSITIVE);
+        let cov = self.fit.covariance.select_rows(&idx).select_columns(&idx) / scale;
+        let var = cov[(0, 0)];
+        cov.try_inverse().map_or(var, |p| p[(0, 0)].recip()).max(0.0).sqrt()
+    }
+
+    /// Factor `k`'s ln 1σ given the offset the new calibration holds (0 where held): what the
+    /// strip at the checks' humidity is unknown by in the calibration's own humidity frame.
+    pub fn factor_sd_given_offset(&self, k: usize) -> f64 {
+        let Some(i) = self.layout.factor(k) else { return 0.0 };
+        let o = self.layout.offset();
+        let scale = self.fit.reduced_chi2().max(f64::MIN_POSITIVE);
+        let c = |a: usize, b: usize| self.fit.covariance[(a, b)] / scale;
+        (c(i, i) - c(i, o) * c(i, o) / c(o, o).max(f64::MIN_POSITIVE)).max(0.0).sqrt()
+    }
+
     /// Whether the checks, not the prior, decide the drift of parameter `k`: its 1σ under half
     /// the drift's prior.
     pub fn decides(&self, k: usize) -> bool {
@@ -305,6 +366,25 @@ mod tests {
             rate_ppm: 0.0,
             segments_eff: 100.0,
         }
+    }
+
+    #[test]
+    fn autocorrelation_time_counts_independent_values() {
+        let mut rng = SplitMix64(3);
+        let white: Vec<f64> = (0..4000).map(|_| rng.gauss(1.0)).collect();
+        let t = autocorrelation_time(&white);
+        assert!((0.9..1.2).contains(&t), "white: τ {t}");
+        // An AR(1) with coefficient 0.5 has τ = (1 + 0.5)/(1 − 0.5) = 3.
+        let mut y = 0.0;
+        let ar: Vec<f64> = white
+            .iter()
+            .map(|w| {
+                y = 0.5 * y + w;
+                y
+            })
+            .collect();
+        let t = autocorrelation_time(&ar);
+        assert!((2.5..3.5).contains(&t), "AR(1) 0.5: τ {t}");
     }
 
     #[test]

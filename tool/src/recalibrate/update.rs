@@ -160,13 +160,14 @@ fn humidity_span(o: &Outcome) -> f64 {
     r.clone().fold(f64::NEG_INFINITY, f64::max) - r.fold(f64::INFINITY, f64::min)
 }
 
-/// `calib` with the chosen fit's factors on its laws, the sensor's correction and its 1σ, and
-/// under drift the factors' 1σ added to what the calibration does not know.
+/// `calib` with the chosen fit's factors on its laws, the sensor's correction and its 1σ given
+/// those laws, and under drift the factors' 1σ given that correction added to what the
+/// calibration does not know.
 pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
     let f: &CheckFit = o.chosen();
     let mut c = *calib;
     for (k, name) in DRIFTING.into_iter().enumerate() {
-        let (ln, sd) = f.ln_factor(k);
+        let (ln, _) = f.ln_factor(k);
         match c.law_mut(name) {
             Some(law) => match law.kind {
                 LawKind::LogPoly => law.coeffs[0] += ln,
@@ -176,6 +177,9 @@ pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
             None => c.c_minus *= ln.exp(),
         }
         if f.hypothesis == Hypothesis::Drifted {
+            // The laws' uncertainty in the frame of the offset the file holds (the ridge between
+            // a drift and a humidity offset at one humidity is the offset's, and stated there).
+            let sd = f.factor_sd_given_offset(k);
             let u = &mut c.uncertainty;
             let slot = match name {
                 ParamName::Y => Some((&mut u.y, 0)),
@@ -196,9 +200,9 @@ pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
             }
         }
     }
-    let (offset, sd) = f.value(f.layout.offset());
+    let (offset, _) = f.value(f.layout.offset());
     c.humidity.offset_pct += offset;
-    c.humidity.uncertainty_pct = Some(sd.max(0.01));
+    c.humidity.uncertainty_pct = Some(f.offset_sd_given_factors().max(0.01));
     if let super::Named::Calibration(k) | super::Named::Recording(k) = o.named {
         c.humidity.sensor = Some(k);
     }
