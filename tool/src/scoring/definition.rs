@@ -25,6 +25,16 @@ pub struct Scoring {
     pub band_delay: usize,
     /// The excitation's period [samples], where the recording says it.
     pub period: Option<usize>,
+    /// What the truth is made from.
+    pub reference: Reference,
+}
+
+/// What an estimate is compared with: the recording's true base motion (a laser, a simulator's
+/// truth), or on a check its accelerometer's displacement, the chain's delay fitted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reference {
+    Base,
+    Accelerometer { delay_s: f64, rate_ppm: f64 },
 }
 
 /// The tail of the impulse response left out of the start-up, as a share of its energy: far
@@ -44,7 +54,7 @@ impl Scoring {
         let band_delay = f.delay_samples();
         let start_up = start_up(&mut f, fs_hz);
         let period = period_s.map(|p| p * fs_hz).filter(|p| *p >= 1.0 && (p - p.round()).abs() < 1e-6).map(|p| p.round() as usize);
-        Ok(Scoring { band: *band, fs_hz, preview: preview_samples(fs_hz), start_up, band_delay, period })
+        Ok(Scoring { band: *band, fs_hz, preview: preview_samples(fs_hz), start_up, band_delay, period, reference: Reference::Base })
     }
 
     /// Samples skipped at the start of each burst: the chain's settling and the filter's start-up.
@@ -104,8 +114,16 @@ impl Scoring {
             Some(p) => format!("windows of whole {} s periods", p as f64 / self.fs_hz),
             None => "windows NOT whole periods (the recording states no period)".to_string(),
         };
+        let what = match self.reference {
+            Reference::Base => "the true base".to_string(),
+            Reference::Accelerometer { delay_s, rate_ppm } => format!(
+                "the accelerometer's displacement (a check: integrated twice; its chain's delay and its clock's residual rate fitted, \
+                 {:.3} ms and {rate_ppm:+.1} ppm; its ±1 % gain not)",
+                1e3 * delay_s
+            ),
+        };
         format!(
-            "against the true base shifted {} samples (the preview) and put through the same {lo}–{hi} Hz band filter \
+            "against {what} shifted {} samples (the preview) and put through the same {lo}–{hi} Hz band filter \
              (its delay {} samples), {windows}",
             self.preview, self.band_delay
         )

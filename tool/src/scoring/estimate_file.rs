@@ -1,8 +1,9 @@
 //! An estimate file (`t_s,base_est_m,…`, as `ipmc compensate` and `cargo xtask qemu` write it)
-//! scored against the true base motion of the recording it came from: the figures `ipmc score`
+//! scored against the true base motion of the recording it came from (a check's: its
+//! accelerometer's displacement): the figures `ipmc score`
 //! prints, as a struct for programs ([`figures`]).
 
-use super::{Score, Scoring, coverage, nothing_scored, stated_period_s};
+use super::{Reference, Score, Scoring, accelerometer, coverage, nothing_scored, stated_period_s};
 use crate::support::input::{checked, read_time_series};
 use anyhow::{Result, anyhow, bail};
 use ipmc_core::band::Band;
@@ -44,9 +45,14 @@ impl Loaded {
         let file = checked(Estimates::read(estimate))?;
         // An estimate `ipmc compensate` made on short bursts it looped is scored on them looped alike.
         let ts = as_estimated(read_time_series(recording)?, &file.metadata).map_err(|e| anyhow!("{}: {e}", estimate.display()))?;
-        let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("{}: no base_m column to score against", recording.display()))?;
-        if file.base_est_m.len() > base.len() {
-            bail!("{} has {} estimates for {} samples in {}", estimate.display(), file.base_est_m.len(), base.len(), recording.display());
+        if file.base_est_m.len() > ts.current_a.len() {
+            bail!(
+                "{} has {} estimates for {} samples in {}",
+                estimate.display(),
+                file.base_est_m.len(),
+                ts.current_a.len(),
+                recording.display()
+            );
         }
         let band = band_of(&file.metadata, band_hz)?;
         let mut scoring = Scoring::new(&band, ts.fs_hz, stated_period_s(&ts.metadata, Some(&file.metadata)))?;
@@ -66,7 +72,18 @@ impl Loaded {
                 scoring.preview + scoring.band_delay
             );
         }
-        let truth = scoring.truth(base, &ts.bursts());
+        let truth = match (&ts.base_m, &ts.accel_mps2) {
+            (Some(base), _) => scoring.truth(base, &ts.bursts()),
+            (None, Some(accel)) => {
+                let (truth, delay_s, rate_ppm) = accelerometer::fitted_truth(&scoring, accel, &file.base_est_m, &ts.bursts());
+                scoring.reference = Reference::Accelerometer { delay_s, rate_ppm };
+                truth
+            }
+            (None, None) => bail!(
+                "{}: nothing to score against: no base_m column (the true base motion) and no accel_mps2 (a check's accelerometer)",
+                recording.display()
+            ),
+        };
         Ok(Loaded { file, ts, scoring, truth })
     }
 

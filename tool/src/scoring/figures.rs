@@ -91,7 +91,9 @@ impl Scoring {
             let mut windows = vec![];
             for w in self.windows(b.clone(), window) {
                 let mut s = Sums::default();
-                for k in w.clone() {
+                // A sample whose reference is unknown (NaN: a check's accelerometer record
+                // interpolated past its end) is not scored.
+                for k in w.clone().filter(|&k| !truth[k].is_nan()) {
                     let (e, t) = (est[k].into(), truth[k]);
                     s.error += (e - t).powi(2);
                     s.truth += t * t;

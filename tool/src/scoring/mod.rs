@@ -1,4 +1,4 @@
-//! How an estimate is scored against the true base motion: one definition for every figure the
+//! How an estimate is scored against the true base motion (on a check, against its accelerometer's): one definition for every figure the
 //! tool prints (`score`, `compensate`, `strip-check`, `vs-exact`, `field-table`, the plot's
 //! error trace) and for the firmware's estimates (`cargo xtask qemu` runs `ipmc score`).
 //!
@@ -12,9 +12,11 @@
 //! - `coverage`: whether the stated error bars hold, window by window;
 //! - `spectral`: where in frequency an error lies (a diagnostic, not the score);
 //! - `wording`: the one line every command prints of a score, and why nothing was scored;
+//! - `accelerometer`: a check's reference, its accelerometer's displacement;
 //! - `estimate_file`: an estimate file scored against its recording, with the figures `ipmc
 //!   score` prints (and `cargo xtask` checks) as a struct.
 
+pub mod accelerometer;
 pub mod coverage;
 mod definition;
 pub mod estimate_file;
@@ -22,7 +24,7 @@ mod figures;
 pub mod spectral;
 mod wording;
 
-pub use definition::{Scoring, stated_period_s};
+pub use definition::{Reference, Scoring, stated_period_s};
 pub use figures::{Score, Sums};
 pub use ipmc_core::firmware::operating_point::SETTLE_S;
 pub use wording::{line, nothing_scored};

@@ -1,0 +1,219 @@
+//! A check's reference: the base displacement its accelerometer says. A check has no laser; the
+//! board's accelerometer on the strip's base measures the drive. Integrated twice (in frequency,
+//! X = −A/ω², from half the band's lower edge up) and put through the same band filter as a
+//! true base motion, it is what the estimate is compared with. Its chain's delay (filters and
+//! resampling, 0.3–1.5 ms by its datasheet) is a phase of up to 80° at 150 Hz, more than any
+//! calibration's error: it is fitted (with the clocks' residual rate difference, which makes it
+//! grow along the run), the delay in that range where the estimate's cross-correlation with it
+//! peaks; its gain (±1 %) is not, and is part of what the figure states.
+
+use super::Scoring;
+use ipmc_core::C;
+use ipmc_core::calibration::instrument::{ACCELEROMETER_LOWPASS_HZ, accelerometer_chain};
+use rustfft::FftPlanner;
+use rustfft::num_complex::Complex;
+use std::f64::consts::PI;
+use std::ops::Range;
+
+/// The accelerometer chain's delay by its datasheet and the resampling [s]: the range searched.
+pub const DELAY_RANGE_S: (f64, f64) = (0.3e-3, 1.5e-3);
+
+/// The accelerometer's spectrum integrated twice, ready to be advanced by any delay.
+pub struct Displacement {
+    spectrum: Vec<Complex<f64>>,
+    n: usize,
+    fs_hz: f64,
+}
+
+impl Displacement {
+    /// `accel` [m/s²] at `fs_hz` as displacement: X = −A/ω² above `low_hz` / 2 (below it the
+    /// double integral lifts the part's noise without bound and the band filter drops it), the
+    /// chain's second-order low-pass divided out in band (it is below 0.1 dB there), the mean
+    /// taken out. Extended by its mirror image, so that its ends meet without a jump: a jump's
+    /// leakage, lifted by 1/ω², would reach into the band.
+    pub fn new(accel: &[f64], fs_hz: f64, low_hz: f64) -> Displacement {
+        let n = 2 * accel.len();
+        let mean = accel.iter().sum::<f64>() / accel.len().max(1) as f64;
+        let mut buf: Vec<Complex<f64>> = accel.iter().chain(accel.iter().rev()).map(|a| Complex::new(a - mean, 0.0)).collect();
+        FftPlanner::<f64>::new().plan_fft_forward(n).process(&mut buf);
+        for (k, x) in buf.iter_mut().enumerate() {
+            let f = (if k <= n / 2 { k as f64 } else { k as f64 - n as f64 }) * fs_hz / n as f64;
+            *x = if f.abs() < low_hz / 2.0 {
+                Complex::new(0.0, 0.0)
+            } else {
+                let w = 2.0 * PI * f;
+                -*x / (w * w * lowpass(f))
+            };
+        }
+        Displacement { spectrum: buf, n, fs_hz }
+    }
+
+    /// The displacement advanced by `delay_s` (the chain's delay undone), `len` samples.
+    pub fn advanced(&self, delay_s: f64, len: usize) -> Vec<f64> {
+        let n = self.n;
+        let mut buf: Vec<Complex<f64>> = self
+            .spectrum
+            .iter()
+            .enumerate()
+            .map(|(k, x)| {
+                let f = (if k <= n / 2 { k as f64 } else { k as f64 - n as f64 }) * self.fs_hz / n as f64;
+                x * Complex::from_polar(1.0, 2.0 * PI * f * delay_s)
+            })
+            .collect();
+        FftPlanner::<f64>::new().plan_fft_inverse(n).process(&mut buf);
+        buf.iter().take(len).map(|c| c.re / n as f64).collect()
+    }
+}
+
+/// The part's low-pass at `f` [Hz] (the core's model of its chain, without gain or delay).
+fn lowpass(f: f64) -> Complex<f64> {
+    let h = accelerometer_chain(1.0, 0.0, ACCELEROMETER_LOWPASS_HZ, C::new(0.0, 2.0 * PI * f));
+    Complex::new(h.re, h.im)
+}
+
+/// Windows the chain's delay is found in, one by one [s]: long enough that a window's
+/// cross-correlation peak is sharp, short enough that the clocks' residual rate (±20 ppm: 0.1 µs
+/// a window) does not move it within one.
+const DELAY_WINDOW_S: f64 = 5.0;
+
+/// The truth a check's estimate is compared with, and the chain's delay [s] and the clocks'
+/// residual rate difference [ppm] fitted: the accelerometer's displacement through the
+/// scoring's band, advanced by d(t) = d₀ + ε·t. Per window, the lag of the estimate's
+/// cross-correlation peak with it (parabolic between samples); d₀ and ε the least-squares line
+/// through them, d₀ then refined within a sample to the least error, held to [`DELAY_RANGE_S`]. The rate difference turns a delay into one that
+/// grows along the run (28 ppm is 1.7 ms over a minute): the firmware tracks the part's clock
+/// against the ADC's, and what it leaves is what is fitted here.
+pub fn fitted_truth(scoring: &Scoring, accel: &[f64], estimate: &[f32], bursts: &[Range<usize>]) -> (Vec<f64>, f64, f64) {
+    let disp = Displacement::new(accel, scoring.fs_hz, scoring.band.low_hz);
+    let truth0 = scoring.truth(&disp.advanced(0.0, accel.len()), bursts);
+    let fs = scoring.fs_hz;
+    let w = (DELAY_WINDOW_S * fs) as usize;
+    let max_lag = (2.0 * DELAY_RANGE_S.1 * fs).ceil() as isize;
+    let mut points: Vec<(f64, f64)> = vec![];
+    for b in bursts {
+        let mut start = b.start + scoring.skip() + max_lag as usize;
+        while start + w + (max_lag as usize) <= b.end.min(estimate.len()) {
+            let corr = |lag: isize| -> f64 {
+                (start..start + w)
+                    .map(|k| {
+                        let (e, t) = (f64::from(estimate[k]), truth0[(k as isize + lag) as usize]);
+                        if e.is_finite() && t.is_finite() { e * t } else { 0.0 }
+                    })
+                    .sum()
+            };
+            // The truth made at zero delay lags the base by the chain's delay: advanced by d it
+            // matches the estimate, the peak of Σ e(k)·t0(k + lag) at lag = d.
+            let c: Vec<f64> = (-1..=max_lag + 1).map(corr).collect();
+            let peak = (1..c.len() - 1).max_by(|&i, &j| c[i].total_cmp(&c[j])).unwrap_or(1);
+            let (l, m, r) = (c[peak - 1], c[peak], c[peak + 1]);
+            let frac = if l - 2.0 * m + r < 0.0 { 0.5 * (l - r) / (l - 2.0 * m + r) } else { 0.0 };
+            let lag = (peak as f64 - 1.0) + frac;
+            points.push(((start + w / 2) as f64 / fs, lag / fs));
+            start += w;
+        }
+    }
+    let (d0, rate) = line(&points);
+    // A correlation peak interpolated between samples is biased by a fraction of one: the
+    // delay is refined within a sample of it to the one that brings the estimate closest.
+    let truth_at = |d: f64| advance(&truth0, fs, |k| d + rate * k as f64 / fs);
+    let error_at = |d: f64| {
+        let s = scoring.score(estimate, &truth_at(d), bursts, None);
+        if s.bursts.is_empty() { f64::INFINITY } else { s.pooled.error() }
+    };
+    let (mut a, mut b) = ((d0 - 1.0 / fs).max(DELAY_RANGE_S.0), (d0 + 1.0 / fs).min(DELAY_RANGE_S.1));
+    if a >= b {
+        (a, b) = (DELAY_RANGE_S.0, DELAY_RANGE_S.1);
+    }
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    while b - a > 1e-7 {
+        let (c, d) = (b - g * (b - a), a + g * (b - a));
+        if error_at(c) < error_at(d) { b = d } else { a = c }
+    }
+    let d0 = 0.5 * (a + b);
+    (truth_at(d0), d0, 1e6 * rate)
+}
+
+/// The least-squares line through (t, d): its value at t = 0 (the run's start, where the
+/// firmware's resampling aligned the clocks) and its slope. One point: its value, no slope;
+/// none: the middle of the delay's range.
+fn line(points: &[(f64, f64)]) -> (f64, f64) {
+    let n = points.len() as f64;
+    if points.is_empty() {
+        return (0.5 * (DELAY_RANGE_S.0 + DELAY_RANGE_S.1), 0.0);
+    }
+    let tm = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let dm = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let stt: f64 = points.iter().map(|p| (p.0 - tm).powi(2)).sum();
+    let std: f64 = points.iter().map(|p| (p.0 - tm) * (p.1 - dm)).sum();
+    let slope = if stt > 0.0 { std / stt } else { 0.0 };
+    (dm - slope * tm, slope)
+}
+
+/// Half-length of the interpolating kernel [samples].
+const KERNEL_HALF: isize = 16;
+
+/// `x` (band-limited well below `fs_hz` / 2) advanced by `delay_at(k)` seconds at sample k:
+/// Blackman-windowed sinc interpolation; NaN (a sample the scoring leaves out) where the kernel
+/// reaches a NaN or past the record's ends.
+fn advance(x: &[f64], fs_hz: f64, delay_at: impl Fn(usize) -> f64) -> Vec<f64> {
+    (0..x.len())
+        .map(|k| {
+            let at = k as f64 + delay_at(k) * fs_hz;
+            let centre = at.floor() as isize;
+            let mut sum = 0.0;
+            for j in centre - KERNEL_HALF + 1..=centre + KERNEL_HALF {
+                // Past either end the record does not say: unknown, and not scored.
+                let Some(&v) = usize::try_from(j).ok().and_then(|j| x.get(j)) else { return f64::NAN };
+                let u = at - j as f64;
+                let sinc = if u.abs() < 1e-12 { 1.0 } else { (PI * u).sin() / (PI * u) };
+                let window = 0.42 + 0.5 * (PI * u / KERNEL_HALF as f64).cos() + 0.08 * (2.0 * PI * u / KERNEL_HALF as f64).cos();
+                sum += v * sinc * window;
+            }
+            sum
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ipmc_core::band::Band;
+
+    /// A base moving as two tones, its acceleration delayed by 0.8 ms and through the part's
+    /// low-pass: the delay is found, and an estimate that is the base through the band scores
+    /// nil against the displacement (through the band: below it a record's ends leak energy
+    /// that the double integral lifts, and the band filter takes away).
+    #[test]
+    fn the_accelerometers_displacement_is_the_base_and_its_delay_is_found() {
+        let fs = 2000.0;
+        let n = 40_000;
+        let tones = [(23.0, 1e-5, 0.3), (97.0, 2e-6, 1.1)];
+        let base = |t: f64| tones.iter().map(|&(f, a, p)| a * (2.0 * PI * f * t + p).sin()).sum::<f64>();
+        let delay = 0.8e-3;
+        // The acceleration of the base delayed, through the 666 Hz low-pass's response at each tone.
+        let accel: Vec<f64> = (0..n)
+            .map(|k| {
+                let t = k as f64 / fs - delay;
+                tones
+                    .iter()
+                    .map(|&(f, a, p)| {
+                        let h = lowpass(f);
+                        let w = 2.0 * PI * f;
+                        -w * w * a * h.norm() * (w * t + p + h.arg()).sin()
+                    })
+                    .sum()
+            })
+            .collect();
+        let scoring = Scoring::new(&Band::DEFAULT, fs, None).unwrap();
+        let bursts = [0..n];
+        let truth_base: Vec<f64> = (0..n).map(|k| base(k as f64 / fs)).collect();
+        let estimate: Vec<f32> = scoring.truth(&truth_base, &bursts).iter().map(|&x| x as f32).collect();
+        let (truth, found, rate_ppm) = fitted_truth(&scoring, &accel, &estimate, &bursts);
+        assert!((found - delay).abs() < 0.002e-3 && rate_ppm.abs() < 1.0, "delay {found} against {delay}, rate {rate_ppm} ppm");
+        let error = scoring.score(&estimate, &truth, &bursts, None).pooled.error();
+        assert!(error < 1e-3, "error {error}");
+        // Only the samples whose kernel runs past the record's end are left unscored.
+        let unknown = truth[n / 2..].iter().filter(|t| t.is_nan()).count();
+        assert!(unknown > 0 && unknown <= KERNEL_HALF as usize + 2, "{unknown} unknown at the end");
+    }
+}
