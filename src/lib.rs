@@ -38,7 +38,7 @@ pub fn run() -> ! {
     // Before any executor runs: see `compensation::block_step`.
     let sample_path = app::compensation::block_step();
     let sample_spawner = board::start_sample_executor();
-    sample_spawner.spawn(app::sample_path::sample_task(board.samples, sample_path).expect("sample task spawns once"));
+    sample_spawner.spawn(app::sample_path::sample_task(board.samples, board.accel, sample_path).expect("sample task spawns once"));
 
     let io_spawner = board::start_io_executor();
     io_spawner.spawn(app::humidity::humidity_task(board.humidity).expect("humidity task spawns once"));

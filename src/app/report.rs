@@ -1,11 +1,11 @@
 //! Reporting: every block goes out as a stream frame; a defmt status line goes out about
 //! once a second. At the end of a replay, tells the board to finish.
 
-use ipmc_core::wire::stream::{self, Header};
+use ipmc_core::wire::stream::{self, Check, Header};
 
 use crate::board::{self, Stream};
 
-use super::handoff::{REPORT_QUEUE, ReportItem};
+use super::handoff::{CHECKS, REPORT_QUEUE, ReportItem};
 use crate::contract::{
     config::{BLOCK_LEN, LOG_EVERY_BLOCKS},
     flags::REPORT_DROPPED,
@@ -28,7 +28,10 @@ pub async fn report_task(mut stream: Stream) {
                 // The receiver learns of frames the stream lost from the next frame that arrives.
                 let flags = block.header.flags | if dropped_since_last { REPORT_DROPPED } else { 0 };
                 let header = Header { flags, ..block.header };
-                let sent = match stream::encode(&header, &block.base_est_m, &mut frame) {
+                let held = if block.has_check { CHECKS.try_receive().ok() } else { None };
+                let check =
+                    held.as_ref().map(|c| Check { first_sample: c.first_sample, current_a: &c.current_a, accel_mps2: &c.accel_mps2 });
+                let sent = match stream::encode(&header, &block.base_est_m, check, &mut frame) {
                     Ok(n) => stream.write_all(frame.get(..n).unwrap_or(&[])).await.is_ok(),
                     // Cannot happen with the buffer sized above; losing a frame beats stopping.
                     Err(_) => {
