@@ -18,7 +18,7 @@ use crate::contract::{
 };
 
 #[embassy_executor::task]
-pub async fn sample_task(mut samples: Samples, mut accel: Accelerometer, step: &'static mut BlockStep<'static>) {
+pub async fn sample_task(mut samples: Samples, accel: &'static mut Accelerometer, step: &'static mut BlockStep<'static>) {
     // Start-up only: sampling begins once the first design exists, so every reported
     // estimate comes from a real filter. The first design is the start-up's fallback when
     // the humidity task says so.

@@ -146,12 +146,13 @@ pub struct Accelerometer {
     replay: Option<(AccelReplay, Checks)>,
 }
 
-/// The accelerometer's file, read a burst ahead.
+/// The accelerometer's file, read a burst's arrival ahead (the rest of the burst when it is due:
+/// RAM is tight, and the sample task holds this).
 struct AccelReplay {
     file: File,
     left: u32,
-    /// The next burst, read until the replay reaches it.
-    pending: Option<Burst>,
+    /// The next burst's first bytes (the ADC sample it arrives before), read ahead.
+    pending: Option<[u8; 4]>,
     unwrap: TimestampUnwrap,
 }
 
@@ -172,24 +173,37 @@ impl Accelerometer {
 }
 
 impl AccelReplay {
-    fn next_burst(&mut self) -> Option<Burst> {
+    /// The next burst's arrival (the ADC sample it arrives before), read ahead.
+    fn next_arrival(&mut self) -> Option<u32> {
         if self.pending.is_none() && self.left > 0 {
-            let mut bytes = [0u8; BURST_LEN];
+            let mut bytes = [0u8; 4];
             if self.file.read_exact(&mut bytes).is_err() {
                 defmt::error!("the accelerometer's file is shorter than its header says");
                 self.left = 0;
                 return None;
             }
             self.left -= 1;
-            self.pending = Some(Burst::decode(&bytes));
+            self.pending = Some(bytes);
         }
-        self.pending
+        self.pending.map(u32::from_le_bytes)
+    }
+
+    /// The burst whose arrival was read ahead, whole.
+    fn take_burst(&mut self) -> Option<Burst> {
+        let mut bytes = [0u8; BURST_LEN];
+        bytes[..4].copy_from_slice(&self.pending.take()?);
+        if self.file.read_exact(&mut bytes[4..]).is_err() {
+            defmt::error!("the accelerometer's file is shorter than its header says");
+            self.left = 0;
+            return None;
+        }
+        Some(Burst::decode(&bytes))
     }
 
     /// Hands `track` every burst that has arrived before ADC sample `until_sample`.
     fn feed(&mut self, until_sample: u64, track: &mut AccelTrack) {
-        while let Some(burst) = self.next_burst().filter(|b| u64::from(b.arrives_before_sample) <= until_sample) {
-            self.pending = None;
+        while self.next_arrival().is_some_and(|arrives| u64::from(arrives) <= until_sample) {
+            let Some(burst) = self.take_burst() else { return };
             let mut samples = [PartSample { accel_mps2: 0.0, stamp: None }; BURST_SAMPLES];
             for ((s, &counts), &raw) in samples.iter_mut().zip(&burst.counts).zip(&burst.stamps) {
                 *s = PartSample {

@@ -3,9 +3,11 @@
 //! handed on with the accelerometer resampled onto the ADC's clock: what a check recording holds.
 //! The board owns it (`sources::AccelSource`), so that a board without the part has none of it.
 
-use ipmc_core::resample::track::{AccelTrack, LAG_BLOCKS};
+// The chain's delay taken out is the core's statement of it, which the QEMU board's emulated
+// part follows too.
+use ipmc_core::resample::track::{AccelTrack, CHAIN_DELAY_S, LAG_BLOCKS};
 
-use super::config::{ACCEL_CHAIN_DELAY_S, BLOCK_LEN};
+use super::config::BLOCK_LEN;
 
 /// A block's check: its first sample, current [A] and the accelerometer [m/s²] (NaN where the
 /// resampler had no whole block).
@@ -37,7 +39,7 @@ pub struct Checks {
 #[cfg_attr(feature = "board-b-l475e", allow(dead_code))]
 impl Checks {
     pub fn new() -> Self {
-        Self { track: AccelTrack::new(ACCEL_CHAIN_DELAY_S), held: [None; LAG_BLOCKS], next: 0 }
+        Self { track: AccelTrack::new(CHAIN_DELAY_S), held: [None; LAG_BLOCKS], next: 0 }
     }
 
     /// The track, for the board to hand it the part's bursts.

@@ -18,10 +18,6 @@ pub const ADC_STALL_BLOCKS: u64 = 3;
 /// Humidity polling period [ms]: the core's, whose trend prediction counts on it.
 pub const HUMIDITY_PERIOD_MS: u64 = ipmc_core::timing::HUMIDITY_PERIOD_MS;
 
-/// The delay of the LSM6DSL's filter chain the firmware takes out of its samples [s] (the core's
-/// statement of it, which the QEMU board's emulated part follows too).
-pub use ipmc_core::resample::track::CHAIN_DELAY_S as ACCEL_CHAIN_DELAY_S;
-
 /// RH used for the first design if no humidity reading arrives in time at start-up.
 pub const RH_FALLBACK_PCT: f32 = 50.0;
 

@@ -140,7 +140,7 @@ mod tests {
             while part_t(k + 63) + 0.010 <= end_s {
                 let samples: [PartSample; 64] = core::array::from_fn(|j| {
                     let n = k + j as u64;
-                    let stamp = (n % 8 == 0).then_some(origin + n * PART_COUNTS_PER_SAMPLE);
+                    let stamp = n.is_multiple_of(8).then_some(origin + n * PART_COUNTS_PER_SAMPLE);
                     PartSample { accel_mps2: tone(part_t(n) - delay_s) as f32, stamp }
                 });
                 let last = k + 56;

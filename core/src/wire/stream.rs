@@ -343,7 +343,15 @@ pub struct Frame<'a> {
     /// A check's first sample, current and accelerations, as many each as estimates (read with
     /// [`Frame::check_first_sample`], [`Frame::currents`] and [`Frame::accelerations`]); None:
     /// the frame has none.
-    check_bytes: Option<(u32, &'a [[u8; 4]], &'a [[u8; 4]])>,
+    check_bytes: Option<CheckBytes<'a>>,
+}
+
+/// A check's part of a frame, as the decoder found it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CheckBytes<'a> {
+    first_sample: u32,
+    current: &'a [[u8; 4]],
+    accel: &'a [[u8; 4]],
 }
 
 impl<'a> Frame<'a> {
@@ -354,15 +362,15 @@ impl<'a> Frame<'a> {
     /// A check's current at each estimate's sample [A], in sample order; None where the board's
     /// accelerometer did not answer, or in a frame of a version before it.
     pub fn currents(&self) -> Option<impl ExactSizeIterator<Item = f32> + 'a> {
-        self.check_bytes.map(|(_, current, _)| current.iter().map(|b| f32::from_le_bytes(*b)))
+        self.check_bytes.map(|c| c.current.iter().map(|b| f32::from_le_bytes(*b)))
     }
     /// The board's accelerometer at each estimate's sample [m/s²], as [`Frame::currents`].
     pub fn accelerations(&self) -> Option<impl ExactSizeIterator<Item = f32> + 'a> {
-        self.check_bytes.map(|(_, _, accel)| accel.iter().map(|b| f32::from_le_bytes(*b)))
+        self.check_bytes.map(|c| c.accel.iter().map(|b| f32::from_le_bytes(*b)))
     }
     /// Index of a check's first sample (the samples of [`Frame::currents`]).
     pub fn check_first_sample(&self) -> Option<u32> {
-        self.check_bytes.map(|(first, _, _)| first)
+        self.check_bytes.map(|c| c.first_sample)
     }
     pub fn len(&self) -> usize {
         self.estimate_bytes.len()
@@ -437,7 +445,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     let (estimate_bytes, check_bytes) = values.split_at(count as usize);
     let check_bytes = check_bytes.split_first().map(|(first, samples)| {
         let (current, accel) = samples.split_at(count as usize);
-        (u32::from_le_bytes(*first), current, accel)
+        CheckBytes { first_sample: u32::from_le_bytes(*first), current, accel }
     });
     Ok(Frame {
         header: Header {
