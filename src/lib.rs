@@ -29,6 +29,7 @@ use embassy_executor::Executor;
 use static_cell::StaticCell;
 
 static RETUNE_EXECUTOR: StaticCell<Executor> = StaticCell::new();
+static ACCELEROMETER: StaticCell<board::Accelerometer> = StaticCell::new();
 
 /// What the entry point runs: the board, the executors and their tasks.
 pub fn run() -> ! {
@@ -38,7 +39,9 @@ pub fn run() -> ! {
     // Before any executor runs: see `compensation::block_step`.
     let sample_path = app::compensation::block_step();
     let sample_spawner = board::start_sample_executor();
-    sample_spawner.spawn(app::sample_path::sample_task(board.samples, sample_path).expect("sample task spawns once"));
+    // In a static of its own: as the task's argument its state was held twice in the task.
+    let accel = ACCELEROMETER.init(board.accel);
+    sample_spawner.spawn(app::sample_path::sample_task(board.samples, accel, sample_path).expect("sample task spawns once"));
 
     let io_spawner = board::start_io_executor();
     io_spawner.spawn(app::humidity::humidity_task(board.humidity).expect("humidity task spawns once"));

@@ -31,6 +31,8 @@ fn decode_stream(bytes: &[u8]) -> Outcome {
             Some(Ok(f)) => {
                 assert!(f.len() <= MAX_ESTIMATES);
                 assert_eq!(f.estimates().len(), f.len());
+                assert!(f.currents().is_none_or(|c| c.len() == f.len()), "a check's current, one per estimate");
+                assert!(f.accelerations().is_none_or(|a| a.len() == f.len()), "a check's acceleration, one per estimate");
                 out.frames += 1;
                 out.estimates += f.len();
                 out.first_samples.push(f.header.first_sample);
@@ -67,10 +69,14 @@ fn valid_stream(blocks: usize, n: usize) -> Vec<u8> {
             rel_err: 0.01 * k as f32,
             hygrometer: stream::Hygrometer { own_pct: 39.0 + k as f32, own_refusal: (k % 7) as u8, ..stream::Hygrometer::NONE },
             flags: (k % 256) as u16,
-            // Both layouts: version 4 frames (no setup) among version 5 ones.
+            // Every layout: version 4 frames (no setup) among version 6 ones, with a check's
+            // samples and without.
             setup: (k % 3 != 0).then_some(stream::Setup { band_shape: (k % 2) as u8, delay_samples: k as u16, humidity_mode: 1 }),
         };
-        let len = stream::encode(&h, &est, &mut buf).expect("valid frame encodes");
+        let current: Vec<f32> = est.iter().map(|e| e * 0.03).collect();
+        let accel: Vec<f32> = est.iter().map(|e| e * 3e5).collect();
+        let check = (k % 3 == 1).then_some(stream::Check { first_sample: (k * n) as u32, current_a: &current, accel_mps2: &accel });
+        let len = stream::encode(&h, &est, check, &mut buf).expect("valid frame encodes");
         out.extend_from_slice(&buf[..len]);
     }
     out

@@ -12,6 +12,7 @@ use ipmc_core::humidity::hygrometer::Snapshot;
 use ipmc_core::humidity::strip::{Refusal, StripRh};
 use ipmc_core::wire::stream::Header;
 
+use crate::contract::check::CheckBlock;
 use crate::contract::config::BLOCK_LEN;
 
 /// The design the retune task should make (latest request wins).
@@ -36,6 +37,8 @@ pub struct EstimateBlock {
     /// What the frame will say about the block besides its estimates.
     pub header: Header,
     pub base_est_m: [f32; BLOCK_LEN],
+    /// An earlier block's check waits in [`CHECKS`] for this block's frame.
+    pub has_check: bool,
 }
 
 pub enum ReportItem {
@@ -48,6 +51,11 @@ pub enum ReportItem {
 
 /// Sample path → report task. Eight blocks (128 ms) absorb a slow stream write.
 pub static REPORT_QUEUE: Channel<CriticalSectionRawMutex, ReportItem, 8> = Channel::new();
+
+/// The checks of the blocks that carry one, in the order of their blocks in [`REPORT_QUEUE`]:
+/// two, not eight (264 bytes each, and only where the board has the accelerometer); a block whose
+/// check finds no room goes without it, a gap in the check recording.
+pub static CHECKS: Channel<CriticalSectionRawMutex, CheckBlock, 2> = Channel::new();
 
 /// Latest humidity reading as the sensor gave it [%] (NaN before the first): the sample path
 /// makes the strip's humidity of it, block by block.

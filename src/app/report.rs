@@ -1,11 +1,11 @@
 //! Reporting: every block goes out as a stream frame; a defmt status line goes out about
 //! once a second. At the end of a replay, tells the board to finish.
 
-use ipmc_core::wire::stream::{self, Header};
+use ipmc_core::wire::stream::{self, Check, Header};
 
 use crate::board::{self, Stream};
 
-use super::handoff::{REPORT_QUEUE, ReportItem};
+use super::handoff::{CHECKS, REPORT_QUEUE, ReportItem};
 use crate::contract::{
     config::{BLOCK_LEN, LOG_EVERY_BLOCKS},
     flags::REPORT_DROPPED,
@@ -28,7 +28,7 @@ pub async fn report_task(mut stream: Stream) {
                 // The receiver learns of frames the stream lost from the next frame that arrives.
                 let flags = block.header.flags | if dropped_since_last { REPORT_DROPPED } else { 0 };
                 let header = Header { flags, ..block.header };
-                let sent = match stream::encode(&header, &block.base_est_m, &mut frame) {
+                let sent = match encode(&header, &block.base_est_m, block.has_check, &mut frame) {
                     Ok(n) => stream.write_all(frame.get(..n).unwrap_or(&[])).await.is_ok(),
                     // Cannot happen with the buffer sized above; losing a frame beats stopping.
                     Err(_) => {
@@ -66,4 +66,13 @@ pub async fn report_task(mut stream: Stream) {
             }
         }
     }
+}
+
+/// The block's frame into `frame`, with its check where it has one (taken from `CHECKS` here, so
+/// that the check is not held across the stream's wait: the task's state would keep its 264 B).
+#[inline(never)]
+fn encode(header: &Header, base_est_m: &[f32; BLOCK_LEN], has_check: bool, frame: &mut [u8]) -> Result<usize, stream::EncodeError> {
+    let held = if has_check { CHECKS.try_receive().ok() } else { None };
+    let check = held.as_ref().map(|c| Check { first_sample: c.first_sample, current_a: &c.current_a, accel_mps2: &c.accel_mps2 });
+    stream::encode(header, base_est_m, check, frame)
 }

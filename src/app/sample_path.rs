@@ -2,22 +2,23 @@
 //! highest priority; after start-up it never waits for anything but the next block of samples.
 //! What a block comes to is the core's (`ipmc_core::firmware::block_step`, which the host's
 //! replay runs too); this task only wires it to the signals of the other tasks: the designs
-//! and the hygrometer's fits in, the retune and fit requests and the estimates out.
+//! and the hygrometer's fits in, the retune and fit requests and the estimates out, and where the
+//! board's accelerometer answers, the check's samples beside them (`check`).
 
 use ipmc_core::firmware::block_step::{BlockInputs, BlockStep};
 
 use super::handoff::{
-    self, DESIGN_READY, EstimateBlock, FIT_REQUEST, FIT_RESULT, LATEST_READ_RH_PCT, REPORT_QUEUE, RETUNE_REQUEST, ReportItem,
+    self, CHECKS, DESIGN_READY, EstimateBlock, FIT_REQUEST, FIT_RESULT, LATEST_READ_RH_PCT, REPORT_QUEUE, RETUNE_REQUEST, ReportItem,
 };
-use crate::board::Samples;
+use crate::board::{Accelerometer, Samples};
 use crate::contract::{
     config::BLOCK_LEN,
     flags,
-    sources::{CurrentSource, SampleBlock},
+    sources::{AccelSource, CurrentSource, SampleBlock},
 };
 
 #[embassy_executor::task]
-pub async fn sample_task(mut samples: Samples, step: &'static mut BlockStep<'static>) {
+pub async fn sample_task(mut samples: Samples, accel: &'static mut Accelerometer, step: &'static mut BlockStep<'static>) {
     // Start-up only: sampling begins once the first design exists, so every reported
     // estimate comes from a real filter. The first design is the start-up's fallback when
     // the humidity task says so.
@@ -34,11 +35,16 @@ pub async fn sample_task(mut samples: Samples, step: &'static mut BlockStep<'sta
             SampleBlock::Ready { flags, lost_samples } => (flags, lost_samples),
             SampleBlock::End => break,
         };
+        // The current as the ADC gave it, before the step makes estimates of it in place.
+        let current_a = base_est_m;
         let mut header = run_step(step, &mut base_est_m, source_flags, lost_samples);
+        let check = accel.check(header.first_sample, lost_samples > 0, &current_a);
         if dropped_since_last {
             header.flags |= flags::REPORT_DROPPED;
         }
-        dropped_since_last = REPORT_QUEUE.try_send(ReportItem::Block(EstimateBlock { header, base_est_m })).is_err();
+        // Only this task sends: with room in the queue now, the block's send below succeeds.
+        let has_check = check.is_some_and(|c| !REPORT_QUEUE.is_full() && CHECKS.try_send(c).is_ok());
+        dropped_since_last = REPORT_QUEUE.try_send(ReportItem::Block(EstimateBlock { header, base_est_m, has_check })).is_err();
         blocks += 1;
     }
     // End of a replay: waiting is fine now, nothing is sampled any more.

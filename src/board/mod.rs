@@ -1,8 +1,8 @@
 //! Board layer selection. Each board module provides the same items:
 //!
 //! - `NAME`, `pac` (the register-access crate for its chip);
-//! - `init() -> Board` with concrete `Samples`, `Humidity` and `Stream` types implementing the
-//!   ports in `crate::contract::sources`;
+//! - `init() -> Board` with concrete `Samples`, `Humidity`, `Stream` and `Accelerometer` types
+//!   implementing the ports in `crate::contract::sources`;
 //! - `SAMPLE_PRIORITY` / `IO_PRIORITY`, the NVIC priorities of the two interrupt executors
 //!   (`executors`: interrupts and handlers, shared);
 //! - `feed_startup_watchdog()`: the start-up path's feed of the watchdog (a no-op where there is none);
@@ -21,9 +21,10 @@ pub use qemu::*;
 mod executors;
 pub use executors::{start_io_executor, start_sample_executor};
 
-/// The three sources/sinks a board hands to the application.
+/// The sources and sinks a board hands to the application.
 pub struct Board {
     pub samples: Samples,
     pub humidity: Humidity,
     pub stream: Stream,
+    pub accel: Accelerometer,
 }

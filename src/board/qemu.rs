@@ -14,6 +14,11 @@
 //! current and RH, and the waits between a recording's bursts. A wait is not replayed in time:
 //! the board lets the humidity task read the next burst's humidity, then reports the wait's
 //! samples as lost, so the strip's hydration moves on through it as it would on the bench.
+//! The board's accelerometer is replayed from a second file beside it, when there is one
+//! (`ipmc_core::wire::accel_replay`, made from a check recording's `accel_mps2`): the part's FIFO
+//! bursts as the driver reads them, on the part's own clock, each handed to the sample path once
+//! the replay has passed the ADC sample it arrives before. Without the file the board has no
+//! part, and says so once.
 //! A current of −inf is an ADC overrun at that sample: as on the board, its DMA requests stop,
 //! the sample path finds no block for `ADC_STALL_BLOCKS` periods with the overrun flag set, and
 //! the hardware board's decisions (`ipmc_core::firmware::block_wait`) restart the conversions and
@@ -24,7 +29,10 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m_rt::exception;
 use embassy_time::{Duration, Instant, Ticker, Timer};
 use ipmc_core::firmware::block_wait::{BlockWait, Then, Waited};
+use ipmc_core::resample::track::{AccelTrack, PartSample};
+use ipmc_core::wire::accel_replay::{self, BURST_LEN, BURST_SAMPLES, Burst, NO_STAMP};
 use ipmc_core::wire::replay::{self, BYTES_PER_GAP, BYTES_PER_SAMPLE, Gap};
+use ipmc_sensors::lsm6dsl::{MPS2_PER_COUNT, fifo::TimestampUnwrap};
 use semihosting::{fs::File, io::Read};
 use systick_timer::SystickDriver;
 
@@ -34,9 +42,10 @@ pub use stm32_metapac as pac;
 use super::Board;
 use crate::contract::{
     atomic_f32::AtomicF32,
+    check::{CheckBlock, Checks},
     config::{ADC_STALL_BLOCKS, BLOCK_LEN, HUMIDITY_PERIOD_MS, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
-    sources::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
+    sources::{AccelSource, CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
 
 pub const NAME: &str = "qemu b-l475e-iot01a (replay)";
@@ -128,7 +137,92 @@ pub fn init() -> Board {
         w.set_te(true);
     });
 
-    Board { samples, humidity: Humidity, stream: Stream }
+    Board { samples, humidity: Humidity, stream: Stream, accel: Accelerometer::open() }
+}
+
+/// The replayed LSM6DSL: its bursts from the accelerometer's file, in order, and the checks they
+/// make (None: no file, no part).
+pub struct Accelerometer {
+    replay: Option<(AccelReplay, Checks)>,
+}
+
+/// The accelerometer's file, read a burst's arrival ahead (the rest of the burst when it is due:
+/// RAM is tight, and the sample task holds this).
+struct AccelReplay {
+    file: File,
+    left: u32,
+    /// The next burst's first bytes (the ADC sample it arrives before), read ahead.
+    pending: Option<[u8; 4]>,
+    unwrap: TimestampUnwrap,
+}
+
+impl Accelerometer {
+    fn open() -> Self {
+        let Ok(mut file) = File::open(accel_replay::FILE_NAME) else {
+            defmt::info!("no accelerometer replayed ({=str} absent): no check in the stream", "ipmc-accel.bin");
+            return Self { replay: None };
+        };
+        let mut header = [0u8; accel_replay::HEADER_LEN];
+        let Some(left) = file.read_exact(&mut header).ok().and_then(|()| accel_replay::decode_header(&header)) else {
+            defmt::error!("the accelerometer's file has no IPMCACC1 header (written by another release of `cargo xtask qemu`?)");
+            exit(2)
+        };
+        defmt::info!("accelerometer replayed: {} bursts of {} samples", left, BURST_SAMPLES);
+        Self { replay: Some((AccelReplay { file, left, pending: None, unwrap: TimestampUnwrap::new() }, Checks::new())) }
+    }
+}
+
+impl AccelReplay {
+    /// The next burst's arrival (the ADC sample it arrives before), read ahead.
+    fn next_arrival(&mut self) -> Option<u32> {
+        if self.pending.is_none() && self.left > 0 {
+            let mut bytes = [0u8; 4];
+            if self.file.read_exact(&mut bytes).is_err() {
+                defmt::error!("the accelerometer's file is shorter than its header says");
+                self.left = 0;
+                return None;
+            }
+            self.left -= 1;
+            self.pending = Some(bytes);
+        }
+        self.pending.map(u32::from_le_bytes)
+    }
+
+    /// The burst whose arrival was read ahead, whole.
+    fn take_burst(&mut self) -> Option<Burst> {
+        let mut bytes = [0u8; BURST_LEN];
+        bytes[..4].copy_from_slice(&self.pending.take()?);
+        if self.file.read_exact(&mut bytes[4..]).is_err() {
+            defmt::error!("the accelerometer's file is shorter than its header says");
+            self.left = 0;
+            return None;
+        }
+        Some(Burst::decode(&bytes))
+    }
+
+    /// Hands `track` every burst that has arrived before ADC sample `until_sample`.
+    fn feed(&mut self, until_sample: u64, track: &mut AccelTrack) {
+        while self.next_arrival().is_some_and(|arrives| u64::from(arrives) <= until_sample) {
+            let Some(burst) = self.take_burst() else { return };
+            let mut samples = [PartSample { accel_mps2: 0.0, stamp: None }; BURST_SAMPLES];
+            for ((s, &counts), &raw) in samples.iter_mut().zip(&burst.counts).zip(&burst.stamps) {
+                *s = PartSample {
+                    accel_mps2: f32::from(counts) * MPS2_PER_COUNT,
+                    stamp: (raw != NO_STAMP).then(|| self.unwrap.unwrap(raw)),
+                };
+            }
+            track.burst(&samples, burst.overran, Some(burst.board_at_last_stamp));
+        }
+    }
+}
+
+impl AccelSource for Accelerometer {
+    fn check(&mut self, first_sample: u32, lost: bool, current_a: &[f32; BLOCK_LEN]) -> Option<CheckBlock> {
+        let (replay, checks) = self.replay.as_mut()?;
+        replay.feed(u64::from(first_sample) + BLOCK_LEN as u64, checks.track());
+        // The replay's board timer reads 0 at ADC sample 0.
+        checks.block(0, first_sample, lost, current_a)
+    }
 }
 
 /// Replayed current: `BLOCK_LEN` samples per block period, like the hardware DMA half-buffer.

@@ -1,6 +1,7 @@
 //! What the application needs from a board. Each board module implements these for its
 //! concrete `Samples`, `Humidity` and `Stream` types.
 
+use super::check::CheckBlock;
 use super::config::BLOCK_LEN;
 
 /// Outcome of one block read.
@@ -50,4 +51,12 @@ pub struct FrameDropped;
 /// does not hold up the I/O executor (humidity polling shares it).
 pub trait StreamSink {
     async fn write_all(&mut self, bytes: &[u8]) -> Result<(), FrameDropped>;
+}
+
+/// The board's accelerometer (the LSM6DSL), where the board reads one.
+pub trait AccelSource {
+    /// The block starting at `first_sample` (after `lost` samples the ADC lost) with its current:
+    /// the check of an earlier block, once the part's samples around it have come
+    /// ([`super::check::Checks`]); None on a board without the part, and before.
+    fn check(&mut self, first_sample: u32, lost: bool, current_a: &[f32; BLOCK_LEN]) -> Option<CheckBlock>;
 }

@@ -7,7 +7,7 @@
 //!
 //! Why they are functions of their own: a generic function is compiled in the crate that names
 //! its type, at that crate's opt-level, and these are not generic, so they are compiled here, in
-//! ipmc-core, at its opt-level 3. The firmware crate is built for size; called from it directly,
+//! ipmc-core, at its opt-level (2). The firmware crate is built for size; called from it directly,
 //! `Compensator::<f32>::process_block` would be made there, at "s" (689 instructions a sample
 //! instead of 373 when the program was linked at "s" too). `#[inline(never)]` keeps fat LTO from folding them back into
 //! a caller built for size. `examples/bench.rs` times these same functions.

@@ -25,7 +25,7 @@
 //! Poles and zeros are mapped by z = e^{sT} (matched pole-zero), which preserves the resonance
 //! frequencies exactly where bilinear would warp them by 2 % at 150 Hz.
 
-use crate::band::{Band, BandDesign};
+use crate::band::{Band, BandDesign, Shape};
 use crate::inverse::rational::{IonicOrder, MAX_ROOTS, RationalModel, Roots};
 use crate::model::exact::jw;
 use crate::numeric::lstsq::lstsq;
@@ -142,13 +142,31 @@ pub struct Inverse<T> {
     rh_pct: T,
     fs_hz: T,
     /// The band it was designed for, which the chain keeps ([`crate::band`]).
-    band: Band,
+    band: KeptBand,
+}
+
+/// A [`Band`] with its shape as the shape's code: an inverse then has no bit pattern that is not
+/// a value, which an enum around it (the firmware's hand-off of a design, a signal that starts
+/// empty) would take for its empty state; with none, that state is zeros, and the hand-off's
+/// 928 bytes are zeroed RAM instead of initialised data copied from flash.
+#[derive(Clone, Copy, Debug)]
+struct KeptBand {
+    low_hz: f64,
+    high_hz: f64,
+    shape_code: u8,
+}
+
+impl From<Band> for KeptBand {
+    fn from(b: Band) -> Self {
+        KeptBand { low_hz: b.low_hz, high_hz: b.high_hz, shape_code: b.shape.code() }
+    }
 }
 
 impl<T: Real> Inverse<T> {
     /// The band the inverse was designed for and the chain keeps of its estimate.
     pub fn band(&self) -> Band {
-        self.band
+        let KeptBand { low_hz, high_hz, shape_code } = self.band;
+        Band { low_hz, high_hz, shape: Shape::from_code(shape_code).unwrap_or_default() }
     }
     /// Overall gain, applied before the first section.
     pub fn gain(&self) -> T {
@@ -231,7 +249,7 @@ pub fn design_inverse<T: Real>(calib: &Calibration, rh_pct: T, cfg: &DesignConfi
         }
     }?;
     // The edges came through `cfg`; how they are kept is the calibration's too.
-    Ok(Inverse { band, ..inv })
+    Ok(Inverse { band: band.into(), ..inv })
 }
 
 /// The band [`design_inverse`]'s designs in `T` report ([`Inverse::band`]): the calibration's
@@ -372,7 +390,7 @@ pub fn design_inverse_with<T: Real>(
     all_zeros[..zd.n].copy_from_slice(zd.as_slice());
     all_zeros[zd.n..nz].copy_from_slice(&fir_roots);
 
-    let mut inv = Inverse { sections: heapless::Vec::new(), n_fixed: 0, gain: c[0], delay_s: tau, rh_pct, fs_hz: fs, band };
+    let mut inv = Inverse { sections: heapless::Vec::new(), n_fixed: 0, gain: c[0], delay_s: tau, rh_pct, fs_hz: fs, band: band.into() };
     pair_into_sections(&mut inv, &mut all_zeros[..nz], pd.as_slice())?;
     for _ in 0..d_pure / 2 {
         push_section(&mut inv, Sos::from_ba([T::zero(), T::zero(), T::one()], [T::one(), T::zero(), T::zero()]))?;
@@ -558,7 +576,7 @@ fn pair_into_sections<T: Real>(inv: &mut Inverse<T>, zeros: &mut [C<T>], poles: 
 pub fn compensation_error<T: Real>(p: &Params<T>, inv: &Inverse<T>, lo_hz: T, hi_hz: T, n: usize) -> (T, T) {
     let mut sum = T::zero();
     let mut worst = T::zero();
-    let kept = BandDesign::design(&inv.band, inv.fs_hz.to_f64()).ok();
+    let kept = BandDesign::design(&inv.band(), inv.fs_hz.to_f64()).ok();
     for i in 0..n {
         let f = lo_hz + (hi_hz - lo_hz) * T::lit(i as f64 / (n - 1) as f64);
         let w = T::lit(2.0) * T::PI() * f * inv.delay_s;

@@ -26,8 +26,16 @@
 //!   u16  the estimates' delay behind the base motion [samples]: the design's preview and the } on; a
 //!        band's pure delay (a low-latency band's own delay is in its phase, not here)       } version 4
 //!   u8   the humidity the designs follow (`HumidityMode::code`: 0 reading, 1 fused)        } frame has none
+//!   u8   the board's accelerometer: 1 a check's samples follow the estimates, 0 none (no   } version 6
+//!        part, or it does not answer)                                                        } on
 //!   u8   n, number of estimates (the firmware's BLOCK_LEN, 32)
 //!   f32  × n  base displacement estimates [m], one per sample at the firmware's sample rate
+//! only where the accelerometer's byte is 1, a check's n samples (an earlier block's: the part's
+//! samples reach the board later than the ADC's, `ipmc_core::resample::track`):
+//!   u32  index of their first sample
+//!   f32  × n  the strip's current [A], as the ADC gave it
+//!   f32  × n  the accelerometer at the same instants [m/s²], along the strip's bending axis,
+//!             resampled onto the ADC's clock (NaN where the resampler had no whole block)
 //!   u16  CRC-16/IBM-3740 (poly 0x1021, init 0xFFFF) of all bytes above
 //! frame = COBS(payload) followed by one 0x00 delimiter
 //! ```
@@ -110,30 +118,35 @@ pub mod flags {
 /// the design's (version 1 had one RH, the reading's). 3: the expected error after the
 /// humidities. 4: the strip's own hygrometer (the reading's 1σ, the strip's estimate and the
 /// fused humidity with theirs). 5: what the firmware runs ([`Setup`]): the band's shape, the
-/// estimates' delay, the humidity mode.
-pub const FRAME_VERSION: u8 = 5;
+/// estimates' delay, the humidity mode. 6: a check (`Check`) beside the estimates when the
+/// board's accelerometer answers: the current and the accelerometer resampled onto the ADC's
+/// clock, what a check recording holds (`current_a`, `accel_mps2`).
+pub const FRAME_VERSION: u8 = 6;
+/// The version before the accelerometer: the decoder reads it as a frame without one.
+const VERSION_BEFORE_ACCEL: u8 = 5;
 /// The oldest version the decoder still reads (its frames have no [`Setup`]).
 pub const OLDEST_VERSION: u8 = 4;
 /// version + first sample + RH of the design, of the strip, as read + expected error +
-/// the hygrometer's + flags + the setup + count.
-pub const HEADER_LEN: usize = 1 + 4 + 4 * 4 + HYGROMETER_LEN + 2 + SETUP_LEN + 1;
+/// the hygrometer's + flags + the setup + the accelerometer's byte + count.
+pub const HEADER_LEN: usize = 1 + 4 + 4 * 4 + HYGROMETER_LEN + 2 + SETUP_LEN + ACCEL_LEN + 1;
 const HYGROMETER_LEN: usize = 5 * 4 + 1;
 const SETUP_LEN: usize = 1 + 2 + 1;
+const ACCEL_LEN: usize = 1;
 const CRC_LEN: usize = 2;
 /// The count is one byte.
 pub const MAX_ESTIMATES: usize = u8::MAX as usize;
 
 const CRC16: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
 
-/// Payload bytes of a frame carrying `n` estimates.
-pub const fn payload_len(n: usize) -> usize {
-    HEADER_LEN + 4 * n + CRC_LEN
+/// Payload bytes of a frame carrying `n` estimates, and a check's `n` samples when `check`.
+pub const fn payload_len(n: usize, check: bool) -> usize {
+    HEADER_LEN + 4 * n + if check { 4 + 8 * n } else { 0 } + CRC_LEN
 }
 
-/// Encoded frame length for `n` estimates in the worst case, delimiter included: the size
-/// of an encoder's output buffer.
+/// Encoded frame length for `n` estimates in the worst case (a check's frame),
+/// delimiter included: the size of an encoder's output buffer.
 pub const fn max_frame_len(n: usize) -> usize {
-    cobs::max_encoding_length(payload_len(n)) + 1
+    cobs::max_encoding_length(payload_len(n, true)) + 1
 }
 
 /// Largest encoded frame any valid stream can contain, delimiter included: the size of a
@@ -205,13 +218,33 @@ pub enum EncodeError {
     TooManyEstimates(usize),
     /// The output buffer is shorter than [`max_frame_len`] of the estimate count.
     BufferTooSmall,
+    /// A check whose samples are not one per estimate, or in a frame without a setup (the
+    /// version 4 layout, which has no place for it).
+    Check,
 }
 
-/// Encodes one frame into `out`; returns its length including the 0x00 delimiter.
-pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usize, EncodeError> {
+/// A check's samples of a block, one per estimate: what a check recording holds beside the time
+/// and the humidity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Check<'a> {
+    /// Index of the first sample (an earlier block's than the frame's estimates).
+    pub first_sample: u32,
+    /// The strip's current [A], as the ADC gave it.
+    pub current_a: &'a [f32],
+    /// The board's accelerometer at the same instants [m/s²].
+    pub accel_mps2: &'a [f32],
+}
+
+/// Encodes one frame into `out`: the header, the estimates and, where the board's accelerometer
+/// answers, the block's `check`; returns its length including the 0x00 delimiter.
+pub fn encode(header: &Header, estimates: &[f32], check: Option<Check<'_>>, out: &mut [u8]) -> Result<usize, EncodeError> {
     let count = u8::try_from(estimates.len()).map_err(|_| EncodeError::TooManyEstimates(estimates.len()))?;
     if out.len() < max_frame_len(estimates.len()) {
         return Err(EncodeError::BufferTooSmall);
+    }
+    let n = estimates.len();
+    if check.is_some_and(|c| c.current_a.len() != n || c.accel_mps2.len() != n || header.setup.is_none()) {
+        return Err(EncodeError::Check);
     }
     let (body, _) = out.split_at_mut(out.len() - 1);
     // Streamed straight into the output (no payload copy): the CRC and COBS see the same bytes.
@@ -240,10 +273,17 @@ pub fn encode(header: &Header, estimates: &[f32], out: &mut [u8]) -> Result<usiz
         put(&[setup.band_shape])?;
         put(&setup.delay_samples.to_le_bytes())?;
         put(&[setup.humidity_mode])?;
+        put(&[u8::from(check.is_some())])?;
     }
     put(&[count])?;
     for v in estimates {
         put(&v.to_le_bytes())?;
+    }
+    if let Some(c) = check {
+        put(&c.first_sample.to_le_bytes())?;
+        for v in c.current_a.iter().chain(c.accel_mps2) {
+            put(&v.to_le_bytes())?;
+        }
     }
     let crc = digest.finalize();
     encoder.push(&crc.to_le_bytes()).map_err(|_| EncodeError::BufferTooSmall)?;
@@ -266,6 +306,8 @@ pub enum DecodeError {
     Version(u8),
     /// The count byte disagrees with the frame's length.
     Length { count: u8, payload_len: usize },
+    /// The accelerometer's byte is neither 0 nor 1.
+    CheckMarker(u8),
     /// More bytes than any frame has before a delimiter (the [`Deframer`] buffer overflowed).
     TooLong,
 }
@@ -284,6 +326,9 @@ impl fmt::Display for DecodeError {
             DecodeError::Length { count, payload_len } => {
                 write!(f, "frame says {count} estimates but its payload has {payload_len} bytes")
             }
+            DecodeError::CheckMarker(b) => {
+                write!(f, "the accelerometer's byte is {b}, neither 0 (no check) nor 1 (a check's samples follow)")
+            }
             DecodeError::TooLong => write!(f, "no delimiter within {MAX_FRAME_LEN} bytes"),
         }
     }
@@ -295,12 +340,37 @@ pub struct Frame<'a> {
     pub header: Header,
     /// The estimates' bytes, 4 per estimate (read with [`Frame::estimates`]).
     estimate_bytes: &'a [[u8; 4]],
+    /// A check's first sample, current and accelerations, as many each as estimates (read with
+    /// [`Frame::check_first_sample`], [`Frame::currents`] and [`Frame::accelerations`]); None:
+    /// the frame has none.
+    check_bytes: Option<CheckBytes<'a>>,
+}
+
+/// A check's part of a frame, as the decoder found it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CheckBytes<'a> {
+    first_sample: u32,
+    current: &'a [[u8; 4]],
+    accel: &'a [[u8; 4]],
 }
 
 impl<'a> Frame<'a> {
     /// Base displacement estimates [m], in sample order.
     pub fn estimates(&self) -> impl ExactSizeIterator<Item = f32> + 'a {
         self.estimate_bytes.iter().map(|b| f32::from_le_bytes(*b))
+    }
+    /// A check's current at each estimate's sample [A], in sample order; None where the board's
+    /// accelerometer did not answer, or in a frame of a version before it.
+    pub fn currents(&self) -> Option<impl ExactSizeIterator<Item = f32> + 'a> {
+        self.check_bytes.map(|c| c.current.iter().map(|b| f32::from_le_bytes(*b)))
+    }
+    /// The board's accelerometer at each estimate's sample [m/s²], as [`Frame::currents`].
+    pub fn accelerations(&self) -> Option<impl ExactSizeIterator<Item = f32> + 'a> {
+        self.check_bytes.map(|c| c.accel.iter().map(|b| f32::from_le_bytes(*b)))
+    }
+    /// Index of a check's first sample (the samples of [`Frame::currents`]).
+    pub fn check_first_sample(&self) -> Option<u32> {
+        self.check_bytes.map(|c| c.first_sample)
     }
     pub fn len(&self) -> usize {
         self.estimate_bytes.len()
@@ -347,18 +417,36 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     let fused_sd_pct = f32_field(&mut rest)?;
     let hygrometer = Hygrometer { read_sd_pct, own_pct, own_sd_pct, own_refusal, fused_pct, fused_sd_pct };
     let (flags, mut rest) = rest.split_first_chunk::<2>().ok_or(DecodeError::TooShort(n))?;
-    let setup = if version >= 5 {
+    let setup = if version >= VERSION_BEFORE_ACCEL {
         let (&[band_shape, d0, d1, humidity_mode], r) = rest.split_first_chunk::<4>().ok_or(DecodeError::TooShort(n))?;
         rest = r;
         Some(Setup { band_shape, delay_samples: u16::from_le_bytes([d0, d1]), humidity_mode })
     } else {
         None
     };
+    let check = if version > VERSION_BEFORE_ACCEL {
+        let (&[marker], r) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
+        rest = r;
+        match marker {
+            0 => false,
+            1 => true,
+            b => return Err(DecodeError::CheckMarker(b)),
+        }
+    } else {
+        false
+    };
     let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
-    let (estimate_bytes, tail) = rest.as_chunks::<4>();
-    if estimate_bytes.len() != count as usize || !tail.is_empty() {
+    let (values, tail) = rest.as_chunks::<4>();
+    // A check's first sample is one word more.
+    let words = count as usize + if check { 1 + 2 * count as usize } else { 0 };
+    if values.len() != words || !tail.is_empty() {
         return Err(DecodeError::Length { count, payload_len: n });
     }
+    let (estimate_bytes, check_bytes) = values.split_at(count as usize);
+    let check_bytes = check_bytes.split_first().map(|(first, samples)| {
+        let (current, accel) = samples.split_at(count as usize);
+        CheckBytes { first_sample: u32::from_le_bytes(*first), current, accel }
+    });
     Ok(Frame {
         header: Header {
             first_sample: u32::from_le_bytes(*first_sample),
@@ -371,6 +459,7 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
             setup,
         },
         estimate_bytes,
+        check_bytes,
     })
 }
 
@@ -441,8 +530,12 @@ mod tests {
     };
 
     fn frame(header: &Header, est: &[f32]) -> ([u8; MAX_FRAME_LEN], usize) {
+        frame_with(header, est, None)
+    }
+
+    fn frame_with(header: &Header, est: &[f32], check: Option<Check<'_>>) -> ([u8; MAX_FRAME_LEN], usize) {
         let mut out = [0u8; MAX_FRAME_LEN];
-        let n = encode(header, est, &mut out).unwrap();
+        let n = encode(header, est, check, &mut out).unwrap();
         (out, n)
     }
 
@@ -450,31 +543,45 @@ mod tests {
     fn round_trip_of_every_length() {
         for n in 0..=MAX_ESTIMATES {
             let est: [f32; MAX_ESTIMATES] = core::array::from_fn(|k| (k as f32 - 100.0) * 1e-4);
-            let (mut out, len) = frame(&H, &est[..n]);
-            assert!(len <= max_frame_len(n));
-            assert_eq!(out[len - 1], 0);
-            assert!(!out[..len - 1].contains(&0));
-            // The streaming encoder gives the one-shot encoder's bytes (what v1 sent).
-            let encoded = out;
-            let mut payload = out;
-            let p = cobs::decode_in_place(&mut payload[..len - 1]).unwrap();
-            let mut again = [0u8; MAX_FRAME_LEN];
-            assert_eq!(cobs::encode(&payload[..p], &mut again), len - 1);
-            assert_eq!(again[..len - 1], encoded[..len - 1]);
-            let f = decode(&mut out[..len - 1]).unwrap();
-            assert_eq!(f.header, H);
-            assert_eq!(f.len(), n);
-            assert!(f.estimates().eq(est[..n].iter().copied()));
+            let cur: [f32; MAX_ESTIMATES] = core::array::from_fn(|k| (k as f32 * 0.11).cos() * 3e-6);
+            let acc: [f32; MAX_ESTIMATES] = core::array::from_fn(|k| (k as f32 * 0.37).sin() * 150.0);
+            for check in [None, Some(Check { first_sample: 7, current_a: &cur[..n], accel_mps2: &acc[..n] })] {
+                let (mut out, len) = frame_with(&H, &est[..n], check);
+                assert!(len <= max_frame_len(n));
+                assert_eq!(out[len - 1], 0);
+                assert!(!out[..len - 1].contains(&0));
+                // The streaming encoder gives the one-shot encoder's bytes (what v1 sent).
+                let encoded = out;
+                let mut payload = out;
+                let p = cobs::decode_in_place(&mut payload[..len - 1]).unwrap();
+                assert_eq!(p, payload_len(n, check.is_some()));
+                let mut again = [0u8; MAX_FRAME_LEN];
+                assert_eq!(cobs::encode(&payload[..p], &mut again), len - 1);
+                assert_eq!(again[..len - 1], encoded[..len - 1]);
+                let f = decode(&mut out[..len - 1]).unwrap();
+                assert_eq!(f.header, H);
+                assert_eq!(f.len(), n);
+                assert!(f.estimates().eq(est[..n].iter().copied()));
+                match check {
+                    Some(c) => {
+                        assert_eq!(f.check_first_sample(), Some(7));
+                        assert!(f.currents().expect("the check's current").eq(c.current_a.iter().copied()));
+                        assert!(f.accelerations().expect("the check's accelerations").eq(c.accel_mps2.iter().copied()));
+                    }
+                    None => assert!(f.currents().is_none() && f.accelerations().is_none() && f.check_first_sample().is_none()),
+                }
+            }
         }
     }
 
     /// The layout documented above, byte for byte, before COBS.
     #[test]
     fn payload_layout() {
-        let (mut out, len) = frame(&H, &[1.0, -2.0]);
+        let check = Check { first_sample: 0, current_a: &[3e-6, -4e-6], accel_mps2: &[9.5, -0.25] };
+        let (mut out, len) = frame_with(&H, &[1.0, -2.0], Some(check));
         let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
         let p = &out[..n];
-        assert_eq!(n, payload_len(2));
+        assert_eq!(n, payload_len(2, true));
         assert_eq!(p[0], FRAME_VERSION);
         assert_eq!(p[1..5], 64u32.to_le_bytes());
         assert_eq!(p[5..9], 46.5f32.to_le_bytes());
@@ -489,24 +596,75 @@ mod tests {
         assert_eq!(p[38..42], 0.125f32.to_le_bytes());
         assert_eq!(p[42..44], 9u16.to_le_bytes());
         assert_eq!((p[44], &p[45..47], p[47]), (1, &470u16.to_le_bytes()[..], 1));
-        assert_eq!(p[48], 2);
-        assert_eq!(p[49..53], 1.0f32.to_le_bytes());
-        assert_eq!(p[53..57], (-2.0f32).to_le_bytes());
-        assert_eq!(p[57..59], CRC16.checksum(&p[..57]).to_le_bytes());
+        assert_eq!(p[48], 1, "a check's samples follow");
+        assert_eq!(p[49], 2);
+        assert_eq!(p[50..54], 1.0f32.to_le_bytes());
+        assert_eq!(p[54..58], (-2.0f32).to_le_bytes());
+        assert_eq!(p[58..62], 0u32.to_le_bytes(), "the check's first sample");
+        assert_eq!(p[62..66], 3e-6f32.to_le_bytes());
+        assert_eq!(p[66..70], (-4e-6f32).to_le_bytes());
+        assert_eq!(p[70..74], 9.5f32.to_le_bytes());
+        assert_eq!(p[74..78], (-0.25f32).to_le_bytes());
+        assert_eq!(p[78..80], CRC16.checksum(&p[..78]).to_le_bytes());
+        // Without the part: the byte says so and the estimates end the frame.
+        let (mut out, len) = frame(&H, &[1.0, -2.0]);
+        let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+        assert_eq!((n, out[48], out[49]), (payload_len(2, false), 0, 2));
+    }
+
+    /// A check's samples are one per estimate, and only in a frame with a setup; a byte other
+    /// than 0 or 1 where the accelerometer's is refused.
+    #[test]
+    fn refuses_a_check_that_does_not_fit() {
+        let mut out = [0u8; MAX_FRAME_LEN];
+        let short = Check { first_sample: 0, current_a: &[1e-6, 2e-6], accel_mps2: &[3.0] };
+        assert_eq!(encode(&H, &[1.0, 2.0], Some(short), &mut out), Err(EncodeError::Check));
+        let one = Check { first_sample: 0, current_a: &[1e-6], accel_mps2: &[3.0] };
+        assert_eq!(encode(&Header { setup: None, ..H }, &[1.0], Some(one), &mut out), Err(EncodeError::Check));
+        let (mut out, len) = frame(&H, &[1.0]);
+        let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+        out[48] = 2;
+        let crc = CRC16.checksum(&out[..n - 2]);
+        out[n - 2..n].copy_from_slice(&crc.to_le_bytes());
+        let mut encoded = [0u8; MAX_FRAME_LEN];
+        let m = cobs::encode(&out[..n], &mut encoded);
+        assert_eq!(decode(&mut encoded[..m]), Err(DecodeError::CheckMarker(2)));
     }
 
     /// A version 4 frame (a firmware of the release before the setup) is read as it was, with
-    /// no setup; its bytes are this layout without the setup's four.
+    /// no setup; its bytes are this layout without the setup's four and the accelerometer's byte.
     #[test]
     fn reads_the_version_before_the_setup() {
         let old = Header { setup: None, ..H };
         let (mut out, len) = frame(&old, &[1.0, -2.0]);
         let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
-        assert_eq!((out[0], n), (OLDEST_VERSION, payload_len(2) - SETUP_LEN));
+        assert_eq!((out[0], n), (OLDEST_VERSION, payload_len(2, false) - SETUP_LEN - ACCEL_LEN));
         assert_eq!(out[44], 2, "the count right after the flags");
         let (mut again, len) = frame(&old, &[1.0, -2.0]);
         let f = decode(&mut again[..len - 1]).unwrap();
         assert_eq!((f.header, f.len()), (old, 2));
+        assert!(f.accelerations().is_none());
+    }
+
+    /// A version 5 frame (the release before the accelerometer): this layout without the
+    /// accelerometer's byte, read with its setup and no accelerations.
+    #[test]
+    fn reads_the_version_before_the_accelerometer() {
+        let (mut out, len) = frame(&H, &[1.0, -2.0]);
+        let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+        let mut payload = [0u8; 64];
+        payload[..48].copy_from_slice(&out[..48]);
+        payload[0] = VERSION_BEFORE_ACCEL;
+        payload[48..n - 3].copy_from_slice(&out[49..n - 2]);
+        let body = n - 3;
+        let crc = CRC16.checksum(&payload[..body]);
+        payload[body..body + 2].copy_from_slice(&crc.to_le_bytes());
+        let mut encoded = [0u8; MAX_FRAME_LEN];
+        let m = cobs::encode(&payload[..body + 2], &mut encoded);
+        let f = decode(&mut encoded[..m]).unwrap();
+        assert_eq!((f.header, f.len()), (H, 2));
+        assert!(f.estimates().eq([1.0, -2.0]));
+        assert!(f.accelerations().is_none());
     }
 
     /// A frame of an older layout with a valid CRC: version, first sample 64, `n_rh` humidities
@@ -542,7 +700,7 @@ mod tests {
             let e = decode(&mut encoded[..n]).unwrap_err();
             assert_eq!(e, DecodeError::Version(version));
             let shown = std::string::ToString::to_string(&e);
-            assert!(shown.contains("different releases") && shown.contains("reads versions 4–5"), "{shown}");
+            assert!(shown.contains("different releases") && shown.contains("reads versions 4–6"), "{shown}");
         }
     }
 
@@ -557,8 +715,8 @@ mod tests {
                 assert!(decode(&mut bad[..len - 1]).is_err(), "flip of bit {bit} in byte {i} accepted");
             }
         }
-        assert_eq!(encode(&H, &[0.0; 256], &mut [0u8; 2048]), Err(EncodeError::TooManyEstimates(256)));
-        assert_eq!(encode(&H, &[0.0; 4], &mut [0u8; 20]), Err(EncodeError::BufferTooSmall));
+        assert_eq!(encode(&H, &[0.0; 256], None, &mut [0u8; 4096]), Err(EncodeError::TooManyEstimates(256)));
+        assert_eq!(encode(&H, &[0.0; 4], None, &mut [0u8; 20]), Err(EncodeError::BufferTooSmall));
         assert_eq!(decode(&mut [3, 1, 2]), Err(DecodeError::TooShort(2)));
         assert!(decode(&mut []).is_err());
     }

@@ -1,9 +1,9 @@
 //! `ipmc monitor`: reads the firmware's binary stream (a serial port, a captured file or stdin),
 //! decodes it (`ipmc_tool::monitor`), prints a line per second of stream time and optionally
-//! writes the estimates as a recording-format CSV.
+//! writes the estimates as a recording-format CSV, and a check's samples as a check recording.
 
 use anyhow::{Context, Result};
-use ipmc_tool::monitor::csv::{create, write_sample};
+use ipmc_tool::monitor::csv::{create, create_check, write_check_sample, write_sample};
 use ipmc_tool::monitor::source::open;
 use ipmc_tool::monitor::{Event, Monitor};
 use std::io::{ErrorKind, Write};
@@ -26,6 +26,11 @@ pub struct Args {
     /// `rh_fused_pct`/`rh_fused_sd_pct` the two fused: the estimate file `ipmc compensate` writes).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Write the check the stream carries, where the board's accelerometer answers, as a check
+    /// recording (`t_s,current_a,rh_pct,accel_mps2`, recording format §5; `rh_pct` the sensor's
+    /// reading): what `ipmc recalibrate` reads. Samples without the accelerometer's value are left out.
+    #[arg(long)]
+    check: Option<PathBuf>,
     /// Serial baud rate (ignored for files and stdin).
     #[arg(long, default_value_t = DEFAULT_BAUD)]
     baud: u32,
@@ -40,6 +45,11 @@ pub fn run(a: Args) -> Result<()> {
         Some(path) => Some(create(path, a.fs_hz)?),
         None => None,
     };
+    let mut check = match &a.check {
+        Some(path) => Some(create_check(path, a.fs_hz)?),
+        None => None,
+    };
+    let mut check_rows = 0u64;
     let mut monitor = Monitor::new(a.fs_hz);
     let mut buf = [0u8; 4096];
     let mut stdout = std::io::stdout().lock();
@@ -58,19 +68,33 @@ pub fn run(a: Args) -> Result<()> {
             }
             io_result = match event {
                 Event::Sample(s) => csv.as_mut().map_or(Ok(()), |w| write_sample(w, &s)),
+                Event::Check(c) => match check.as_mut() {
+                    Some(w) => write_check_sample(w, &c).map(|kept| check_rows += u64::from(kept)),
+                    None => Ok(()),
+                },
                 Event::Status(line) => writeln!(stdout, "{line}"),
             };
         });
         io_result.context("writing output")?;
         // A live session ends with Ctrl-C, which runs no destructor: keep the CSV on disk
         // up to the last chunk read.
-        if let Some(w) = csv.as_mut() {
+        for w in csv.iter_mut().chain(check.iter_mut()) {
             w.flush().context("writing the CSV")?;
         }
     }
-    if let Some(w) = csv.as_mut() {
+    for w in csv.iter_mut().chain(check.iter_mut()) {
         w.flush().context("writing the CSV")?;
     }
     eprintln!("{}", monitor.summary());
+    if let Some(path) = &a.check {
+        if check_rows == 0 {
+            anyhow::bail!(
+                "{}: no check in the stream ({} of its frames carried the board's accelerometer): no part on the board, or it did not answer",
+                path.display(),
+                monitor.check_frames
+            );
+        }
+        eprintln!("{check_rows} samples of a check ({} frames) -> {}", monitor.check_frames, path.display());
+    }
     Ok(())
 }

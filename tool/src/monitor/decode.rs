@@ -20,8 +20,25 @@ pub struct Sample {
     pub flags: u16,
 }
 
+/// A check's sample, as a check recording's row: a frame carries an earlier block's
+/// (`ipmc_core::resample::track`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CheckSample {
+    pub t_s: f64,
+    /// The strip's current [A], as the ADC gave it.
+    pub current_a: f32,
+    /// The humidity sensor's reading the frame carries [%] (a reading lasts a second; the check's
+    /// samples are 64 ms older than the frame).
+    pub rh_read_pct: f32,
+    /// The board's accelerometer, resampled onto the ADC's clock [m/s²] (NaN: the resampler had
+    /// no whole block).
+    pub accel_mps2: f32,
+}
+
 pub enum Event {
     Sample(Sample),
+    /// A check's sample, where the frame carries a check (the board's accelerometer answered).
+    Check(CheckSample),
     /// The once-a-second display line.
     Status(String),
 }
@@ -41,6 +58,10 @@ pub struct Monitor {
     /// The setup of the last frame (its outer None: no frame yet), said when it first comes and
     /// whenever it changes.
     setup: Option<Option<Setup>>,
+    /// Whether the last frame carried a check (None: no frame yet), said likewise.
+    check: Option<bool>,
+    /// Frames that carried a check.
+    pub check_frames: u64,
 }
 
 impl Monitor {
@@ -55,6 +76,8 @@ impl Monitor {
             last_first_sample: None,
             next_status_s: f64::NEG_INFINITY,
             setup: None,
+            check: None,
+            check_frames: 0,
         }
     }
 
@@ -81,6 +104,12 @@ impl Monitor {
             self.setup = Some(h.setup);
             emit(Event::Status(setup_line(h.setup, self.fs_hz)));
         }
+        let check = f.check.is_some();
+        if self.check != Some(check) {
+            self.check = Some(check);
+            emit(Event::Status(check_line(check, h.setup.is_some())));
+        }
+        self.check_frames += u64::from(check);
         let first = h.first_sample;
         // A big step backwards is the u32 index wrapping, not a reordering (frames arrive in order).
         if self.last_first_sample.is_some_and(|last| first < last && last - first > u32::MAX / 2) {
@@ -88,6 +117,15 @@ impl Monitor {
         }
         self.last_first_sample = Some(first);
         let base_index = self.index_offset + first as u64;
+        if let Some((check_first, current, accel)) = &f.check {
+            // The check's block is older than the frame's: before a wrap of the index, if it is
+            // the larger.
+            let offset = if *check_first > first { self.index_offset.saturating_sub(1 << 32) } else { self.index_offset };
+            for (k, (&current_a, &accel_mps2)) in current.iter().zip(accel).enumerate() {
+                let t_s = (offset + *check_first as u64 + k as u64) as f64 / self.fs_hz;
+                emit(Event::Check(CheckSample { t_s, current_a, rh_read_pct: h.rh_read_pct, accel_mps2 }));
+            }
+        }
         for (k, &v) in f.estimates.iter().enumerate() {
             let t_s = (base_index + k as u64) as f64 / self.fs_hz;
             let s = Sample {
@@ -138,11 +176,26 @@ impl Monitor {
 struct OwnedFrame {
     header: Header,
     estimates: Vec<f32>,
+    /// A check's first sample, current and accelerations.
+    check: Option<(u32, Vec<f32>, Vec<f32>)>,
 }
 
 impl From<&Frame<'_>> for OwnedFrame {
     fn from(f: &Frame<'_>) -> Self {
-        Self { header: f.header, estimates: f.estimates().collect() }
+        let check =
+            f.check_first_sample().zip(f.currents().zip(f.accelerations())).map(|(first, (c, a))| (first, c.collect(), a.collect()));
+        Self { header: f.header, estimates: f.estimates().collect(), check }
+    }
+}
+
+/// Whether the stream carries a check, as its frames say (a frame before version 6 cannot).
+fn check_line(check: bool, versioned: bool) -> String {
+    match (check, versioned) {
+        (true, _) => {
+            "accelerometer: the board's answers, the stream carries a check (the current and the acceleration at each sample)".into()
+        }
+        (false, true) => "accelerometer: none in the stream (no part on the board, or it does not answer)".into(),
+        (false, false) => "accelerometer: none in the stream (a firmware before version 6 sends none)".into(),
     }
 }
 
@@ -180,7 +233,7 @@ fn flag_names(bits: u16) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipmc_core::wire::stream::{encode, max_frame_len};
+    use ipmc_core::wire::stream::{Check, encode, max_frame_len};
 
     const SETUP: Setup = Setup { band_shape: 0, delay_samples: 470, humidity_mode: 1 };
 
@@ -189,6 +242,10 @@ mod tests {
     }
 
     fn frame_with(first: u32, rh: f32, flags: u16, est: &[f32], setup: Option<Setup>) -> Vec<u8> {
+        frame_of_check(first, rh, flags, est, setup, None)
+    }
+
+    fn frame_of_check(first: u32, rh: f32, flags: u16, est: &[f32], setup: Option<Setup>, check: Option<Check<'_>>) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
         let n = encode(
             &Header {
@@ -209,6 +266,7 @@ mod tests {
                 setup,
             },
             est,
+            check,
             &mut out,
         )
         .unwrap();
@@ -222,6 +280,7 @@ mod tests {
         for c in bytes.chunks(chunk) {
             m.feed(c, |e| match e {
                 Event::Sample(s) => samples.push(s),
+                Event::Check(_) => {}
                 Event::Status(l) => lines.push(l),
             });
         }
@@ -271,13 +330,15 @@ mod tests {
             assert!(samples.iter().all(|s| !(3200..3232).contains(&((s.t_s * 2000.0).round() as u64))));
             assert_eq!(samples[3 * 32].flags, flags::RETUNED);
             assert_eq!(samples.last().unwrap().t_s, (201 * 32 - 1) as f64 / 2000.0);
-            // The setup once, then 201 blocks of 16 ms = 3.2 s of stream: lines at 0, 1, 2 and 3 s.
-            assert_eq!(lines.len(), 5, "{lines:?}");
+            // The setup and the accelerometer once, then 201 blocks of 16 ms = 3.2 s of stream:
+            // lines at 0, 1, 2 and 3 s.
+            assert_eq!(lines.len(), 6, "{lines:?}");
             assert_eq!(
                 lines[0],
                 "setup: band linear-phase, estimates 470 samples (235.0 ms) behind the base motion, designs at the humidity fused"
             );
-            let lines = &lines[1..];
+            assert!(lines[1].starts_with("accelerometer: none in the stream (no part"), "{}", lines[1]);
+            let lines = &lines[2..];
             assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
             assert!(
                 lines[0].contains("RH  45.00 % (strip  46.00 ± 1.50 %, read  47.00 %; own  45.25 ± 0.50 %, fused  45.50 ± 0.25 %)"),
@@ -288,6 +349,39 @@ mod tests {
             assert!(samples.iter().all(|s| s.rel_err == 0.05));
             assert!(lines.iter().any(|l| l.contains("bad 2")));
         }
+    }
+
+    /// A check's frames give its samples (an earlier block's) their current and acceleration at
+    /// their own times, and the monitor says when the stream starts and stops carrying them;
+    /// frames of version 4 say they cannot.
+    #[test]
+    fn reads_a_checks_samples_and_says_when_they_come() {
+        let est = [1e-6f32; 32];
+        let current: Vec<f32> = (0..32).map(|k| k as f32 * 1e-7).collect();
+        let accel: Vec<f32> = (0..32).map(|k| k as f32 * 0.5 - 3.0).collect();
+        let check = |first_sample| Check { first_sample, current_a: &current, accel_mps2: &accel };
+        let mut bytes = frame_with(0, 45.0, 0, &est, None);
+        bytes.extend(frame_of_check(160, 45.0, 0, &est, Some(SETUP), Some(check(32))));
+        bytes.extend(frame_of_check(192, 45.0, 0, &est, Some(SETUP), Some(check(64))));
+        bytes.extend(frame(224, 45.0, 0, &est));
+        let mut m = Monitor::new(2_000);
+        let (mut samples, mut checks, mut lines) = (vec![], vec![], vec![]);
+        m.feed(&bytes, |e| match e {
+            Event::Sample(s) => samples.push(s),
+            Event::Check(c) => checks.push(c),
+            Event::Status(l) => lines.push(l),
+        });
+        assert_eq!((m.frames, m.check_frames, samples.len(), checks.len()), (4, 2, 128, 64));
+        for (k, c) in checks.iter().enumerate() {
+            let expected =
+                CheckSample { t_s: (32 + k) as f64 / 2000.0, current_a: current[k % 32], rh_read_pct: 47.0, accel_mps2: accel[k % 32] };
+            assert_eq!(*c, expected);
+        }
+        let said: Vec<&String> = lines.iter().filter(|l| l.starts_with("accelerometer:")).collect();
+        assert_eq!(said.len(), 3, "{lines:?}");
+        assert!(said[0].contains("before version 6"), "{}", said[0]);
+        assert!(said[1].contains("carries a check"), "{}", said[1]);
+        assert!(said[2].contains("no part on the board"), "{}", said[2]);
     }
 
     #[test]

@@ -6,9 +6,9 @@ use anyhow::{anyhow, bail};
 
 use super::qemu_scenarios::{
     qemu_host_equivalence, qemu_host_equivalence_fused, qemu_host_equivalence_low_latency, qemu_host_equivalence_with_departures,
-    qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_adc_overrun, qemu_replay_bundled, qemu_replay_counts_and_retunes,
-    qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_idealized_sweep, qemu_replay_no_new_humidity,
-    qemu_replay_no_receiver, qemu_replay_one_bad_sample, qemu_replay_sensor_faults,
+    qemu_host_equivalence_with_humidity_path, qemu_long_run, qemu_replay_adc_overrun, qemu_replay_bundled, qemu_replay_check,
+    qemu_replay_counts_and_retunes, qemu_replay_faults, qemu_replay_humidity_step_without_glitch, qemu_replay_idealized_sweep,
+    qemu_replay_no_new_humidity, qemu_replay_no_receiver, qemu_replay_one_bad_sample, qemu_replay_sensor_faults,
 };
 use super::tool::{diagnose_prove, diagnose_prove_external, vs_exact_external};
 use super::workspace::{cargo_test, cargo_test_with, format_check, lint, thumb_target_installs_on_use};
@@ -79,6 +79,7 @@ pub fn command(filter: &[String]) -> Result<()> {
             "qemu replay: host ↔ QEMU equivalence in mode fused (the strip's own hygrometer designs; field mode)",
             qemu_host_equivalence_fused,
         ),
+        ("qemu replay: a check with the board's accelerometer: host ↔ QEMU equal, the check recording as streamed", qemu_replay_check),
         ("qemu replay: sensor faults (slow, garbage, out of range, stuck current)", qemu_replay_sensor_faults),
         ("qemu replay: no stream receiver", qemu_replay_no_receiver),
         ("qemu replay: humidity sensor with no new data", qemu_replay_no_new_humidity),

@@ -8,6 +8,7 @@ use std::{
     path::{Path, PathBuf},
 };
 
+use super::check;
 use super::est::{band_of, write_est_csv};
 use super::recording;
 use super::replay::Replay;
@@ -99,7 +100,27 @@ pub fn replay_recording(input: &Path, out: &Path, calib: Option<&Path>, work: &P
     );
     let replayed = run_replay(&elf, &replay, work)?;
     write_est_csv(out, &rec.t_s, &replayed.blocks, &replay, &band_of(calib)?)?;
+    if replay.accel.is_some() {
+        write_check(&replay, &replayed, &out.with_file_name("CHECK.csv"), work)?;
+    }
     Ok(replayed)
+}
+
+/// A check replayed with the board's accelerometer: its checks compared with the host's track
+/// bit for bit, then the stream through `ipmc monitor --check` into the check recording `out`.
+fn write_check(replay: &Replay, replayed: &Replayed, out: &Path, work: &Path) -> Result<()> {
+    let compared = check::compare(replay, &replayed.blocks)?;
+    println!(
+        "==> the accelerometer: {} checks in the stream ({} whole), equal bit for bit to the host's track on the same {} bursts",
+        compared.checks,
+        compared.whole,
+        replay.accel.as_ref().map_or(0, Vec::len)
+    );
+    let stream = work.join("stream.bin");
+    let said = ipmc(&["monitor".as_ref(), stream.as_os_str(), "--check".as_ref(), out.as_os_str()])?;
+    print!("{}", said.lines().filter(|l| l.starts_with("accelerometer:")).map(|l| format!("{l}\n")).collect::<String>());
+    println!("==> the check as `ipmc monitor --check` writes it: {}", out.display());
+    Ok(())
 }
 
 /// `calib` (or the default preset) with its band kept as `shape` says (`linear-phase`,

@@ -1,7 +1,10 @@
-//! The firmware under QEMU: the formats it reads and writes (the replay, the stream, the
-//! recordings), one run of an ELF on a replay, its estimates as EST.csv, and `cargo xtask qemu`.
-//! The formats are the bottom; `run` uses them, `est` writes what a run gave, `command` uses all.
+//! The firmware under QEMU: the formats it reads and writes (the replay, the board's
+//! accelerometer made from a check, the stream, the recordings), one run of an ELF on a replay,
+//! its estimates as EST.csv, and `cargo xtask qemu`. The formats are the bottom; `run` uses them,
+//! `est` writes what a run gave, `command` uses all.
 
+pub mod accel;
+mod check;
 mod command;
 mod est;
 pub mod recording;

@@ -2,28 +2,33 @@
 //! (`ipmc_core::wire::replay`, which the firmware decodes with), and the way back from the firmware's
 //! sample numbers to the recording's rows.
 
+use ipmc_core::wire::accel_replay::Burst;
 use ipmc_core::wire::replay::{BYTES_PER_GAP, BYTES_PER_SAMPLE, HEADER_LEN, Header};
 pub use ipmc_core::wire::replay::{FILE_NAME, Gap, Sample};
 use ipmc_recording::TimeSeries;
 
 use ipmc_core::timing::BLOCK_LEN;
 
-/// What QEMU replays: samples, and the waits between them where the board did not sample.
+/// What QEMU replays: samples, the waits between them where the board did not sample, and the
+/// board's accelerometer where the recording is a check.
 #[derive(Default)]
 pub struct Replay {
     pub samples: Vec<Sample>,
     /// In sample order.
     pub gaps: Vec<Gap>,
+    /// The part's FIFO bursts (`super::accel`); None: a board without the part.
+    pub accel: Option<Vec<Burst>>,
 }
 
 impl Replay {
     /// Samples without a wait.
     pub fn continuous(samples: Vec<Sample>) -> Self {
-        Replay { samples, gaps: Vec::new() }
+        Replay { samples, gaps: Vec::new(), accel: None }
     }
 
     /// Every row of a time series; each burst after the first follows the wait the recording's
-    /// clock shows before it (none when its clock restarts).
+    /// clock shows before it (none when its clock restarts); a check's acceleration as the
+    /// part's bursts (a check is one continuous run: its first burst's alone).
     pub fn of_recording(rec: &TimeSeries) -> Self {
         let samples = rec.current_a.iter().zip(&rec.rh_pct).map(|(&i, &rh)| Sample { current_a: i as f32, rh_pct: rh as f32 }).collect();
         let gaps = rec
@@ -35,7 +40,11 @@ impl Replay {
                 (lost >= 1.0).then(|| Gap { before_sample: b.start as u32, lost_samples: lost.min(u32::MAX as f64) as u32 })
             })
             .collect();
-        Replay { samples, gaps }
+        let accel = rec.accel_mps2.as_ref().map(|a| {
+            let first = rec.bursts().into_iter().next().unwrap_or(0..a.len());
+            super::accel::bursts(&a[first], rec.fs_hz)
+        });
+        Replay { samples, gaps, accel }
     }
 
     pub fn encode(&self, fs_hz: u32) -> Vec<u8> {
@@ -87,7 +96,7 @@ mod tests {
         assert_eq!(r.sample_of(32), 32);
         assert_eq!(r.sample_of(64 + 1999), 64);
         // A gap inside a block is reported with that block.
-        let mid = Replay { samples: vec![], gaps: vec![Gap { before_sample: 70, lost_samples: 100 }] };
+        let mid = Replay { samples: vec![], gaps: vec![Gap { before_sample: 70, lost_samples: 100 }], accel: None };
         assert_eq!(mid.sample_of(64 + 100), 64);
         assert_eq!(mid.sample_of(96 + 100), 96);
         assert_eq!(mid.sample_of(32), 32);

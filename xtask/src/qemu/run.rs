@@ -9,9 +9,11 @@ use std::{
     time::{Duration, Instant},
 };
 
+use super::accel;
 use super::replay::{self, Replay};
 use super::stream::{self, Block};
 use crate::{Result, describe, install};
+use ipmc_core::wire::accel_replay;
 
 /// The firmware's sample rate (the core's operating point).
 pub use ipmc_core::timing::SAMPLE_RATE_HZ as FIRMWARE_FS_HZ;
@@ -48,6 +50,14 @@ pub fn run_replay_to(elf: &Path, replay: &Replay, work: &Path, serial: &str) -> 
     fs::create_dir_all(work).map_err(|e| anyhow!("{}: {e}", work.display()))?;
     fs::write(work.join(replay::FILE_NAME.to_str().expect("ASCII name")), replay.encode(FIRMWARE_FS_HZ))
         .map_err(|e| anyhow!("writing the replay file: {e}"))?;
+    // The board has the part when its file is there: none left from an earlier run.
+    let accel_path = work.join(accel_replay::FILE_NAME.to_str().expect("ASCII name"));
+    match &replay.accel {
+        Some(bursts) => fs::write(&accel_path, accel::encode(bursts)).map_err(|e| anyhow!("writing the accelerometer's file: {e}"))?,
+        None => {
+            let _ = fs::remove_file(&accel_path);
+        }
+    }
     let stream_path = work.join("stream.bin");
     let defmt_path = work.join("defmt.bin");
     let _ = fs::remove_file(&stream_path);

@@ -10,6 +10,16 @@ use crate::Result;
 pub struct Block {
     pub header: Header,
     pub base_est_m: Vec<f32>,
+    /// A check's samples, where the frame carries them.
+    pub check: Option<CheckBlock>,
+}
+
+/// A check's samples in a frame: an earlier block's (`ipmc_core::resample::track`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckBlock {
+    pub first_sample: u32,
+    pub current_a: Vec<f32>,
+    pub accel_mps2: Vec<f32>,
 }
 
 /// All frames of a captured stream, in order. A capture from QEMU is lossless, so any frame
@@ -19,7 +29,15 @@ pub fn decode_all(bytes: &[u8]) -> Result<Vec<Block>> {
     let mut blocks = Vec::new();
     for &b in bytes {
         match deframer.push(b) {
-            Some(Ok(f)) => blocks.push(Block { header: f.header, base_est_m: f.estimates().collect() }),
+            Some(Ok(f)) => blocks.push(Block {
+                header: f.header,
+                base_est_m: f.estimates().collect(),
+                check: f.check_first_sample().zip(f.currents().zip(f.accelerations())).map(|(first_sample, (c, a))| CheckBlock {
+                    first_sample,
+                    current_a: c.collect(),
+                    accel_mps2: a.collect(),
+                }),
+            }),
             Some(Err(e)) => bail!("stream frame {}: {e}", blocks.len()),
             None => {}
         }
@@ -30,7 +48,7 @@ pub fn decode_all(bytes: &[u8]) -> Result<Vec<Block>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ipmc_core::wire::stream::{Header, encode, max_frame_len};
+    use ipmc_core::wire::stream::{Check, Header, encode, max_frame_len};
 
     /// Finite throughout: a header compares with `==`.
     const HYGROMETER: ipmc_core::wire::stream::Hygrometer = ipmc_core::wire::stream::Hygrometer {
@@ -44,7 +62,7 @@ mod tests {
 
     const SETUP: ipmc_core::wire::stream::Setup = ipmc_core::wire::stream::Setup { band_shape: 0, delay_samples: 470, humidity_mode: 0 };
 
-    fn frame(first: u32, rh: f32, flags: u16, est: &[f32]) -> Vec<u8> {
+    fn frame(first: u32, rh: f32, flags: u16, est: &[f32], check: Option<Check<'_>>) -> Vec<u8> {
         let mut out = vec![0; max_frame_len(est.len())];
         let header = Header {
             first_sample: first,
@@ -56,15 +74,21 @@ mod tests {
             flags,
             setup: Some(SETUP),
         };
-        let n = encode(&header, est, &mut out).unwrap();
+        let n = encode(&header, est, check, &mut out).unwrap();
         out.truncate(n);
         out
     }
 
     #[test]
     fn round_trip_and_corruption() {
-        let mut bytes = frame(0, 45.0, 0, &[0.0, 1e-3]);
-        bytes.extend(frame(2, 46.0, 8, &[2e-3, -1e-3]));
+        let mut bytes = frame(0, 45.0, 0, &[0.0, 1e-3], None);
+        bytes.extend(frame(
+            2,
+            46.0,
+            8,
+            &[2e-3, -1e-3],
+            Some(Check { first_sample: 0, current_a: &[1e-6, 2e-6], accel_mps2: &[9.75, -3.5] }),
+        ));
         let blocks = decode_all(&bytes).unwrap();
         assert_eq!(blocks.len(), 2);
         assert_eq!(
@@ -80,10 +104,12 @@ mod tests {
                     flags: 8,
                     setup: Some(SETUP)
                 },
-                base_est_m: vec![2e-3, -1e-3]
+                base_est_m: vec![2e-3, -1e-3],
+                check: Some(CheckBlock { first_sample: 0, current_a: vec![1e-6, 2e-6], accel_mps2: vec![9.75, -3.5] })
             }
         );
-        let mut bad = frame(0, 45.0, 0, &[1.0]);
+        assert_eq!(blocks[0].check, None);
+        let mut bad = frame(0, 45.0, 0, &[1.0], None);
         bad[5] ^= 0x10;
         assert!(decode_all(&bad).is_err());
     }

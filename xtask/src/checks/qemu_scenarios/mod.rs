@@ -1,12 +1,14 @@
 //! The firmware's QEMU scenarios, steps of `cargo xtask test`: replays through the QEMU build
-//! (synthetic, faulty, recordings), each checking what the firmware must do, and the host ↔ QEMU
-//! equivalence. `harness` is what they share.
+//! (synthetic, faulty, recordings, a check with the board's accelerometer), each checking what
+//! the firmware must do, and the host ↔ QEMU equivalence. `harness` is what they share.
 
+mod check;
 mod equivalence;
 mod harness;
 mod recordings;
 mod synthetic;
 
+pub use check::qemu_replay_check;
 pub use equivalence::{
     qemu_host_equivalence, qemu_host_equivalence_fused, qemu_host_equivalence_low_latency, qemu_host_equivalence_with_departures,
     qemu_host_equivalence_with_humidity_path, qemu_long_run,

@@ -101,10 +101,16 @@ impl Graph {
             total += f.frame;
             let mut next = self.callees[i].clone();
             for (at, source) in &f.indirect {
-                match self.rule(f, *at, source)? {
-                    IndirectKind::Formatting => {}
-                    IndirectKind::Functions(accepts, what) => next.extend(self.matching(accepts, what)?),
-                    IndirectKind::Dispatch => bail!("{} at {at:#x}: an executor dispatch reached from formatting", short(&f.name)),
+                let kinds = self.rules(f, *at, source)?;
+                let shared = kinds.len() > 1;
+                for kind in kinds {
+                    match kind {
+                        IndirectKind::Formatting => {}
+                        IndirectKind::Functions(accepts, what) => next.extend(self.matching(accepts, what)?),
+                        // Formatting runs inside a task or a handler, never as the executor's loop.
+                        IndirectKind::Dispatch if shared => {}
+                        IndirectKind::Dispatch => bail!("{} at {at:#x}: an executor dispatch reached from formatting", short(&f.name)),
+                    }
                 }
             }
             for c in next {
@@ -116,38 +122,40 @@ impl Graph {
         Ok(total)
     }
 
-    pub fn rule(&self, f: &Function, at: u64, source: &Option<String>) -> Result<IndirectKind> {
+    /// What an indirect call may call: its source's rule, or for a call the machine outliner
+    /// shared between callers of several rules, each of theirs ([`Self::outlined_rules`]; more
+    /// than one: the walk takes an executor's dispatch among them only where one can be).
+    pub fn rules(&self, f: &Function, at: u64, source: &Option<String>) -> Result<Vec<IndirectKind>> {
         if source.is_none() && f.name.starts_with("OUTLINED_FUNCTION_") {
-            return self.outlined_rule(f, at);
+            return self.outlined_rules(f, at);
         }
-        source.as_deref().and_then(indirect_rule).ok_or_else(|| {
+        let rule = source.as_deref().and_then(indirect_rule).ok_or_else(|| {
             anyhow!(
                 "{} at {at:#x}: indirect call matches no rule of stack/indirect.rs (source {})",
                 short(&f.name),
                 source.as_deref().unwrap_or("unknown")
             )
-        })
+        })?;
+        Ok(vec![rule])
     }
 
     /// LLVM's machine outliner (code built for the least size) moves a sequence that several
     /// places share into an `OUTLINED_FUNCTION_n` of its own, with no line of source: an indirect
-    /// call there is its callers' (defmt-rtt's channel write, an executor's dispatch), ruled by
-    /// the one source among theirs that a rule names.
-    fn outlined_rule(&self, f: &Function, at: u64) -> Result<IndirectKind> {
+    /// call there is its callers' (defmt-rtt's channel write, an executor's dispatch, a waker),
+    /// ruled by the sources among theirs that a rule names. Where they name several (the same
+    /// instructions shared by defmt's encoders, the executor's loop and a waker's call), the call
+    /// is one of theirs: every one of their rules together bounds it.
+    fn outlined_rules(&self, f: &Function, at: u64) -> Result<Vec<IndirectKind>> {
         let me = self.index(&f.name)?;
         let ruled: BTreeSet<&str> = (0..self.functions.len())
             .filter(|&c| self.callees[c].contains(&me))
             .flat_map(|c| self.functions[c].sources.iter().map(String::as_str))
             .filter(|s| indirect_rule(s).is_some())
             .collect();
-        match ruled.len() {
-            1 => Ok(indirect_rule(ruled.first().expect("one")).expect("ruled")),
-            _ => bail!(
-                "{} at {at:#x}: an outlined indirect call whose callers' sources name {} rules of stack/indirect.rs ({ruled:?})",
-                f.name,
-                ruled.len()
-            ),
+        if ruled.is_empty() {
+            bail!("{} at {at:#x}: an outlined indirect call whose callers' sources name no rule of stack/indirect.rs", f.name);
         }
+        Ok(ruled.into_iter().filter_map(indirect_rule).collect())
     }
 
     pub fn matching(&self, accepts: fn(&str) -> bool, what: &str) -> Result<Vec<usize>> {

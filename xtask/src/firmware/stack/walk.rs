@@ -15,6 +15,11 @@ use crate::Result;
 /// The `#[panic_handler]`'s symbol.
 const PANIC_HANDLER: &str = "rust_begin_unwind";
 
+/// An embassy task's poll (`TaskStorage<F>::poll`), inside which no executor loop runs.
+fn is_task_poll(name: &str) -> bool {
+    name.contains("TaskStorage") && name.contains("::poll")
+}
+
 /// What a call chain ends in when it leaves the direct-call graph.
 #[derive(Clone, Debug)]
 enum Next {
@@ -34,13 +39,21 @@ pub struct Walk<'a> {
     pub context: Context,
     pub polls: &'a BTreeMap<&'static str, Vec<usize>>,
     pub formatting: u64,
-    pub memo: HashMap<usize, Depth>,
+    /// By function and whether the chain to it runs inside a task's poll (where an executor's
+    /// dispatch is never among a shared call's targets).
+    pub memo: HashMap<(usize, bool), Depth>,
     pub path: Vec<usize>,
 }
 
 impl Walk<'_> {
+    /// Whether the chain being walked runs inside a task's poll.
+    fn in_task(&self) -> bool {
+        self.path.iter().any(|&p| is_task_poll(&self.graph.functions[p].name))
+    }
+
     pub fn depth(&mut self, i: usize) -> Result<Depth> {
-        if let Some(d) = self.memo.get(&i) {
+        let in_task = self.in_task();
+        if let Some(d) = self.memo.get(&(i, in_task)) {
             return Ok(d.clone());
         }
         let g = self.graph;
@@ -63,17 +76,27 @@ impl Walk<'_> {
         self.path.push(i);
         let mut targets: Vec<usize> = g.callees[i].clone();
         let mut formatting = false;
+        // Inside this function's own poll too, once it is one.
+        let in_task_here = in_task || is_task_poll(&f.name);
         for (at, source) in &f.indirect {
-            match g.rule(f, *at, source)? {
-                IndirectKind::Dispatch => {
-                    if self.context == Context::Exception {
-                        bail!("{} at {at:#x}: an executor dispatch outside the executor contexts", short(&f.name));
+            let kinds = g.rules(f, *at, source)?;
+            let shared = kinds.len() > 1;
+            for kind in kinds {
+                match kind {
+                    // A call the outliner shared with the executor's loop, reached in a task's poll
+                    // or a handler: there it is the other callers' (a waker, defmt), never a
+                    // dispatch, which runs only as an executor's loop.
+                    IndirectKind::Dispatch if shared && (in_task_here || self.context == Context::Exception) => {}
+                    IndirectKind::Dispatch => {
+                        if self.context == Context::Exception {
+                            bail!("{} at {at:#x}: an executor dispatch outside the executor contexts", short(&f.name));
+                        }
+                        let context = self.context;
+                        targets.extend(TASKS.iter().filter(|t| t.context == context).flat_map(|t| self.polls[t.name].iter().copied()));
                     }
-                    let context = self.context;
-                    targets.extend(TASKS.iter().filter(|t| t.context == context).flat_map(|t| self.polls[t.name].iter().copied()));
+                    IndirectKind::Functions(accepts, what) => targets.extend(g.matching(accepts, what)?),
+                    IndirectKind::Formatting => formatting = true,
                 }
-                IndirectKind::Functions(accepts, what) => targets.extend(g.matching(accepts, what)?),
-                IndirectKind::Formatting => formatting = true,
             }
         }
         let mut best = Depth { bytes: 0, next: None };
@@ -88,7 +111,7 @@ impl Walk<'_> {
         }
         self.path.pop();
         let d = Depth { bytes: f.frame + best.bytes, next: best.next };
-        self.memo.insert(i, d.clone());
+        self.memo.insert((i, in_task), d.clone());
         Ok(d)
     }
 
@@ -96,12 +119,14 @@ impl Walk<'_> {
     pub fn chain(&self, i: usize) -> String {
         let mut parts = Vec::new();
         let mut at = Some(Next::Call(i));
+        let mut in_task = false;
         while let Some(next) = at {
             match next {
                 Next::Call(j) => {
                     let f = &self.graph.functions[j];
                     parts.push(format!("{} ({} B)", short(&f.name), f.frame));
-                    at = self.memo.get(&j).and_then(|d| d.next.clone());
+                    at = self.memo.get(&(j, in_task)).and_then(|d| d.next.clone());
+                    in_task |= is_task_poll(&f.name);
                 }
                 Next::Formatting => {
                     parts.push(format!("[core::fmt dyn call, bound {} B]", self.formatting));
