@@ -194,7 +194,7 @@ fn check_line(check: bool, versioned: bool) -> String {
         (true, _) => {
             "accelerometer: the board's answers, the stream carries a check (the current and the acceleration at each sample)".into()
         }
-        (false, true) => "accelerometer: none in the stream (no part on the board, or it does not answer)".into(),
+        (false, true) => "accelerometer: none in the stream so far (no part on the board, or it does not answer; where it does, a check's first samples come a few blocks after the stream's, the part's FIFO and the bus read behind)".into(),
         (false, false) => "accelerometer: none in the stream (a firmware before version 6 sends none)".into(),
     }
 }
@@ -337,7 +337,7 @@ mod tests {
                 lines[0],
                 "setup: band linear-phase, estimates 470 samples (235.0 ms) behind the base motion, designs at the humidity fused"
             );
-            assert!(lines[1].starts_with("accelerometer: none in the stream (no part"), "{}", lines[1]);
+            assert!(lines[1].starts_with("accelerometer: none in the stream so far (no part"), "{}", lines[1]);
             let lines = &lines[2..];
             assert!(lines[0].starts_with("t      0.000 s"), "{}", lines[0]);
             assert!(
