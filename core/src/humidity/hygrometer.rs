@@ -10,7 +10,7 @@
 
 use crate::calibration::humidity_path::{SensorKind, relax};
 use crate::calibration::laws::Calibration;
-use crate::humidity::fusion::{Estimate, SensorBias, lag_var, reading_sd};
+use crate::humidity::fusion::{Estimate, SensorBias, disagrees, lag_var, reading_sd};
 use crate::humidity::spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
 use crate::humidity::strip::{Refusal, StripRh};
 use crate::numeric::real::Real;
@@ -56,6 +56,9 @@ pub struct Humidities<T> {
     /// ([`crate::humidity::fusion::SensorBias::variance_without_calibration`]): the humidity's
     /// part of an error bar that states the calibration's departures already.
     pub fused_design_sd_pct: T,
+    /// The last fit and the reading disagree beyond both their uncertainties
+    /// ([`crate::humidity::fusion::disagrees`]): the fused humidity holds the reading.
+    pub disagrees: bool,
 }
 
 impl Humidities<f32> {
@@ -180,6 +183,9 @@ pub struct BlockHygrometer<T> {
     /// calibration's `uncertainty_pct`) does not turn away the fits that tell the strip's lag.
     fit_gate_pct: T,
     lag_s: T,
+    /// The last fit disagreed with the reading beyond both: until one agrees, the fused
+    /// humidity is the reading.
+    disagreeing: bool,
 }
 
 impl<T: Real> BlockHygrometer<T> {
@@ -216,6 +222,7 @@ impl<T: Real> BlockHygrometer<T> {
                 None => calib.humidity.reading_uncertainty_pct(None),
             }),
             lag_s: T::lit(sensor_lag_s),
+            disagreeing: false,
         }
     }
 
@@ -233,6 +240,22 @@ impl<T: Real> BlockHygrometer<T> {
     /// [`Self::complete`] with a fit. Not inlined, as [`SensorBias::observe`].
     #[inline(never)]
     fn learn(&mut self, s: &StripRh<T>) {
+        // The reading path averaged as the spectrum is, over the lags as they stand.
+        let (mut path_avg, mut total) = (T::zero(), T::zero());
+        let prior = self.used_at.is_none() || self.n_lags == 1;
+        for l in self.lags[..self.n_lags].iter() {
+            if let Some(trend) = l.trend {
+                let p = if prior { T::one() } else { l.probability };
+                path_avg += p * trend;
+                total += p;
+            }
+        }
+        if total > T::zero() {
+            self.disagreeing = disagrees(path_avg / total, s, self.fit_gate_pct);
+            if self.disagreeing {
+                return;
+            }
+        }
         let new_data = T::lit((self.snapshot_at - self.used_at.unwrap_or(0)) as f64) / self.fs_hz;
         let window = T::lit(2.0 * AVERAGING_S);
         let mut used = false;
@@ -307,8 +330,9 @@ impl<T: Real> BlockHygrometer<T> {
     /// mixture of their values.
     pub fn humidities(&self, path_pct: T) -> Humidities<T> {
         let reading = Estimate { rh_pct: path_pct, sd_pct: reading_sd(self.accuracy_pct, self.lag_s, self.rate) };
-        let (fused, fused_design_sd_pct) = if self.used_at.is_some() { self.fused(reading) } else { (reading, reading.sd_pct) };
-        Humidities { reading, strip: self.strip, fused, fused_design_sd_pct }
+        let learned = self.used_at.is_some() && !self.disagreeing;
+        let (fused, fused_design_sd_pct) = if learned { self.fused(reading) } else { (reading, reading.sd_pct) };
+        Humidities { reading, strip: self.strip, fused, fused_design_sd_pct, disagrees: self.disagreeing }
     }
 
     /// The hydration lags the reading path is put through, each with its probability after the
@@ -454,5 +478,28 @@ mod tests {
         assert!((f.rh_pct - 68.0).abs() < 0.1 && f.sd_pct < r.reading.sd_pct, "{f:?}");
         h.complete(Err(Refusal::Misfit));
         assert_eq!(h.humidities(70.0).fused, f, "a refusal keeps the sensor's bias as learned");
+    }
+
+    /// An alias 15 %RH below the reading (an HTS221, 3.5 %RH): said so, not learned from, and
+    /// the reading held until a fit agrees; what was learned before it stands again after.
+    #[test]
+    fn a_fit_that_disagrees_beyond_both_holds_the_reading() {
+        let c = Calibration::default_preset();
+        let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+        let fit = |rh: f64| StripRh { rh_pct: rh, sd_stat_pct: 0.3, sd_cal_pct: 0.3, sd_pct: 0.42, misfit: 1.0, bins_used: 140 };
+        let mut next = |h: &mut BlockHygrometer<f64>, rh: f64| {
+            while h.push(&[1e-7; 32], Some(70.0)).is_none() {}
+            h.complete(Ok(fit(rh)));
+            h.humidities(70.0)
+        };
+        let first = next(&mut h, 55.0);
+        assert!(first.disagrees && first.fused == first.reading, "{first:?}");
+        assert!(h.used_at.is_none(), "nothing learned from it");
+        let agreed = next(&mut h, 68.5);
+        assert!(!agreed.disagrees && (agreed.fused.rh_pct - 68.5).abs() < 0.3, "{agreed:?}");
+        let alias = next(&mut h, 55.0);
+        assert!(alias.disagrees && alias.fused == alias.reading, "{alias:?}");
+        let again = next(&mut h, 68.5);
+        assert!(!again.disagrees && (again.fused.rh_pct - 68.5).abs() < 0.3, "{again:?}");
     }
 }
