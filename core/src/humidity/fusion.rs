@@ -122,6 +122,12 @@ impl<T: Real> SensorBias<T> {
         true
     }
 
+    /// How many independent fits the ones used are worth, faded: at most its forgetting time
+    /// over one fit's window (and the first fit's whole weight), however long the run.
+    pub fn weight(&self) -> T {
+        self.weight
+    }
+
     /// The bias to take off the reading path and the variance left, the sensor's accuracy its
     /// prior; (0, 0) before any fit.
     #[inline(never)]

@@ -11,6 +11,8 @@
 use crate::calibration::humidity_path::{SensorKind, relax};
 use crate::calibration::laws::Calibration;
 use crate::humidity::fusion::{Estimate, SensorBias, disagrees, lag_var, reading_sd};
+#[cfg(test)]
+use crate::humidity::fusion::BIAS_MEMORY_S;
 use crate::humidity::spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
 use crate::humidity::strip::{Refusal, StripRh};
 use crate::numeric::real::Real;
@@ -478,6 +480,68 @@ mod tests {
         assert!((f.rh_pct - 68.0).abs() < 0.1 && f.sd_pct < r.reading.sd_pct, "{f:?}");
         h.complete(Err(Refusal::Misfit));
         assert_eq!(h.humidities(70.0).fused, f, "a refusal keeps the sensor's bias as learned");
+    }
+
+    /// An hour of service at 77–81 %RH, the air wandering by ±1.5 %RH, the strip 25 s behind it;
+    /// fits of the strip as the spectrum averages it, scattered by their stated 0.4 %RH, and an
+    /// alias 15 %RH off every ten minutes. Per second: the fused value less the strip's humidity
+    /// (None where the fit disagreed with the reading, and fused was the reading path), and the
+    /// largest weight any lag's bias holds.
+    fn an_hour(reading_bias_pct: f64) -> (Vec<Option<f64>>, f64) {
+        let c = Calibration::default_preset();
+        let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+        let dt = 32.0 / 2000.0;
+        let air = |t: f64| 79.0 + (2.0 * core::f64::consts::PI * t / 1500.0).sin() + 0.5 * (2.0 * core::f64::consts::PI * t / 370.0).sin();
+        let (mut strip, mut seen) = (air(0.0), air(0.0));
+        // A fixed sequence of scatter: a linear congruential generator's uniforms, summed.
+        let mut state = 12345u64;
+        let mut uniform = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut out, mut most) = (vec![], 0.0f64);
+        for k in 0..3600 * 2000 / 32 {
+            let t = k as f64 * dt;
+            strip += dt / 25.0 * (air(t) - strip);
+            seen += dt / AVERAGING_S * (strip - seen);
+            let path = air(t) + reading_bias_pct;
+            if h.push(&[1e-7; 32], Some(path)).is_some() {
+                let second = out.len();
+                // Twelve uniforms less six: about a unit normal.
+                let z = (0..12).map(|_| uniform()).sum::<f64>() - 6.0;
+                let alias = second % 600 == 300;
+                let rh = if alias { seen - 15.0 } else { seen + 0.4 * z };
+                h.complete(Ok(StripRh { rh_pct: rh, sd_stat_pct: 0.4, sd_cal_pct: 0.2, sd_pct: 0.45, misfit: 1.0, bins_used: 140 }));
+                let now = h.humidities(path);
+                assert_eq!(now.disagrees, alias, "second {second}");
+                assert!(!alias || now.fused.rh_pct == path, "second {second}: the reading held");
+                out.push((!alias).then_some(now.fused.rh_pct - strip));
+                most = h.lags[..h.n_lags].iter().fold(most, |m, l| m.max(l.bias.weight()));
+            }
+        }
+        (out, most)
+    }
+
+    /// Over an hour the fusion follows the strip where the sensor is off, stays with it where the
+    /// sensor is right, and never runs away: its memory is bounded (the bias's weight no more
+    /// than its forgetting time holds), and the last ten minutes are as good as the first after
+    /// it has learned.
+    #[test]
+    fn an_hour_of_service_follows_the_strip_and_never_runs_away() {
+        let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+        let bound = BIAS_MEMORY_S / (2.0 * AVERAGING_S) + 1.0;
+        for bias in [2.0, 0.0, -1.0] {
+            let (err, most) = an_hour(bias);
+            let err: Vec<f64> = err.into_iter().flatten().collect();
+            assert!(err.len() > 3500, "a fit every 63 blocks, six of them aliases: {}", err.len());
+            let settled = &err[300..];
+            let worst = settled.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+            let (early, late) = (rms(&err[300..900]), rms(&err[err.len() - 600..]));
+            // The reading is |bias| off the air and the strip a lag behind it: fused is far nearer.
+            assert!(rms(settled) < 0.3 && worst < 1.0, "bias {bias}: rms {} worst {worst}", rms(settled));
+            assert!(late < 1.5 * early.max(0.1), "bias {bias}: no growth, {early} then {late}");
+            assert!(most <= bound, "bias {bias}: weight {most} > {bound}");
+        }
     }
 
     /// An alias 15 %RH below the reading (an HTS221, 3.5 %RH): said so, not learned from, and
