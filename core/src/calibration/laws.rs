@@ -394,21 +394,16 @@ impl Calibration {
         ((self.rh_min - EXTRAPOLATION_PCT).max(0.0), (self.rh_max + EXTRAPOLATION_PCT).min(100.0))
     }
 
+    /// Clamps to the declared range; the flag says whether clamping happened.
+    pub fn clamp_rh<T: Real>(&self, rh_pct: T) -> (T, bool) {
+        clamp(rh_pct, self.rh_min, self.rh_max)
+    }
+
     /// Clamps to the humidities a design is made at ([`Calibration::design_range`]); the flag
     /// says whether clamping happened.
-    pub fn clamp_rh<T: Real>(&self, rh_pct: T) -> (T, bool) {
+    pub fn clamp_design_rh<T: Real>(&self, rh_pct: T) -> (T, bool) {
         let (lo, hi) = self.design_range();
-        let (lo, hi) = (T::lit(lo), T::lit(hi));
-        if rh_pct.is_nan() {
-            return (lo, true);
-        }
-        if rh_pct < lo {
-            (lo, true)
-        } else if rh_pct > hi {
-            (hi, true)
-        } else {
-            (rh_pct, false)
-        }
+        clamp(rh_pct, lo, hi)
     }
 
     /// Rejects a calibration whose laws or constants are non-positive or non-finite anywhere on
@@ -461,6 +456,21 @@ impl Calibration {
             }
         }
         Ok(())
+    }
+}
+
+/// `rh_pct` within `lo`–`hi` (NaN: `lo`), and whether it had to be moved.
+fn clamp<T: Real>(rh_pct: T, lo: f64, hi: f64) -> (T, bool) {
+    let (lo, hi) = (T::lit(lo), T::lit(hi));
+    if rh_pct.is_nan() {
+        return (lo, true);
+    }
+    if rh_pct < lo {
+        (lo, true)
+    } else if rh_pct > hi {
+        (hi, true)
+    } else {
+        (rh_pct, false)
     }
 }
 
@@ -556,9 +566,10 @@ mod tests {
         let single: f32 = c.laws_at(79.0f32).y;
         assert!((single as f64 / c.laws_at(79.0f64).y - 1.0).abs() < 1e-5);
         // Designs go past the range by EXTRAPOLATION_PCT, no farther.
-        assert_eq!(c.clamp_rh(79.5f64), (79.5, false));
-        assert_eq!(c.clamp_rh(85.0f64), (78.0 + EXTRAPOLATION_PCT, true));
-        assert_eq!(c.clamp_rh(30.0f64), (40.0 - EXTRAPOLATION_PCT, true));
+        assert_eq!(c.clamp_design_rh(79.5f64), (79.5, false));
+        assert_eq!(c.clamp_design_rh(85.0f64), (78.0 + EXTRAPOLATION_PCT, true));
+        assert_eq!(c.clamp_design_rh(30.0f64), (40.0 - EXTRAPOLATION_PCT, true));
+        assert_eq!(c.clamp_rh(79.5f64), (78.0, true), "the declared range is the bench's");
     }
 
     #[test]

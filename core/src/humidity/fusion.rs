@@ -284,7 +284,11 @@ mod tests {
         assert!(disagrees(80.0, &fit(86.0, 0.4, 0.3), 1.8));
         assert!(disagrees(80.0, &fit(f64::NAN, 0.4, 0.3), 1.8));
         // A vague fit widens the band: 3·√(1.8² + 2.5²) = 9.2.
-        assert!(!disagrees(80.0f32, &StripRh { rh_pct: 71.0, sd_stat_pct: 2.0, sd_cal_pct: 1.5, sd_pct: 2.5, misfit: 1.0, bins_used: 140 }, 1.8));
+        assert!(!disagrees(
+            80.0f32,
+            &StripRh { rh_pct: 71.0, sd_stat_pct: 2.0, sd_cal_pct: 1.5, sd_pct: 2.5, misfit: 1.0, bins_used: 140 },
+            1.8
+        ));
     }
 
     #[test]

@@ -10,9 +10,9 @@
 
 use crate::calibration::humidity_path::{SensorKind, relax};
 use crate::calibration::laws::Calibration;
-use crate::humidity::fusion::{Estimate, SensorBias, disagrees, lag_var, reading_sd};
 #[cfg(test)]
 use crate::humidity::fusion::BIAS_MEMORY_S;
+use crate::humidity::fusion::{Estimate, SensorBias, disagrees, lag_var, reading_sd};
 use crate::humidity::spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
 use crate::humidity::strip::{Refusal, StripRh};
 use crate::numeric::real::Real;

@@ -29,9 +29,9 @@ pub fn load(spec: Option<&str>) -> Result<Calibration> {
 /// `rh_pct` if it lies in the calibration's declared range; outside it the laws would be
 /// extrapolated, which is refused rather than done silently.
 pub fn declared_rh(calib: &Calibration, rh_pct: f64) -> Result<f64> {
-    match (calib.rh_min..=calib.rh_max).contains(&rh_pct) {
-        true => Ok(rh_pct),
-        false => bail!(
+    match calib.clamp_rh(rh_pct) {
+        (_, false) => Ok(rh_pct),
+        _ => bail!(
             "--rh {rh_pct} is outside the calibration's declared range {}–{} % (its laws are not extrapolated)",
             calib.rh_min,
             calib.rh_max
