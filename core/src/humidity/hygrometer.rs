@@ -551,7 +551,7 @@ mod tests {
         let c = Calibration::default_preset();
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         let fit = |rh: f64| StripRh { rh_pct: rh, sd_stat_pct: 0.3, sd_cal_pct: 0.3, sd_pct: 0.42, misfit: 1.0, bins_used: 140 };
-        let mut next = |h: &mut BlockHygrometer<f64>, rh: f64| {
+        let next = |h: &mut BlockHygrometer<f64>, rh: f64| {
             while h.push(&[1e-7; 32], Some(70.0)).is_none() {}
             h.complete(Ok(fit(rh)));
             h.humidities(70.0)
