@@ -53,12 +53,15 @@ pub fn parse(text: &str) -> Result<Calibration, FileError> {
 }
 
 /// What loading requires of any calibration (file or preset): physical laws on the declared
-/// range, and the firmware's f32 inverse designable every [`DESIGN_CHECK_STEP_PCT`] % of it.
+/// range, and the firmware's f32 inverse designable every [`DESIGN_CHECK_STEP_PCT`] % of the
+/// humidities it designs at ([`Calibration::design_range`]: the laws' continuation past the
+/// range included).
 pub fn check(c: &Calibration) -> Result<(), FileError> {
     c.validate().map_err(FileError::Invalid)?;
-    let steps = Real::ceil((c.rh_max - c.rh_min) / DESIGN_CHECK_STEP_PCT) as usize;
+    let (lo, hi) = c.design_range();
+    let steps = Real::ceil((hi - lo) / DESIGN_CHECK_STEP_PCT) as usize;
     for i in 0..=steps {
-        let rh = (c.rh_min + i as f64 * DESIGN_CHECK_STEP_PCT).min(c.rh_max);
+        let rh = (lo + i as f64 * DESIGN_CHECK_STEP_PCT).min(hi);
         if let Err(error) = design_inverse(c, rh as f32, &DesignConfig::<f32>::default()) {
             let (farthest, value) = farthest_from_default(&c.params_at(rh), rh);
             return Err(FileError::Undesignable { rh_pct: rh, error, farthest, value });
@@ -283,6 +286,7 @@ mod tests {
         let e = check(&c).unwrap_err();
         assert!(matches!(e, FileError::Undesignable { farthest: ParamName::L, .. }), "{e}");
         let shown = e.to_string();
-        assert!(shown.contains("RH 20.0 %") && shown.contains("parameter L = 6.6e22 m"), "{shown}");
+        // The first humidity checked is the design range's lower end, 2 %RH below the declared 20.
+        assert!(shown.contains("RH 18.0 %") && shown.contains("parameter L = 6.6e22 m"), "{shown}");
     }
 }

@@ -167,6 +167,10 @@ pub fn one(truths_path: &Path, print_seconds: bool, input: &Path, calib: &str, n
     if !refusals.is_empty() {
         notes.push(format!("{stem}: refused (seconds after {SKIP_S} s): {refusals:?}"));
     }
+    let disagreed = seconds.iter().filter(|s| s.disagrees).count();
+    if disagreed > 0 {
+        notes.push(format!("{stem}: {disagreed} fits disagreed with the reading beyond both their uncertainties (fused held the reading)"));
+    }
     let last = seconds.iter().rev().find_map(|s| s.strip.ok());
     if let Some(e) = last {
         notes.push(format!(

@@ -120,7 +120,7 @@ pub fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64, period_s: f64) -
     let chain = scoring.score(&est.base_est_m, &scoring.truth(base, bursts), bursts, None);
     // The exact inverse at the humidity the chain's first design is for.
     let rh_read = rec.rh_pct.iter().sum::<f64>() / n as f64;
-    let (rh, _) = calib.clamp_rh(calib.humidity.correct(rh_read));
+    let (rh, _) = calib.clamp_design_rh(calib.humidity.correct(rh_read));
     // Wherever the band filter lets anything through, as the chain's estimate is scored.
     let x = exact::inverse(calib, rh, &rec.current_a, rec.fs_hz, scoring.support_hz()?);
     let exact = scoring.score(&scoring.filtered(&x, bursts), &scoring.truth_unshifted(base, bursts), bursts, None);

@@ -14,6 +14,15 @@ use crate::numeric::real::Real;
 /// Most coefficients a law may have (a sixth-order polynomial, as the paper prints for d).
 pub const MAX_LAW_COEFFS: usize = 7;
 
+/// How far past the declared range (the bench's outermost readings) a design is made [%RH];
+/// beyond, the design holds there. The declared range ends at the readings the bench took,
+/// and a chamber sensor reads a level 0.5–1.5 %RH off (the project's sessions draw its level
+/// error with a 1σ of 0.75 %RH): a strip in service up to about two of those past the bench's
+/// edge may be no farther from its calibrated levels than they were from their readings. There
+/// the laws continue along their tangent in ln ([`Law::eval_continued`]) rather than by their
+/// polynomial's tail, which a fit inside the range does not constrain.
+pub const EXTRAPOLATION_PCT: f64 = 2.0;
+
 /// How a law's polynomial maps relative humidity (percent) to the parameter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -60,6 +69,36 @@ impl Law {
             LawKind::Poly => acc,
             LawKind::LogPoly => acc.exp(),
         }
+    }
+
+    /// d ln(value) / d RH at `rh_pct`.
+    pub fn ln_slope<T: Real>(&self, rh_pct: T) -> T {
+        // Horner for the polynomial and its derivative together.
+        let (mut p, mut dp) = (T::zero(), T::zero());
+        for &c in self.coeffs.iter().rev() {
+            dp = dp * rh_pct + p;
+            p = p * rh_pct + T::lit(c);
+        }
+        match self.kind {
+            LawKind::Poly => dp / p,
+            LawKind::LogPoly => dp,
+        }
+    }
+
+    /// The law on `lo`–`hi`; beyond, continued from the nearer edge along its tangent in ln: its
+    /// value there times exp(slope·distance). A polynomial fitted on a range bends past it as
+    /// its highest terms please (a sixth-order ln-law's tail moves a parameter by tens of
+    /// percent within 1 %RH); its tangent carries on as the strip was changing at the edge, and
+    /// stays positive.
+    pub fn eval_continued<T: Real>(&self, rh_pct: T, lo: f64, hi: f64) -> T {
+        let edge = if rh_pct > T::lit(hi) {
+            T::lit(hi)
+        } else if rh_pct < T::lit(lo) {
+            T::lit(lo)
+        } else {
+            return self.eval(rh_pct);
+        };
+        self.eval(edge) * (self.ln_slope(edge) * (rh_pct - edge)).exp()
     }
 }
 
@@ -327,16 +366,18 @@ impl Calibration {
         u
     }
 
-    /// Every parameter at `rh_pct` as the smooth laws alone say, without `[departures]`.
+    /// Every parameter at `rh_pct` as the smooth laws alone say, without `[departures]`;
+    /// beyond the declared range, continued along their tangents ([`Law::eval_continued`]).
     pub fn laws_at<T: Real>(&self, rh_pct: T) -> Params<T> {
+        let (lo, hi) = (self.rh_min, self.rh_max);
         Params {
-            y: self.y.eval(rh_pct),
-            cs: self.cs.eval(rh_pct),
-            ca: self.ca.eval(rh_pct),
-            kappa_e: self.kappa_e.eval(rh_pct),
-            d: self.d.eval(rh_pct),
-            h: self.h.eval(rh_pct),
-            m: self.m.eval(rh_pct),
+            y: self.y.eval_continued(rh_pct, lo, hi),
+            cs: self.cs.eval_continued(rh_pct, lo, hi),
+            ca: self.ca.eval_continued(rh_pct, lo, hi),
+            kappa_e: self.kappa_e.eval_continued(rh_pct, lo, hi),
+            d: self.d.eval_continued(rh_pct, lo, hi),
+            h: self.h.eval_continued(rh_pct, lo, hi),
+            m: self.m.eval_continued(rh_pct, lo, hi),
             l: T::lit(self.l),
             b: T::lit(self.b),
             alpha0: T::lit(self.alpha0),
@@ -347,20 +388,22 @@ impl Calibration {
         }
     }
 
+    /// The humidities a design is made at: the declared range and [`EXTRAPOLATION_PCT`] either
+    /// side of it, within 0–100 %RH.
+    pub fn design_range(&self) -> (f64, f64) {
+        ((self.rh_min - EXTRAPOLATION_PCT).max(0.0), (self.rh_max + EXTRAPOLATION_PCT).min(100.0))
+    }
+
     /// Clamps to the declared range; the flag says whether clamping happened.
     pub fn clamp_rh<T: Real>(&self, rh_pct: T) -> (T, bool) {
-        let lo = T::lit(self.rh_min);
-        let hi = T::lit(self.rh_max);
-        if rh_pct.is_nan() {
-            return (lo, true);
-        }
-        if rh_pct < lo {
-            (lo, true)
-        } else if rh_pct > hi {
-            (hi, true)
-        } else {
-            (rh_pct, false)
-        }
+        clamp(rh_pct, self.rh_min, self.rh_max)
+    }
+
+    /// Clamps to the humidities a design is made at ([`Calibration::design_range`]); the flag
+    /// says whether clamping happened.
+    pub fn clamp_design_rh<T: Real>(&self, rh_pct: T) -> (T, bool) {
+        let (lo, hi) = self.design_range();
+        clamp(rh_pct, lo, hi)
     }
 
     /// Rejects a calibration whose laws or constants are non-positive or non-finite anywhere on
@@ -413,6 +456,21 @@ impl Calibration {
             }
         }
         Ok(())
+    }
+}
+
+/// `rh_pct` within `lo`–`hi` (NaN: `lo`), and whether it had to be moved.
+fn clamp<T: Real>(rh_pct: T, lo: f64, hi: f64) -> (T, bool) {
+    let (lo, hi) = (T::lit(lo), T::lit(hi));
+    if rh_pct.is_nan() {
+        return (lo, true);
+    }
+    if rh_pct < lo {
+        (lo, true)
+    } else if rh_pct > hi {
+        (hi, true)
+    } else {
+        (rh_pct, false)
     }
 }
 
@@ -478,6 +536,40 @@ mod tests {
         let mut c = Calibration::default_preset();
         c.set(ParamName::Y, f64::NAN);
         assert!(matches!(c.validate(), Err(ValidationError::NonPhysical { param: ParamName::Y, .. })));
+    }
+
+    /// Past the declared range the laws carry on along their tangent in ln: continuous and
+    /// with the edge's slope at the edge, straight in ln beyond, however the polynomial bends.
+    #[test]
+    fn laws_continue_along_their_tangent_past_the_range() {
+        let mut c = Calibration::default_preset();
+        (c.rh_min, c.rh_max) = (40.0, 78.0);
+        // A law whose sixth-order tail turns over within 2 %RH of the edge.
+        c.y = Law::log_poly([20.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1e-11]);
+        let at = |rh: f64| -> f64 { c.laws_at(rh).y.ln() };
+        let slope = c.y.ln_slope(78.0f64);
+        assert!((slope - -6.0 * 1e-11 * 78.0f64.powi(5)).abs() < 1e-12);
+        assert!(((at(78.0) - at(77.999)) / 0.001 - slope).abs() < 1e-3, "the edge's slope inside");
+        for dx in [0.5, 1.0, 2.0] {
+            assert!((at(78.0 + dx) - at(78.0) - slope * dx).abs() < 1e-9, "straight in ln at {dx}");
+            let tail: f64 = c.y.eval(78.0 + dx);
+            assert!((tail.ln() - at(78.0 + dx)).abs() > 1e-3 * dx, "not the polynomial's tail");
+        }
+        // Below the range too, and a poly law's continuation stays positive.
+        assert!((at(39.0) - (at(40.0) - c.y.ln_slope(40.0f64))).abs() < 1e-9);
+        let mut falling = Calibration::default_preset();
+        (falling.rh_min, falling.rh_max) = (40.0, 78.0);
+        falling.ca = Law::poly([0.1, -0.001, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let past: f64 = falling.laws_at(150.0f64).ca;
+        assert!(past > 0.0 && past < falling.ca.eval(78.0f64));
+        // f32 as f64.
+        let single: f32 = c.laws_at(79.0f32).y;
+        assert!((single as f64 / c.laws_at(79.0f64).y - 1.0).abs() < 1e-5);
+        // Designs go past the range by EXTRAPOLATION_PCT, no farther.
+        assert_eq!(c.clamp_design_rh(79.5f64), (79.5, false));
+        assert_eq!(c.clamp_design_rh(85.0f64), (78.0 + EXTRAPOLATION_PCT, true));
+        assert_eq!(c.clamp_design_rh(30.0f64), (40.0 - EXTRAPOLATION_PCT, true));
+        assert_eq!(c.clamp_rh(79.5f64), (78.0, true), "the declared range is the bench's");
     }
 
     #[test]

@@ -12,4 +12,4 @@ pub mod laws;
 pub mod moments;
 pub mod uncertainty;
 
-pub use laws::{Calibration, Law, LawKind, MAX_LAW_COEFFS, ValidationError};
+pub use laws::{Calibration, EXTRAPOLATION_PCT, Law, LawKind, MAX_LAW_COEFFS, ValidationError};

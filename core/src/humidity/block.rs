@@ -1,7 +1,9 @@
 //! The humidity each block's design is for, block by block: the sensor's latest reading through
 //! the calibration's humidity path (the correction, then the strip's hydration advanced by the
 //! block's own duration), read ahead along its trend to the moment a design asked for now will
-//! stand for ([`super::trend`]), clamped to the calibrated range.
+//! stand for ([`super::trend`]), clamped to the humidities a design is made at (the calibrated
+//! range and [`crate::calibration::EXTRAPOLATION_PCT`] past it, where the laws continue along
+//! their tangents).
 //!
 //! The strip's model runs on the sample clock, not on the time the reading arrived: the
 //! firmware's sample path and the host's replica (`ipmc compensate`) advance it by the same
@@ -27,12 +29,14 @@ pub fn design_lead_s(reading_age_s: f64) -> f64 {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlockRh<T> {
     /// The strip's humidity when a design asked for now is in effect, clamped to the
-    /// calibration's range: what the design is for [%].
+    /// calibration's design range ([`Calibration::design_range`]): what the design is for [%].
     pub rh_pct: T,
-    /// Whether the clamp had to act, or the strip's humidity itself is beyond the range.
+    /// Whether the clamp had to act, or the strip's humidity itself is beyond the declared range
+    /// (its design extrapolated).
     pub clamped: bool,
-    /// How far the strip's humidity lies outside the range [%RH], signed (below: < 0), 0 inside:
-    /// the humidity error of a design held at the edge (`BlockError::beyond_range`).
+    /// How far the strip's humidity lies outside the declared range [%RH], signed (below: < 0),
+    /// 0 inside: stated as the humidity error of a design held at the edge
+    /// (`BlockError::beyond_range`), which bounds what the tangent's extrapolation may miss.
     pub beyond_pct: T,
 }
 
@@ -45,6 +49,7 @@ pub struct BlockHumidity<T> {
     lead_s: T,
     rh_min: f64,
     rh_max: f64,
+    design_range: (f64, f64),
 }
 
 impl<T: Real> BlockHumidity<T> {
@@ -58,6 +63,7 @@ impl<T: Real> BlockHumidity<T> {
             lead_s: T::lit(design_lead_s(reading_age_s)),
             rh_min: calibration.rh_min,
             rh_max: calibration.rh_max,
+            design_range: calibration.design_range(),
         }
     }
 
@@ -71,6 +77,7 @@ impl<T: Real> BlockHumidity<T> {
         self.trend.observe(strip, dt_s);
         let ahead = self.trend.predict(self.lead_s).unwrap_or(strip);
         let (lo, hi) = (T::lit(self.rh_min), T::lit(self.rh_max));
+        let (design_lo, design_hi) = (T::lit(self.design_range.0), T::lit(self.design_range.1));
         // The strip beyond the range is flagged at once, even while the trend, which averages
         // over seconds, has not got there yet.
         let strip_out = !(strip >= lo && strip <= hi);
@@ -81,10 +88,10 @@ impl<T: Real> BlockHumidity<T> {
         } else {
             T::zero()
         };
-        Some(if ahead < lo {
-            BlockRh { rh_pct: lo, clamped: true, beyond_pct }
-        } else if ahead > hi {
-            BlockRh { rh_pct: hi, clamped: true, beyond_pct }
+        Some(if ahead < design_lo {
+            BlockRh { rh_pct: design_lo, clamped: true, beyond_pct }
+        } else if ahead > design_hi {
+            BlockRh { rh_pct: design_hi, clamped: true, beyond_pct }
         } else {
             BlockRh { rh_pct: ahead, clamped: strip_out, beyond_pct }
         })
@@ -127,8 +134,12 @@ mod tests {
         // A reading beyond the range is clamped, the strip keeps its own value.
         let mut h = BlockHumidity::<f32>::new(&calib(HumidityPath::NONE), 0.5);
         let r = h.advance(97.0, 0.016).unwrap();
-        assert_eq!(r, BlockRh { rh_pct: c.rh_max as f32, clamped: true, beyond_pct: 97.0 - c.rh_max as f32 });
+        assert_eq!(r, BlockRh { rh_pct: c.design_range().1 as f32, clamped: true, beyond_pct: 97.0 - c.rh_max as f32 });
         assert_eq!(h.strip_pct(), Some(97.0));
+        // Within the extrapolation past the edge, designed where the strip is and flagged.
+        let mut h = BlockHumidity::<f32>::new(&calib(HumidityPath::NONE), 0.5);
+        let r = h.advance(c.rh_max as f32 + 1.0, 0.016).unwrap();
+        assert_eq!(r, BlockRh { rh_pct: c.rh_max as f32 + 1.0, clamped: true, beyond_pct: 1.0 });
         // A reading that jumps beyond the range is flagged at once, while the design the trend
         // asks for is still inside it.
         let mut h = BlockHumidity::<f32>::new(&calib(HumidityPath::NONE), 0.5);

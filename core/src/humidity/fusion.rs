@@ -29,6 +29,22 @@ pub struct Estimate<T> {
 /// the humidity axis is corrected with what its sensor does there.
 pub const BIAS_MEMORY_S: f64 = 600.0;
 
+/// How far a fit may lie from the reading path, in the joint standard deviations of the two
+/// (the sensor's stated accuracy and the fit's own 1σ), before the two are taken to disagree
+/// beyond both: three, a chance of 0.3 % that an honest fit and an honest sensor are that far
+/// apart. Such a fit is no measure of the sensor's bias (an alias of the strip's resonance, a
+/// strip beyond what its calibration describes): it is not learned from, and the fused
+/// humidity holds the reading until a fit agrees again.
+pub const DISAGREEMENT_Z: f64 = 3.0;
+
+/// Whether the strip's fit and the reading path averaged as its spectrum is disagree beyond
+/// both their uncertainties ([`DISAGREEMENT_Z`]); a fit that is not finite disagrees.
+pub fn disagrees<T: Real>(path_avg_pct: T, strip: &StripRh<T>, accuracy_pct: T) -> bool {
+    let d = path_avg_pct - strip.rh_pct;
+    let z = T::lit(DISAGREEMENT_Z);
+    !(d * d <= z * z * (accuracy_pct * accuracy_pct + strip.sd_pct * strip.sd_pct))
+}
+
 /// The reading path's uncertainty: the sensor's accuracy, and its lag `lag_s` times the rate the
 /// humidity moves at (`rate_pct_per_s`), in quadrature.
 pub fn reading_sd<T: Real>(accuracy_pct: T, lag_s: T, rate_pct_per_s: T) -> T {
@@ -104,6 +120,12 @@ impl<T: Real> SensorBias<T> {
             self.s2 += w * d * d / stat2;
         }
         true
+    }
+
+    /// How many independent fits the ones used are worth, faded: at most its forgetting time
+    /// over one fit's window (and the first fit's whole weight), however long the run.
+    pub fn weight(&self) -> T {
+        self.weight
     }
 
     /// The bias to take off the reading path and the variance left, the sensor's accuracy its
@@ -252,6 +274,21 @@ mod tests {
         }
         let c = b.correct(Estimate { rh_pct: 80.0, sd_pct: acc }, acc);
         assert!((c.rh_pct - 80.0).abs() < 0.25, "{c:?}");
+    }
+
+    #[test]
+    fn a_fit_beyond_both_uncertainties_disagrees() {
+        // An SHT4x (1.8 %RH) and a fit of 1σ 0.5: the joint 1σ is 1.87, three of them 5.6.
+        assert!(!disagrees(80.0, &fit(75.0, 0.4, 0.3), 1.8));
+        assert!(disagrees(80.0, &fit(74.0, 0.4, 0.3), 1.8));
+        assert!(disagrees(80.0, &fit(86.0, 0.4, 0.3), 1.8));
+        assert!(disagrees(80.0, &fit(f64::NAN, 0.4, 0.3), 1.8));
+        // A vague fit widens the band: 3·√(1.8² + 2.5²) = 9.2.
+        assert!(!disagrees(
+            80.0f32,
+            &StripRh { rh_pct: 71.0, sd_stat_pct: 2.0, sd_cal_pct: 1.5, sd_pct: 2.5, misfit: 1.0, bins_used: 140 },
+            1.8
+        ));
     }
 
     #[test]

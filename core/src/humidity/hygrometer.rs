@@ -10,7 +10,9 @@
 
 use crate::calibration::humidity_path::{SensorKind, relax};
 use crate::calibration::laws::Calibration;
-use crate::humidity::fusion::{Estimate, SensorBias, lag_var, reading_sd};
+#[cfg(test)]
+use crate::humidity::fusion::BIAS_MEMORY_S;
+use crate::humidity::fusion::{Estimate, SensorBias, disagrees, lag_var, reading_sd};
 use crate::humidity::spectrum::{AVERAGING_S, MAX_BINS, RunningSpectrum, SpectrumView};
 use crate::humidity::strip::{Refusal, StripRh};
 use crate::numeric::real::Real;
@@ -56,6 +58,9 @@ pub struct Humidities<T> {
     /// ([`crate::humidity::fusion::SensorBias::variance_without_calibration`]): the humidity's
     /// part of an error bar that states the calibration's departures already.
     pub fused_design_sd_pct: T,
+    /// The last fit and the reading disagree beyond both their uncertainties
+    /// ([`crate::humidity::fusion::disagrees`]): the fused humidity holds the reading.
+    pub disagrees: bool,
 }
 
 impl Humidities<f32> {
@@ -180,6 +185,9 @@ pub struct BlockHygrometer<T> {
     /// calibration's `uncertainty_pct`) does not turn away the fits that tell the strip's lag.
     fit_gate_pct: T,
     lag_s: T,
+    /// The last fit disagreed with the reading beyond both: until one agrees, the fused
+    /// humidity is the reading.
+    disagreeing: bool,
 }
 
 impl<T: Real> BlockHygrometer<T> {
@@ -216,6 +224,7 @@ impl<T: Real> BlockHygrometer<T> {
                 None => calib.humidity.reading_uncertainty_pct(None),
             }),
             lag_s: T::lit(sensor_lag_s),
+            disagreeing: false,
         }
     }
 
@@ -233,6 +242,22 @@ impl<T: Real> BlockHygrometer<T> {
     /// [`Self::complete`] with a fit. Not inlined, as [`SensorBias::observe`].
     #[inline(never)]
     fn learn(&mut self, s: &StripRh<T>) {
+        // The reading path averaged as the spectrum is, over the lags as they stand.
+        let (mut path_avg, mut total) = (T::zero(), T::zero());
+        let prior = self.used_at.is_none() || self.n_lags == 1;
+        for l in self.lags[..self.n_lags].iter() {
+            if let Some(trend) = l.trend {
+                let p = if prior { T::one() } else { l.probability };
+                path_avg += p * trend;
+                total += p;
+            }
+        }
+        if total > T::zero() {
+            self.disagreeing = disagrees(path_avg / total, s, self.fit_gate_pct);
+            if self.disagreeing {
+                return;
+            }
+        }
         let new_data = T::lit((self.snapshot_at - self.used_at.unwrap_or(0)) as f64) / self.fs_hz;
         let window = T::lit(2.0 * AVERAGING_S);
         let mut used = false;
@@ -307,8 +332,9 @@ impl<T: Real> BlockHygrometer<T> {
     /// mixture of their values.
     pub fn humidities(&self, path_pct: T) -> Humidities<T> {
         let reading = Estimate { rh_pct: path_pct, sd_pct: reading_sd(self.accuracy_pct, self.lag_s, self.rate) };
-        let (fused, fused_design_sd_pct) = if self.used_at.is_some() { self.fused(reading) } else { (reading, reading.sd_pct) };
-        Humidities { reading, strip: self.strip, fused, fused_design_sd_pct }
+        let learned = self.used_at.is_some() && !self.disagreeing;
+        let (fused, fused_design_sd_pct) = if learned { self.fused(reading) } else { (reading, reading.sd_pct) };
+        Humidities { reading, strip: self.strip, fused, fused_design_sd_pct, disagrees: self.disagreeing }
     }
 
     /// The hydration lags the reading path is put through, each with its probability after the
@@ -454,5 +480,90 @@ mod tests {
         assert!((f.rh_pct - 68.0).abs() < 0.1 && f.sd_pct < r.reading.sd_pct, "{f:?}");
         h.complete(Err(Refusal::Misfit));
         assert_eq!(h.humidities(70.0).fused, f, "a refusal keeps the sensor's bias as learned");
+    }
+
+    /// An hour of service at 77–81 %RH, the air wandering by ±1.5 %RH, the strip 25 s behind it;
+    /// fits of the strip as the spectrum averages it, scattered by their stated 0.4 %RH, and an
+    /// alias 15 %RH off every ten minutes. Per second: the fused value less the strip's humidity
+    /// (None where the fit disagreed with the reading, and fused was the reading path), and the
+    /// largest weight any lag's bias holds.
+    fn an_hour(reading_bias_pct: f64) -> (Vec<Option<f64>>, f64) {
+        let c = Calibration::default_preset();
+        let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+        let dt = 32.0 / 2000.0;
+        let air = |t: f64| 79.0 + (2.0 * core::f64::consts::PI * t / 1500.0).sin() + 0.5 * (2.0 * core::f64::consts::PI * t / 370.0).sin();
+        let (mut strip, mut seen) = (air(0.0), air(0.0));
+        // A fixed sequence of scatter: a linear congruential generator's uniforms, summed.
+        let mut state = 12345u64;
+        let mut uniform = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut out, mut most) = (vec![], 0.0f64);
+        for k in 0..3600 * 2000 / 32 {
+            let t = k as f64 * dt;
+            strip += dt / 25.0 * (air(t) - strip);
+            seen += dt / AVERAGING_S * (strip - seen);
+            let path = air(t) + reading_bias_pct;
+            if h.push(&[1e-7; 32], Some(path)).is_some() {
+                let second = out.len();
+                // Twelve uniforms less six: about a unit normal.
+                let z = (0..12).map(|_| uniform()).sum::<f64>() - 6.0;
+                let alias = second % 600 == 300;
+                let rh = if alias { seen - 15.0 } else { seen + 0.4 * z };
+                h.complete(Ok(StripRh { rh_pct: rh, sd_stat_pct: 0.4, sd_cal_pct: 0.2, sd_pct: 0.45, misfit: 1.0, bins_used: 140 }));
+                let now = h.humidities(path);
+                assert_eq!(now.disagrees, alias, "second {second}");
+                assert!(!alias || now.fused.rh_pct == path, "second {second}: the reading held");
+                out.push((!alias).then_some(now.fused.rh_pct - strip));
+                most = h.lags[..h.n_lags].iter().fold(most, |m, l| m.max(l.bias.weight()));
+            }
+        }
+        (out, most)
+    }
+
+    /// Over an hour the fusion follows the strip where the sensor is off, stays with it where the
+    /// sensor is right, and never runs away: its memory is bounded (the bias's weight no more
+    /// than its forgetting time holds), and the last ten minutes are as good as the first after
+    /// it has learned.
+    #[test]
+    fn an_hour_of_service_follows_the_strip_and_never_runs_away() {
+        let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+        let bound = BIAS_MEMORY_S / (2.0 * AVERAGING_S) + 1.0;
+        for bias in [2.0, 0.0, -1.0] {
+            let (err, most) = an_hour(bias);
+            let err: Vec<f64> = err.into_iter().flatten().collect();
+            assert!(err.len() > 3500, "a fit every 63 blocks, six of them aliases: {}", err.len());
+            let settled = &err[300..];
+            let worst = settled.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+            let (early, late) = (rms(&err[300..900]), rms(&err[err.len() - 600..]));
+            // The reading is |bias| off the air and the strip a lag behind it: fused is far nearer.
+            assert!(rms(settled) < 0.3 && worst < 1.0, "bias {bias}: rms {} worst {worst}", rms(settled));
+            assert!(late < 1.5 * early.max(0.1), "bias {bias}: no growth, {early} then {late}");
+            assert!(most <= bound, "bias {bias}: weight {most} > {bound}");
+        }
+    }
+
+    /// An alias 15 %RH below the reading (an HTS221, 3.5 %RH): said so, not learned from, and
+    /// the reading held until a fit agrees; what was learned before it stands again after.
+    #[test]
+    fn a_fit_that_disagrees_beyond_both_holds_the_reading() {
+        let c = Calibration::default_preset();
+        let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+        let fit = |rh: f64| StripRh { rh_pct: rh, sd_stat_pct: 0.3, sd_cal_pct: 0.3, sd_pct: 0.42, misfit: 1.0, bins_used: 140 };
+        let next = |h: &mut BlockHygrometer<f64>, rh: f64| {
+            while h.push(&[1e-7; 32], Some(70.0)).is_none() {}
+            h.complete(Ok(fit(rh)));
+            h.humidities(70.0)
+        };
+        let first = next(&mut h, 55.0);
+        assert!(first.disagrees && first.fused == first.reading, "{first:?}");
+        assert!(h.used_at.is_none(), "nothing learned from it");
+        let agreed = next(&mut h, 68.5);
+        assert!(!agreed.disagrees && (agreed.fused.rh_pct - 68.5).abs() < 0.3, "{agreed:?}");
+        let alias = next(&mut h, 55.0);
+        assert!(alias.disagrees && alias.fused == alias.reading, "{alias:?}");
+        let again = next(&mut h, 68.5);
+        assert!(!again.disagrees && (again.fused.rh_pct - 68.5).abs() < 0.3, "{again:?}");
     }
 }

@@ -29,6 +29,10 @@ pub struct Args {
     /// (whole periods where the recording states its period).
     #[arg(long, value_name = "WINDOW_S")]
     coverage: Option<f64>,
+    /// With --coverage, also every window: its actual error and stated 1σ (an hour of service
+    /// minute by minute, say).
+    #[arg(long, requires = "coverage")]
+    per_window: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -47,6 +51,11 @@ pub fn run(a: Args) -> Result<()> {
                 100.0 * b.whole.actual,
                 b.windows.len()
             );
+            if a.per_window {
+                for (k, w) in b.windows.iter().enumerate() {
+                    println!("    window {k:4}   {:15.3}   {:10.3}", 100.0 * w.stated, 100.0 * w.actual);
+                }
+            }
         }
         let (w, b) = (c.windows_covered, c.bursts_covered);
         let window = match scoring.period {

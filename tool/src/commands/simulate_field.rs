@@ -27,6 +27,10 @@ pub struct Args {
     seed: u64,
     #[arg(long, default_value_t = 90.0)]
     seconds: f64,
+    /// The air's drift about `--rh`: each of its two slow sinusoids (periods 40–100 s) has an
+    /// amplitude of 0.5–1 times this [%RH]; the strip, 25 s behind the air, wanders less.
+    #[arg(long, default_value_t = 0.8)]
+    wander_pct: f64,
     /// The current's noise density [A/√Hz]: by default the amplifier's, as the project's time
     /// series sessions take it and the lab's recordings show it (3.16e-10), not the
     /// calibration's figure.
@@ -54,7 +58,7 @@ pub fn run(a: Args) -> Result<()> {
         seconds: a.seconds,
         fs_hz: 2000.0,
         rh_level_pct: a.rh,
-        wander_pct: 0.8,
+        wander_pct: a.wander_pct,
         tau_strip_s: 25.0,
         sensor,
         a_rms: 20.0,

@@ -95,7 +95,7 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
         // The exact inverse at the humidity the chain's first design is for: the reading
         // through the calibration's humidity path (a settled strip), clamped to the range.
         let rh_read = rec.rh_pct.iter().sum::<f64>() / n as f64;
-        let (rh, _) = calib.clamp_rh(calib.humidity.correct(rh_read));
+        let (rh, _) = calib.clamp_design_rh(calib.humidity.correct(rh_read));
         // The exact inverse wherever the band filter lets anything through, so that both are
         // scored alike through it: the transitions pass the current's noise lifted by either.
         let support = scoring.support_hz()?;

@@ -30,6 +30,8 @@ pub struct Second {
     /// weighted mean over the lags weighed [s]: while the fits cannot tell the lags apart, the
     /// prior's.
     pub path_lag_s: f64,
+    /// The fit and the reading disagreed beyond both their uncertainties: fused is the reading.
+    pub disagrees: bool,
 }
 
 /// Runs over a recording, block by block as the firmware does (each block's reading its mean,
@@ -69,6 +71,7 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
                     fused: h.fused,
                     fused_design_sd_pct: h.fused_design_sd_pct,
                     path_lag_s: hygrometer.lag_weights().map(|(tau, p)| tau * p).sum(),
+                    disagrees: h.disagrees,
                 });
             }
         }
@@ -132,6 +135,7 @@ mod tests {
             fused: e,
             fused_design_sd_pct: 1.0,
             path_lag_s: 0.0,
+            disagrees: false,
         }
     }
 
