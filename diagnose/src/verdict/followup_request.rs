@@ -58,12 +58,19 @@ pub fn resolves(protocol: Protocol) -> &'static [Effect] {
 /// already a hypothesis, weighed against the group by its prior and its own evidence here,
 /// exp(ΔBIC/2), whether or not it passed the gates naming needs (a gate decides what may be
 /// stated, not what is worth measuring). The group's total is unchanged.
+///
+/// With `leaning_only` (a confident `none` after a follow-up), an effect below the reach enters
+/// only where these recordings lean to it (ΔBIC > 0): the first follow-up explores what the
+/// primary cannot carry on the prior alone, but once one has been taken and `none` still holds,
+/// another asked on the prior alone would cost every clean strip a second session with nothing
+/// in the data pointing at it.
 pub fn within_none(
     probabilities: &[Probability],
     within: &[Probability],
     scores: &[Score],
     reach: &HumidityReach,
     temperatures: bool,
+    leaning_only: bool,
 ) -> Vec<Probability> {
     let group = probabilities.iter().find(|p| p.name == NONE).map_or(0.0, |p| p.probability);
     let lag_open = reach.shortest_lag_s.is_none_or(|t| t > crate::humidity::reach::LAB_LAG_S);
@@ -83,6 +90,9 @@ pub fn within_none(
             .filter(|s| s.name == effect.name() && s.applicable && s.delta_bic.is_finite())
             .map(|s| s.delta_bic)
             .fold(f64::NEG_INFINITY, f64::max);
+        if leaning_only && !(bic > 0.0) {
+            continue;
+        }
         let bic = if bic.is_finite() { bic } else { 0.0 };
         odds.push((effect.name().into(), (ln_prior_effect - PRIOR_NONE.ln() + bic / 2.0).exp()));
     }
@@ -293,7 +303,7 @@ mod tests {
         let layout = Layout { rh_range_pct: [38.0, 80.0], band_hz: [10.0, 150.0], temp_c: Some(20.0), session_h: 3.0, taken: vec![] };
         let none = [p("none", 1.0)];
         let open_of = |probabilities: &[Probability], within: &[Probability], scores: &[Score], reach: &HumidityReach, temps: bool| {
-            let w = within_none(probabilities, within, scores, reach, temps);
+            let w = within_none(probabilities, within, scores, reach, temps, false);
             let group: f64 = probabilities.iter().filter(|p| p.name == NONE).map(|p| p.probability).sum();
             assert!((w.iter().map(|p| p.probability).sum::<f64>() - group).abs() < 1e-12, "{w:?}");
             open_hypotheses(probabilities, &w)
@@ -332,5 +342,15 @@ mod tests {
         assert_eq!(request(Verdict::Unexplained, &open, &reach, &layout).map(|r| r.protocol), Some(Protocol::Step));
         let stepped = Layout { taken: vec![Protocol::Step], ..Layout { temp_c: Some(20.0), ..no_temp } };
         assert_ne!(request(Verdict::Unexplained, &open, &reach, &stepped).map(|r| r.protocol), Some(Protocol::Step));
+        // After a follow-up, a confident `none` asks only for what the recordings lean to: a
+        // temperature dependence they do not favour is not asked for on its prior alone.
+        let prior_only = [score("hydration_lag", -3.0), score("humidity_sensor_error", -3.0), score("temperature", -1.0)];
+        let w = within_none(&none, &none, &prior_only, &reach, true, true);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(request(Verdict::None, &open_hypotheses(&none, &w), &reach, &stepped).is_none());
+        let leaning = [score("hydration_lag", -3.0), score("humidity_sensor_error", -3.0), score("temperature", 4.0)];
+        let w = within_none(&none, &none, &leaning, &reach, true, true);
+        let r = request(Verdict::None, &open_hypotheses(&none, &w), &reach, &stepped).unwrap();
+        assert_eq!(r.protocol, Protocol::Temperature);
     }
 }
