@@ -82,8 +82,9 @@ pub(crate) struct Decision {
 /// exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of the marginal likelihood, Kass &
 /// Raftery 1995; on the data ΔBIC is divided by the overdispersion `c_hat`), averaged over the
 /// levels' bootstrap ([`crate::evidence::level_bootstrap`]: how much of a lead the `n_levels` levels
-/// share), the split among candidates tempered by `between` ([`crate::verdict::misfit`]). Most
-/// probable first.
+/// share), the split among the candidates above their floor tempered by `between`
+/// ([`crate::verdict::misfit`]); the null and the candidates below their floor keep BIC's point
+/// odds. Most probable first.
 pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64, between: f64) -> Vec<Probability> {
     let ln_prior_effect = ((1.0 - PRIOR_NONE) / n_effects.max(1) as f64).ln();
     let supported: Vec<&Score> = scores.iter().filter(|s| supported(s)).collect();
@@ -94,14 +95,20 @@ pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64
             s.delta_chi2_per_level.iter().map(|d| d / scale).collect()
         })
         .collect();
+    // The null first, then the candidates below their floor (counted with it), then the rest.
+    let order: Vec<usize> = (0..supported.len())
+        .filter(|&i| supported[i].below_floor)
+        .chain((0..supported.len()).filter(|&i| !supported[i].below_floor))
+        .collect();
+    let group = 1 + supported.iter().filter(|s| s.below_floor).count();
     let mut hypotheses = vec![Evidence { ln_prior: PRIOR_NONE.ln(), delta_bic: 0.0, per_level: &[] }];
-    hypotheses.extend(supported.iter().zip(&per_level).map(|(s, d)| Evidence {
-        ln_prior: ln_prior_effect - (forms(scores, &s.name) as f64).ln(),
-        delta_bic: s.delta_bic,
-        per_level: d,
+    hypotheses.extend(order.iter().map(|&i| Evidence {
+        ln_prior: ln_prior_effect - (forms(scores, &supported[i].name) as f64).ln(),
+        delta_bic: supported[i].delta_bic,
+        per_level: &per_level[i],
     }));
-    let p = averaged_posterior(&hypotheses, n_levels, EVIDENCE_SCALE, between);
-    let names = std::iter::once(NONE.to_string()).chain(supported.iter().map(|s| s.name.clone()));
+    let p = averaged_posterior(&hypotheses, group, n_levels, EVIDENCE_SCALE, between);
+    let names = std::iter::once(NONE.to_string()).chain(order.iter().map(|&i| supported[i].name.clone()));
     let mut out: Vec<Probability> = names.zip(p).map(|(name, probability)| Probability { name, probability }).collect();
     out.sort_by(|a, b| b.probability.total_cmp(&a.probability));
     out
