@@ -172,13 +172,24 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + 
         .filter(|e| matches!(e, crate::Effect::HydrationLag | crate::Effect::HumiditySensorError))
         .map(|_| crate::humidity::path::fit(&ctx, decision.overdispersion));
     let humidity_reach = crate::humidity::reach::reach(&ctx);
-    let request =
-        crate::verdict::followup_request::request(decision.verdict, &decision.probabilities, &ranked, &humidity_reach, &layout(data));
+    let layout = layout(data);
+    let within_none = crate::verdict::followup_request::within_none(
+        &decision.probabilities,
+        &decision.within_none,
+        &ranked,
+        &humidity_reach,
+        layout.temp_c.is_some(),
+        !layout.taken.is_empty() && matches!(decision.verdict, crate::Verdict::None | crate::Verdict::Unexplained),
+    );
+    let open = crate::verdict::followup_request::open_hypotheses(&decision.probabilities, &within_none);
+    let request = crate::verdict::followup_request::request(decision.verdict, &open, &humidity_reach, &layout);
     Ok(Diagnosis {
         instrument: crate::verdict::types::InstrumentReport::of(&instrument, &calib.instrument),
         channels: instrument.channels,
         verdict: decision.verdict,
         probabilities: decision.probabilities,
+        within_none,
+        tempering: decision.tempering,
         set: decision.set,
         separation: decision.separation,
         indistinguishable: decision.alternatives,
@@ -251,7 +262,15 @@ fn layout(data: &Dataset) -> crate::verdict::followup_request::Layout {
     let levels = &data.levels;
     let fold = |v: &mut dyn Iterator<Item = f64>| v.fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], x| [a.min(x), b.max(x)]);
     let temps: Vec<f64> = levels.iter().filter_map(|l| l.temp_c).collect();
+    let primary: Vec<f64> = levels.iter().filter(|l| l.session == 0).filter_map(|l| l.time_s).collect();
+    let span_s = fold(&mut primary.iter().copied());
+    let session_h = if primary.len() >= 2 && span_s[1] > span_s[0] {
+        (span_s[1] - span_s[0]) / 3600.0
+    } else {
+        0.25 * levels.iter().filter(|l| l.session == 0).count() as f64
+    };
     crate::verdict::followup_request::Layout {
+        session_h,
         rh_range_pct: fold(&mut levels.iter().map(|l| l.rh_pct)),
         band_hz: fold(&mut levels.iter().flat_map(|l| l.freqs.iter().copied())),
         temp_c: (!temps.is_empty() && temps.len() == levels.len()).then(|| temps.iter().sum::<f64>() / temps.len() as f64),

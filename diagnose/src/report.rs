@@ -12,13 +12,36 @@ pub struct Figure {
     pub stem: String,
 }
 
-pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -> serde_json::Value {
+/// The options a diagnosis was run with besides its recordings and `--report` (`--calib FILE`,
+/// the instrument's tolerances, …), as typed: a suggested command repeats them.
+pub struct Rerun<'a> {
+    pub inputs: &'a [String],
+    pub options: &'a [String],
+}
+
+impl Rerun<'_> {
+    /// The diagnosis to run with a follow-up: every input this one used, and `FOLLOWUP.csv`.
+    pub fn with_followup(&self) -> String {
+        let mut words: Vec<&str> = vec!["ipmc", "diagnose"];
+        words.extend(self.inputs.iter().map(String::as_str));
+        words.push("FOLLOWUP.csv");
+        words.extend(self.options.iter().map(String::as_str));
+        words.extend(["--report", "DIR"]);
+        words.join(" ")
+    }
+}
+
+pub fn json(d: &Diagnosis, rerun: &Rerun, calib: &str, figures: &[Figure]) -> serde_json::Value {
+    let inputs = rerun.inputs;
     json!({
         "verdict": d.verdict,
         "probabilities": d.probabilities,
+        "within_none": d.within_none,
         "set": d.set,
-        "set_rule": format!("the smallest set of hypotheses holding {:.0} % of the probability; a name is stated only when it alone does (else the verdict is undecided)", 100.0 * crate::verdict::decide::CONFIDENCE),
-        "separating_measurement": separating_measurement(d, inputs),
+        "set_rule": format!("the smallest set of hypotheses holding {:.0} % of the probability, `none` holding the candidates below their floor and the effects this recording cannot carry (within_none); a name is stated only when it alone holds it and passes every gate (else the verdict is undecided)", 100.0 * crate::verdict::decide::CONFIDENCE),
+        "tempering": d.tempering,
+        "separating_measurement": separating_measurement(d, rerun),
+        "no_protocol_left": no_protocol_left(d),
         "humidity_reach": d.humidity_reach,
         "indistinguishable": d.indistinguishable,
         "instrument": d.instrument,
@@ -46,17 +69,24 @@ pub fn json(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -
 /// What would separate the set's leaders (when two share it) and the follow-up to record: the
 /// protocol with its parameters, what it decides between and the recipe; null when the verdict
 /// names an effect.
-fn separating_measurement(d: &Diagnosis, inputs: &[String]) -> serde_json::Value {
+fn separating_measurement(d: &Diagnosis, rerun: &Rerun) -> serde_json::Value {
     if d.separation.is_none() && d.request.is_none() {
         return serde_json::Value::Null;
     }
     let mut m = d.separation.as_ref().map_or_else(|| json!({}), |s| json!(s));
     if let Some(r) = &d.request {
         let mut protocol = json!(r);
-        protocol["recipe"] = json!(r.recipe(&primary_name(inputs)));
+        protocol["recipe"] = json!(r.recipe(&primary_name(rerun.inputs), &rerun.with_followup()));
+        protocol["command"] = json!(rerun.with_followup());
         m["protocol"] = protocol;
     }
     m
+}
+
+/// A report short of a name that asks for no follow-up: every protocol is taken, or none of
+/// those left resolves anything still open.
+fn no_protocol_left(d: &Diagnosis) -> bool {
+    d.verdict.effect().is_none() && d.request.is_none()
 }
 
 /// The file name a follow-up's `# strip=` names: the first recording's.
@@ -105,18 +135,19 @@ fn fmt_value(v: f64) -> String {
     if v == 0.0 || (1e-3..1e4).contains(&v.abs()) { format!("{v:.4}") } else { format!("{v:.3e}") }
 }
 
-pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure]) -> String {
+pub fn markdown(d: &Diagnosis, rerun: &Rerun, calib: &str, figures: &[Figure]) -> String {
+    let inputs = rerun.inputs;
     let mut s = String::new();
     let _ = writeln!(s, "# Diagnosis\n");
     let _ = writeln!(s, "Recordings: {}  \nCalibration: {calib}\n", inputs.join(", "));
     let verdict = match d.verdict {
-        Verdict::None => match d.probabilities.iter().find(|p| p.name != "none" && d.set.contains(&p.name)) {
+        Verdict::None => match d.within_none.iter().find(|p| p.name != "none" && d.set.contains(&p.name)) {
             // `none` holds the confidence with candidates below their floor: they are named in
             // the verdict, so that it does not read as "none" against a larger number beside it.
             Some(_) => format!(
                 "**No missing physics large enough to name** (`none` holds {}; {}, each below its floor: what it would change is too small to matter or to tell from the noise).{}",
                 percent(d, "none"),
-                d.set.iter().filter(|n| *n != "none").map(|n| format!("`{n}` {}", percent(d, n))).collect::<Vec<_>>().join(", "),
+                d.set.iter().filter(|n| *n != "none").map(|n| format!("`{n}` {}", within_percent(d, n))).collect::<Vec<_>>().join(", "),
                 none_reach(d)
             ),
             None => format!("**No missing physics above the noise** (`none` holds {}).{}", percent(d, "none"), none_reach(d)),
@@ -138,13 +169,45 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
     let _ = writeln!(s, "| hypothesis | probability | in the set |\n|---|---|---|");
     for p in &d.probabilities {
         let _ = writeln!(s, "| {} | {} | {} |", p.name, stated(p.probability), if d.set.contains(&p.name) { "yes" } else { "" });
+        if p.name == "none" {
+            for w in d.within_none.iter().filter(|w| w.probability >= 0.0005) {
+                let what = if w.name == "none" {
+                    "no effect at all".to_string()
+                } else if d.candidates.iter().any(|c| c.name == w.name && c.below_floor) {
+                    format!("`{}`, below its floor", w.name)
+                } else {
+                    format!("`{}`, below this recording's reach", w.name)
+                };
+                let _ = writeln!(s, "| · within none: {what} | {} | |", stated(w.probability));
+            }
+        }
     }
     let _ = writeln!(s);
+    if d.tempering > 1.0 {
+        let _ = writeln!(
+            s,
+            "The evidence between candidates is divided by {:.1}: the best candidate's residuals stay correlated along frequency (a misfit, not noise), so each level carries fewer independent data than points.\n",
+            d.tempering
+        );
+    }
     if let Some(m) = &d.separation {
         let _ = writeln!(s, "**What would separate {} from {}:** {} ({}): {}.\n", m.between[0], m.between[1], m.record, m.band, m.because);
     }
     if let Some(r) = &d.request {
-        let _ = writeln!(s, "**The follow-up that would decide: `{}`.** {}\n", r.protocol, r.recipe(&primary_name(inputs)));
+        let _ = writeln!(
+            s,
+            "**The follow-up that would decide: `{}`.** {}\n",
+            r.protocol,
+            r.recipe(&primary_name(inputs), &rerun.with_followup())
+        );
+        let _ = writeln!(s, "The plan, every protocol not yet taken, by expected information per hour of lab time:\n");
+        let _ = writeln!(s, "| protocol | bits | lab time | bits per hour | what it is expected to show |\n|---|---|---|---|---|");
+        for p in &r.plan {
+            let _ = writeln!(s, "| {} | {:.2} | {:.1} h | {:.2} | {} |", p.protocol, p.bits, p.hours, p.bits_per_hour, p.shows);
+        }
+        let _ = writeln!(s);
+    } else if no_protocol_left(d) {
+        let _ = writeln!(s, "**No protocol left can decide:** every follow-up protocol is taken or resolves nothing still open here.\n");
     }
     let r = &d.humidity_reach;
     let _ = writeln!(
@@ -308,6 +371,11 @@ pub fn markdown(d: &Diagnosis, inputs: &[String], calib: &str, figures: &[Figure
 /// The stated probability of a hypothesis, as a percentage.
 fn percent(d: &Diagnosis, name: &str) -> String {
     d.probabilities.iter().find(|p| p.name == name).map_or("not determined".into(), |p| stated(p.probability))
+}
+
+/// The probability `none` holds of a hypothesis within it, as a percentage.
+fn within_percent(d: &Diagnosis, name: &str) -> String {
+    d.within_none.iter().find(|p| p.name == name).map_or("not determined".into(), |p| stated(p.probability))
 }
 
 /// A probability as a percentage: never "100.0 %", which no finite evidence gives; the

@@ -22,7 +22,7 @@ pub mod session;
 mod world;
 
 pub use ipmc_fit::random;
-pub use proof::{concealed, effects, followup};
+pub use proof::{concealed, effects, followup, lookalike};
 pub use recordings::{Recording, field, simulate};
 pub use session::sweep;
 pub use world::sample::{STRIP_KNOT_PCT, Strip};

@@ -60,10 +60,8 @@ pub struct Score {
     /// The held-out gates passed: the candidate's evidence is weighed in the probabilities.
     /// `passes` is this, no floor and ΔBIC ≥ [`MIN_DELTA_BIC`] once ΔBIC is
     /// corrected for overdispersion.
-    #[serde(skip)]
     pub other_gates: bool,
     /// Its kind's floor (a humidity shift too small to matter, lines no worse than their
-    /// neighbours) keeps it from being named; it keeps its probability.
-    #[serde(skip)]
+    /// neighbours) keeps it from being named; it keeps its probability, within `none`'s.
     pub below_floor: bool,
 }

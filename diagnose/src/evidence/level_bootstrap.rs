@@ -28,27 +28,36 @@ pub struct Evidence<'a> {
 }
 
 /// The posterior probability of each hypothesis, `hypotheses[0]` being the null (no effect,
-/// ΔBIC 0) that every other one nests; `scale` divides every ΔBIC (the evidence's
-/// temperature). In the order given.
+/// ΔBIC 0) that every other one nests and the next `group − 1` the candidates counted with it
+/// (below their floor: nothing worth naming); `scale` divides every ΔBIC (the evidence's
+/// temperature), and `between` ≥ 1 divides it again where the other candidates are weighed
+/// against each other (the misfit they leave: [`crate::verdict::misfit`]). In the order given.
 ///
-/// The null's probability is BIC's own, from the point evidence: its Δχ² against a candidate
-/// is ≥ 0 at every level by construction, so re-weighting the levels can only spread a losing
-/// candidate's evidence upwards through the convex odds (Jensen) and would lend every clean
-/// strip's candidates probability whatever its data. What the levels' bootstrap judges is which
-/// of the candidates explains what the null leaves: the rest of the probability is split among
-/// them by their posterior averaged over [`REPLICATES`] Bayesian-bootstrap weightings of the
-/// `n_levels` levels.
-pub fn averaged_posterior(hypotheses: &[Evidence], n_levels: usize, scale: f64) -> Vec<f64> {
-    let ln = |h: &Evidence, shift: f64| h.ln_prior + (h.delta_bic + shift) / (2.0 * scale);
+/// The null's group keeps BIC's own probabilities, from the point evidence: the null's Δχ²
+/// against a candidate is ≥ 0 at every level by construction, so re-weighting the levels can only
+/// spread a losing candidate's evidence upwards through the convex odds (Jensen) and would lend
+/// every clean strip's candidates probability whatever its data; and tempering the group's
+/// members against the others would pass their probability to whichever candidate they resemble.
+/// What the levels' bootstrap judges is which of the other candidates explains what the group
+/// leaves: the rest of the probability is split among them by their posterior averaged over
+/// [`REPLICATES`] Bayesian-bootstrap weightings of the `n_levels` levels.
+pub fn averaged_posterior(hypotheses: &[Evidence], group: usize, n_levels: usize, scale: f64, between: f64) -> Vec<f64> {
+    let ln = |h: &Evidence, shift: f64, t: f64| h.ln_prior + (h.delta_bic + shift) / (2.0 * scale * t);
     let mut point = vec![0.0; hypotheses.len()];
-    accumulate(&mut point, hypotheses.iter().map(|h| ln(h, 0.0)), 1.0);
-    let Some((null, candidates)) = point.split_first() else { return point };
-    let decomposes = |h: &Evidence| n_levels > 1 && h.per_level.len() == n_levels;
-    if !hypotheses[1..].iter().any(decomposes) {
+    accumulate(&mut point, hypotheses.iter().map(|h| ln(h, 0.0, 1.0)), 1.0);
+    let group = group.clamp(1, hypotheses.len().max(1));
+    if hypotheses.len() <= group {
         return point;
     }
-    let rest = 1.0 - null;
-    let mut shares = vec![0.0; candidates.len()];
+    let rest = 1.0 - point[..group].iter().sum::<f64>();
+    let others = &hypotheses[group..];
+    let mut shares = vec![0.0; others.len()];
+    let decomposes = |h: &Evidence| n_levels > 1 && h.per_level.len() == n_levels;
+    let joined = |shares: &[f64]| point[..group].iter().copied().chain(shares.iter().map(|s| s * rest)).collect::<Vec<f64>>();
+    if !others.iter().any(decomposes) {
+        accumulate(&mut shares, others.iter().map(|h| ln(h, 0.0, between)), 1.0);
+        return joined(&shares);
+    }
     let mut rng = SplitMix64(0x1d_c0ff_ee27);
     let mut w = vec![0.0; n_levels];
     for _ in 0..REPLICATES {
@@ -58,13 +67,13 @@ pub fn averaged_posterior(hypotheses: &[Evidence], n_levels: usize, scale: f64) 
         }
         let total: f64 = w.iter().sum();
         w.iter_mut().for_each(|wi| *wi *= n_levels as f64 / total);
-        let replicate = hypotheses[1..].iter().map(|h| {
+        let replicate = others.iter().map(|h| {
             let shift: f64 = if decomposes(h) { h.per_level.iter().zip(&w).map(|(d, wi)| d * (wi - 1.0)).sum() } else { 0.0 };
-            ln(h, shift)
+            ln(h, shift, between)
         });
         accumulate(&mut shares, replicate, 1.0 / REPLICATES as f64);
     }
-    std::iter::once(*null).chain(shares.iter().map(|s| s * rest)).collect()
+    joined(&shares)
 }
 
 /// Adds `weight` × the normalized probabilities of the log-weights `ln` to `into`.
@@ -94,15 +103,15 @@ mod tests {
         let shared = [3.0; 10];
         let flat = [1.0; 10];
         let null = || h(-100.0, &[]);
-        let p = averaged_posterior(&[null(), h(30.0, &shared), h(10.0, &flat)], 10, 1.0);
+        let p = averaged_posterior(&[null(), h(30.0, &shared), h(10.0, &flat)], 1, 10, 1.0, 1.0);
         assert!(p[1] > 0.99, "{p:?}");
         // The same ΔBIC from one level while the nine others lean the other way.
         let mut one = [-1.0; 10];
         one[3] = 29.0;
-        let p = averaged_posterior(&[null(), h(30.0, &one), h(10.0, &flat)], 10, 1.0);
+        let p = averaged_posterior(&[null(), h(30.0, &one), h(10.0, &flat)], 1, 10, 1.0, 1.0);
         assert!(p[1] < 0.9 && p[1] > 0.3, "{p:?}");
         assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9, "{p:?}");
-        let p = averaged_posterior(&[h(4.0, &[]), h(0.0, &[])], 10, 1.0);
+        let p = averaged_posterior(&[h(4.0, &[]), h(0.0, &[])], 1, 10, 1.0, 1.0);
         let bic = 1.0 / (1.0 + (-2.0f64).exp());
         assert!((p[0] - bic).abs() < 1e-12 && (p.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{p:?}");
     }
@@ -115,8 +124,27 @@ mod tests {
         let mut one = [0.1; 10];
         one[2] = 14.0;
         let delta_bic = one.iter().sum::<f64>() - 18.0;
-        let p = averaged_posterior(&[h(0.0, &[]), h(delta_bic, &one)], 10, 1.0);
+        let p = averaged_posterior(&[h(0.0, &[]), h(delta_bic, &one)], 1, 10, 1.0, 1.0);
         let bic = 1.0 / (1.0 + (delta_bic / 2.0).exp());
         assert!((p[0] - bic).abs() < 1e-12, "{p:?} against {bic}");
+    }
+
+    /// Tempering between candidates splits a lead of two look-alikes that both leave a smooth
+    /// misfit, and leaves the null's probability as it was, and its group's: a candidate below
+    /// its floor keeps its point probability however the others are tempered.
+    #[test]
+    fn tempering_splits_candidates_not_the_null() {
+        let hyps = || [h(0.0, &[]), h(400.0, &[]), h(384.0, &[])];
+        let sharp = averaged_posterior(&hyps(), 1, 10, 1.0, 1.0);
+        let tempered = averaged_posterior(&hyps(), 1, 10, 1.0, 9.0);
+        assert!(sharp[1] > 0.999, "{sharp:?}");
+        assert!(tempered[1] < 0.8 && tempered[2] > 0.2, "{tempered:?}");
+        assert!((sharp[0] - tempered[0]).abs() < 1e-15);
+        let clean = [h(0.0, &[]), h(-12.0, &[])];
+        assert!((averaged_posterior(&clean, 1, 10, 1.0, 9.0)[0] - averaged_posterior(&clean, 1, 10, 1.0, 1.0)[0]).abs() < 1e-15);
+        let floor = [h(0.0, &[]), h(4.0, &[]), h(-2.0, &[]), h(-8.0, &[])];
+        let (sharp, tempered) = (averaged_posterior(&floor, 2, 10, 1.0, 1.0), averaged_posterior(&floor, 2, 10, 1.0, 9.0));
+        assert!((sharp[0] + sharp[1] - tempered[0] - tempered[1]).abs() < 1e-15, "{sharp:?} {tempered:?}");
+        assert!(tempered[3] > sharp[3], "{sharp:?} {tempered:?}");
     }
 }

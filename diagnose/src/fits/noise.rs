@@ -101,7 +101,53 @@ pub fn structure_z(
     theta: &[Theta],
     ext: &[Extension<f64>],
 ) -> f64 {
-    let (mut num, mut den) = (0.0, 0.0);
+    let n = neighbour_sums(calib, levels, sig, masks, theta, ext);
+    if n.products_sq > 0.0 { n.products / n.products_sq.sqrt() } else { 0.0 }
+}
+
+/// The neighbour correlation ρ of the weighted residuals along frequency (same level, channel
+/// and component): Σ r_i r_{i+1} / Σ r_i². Zero for white noise; near one where a smooth misfit
+/// dominates the residuals.
+pub fn neighbour_correlation(
+    calib: &Calibration,
+    levels: &[LevelData],
+    sig: &[LevelSigmas],
+    masks: &[Mask],
+    theta: &[Theta],
+    ext: &[Extension<f64>],
+) -> NeighbourCorrelation {
+    let n = neighbour_sums(calib, levels, sig, masks, theta, ext);
+    let rho = if n.squares > 0.0 { (n.products / n.squares).clamp(-1.0, 1.0) } else { 0.0 };
+    NeighbourCorrelation { rho, points_per_series: if n.series > 0 { n.points as f64 / n.series as f64 } else { 1.0 } }
+}
+
+/// The neighbour correlation of residuals and the mean length of the series it was taken over
+/// (one series per level, channel and component).
+#[derive(Clone, Copy, Debug)]
+pub struct NeighbourCorrelation {
+    pub rho: f64,
+    pub points_per_series: f64,
+}
+
+/// Sums over neighbouring weighted residuals: Σ a·b, Σ a²·b² and Σ (a² + b²)/2, and how many
+/// residuals in how many series they were taken over.
+struct NeighbourSums {
+    products: f64,
+    products_sq: f64,
+    squares: f64,
+    points: usize,
+    series: usize,
+}
+
+fn neighbour_sums(
+    calib: &Calibration,
+    levels: &[LevelData],
+    sig: &[LevelSigmas],
+    masks: &[Mask],
+    theta: &[Theta],
+    ext: &[Extension<f64>],
+) -> NeighbourSums {
+    let mut out = NeighbourSums { products: 0.0, products_sq: 0.0, squares: 0.0, points: 0, series: 0 };
     for (l, level) in levels.iter().enumerate() {
         let p = level_params(calib, level, &theta[l]);
         let (tip, cur) = log_ratios(level, &p, &ext[l]);
@@ -110,13 +156,18 @@ pub fn structure_z(
                 .filter(|&i| on[i])
                 .filter_map(|i| ratios[i].map(|z| C::new(z.re / sigmas[i].ln_gain, z.im / sigmas[i].phase)))
                 .collect();
+            if r.len() >= 2 {
+                out.points += 2 * r.len();
+                out.series += 2;
+            }
             for w in r.windows(2) {
                 for (a, b) in [(w[0].re, w[1].re), (w[0].im, w[1].im)] {
-                    num += a * b;
-                    den += a * a * b * b;
+                    out.products += a * b;
+                    out.products_sq += a * a * b * b;
+                    out.squares += 0.5 * (a * a + b * b);
                 }
             }
         }
     }
-    if den > 0.0 { num / den.sqrt() } else { 0.0 }
+    out
 }

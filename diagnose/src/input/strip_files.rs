@@ -26,7 +26,10 @@ impl StripFile {
     }
 }
 
-/// Reads every file. A follow-up's `# strip=` must name (by file name) a primary given with it,
+/// The follow-ups one diagnosis reads.
+pub const MAX_FOLLOWUPS: usize = 2;
+
+/// Reads every file (at most [`MAX_FOLLOWUPS`] follow-ups, no protocol twice). A follow-up's `# strip=` must name (by file name) a primary given with it,
 /// and at least one file must be a response: a reference says nothing of the strip alone.
 pub fn read(paths: &[PathBuf]) -> Result<Vec<StripFile>> {
     let mut files = Vec::with_capacity(paths.len());
@@ -61,6 +64,17 @@ pub fn read(paths: &[PathBuf]) -> Result<Vec<StripFile>> {
                     format!("given: {}", primaries.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))
                 }
             );
+        }
+    }
+    // A plan takes at most two follow-ups, each protocol once: a protocol taken again would be
+    // the same question asked twice, and the engine's layout offers each once.
+    let ups: Vec<&Followup> = files.iter().filter_map(|f| f.followup.as_ref()).collect();
+    if ups.len() > MAX_FOLLOWUPS {
+        bail!("{} follow-ups given: a diagnosis takes at most {MAX_FOLLOWUPS}", ups.len());
+    }
+    for (k, up) in ups.iter().enumerate() {
+        if ups[..k].iter().any(|u| u.protocol == up.protocol) {
+            bail!("the {} protocol is given twice among the follow-ups: each protocol decides its question once", up.protocol);
         }
     }
     if !files.iter().any(|f| matches!(f.content, Content::Response(_))) {

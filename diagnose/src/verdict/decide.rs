@@ -26,12 +26,11 @@ use crate::evidence::context::{Baseline, Ctx, Fitted};
 use crate::evidence::held_out::{per_level_scores, weighted_mean};
 use crate::evidence::level_bootstrap::{Evidence, averaged_posterior};
 use crate::fits;
+use crate::verdict::hypotheses::{self, Ruling};
 use crate::verdict::types::{Alternative, Probability, Verdict};
 use ipmc_core::model::extension::Extension;
 
-/// A hypothesis is stated alone only when it holds this much of the probability; otherwise the
-/// verdict is `undecided` and the smallest set holding it is reported.
-pub const CONFIDENCE: f64 = 0.9;
+pub use crate::verdict::hypotheses::{CONFIDENCE, credible_set};
 /// Prior probability that a strip brought to diagnosis has no missing physics at all; the rest
 /// is shared equally by the library's effects (no effect is known to be commoner than another;
 /// an effect fitted in several forms splits its share between them). With 14 effects a
@@ -66,9 +65,14 @@ pub(crate) struct Decision {
     pub params: Vec<Estimate>,
     /// Held-out χ² per residual before and after.
     pub heldout: (f64, f64),
+    /// The probabilities as stated: `none` as its group's total ([`hypotheses::group`]).
     pub probabilities: Vec<Probability>,
+    /// What `none` holds: the null and the candidates below their floor.
+    pub within_none: Vec<Probability>,
     pub set: Vec<String>,
     pub separation: Option<Separation>,
+    /// The factor the evidence between candidates was divided by ([`crate::verdict::misfit`]).
+    pub tempering: f64,
 }
 
 /// The probability of each hypothesis: `none` (ΔBIC 0) and every applicable candidate that
@@ -78,8 +82,10 @@ pub(crate) struct Decision {
 /// exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of the marginal likelihood, Kass &
 /// Raftery 1995; on the data ΔBIC is divided by the overdispersion `c_hat`), averaged over the
 /// levels' bootstrap ([`crate::evidence::level_bootstrap`]: how much of a lead the `n_levels` levels
-/// share). Most probable first.
-pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64) -> Vec<Probability> {
+/// share), the split among the candidates above their floor tempered by `between`
+/// ([`crate::verdict::misfit`]); the null and the candidates below their floor keep BIC's point
+/// odds. Most probable first.
+pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64, between: f64) -> Vec<Probability> {
     let ln_prior_effect = ((1.0 - PRIOR_NONE) / n_effects.max(1) as f64).ln();
     let supported: Vec<&Score> = scores.iter().filter(|s| supported(s)).collect();
     let per_level: Vec<Vec<f64>> = supported
@@ -89,14 +95,20 @@ pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64
             s.delta_chi2_per_level.iter().map(|d| d / scale).collect()
         })
         .collect();
+    // The null first, then the candidates below their floor (counted with it), then the rest.
+    let order: Vec<usize> = (0..supported.len())
+        .filter(|&i| supported[i].below_floor)
+        .chain((0..supported.len()).filter(|&i| !supported[i].below_floor))
+        .collect();
+    let group = 1 + supported.iter().filter(|s| s.below_floor).count();
     let mut hypotheses = vec![Evidence { ln_prior: PRIOR_NONE.ln(), delta_bic: 0.0, per_level: &[] }];
-    hypotheses.extend(supported.iter().zip(&per_level).map(|(s, d)| Evidence {
-        ln_prior: ln_prior_effect - (forms(scores, &s.name) as f64).ln(),
-        delta_bic: s.delta_bic,
-        per_level: d,
+    hypotheses.extend(order.iter().map(|&i| Evidence {
+        ln_prior: ln_prior_effect - (forms(scores, &supported[i].name) as f64).ln(),
+        delta_bic: supported[i].delta_bic,
+        per_level: &per_level[i],
     }));
-    let p = averaged_posterior(&hypotheses, n_levels, EVIDENCE_SCALE);
-    let names = std::iter::once(NONE.to_string()).chain(supported.iter().map(|s| s.name.clone()));
+    let p = averaged_posterior(&hypotheses, group, n_levels, EVIDENCE_SCALE, between);
+    let names = std::iter::once(NONE.to_string()).chain(order.iter().map(|&i| supported[i].name.clone()));
     let mut out: Vec<Probability> = names.zip(p).map(|(name, probability)| Probability { name, probability }).collect();
     out.sort_by(|a, b| b.probability.total_cmp(&a.probability));
     out
@@ -137,48 +149,6 @@ fn keep_better_forms(scores: &mut [Score]) {
     }
 }
 
-/// The smallest set of hypotheses (most probable first) holding [`CONFIDENCE`].
-pub fn credible_set(probabilities: &[Probability]) -> Vec<String> {
-    let mut held = 0.0;
-    let mut out = Vec::new();
-    for p in probabilities {
-        if held >= CONFIDENCE {
-            break;
-        }
-        held += p.probability;
-        out.push(p.name.clone());
-    }
-    out
-}
-
-/// The candidate the probabilities name: the most probable hypothesis when it holds
-/// [`CONFIDENCE`], is not `none`, and passes every gate (its floor and ΔBIC among them).
-fn named(probabilities: &[Probability], scores: &[Score]) -> Option<usize> {
-    let top = &probabilities[0];
-    (top.probability >= CONFIDENCE && top.name != NONE).then(|| scores.iter().position(|s| s.name == top.name && s.passes)).flatten()
-}
-
-/// `none` and the candidates below their floor, most probable first, while they hold less
-/// than [`CONFIDENCE`], and whether they hold it together. A floor says what is worth naming:
-/// an offset that moves no level by a percent, interference no worse at its lines than beside
-/// them, is no missing physics that matters, so its probability stands with `none`'s when
-/// nothing is named (and with it in the report, as the hypothesis it is).
-fn nothing_worth_naming(probabilities: &[Probability], scores: &[Score]) -> (Vec<String>, bool) {
-    let below = |name: &str| scores.iter().any(|s| s.name == name && supported(s) && s.below_floor);
-    let mut held = 0.0;
-    let mut set = vec![NONE.to_string()];
-    for p in probabilities.iter().filter(|p| p.name == NONE || below(&p.name)) {
-        if p.name != NONE && held >= CONFIDENCE {
-            break;
-        }
-        held += p.probability;
-        if p.name != NONE {
-            set.push(p.name.clone());
-        }
-    }
-    (set, held >= CONFIDENCE)
-}
-
 /// Corrects the data-space ΔBIC of `scores` (in the order of `candidates`) for overdispersion,
 /// then decides. `fitted` holds each tested candidate's fits, `located` the summary of where
 /// the mismatch lives.
@@ -201,22 +171,37 @@ pub(crate) fn decide(
     let structure_before =
         fits::structure_z(ctx.calib, &ctx.data.levels, &ctx.sig, &ctx.all, &ctx.base.theta, &vec![Extension::default(); n_levels]);
     let structured = structure_before > STRUCTURED_Z;
-    let probabilities = posterior(scores, crate::Effect::ALL.len(), n_levels, c_hat);
-    let mut set = credible_set(&probabilities);
+    // The misfit the best candidate leaves tempers the evidence between candidates.
+    let best = (0..scores.len())
+        .filter(|&i| supported(&scores[i]) && fitted[i].is_some())
+        .max_by(|&a, &b| scores[a].delta_bic.total_cmp(&scores[b].delta_bic));
+    let tempering = best.and_then(|i| fitted[i].as_ref()).map_or(1.0, |f| {
+        crate::verdict::misfit::between_candidates(fits::neighbour_correlation(
+            ctx.calib,
+            &ctx.data.levels,
+            &ctx.sig,
+            &f.masks,
+            &f.theta,
+            &f.ext,
+        ))
+    });
+    let raw = posterior(scores, crate::Effect::ALL.len(), n_levels, c_hat, tempering);
+    let below = |name: &str| scores.iter().any(|s| s.name == name && supported(s) && s.below_floor);
+    let grouped = hypotheses::group(&raw, &below);
+    let passes = |name: &str| scores.iter().any(|s| s.name == name && s.passes);
+    let (ruling, stated) = hypotheses::rule(&grouped.probabilities, &passes);
+    let set = hypotheses::listed(&stated, &grouped.within_none);
+    let probabilities = grouped.probabilities;
+    let within_none = grouped.within_none;
     let top = &probabilities[0];
-    let probability_of = |name: &str| probabilities.iter().find(|p| p.name == name).map_or(0.0, |p| p.probability);
-    let named = named(&probabilities, scores);
-    let (nothing, nothing_holds) = nothing_worth_naming(&probabilities, scores);
-    if named.is_none() && nothing_holds {
-        set = nothing;
-    }
-    // A candidate holding the probability without the evidence naming needs (ΔBIC just under
-    // [`MIN_DELTA_BIC`], or a floor) is not stated alone: "none" stays beside it.
-    if top.name != NONE && top.probability >= CONFIDENCE && named.is_none() && !set.iter().any(|n| n == NONE) {
-        set.push(NONE.to_string());
-    }
+    let probability_of =
+        |name: &str| probabilities.iter().chain(within_none.iter().skip(1)).find(|p| p.name == name).map_or(0.0, |p| p.probability);
+    let named = match &ruling {
+        Ruling::Named(name) => scores.iter().position(|s| &s.name == name && s.passes),
+        _ => None,
+    };
     let separation = (set.len() >= 2).then(|| separating(&set[0], &set[1]));
-    if !(named.is_none() && nothing_holds) && (set.len() >= 2 || (top.name != NONE && named.is_none())) {
+    if ruling == Ruling::Undecided {
         let refit = weighted_mean(&per_level_scores(&ctx.refit_null()), &base.counts);
         let lean: Vec<String> = set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
         let measure = separation
@@ -251,8 +236,10 @@ pub(crate) fn decide(
             params: vec![],
             heldout: (refit, refit),
             probabilities,
+            within_none,
             set,
             separation,
+            tempering,
         };
     }
     let mut order: Vec<usize> = (0..scores.len()).collect();
@@ -309,8 +296,10 @@ pub(crate) fn decide(
             params: vec![],
             heldout: (refit, refit),
             probabilities,
+            within_none,
             set,
             separation,
+            tempering,
         };
     };
     let s = &scores[w];
@@ -366,8 +355,10 @@ pub(crate) fn decide(
         heldout: (s.heldout_null, s.heldout),
         alternatives,
         probabilities,
+        within_none,
         set,
         separation,
+        tempering,
     }
 }
 
@@ -427,7 +418,7 @@ mod tests {
     #[test]
     fn probabilities_cover_the_supported_hypotheses() {
         let scores = [gated("a", 30.0), gated("b", 20.0), score("c", 0.0, 50.0, false)];
-        let p = posterior(&scores, 14, 1, 1.0);
+        let p = posterior(&scores, 14, 1, 1.0, 1.0);
         assert_eq!(p.len(), 3);
         assert!((p.iter().map(|p| p.probability).sum::<f64>() - 1.0).abs() < 1e-12);
         assert_eq!(p[0].name, "a");
@@ -438,11 +429,11 @@ mod tests {
     /// ΔBIC apart stand together; nothing supported leaves `none` alone.
     #[test]
     fn the_set_is_the_smallest_holding_the_confidence() {
-        assert_eq!(credible_set(&posterior(&[gated("a", 40.0), gated("b", 10.0)], 14, 1, 1.0)), ["a"]);
-        assert_eq!(credible_set(&posterior(&[gated("a", 40.0), gated("b", 38.0)], 14, 1, 1.0)), ["a", "b"]);
-        assert_eq!(credible_set(&posterior(&[gated("a", -3.0)], 14, 1, 1.0)), [NONE]);
+        assert_eq!(credible_set(&posterior(&[gated("a", 40.0), gated("b", 10.0)], 14, 1, 1.0, 1.0)), ["a"]);
+        assert_eq!(credible_set(&posterior(&[gated("a", 40.0), gated("b", 38.0)], 14, 1, 1.0, 1.0)), ["a", "b"]);
+        assert_eq!(credible_set(&posterior(&[gated("a", -3.0)], 14, 1, 1.0, 1.0)), [NONE]);
         // The prior's odds against one candidate (1:14) are met at ΔBIC ≈ 9.7 on its own.
-        let alone = |d: f64| posterior(&[gated("a", d)], 14, 1, 1.0)[0].clone();
+        let alone = |d: f64| posterior(&[gated("a", d)], 14, 1, 1.0, 1.0)[0].clone();
         assert!(alone(9.0).probability < CONFIDENCE || alone(9.0).name == NONE);
         assert!(alone(10.5).name == "a" && alone(10.5).probability >= CONFIDENCE);
     }
@@ -458,32 +449,40 @@ mod tests {
 
     /// Below its floor a candidate keeps its probability but is not named: the traced up sweep,
     /// where a lag (ΔBIC 27.87) and an offset just under its floor (27.72) tie, is undecided
-    /// between them rather than the lag at 99.99 % against `none`; alone and far ahead, a
-    /// candidate below its floor still holds the probability and is still not named: what it
-    /// holds stands with `none`.
+    /// between the lag and `none` holding the offset, rather than the lag at 99.99 % against
+    /// `none`; alone and far ahead, a candidate below its floor still holds the probability,
+    /// within `none`, and is not named.
     #[test]
     fn a_floor_blocks_naming_not_the_probability() {
         let mut offset = gated("humidity_sensor_error", 27.72);
         offset.below_floor = true;
         offset.passes = false;
-        let tie = [gated("hydration_lag", 27.87), offset.clone()];
-        let p = posterior(&tie, 14, 1, 1.0);
+        let stated = |scores: &[Score]| {
+            let raw = posterior(scores, 14, 1, 1.0, 1.0);
+            let below = |n: &str| scores.iter().any(|s| s.name == n && s.below_floor);
+            let g = hypotheses::group(&raw, &below);
+            let passes = |n: &str| scores.iter().any(|s| s.name == n && s.passes);
+            let (ruling, set) = hypotheses::rule(&g.probabilities, &passes);
+            (raw, ruling, hypotheses::listed(&set, &g.within_none))
+        };
         let of = |p: &[Probability], n: &str| p.iter().find(|p| p.name == n).map_or(0.0, |p| p.probability);
-        assert!(of(&p, "humidity_sensor_error") > 0.4, "{p:?}");
-        assert!(of(&p, "hydration_lag") < CONFIDENCE, "{p:?}");
-        assert_eq!(named(&p, &tie), None);
-        assert!(!nothing_worth_naming(&p, &tie).1, "{p:?}");
+        let tie = [gated("hydration_lag", 27.87), offset.clone()];
+        let (raw, ruling, set) = stated(&tie);
+        assert!(of(&raw, "humidity_sensor_error") > 0.4, "{raw:?}");
+        assert!(of(&raw, "hydration_lag") < CONFIDENCE, "{raw:?}");
+        assert_eq!(ruling, Ruling::Undecided);
+        assert!(set.contains(&"humidity_sensor_error".to_string()) && set.contains(&"hydration_lag".to_string()), "{set:?}");
         let alone = [gated("hydration_lag", 2.0), {
             let mut o = offset;
             o.delta_bic = 40.0;
             o
         }];
-        let p = posterior(&alone, 14, 1, 1.0);
-        assert_eq!(p[0].name, "humidity_sensor_error");
-        assert!(p[0].probability >= CONFIDENCE);
-        assert_eq!(named(&p, &alone), None);
-        assert_eq!(nothing_worth_naming(&p, &alone), (vec![NONE.to_string(), "humidity_sensor_error".to_string()], true));
+        let (raw, ruling, set) = stated(&alone);
+        assert_eq!(raw[0].name, "humidity_sensor_error");
+        assert!(raw[0].probability >= CONFIDENCE);
+        assert_eq!(ruling, Ruling::Nothing);
+        assert_eq!(set, [NONE.to_string(), "humidity_sensor_error".to_string()]);
         let passing = [gated("hydration_lag", 2.0), gated("humidity_sensor_error", 40.0)];
-        assert_eq!(named(&posterior(&passing, 14, 1, 1.0), &passing), Some(1));
+        assert_eq!(stated(&passing).1, Ruling::Named("humidity_sensor_error".into()));
     }
 }

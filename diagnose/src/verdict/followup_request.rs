@@ -2,23 +2,29 @@
 //! recording-format.md ("Follow-up recordings"), chosen by the information it is expected to
 //! give, with its parameters and a recipe a lab can follow.
 //!
-//! **Which hypotheses are left.** `undecided` and `unexplained`: those the evidence supports,
-//! with their probabilities. `none` (and the others too) also keeps the effects this recording
-//! cannot carry at the sizes labs meet (a sensor offset under its reach, a lag under its reach,
-//! a temperature dependence: [`crate::humidity::reach`]), each weighed against `none` by its
-//! prior and its own evidence here, exp(ΔBIC/2), whether or not it passed the gates naming
-//! needs: a gate decides what may be stated, not what is worth measuring.
+//! **Which hypotheses are left.** Those the report states, with their probabilities, `none`
+//! replaced by what it holds ([`within_none`]): the null, the candidates below their floor and
+//! the effects this recording cannot carry at the sizes labs meet (a sensor offset under its
+//! reach, a lag under its reach, a temperature dependence: [`crate::humidity::reach`]), each
+//! weighed within `none` by its prior and its own evidence here, exp(ΔBIC/2), whether or not it
+//! passed the gates naming needs: a gate decides what may be stated, not what is worth
+//! measuring. The report lists them within `none`, so the information a request states is that
+//! of the probabilities beside it.
 //!
 //! **Which protocol.** Each protocol tells apart the hypotheses it resolves from each other and
 //! from the rest, and no more (a wideband sweep separates an amplifier pole from an RC line, but
 //! says nothing of a sensor offset). Taken as deciding those, its expected information is the
-//! entropy of that partition of the probabilities; the protocol with the most is asked for.
+//! entropy of that partition of the probabilities. The protocols not yet taken are ranked by
+//! that information per hour of lab time ([`crate::verdict::plan`]); the first that gives any is
+//! asked for, and when none does the report says that no protocol left can decide.
 
 use crate::Effect;
 use crate::candidates::effect::NONE;
 use crate::candidates::score::Score;
 use crate::humidity::reach::HumidityReach;
 use crate::verdict::decide::PRIOR_NONE;
+pub use crate::verdict::plan::Layout;
+use crate::verdict::plan::Planned;
 use crate::verdict::types::{FollowupRequest, Probability, Verdict};
 use ipmc_recording::Protocol;
 
@@ -45,43 +51,66 @@ pub fn resolves(protocol: Protocol) -> &'static [Effect] {
     }
 }
 
-/// What the primary recording looked like, for the protocols' parameters.
-pub struct Layout {
-    pub rh_range_pct: [f64; 2],
-    pub band_hz: [f64; 2],
-    /// Mean room temperature [°C], when recorded at every level.
-    pub temp_c: Option<f64>,
-    /// The follow-ups already among the recordings: not asked for again.
-    pub taken: Vec<Protocol>,
-}
-
-/// The hypotheses still open and their weights (summing to one), most probable first.
-pub fn open_hypotheses(probabilities: &[Probability], scores: &[Score], reach: &HumidityReach, temperatures: bool) -> Vec<Probability> {
-    let mut open: Vec<Probability> = probabilities.to_vec();
-    let p_none = probabilities.iter().find(|p| p.name == NONE).map_or(0.0, |p| p.probability);
+/// What `none` holds once the effects this recording cannot carry at the sizes labs meet are
+/// weighed within it: `within` (the null first, then the candidates below their floor, summing
+/// to `none`'s group probability in `probabilities`) with each effect below the recording's
+/// reach (a sensor offset, a lag, a temperature dependence with temperatures) that is not
+/// already a hypothesis, weighed against the group by its prior and its own evidence here,
+/// exp(ΔBIC/2), whether or not it passed the gates naming needs (a gate decides what may be
+/// stated, not what is worth measuring). The group's total is unchanged.
+///
+/// With `leaning_only` (a confident `none` after a follow-up), an effect below the reach enters
+/// only where these recordings lean to it (ΔBIC > 0): the first follow-up explores what the
+/// primary cannot carry on the prior alone, but once one has been taken and `none` still holds,
+/// another asked on the prior alone would cost every clean strip a second session with nothing
+/// in the data pointing at it.
+pub fn within_none(
+    probabilities: &[Probability],
+    within: &[Probability],
+    scores: &[Score],
+    reach: &HumidityReach,
+    temperatures: bool,
+    leaning_only: bool,
+) -> Vec<Probability> {
+    let group = probabilities.iter().find(|p| p.name == NONE).map_or(0.0, |p| p.probability);
     let lag_open = reach.shortest_lag_s.is_none_or(|t| t > crate::humidity::reach::LAB_LAG_S);
     let offset_open = reach.smallest_offset_pct > crate::humidity::reach::LAB_OFFSET_PCT;
     let below_reach = [(Effect::HumiditySensorError, offset_open), (Effect::HydrationLag, lag_open), (Effect::Temperature, temperatures)];
-    if p_none > 0.0 {
-        let ln_prior_effect = ((1.0 - PRIOR_NONE) / Effect::ALL.len() as f64).ln();
-        for (effect, left) in below_reach {
-            if !left || open.iter().any(|p| p.name == effect.name()) {
-                continue;
-            }
-            // Its best form's evidence here; an effect this recording could not score at all
-            // (no times, no temperatures) keeps its prior against none.
-            let bic = scores
-                .iter()
-                .filter(|s| s.name == effect.name() && s.applicable && s.delta_bic.is_finite())
-                .map(|s| s.delta_bic)
-                .fold(f64::NEG_INFINITY, f64::max);
-            let bic = if bic.is_finite() { bic } else { 0.0 };
-            let odds = (ln_prior_effect - PRIOR_NONE.ln() + bic / 2.0).exp();
-            open.push(Probability { name: effect.name().into(), probability: p_none * odds });
+    let ln_prior_effect = ((1.0 - PRIOR_NONE) / Effect::ALL.len() as f64).ln();
+    let listed = |name: &str| probabilities.iter().chain(within).any(|p| p.name == name);
+    let mut odds: Vec<(String, f64)> = Vec::new();
+    for (effect, left) in below_reach {
+        if !left || listed(effect.name()) {
+            continue;
         }
+        // Its best form's evidence here; an effect this recording could not score at all
+        // (no times, no temperatures) keeps its prior against none.
+        let bic = scores
+            .iter()
+            .filter(|s| s.name == effect.name() && s.applicable && s.delta_bic.is_finite())
+            .map(|s| s.delta_bic)
+            .fold(f64::NEG_INFINITY, f64::max);
+        if leaning_only && !(bic > 0.0) {
+            continue;
+        }
+        let bic = if bic.is_finite() { bic } else { 0.0 };
+        odds.push((effect.name().into(), (ln_prior_effect - PRIOR_NONE.ln() + bic / 2.0).exp()));
     }
+    let total = 1.0 + odds.iter().map(|o| o.1).sum::<f64>();
+    let mut out: Vec<Probability> =
+        within.iter().map(|p| Probability { name: p.name.clone(), probability: p.probability / total }).collect();
+    out.extend(odds.into_iter().map(|(name, o)| Probability { name, probability: group * o / total }));
+    out
+}
+
+/// The hypotheses a follow-up weighs (summing to one), most probable first: every stated one
+/// but `none`, and what `none` holds in its place.
+pub fn open_hypotheses(probabilities: &[Probability], within_none: &[Probability]) -> Vec<Probability> {
+    let mut open: Vec<Probability> = probabilities.iter().filter(|p| p.name != NONE).cloned().chain(within_none.iter().cloned()).collect();
     let total: f64 = open.iter().map(|p| p.probability).sum();
-    open.iter_mut().for_each(|p| p.probability /= total);
+    if total > 0.0 {
+        open.iter_mut().for_each(|p| p.probability /= total);
+    }
     open.sort_by(|a, b| b.probability.total_cmp(&a.probability));
     open
 }
@@ -97,38 +126,42 @@ pub fn expected_information(protocol: Protocol, open: &[Probability]) -> f64 {
     if bits < 1e-9 { 0.0 } else { bits }
 }
 
-/// The follow-up to ask for, or None when the verdict names an effect or nothing is left open
-/// that a protocol resolves.
-pub fn request(
-    verdict: Verdict,
-    probabilities: &[Probability],
-    scores: &[Score],
-    reach: &HumidityReach,
-    layout: &Layout,
-) -> Option<FollowupRequest> {
+/// The protocols a lab can still take after a primary laid out as `layout`: each once, the
+/// temperature protocol only where the room's temperature was recorded.
+pub fn offered(layout: &Layout) -> Vec<Protocol> {
+    Protocol::ALL
+        .into_iter()
+        .filter(|&p| p != Protocol::Temperature || layout.temp_c.is_some())
+        .filter(|p| !layout.taken.contains(p))
+        .collect()
+}
+
+/// The step's dwell at each level [s]: three of the longest lag this recording could not name,
+/// and ten minutes at least (the lag's settling must be seen to end).
+fn step_dwell_s(reach: &HumidityReach) -> f64 {
+    let lag = reach.shortest_lag_s.unwrap_or(crate::humidity::reach::LONGEST_LAG_S / 10.0);
+    (3.0 * lag).max(600.0)
+}
+
+/// The plan ([`crate::verdict::plan`]) over `open` ([`open_hypotheses`]): every protocol not yet
+/// taken, ranked by bits per hour.
+pub fn plan(open: &[Probability], reach: &HumidityReach, layout: &Layout) -> Vec<Planned> {
+    let bits: Vec<(Protocol, f64)> = offered(layout).into_iter().map(|p| (p, expected_information(p, open))).collect();
+    let resolved_names = |protocol: Protocol| -> Vec<String> {
+        open.iter().filter(|p| resolves(protocol).iter().any(|e| e.name() == p.name)).map(|p| p.name.clone()).collect()
+    };
+    crate::verdict::plan::rank(&bits, layout, step_dwell_s(reach), &|p| crate::verdict::plan::shows(p, &resolved_names(p)))
+}
+
+/// The follow-up to ask for: the first of the plan that gives information, or None when the
+/// verdict names an effect or no protocol left can decide anything still open.
+pub fn request(verdict: Verdict, open: &[Probability], reach: &HumidityReach, layout: &Layout) -> Option<FollowupRequest> {
     if matches!(verdict, Verdict::Named(_)) {
         return None;
     }
-    let offered = || {
-        Protocol::ALL.into_iter().filter(|&p| p != Protocol::Temperature || layout.temp_c.is_some()).filter(|p| !layout.taken.contains(p))
-    };
-    let mut open = open_hypotheses(probabilities, scores, reach, layout.temp_c.is_some());
-    let mut bits: Vec<(Protocol, f64)> = offered().map(|p| (p, expected_information(p, &open))).collect();
-    // A report that stops short of a name always asks. When what it leans to is resolved by no
-    // protocol (mains pickup; a candidate the gates turned down), the effects below this
-    // recording's reach are what a follow-up can still find: weighed among themselves, by
-    // their prior and their evidence here, as `none` weighs them.
-    let nothing = bits.iter().all(|b| b.1 <= 0.0);
-    if nothing && verdict != Verdict::None {
-        let only_none = [Probability { name: NONE.into(), probability: 1.0 }];
-        open = open_hypotheses(&only_none, scores, reach, layout.temp_c.is_some());
-        bits = offered().map(|p| (p, expected_information(p, &open))).collect();
-    }
-    let &(protocol, best) = bits.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
-    // A protocol that resolves nothing still open gives no information.
-    if best <= 0.0 {
-        return None;
-    }
+    let plan = plan(open, reach, layout);
+    let first = plan.iter().find(|p| p.bits > 0.0)?.clone();
+    let protocol = first.protocol;
     // What it decides between, as a reader wants it: the hypotheses it resolves that hold a
     // percent or more (the rest are listed in the probabilities), and none.
     let resolved: Vec<&Probability> = open.iter().filter(|p| resolves(protocol).iter().any(|e| e.name() == p.name)).collect();
@@ -139,8 +172,9 @@ pub fn request(
     let mut r = FollowupRequest {
         protocol,
         decides_between,
-        expected_information_bits: best,
-        alternatives_bits: bits.clone(),
+        expected_information_bits: first.bits,
+        alternatives_bits: plan.iter().map(|p| (p.protocol, p.bits)).collect(),
+        plan,
         band_hz: None,
         humidities_pct: vec![],
         dwell_s: None,
@@ -158,10 +192,7 @@ pub fn request(
             let (a, c) = (round(lo + 5.0), round(hi - 5.0));
             let b = round(0.5 * (a + c));
             r.humidities_pct = vec![a, b, c, b, a];
-            // Three of the longest lag this recording could not name, and ten minutes at least:
-            // the lag's settling must be seen to end.
-            let lag = reach.shortest_lag_s.unwrap_or(crate::humidity::reach::LONGEST_LAG_S / 10.0);
-            r.dwell_s = Some((3.0 * lag).max(600.0));
+            r.dwell_s = Some(step_dwell_s(reach));
             r.bursts_after_step_s = vec![5.0, 15.0, 40.0, 90.0, 200.0, 400.0];
         }
         Protocol::Temperature => {
@@ -180,8 +211,9 @@ pub fn request(
 }
 
 impl FollowupRequest {
-    /// The recipe a lab follows, with the metadata the file needs.
-    pub fn recipe(&self, primary: &str) -> String {
+    /// The recipe a lab follows, with the metadata the file needs; `command` is the diagnosis
+    /// to run then (every input this one used, and the follow-up).
+    pub fn recipe(&self, primary: &str, command: &str) -> String {
         let levels = self.humidities_pct.iter().map(|h| format!("{h:.0}")).collect::<Vec<_>>().join(", ");
         let what = match self.protocol {
             Protocol::Wideband => {
@@ -207,7 +239,7 @@ impl FollowupRequest {
             ),
         };
         format!(
-            "{what} Mark the file `# followup={}` and `# strip={primary}`, then run `ipmc diagnose {primary} FOLLOWUP.csv --report DIR`. It decides between {} (expected information {:.2} bits).",
+            "{what} Mark the file `# followup={}` and `# strip={primary}`, then run `{command}`. It decides between {} (expected information {:.2} bits).",
             self.protocol,
             self.decides_between.join(", "),
             self.expected_information_bits
@@ -236,12 +268,8 @@ mod tests {
         assert_eq!(expected_information(Protocol::Step, &offset), 0.0);
     }
 
-    /// `none` keeps the effects below this recording's reach, weighed by their own evidence:
-    /// a lag that leans ahead asks for the step, an offset that leans ahead for the reference.
-    #[test]
-    fn none_asks_for_what_it_cannot_carry() {
-        let reach = HumidityReach { shortest_lag_s: Some(110.0), both_directions: true, smallest_offset_pct: 2.2, measurement: None };
-        let score = |name: &str, delta_bic: f64| Score {
+    fn score(name: &str, delta_bic: f64) -> Score {
+        Score {
             name: name.into(),
             form: String::new(),
             family: String::new(),
@@ -262,10 +290,30 @@ mod tests {
             note: String::new(),
             other_gates: false,
             below_floor: false,
-        };
-        let layout = Layout { rh_range_pct: [38.0, 80.0], band_hz: [10.0, 150.0], temp_c: Some(20.0), taken: vec![] };
+        }
+    }
+
+    /// `none` holds the effects below this recording's reach, weighed by their own evidence:
+    /// a lag that leans ahead asks for the step, an offset that leans ahead for the reference;
+    /// what `none` holds sums to its probability, and the request's bits are those of the
+    /// hypotheses the report states.
+    #[test]
+    fn none_asks_for_what_it_cannot_carry() {
+        let reach = HumidityReach { shortest_lag_s: Some(110.0), both_directions: true, smallest_offset_pct: 2.2, measurement: None };
+        let layout = Layout { rh_range_pct: [38.0, 80.0], band_hz: [10.0, 150.0], temp_c: Some(20.0), session_h: 3.0, taken: vec![] };
         let none = [p("none", 1.0)];
-        let ask = |scores: &[Score]| request(Verdict::None, &none, scores, &reach, &layout).unwrap().protocol;
+        let open_of = |probabilities: &[Probability], within: &[Probability], scores: &[Score], reach: &HumidityReach, temps: bool| {
+            let w = within_none(probabilities, within, scores, reach, temps, false);
+            let group: f64 = probabilities.iter().filter(|p| p.name == NONE).map(|p| p.probability).sum();
+            assert!((w.iter().map(|p| p.probability).sum::<f64>() - group).abs() < 1e-12, "{w:?}");
+            open_hypotheses(probabilities, &w)
+        };
+        let ask = |scores: &[Score]| {
+            let open = open_of(&none, &none, scores, &reach, true);
+            let r = request(Verdict::None, &open, &reach, &layout).unwrap();
+            assert!((r.expected_information_bits - expected_information(r.protocol, &open)).abs() < 1e-12);
+            r.protocol
+        };
         assert_eq!(ask(&[score("hydration_lag", 3.6), score("humidity_sensor_error", -3.6), score("temperature", -4.0)]), Protocol::Step);
         assert_eq!(
             ask(&[score("hydration_lag", -3.0), score("humidity_sensor_error", 5.5), score("temperature", -4.0)]),
@@ -278,15 +326,31 @@ mod tests {
         // A recording that carries lab-sized lags and offsets and has no temperatures asks nothing.
         let carried = HumidityReach { shortest_lag_s: Some(30.0), both_directions: true, smallest_offset_pct: 1.2, measurement: None };
         let no_temp = Layout { temp_c: None, taken: vec![], ..layout };
-        assert!(request(Verdict::None, &none, &[score("hydration_lag", 1.0)], &carried, &no_temp).is_none());
-        let r = request(Verdict::None, &none, &[score("hydration_lag", 3.6)], &reach, &layout).unwrap();
+        let open = open_of(&none, &none, &[score("hydration_lag", 1.0)], &carried, false);
+        assert!(request(Verdict::None, &open, &carried, &no_temp).is_none());
+        let open = open_of(&none, &none, &[score("hydration_lag", 3.6)], &reach, true);
+        let r = request(Verdict::None, &open, &reach, &layout).unwrap();
         assert!(r.dwell_s.unwrap() >= 600.0 && r.humidities_pct.len() == 5, "{r:?}");
-        assert!(r.recipe("case07.csv").contains("# strip=case07.csv"));
-        // Unexplained, leaning wholly to what no protocol resolves (mains pickup that failed its
-        // gates): it still asks, for what is below this recording's reach.
-        let mains = [p("mains_interference", 1.0)];
+        let recipe = r.recipe("case07.csv", "ipmc diagnose case07.csv FOLLOWUP.csv --calib nominal.toml --report DIR");
+        assert!(recipe.contains("# strip=case07.csv") && recipe.contains("--calib nominal.toml"), "{recipe}");
+        // `none` holding mains pickup below its floor still asks, for what is below this
+        // recording's reach; a protocol already taken is not asked for again.
+        let grouped = [p("none", 1.0)];
+        let within = [p("none", 0.0), p("mains_interference", 1.0)];
         let lag_ahead = [score("hydration_lag", 2.0), score("humidity_sensor_error", -3.0), score("temperature", -4.0)];
-        assert_eq!(request(Verdict::Unexplained, &mains, &lag_ahead, &reach, &layout).map(|r| r.protocol), Some(Protocol::Step));
-        assert!(request(Verdict::None, &mains, &lag_ahead, &reach, &layout).is_none());
+        let open = open_of(&grouped, &within, &lag_ahead, &reach, true);
+        assert_eq!(request(Verdict::Unexplained, &open, &reach, &layout).map(|r| r.protocol), Some(Protocol::Step));
+        let stepped = Layout { taken: vec![Protocol::Step], ..Layout { temp_c: Some(20.0), ..no_temp } };
+        assert_ne!(request(Verdict::Unexplained, &open, &reach, &stepped).map(|r| r.protocol), Some(Protocol::Step));
+        // After a follow-up, a confident `none` asks only for what the recordings lean to: a
+        // temperature dependence they do not favour is not asked for on its prior alone.
+        let prior_only = [score("hydration_lag", -3.0), score("humidity_sensor_error", -3.0), score("temperature", -1.0)];
+        let w = within_none(&none, &none, &prior_only, &reach, true, true);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(request(Verdict::None, &open_hypotheses(&none, &w), &reach, &stepped).is_none());
+        let leaning = [score("hydration_lag", -3.0), score("humidity_sensor_error", -3.0), score("temperature", 4.0)];
+        let w = within_none(&none, &none, &leaning, &reach, true, true);
+        let r = request(Verdict::None, &open_hypotheses(&none, &w), &reach, &stepped).unwrap();
+        assert_eq!(r.protocol, Protocol::Temperature);
     }
 }

@@ -175,9 +175,17 @@ pub struct LevelModels {
 
 pub struct Diagnosis {
     pub verdict: Verdict,
-    /// Every hypothesis the evidence supports (`none` and each candidate passing the held-out
-    /// gates) with its probability, most probable first ([`crate::verdict::decide::posterior`]).
+    /// Every hypothesis the evidence supports with its probability, most probable first
+    /// ([`crate::verdict::decide::posterior`]): each candidate passing the held-out gates and
+    /// above its floor, and `none` holding the rest ([`crate::verdict::hypotheses`]).
     pub probabilities: Vec<Probability>,
+    /// What `none` holds, summing to its probability: the null (no effect at all) first, the
+    /// candidates below their floor, and the effects this recording cannot carry weighed within
+    /// it ([`crate::verdict::followup_request::within_none`]).
+    pub within_none: Vec<Probability>,
+    /// The factor the evidence between candidates was divided by, from the misfit the best of
+    /// them leaves ([`crate::verdict::misfit`]).
+    pub tempering: f64,
     /// The smallest set of hypotheses holding [`crate::verdict::decide::CONFIDENCE`] of the probability:
     /// the verdict alone when it is named (or `none`).
     pub set: Vec<String>,
@@ -221,6 +229,12 @@ pub struct Diagnosis {
 }
 
 impl Diagnosis {
+    /// The stated probability of a hypothesis: `none`'s is its group's, a candidate within
+    /// `none` has its share of it (0 for a name not stated).
+    pub fn probability_of(&self, name: &str) -> f64 {
+        self.probabilities.iter().chain(self.within_none.iter().skip(1)).find(|p| p.name == name).map_or(0.0, |p| p.probability)
+    }
+
     /// Whether naming the verdict improved prediction of data held out: the levels' held-out χ²
     /// fell, or the winner's own held-out test (between the lines) passed.
     pub fn heldout_lowered(&self) -> bool {
@@ -271,6 +285,9 @@ pub struct FollowupRequest {
     /// Every protocol's expected information, for the report.
     #[serde(serialize_with = "protocols_bits")]
     pub alternatives_bits: Vec<(Protocol, f64)>,
+    /// Every protocol not yet taken, ranked by bits per hour of lab time, with what each is
+    /// expected to show; the first that gives information is this request.
+    pub plan: Vec<crate::verdict::plan::Planned>,
     /// Band swept [Hz] (wideband, temperature).
     pub band_hz: Option<[f64; 2]>,
     /// Humidity levels or references [%RH], in the order to take them.

@@ -81,6 +81,9 @@ pub struct CaseStrip {
     pub levels_pct: Vec<f64>,
     /// What the primary session recorded.
     pub format: Format,
+    /// The top of the primary's band [Hz]: [`FREQS`] end at 150 Hz, a wider primary adds
+    /// log-spaced points up to this ([`CaseStrip::freqs`]).
+    pub band_top_hz: f64,
 }
 
 impl Case {
@@ -93,11 +96,27 @@ impl Case {
     }
 }
 
+/// Points a primary adds above [`FREQS`] up to a wider band's top.
+const WIDER_BAND_POINTS: usize = 6;
+
 /// Builds one session with `effect` (None: a clean control) at `strength` in its range.
 pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strength: Strength, format: Format) -> anyhow::Result<Case> {
+    let band_top = FREQS[FREQS.len() - 1];
+    make_drawn(calib, seed, format, band_top, &mut |p60, rng| effects::draw(effect, p60, strength, rng))
+}
+
+/// Builds one session of a strip whose effect `draw` draws (from the parameters at 60 %RH),
+/// recorded as `format` up to `band_top_hz`.
+pub fn make_drawn(
+    calib: &Calibration,
+    seed: u64,
+    format: Format,
+    band_top_hz: f64,
+    draw: &mut dyn FnMut(&Params<f64>, &mut SplitMix64) -> effects::Drawn,
+) -> anyhow::Result<Case> {
     let mut rng = SplitMix64(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0x5DEE_CE66);
     let p60: Params<f64> = calib.params_at(60.0);
-    let effects::Drawn { sample: mut physics, bench, words: magnitude } = effects::draw(effect, &p60, strength, &mut rng);
+    let effects::Drawn { sample: mut physics, bench, words: magnitude } = draw(&p60, &mut rng);
     let mut uniform = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
     let noise_rel = [uniform(0.005, 0.015), uniform(0.005, 0.015)];
     // Up in 5 % steps, then down through three of the levels again.
@@ -108,7 +127,7 @@ pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strengt
     physics.feedthrough = bench.feedthrough_rel * current_response(&p_dry, jw(10.0)).norm() / (2.0 * std::f64::consts::PI * 10.0);
     let strip_seed = rng.uniform().to_bits();
     let drift = DRIFT_PCT.map(|sd| rng.gauss(sd / 100.0).exp());
-    let strip = CaseStrip { physics, bench, strip_seed, drift, noise_rel, levels_pct, format };
+    let strip = CaseStrip { physics, bench, strip_seed, drift, noise_rel, levels_pct, format, band_top_hz };
     let session = strip.session(calib, format, rng.uniform().to_bits());
     let mut metadata = Metadata::default();
     metadata.set("generator", format!("ipmc prove seed={seed}"));
@@ -116,6 +135,17 @@ pub fn make_case(calib: &Calibration, effect: Option<Effect>, seed: u64, strengt
 }
 
 impl CaseStrip {
+    /// The primary's frequencies [Hz]: [`FREQS`], and above them log-spaced points up to
+    /// [`CaseStrip::band_top_hz`] when it is higher.
+    pub fn freqs(&self) -> Vec<f64> {
+        let top = FREQS[FREQS.len() - 1];
+        let mut f = FREQS.to_vec();
+        if self.band_top_hz > top {
+            f.extend(crate::session::log_spaced(top, self.band_top_hz, WIDER_BAND_POINTS + 1).into_iter().skip(1).map(f64::round));
+        }
+        f
+    }
+
     /// A session of this strip on its bench recorded as `format` at the primary session's levels,
     /// with its own `seed` (its settling, humidity read errors and noise).
     pub fn session(&self, calib: &Calibration, format: Format, seed: u64) -> Session {
@@ -151,7 +181,7 @@ impl CaseStrip {
         match format {
             Format::Fr => Session {
                 frequencies: Some(Frequencies {
-                    list_hz: Some(FREQS.to_vec()),
+                    list_hz: Some(self.freqs()),
                     from_hz: None,
                     to_hz: None,
                     points: None,
@@ -175,8 +205,9 @@ impl CaseStrip {
                 // lines are noisier and strong ones quieter, as with a real front end.
                 let p_dry: Params<f64> = calib.params_at(calib.clamp_rh(self.levels_pct[0]).0);
                 let per_line = |v: f64, rel: f64| rel * LINE_AMPLITUDE_M * v / (2.0 / (BURST_S * FS_HZ)).sqrt();
+                let freqs = self.freqs();
                 let median = |r: &dyn Fn(f64) -> f64| {
-                    let mut v: Vec<f64> = FREQS.iter().map(|&f| r(f)).collect();
+                    let mut v: Vec<f64> = freqs.iter().map(|&f| r(f)).collect();
                     v.sort_by(f64::total_cmp);
                     v[v.len() / 2]
                 };
@@ -188,10 +219,10 @@ impl CaseStrip {
                         fs_hz: FS_HZ,
                         burst_s: BURST_S,
                         ramp: false,
-                        tones: FREQS.len(),
-                        from_hz: FREQS[0],
-                        to_hz: FREQS[FREQS.len() - 1],
-                        amplitude_m: LINE_AMPLITUDE_M * FREQS.len() as f64,
+                        tones: freqs.len(),
+                        from_hz: freqs[0],
+                        to_hz: freqs[freqs.len() - 1],
+                        amplitude_m: LINE_AMPLITUDE_M * freqs.len() as f64,
                         record_tip: true,
                         compact: false,
                         tone_grid_hz: Some(1.0),

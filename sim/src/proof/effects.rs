@@ -213,6 +213,31 @@ pub fn draw(effect: Option<Effect>, p60: &Params<f64>, strength: Strength, rng: 
     Drawn { sample: s, bench: b, words }
 }
 
+/// An RC line of time constant `tau_line_s` at 60 %RH (its resistance fixed, its τ following
+/// each level's capacitance) or an amplifier's single pole at a third of it: the two agree to
+/// second order in sτ (tanh√(sτ)/√(sτ) = 1 − sτ/3 + 2(sτ)²/15 − …, 1/(1 + sτ/3) = 1 − sτ/3 +
+/// (sτ)²/9 − …), so below ωτ ≈ 1 they differ by a few parts in a thousand.
+pub fn lookalike(effect: Effect, p60: &Params<f64>, tau_line_s: f64) -> Drawn {
+    let mut s = SampleEffect::default();
+    let words = match effect {
+        Effect::ElectrodeResistance => {
+            s.electrode_ohm = tau_line_s / capacitance(p60);
+            format!("R_e = {:.2} Ω distributed (τ {:.0} µs at 60 %)", s.electrode_ohm, tau_line_s * 1e6)
+        }
+        Effect::AmplifierBandwidth => {
+            s.ext.amp_tau = [tau_line_s / 3.0, 0.0];
+            format!(
+                "one pole at {:.0} Hz (τ {:.0} µs, a third of a line's {:.0} µs)",
+                1.0 / (2.0 * std::f64::consts::PI * tau_line_s / 3.0),
+                tau_line_s / 3.0 * 1e6,
+                tau_line_s * 1e6
+            )
+        }
+        other => panic!("{other} has no look-alike here: an RC line or an amplifier pole"),
+    };
+    Drawn { sample: s, bench: BenchEffect::default(), words }
+}
+
 impl Physics for SampleEffect {
     fn response(&self, params: &Params<f64>, _rh_pct: f64, temp_c: f64, s: C<f64>) -> (C<f64>, C<f64>) {
         let mut p = *params;

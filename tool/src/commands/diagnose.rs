@@ -82,6 +82,32 @@ impl InstrumentArgs {
     }
 }
 
+impl Args {
+    /// The options the diagnosis was run with besides its recordings and `--report`, as a
+    /// command repeats them: what changes a diagnosis's result.
+    fn options(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some(c) = &self.calib {
+            out.extend(["--calib".to_string(), c.clone()]);
+        }
+        let i = &self.instrument;
+        for (flag, v) in [
+            ("--tip-gain-tolerance", i.tip_gain_tolerance),
+            ("--base-gain-tolerance", i.base_gain_tolerance),
+            ("--current-gain-tolerance", i.current_gain_tolerance),
+            ("--acquisition-delay", i.acquisition_delay),
+        ] {
+            if let Some(v) = v {
+                out.extend([flag.to_string(), v.to_string()]);
+            }
+        }
+        if let Some(h) = &self.humidity_sensor {
+            out.extend(["--humidity-sensor".to_string(), h.clone()]);
+        }
+        out
+    }
+}
+
 pub fn run(a: Args) -> Result<()> {
     let mut calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     a.instrument.apply(&mut calib)?;
@@ -108,7 +134,9 @@ pub fn run(a: Args) -> Result<()> {
     let (d, data) = (&strip.diagnosis, &strip.dataset);
     let inputs: Vec<String> = a.recordings.iter().map(|p| p.display().to_string()).collect();
     let calib_name = a.calib.as_deref().unwrap_or("default");
-    write_report(&a.report, d, data, &inputs, calib_name, &strip.stages, &strip.fits)?;
+    let options = a.options();
+    let rerun = ipmc_diagnose::report::Rerun { inputs: &inputs, options: &options };
+    write_report(&a.report, d, data, &rerun, calib_name, &strip.stages, &strip.fits)?;
     print_findings(d, &strip.stages);
     println!("report: {}", a.report.join("report.md").display());
     if let Some(out) = &a.write_calib {

@@ -8,14 +8,17 @@
 //! (DIR/caseNN.csv, one at a time, each timed) against DIR/truths.json and prints the same
 //! table with each case's indistinguishable set, evidence and wall time.
 //!
-//! `--followups` adds the second step: each case takes the follow-up its own report asks for (the
-//! simulator makes it for the own cases; DIR/followups/caseNN-<protocol>.csv for external ones)
-//! and the strip is diagnosed again from both; the outcome tables before and after.
+//! `--followups [N]` adds the follow-ups (N at most 2, 2 when not given): each case takes the
+//! follow-up its own report asks for (the simulator makes it for the own cases;
+//! DIR/followups/caseNN-<protocol>.csv for external ones) and the strip is diagnosed again from
+//! the recordings so far, then the next one that report asks for, up to N; the outcome tables
+//! before and after. Every report is checked against the one rule (its verdict, probabilities,
+//! set and request agree) and the reports that disagree with themselves are counted.
 
 use anyhow::{Context, Result};
 use ipmc_diagnose::Effect;
 use ipmc_sim::concealed::{Format, Strength};
-use ipmc_tool::prove::cases::{Outcome, Plan, run_cases, second_step_summary, table};
+use ipmc_tool::prove::cases::{Outcome, Plan, lookalike_summary, run_cases, second_step_summary, table};
 use ipmc_tool::prove::external::external;
 use ipmc_tool::prove::outcome::{Class, outcome_table, reliability_table, write_atomically_text};
 use std::path::PathBuf;
@@ -59,16 +62,21 @@ pub struct Args {
     /// every candidate's evidence (what the evidence scale is calibrated from).
     #[arg(long)]
     records: Option<PathBuf>,
-    /// Two steps: diagnose each case, then take the follow-up its report asks for (with
-    /// `--external`: DIR/followups/caseNN-<protocol>.csv) and diagnose the strip again from
-    /// both; prints the outcome tables before and after.
-    #[arg(long)]
-    followups: bool,
+    /// Diagnose each case, then take the follow-up its report asks for (with `--external`:
+    /// DIR/followups/caseNN-<protocol>.csv) and diagnose the strip again from the recordings so
+    /// far, then the next one its report asks for, up to this many (1 or 2; 2 when not given);
+    /// prints the outcome tables before and after.
+    #[arg(long, num_args = 0..=1, default_missing_value = "2", value_parser = clap::value_parser!(u8).range(1..=2))]
+    followups: Option<u8>,
+    /// Add this many cases per effect and band of the look-alike family: an RC line and an
+    /// amplifier pole at a third of its τ, the primary's band ending at 150 or 400 Hz.
+    #[arg(long, default_value_t = 0)]
+    lookalikes: usize,
 }
 
 pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = &a.external {
-        return external(dir, a.calib.as_deref(), a.json, a.records.as_deref(), a.followups);
+        return external(dir, a.calib.as_deref(), a.json, a.records.as_deref(), usize::from(a.followups.unwrap_or(0)));
     }
     let calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
     let dir = match &a.keep {
@@ -77,7 +85,8 @@ pub fn run(a: Args) -> Result<()> {
     };
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     anyhow::ensure!(a.seeds >= 1, "--seeds must be at least 1");
-    let total = a.seeds * (a.per_effect * Effect::ALL.len() + a.clean) as u64;
+    let family = ipmc_sim::lookalike::BANDS_HZ.len() * ipmc_sim::lookalike::EFFECTS.len();
+    let total = a.seeds * (a.per_effect * Effect::ALL.len() + a.clean + a.lookalikes * family) as u64;
     let bar = ipmc_tool::support::progress::bar(total, "cases");
     if let Some(at) = a.at {
         anyhow::ensure!((0.0..=1.0).contains(&at), "--at must be within 0 and 1, not {at}");
@@ -86,7 +95,15 @@ pub fn run(a: Args) -> Result<()> {
     let started = std::time::Instant::now();
     let mut outcomes = Vec::new();
     for seed in a.seed..a.seed + a.seeds {
-        let plan = Plan { seed, per_effect: a.per_effect, clean: a.clean, strength, format: a.format, followups: a.followups };
+        let plan = Plan {
+            seed,
+            per_effect: a.per_effect,
+            clean: a.clean,
+            strength,
+            format: a.format,
+            followups: usize::from(a.followups.unwrap_or(0)),
+            lookalikes: a.lookalikes,
+        };
         outcomes.extend(run_cases(&calib, &plan, &dir, &|_| bar.inc(1))?);
     }
     let wall_s = started.elapsed().as_secs_f64();
@@ -99,7 +116,8 @@ pub fn run(a: Args) -> Result<()> {
     print!("{}", outcome_table(&classes));
     let stated: Vec<(f64, bool)> = outcomes.iter().map(|o| (o.top.1, o.top.0 == o.truth)).collect();
     print!("{}", reliability_table(&stated));
-    let second = a.followups.then(|| second_step_summary(&outcomes));
+    let second = a.followups.map(|n| second_step_summary(&outcomes, usize::from(n)));
+    let lookalikes = lookalike_summary(&outcomes);
     if let Some(path) = &a.records {
         let lines: String = outcomes.iter().map(|o| format!("{}\n", o.record)).collect();
         write_atomically_text(path, &lines)?;
@@ -131,7 +149,9 @@ pub fn run(a: Args) -> Result<()> {
                 "false_alarms": classes.iter().filter(|(_, c)| *c == Class::FalseAlarm).count(),
                 "in_set": classes.iter().filter(|(_, c)| *c == Class::InSet).count(),
                 "missed": classes.iter().filter(|(_, c)| *c == Class::Missed).count(),
+                "self_disagreeing": outcomes.iter().filter(|o| !o.disagreements.is_empty()).count(),
                 "followups": second,
+                "lookalikes": lookalikes,
             })
         );
     }

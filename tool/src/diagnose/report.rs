@@ -22,20 +22,21 @@ pub fn sensor_kind(arg: Option<&str>, calib: &Calibration) -> Result<SensorKind>
     }
 }
 
-/// The report with the stages of a diagnosis from follow-ups (none: one stage).
+/// The report with the stages of a diagnosis from follow-ups (none: one stage); `rerun` is what
+/// the diagnosis was run with, which the follow-up's suggested command repeats.
 pub fn write_report(
     dir: &Path,
     d: &ipmc_diagnose::Diagnosis,
     data: &Dataset,
-    inputs: &[String],
+    rerun: &report::Rerun,
     calib: &str,
     stages: &[Stage],
     fits: &[FollowupFit],
 ) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let drawn = figures::draw(dir, d, data)?;
-    let mut json = report::json(d, inputs, calib, &drawn);
-    let mut md = report::markdown(d, inputs, calib, &drawn);
+    let mut json = report::json(d, rerun, calib, &drawn);
+    let mut md = report::markdown(d, rerun, calib, &drawn);
     if stages.len() > 1 {
         json["stages"] = serde_json::json!(stages);
         json["followup_fits"] = serde_json::json!(fits);
@@ -59,17 +60,15 @@ pub fn print_findings(d: &ipmc_diagnose::Diagnosis, stages: &[Stage]) {
     }
     println!("verdict: {}", d.verdict);
     println!("{}", d.explanation);
-    let set: Vec<String> = d
-        .set
-        .iter()
-        .map(|n| format!("{n} {:.1} %", 100.0 * d.probabilities.iter().find(|p| &p.name == n).map_or(0.0, |p| p.probability)))
-        .collect();
+    let set: Vec<String> = d.set.iter().map(|n| format!("{n} {:.1} %", 100.0 * d.probability_of(n))).collect();
     println!("probability: {}", set.join(", "));
     if let Some(m) = &d.separation {
         println!("to separate {} from {}: {} ({})", m.between[0], m.between[1], m.record, m.band);
     }
     if let Some(r) = &d.request {
         println!("follow-up to record: {} (decides between {})", r.protocol, r.decides_between.join(", "));
+    } else if d.verdict.effect().is_none() {
+        println!("no protocol left can decide: every follow-up protocol is taken or resolves nothing still open");
     }
     println!("where the plain model departs most (before any candidate): {}", d.located.summary);
     println!("held-out χ²/residual: {:.3} → {:.3}", d.heldout_before, d.heldout_after);

@@ -1,9 +1,10 @@
 //! `ipmc prove --external DIR`: recordings made elsewhere (DIR/caseNN.csv) diagnosed one at a
 //! time, each timed, against DIR/truths.json; with the follow-ups, each case again with the
-//! follow-up its report asks for (DIR/followups/caseNN-<protocol>.csv).
+//! follow-up its report asks for (DIR/followups/caseNN-<protocol>.csv), and again with the next
+//! one the report then asks for, up to the number asked.
 
 use super::cases::{Outcome, table};
-use super::outcome::{Class, outcome_table, record, reliability_table, top_of, write_atomically_text};
+use super::outcome::{Class, disagreements, outcome_table, record, reliability_table, top_of, write_atomically_text};
 use anyhow::{Context, Result};
 use ipmc_diagnose::data::Dataset;
 use ipmc_diagnose::engine;
@@ -39,6 +40,8 @@ pub struct ExternalOutcome {
     pub record: serde_json::Value,
     /// The follow-up the report asks for.
     pub request: Option<ipmc_recording::Protocol>,
+    /// How its report disagrees with itself (empty: it agrees).
+    pub disagreements: Vec<String>,
 }
 
 impl ExternalOutcome {
@@ -55,7 +58,8 @@ impl ExternalOutcome {
 
 /// Diagnoses the recordings of `dir` against its truths and prints the tables (`json`: ends with
 /// one JSON line of the counts; `records`: each case's JSON record written there).
-pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Option<&std::path::Path>, followups: bool) -> Result<()> {
+/// `followups`: how many follow-ups each case may take in turn (0: the recordings alone).
+pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records: Option<&std::path::Path>, followups: usize) -> Result<()> {
     let default_calib = dir.join("nominal.toml");
     let calib_arg = calib.map(str::to_string).unwrap_or_else(|| default_calib.display().to_string());
     let calib = crate::support::calibration_source::load(Some(&calib_arg))?;
@@ -84,6 +88,7 @@ pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records:
             top: top_of(&d),
             record: record(&truth, &d),
             request: d.request.as_ref().map(|r| r.protocol),
+            disagreements: disagreements(&d, &[path.display().to_string()]),
             truth,
             seconds,
         };
@@ -91,7 +96,7 @@ pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records:
             Class::Named => String::new(),
             c => format!("  ({})", c.label()),
         };
-        let probability_of = |n: &str| d.probabilities.iter().find(|p| p.name == n).map_or(0.0, |p| p.probability);
+        let probability_of = |n: &str| d.probability_of(n);
         let set: Vec<String> = o.set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
         println!(
             "{:<7} {:<24} {:<24} {:>9} {:>9} {:>6.2}  {}{mark}",
@@ -103,6 +108,9 @@ pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records:
             o.seconds,
             set.join(", ")
         );
+        for e in &o.disagreements {
+            println!("        its report disagrees with itself: {e}");
+        }
         outcomes.push(o);
     }
     println!(
@@ -122,6 +130,8 @@ pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records:
             record: serde_json::Value::Null,
             after: None,
             pending: None,
+            disagreements: o.disagreements.clone(),
+            lookalike: false,
         })
         .collect();
     let full = table(&as_outcomes);
@@ -152,7 +162,9 @@ pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records:
         clean.len(),
         wrong.len()
     );
-    let second = if followups { Some(external_second_step(dir, &calib, &outcomes)?) } else { None };
+    let self_disagreeing = outcomes.iter().filter(|o| !o.disagreements.is_empty()).count();
+    println!("{self_disagreeing} report(s) disagree with themselves");
+    let second = if followups > 0 { Some(external_followups(dir, &calib, &outcomes, followups)?) } else { None };
     if json {
         println!(
             "{}",
@@ -167,6 +179,7 @@ pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records:
                 "confident_wrong": classes.iter().filter(|(_, c)| *c == Class::ConfidentWrong).count(),
                 "in_set": classes.iter().filter(|(_, c)| *c == Class::InSet).count(),
                 "missed": classes.iter().filter(|(_, c)| *c == Class::Missed).count(),
+                "self_disagreeing": self_disagreeing,
                 "followups": second,
             })
         );
@@ -174,62 +187,104 @@ pub fn external(dir: &std::path::Path, calib: Option<&str>, json: bool, records:
     Ok(())
 }
 
-/// The second step of `--external --followups`: each case with the follow-up its own report
-/// asked for (at most one), diagnosed again from both recordings.
-fn external_second_step(dir: &std::path::Path, calib: &ipmc_core::Calibration, before: &[ExternalOutcome]) -> Result<serde_json::Value> {
-    println!("\nsecond step: each case with the follow-up its report asks for");
-    println!("{:<7} {:<24} {:<12} {:<24} {:>6}  set (probability)", "case", "truth", "follow-up", "verdict", "s");
+/// The steps of `--external --followups N`: each case with the follow-up its own report asked
+/// for, diagnosed again from the recordings so far, then with the next one that report asks
+/// for, up to `most` follow-ups (a case that is named, or asks for nothing, stops).
+fn external_followups(
+    dir: &std::path::Path,
+    calib: &ipmc_core::Calibration,
+    before: &[ExternalOutcome],
+    most: usize,
+) -> Result<serde_json::Value> {
+    println!("\nfollow-ups: each case with the follow-up its report asks for, up to {most} in turn");
+    println!("{:<7} {:<24} {:<22} {:<24} {:>6}  set (probability)", "case", "truth", "follow-ups", "verdict", "s");
     let mut after: Vec<(String, Class)> = Vec::new();
     let mut stated: Vec<(f64, bool)> = Vec::new();
     let mut slowest: f64 = 0.0;
+    let mut self_disagreeing = 0;
+    let mut taken_counts = vec![0usize; most + 1];
     for o in before {
         let primary = dir.join(format!("{}.csv", o.case));
-        let followup = o.request.map(|p| dir.join("followups").join(format!("{}-{}.csv", o.case, p)));
-        let Some(followup) = followup.filter(|f| f.exists()) else {
+        let mut files = vec![primary];
+        let mut taken: Vec<ipmc_recording::Protocol> = Vec::new();
+        let mut request = o.request;
+        let mut last: Option<(ipmc_diagnose::Diagnosis, f64)> = None;
+        let mut missing = None;
+        while taken.len() < most {
+            let Some(protocol) = request else { break };
+            let file = dir.join("followups").join(format!("{}-{protocol}.csv", o.case));
+            if !file.exists() {
+                missing = Some(protocol);
+                break;
+            }
+            files.push(file);
+            taken.push(protocol);
+            let t0 = std::time::Instant::now();
+            let read = ipmc_diagnose::strip_files::read(&files)?;
+            let strip = ipmc_diagnose::strip_diagnosis::diagnose(calib, &read, &calib.humidity, &|_| {})
+                .with_context(|| format!("{} with {} follow-up(s)", o.case, taken.len()))?;
+            let seconds = t0.elapsed().as_secs_f64();
+            slowest = slowest.max(seconds);
+            let inputs: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+            let disagree = disagreements(&strip.diagnosis, &inputs);
+            if !disagree.is_empty() {
+                self_disagreeing += 1;
+                for e in &disagree {
+                    println!("        {} with {} follow-up(s): its report disagrees with itself: {e}", o.case, taken.len());
+                }
+            }
+            request = strip.diagnosis.request.as_ref().map(|r| r.protocol);
+            last = Some((strip.diagnosis, seconds));
+        }
+        taken_counts[taken.len()] += 1;
+        let Some((d, seconds)) = last else {
             println!(
-                "{:<7} {:<24} {:<12} {:<24} {:>6}  (no follow-up {})",
+                "{:<7} {:<24} {:<22} {:<24} {:>6}  (no follow-up {})",
                 o.case,
                 o.truth,
                 "–",
                 o.verdict,
                 "–",
-                if o.request.is_some() { "file" } else { "asked for" }
+                if missing.is_some() { "file" } else { "asked for" }
             );
             after.push((o.truth.clone(), o.class()));
             stated.push((o.top.1, o.top.0 == o.truth));
             continue;
         };
-        let t0 = std::time::Instant::now();
-        let files = ipmc_diagnose::strip_files::read(&[primary, followup])?;
-        let strip = ipmc_diagnose::strip_diagnosis::diagnose(calib, &files, &calib.humidity, &|_| {})
-            .with_context(|| format!("{} with its follow-up", o.case))?;
-        let seconds = t0.elapsed().as_secs_f64();
-        slowest = slowest.max(seconds);
-        let d = &strip.diagnosis;
         let class = Class::of(&o.truth, d.verdict.as_str(), &d.set);
-        let probability_of = |n: &str| d.probabilities.iter().find(|p| p.name == n).map_or(0.0, |p| p.probability);
+        let probability_of = |n: &str| d.probability_of(n);
         let set: Vec<String> = d.set.iter().map(|n| format!("{n} ({:.0} %)", 100.0 * probability_of(n))).collect();
         let mark = if class == Class::Named { String::new() } else { format!("  ({})", class.label()) };
+        let next = match (&d.request, missing) {
+            (_, Some(p)) => format!("; asks for {p}, no file"),
+            (Some(r), None) if d.verdict.effect().is_none() => format!("; would ask for {} next", r.protocol),
+            (None, None) if d.verdict.effect().is_none() => "; no protocol left can decide".into(),
+            _ => String::new(),
+        };
         println!(
-            "{:<7} {:<24} {:<12} {:<24} {:>6.2}  {}{mark}",
+            "{:<7} {:<24} {:<22} {:<24} {:>6.2}  {}{mark}{next}",
             o.case,
             o.truth,
-            o.request.map_or("–".into(), |p| p.to_string()),
+            taken.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("+"),
             d.verdict.to_string(),
             seconds,
             set.join(", ")
         );
-        let top = top_of(d);
+        let top = top_of(&d);
         stated.push((top.1, top.0 == o.truth));
         after.push((o.truth.clone(), class));
     }
     let classes_before: Vec<(&str, Class)> = before.iter().map(|o| (o.truth.as_str(), o.class())).collect();
     let classes_after: Vec<(&str, Class)> = after.iter().map(|(t, c)| (t.as_str(), *c)).collect();
     print!("\nbefore the follow-ups:{}", outcome_table(&classes_before));
-    print!("\nafter the follow-ups:{}", outcome_table(&classes_after));
+    print!("\nafter the follow-ups (at most {most} a case):{}", outcome_table(&classes_after));
     print!("{}", reliability_table(&stated));
     let named = classes_after.iter().filter(|(_, c)| *c == Class::Named).count();
-    println!("\n{named}/{} named after the follow-ups; slowest diagnosis with its follow-up {slowest:.2} s", after.len());
+    println!(
+        "\n{named}/{} named after at most {most} follow-up(s) a case ({}); {self_disagreeing} report(s) with follow-ups disagree with themselves; slowest diagnosis with its follow-ups {slowest:.2} s",
+        after.len(),
+        taken_counts.iter().enumerate().map(|(k, n)| format!("{n} took {k}")).collect::<Vec<_>>().join(", ")
+    );
     let count = |c: Class| classes_after.iter().filter(|(_, k)| *k == c).count();
     Ok(serde_json::json!({
         "named": named,
@@ -237,6 +292,8 @@ fn external_second_step(dir: &std::path::Path, calib: &ipmc_core::Calibration, b
         "missed": count(Class::Missed),
         "confident_wrong": count(Class::ConfidentWrong),
         "false_alarms": count(Class::FalseAlarm),
+        "self_disagreeing": self_disagreeing,
         "slowest_s": slowest,
+        "at_most": most,
     }))
 }

@@ -100,6 +100,8 @@ pub fn record(truth: &str, d: &ipmc_diagnose::Diagnosis) -> serde_json::Value {
         "verdict": d.verdict,
         "set": d.set,
         "probabilities": d.probabilities,
+        "within_none": d.within_none,
+        "tempering": d.tempering,
         "overdispersion": d.overdispersion,
         "candidates": d.candidates.iter().map(|c| serde_json::json!({
             "name": c.name, "applicable": c.applicable, "delta_bic": c.delta_bic, "passes": c.passes,
@@ -110,6 +112,14 @@ pub fn record(truth: &str, d: &ipmc_diagnose::Diagnosis) -> serde_json::Value {
         "humidity_reach": d.humidity_reach,
         "levels": d.levels.iter().map(|l| serde_json::json!({"rh_pct": l.rh_pct, "time_s": l.time_s, "revisit_of": l.revisit_of})).collect::<Vec<_>>(),
     })
+}
+
+/// Every way the report of `d` (diagnosed from `inputs`) disagrees with itself
+/// (`ipmc_diagnose::verdict::consistency`): its verdict, probabilities, set and request against
+/// the one rule.
+pub fn disagreements(d: &ipmc_diagnose::Diagnosis, inputs: &[String]) -> Vec<String> {
+    let rerun = ipmc_diagnose::report::Rerun { inputs, options: &[] };
+    ipmc_diagnose::verdict::consistency::check(&ipmc_diagnose::report::json(d, &rerun, "", &[]))
 }
 
 /// The most probable hypothesis and its probability (`none` when nothing is stated).

@@ -76,6 +76,12 @@ pub fn diagnose_prove() -> Result<()> {
         if reduced != named {
             bail!("{format}: held-out error reduced in only {reduced} of {named} correct diagnoses");
         }
+        // One rule states the verdict, the probabilities, the set and the request: a report
+        // whose parts disagree is a bug, not a statistic.
+        let disagreeing = json_count(&summary, "self_disagreeing")?;
+        if disagreeing > 0 {
+            bail!("{format}: {disagreeing} report(s) disagree with themselves (verdict, probabilities, set or request)");
+        }
     }
     Ok(())
 }
@@ -97,7 +103,8 @@ pub fn diagnose_prove_external() -> Result<()> {
         println!("no {}: skipped", dir.join("truths.json").display());
         return Ok(());
     }
-    // Both steps: the recordings alone, then each with the follow-up its own report asks for.
+    // Both steps: the recordings alone, then each with the follow-ups its own reports ask for,
+    // at most two in turn.
     let out = ipmc(&["prove".as_ref(), "--external".as_ref(), dir.as_os_str(), "--followups".as_ref(), "--json".as_ref()])?;
     print!("{out}");
     let line = out.lines().last().context("ipmc prove printed nothing")?;
@@ -117,6 +124,10 @@ pub fn diagnose_prove_external() -> Result<()> {
     let (wrong, alarms) = (json_count(second, "confident_wrong")?, json_count(second, "false_alarms")?);
     if alarms > 0 || wrong > 0 {
         bail!("external recordings with their follow-ups: {wrong} confident wrong name(s), {alarms} false alarm(s) (target 0)");
+    }
+    let disagreeing = json_count(&summary, "self_disagreeing")? + json_count(second, "self_disagreeing")?;
+    if disagreeing > 0 {
+        bail!("external recordings: {disagreeing} report(s) disagree with themselves (verdict, probabilities, set or request)");
     }
     Ok(())
 }
