@@ -152,6 +152,31 @@ pub fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, start: &[f64], step: f64, ftol: f6
     simplex.swap_remove(0)
 }
 
+/// The integrated autocorrelation time τ of a sequence (n values average as n/τ independent
+/// ones): 1 + 2·Σρₖ over Geyer's initial positive sequence (the sums of neighbouring pairs of
+/// lags taken while positive), the standard estimate that needs no chosen cut-off.
+pub fn autocorrelation_time(x: &[f64]) -> f64 {
+    let n = x.len();
+    if n < 4 {
+        return 1.0;
+    }
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let c = |lag: usize| x[..n - lag].iter().zip(&x[lag..]).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>() / n as f64;
+    let c0 = c(0);
+    if c0 <= 0.0 {
+        return 1.0;
+    }
+    let mut tau = -1.0;
+    for k in 0..n / 2 - 1 {
+        let pair = (c(2 * k) + c(2 * k + 1)) / c0;
+        if pair <= 0.0 {
+            break;
+        }
+        tau += 2.0 * pair;
+    }
+    tau.max(1.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -178,5 +203,24 @@ mod tests {
         let rosen = |x: &[f64]| (1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2);
         let (x, v) = nelder_mead(&rosen, &[-1.2, 1.0], 0.5, 1e-14, 5000);
         assert!(v < 1e-8 && (x[0] - 1.0).abs() < 1e-3, "{x:?} {v}");
+    }
+
+    #[test]
+    fn autocorrelation_time_counts_independent_values() {
+        let mut rng = crate::random::SplitMix64(3);
+        let white: Vec<f64> = (0..4000).map(|_| rng.gauss(1.0)).collect();
+        let t = autocorrelation_time(&white);
+        assert!((0.9..1.2).contains(&t), "white: τ {t}");
+        // An AR(1) with coefficient 0.5 has τ = (1 + 0.5)/(1 − 0.5) = 3.
+        let mut y = 0.0;
+        let ar: Vec<f64> = white
+            .iter()
+            .map(|w| {
+                y = 0.5 * y + w;
+                y
+            })
+            .collect();
+        let t = autocorrelation_time(&ar);
+        assert!((2.5..3.5).contains(&t), "AR(1) 0.5: τ {t}");
     }
 }

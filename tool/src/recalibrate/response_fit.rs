@@ -19,6 +19,7 @@ use ipmc_core::model::exact::{current_response, jw};
 use ipmc_core::model::extension::Extension;
 use ipmc_core::{C, Calibration, ComplexMath, ParamName};
 use ipmc_fit::lsq::{self, Bound, Param};
+use ipmc_fit::stats::autocorrelation_time;
 
 use super::cross_spectrum::Measured;
 
@@ -239,31 +240,6 @@ pub fn fit_checks(
     Some(CheckFit { hypothesis, fit, prior_sd, calibration_sd, drift_sd, layout, ln_evidence, n_checks: checks.len() })
 }
 
-/// The integrated autocorrelation time τ of a sequence (n values average as n/τ independent
-/// ones): 1 + 2·Σρₖ over Geyer's initial positive sequence (the sums of neighbouring pairs of
-/// lags taken while positive), the standard estimate that needs no chosen cut-off.
-pub fn autocorrelation_time(x: &[f64]) -> f64 {
-    let n = x.len();
-    if n < 4 {
-        return 1.0;
-    }
-    let mean = x.iter().sum::<f64>() / n as f64;
-    let c = |lag: usize| x[..n - lag].iter().zip(&x[lag..]).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>() / n as f64;
-    let c0 = c(0);
-    if c0 <= 0.0 {
-        return 1.0;
-    }
-    let mut tau = -1.0;
-    for k in 0..n / 2 - 1 {
-        let pair = (c(2 * k) + c(2 * k + 1)) / c0;
-        if pair <= 0.0 {
-            break;
-        }
-        tau += 2.0 * pair;
-    }
-    tau.max(1.0)
-}
-
 /// −½χ² − ½ ln det(posterior precision) + ½ ln det(prior precision), over the parameters with a
 /// prior; the held factors (prior 1σ 0) drop out of both.
 fn ln_evidence(fit: &lsq::Fit, layout: &Layout, prior_sd: &[f64; 7], sensor_sd: f64, checks: &[CheckData]) -> f64 {
@@ -366,25 +342,6 @@ mod tests {
             rate_ppm: 0.0,
             segments_eff: 100.0,
         }
-    }
-
-    #[test]
-    fn autocorrelation_time_counts_independent_values() {
-        let mut rng = SplitMix64(3);
-        let white: Vec<f64> = (0..4000).map(|_| rng.gauss(1.0)).collect();
-        let t = autocorrelation_time(&white);
-        assert!((0.9..1.2).contains(&t), "white: τ {t}");
-        // An AR(1) with coefficient 0.5 has τ = (1 + 0.5)/(1 − 0.5) = 3.
-        let mut y = 0.0;
-        let ar: Vec<f64> = white
-            .iter()
-            .map(|w| {
-                y = 0.5 * y + w;
-                y
-            })
-            .collect();
-        let t = autocorrelation_time(&ar);
-        assert!((2.5..3.5).contains(&t), "AR(1) 0.5: τ {t}");
     }
 
     #[test]
