@@ -18,11 +18,12 @@ use embassy_sync::{
     mutex::Mutex,
 };
 use embassy_time::{Duration, Instant, with_timeout};
+use static_cell::StaticCell;
 use ipmc_core::resample::track::{BOARD_COUNTS_PER_SAMPLE, PART_COUNTS_PER_SAMPLE, PartSample};
 use ipmc_core::timing::sample_period_clocks;
 use ipmc_sensors::lsm6dsl::{
     self, Lsm6dsl, MPS2_PER_COUNT,
-    fifo::{FifoSample, PATTERN_WORDS, TIMESTAMP_EVERY},
+    fifo::{FifoSample, WORDS_PER_SET},
 };
 
 use crate::contract::{
@@ -49,8 +50,10 @@ const WATERMARK_WAIT: Duration = Duration::from_millis(100);
 const FAILED_READS_BEFORE_SET_UP: u32 = 10;
 
 /// The check path, once the part answered: the reader hands it the samples, the sample path its
-/// blocks (None: no part, or not yet known).
-static CHECKS: BlockingMutex<CriticalSectionRawMutex, RefCell<Option<Checks>>> = BlockingMutex::new(RefCell::new(None));
+/// blocks (None: no part, or not yet known). A reference to a cell of its own: an `Option<Checks>`
+/// would be initialised data, its 1.7 KiB copied from flash.
+static CHECKS: BlockingMutex<CriticalSectionRawMutex, RefCell<Option<&'static mut Checks>>> = BlockingMutex::new(RefCell::new(None));
+static CHECKS_CELL: StaticCell<Checks> = StaticCell::new();
 /// The board's timer at ADC sample 0, once sampling started.
 static ADC_ORIGIN: BlockingMutex<CriticalSectionRawMutex, Cell<Option<u64>>> = BlockingMutex::new(Cell::new(None));
 /// What the reader task takes when it is spawned.
@@ -112,7 +115,8 @@ async fn read_task(mut r: Reader) {
             return;
         }
     };
-    CHECKS.lock(|c| *c.borrow_mut() = Some(Checks::new()));
+    let checks = CHECKS_CELL.init_with(Checks::new);
+    CHECKS.lock(|c| *c.borrow_mut() = Some(checks));
     defmt::info!("LSM6DSL set up: ±16 g, 1.66 kHz, FIFO bursts on INT1 (PD11): checks in the stream");
     loop {
         // The watermark is a level, high while the FIFO holds at least it.
@@ -138,13 +142,13 @@ async fn set_up(bus: &'static SharedI2c2) -> Result<Lsm6dsl, lsm6dsl::Error> {
     lsm6dsl::set_up(&mut device, &mut embassy_time::Delay).await
 }
 
-/// Reads the FIFO, a pattern at a time (RAM is tight: the buffers live in this task's state),
+/// Reads the FIFO, [`CHUNK_SAMPLES`] at a time (RAM is tight: the buffers live in this task's state),
 /// until it is empty, and hands each part to the check path. A part that leaves the FIFO empty
 /// pairs its last stamp with the board's timer at the read: the newest sample read was written
 /// within one sample of it, half a sample on average.
 async fn read_bursts(part: &mut Lsm6dsl, r: &Reader) -> Result<(), lsm6dsl::Error> {
-    let mut words = [0u16; PATTERN_WORDS];
-    let mut out = [FifoSample::default(); TIMESTAMP_EVERY];
+    let mut words = [0u16; CHUNK_WORDS];
+    let mut out = [FifoSample::default(); CHUNK_SAMPLES];
     loop {
         let (burst, read_at) = {
             let mut bus = r.bus.lock().await;
@@ -152,18 +156,20 @@ async fn read_bursts(part: &mut Lsm6dsl, r: &Reader) -> Result<(), lsm6dsl::Erro
             (part.read_fifo(&mut *bus, &mut words, &mut out).await?, read_at)
         };
         let read = &out[..burst.samples];
-        let mut samples = [PartSample { accel_mps2: 0.0, stamp: None }; TIMESTAMP_EVERY];
-        for (s, f) in samples.iter_mut().zip(read) {
-            *s = PartSample { accel_mps2: f32::from(f.xyz[BENDING_AXIS]) * MPS2_PER_COUNT, stamp: f.timestamp };
-        }
         let emptied = burst.samples < out.len();
-        let board_at_last_stamp = read.iter().rposition(|f| f.timestamp.is_some()).filter(|_| emptied).map(|j| {
-            let after = (read.len() - 1 - j) as u64;
-            read_at.saturating_sub(after * PART_SAMPLE_BOARD_COUNTS + PART_SAMPLE_BOARD_COUNTS / 2)
-        });
+        let last_stamped = read.iter().rposition(|f| f.timestamp.is_some());
         CHECKS.lock(|c| {
-            if let Some(checks) = c.borrow_mut().as_mut() {
-                checks.track().burst(&samples[..burst.samples], burst.overran, board_at_last_stamp);
+            let mut c = c.borrow_mut();
+            let Some(track) = c.as_mut().map(|checks| checks.track()) else { return };
+            // A sample at a time (no second copy of the chunk), the overrun with the first, the
+            // board's timer with the last stamp.
+            for (k, f) in read.iter().enumerate() {
+                let board_at_stamp = (emptied && Some(k) == last_stamped).then(|| {
+                    let after = (read.len() - 1 - k) as u64;
+                    read_at.saturating_sub(after * PART_SAMPLE_BOARD_COUNTS + PART_SAMPLE_BOARD_COUNTS / 2)
+                });
+                let sample = PartSample { accel_mps2: f32::from(f.xyz[BENDING_AXIS]) * MPS2_PER_COUNT, stamp: f.timestamp };
+                track.burst(&[sample], burst.overran && k == 0, board_at_stamp);
             }
         });
         if emptied {
@@ -171,6 +177,10 @@ async fn read_bursts(part: &mut Lsm6dsl, r: &Reader) -> Result<(), lsm6dsl::Erro
         }
     }
 }
+
+/// Samples read in one FIFO read, and the words that hold them (with a timestamp's data set).
+const CHUNK_SAMPLES: usize = 4;
+const CHUNK_WORDS: usize = (CHUNK_SAMPLES + 1) * WORDS_PER_SET;
 
 /// The axis along the strip's bending: the board's Z (its normal), for a board mounted flat on
 /// the strip's base with the strip bending across it.
