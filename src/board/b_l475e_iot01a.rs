@@ -44,12 +44,12 @@ use crate::contract::{
 };
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 use embassy_embedded_hal::shared_bus::asynch::i2c::I2cDevice;
-#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 #[cfg(feature = "humidity-sht4x")]
 use embassy_stm32::peripherals::{DMA1_CH6, DMA1_CH7, I2C1};
 #[cfg(feature = "humidity-hih4030")]
 use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_time::{Duration, Instant, with_timeout};
 use ipmc_core::firmware::block_wait::{BlockWait, Then, Waited};
 use ipmc_core::firmware::lost_samples::RingBlocks;
@@ -370,15 +370,8 @@ pub fn init() -> Board {
     trigger.set_period_clocks(sample_period_clocks(sysclk_hz), RoundTo::Slower);
     trigger.regs_basic().cr2().modify(|w| w.set_mms(pac::timer::vals::Mms::UPDATE));
 
-    let i2c2: &'static SharedI2c2 = I2C2_BUS.init(embassy_sync::mutex::Mutex::new(I2c::new(
-        p.I2C2,
-        p.PB10,
-        p.PB11,
-        p.DMA1_CH4,
-        p.DMA1_CH5,
-        Irqs,
-        i2c_config(I2C2_HZ),
-    )));
+    let i2c2: &'static SharedI2c2 =
+        I2C2_BUS.init(embassy_sync::mutex::Mutex::new(I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config(I2C2_HZ))));
     // INT1 drives push-pull, active high (CTRL3_C as the driver leaves it).
     let int1 = exti::ExtiInput::new(p.PD11, p.EXTI11, Pull::None, Irqs);
     let accel = b_l475e_accel::wire(i2c2, int1, AdcClock::new(sysclk_hz));
