@@ -129,6 +129,13 @@ async fn read_task(mut r: Reader) {
                     defmt::warn!("LSM6DSL: {} reads failed ({}): setting it up again", failed, e);
                     if let Ok(p) = set_up(r.bus).await {
                         part = p;
+                        // The set-up restarted the part's timestamps: its samples are numbered
+                        // and mapped anew (the checks held are lost).
+                        CHECKS.lock(|c| {
+                            if let Some(checks) = c.borrow_mut().as_mut() {
+                                **checks = Checks::new();
+                            }
+                        });
                     }
                     failed = 0;
                 }
