@@ -124,6 +124,8 @@ async fn read_task(mut r: Reader) {
         match read_bursts(&mut part, &r).await {
             Ok(()) => failed = 0,
             Err(e) => {
+                // INT1 may stay high with a part that no longer answers: not a busy loop.
+                embassy_time::Timer::after(WATERMARK_WAIT).await;
                 failed += 1;
                 if failed == FAILED_READS_BEFORE_SET_UP {
                     defmt::warn!("LSM6DSL: {} reads failed ({}): setting it up again", failed, e);
