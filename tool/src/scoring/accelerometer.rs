@@ -205,12 +205,13 @@ mod tests {
             })
             .collect();
         let scoring = Scoring::new(&Band::DEFAULT, fs, None).unwrap();
-        let bursts = [0..n];
+        let whole = 0..n;
+        let bursts = std::slice::from_ref(&whole);
         let truth_base: Vec<f64> = (0..n).map(|k| base(k as f64 / fs)).collect();
-        let estimate: Vec<f32> = scoring.truth(&truth_base, &bursts).iter().map(|&x| x as f32).collect();
-        let (truth, found, rate_ppm) = fitted_truth(&scoring, &accel, &estimate, &bursts);
+        let estimate: Vec<f32> = scoring.truth(&truth_base, bursts).iter().map(|&x| x as f32).collect();
+        let (truth, found, rate_ppm) = fitted_truth(&scoring, &accel, &estimate, bursts);
         assert!((found - delay).abs() < 0.002e-3 && rate_ppm.abs() < 1.0, "delay {found} against {delay}, rate {rate_ppm} ppm");
-        let error = scoring.score(&estimate, &truth, &bursts, None).pooled.error();
+        let error = scoring.score(&estimate, &truth, bursts, None).pooled.error();
         assert!(error < 1e-3, "error {error}");
         // Only the samples whose kernel runs past the record's end are left unscored.
         let unknown = truth[n / 2..].iter().filter(|t| t.is_nan()).count();
