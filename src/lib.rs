@@ -46,6 +46,10 @@ pub fn run() -> ! {
     let io_spawner = board::start_io_executor();
     io_spawner.spawn(app::humidity::humidity_task(board.humidity).expect("humidity task spawns once"));
     io_spawner.spawn(app::report::report_task(board.stream).expect("report task spawns once"));
+    // The hardware board reads its accelerometer on the I/O executor (the QEMU board replays it
+    // in the sample path).
+    #[cfg(feature = "board-b-l475e")]
+    board::spawn_io_tasks(io_spawner);
 
     RETUNE_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(app::retune::retune_task().expect("retune task spawns once"));

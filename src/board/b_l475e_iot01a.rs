@@ -7,6 +7,7 @@
 //! | sample trigger            | TIM6 TRGO (update) → ADC1 EXTSEL 13     |
 //! | ADC ring buffer           | DMA1 channel 1                          |
 //! | HTS221 humidity (default) | I2C2: PB10 SCL, PB11 SDA; DMA1 ch4/ch5  |
+//! | LSM6DSL accelerometer     | I2C2 (shared with the HTS221, 400 kHz); INT1 = PD11 (EXTI line 11, vector EXTI15_10) |
 //! | SHT4x humidity (feature `humidity-sht4x`) | I2C1 on the Arduino connector: D15 = PB8 SCL, D14 = PB9 SDA; DMA1 ch6/ch7 (I2C2 is on no connector) |
 //! | HIH-4030 humidity (feature `humidity-hih4030`) | Arduino A1 = PC4 (ADC2_IN13), one conversion per reading |
 //! | binary stream             | USART1 TX PB6 (ST-LINK VCP); DMA2 ch6   |
@@ -20,9 +21,12 @@ pub use embassy_stm32::pac;
 use embassy_stm32::{
     Config, Peri,
     adc::{Adc, AdcChannel, CONTINUOUS, RingBufferedAdc, SampleTime},
-    bind_interrupts, dma, i2c,
+    bind_interrupts, dma, exti,
+    gpio::Pull,
+    i2c::{self, I2c},
+    interrupt,
     mode::Async,
-    peripherals::{ADC1, DMA1_CH1, DMA2_CH6, IWDG, TIM6},
+    peripherals::{ADC1, DMA1_CH1, DMA1_CH4, DMA1_CH5, DMA2_CH6, I2C2, IWDG, TIM6},
     rcc,
     timer::low_level::{RoundTo, Timer},
     usart::{self, UartTx},
@@ -31,20 +35,21 @@ use embassy_stm32::{
 use static_cell::StaticCell;
 
 use super::Board;
+use super::b_l475e_accel::{self, AdcClock, SharedI2c2, TIME_BASE_DIVIDER};
+pub use super::b_l475e_accel::{Accelerometer, spawn_io_tasks};
 use crate::contract::{
-    check::CheckBlock,
     config::{ADC_STALL_BLOCKS, ADC_VREF_V, BLOCK_LEN, SAMPLE_RATE_HZ, STREAM_STALL_LIMIT_MS},
     current_conversion, flags,
-    sources::{AccelSource, CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
+    sources::{CurrentSource, FrameDropped, HumidityError, HumiditySource, SampleBlock, StreamSink},
 };
-#[cfg(not(feature = "humidity-hih4030"))]
-use embassy_stm32::i2c::I2c;
-#[cfg(not(feature = "humidity-sht4x"))]
-use embassy_stm32::peripherals::{DMA1_CH4, DMA1_CH5, I2C2};
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
+use embassy_embedded_hal::shared_bus::asynch::i2c::I2cDevice;
 #[cfg(feature = "humidity-sht4x")]
 use embassy_stm32::peripherals::{DMA1_CH6, DMA1_CH7, I2C1};
 #[cfg(feature = "humidity-hih4030")]
 use embassy_stm32::{adc::AnyAdcChannel, peripherals::ADC2};
+#[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_time::{Duration, Instant, with_timeout};
 use ipmc_core::firmware::block_wait::{BlockWait, Then, Waited};
 use ipmc_core::firmware::lost_samples::RingBlocks;
@@ -94,17 +99,17 @@ const MSI_LOCKED_HZ: u64 = 122 * 32_768;
 const SYSCLK_LSE_HZ: u64 = MSI_LOCKED_HZ * 40 / 2;
 /// SYSCLK without it: HSI16 × 10 / 2.
 const SYSCLK_HSI_HZ: u64 = 16_000_000 * 10 / 2;
-/// embassy-stm32's TIM2 time base divides its nominal 80 MHz by a whole prescaler,
-/// 80 000 000 / 32 768 = 2441 (truncated from 2441.4): one tick is 2441 clocks of the real SYSCLK,
-/// 32 754.6 Hz with the crystal (−410 ppm), 32 773.5 Hz from HSI16 (+166 ppm).
-const TIME_BASE_DIVIDER: u64 = 80_000_000 / embassy_time::TICK_HZ;
 /// How long the sample path waits for a block before it looks for an ADC overrun.
 const ADC_STALL: Duration = Duration::from_micros(ADC_STALL_BLOCKS * BLOCK_LEN as u64 * 1_000_000 / SAMPLE_RATE_HZ as u64);
-#[cfg(not(feature = "humidity-hih4030"))]
-const I2C_HZ: u32 = 100_000;
+/// I2C1 (the SHT4x's).
+#[cfg(feature = "humidity-sht4x")]
+const I2C1_HZ: u32 = 100_000;
+/// I2C2 (the HTS221 and the LSM6DSL, both fast-mode parts): the LSM6DSL's 11.2 kB/s of FIFO
+/// take a quarter of it.
+const I2C2_HZ: u32 = 400_000;
 /// Longest I2C transfer [ms]: the longest HTS221 transfer (16 calibration bytes) takes 2 ms at
-/// 100 kHz, the SHT4x's (6 bytes) under 1 ms; the SHT4x's conversion is a wait between transfers.
-#[cfg(not(feature = "humidity-hih4030"))]
+/// 100 kHz, the SHT4x's (6 bytes) under 1 ms, a pattern of the LSM6DSL's FIFO (54 bytes) 1.5 ms
+/// at 400 kHz; the SHT4x's conversion is a wait between transfers.
 const I2C_TIMEOUT_MS: u64 = 10;
 /// The humidity sensor's I2C: the on-board HTS221 is on I2C2 (PB10 SCL, PB11 SDA), wired to the
 /// on-board sensors only.
@@ -127,19 +132,18 @@ mod i2c_wires {
 
 bind_interrupts!(struct Irqs {
     DMA1_CHANNEL1 => dma::InterruptHandler<DMA1_CH1>;
-    #[cfg(not(feature = "humidity-sht4x"))]
     DMA1_CHANNEL4 => dma::InterruptHandler<DMA1_CH4>;
-    #[cfg(not(feature = "humidity-sht4x"))]
     DMA1_CHANNEL5 => dma::InterruptHandler<DMA1_CH5>;
     #[cfg(feature = "humidity-sht4x")]
     DMA1_CHANNEL6 => dma::InterruptHandler<DMA1_CH6>;
     #[cfg(feature = "humidity-sht4x")]
     DMA1_CHANNEL7 => dma::InterruptHandler<DMA1_CH7>;
     DMA2_CHANNEL6 => dma::InterruptHandler<DMA2_CH6>;
-    #[cfg(not(feature = "humidity-sht4x"))]
     I2C2_EV => i2c::EventInterruptHandler<I2C2>;
-    #[cfg(not(feature = "humidity-sht4x"))]
     I2C2_ER => i2c::ErrorInterruptHandler<I2C2>;
+    // Every line from 10 to 15 (the LSM6DSL's INT1 is line 11): embassy's handler wakes each
+    // line's own waiter.
+    EXTI15_10 => exti::InterruptHandler<interrupt::typelevel::EXTI15_10>;
     #[cfg(feature = "humidity-sht4x")]
     I2C1_EV => i2c::EventInterruptHandler<I2C1>;
     #[cfg(feature = "humidity-sht4x")]
@@ -153,6 +157,22 @@ pub const IO_PRIORITY: u8 = 7 << 4;
 
 /// Two halves of `BLOCK_LEN`: the DMA fills one while the sample path reads the other.
 static ADC_DMA_BUF: StaticCell<[u16; 2 * BLOCK_LEN]> = StaticCell::new();
+/// I2C2, shared by the HTS221's poll and the LSM6DSL's reader.
+static I2C2_BUS: StaticCell<SharedI2c2> = StaticCell::new();
+
+/// An I2C configuration at `hz`.
+fn i2c_config(hz: u32) -> i2c::Config {
+    let mut config = i2c::Config::default();
+    config.frequency = embassy_stm32::time::Hertz(hz);
+    // embassy's async I2C busy-waits inside its poll while the bus is BUSY (SDA held low),
+    // up to this timeout: keep it far below the humidity task's (500 ms) so a wedged bus
+    // costs the I/O executor milliseconds, not a second.
+    config.timeout = embassy_time::Duration::from_millis(I2C_TIMEOUT_MS);
+    // As ST's board support does; harmless beside external pull-ups.
+    config.scl_pullup = true;
+    config.sda_pullup = true;
+    config
+}
 
 /// The clock tree, and the real SYSCLK it gives (TIM6 and the ADC run from it).
 fn clocks(crystal: bool) -> (Config, u64) {
@@ -350,30 +370,18 @@ pub fn init() -> Board {
     trigger.set_period_clocks(sample_period_clocks(sysclk_hz), RoundTo::Slower);
     trigger.regs_basic().cr2().modify(|w| w.set_mms(pac::timer::vals::Mms::UPDATE));
 
-    #[cfg(not(feature = "humidity-hih4030"))]
-    let humidity = {
-        let mut i2c_config = i2c::Config::default();
-        i2c_config.frequency = embassy_stm32::time::Hertz(I2C_HZ);
-        // embassy's async I2C busy-waits inside its poll while the bus is BUSY (SDA held low),
-        // up to this timeout: keep it far below the humidity task's (500 ms) so a wedged bus
-        // costs the I/O executor milliseconds, not a second.
-        i2c_config.timeout = embassy_time::Duration::from_millis(I2C_TIMEOUT_MS);
-        // As ST's board support does; harmless beside external pull-ups.
-        i2c_config.scl_pullup = true;
-        i2c_config.sda_pullup = true;
-        #[cfg(not(feature = "humidity-sht4x"))]
-        let humidity = Humidity {
-            bus: I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config),
-            calibration: None,
-            health: BusHealth::new(),
-        };
-        #[cfg(feature = "humidity-sht4x")]
-        let humidity = Humidity {
-            bus: I2c::new(p.I2C1, p.PB8, p.PB9, p.DMA1_CH6, p.DMA1_CH7, Irqs, i2c_config),
-            serial: None,
-            health: BusHealth::new(),
-        };
-        humidity
+    let i2c2: &'static SharedI2c2 =
+        I2C2_BUS.init(embassy_sync::mutex::Mutex::new(I2c::new(p.I2C2, p.PB10, p.PB11, p.DMA1_CH4, p.DMA1_CH5, Irqs, i2c_config(I2C2_HZ))));
+    // INT1 drives push-pull, active high (CTRL3_C as the driver leaves it).
+    let int1 = exti::ExtiInput::new(p.PD11, p.EXTI11, Pull::None, Irqs);
+    let accel = b_l475e_accel::wire(i2c2, int1, AdcClock::new(sysclk_hz));
+    #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
+    let humidity = Humidity { bus: I2cDevice::new(i2c2), shared: i2c2, calibration: None, health: BusHealth::new() };
+    #[cfg(feature = "humidity-sht4x")]
+    let humidity = Humidity {
+        bus: I2c::new(p.I2C1, p.PB8, p.PB9, p.DMA1_CH6, p.DMA1_CH7, Irqs, i2c_config(I2C1_HZ)),
+        serial: None,
+        health: BusHealth::new(),
     };
     // ADC1 belongs to the timer-triggered current ring buffer; the humidity gets ADC2.
     #[cfg(feature = "humidity-hih4030")]
@@ -395,18 +403,7 @@ pub fn init() -> Board {
         front_end,
         clock_fault: !crystal,
     };
-    defmt::info!("the LSM6DSL is not read by this build: no check in the stream");
-    Board { samples, humidity, stream: Stream(uart), accel: Accelerometer }
-}
-
-/// The board's LSM6DSL, not read by this build (its task on the shared I2C2 is not wired): the
-/// firmware runs without it, as on a board without the part, and the start-up says so once.
-pub struct Accelerometer;
-
-impl AccelSource for Accelerometer {
-    fn check(&mut self, _first_sample: u32, _lost: bool, _current_a: &[f32; BLOCK_LEN]) -> Option<CheckBlock> {
-        None
-    }
+    Board { samples, humidity, stream: Stream(uart), accel }
 }
 
 pub struct Samples {
@@ -443,6 +440,7 @@ impl CurrentSource for Samples {
             );
         }
         self.trigger.start();
+        b_l475e_accel::adc_started(AdcClock::new(self.sysclk_hz));
         self.first_conversion = true;
         // From here on the sample path must deliver a block every 16 ms: the running IWDG gets
         // the short timeout (the start-up stops feeding it once the first design is in).
@@ -519,14 +517,17 @@ impl Samples {
     }
 }
 
-#[cfg(not(feature = "humidity-hih4030"))]
+#[cfg(feature = "humidity-sht4x")]
 type Bus = I2c<'static, Async, i2c::Master>;
 
-/// On-board HTS221. The bus is owned here, outside the reading future the humidity task
-/// cancels on timeout; the sensor is set up (again) whenever it has no calibration.
+/// On-board HTS221, on I2C2 beside the LSM6DSL. Its device on the shared bus is owned here,
+/// outside the reading future the humidity task cancels on timeout (a cancelled transfer gives
+/// the bus's lock back); the sensor is set up (again) whenever it has no calibration.
 #[cfg(not(any(feature = "humidity-hih4030", feature = "humidity-sht4x")))]
 pub struct Humidity {
-    bus: Bus,
+    bus: I2cDevice<'static, CriticalSectionRawMutex, I2c<'static, Async, i2c::Master>>,
+    /// The bus itself, held while it is cleared: the LSM6DSL's reader waits meanwhile.
+    shared: &'static SharedI2c2,
     calibration: Option<Hts221Calibration>,
     health: BusHealth,
 }
@@ -563,6 +564,7 @@ impl HumiditySource for Humidity {
         // Before the first set-up, and after repeated failures: a wedged bus never recovers by
         // retrying transfers.
         if self.health.should_clear() {
+            let _held = self.shared.lock().await;
             clear_bus();
             self.calibration = None;
         }

@@ -9,6 +9,8 @@
 //! - `finish()`: what happens when the sample source says the input has ended.
 
 #[cfg(feature = "board-b-l475e")]
+mod b_l475e_accel;
+#[cfg(feature = "board-b-l475e")]
 mod b_l475e_iot01a;
 #[cfg(feature = "board-b-l475e")]
 pub use b_l475e_iot01a::*;

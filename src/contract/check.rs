@@ -20,8 +20,6 @@ pub struct CheckBlock {
 
 /// One block's current waiting for the part's samples.
 #[derive(Clone, Copy)]
-// The hardware board reads no part yet (`board::Accelerometer`).
-#[cfg_attr(feature = "board-b-l475e", allow(dead_code))]
 struct Held {
     first_sample: u32,
     lost: bool,
@@ -29,14 +27,12 @@ struct Held {
 }
 
 /// The track and the blocks held: a ring whose next slot holds the oldest.
-#[cfg_attr(feature = "board-b-l475e", allow(dead_code))]
 pub struct Checks {
     track: AccelTrack,
     held: [Option<Held>; LAG_BLOCKS],
     next: usize,
 }
 
-#[cfg_attr(feature = "board-b-l475e", allow(dead_code))]
 impl Checks {
     pub fn new() -> Self {
         Self { track: AccelTrack::new(CHAIN_DELAY_S), held: [None; LAG_BLOCKS], next: 0 }

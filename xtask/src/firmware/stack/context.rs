@@ -43,13 +43,16 @@ pub struct Task {
     /// inlined into its `TaskStorage::poll`, leaving only its source lines to name it.
     pub source: &'static str,
     pub context: Context,
+    /// Built by the hardware variants only (the QEMU board replays what it reads).
+    pub hardware_only: bool,
 }
 
 /// Which executor polls which task (src/main.rs spawns them; src/board/executors.rs).
-pub const TASKS: [Task; 5] = [
-    Task { name: "sample_task", source: "src/app/sample_path.rs", context: Context::Sample },
-    Task { name: "humidity_task", source: "src/app/humidity.rs", context: Context::Io },
-    Task { name: "report_task", source: "src/app/report.rs", context: Context::Io },
-    Task { name: "retune_task", source: "src/app/retune.rs", context: Context::Thread },
-    Task { name: "fit_task", source: "src/app/hygrometer.rs", context: Context::Thread },
+pub const TASKS: [Task; 6] = [
+    Task { name: "sample_task", source: "src/app/sample_path.rs", context: Context::Sample, hardware_only: false },
+    Task { name: "humidity_task", source: "src/app/humidity.rs", context: Context::Io, hardware_only: false },
+    Task { name: "report_task", source: "src/app/report.rs", context: Context::Io, hardware_only: false },
+    Task { name: "read_task", source: "src/board/b_l475e_accel.rs", context: Context::Io, hardware_only: true },
+    Task { name: "retune_task", source: "src/app/retune.rs", context: Context::Thread, hardware_only: false },
+    Task { name: "fit_task", source: "src/app/hygrometer.rs", context: Context::Thread, hardware_only: false },
 ];
