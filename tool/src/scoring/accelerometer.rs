@@ -18,51 +18,28 @@ use std::ops::Range;
 /// The accelerometer chain's delay by its datasheet and the resampling [s]: the range searched.
 pub const DELAY_RANGE_S: (f64, f64) = (0.3e-3, 1.5e-3);
 
-/// The accelerometer's spectrum integrated twice, ready to be advanced by any delay.
-pub struct Displacement {
-    spectrum: Vec<Complex<f64>>,
-    n: usize,
-    fs_hz: f64,
-}
-
-impl Displacement {
-    /// `accel` [m/s²] at `fs_hz` as displacement: X = −A/ω² above `low_hz` / 2 (below it the
-    /// double integral lifts the part's noise without bound and the band filter drops it), the
-    /// chain's second-order low-pass divided out in band (it is below 0.1 dB there), the mean
-    /// taken out. Extended by its mirror image, so that its ends meet without a jump: a jump's
-    /// leakage, lifted by 1/ω², would reach into the band.
-    pub fn new(accel: &[f64], fs_hz: f64, low_hz: f64) -> Displacement {
-        let n = 2 * accel.len();
-        let mean = accel.iter().sum::<f64>() / accel.len().max(1) as f64;
-        let mut buf: Vec<Complex<f64>> = accel.iter().chain(accel.iter().rev()).map(|a| Complex::new(a - mean, 0.0)).collect();
-        FftPlanner::<f64>::new().plan_fft_forward(n).process(&mut buf);
-        for (k, x) in buf.iter_mut().enumerate() {
-            let f = (if k <= n / 2 { k as f64 } else { k as f64 - n as f64 }) * fs_hz / n as f64;
-            *x = if f.abs() < low_hz / 2.0 {
-                Complex::new(0.0, 0.0)
-            } else {
-                let w = 2.0 * PI * f;
-                -*x / (w * w * lowpass(f))
-            };
-        }
-        Displacement { spectrum: buf, n, fs_hz }
+/// `accel` [m/s²] at `fs_hz` as displacement: X = −A/ω² above `low_hz` / 2 (below it the double
+/// integral lifts the part's noise without bound and the band filter drops it), the chain's
+/// second-order low-pass divided out in band (it is below 0.1 dB there), the mean taken out.
+/// Extended by its mirror image, so that its ends meet without a jump: a jump's leakage, lifted
+/// by 1/ω², would reach into the band. Its chain's delay is left in ([`fitted_truth`] finds it).
+pub fn displacement(accel: &[f64], fs_hz: f64, low_hz: f64) -> Vec<f64> {
+    let n = 2 * accel.len();
+    let mean = accel.iter().sum::<f64>() / accel.len().max(1) as f64;
+    let mut buf: Vec<Complex<f64>> = accel.iter().chain(accel.iter().rev()).map(|a| Complex::new(a - mean, 0.0)).collect();
+    let mut planner = FftPlanner::<f64>::new();
+    planner.plan_fft_forward(n).process(&mut buf);
+    for (k, x) in buf.iter_mut().enumerate() {
+        let f = (if k <= n / 2 { k as f64 } else { k as f64 - n as f64 }) * fs_hz / n as f64;
+        *x = if f.abs() < low_hz / 2.0 {
+            Complex::new(0.0, 0.0)
+        } else {
+            let w = 2.0 * PI * f;
+            -*x / (w * w * lowpass(f))
+        };
     }
-
-    /// The displacement advanced by `delay_s` (the chain's delay undone), `len` samples.
-    pub fn advanced(&self, delay_s: f64, len: usize) -> Vec<f64> {
-        let n = self.n;
-        let mut buf: Vec<Complex<f64>> = self
-            .spectrum
-            .iter()
-            .enumerate()
-            .map(|(k, x)| {
-                let f = (if k <= n / 2 { k as f64 } else { k as f64 - n as f64 }) * self.fs_hz / n as f64;
-                x * Complex::from_polar(1.0, 2.0 * PI * f * delay_s)
-            })
-            .collect();
-        FftPlanner::<f64>::new().plan_fft_inverse(n).process(&mut buf);
-        buf.iter().take(len).map(|c| c.re / n as f64).collect()
-    }
+    planner.plan_fft_inverse(n).process(&mut buf);
+    buf.iter().take(accel.len()).map(|c| c.re / n as f64).collect()
 }
 
 /// The part's low-pass at `f` [Hz] (the core's model of its chain, without gain or delay).
@@ -84,8 +61,7 @@ const DELAY_WINDOW_S: f64 = 5.0;
 /// grows along the run (28 ppm is 1.7 ms over a minute): the firmware tracks the part's clock
 /// against the ADC's, and what it leaves is what is fitted here.
 pub fn fitted_truth(scoring: &Scoring, accel: &[f64], estimate: &[f32], bursts: &[Range<usize>]) -> (Vec<f64>, f64, f64) {
-    let disp = Displacement::new(accel, scoring.fs_hz, scoring.band.low_hz);
-    let truth0 = scoring.truth(&disp.advanced(0.0, accel.len()), bursts);
+    let truth0 = scoring.truth(&displacement(accel, scoring.fs_hz, scoring.band.low_hz), bursts);
     let fs = scoring.fs_hz;
     let w = (DELAY_WINDOW_S * fs) as usize;
     let max_lag = (2.0 * DELAY_RANGE_S.1 * fs).ceil() as isize;
