@@ -69,17 +69,24 @@ pub struct SensorBias<T> {
     /// Σ w·σ_stat², Σ w·σ_cal².
     stat_var: T,
     cal_var: T,
-    /// Σ w/σ_stat², Σ w·d/σ_stat², Σ w·d²/σ_stat² (d = path − strip): how far the fits scatter
-    /// about their mean beyond their statistics.
+    /// How far the fits' differences (d = path − strip) depart from one constant beyond their
+    /// statistics, as sums over the fits of their whitened differences x = d − ρ·d_last: Σ
+    /// (1−ρ)²/q, Σ (1−ρ)·x/q, Σ x²/q, q = σ_stat²·(1−ρ²). Fits a second apart share most of
+    /// their spectrum's average, so their statistical errors are one first-order process of the
+    /// average's time constant τ (ρ ≈ e^(−t/τ) for fits t of new data apart), not independent:
+    /// whitened so, a path that
+    /// moves while the fits do not (or the other way) counts by its changes as well as its level.
     s0: T,
     s1: T,
     s2: T,
+    /// The last fit's difference d.
+    last: T,
 }
 
 impl<T: Real> SensorBias<T> {
     pub fn new() -> Self {
         let z = T::zero();
-        SensorBias { weight: z, difference: z, stat_var: z, cal_var: z, s0: z, s1: z, s2: z }
+        SensorBias { weight: z, difference: z, stat_var: z, cal_var: z, s0: z, s1: z, s2: z, last: z }
     }
 
     /// One fit of the strip's humidity, `path_avg_pct` the reading path averaged as its spectrum
@@ -96,7 +103,9 @@ impl<T: Real> SensorBias<T> {
     // on the device it cost kilobytes of the flash budget.
     #[inline(never)]
     pub fn observe(&mut self, path_avg_pct: T, strip: &StripRh<T>, new_data_s: T, window_s: T, accuracy_pct: T) -> bool {
-        if !(strip.rh_pct.is_finite() && path_avg_pct.is_finite() && strip.sd_pct > T::zero() && strip.sd_pct < accuracy_pct) {
+        // Finite when both are.
+        let d = path_avg_pct - strip.rh_pct;
+        if !(d.is_finite() && strip.sd_pct > T::zero() && strip.sd_pct < accuracy_pct) {
             return false;
         }
         let fade = (-new_data_s / T::lit(BIAS_MEMORY_S)).exp();
@@ -107,18 +116,25 @@ impl<T: Real> SensorBias<T> {
         self.s0 *= fade;
         self.s1 *= fade;
         self.s2 *= fade;
-        let w = (new_data_s / window_s).min(T::one()).max(T::zero());
-        let d = path_avg_pct - strip.rh_pct;
+        // The spectrum's average keeps e^(−t/τ) of itself over t (τ = window/2), taken as
+        // τ/(τ + t), as the path's average is stepped (within 0.1 % for the second between
+        // fits); the first fit has no predecessor to be correlated with: ρ = 0.
+        let rho = if self.weight > T::zero() { window_s / (window_s + T::lit(2.0) * new_data_s) } else { T::zero() };
+        // new_data_s ≥ 0: a count of samples.
+        let w = (new_data_s / window_s).min(T::one());
         let stat2 = strip.sd_stat_pct * strip.sd_stat_pct;
         self.weight += w;
         self.difference += w * d;
         self.stat_var += w * stat2;
         self.cal_var += w * strip.sd_cal_pct * strip.sd_cal_pct;
-        if stat2 > T::zero() {
-            self.s0 += w / stat2;
-            self.s1 += w * d / stat2;
-            self.s2 += w * d * d / stat2;
+        let q = stat2 * (T::one() - rho * rho);
+        if q > T::zero() {
+            let (k, x) = (T::one() - rho, d - rho * self.last);
+            self.s0 += k * k / q;
+            self.s1 += k * x / q;
+            self.s2 += x * x / q;
         }
+        self.last = d;
         true
     }
 
@@ -128,38 +144,28 @@ impl<T: Real> SensorBias<T> {
         self.weight
     }
 
-    /// The bias to take off the reading path and the variance left, the sensor's accuracy its
-    /// prior; (0, 0) before any fit.
+    /// The bias to take off the reading path, the variance left, the sensor's accuracy its
+    /// prior, and that variance without the fits' calibration part; (0, 0, 0) before any fit.
+    ///
+    /// Without the calibration's part: the bias the correction misses of the sensor's,
+    /// (1 − g)²·prior, and the fits' statistical error it takes on, g²·v_stat. The calibration's
+    /// part is the strip's departures from its laws seen as a humidity shift; an error bar that
+    /// states those departures already (the expected error's parameter terms) counts it twice
+    /// with it. And a design at the humidity the strip's own fit finds partly absorbs them: that
+    /// is where the calibration's model matches the strip.
     #[inline(never)]
-    pub fn correction(&self, accuracy_pct: T) -> (T, T) {
+    pub fn correction(&self, accuracy_pct: T) -> (T, T, T) {
         if self.weight <= T::zero() {
-            return (T::zero(), T::zero());
+            return (T::zero(), T::zero(), T::zero());
         }
         let mean = self.difference / self.weight;
         // The statistical part averages over the fits' number, the calibration's does not.
-        let v = self.stat_var / (self.weight * self.weight) + self.cal_var / self.weight;
-        let prior = accuracy_pct * accuracy_pct;
-        let gain = prior / (prior + v);
-        (gain * mean, gain * v)
-    }
-
-    /// The variance [`Self::correction`] leaves without the fits' calibration part: the bias
-    /// the correction misses of the sensor's, (1 − g)²·prior, and the fits' statistical error it
-    /// takes on, g²·v_stat. The calibration's part is the strip's departures from its laws seen
-    /// as a humidity shift; an error bar that states those departures already (the expected
-    /// error's parameter terms) counts it twice with it. And a design at the humidity the strip's
-    /// own fit finds partly absorbs them: that is where the calibration's model matches the strip.
-    #[inline(never)]
-    pub fn variance_without_calibration(&self, accuracy_pct: T) -> T {
-        if self.weight <= T::zero() {
-            return T::zero();
-        }
         let stat = self.stat_var / (self.weight * self.weight);
         let v = stat + self.cal_var / self.weight;
         let prior = accuracy_pct * accuracy_pct;
         let gain = prior / (prior + v);
         let miss = T::one() - gain;
-        miss * miss * prior + gain * gain * stat
+        (gain * mean, gain * v, miss * miss * prior + gain * gain * stat)
     }
 
     /// The reading path corrected by the bias; never less certain than the reading (its lag's
@@ -168,13 +174,13 @@ impl<T: Real> SensorBias<T> {
         if self.weight <= T::zero() {
             return reading;
         }
-        let (c, v) = self.correction(accuracy_pct);
+        let (c, v, _) = self.correction(accuracy_pct);
         Estimate { rh_pct: reading.rh_pct - c, sd_pct: (v + lag_var(reading, accuracy_pct)).sqrt() }
     }
 
-    /// −2 ln of the fits' likelihood about their weighted mean, up to a constant: Σ w (d − d̄)²/σ².
-    /// Paths through different hydration lags compared by it: the lag that leaves the fits'
-    /// differences flattest is the likelier.
+    /// −2 ln of the fits' likelihood about their best constant, up to a constant: the whitened
+    /// differences' Σ (x − (1−ρ)·d̄)²/q at its least. Paths through different hydration lags
+    /// compared by it: the lag that leaves the fits' differences flattest is the likelier.
     #[inline(never)]
     pub fn scatter_chi2(&self) -> T {
         if self.s0 <= T::zero() {
@@ -239,12 +245,11 @@ mod tests {
         let acc = 1.8;
         let mut b = SensorBias::new();
         b.observe(80.0, &fit(79.0, 0.4, 0.0), 40.0, 40.0, acc);
-        let (_, v) = b.correction(acc);
-        assert!((b.variance_without_calibration(acc) - v).abs() < 1e-12);
+        let (_, v, design) = b.correction(acc);
+        assert!((design - v).abs() < 1e-12);
         let mut c = SensorBias::new();
         c.observe(80.0, &fit(79.0, 0.4, 1.2), 40.0, 40.0, acc);
-        let (_, v) = c.correction(acc);
-        let design = c.variance_without_calibration(acc);
+        let (_, v, design) = c.correction(acc);
         let (prior, v_all) = (acc * acc, 0.4f64 * 0.4 + 1.2 * 1.2);
         let gain = prior / (prior + v_all);
         assert!(design < v && (design - ((1.0 - gain).powi(2) * prior + gain * gain * 0.16)).abs() < 1e-12, "{design} vs {v}");

@@ -55,7 +55,7 @@ pub struct Humidities<T> {
     /// calibration designs at.
     pub fused: Estimate<T>,
     /// The fused humidity's 1σ without the strip's calibration part
-    /// ([`crate::humidity::fusion::SensorBias::variance_without_calibration`]): the humidity's
+    /// ([`crate::humidity::fusion::SensorBias::correction`]): the humidity's
     /// part of an error bar that states the calibration's departures already.
     pub fused_design_sd_pct: T,
     /// The last fit and the reading disagree beyond both their uncertainties
@@ -271,9 +271,8 @@ impl<T: Real> BlockHygrometer<T> {
             let lags = &mut self.lags[..self.n_lags];
             let mut best = T::infinity();
             for l in lags.iter_mut() {
-                let (c, v) = l.bias.correction(self.accuracy_pct);
-                (l.correction, l.var, l.probability) = (c, v, l.bias.scatter_chi2());
-                l.var_design = l.bias.variance_without_calibration(self.accuracy_pct);
+                (l.correction, l.var, l.var_design) = l.bias.correction(self.accuracy_pct);
+                l.probability = l.bias.scatter_chi2();
                 best = best.min(l.probability);
             }
             let mut total = T::zero();

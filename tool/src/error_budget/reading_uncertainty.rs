@@ -65,7 +65,7 @@ pub fn from_data(seconds: &[Second]) -> Option<(f64, usize)> {
 
 /// The fused humidity's uncertainty over a run [%RH], as the error bars take it: the rms of its
 /// 1σ without the strip's calibration part, second by second (the error table states the
-/// calibration's departures already: `SensorBias::variance_without_calibration`; the reading
+/// calibration's departures already: `SensorBias::correction`'s third part; the reading
 /// path's where no estimate of the strip's was used yet). None where the
 /// strip never gave one: the fused humidity is the reading there, and so is its uncertainty (the
 /// path's 1σ adds the sensor's lag times the rate the reading moves, which across the gaps of a
