@@ -296,6 +296,25 @@ mod tests {
         ));
     }
 
+    /// The strip flat for 20 s, then up 1 %RH over 20 s, its fits following it; one path
+    /// follows it too, the other (a strip lag far too long) stays flat. A fit a second counts
+    /// 1/40 of an independent one, and counted so the flat path's differences scatter by a
+    /// χ² of 0.43 (the lags undecided after the rise); whitened as the spectrum's average
+    /// correlates them, its rise alone is 3.3.
+    #[test]
+    fn a_path_that_stays_while_the_fits_rise_is_told_within_a_spectrums_time() {
+        let acc = 1.8;
+        let (mut follows, mut stays) = (SensorBias::new(), SensorBias::new());
+        for k in 0..40 {
+            let strip = 78.0 + (k as f64 - 20.0).max(0.0) * 0.05;
+            let new_data = if k == 0 { 10.0 } else { 1.0 };
+            assert!(follows.observe(strip + 0.5, &fit(strip, 0.5, 0.3), new_data, 40.0, acc));
+            assert!(stays.observe(78.5, &fit(strip, 0.5, 0.3), new_data, 40.0, acc));
+        }
+        assert!(follows.scatter_chi2() < 1e-9, "{}", follows.scatter_chi2());
+        assert!(stays.scatter_chi2() > 3.0, "{}", stays.scatter_chi2());
+    }
+
     #[test]
     fn old_fits_fade() {
         let acc = 1.8;
