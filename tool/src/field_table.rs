@@ -82,7 +82,9 @@ pub fn one(truths_path: &Path, print_seconds: bool, input: &Path, calib: &str, n
     };
     let seconds = hygrometer::run(&calib, &ts);
     if print_seconds {
-        println!("t_s,truth,truth_avg,reading_path,reading_avg,strip,strip_sd,misfit,fused,fused_sd,fused_design_sd,path_lag_s");
+        println!(
+            "t_s,truth,truth_avg,reading_path,reading_avg,strip,strip_sd,strip_sd_stat,strip_sd_cal,misfit,fused,fused_sd,fused_design_sd,path_lag_s"
+        );
     }
     // The fused and the perfect designs take the strip's humidity as it is: no second correction.
     let mut at_strip = calib;
@@ -121,8 +123,8 @@ pub fn one(truths_path: &Path, print_seconds: bool, input: &Path, calib: &str, n
         truth_avg = Some(truth_avg.map_or(truth, |v| v + w * (truth - v)));
         if print_seconds {
             let strip = match s.strip {
-                Ok(e) => format!("{:.2},{:.2},{:.2}", e.rh_pct, e.sd_pct, e.misfit),
-                Err(r) => format!("{},,", r.as_str()),
+                Ok(e) => format!("{:.2},{:.2},{:.2},{:.2},{:.2}", e.rh_pct, e.sd_pct, e.sd_stat_pct, e.sd_cal_pct, e.misfit),
+                Err(r) => format!("{},,,,", r.as_str()),
             };
             println!(
                 "{:.0},{truth:.2},{:.2},{:.2},{:.2},{strip},{:.2},{:.2},{:.2},{:.1}",
