@@ -74,8 +74,8 @@ pub struct SensorBias<T> {
     /// (1−ρ)²/q, Σ (1−ρ)·x/q, Σ x²/q, q = σ_stat²·(1−ρ²). Fits a second apart share most of
     /// their spectrum's average, so their statistical errors are one first-order process of the
     /// average's time constant τ (ρ ≈ e^(−t/τ) for fits t of new data apart), not independent:
-    /// whitened so, a path that
-    /// moves while the fits do not (or the other way) counts by its changes as well as its level.
+    /// whitened so, a path that moves while the fits do not (or the other way) counts by its
+    /// changes as well as by its level.
     s0: T,
     s1: T,
     s2: T,
@@ -117,7 +117,7 @@ impl<T: Real> SensorBias<T> {
         self.s1 *= fade;
         self.s2 *= fade;
         // The spectrum's average keeps e^(−t/τ) of itself over t (τ = window/2), taken as
-        // τ/(τ + t), as the path's average is stepped (within 0.1 % for the second between
+        // τ/(τ + t), as the path's average is stepped (within 0.2 % for the second between
         // fits); the first fit has no predecessor to be correlated with: ρ = 0.
         let rho = if self.weight > T::zero() { window_s / (window_s + T::lit(2.0) * new_data_s) } else { T::zero() };
         // new_data_s ≥ 0: a count of samples.
