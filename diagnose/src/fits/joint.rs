@@ -247,19 +247,22 @@ fn polish_joint(
         write_residuals(&levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
         shift_residuals(&levels[l], &sig[l], &masks[l], &c.channels(&v[kc..k]), out);
     };
-    let run = |start: Vec<f64>| lsq::fit_blocks(POLISH_RUN, &params, &[start], blocks, residuals);
-    let mut full = run(start);
+    // Each run restarts from where the last stopped; only the kept optimum's statistics are
+    // computed (a Jacobian, a block factor and an SVD each).
+    let run = |start: Vec<f64>| lsq::minimize_blocks(POLISH_RUN, &params, &[start], blocks, residuals);
+    let mut best = run(start);
     for _ in 1..POLISH_RUNS {
-        let Ok(last) = &full else { break };
-        let next = run(params.iter().zip(&last.estimates).map(|(p, &v)| inside_tight(p.bound, v)).collect());
-        let gain = next.as_ref().map_or(f64::NEG_INFINITY, |n| last.chi2 - n.chi2);
+        let Ok((last, chi2)) = &best else { break };
+        let next = run(params.iter().zip(last).map(|(p, &v)| inside_tight(p.bound, v)).collect());
+        let gain = next.as_ref().map_or(f64::NEG_INFINITY, |n| chi2 - n.1);
         if gain > 0.0 {
-            full = next;
+            best = next;
         }
         if gain < POLISH_GAIN {
             break;
         }
     }
+    let full = best.and_then(|(at, _)| lsq::statistics_blocks(&params, &at, blocks, residuals));
     let before: f64 = j.chi2.iter().sum::<f64>() + j.prior_chi2;
     match full {
         Ok(f) if f.chi2 < before => {
