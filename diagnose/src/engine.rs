@@ -179,8 +179,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + 
         &ranked,
         &humidity_reach,
         layout.temp_c.is_some(),
-        &layout.taken,
-        matches!(decision.verdict, crate::Verdict::None | crate::Verdict::Unexplained),
+        !layout.taken.is_empty() && matches!(decision.verdict, crate::Verdict::None | crate::Verdict::Unexplained),
     );
     let open = crate::verdict::followup_request::open_hypotheses(&decision.probabilities, &within_none);
     let request = crate::verdict::followup_request::request(decision.verdict, &open, &humidity_reach, &layout);

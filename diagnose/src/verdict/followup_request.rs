@@ -59,22 +59,18 @@ pub fn resolves(protocol: Protocol) -> &'static [Effect] {
 /// exp(ΔBIC/2), whether or not it passed the gates naming needs (a gate decides what may be
 /// stated, not what is worth measuring). The group's total is unchanged.
 ///
-/// `taken` are the follow-ups among the recordings. A follow-up is blind to what its protocol
-/// does not resolve ([`resolves`]): a step says nothing of a temperature dependence, so an
-/// effect no follow-up taken resolves keeps its prior odds and the evidence of the recordings
-/// here, as before any follow-up, and the plan still weighs the protocol that decides it; no
-/// effect is declared absent by recordings blind to it. With `confident_none` (`none` or
-/// `unexplained` stated), an effect a taken follow-up does resolve enters only where the
-/// recordings lean to it (ΔBIC > 0): its protocol has been taken and found nothing, and its
-/// prior alone is no longer a hypothesis the recordings leave open.
+/// With `leaning_only` (a confident `none` after a follow-up), an effect below the reach enters
+/// only where these recordings lean to it (ΔBIC > 0): the first follow-up explores what the
+/// primary cannot carry on the prior alone, but once one has been taken and `none` still holds,
+/// another asked on the prior alone would cost every clean strip a second session with nothing
+/// in the data pointing at it.
 pub fn within_none(
     probabilities: &[Probability],
     within: &[Probability],
     scores: &[Score],
     reach: &HumidityReach,
     temperatures: bool,
-    taken: &[Protocol],
-    confident_none: bool,
+    leaning_only: bool,
 ) -> Vec<Probability> {
     let group = probabilities.iter().find(|p| p.name == NONE).map_or(0.0, |p| p.probability);
     let lag_open = reach.shortest_lag_s.is_none_or(|t| t > crate::humidity::reach::LAB_LAG_S);
@@ -94,8 +90,7 @@ pub fn within_none(
             .filter(|s| s.name == effect.name() && s.applicable && s.delta_bic.is_finite())
             .map(|s| s.delta_bic)
             .fold(f64::NEG_INFINITY, f64::max);
-        let seen = taken.iter().any(|&p| resolves(p).contains(&effect));
-        if confident_none && seen && !(bic > 0.0) {
+        if leaning_only && !(bic > 0.0) {
             continue;
         }
         let bic = if bic.is_finite() { bic } else { 0.0 };
@@ -308,7 +303,7 @@ mod tests {
         let layout = Layout { rh_range_pct: [38.0, 80.0], band_hz: [10.0, 150.0], temp_c: Some(20.0), session_h: 3.0, taken: vec![] };
         let none = [p("none", 1.0)];
         let open_of = |probabilities: &[Probability], within: &[Probability], scores: &[Score], reach: &HumidityReach, temps: bool| {
-            let w = within_none(probabilities, within, scores, reach, temps, &[], false);
+            let w = within_none(probabilities, within, scores, reach, temps, false);
             let group: f64 = probabilities.iter().filter(|p| p.name == NONE).map(|p| p.probability).sum();
             assert!((w.iter().map(|p| p.probability).sum::<f64>() - group).abs() < 1e-12, "{w:?}");
             open_hypotheses(probabilities, &w)
@@ -347,24 +342,15 @@ mod tests {
         assert_eq!(request(Verdict::Unexplained, &open, &reach, &layout).map(|r| r.protocol), Some(Protocol::Step));
         let stepped = Layout { taken: vec![Protocol::Step], ..Layout { temp_c: Some(20.0), ..no_temp } };
         assert_ne!(request(Verdict::Unexplained, &open, &reach, &stepped).map(|r| r.protocol), Some(Protocol::Step));
-        // After a follow-up, a confident `none` no longer holds on its prior alone the effect
-        // that follow-up resolves (a lag after the step) but still holds, and asks for, one it is
-        // blind to: a temperature dependence the primary cannot carry is not declared absent by
-        // a step.
+        // After a follow-up, a confident `none` asks only for what the recordings lean to: a
+        // temperature dependence they do not favour is not asked for on its prior alone.
         let prior_only = [score("hydration_lag", -3.0), score("humidity_sensor_error", -3.0), score("temperature", -1.0)];
-        let carried_offset = HumidityReach { smallest_offset_pct: 1.2, ..reach.clone() };
-        let w = within_none(&none, &none, &prior_only, &carried_offset, true, &[Protocol::Step], true);
-        assert_eq!(w.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["none", "temperature"], "{w:?}");
-        let r = request(Verdict::None, &open_hypotheses(&none, &w), &carried_offset, &stepped).unwrap();
-        assert_eq!(r.protocol, Protocol::Temperature);
-        // Once the temperature protocol is taken too, nothing the recordings do not lean to is left.
-        let both = Layout { taken: vec![Protocol::Step, Protocol::Temperature], ..Layout { temp_c: Some(20.0), taken: vec![], ..stepped } };
-        let w = within_none(&none, &none, &prior_only, &carried_offset, true, &both.taken, true);
+        let w = within_none(&none, &none, &prior_only, &reach, true, true);
         assert_eq!(w.len(), 1, "{w:?}");
-        assert!(request(Verdict::None, &open_hypotheses(&none, &w), &carried_offset, &both).is_none());
+        assert!(request(Verdict::None, &open_hypotheses(&none, &w), &reach, &stepped).is_none());
         let leaning = [score("hydration_lag", -3.0), score("humidity_sensor_error", -3.0), score("temperature", 4.0)];
-        let w = within_none(&none, &none, &leaning, &carried_offset, true, &both.taken, true);
-        let r = request(Verdict::None, &open_hypotheses(&none, &w), &carried_offset, &stepped).unwrap();
+        let w = within_none(&none, &none, &leaning, &reach, true, true);
+        let r = request(Verdict::None, &open_hypotheses(&none, &w), &reach, &stepped).unwrap();
         assert_eq!(r.protocol, Protocol::Temperature);
     }
 }
