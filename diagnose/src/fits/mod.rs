@@ -17,4 +17,4 @@ pub use base::{
 };
 pub use instrument::{ChannelPrior, Channels, InstrumentFit, fit_instrument, shift_residuals};
 pub use joint::{ChannelStart, Extend, JointFit, fit_joint, inside_tight};
-pub use noise::{NeighbourCorrelation, Noise, estimate_noise, neighbour_correlation, sigmas, structure_z};
+pub use noise::{Noise, ResidualCorrelation, estimate_noise, residual_correlation, sigmas, structure_z};

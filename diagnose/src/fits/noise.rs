@@ -105,38 +105,68 @@ pub fn structure_z(
     if n.products_sq > 0.0 { n.products / n.products_sq.sqrt() } else { 0.0 }
 }
 
-/// The neighbour correlation ρ of the weighted residuals along frequency (same level, channel
-/// and component): Σ r_i r_{i+1} / Σ r_i². Zero for white noise; near one where a smooth misfit
-/// dominates the residuals.
-pub fn neighbour_correlation(
+/// How correlated the weighted residuals are along frequency: their integrated autocorrelation
+/// time ([`ipmc_fit::stats::autocorrelation_time_of`], the estimator `recalibrate` widens its
+/// bins by, over one series per level, channel and component) and the series' mean length.
+/// One for white noise; large where a smooth misfit dominates the residuals.
+pub fn residual_correlation(
     calib: &Calibration,
     levels: &[LevelData],
     sig: &[LevelSigmas],
     masks: &[Mask],
     theta: &[Theta],
     ext: &[Extension<f64>],
-) -> NeighbourCorrelation {
-    let n = neighbour_sums(calib, levels, sig, masks, theta, ext);
-    let rho = if n.squares > 0.0 { (n.products / n.squares).clamp(-1.0, 1.0) } else { 0.0 };
-    NeighbourCorrelation { rho, points_per_series: if n.series > 0 { n.points as f64 / n.series as f64 } else { 1.0 } }
+) -> ResidualCorrelation {
+    let mut series: Vec<Vec<f64>> = Vec::new();
+    for (l, level) in levels.iter().enumerate() {
+        for r in weighted_series(calib, level, &sig[l], &masks[l], &theta[l], &ext[l]) {
+            if r.len() >= 2 {
+                series.push(r.iter().map(|z| z.re).collect());
+                series.push(r.iter().map(|z| z.im).collect());
+            }
+        }
+    }
+    let points: usize = series.iter().map(Vec::len).sum();
+    let views: Vec<&[f64]> = series.iter().map(Vec::as_slice).collect();
+    ResidualCorrelation {
+        tau: ipmc_fit::stats::autocorrelation_time_of(&views),
+        points_per_series: if series.is_empty() { 1.0 } else { points as f64 / series.len() as f64 },
+    }
 }
 
-/// The neighbour correlation of residuals and the mean length of the series it was taken over
-/// (one series per level, channel and component).
+/// The integrated autocorrelation time of residuals along frequency and the mean length of the
+/// series it was taken over (one series per level, channel and component).
 #[derive(Clone, Copy, Debug)]
-pub struct NeighbourCorrelation {
-    pub rho: f64,
+pub struct ResidualCorrelation {
+    pub tau: f64,
     pub points_per_series: f64,
 }
 
-/// Sums over neighbouring weighted residuals: Σ a·b, Σ a²·b² and Σ (a² + b²)/2, and how many
-/// residuals in how many series they were taken over.
+/// A level's weighted residuals along frequency where the mask keeps them, per channel (tip,
+/// current): ln-gain over its σ as the real part, phase over its σ as the imaginary.
+fn weighted_series(
+    calib: &Calibration,
+    level: &LevelData,
+    sig: &LevelSigmas,
+    mask: &Mask,
+    theta: &Theta,
+    ext: &Extension<f64>,
+) -> [Vec<C<f64>>; 2] {
+    let p = level_params(calib, level, theta);
+    let (tip, cur) = log_ratios(level, &p, ext);
+    let one = |ratios: &[Option<C<f64>>], sigmas: &[Sigma], on: &[bool]| -> Vec<C<f64>> {
+        (0..ratios.len())
+            .filter(|&i| on[i])
+            .filter_map(|i| ratios[i].map(|z| C::new(z.re / sigmas[i].ln_gain, z.im / sigmas[i].phase)))
+            .collect()
+    };
+    [one(&tip, &sig.tip, &mask.tip), one(&cur, &sig.current, &mask.current)]
+}
+
+/// Sums over neighbouring weighted residuals: Σ a·b and Σ a²·b².
 struct NeighbourSums {
     products: f64,
     products_sq: f64,
-    squares: f64,
-    points: usize,
-    series: usize,
 }
 
 fn neighbour_sums(
@@ -147,24 +177,13 @@ fn neighbour_sums(
     theta: &[Theta],
     ext: &[Extension<f64>],
 ) -> NeighbourSums {
-    let mut out = NeighbourSums { products: 0.0, products_sq: 0.0, squares: 0.0, points: 0, series: 0 };
+    let mut out = NeighbourSums { products: 0.0, products_sq: 0.0 };
     for (l, level) in levels.iter().enumerate() {
-        let p = level_params(calib, level, &theta[l]);
-        let (tip, cur) = log_ratios(level, &p, &ext[l]);
-        for (ratios, sigmas, on) in [(&tip, &sig[l].tip, &masks[l].tip), (&cur, &sig[l].current, &masks[l].current)] {
-            let r: Vec<C<f64>> = (0..ratios.len())
-                .filter(|&i| on[i])
-                .filter_map(|i| ratios[i].map(|z| C::new(z.re / sigmas[i].ln_gain, z.im / sigmas[i].phase)))
-                .collect();
-            if r.len() >= 2 {
-                out.points += 2 * r.len();
-                out.series += 2;
-            }
+        for r in weighted_series(calib, level, &sig[l], &masks[l], &theta[l], &ext[l]) {
             for w in r.windows(2) {
                 for (a, b) in [(w[0].re, w[1].re), (w[0].im, w[1].im)] {
                     out.products += a * b;
                     out.products_sq += a * a * b * b;
-                    out.squares += 0.5 * (a * a + b * b);
                 }
             }
         }

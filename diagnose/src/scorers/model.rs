@@ -48,7 +48,7 @@ impl Scorer for ModelScorer {
         let held = HeldOut {
             null: ctx.refit_null(),
             null_is: REFIT_NULL_IS.into(),
-            candidate: refit_heldout(ctx, levels, &specs, &ext, &j.phi, &fitted, j.channels),
+            candidate: refit_heldout(ctx, levels, &specs, &ext, (&j.phi, &j.chi2), &fitted, j.channels),
             candidate_is: format!("the level's base parameters refitted with {}'s parameters fitted on the other levels", cand.name()),
         };
         Ok(Trial::Fitted(Box::new(Candidacy {
@@ -68,14 +68,23 @@ impl Scorer for ModelScorer {
     }
 }
 
+/// A held-out refit of a candidate's parameters stops at a step that lowers the other levels'
+/// χ² by less than this: near the optimum χ² rises as (δ/σ)² with a parameter's move δ, so
+/// what steps that small leave to gain puts the parameters within a tenth of their standard
+/// error of it, far inside what moves the held-out level's score (REPORT's 1e-10 relative, on
+/// the χ² of sixty levels, let an absent candidate's refit crawl along its flat valley for
+/// every evaluation it allows, sixty times a candidate).
+const HELDOUT_STEP_GAIN: f64 = 0.01;
+
 /// Per level, the candidate's parameters `phi` refitted on the other levels (their base
-/// parameters held where the joint fit put them), then the level's base parameters with them.
+/// parameters held where the joint fit put them, each level's χ² there `joint_chi2`), then the
+/// level's base parameters with them.
 fn refit_heldout(
     ctx: &Ctx,
     levels: &[ipmc_fit::level::LevelData],
     specs: &[Param],
     ext: &fits::Extend,
-    phi: &[f64],
+    (phi, joint_chi2): (&[f64], &[f64]),
     f: &Fitted,
     moved: fits::Channels,
 ) -> Vec<HeldOutModel> {
@@ -88,7 +97,11 @@ fn refit_heldout(
         .map(|held| {
             let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();
             let counts: Vec<usize> = train.iter().map(|&l| ctx.all[l].count()).collect();
-            let phi_train = lsq::minimize(Tolerance::REPORT, params, &start, counts.iter().sum(), |v, out| {
+            // The refit starts at the joint optimum, where the other levels' χ² is the joint
+            // fit's; a step gaining less than HELDOUT_STEP_GAIN of it stops the refit.
+            let train_chi2: f64 = train.iter().map(|&l| joint_chi2[l]).sum();
+            let tol = Tolerance { ftol: Tolerance::REPORT.ftol.max(HELDOUT_STEP_GAIN / train_chi2.max(1.0)), ..Tolerance::REPORT };
+            let phi_train = lsq::minimize(tol, params, &start, counts.iter().sum(), |v, out| {
                 let mut at = 0;
                 for (&l, &c) in train.iter().zip(&counts) {
                     fits::write_residuals(&levels[l], &ctx.sig[l], &ctx.all[l], &p_joint[l], &ext(v, &p_joint[l]), &mut out[at..at + c]);

@@ -176,7 +176,7 @@ pub(crate) fn decide(
         .filter(|&i| supported(&scores[i]) && fitted[i].is_some())
         .max_by(|&a, &b| scores[a].delta_bic.total_cmp(&scores[b].delta_bic));
     let tempering = best.and_then(|i| fitted[i].as_ref()).map_or(1.0, |f| {
-        crate::verdict::misfit::between_candidates(fits::neighbour_correlation(
+        crate::verdict::misfit::between_candidates(fits::residual_correlation(
             ctx.calib,
             &ctx.data.levels,
             &ctx.sig,

@@ -153,21 +153,38 @@ pub fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, start: &[f64], step: f64, ftol: f6
 }
 
 /// The integrated autocorrelation time τ of a sequence (n values average as n/τ independent
-/// ones): 1 + 2·Σρₖ over Geyer's initial positive sequence (the sums of neighbouring pairs of
-/// lags taken while positive), the standard estimate that needs no chosen cut-off.
+/// ones): [`autocorrelation_time_of`] the one series.
 pub fn autocorrelation_time(x: &[f64]) -> f64 {
-    let n = x.len();
-    if n < 4 {
+    autocorrelation_time_of(&[x])
+}
+
+/// The integrated autocorrelation time τ of series that share one correlation structure (N
+/// values in all average as N/τ independent ones): 1 + 2·Σρₖ over Geyer's initial positive
+/// sequence (the sums of neighbouring pairs of lags taken while positive), the standard
+/// estimate that needs no chosen cut-off. The autocovariance at each lag is pooled over the
+/// series (each about its own mean) and divided by the values' count, as one series' would be.
+pub fn autocorrelation_time_of(series: &[&[f64]]) -> f64 {
+    let total: usize = series.iter().map(|x| x.len()).sum();
+    let longest = series.iter().map(|x| x.len()).max().unwrap_or(0);
+    if longest < 4 {
         return 1.0;
     }
-    let mean = x.iter().sum::<f64>() / n as f64;
-    let c = |lag: usize| x[..n - lag].iter().zip(&x[lag..]).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>() / n as f64;
+    let means: Vec<f64> = series.iter().map(|x| if x.is_empty() { 0.0 } else { x.iter().sum::<f64>() / x.len() as f64 }).collect();
+    let c = |lag: usize| {
+        let mut sum = 0.0;
+        for (x, &mean) in series.iter().zip(&means) {
+            if x.len() > lag {
+                sum += x[..x.len() - lag].iter().zip(&x[lag..]).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>();
+            }
+        }
+        sum / total as f64
+    };
     let c0 = c(0);
     if c0 <= 0.0 {
         return 1.0;
     }
     let mut tau = -1.0;
-    for k in 0..n / 2 - 1 {
+    for k in 0..longest / 2 - 1 {
         let pair = (c(2 * k) + c(2 * k + 1)) / c0;
         if pair <= 0.0 {
             break;
@@ -222,5 +239,14 @@ mod tests {
             .collect();
         let t = autocorrelation_time(&ar);
         assert!((2.5..3.5).contains(&t), "AR(1) 0.5: τ {t}");
+        // Forty short series of the same AR(1) pooled give its τ, each about its own mean: an
+        // offset shared by one series' values is its level, not correlation.
+        let short: Vec<&[f64]> = ar.chunks(100).collect();
+        let t = autocorrelation_time_of(&short);
+        assert!((2.4..3.6).contains(&t), "pooled AR(1) 0.5: τ {t}");
+        let offset: Vec<Vec<f64>> =
+            white.chunks(50).enumerate().map(|(i, c)| c.iter().map(|w| w + if i % 2 == 0 { 2.0 } else { -2.0 }).collect()).collect();
+        let offset: Vec<&[f64]> = offset.iter().map(Vec::as_slice).collect();
+        assert!(autocorrelation_time_of(&offset) < 1.3);
     }
 }

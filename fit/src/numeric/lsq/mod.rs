@@ -22,4 +22,4 @@ mod solve;
 pub use bound::{Bound, Param};
 pub use outcome::{Fit, FitError, Tolerance};
 pub use residuals::Blocks;
-pub use solve::{fit, fit_blocks, fit_with, minimize};
+pub use solve::{fit, fit_blocks, fit_with, minimize, minimize_blocks, statistics_blocks};

@@ -61,6 +61,53 @@ pub fn fit_blocks<F>(tol: Tolerance, params: &[Param], starts: &[Vec<f64>], bloc
 where
     F: Fn(&[f64], usize, &mut [f64]),
 {
+    fit_model(tol, params, starts, &blocked(params, blocks, residuals)?)
+}
+
+/// [`fit_blocks`]'s optimum and χ² without the statistics (for runs that restart from where the
+/// last stopped: the statistics cost a Jacobian, a block factor and an SVD, and only the last
+/// run's are wanted, from [`statistics_blocks`]).
+pub fn minimize_blocks<F>(
+    tol: Tolerance,
+    params: &[Param],
+    starts: &[Vec<f64>],
+    blocks: Blocks<'_>,
+    residuals: F,
+) -> Result<(Vec<f64>, f64), FitError>
+where
+    F: Fn(&[f64], usize, &mut [f64]),
+{
+    let model = blocked(params, blocks, residuals)?;
+    let (problem, chi2, _) = best_of_starts(tol, params, starts, &model)?;
+    Ok((problem.theta(&problem.u), chi2))
+}
+
+/// The statistics [`fit_blocks`] gives at its optimum, at the point `at` (natural units), with
+/// no optimization: standard errors, covariance, χ² and the residuals there.
+pub fn statistics_blocks<F>(params: &[Param], at: &[f64], blocks: Blocks<'_>, residuals: F) -> Result<Fit, FitError>
+where
+    F: Fn(&[f64], usize, &mut [f64]),
+{
+    let model = blocked(params, blocks, residuals)?;
+    if model.len() < params.len() {
+        return Err(FitError::TooFewResiduals { residuals: model.len(), params: params.len() });
+    }
+    if at.len() != params.len() {
+        return Err(FitError::BadStart { start: 0, reason: format!("{} values for {} parameters", at.len(), params.len()) });
+    }
+    let u = DVector::from_iterator(params.len(), params.iter().zip(at).map(|(p, &v)| p.bound.to_u(v)));
+    let problem = Problem::new(params, u, &model);
+    let chi2 = problem.chi2();
+    if !chi2.is_finite() {
+        return Err(FitError::NoFiniteStart);
+    }
+    let mut fit = problem.statistics(chi2);
+    fit.evaluations = problem.evaluations();
+    Ok(fit)
+}
+
+/// The block structure checked against the parameters: every block a parameter reaches exists.
+fn blocked<'a, F>(params: &[Param], blocks: Blocks<'a>, residuals: F) -> Result<Blocked<'a, F>, FitError> {
     if blocks.reach.len() != params.len() {
         return Err(FitError::BadBlocks(format!("{} reaches for {} parameters", blocks.reach.len(), params.len())));
     }
@@ -75,7 +122,7 @@ where
     for s in blocks.sizes {
         offsets.push(offsets.last().copied().unwrap_or(0) + s);
     }
-    fit_model(tol, params, starts, &Blocked { offsets, reach: blocks.reach, f: residuals })
+    Ok(Blocked { offsets, reach: blocks.reach, f: residuals })
 }
 
 /// The best optimum over `starts` with its statistics.
