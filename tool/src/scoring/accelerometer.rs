@@ -9,7 +9,11 @@
 
 use super::Scoring;
 use ipmc_core::C;
+use ipmc_core::band::BandLimit;
 use ipmc_core::calibration::instrument::{ACCELEROMETER_LOWPASS_HZ, accelerometer_chain};
+use ipmc_core::firmware::running_error::{RunningError, Window};
+use ipmc_core::resample::track::LAG_BLOCKS;
+use ipmc_core::timing::BLOCK_LEN;
 use rustfft::FftPlanner;
 use rustfft::num_complex::Complex;
 use std::f64::consts::PI;
@@ -123,6 +127,53 @@ fn line(points: &[(f64, f64)]) -> (f64, f64) {
     let std: f64 = points.iter().map(|p| (p.0 - tm) * (p.1 - dm)).sum();
     let slope = if stt > 0.0 { std / stt } else { 0.0 };
     (dm - slope * tm, slope)
+}
+
+/// What the device measures of the same estimate against the same accelerometer: the core's
+/// running error ([`RunningError`], f32 as on the device) run a block at a time over the first
+/// burst, the accelerometer's block [`LAG_BLOCKS`] behind its estimate's as the firmware has it;
+/// `rel_err` the blocks' stated 1σ (the estimate file's column; none: not stated).
+pub struct DeviceMeasure {
+    pub windows: Vec<Window<f32>>,
+}
+
+impl DeviceMeasure {
+    pub fn run(scoring: &Scoring, accel: &[f64], estimate: &[f32], rel_err: Option<&[f32]>, bursts: &[Range<usize>]) -> Option<Self> {
+        let burst = bursts.first()?.clone();
+        let band = BandLimit::<f32>::new(&scoring.band, scoring.fs_hz).ok()?;
+        let mut measure = RunningError::new(band, scoring.fs_hz, scoring.preview);
+        let end = burst.end.min(estimate.len()).min(accel.len());
+        let blocks = (end.saturating_sub(burst.start)) / BLOCK_LEN;
+        let at = |b: usize| burst.start + b * BLOCK_LEN..burst.start + (b + 1) * BLOCK_LEN;
+        let mut out = [0.0f32; BLOCK_LEN];
+        let mut windows = vec![];
+        for b in 0..blocks {
+            let stated = rel_err.map_or(f32::NAN, |r| r[at(b).start]);
+            measure.estimate(&estimate[at(b)], stated);
+            if let Some(lagged) = b.checked_sub(LAG_BLOCKS) {
+                let a: Vec<f32> = accel[at(lagged)].iter().map(|&x| x as f32).collect();
+                windows.extend(measure.reference(&a, &mut out));
+            }
+        }
+        Some(DeviceMeasure { windows })
+    }
+
+    /// The error pooled over the windows: √(Σ error / Σ reference).
+    pub fn pooled(&self) -> f64 {
+        let (e, r) = self.windows.iter().fold((0.0, 0.0), |(e, r), w| (e + f64::from(w.error_sum), r + f64::from(w.reference_sum)));
+        (e / r).sqrt()
+    }
+
+    /// The stated 1σ over the windows (rms).
+    pub fn stated(&self) -> f64 {
+        let n = self.windows.len().max(1) as f64;
+        (self.windows.iter().map(|w| f64::from(w.stated).powi(2)).sum::<f64>() / n).sqrt()
+    }
+
+    /// The first window the device called the calibration stale in.
+    pub fn first_stale(&self) -> Option<usize> {
+        self.windows.iter().position(|w| w.stale)
+    }
 }
 
 /// Half-length of the interpolating kernel [samples].
