@@ -58,6 +58,8 @@ const READ_BEHIND: usize = 4;
 const HISTORY: usize = 32;
 /// Held estimates: the lag, [`READ_BEHIND`], a block, every [`EVERY`]-th.
 const HELD: usize = (LAG_BLOCKS + 2) * BLOCK_LEN / EVERY;
+/// Fraction bits of the reading's place.
+const FX: u32 = 32;
 /// The samples of a block the sums take: not its first or last, whose slope needs a neighbour
 /// in another block.
 const PHASE: usize = EVERY / 2;
@@ -148,6 +150,10 @@ pub struct RunningError<T> {
     delay: T,
     rate: T,
     delay_at: u64,
+    /// The same as read: [`READ_BEHIND`] and the delay, and its change a sample, in samples ×
+    /// 2^[`FX`].
+    back: i64,
+    back_rate: i64,
     sums: Sums<T>,
     line: Line<T>,
     window_pairs: usize,
@@ -177,12 +183,26 @@ impl<T: Real> RunningError<T> {
             delay: preview - T::lit(START_DELAY_S * fs_hz),
             rate: zero,
             delay_at: 0,
+            back: 0,
+            back_rate: 0,
             sums: Sums::zero(),
             line: Line::zero(),
             window_pairs: ((WINDOW_S * fs_hz) as usize) / EVERY,
             windows: 0,
             test: StaleTest::new(),
         }
+        .timed()
+    }
+
+    /// The fixed-point reading from the delay and its rate.
+    fn timed(mut self) -> Self {
+        (self.back, self.back_rate) = Self::timed_of(self.delay, self.rate);
+        self
+    }
+
+    fn timed_of(delay: T, rate: T) -> (i64, i64) {
+        let one = (1u64 << FX) as f64;
+        (((READ_BEHIND as f64 + delay.to_f64()) * one) as i64, (rate.to_f64() * one) as i64)
     }
 
     /// Starts over: the accelerometer went away, or samples were lost.
@@ -195,6 +215,7 @@ impl<T: Real> RunningError<T> {
         (self.estimates, self.references, self.delay_at, self.windows) = (0, 0, 0, 0);
         self.delay = self.preview - T::lit(START_DELAY_S) / self.dt;
         self.rate = zero;
+        (self.back, self.back_rate) = Self::timed_of(self.delay, zero);
         self.sums = Sums::zero();
         self.line = Line::zero();
         self.test = StaleTest::new();
@@ -236,13 +257,14 @@ impl<T: Real> RunningError<T> {
             let [x1, x2] = self.last;
             self.history[(m & mask) as usize] = x1 + twelfth * (x - x1 - x1 + x2);
             self.last = [x, x1];
-            // Read `READ_BEHIND` + the delay behind: the delay as it moves.
-            let delay = self.delay + self.rate * T::lit((m - self.delay_at) as f64);
-            let delay = delay.max(T::lit(-2.0)).min(T::lit((HISTORY - READ_BEHIND - 4) as f64));
-            let back = T::lit(READ_BEHIND as f64) + delay;
-            let whole = back.ceil();
-            let mu = whole - back;
-            let k = m as i64 - whole.to_f64() as i64;
+            // Read `READ_BEHIND` + the delay behind, in fixed point as the resampler reads
+            // (no float to integer in the loop): the whole samples back, and the fraction's top
+            // 16 bits.
+            let back = self.back.clamp(2 << FX, ((HISTORY - 4) as i64) << FX);
+            self.back += self.back_rate;
+            let whole = (back + (1 << FX) - 1) >> FX;
+            let mu = T::from_u16((((whole << FX) - back) >> (FX - 16)) as u16) * T::lit(1.0 / 65536.0);
+            let k = m as i64 - whole;
             let at = |i: i64| if i < 0 { T::zero() } else { self.history[(i as u64 & mask) as usize] };
             let read = cubic([at(k - 1), at(k), at(k + 1), at(k + 2)], mu);
             let [p, q, r] = &mut self.reference_poles;
@@ -296,6 +318,8 @@ impl<T: Real> RunningError<T> {
         if self.windows > 1 {
             self.line.push(T::lit(middle as f64 / span as f64), read - left);
         }
+        // The line read at the window's end, and from the next block on.
+        let next = self.references;
         let (delay, rate) = self.line.at(T::lit(m as f64 / span as f64)).unwrap_or((self.delay, T::zero()));
         let window = Window {
             measured: ((s.dd - s.dv * left).max(T::zero()) / s.rr).sqrt(),
@@ -307,7 +331,10 @@ impl<T: Real> RunningError<T> {
             end: m,
             stale: false,
         };
-        (self.delay, self.rate, self.delay_at) = (delay, rate / T::lit(span as f64), m);
+        let (from_next, _) = self.line.at(T::lit(next as f64 / span as f64)).unwrap_or((self.delay, T::zero()));
+        (self.delay, self.rate, self.delay_at) = (from_next, rate / T::lit(span as f64), next);
+        let timed = Self::timed_of(self.delay, self.rate);
+        (self.back, self.back_rate) = timed;
         if self.windows <= SETTLING_WINDOWS {
             return None;
         }
