@@ -221,8 +221,14 @@ impl<T: Real> RunningError<T> {
         self.test = StaleTest::new();
     }
 
-    /// A block of the estimate [m] with the error its block stated (1σ, a fraction).
+    /// A block of the estimate [m] with the error its block stated (1σ, a fraction). A block
+    /// with a sample that is not finite (none on the device, whose screen replaces them) starts
+    /// over.
     pub fn estimate(&mut self, e: &[T], stated: T) {
+        if !e.iter().all(|x| x.is_finite()) {
+            self.restart();
+            return;
+        }
         let rho = self.rho;
         let [a, b, c] = &mut self.estimate_poles;
         for &x in e {
