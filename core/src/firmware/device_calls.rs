@@ -111,5 +111,5 @@ pub fn running_error_block(
     out: &mut [f32],
 ) -> Option<Window<f32>> {
     m.estimate(estimate, stated);
-    m.reference(accel, out)
+    m.reference_through(accel, out, band_block)
 }

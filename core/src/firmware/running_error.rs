@@ -249,6 +249,13 @@ impl<T: Real> RunningError<T> {
     /// latest, `out` a block's room; a window measured, where one ends in it. A block with any
     /// NaN starts over.
     pub fn reference(&mut self, accel: &[T], out: &mut [T]) -> Option<Window<T>> {
+        self.reference_through(accel, out, BandLimit::process_block)
+    }
+
+    /// [`Self::reference`] with the band filter's run `band`: the device's passes the core's
+    /// own call of it (`device_calls::band_block`), so that the filter's code stays as the
+    /// sample path has it.
+    pub fn reference_through(&mut self, accel: &[T], out: &mut [T], band: fn(&mut BandLimit<T>, &mut [T])) -> Option<Window<T>> {
         if accel.iter().any(|a| a.is_nan()) || out.len() < accel.len() {
             self.restart();
             return None;
@@ -277,7 +284,7 @@ impl<T: Real> RunningError<T> {
             out[j] = r.integrate(q.integrate(p.high_pass(read, rho), rho, dt), rho, dt);
         }
         self.references += accel.len() as u64;
-        self.band.process_block(&mut out[..accel.len()]);
+        band(&mut self.band, &mut out[..accel.len()]);
         self.pair(first, &out[..accel.len()])
     }
 
