@@ -240,7 +240,7 @@ impl<T: Real> RunningError<T> {
             self.estimates += 1;
         }
         if stated.is_finite() {
-            self.sums.stated2 = self.sums.stated2 + stated * stated;
+            self.sums.stated2 += stated * stated;
             self.sums.blocks += 1;
         }
     }
@@ -302,10 +302,10 @@ impl<T: Real> RunningError<T> {
             let d = w - r[j];
             let v = half * (r[j + 1] - r[j - 1]);
             let s = &mut self.sums;
-            s.dd = s.dd + d * d;
-            s.dv = s.dv + d * v;
-            s.vv = s.vv + v * v;
-            s.rr = s.rr + r[j] * r[j];
+            s.dd += d * d;
+            s.dv += d * v;
+            s.vv += v * v;
+            s.rr += r[j] * r[j];
             s.pairs += 1;
             if s.pairs == self.window_pairs {
                 ended = self.close(first + j as u64);
