@@ -294,6 +294,7 @@ fn main() -> ! {
     print_plan(&band_filter("band_fir", &d45.band(), &codes, conv, &instr));
     band_filter("band_low_latency", &d45.band().with_shape(ipmc_core::band::Shape::LowLatency), &codes, conv, &instr);
     resampler(&instr);
+    running_error(&d45.band(), &instr);
     hygrometer(instr);
     println!("done");
     semihosting::process::exit(0)
@@ -445,6 +446,42 @@ fn resampler(instr: &impl Fn(u32) -> f64) {
     black_box(making);
     let made = instr(since(t));
     println!("resampler_per_sample {}", (total - made) / (seconds as f64 * SAMPLE_RATE_HZ as f64));
+}
+
+/// The estimate's error measured against the accelerometer, per ADC sample: a second of blocks of
+/// an estimate and of an acceleration (noise), the block step's call. The inputs' making is timed
+/// alone and taken out. In a frame of its own: its band filter is several KiB.
+#[inline(never)]
+fn running_error(band: &ipmc_core::band::Band, instr: &impl Fn(u32) -> f64) {
+    use ipmc_core::firmware::running_error::RunningError;
+    let filter = ipmc_core::band::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has a filter");
+    let mut m = RunningError::new(
+        filter,
+        SAMPLE_RATE_HZ as f64,
+        (DesignConfig::<f64>::firmware().max_delay_s * SAMPLE_RATE_HZ as f64 + 0.5) as usize,
+    );
+    let mut rng = Lcg(5);
+    let blocks = 2 * SAMPLE_RATE_HZ as usize / BLOCK_LEN;
+    let (mut e, mut a, mut out) = ([0.0f32; BLOCK_LEN], [0.0f32; BLOCK_LEN], [0.0f32; BLOCK_LEN]);
+    let mut windows = 0u32;
+    let t = now();
+    for _ in 0..blocks {
+        for (x, y) in e.iter_mut().zip(a.iter_mut()) {
+            (*x, *y) = (1e-5 * rng.next(), rng.next());
+        }
+        windows += device_calls::running_error_block(black_box(&mut m), black_box(&e), 0.05, black_box(&a), &mut out).is_some() as u32;
+    }
+    let total = instr(since(t));
+    let t = now();
+    for _ in 0..blocks {
+        for (x, y) in e.iter_mut().zip(a.iter_mut()) {
+            (*x, *y) = (1e-5 * rng.next(), rng.next());
+        }
+        black_box((&e, &a));
+    }
+    let made = instr(since(t));
+    black_box(windows);
+    println!("running_error_per_sample {}", (total - made) / (blocks * BLOCK_LEN) as f64);
 }
 
 /// Instructions per sample of the running spectrum of `band` over 2 500 blocks of white noise,

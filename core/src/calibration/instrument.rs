@@ -66,6 +66,10 @@ impl Default for Instrument {
     }
 }
 
+/// The board's accelerometer's sensitivity, 1σ as a fraction (its datasheet: ±1 %): a check's
+/// reference carries it, and nothing measures it on the device.
+pub const ACCELEROMETER_SENSITIVITY_1SIGMA: f64 = 0.01;
+
 /// The board's accelerometer's low-pass (LSM6DSL-like part, its anti-aliasing and digital
 /// filters as the firmware sets them, in one second-order Butterworth) [Hz].
 pub const ACCELEROMETER_LOWPASS_HZ: f64 = 666.0;

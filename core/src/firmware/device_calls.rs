@@ -1,6 +1,7 @@
 //! The device's calls with a budget of speed, for f32, made here: the conversion of the ADC's
 //! codes, the compensator, a block's error bar, the stuck input's check and the hygrometer's
-//! running spectrum (per sample), a retune's design, and the band's and the cascade's filters
+//! running spectrum (per sample), the running error against the board's accelerometer, a
+//! retune's design, and the band's and the cascade's filters
 //! alone for the bench. Built for size (the `ipmc-hygrometer-fit` crate, where the hygrometer's fit is
 //! made), the design took 511 750 instructions (budget 500 000) and the spectrum 33.0 a sample
 //! (budget 30).
@@ -16,6 +17,7 @@ use crate::{
     Calibration, Cascade, Compensator, DesignConfig, DesignError, Inverse,
     band::BandLimit,
     design_inverse,
+    firmware::running_error::{RunningError, Window},
     firmware::stuck::StuckDetector,
     humidity::hygrometer::{BlockHygrometer, Snapshot},
     humidity::spectrum::RunningSpectrum,
@@ -94,4 +96,20 @@ pub fn band_block(b: &mut BandLimit<f32>, block: &mut [f32]) {
 #[inline(never)]
 pub fn cascade_block(c: &mut Cascade<f32>, block: &mut [f32]) {
     c.process_block(block)
+}
+
+/// [`RunningError::estimate`] then [`RunningError::reference`]: a block's estimate and its
+/// stated error, and the accelerometer's block for the estimate's [`LAG_BLOCKS`] before.
+///
+/// [`LAG_BLOCKS`]: crate::resample::track::LAG_BLOCKS
+#[inline(never)]
+pub fn running_error_block(
+    m: &mut RunningError<f32>,
+    estimate: &[f32],
+    stated: f32,
+    accel: &[f32],
+    out: &mut [f32],
+) -> Option<Window<f32>> {
+    m.estimate(estimate, stated);
+    m.reference_through(accel, out, band_block)
 }

@@ -93,9 +93,13 @@ pub mod flags {
     /// many samples the stop cost (to within one sample: after a restart the ring's positions no
     /// longer count samples, the board's clock does).
     pub const ADC_OVERRUN: u16 = 1 << 14;
+    /// The estimate's error measured against the board's accelerometer exceeds the stated one
+    /// beyond chance (`ipmc_core::firmware::calibration_stale`, p < 0.01 over the recent windows).
+    /// Reserved: the firmware does not measure it yet.
+    pub const CALIBRATION_STALE: u16 = 1 << 15;
 
     /// Every bit with its name, lowest first (for host displays).
-    pub const NAMES: [(u16, &str); 15] = [
+    pub const NAMES: [(u16, &str); 16] = [
         (CLIPPED, "CLIPPED"),
         (RH_STALE, "RH_STALE"),
         (RH_CLAMPED, "RH_CLAMPED"),
@@ -111,6 +115,7 @@ pub mod flags {
         (FIT_STARTED, "FIT_STARTED"),
         (FIT_DONE, "FIT_DONE"),
         (ADC_OVERRUN, "ADC_OVERRUN"),
+        (CALIBRATION_STALE, "CALIBRATION_STALE"),
     ];
 }
 

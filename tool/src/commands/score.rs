@@ -3,6 +3,7 @@
 //! firmware's estimates with this command).
 
 use anyhow::{Result, bail};
+use ipmc_tool::scoring::accelerometer::DeviceMeasure;
 use ipmc_tool::scoring::estimate_file::{Options, Scored, score, share};
 use std::path::PathBuf;
 
@@ -93,6 +94,26 @@ pub fn run(a: Args) -> Result<()> {
         println!("{j}")
     } else {
         println!("{}", ipmc_tool::scoring::line(scoring, score));
+    }
+    if let (Some(accel), None) = (&ts.accel_mps2, &ts.base_m) {
+        let rel_err = loaded.file.rel_err.as_deref();
+        match DeviceMeasure::run(scoring, accel, &loaded.file.base_est_m, rel_err, &ts.bursts()) {
+            Some(d) if !d.windows.is_empty() => {
+                let last = d.windows.last().expect("not empty");
+                let stale = d.first_stale().map_or("never".to_string(), |k| format!("from its window {k} on"));
+                println!(
+                    "on the device (firmware::running_error, f32, {} windows of 5 s): {:.2} % pooled (score: {:.2} %), stated 1σ {:.2} %; \
+                     its chain's delay {:.3} ms and rate {:+.1} ppm at its last window; CALIBRATION_STALE {stale}",
+                    d.windows.len(),
+                    100.0 * d.pooled(),
+                    100.0 * score.pooled.error(),
+                    100.0 * d.stated(),
+                    1e3 * last.delay_s,
+                    1e6 * last.rate
+                );
+            }
+            _ => println!("on the device: no window measured (a check shorter than the device's settling)"),
+        }
     }
     Ok(())
 }

@@ -9,6 +9,7 @@ mod doc_commands;
 pub mod humidity_loop;
 mod qemu_scenarios;
 mod readme_figures;
+mod running_error;
 mod strip_workflow;
 mod suite;
 mod tool;

@@ -42,6 +42,10 @@ pub fn command(filter: &[String]) -> Result<()> {
             diagnose_prove_external,
         ),
         ("vs-exact: f32 chain within 1.1× the exact inverse in band (external recordings)", vs_exact_external),
+        (
+            "running error: the device's figure within a tenth of ipmc score's, CALIBRATION_STALE as the test says (external checks)",
+            super::running_error::test_step,
+        ),
         ("humidity path: diagnose → --write-calib → compensate", humidity_loop::test_step),
         ("uncertainty: the stated 1σ covers ~68 % of the levels of independent recordings", coverage::test_step),
         (

@@ -176,6 +176,14 @@ pub fn command(json: bool) -> Result<()> {
         get("instructions_per_block_error")? / get("block_len")?
     );
     resampler_lines(get("resampler_per_sample")?);
+    let running = get("running_error_per_sample")?;
+    let all = ips + screen + get("resampler_per_sample")? + running;
+    println!(
+        "the estimate's error measured against the accelerometer (firmware::running_error: its displacement through a second band filter, \
+         the delay loop, a window's sums every 4th sample): {running:.1} instructions per ADC sample; the per-sample path with the resampler \
+         and it {all:.1} (target ≤ {SAMPLE_PATH_BUDGET}: {})",
+        verdict(all <= SAMPLE_PATH_BUDGET)
+    );
     println!("reference, biquad crate DF2T run() stage by stage over the same blocks: {bq:.2} instructions per section per sample");
     let spectrum = get("spectrum_per_sample")?;
     let fit = get("instructions_per_fit")?;

@@ -1,0 +1,74 @@
+//! The step of `cargo xtask test` that holds the device's running error to `ipmc score`'s figure
+//! on checks of the independent simulator (`../shared/external/service`, skipped without them):
+//! each with its strip's month-0 own calibration (`ipmc identify` on its bench frequency
+//! response), compensated, then scored; `score` prints the device's figure (the core's running
+//! error, f32, a block at a time) beside its own. Held: within a tenth of score's figure, the
+//! calibration called stale on a month-6 check 3.5× its stated error and never on a month-0
+//! check whose measured error is under its stated one.
+
+use crate::{Result, ipmc, repo_root};
+use anyhow::{Context, bail};
+
+/// The device's figure may differ from score's by this share of it.
+const AGREEMENT: f64 = 0.1;
+
+/// A check, its strip, and whether a calibration called stale is expected.
+const CHECKS: [(&str, &str, bool); 2] = [("strip105-month6-check-72", "strip105", true), ("strip102-check-72", "strip102", false)];
+
+/// The percentage after `key` in `line`.
+fn percent_after(line: &str, key: &str) -> Option<f64> {
+    let rest = &line[line.find(key)? + key.len()..];
+    rest.trim_start().split(" %").next()?.trim().parse().ok()
+}
+
+pub fn test_step() -> Result<()> {
+    let dir = repo_root().join("../shared/external");
+    if !dir.join("service").exists() {
+        println!("no {}: skipped", dir.join("service").display());
+        return Ok(());
+    }
+    let work = repo_root().join("target/running-error");
+    std::fs::create_dir_all(&work)?;
+    for (check, strip, stale) in CHECKS {
+        let calib = work.join(format!("{strip}.toml"));
+        let fr = dir.join(format!("strips/{strip}-fr.csv"));
+        ipmc(&[
+            "identify".as_ref(),
+            fr.as_os_str(),
+            "--calib".as_ref(),
+            dir.join("nominal.toml").as_os_str(),
+            "--out".as_ref(),
+            calib.as_os_str(),
+        ])?;
+        let rec = dir.join(format!("service/{check}.csv"));
+        let est = work.join(format!("{check}.est.csv"));
+        ipmc(&["compensate".as_ref(), rec.as_os_str(), "--calib".as_ref(), calib.as_os_str(), "--out".as_ref(), est.as_os_str()])?;
+        let out = ipmc(&["score".as_ref(), rec.as_os_str(), est.as_os_str()])?;
+        let line = out
+            .lines()
+            .find(|l| l.starts_with("on the device"))
+            .with_context(|| format!("{check}: score printed no device line:\n{out}"))?;
+        println!("{check}: {line}");
+        let device = percent_after(line, "):").with_context(|| format!("no device figure in `{line}`"))?;
+        let score = percent_after(line, "(score:").with_context(|| format!("no score figure in `{line}`"))?;
+        if (device / score - 1.0).abs() > AGREEMENT {
+            bail!("{check}: the device measured {device} %, score {score} %: more than {AGREEMENT} of it apart");
+        }
+        if line.contains("CALIBRATION_STALE never") == stale {
+            bail!("{check}: CALIBRATION_STALE expected {}: `{line}`", if stale { "raised" } else { "never" });
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::percent_after;
+
+    #[test]
+    fn the_figures_are_read_from_the_line() {
+        let line = "on the device (firmware::running_error, f32, 9 windows of 5 s): 4.67 % pooled (score: 4.58 %), stated 1σ 15.37 %";
+        assert_eq!(percent_after(line, "):"), Some(4.67));
+        assert_eq!(percent_after(line, "(score:"), Some(4.58));
+    }
+}
