@@ -99,19 +99,19 @@ pub fn checked(text: &str) -> Result<Option<Checked>, FileError> {
         .map_err(|e| syntax_error(text, &e, "`rh_pct = [numbers]`, `axes = [[7 numbers], …]` and `drift_sd = [7 numbers]`"))
 }
 
-/// `text` with the lines of its `[checked]` table (`keep`: every other line) blanked, so that
-/// either part reads with the file's own line numbers.
+/// `text` with the lines of its `[checked]` table (`keep`: every other line) blanked, their
+/// line endings kept, so that either part reads with the file's own line numbers.
 fn split_checked(text: &str, keep: bool) -> String {
     let mut inside = false;
     let mut out = String::with_capacity(text.len());
-    for line in text.lines() {
+    for line in text.split_inclusive('\n') {
         if let Some(name) = header_name(line) {
             inside = name == CHECKED_TABLE;
         }
-        if inside == keep {
-            out.push_str(line);
+        match inside == keep {
+            true => out.push_str(line),
+            false => out.push_str(&line[line.trim_end_matches(['\r', '\n']).len()..]),
         }
-        out.push('\n');
     }
     out
 }
