@@ -17,6 +17,7 @@ use std::{
 use ipmc_core::{
     Calibration, DesignConfig, Law,
     band::{Band, Shape},
+    calibration::checked::Checked,
     calibration::departures::Departures,
     calibration::humidity_path::{HumidityPath, SensorKind},
     calibration::instrument::Instrument,
@@ -39,7 +40,7 @@ fn main() -> ExitCode {
     println!("cargo:rerun-if-changed={}", root.join("build.rs").display());
     println!("cargo:rerun-if-env-changed={CALIB_VAR}");
 
-    let (calibration, source) = match load_calibration() {
+    let (calibration, checked, source) = match load_calibration() {
         Ok(c) => c,
         Err(message) => {
             // Cargo prints a failed build script's stderr; this line is what the user reads.
@@ -64,7 +65,7 @@ fn main() -> ExitCode {
          pub const DELAY_SAMPLES: u16 = {};\n\
          {}",
         calibration_expr(&calibration),
-        error_table_expr(&calibration),
+        error_table_expr(&calibration, checked.as_ref()),
         band_filter_expr(&calibration),
         u16::try_from(ipmc_core::firmware::operating_point::delay_samples(&calibration.band)).expect("a delay of fewer than 65536 samples"),
         model_table_items(&calibration),
@@ -80,10 +81,11 @@ fn repo_root() -> PathBuf {
     if dir.ends_with("firmware-bin") { dir.parent().expect("the repository holds firmware-bin").to_path_buf() } else { dir }
 }
 
-/// The calibration and a name for where it came from.
-fn load_calibration() -> Result<(Calibration, String), String> {
+/// The calibration, what checks in service left unknown of it (its `[checked]` table, which the
+/// stated error reads), and a name for where it came from.
+fn load_calibration() -> Result<(Calibration, Option<Checked>, String), String> {
     let Some(path) = env::var_os(CALIB_VAR).filter(|p| !p.is_empty()) else {
-        return Ok((Calibration::default_preset(), "the default preset".into()));
+        return Ok((Calibration::default_preset(), None, "the default preset".into()));
     };
     let path = repo_root().join(Path::new(&path));
     println!("cargo:rerun-if-changed={}", path.display());
@@ -94,6 +96,7 @@ fn load_calibration() -> Result<(Calibration, String), String> {
         calibration_file::FileError::Syntax { .. } => format!("{CALIB_VAR}={shown}:{e}"),
         _ => format!("{CALIB_VAR}={shown}: {e}"),
     })?;
+    let checked = calibration_file::checked(&text).map_err(|e| format!("{CALIB_VAR}={shown}:{e}"))?;
     // A correction measured on one sensor would be wrong on another.
     if let Some(kind) = calibration.humidity.sensor
         && kind != firmware_sensor()
@@ -112,7 +115,7 @@ fn load_calibration() -> Result<(Calibration, String), String> {
         Some(_) => Calibration { humidity: calibration.humidity.for_named_reading(), ..calibration },
         None => calibration,
     };
-    Ok((calibration, shown))
+    Ok((calibration, checked, shown))
 }
 
 /// A Rust constant expression equal to `c`. The destructuring names every field, so a field
@@ -281,10 +284,10 @@ fn humidity_path_expr(p: &HumidityPath) -> String {
 }
 
 /// The table as the host tool makes it for the same calibration and sensor; f32 by its bits.
-fn error_table_expr(c: &Calibration) -> String {
+fn error_table_expr(c: &Calibration, checked: Option<&Checked>) -> String {
     let rh_sd = c.humidity.reading_uncertainty_pct(reading_sensor());
     // `check` designed at every 5 %RH of the range already; a failure between is as fatal.
-    let t = ErrorTable::new(c, rh_sd, &DesignConfig::firmware()).expect("the calibration designs over its range");
+    let t = ErrorTable::new(c, checked, rh_sd, &DesignConfig::firmware()).expect("the calibration designs over its range");
     let bits = |v: &[f32]| v.iter().map(|x| format!("f32::from_bits({:#x})", x.to_bits())).collect::<Vec<_>>().join(", ");
     format!(
         "ipmc_core::inverse::expected_error::ErrorTable {{ rh0_pct: f32::from_bits({:#x}), step_pct: f32::from_bits({:#x}), n: {}, \

@@ -4,6 +4,7 @@
 
 use std::fmt;
 
+use crate::calibration::checked::Checked;
 use crate::calibration::laws::{Calibration, ValidationError};
 use crate::inverse::design::{DesignConfig, DesignError, design_inverse};
 use crate::model::params::{ParamName, Params};
@@ -79,9 +80,52 @@ fn farthest_from_default(p: &Params<f64>, rh: f64) -> (ParamName, f64) {
     (worst, p.get(worst))
 }
 
-/// Parses without validating (a verbatim preset that validation refuses still reads back).
+/// Parses without validating (a verbatim preset that validation refuses still reads back). The
+/// `[checked]` table, what checks left unknown of the strip, is read apart ([`checked`]).
 pub fn parse_unvalidated(text: &str) -> Result<Calibration, FileError> {
+    let text = &split_checked(text, false);
     toml::from_str(text).map_err(|e| syntax_error(text, &e, "`name = number` lines, `[y]`…`[m]` law tables and `coeffs = [numbers]`"))
+}
+
+/// The file's `[checked]` table (written by `ipmc recalibrate`), None where it has none.
+pub fn checked(text: &str) -> Result<Option<Checked>, FileError> {
+    #[derive(serde::Deserialize)]
+    struct Only {
+        checked: Option<Checked>,
+    }
+    let text = &split_checked(text, true);
+    toml::from_str::<Only>(text)
+        .map(|o| o.checked)
+        .map_err(|e| syntax_error(text, &e, "`rh_pct = [numbers]`, `axes = [[7 numbers], …]` and `drift_sd = [7 numbers]`"))
+}
+
+/// `text` with the lines of its `[checked]` table (`keep`: every other line) blanked, their
+/// line endings kept, so that either part reads with the file's own line numbers.
+fn split_checked(text: &str, keep: bool) -> String {
+    let mut inside = false;
+    let mut out = String::with_capacity(text.len());
+    for line in text.split_inclusive('\n') {
+        if let Some(name) = header_name(line) {
+            inside = name == CHECKED_TABLE;
+        }
+        match inside == keep {
+            true => out.push_str(line),
+            false => out.push_str(&line[line.trim_end_matches(['\r', '\n']).len()..]),
+        }
+    }
+    out
+}
+
+/// The name of the table [`checked`] reads.
+pub const CHECKED_TABLE: &str = "checked";
+
+/// The `[checked]` table's text, to follow a calibration's ([`to_text`]).
+pub fn checked_text(c: &Checked) -> String {
+    #[derive(serde::Serialize)]
+    struct Only<'a> {
+        checked: &'a Checked,
+    }
+    toml::to_string(&Only { checked: c }).unwrap_or_default()
 }
 
 /// A toml error on `text` as a located [`FileError::Syntax`] (the tool's other TOML files use it
@@ -203,6 +247,26 @@ mod tests {
         }
         let e = parse(&format!("{old}\n[humidity]\nsensor = \"dht22\"\n")).unwrap_err();
         assert!(matches!(e, FileError::Syntax { .. }), "{e}");
+    }
+
+    #[test]
+    fn the_checked_table_is_read_apart_and_kept() {
+        use crate::calibration::checked::Checked;
+        let c = Calibration::default_preset();
+        let plain = to_text(&c);
+        assert_eq!(checked(&plain), Ok(None));
+        let t = Checked::new(&[71.5, 64.0], &[[0.01, 0.0, -0.02, 0.0, 0.1, 0.0, 0.0]], [0.0, 0.0, 0.0, 0.2, 0.18, 0.0, 0.0]).unwrap();
+        let text = format!("{plain}\n{}\n[band]\nlow_hz = 12.0\nhigh_hz = 150.0\n", checked_text(&t)).replacen("[band]", "[former]", 1);
+        let text = text.replace("[former]\n", "").replacen("low_hz = 10.0\nhigh_hz = 150.0\nshape = \"linear-phase\"\n", "", 1);
+        assert_eq!(checked(&text), Ok(Some(t)), "{text}");
+        assert_eq!(parse(&text).unwrap().band.low_hz, 12.0, "a table after `[checked]` is the calibration's: {text}");
+        // Errors keep the file's own line numbers.
+        let bad = format!("{plain}\n[checked]\nrh_pct = [71.5]\naxes = [[0.0, 0.0]]\ndrift_sd = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]\n");
+        let line = bad.lines().position(|l| l.starts_with("axes")).unwrap() + 1;
+        assert!(matches!(checked(&bad), Err(FileError::Syntax { line: l, .. }) if l == line), "{:?}", checked(&bad));
+        assert!(parse(&bad).is_ok(), "the calibration reads without it");
+        let far = bad.replace("axes = [[0.0, 0.0]]", "axes = []").replace("[71.5]", "[171.5]");
+        assert!(checked(&far).unwrap_err().to_string().contains("checked.rh_pct"), "{:?}", checked(&far));
     }
 
     #[test]

@@ -8,6 +8,7 @@
 
 use crate::support::input::checked;
 use anyhow::{Result, anyhow, bail};
+use ipmc_core::calibration::checked::Checked;
 use ipmc_core::firmware::block_step::{BlockInputs, BlockStep, Filtered, filter_block};
 use ipmc_core::firmware::operating_point::asks_for_design;
 use ipmc_core::humidity::block::{BlockHumidity, span_s};
@@ -30,9 +31,15 @@ pub fn rh_uncertainty(calib: &Calibration, given: Option<f64>) -> f64 {
 }
 
 /// The expected-error table of `calib`'s designs at the recording's rate (the firmware's build
-/// script makes the same one).
-pub fn error_table(calib: &Calibration, fs_hz: f64, rh_sd_pct: f64, kind: InverseKind<f64>) -> Result<ErrorTable> {
-    ErrorTable::new(calib, rh_sd_pct, &design_config(fs_hz, kind))
+/// script makes the same one); `checked`, the file's `[checked]` table where it has one.
+pub fn error_table(
+    calib: &Calibration,
+    checked: Option<&Checked>,
+    fs_hz: f64,
+    rh_sd_pct: f64,
+    kind: InverseKind<f64>,
+) -> Result<ErrorTable> {
+    ErrorTable::new(calib, checked, rh_sd_pct, &design_config(fs_hz, kind))
         .ok_or_else(|| anyhow!("no expected-error table: a design over the calibrated range failed"))
 }
 
@@ -44,13 +51,14 @@ fn design_config(fs_hz: f64, kind: InverseKind<f64>) -> DesignConfig<f64> {
 /// The slopes that carry [`error_table`]'s table to a design humidity of another uncertainty.
 pub fn humidity_slopes(
     calib: &Calibration,
+    checked: Option<&Checked>,
     fs_hz: f64,
     rh_sd_pct: f64,
     kind: InverseKind<f64>,
     errors: &ErrorTable,
 ) -> Result<HumiditySlopes> {
     errors
-        .humidity_slopes(calib, rh_sd_pct, &design_config(fs_hz, kind))
+        .humidity_slopes(calib, checked, rh_sd_pct, &design_config(fs_hz, kind))
         .ok_or_else(|| anyhow!("no humidity slopes: a design over the calibrated range failed"))
 }
 

@@ -32,7 +32,7 @@ pub const WET_PCT: f64 = 70.0;
 pub fn compensated(calib: &Calibration, ts: &TimeSeries) -> Result<(f64, String)> {
     let rh_sd = rh_uncertainty(calib, None);
     let kind = InverseChoice::Exact.kind(rh_sd);
-    let errors = error_table(calib, ts.fs_hz, rh_sd, kind)?;
+    let errors = error_table(calib, None, ts.fs_hz, rh_sd, kind)?;
     let est = compensate(calib, ts, None, &errors, InverseChoice::Exact.kind(rh_sd), None)?;
     let base = ts.base_m.as_ref().ok_or_else(|| anyhow!("no base_m column"))?;
     let scoring = Scoring::new(&calib.band, ts.fs_hz, stated_period_s(&ts.metadata, None))?;

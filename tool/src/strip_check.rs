@@ -111,7 +111,7 @@ pub fn load_truth(path: &Path, ts_path: &Path, ts: &TimeSeries, nominal: &Calibr
 /// one scoring (the exact inverse's output through the same band filter as its truth).
 pub fn score(calib: &Calibration, rec: &TimeSeries, rh_sd: f64, period_s: f64) -> Result<(Scores, crate::chain::Estimates)> {
     let scoring = Scoring::new(&calib.band, rec.fs_hz, Some(period_s))?;
-    let errors = error_table(calib, rec.fs_hz, rh_sd, InverseKind::Exact)?;
+    let errors = error_table(calib, None, rec.fs_hz, rh_sd, InverseKind::Exact)?;
     let est = compensate(calib, rec, None, &errors, InverseKind::Exact, None)?;
     let base = rec.base_m.as_ref().expect("cut with base");
     let n = rec.t_s.len();

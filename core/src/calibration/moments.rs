@@ -3,6 +3,7 @@
 //! states what is left; both read the calibration's spread through this one function.
 
 use crate::C;
+use crate::calibration::checked::{Checked, PARAMS};
 use crate::calibration::laws::Calibration;
 use crate::model::exact::{current_response, jw};
 use crate::model::params::Params;
@@ -16,6 +17,41 @@ use crate::numeric::real::Real;
 /// departures from the centre is exact to second order, where a first-order propagation has
 /// E[r] = 1 and misses the bias that the curvature of H (near a resonance, large) puts in.
 pub fn response_moments(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, freq_hz: f64) -> (C<f64>, f64) {
+    let unknown = calib.uncertainty_at(rh_pct);
+    let sds = unknown.relative_sds();
+    let p: Params<f64> = calib.params_at(rh_pct);
+    moments_along(calib, rh_pct, rh_sd_pct, freq_hz, sds.len(), |j, k| {
+        let mut z = [0.0; 5];
+        z[j] = k;
+        (sds[j].1 > 0.0).then(|| unknown.scattered(p, &z))
+    })
+}
+
+/// [`response_moments`] with what checks left unknown of the strip in place of the
+/// calibration's `[uncertainty]` (`checked`, [`crate::calibration::checked`]): each of its causes
+/// at `rh_pct` an independent axis along ln of the checked parameters.
+pub fn response_moments_checked(calib: &Calibration, checked: &Checked, rh_pct: f64, rh_sd_pct: f64, freq_hz: f64) -> (C<f64>, f64) {
+    let (causes, n) = checked.causes_at(calib, rh_pct);
+    let p: Params<f64> = calib.params_at(rh_pct);
+    moments_along(calib, rh_pct, rh_sd_pct, freq_hz, n, |j, k| {
+        let mut q = p;
+        for (name, ln) in PARAMS.into_iter().zip(causes[j]) {
+            q.set(name, q.get(name) * Real::exp(k * ln));
+        }
+        Some(q)
+    })
+}
+
+/// The quadrature of [`response_moments`] over the humidity's axis and `axes` more, axis `j` at
+/// `k` of its standard deviations given by `at(j, k)` (None: no spread along it).
+fn moments_along(
+    calib: &Calibration,
+    rh_pct: f64,
+    rh_sd_pct: f64,
+    freq_hz: f64,
+    axes: usize,
+    at: impl Fn(usize, f64) -> Option<Params<f64>>,
+) -> (C<f64>, f64) {
     let p: Params<f64> = calib.params_at(rh_pct);
     let s = jw(freq_hz);
     let h0 = current_response(&p, s);
@@ -32,15 +68,9 @@ pub fn response_moments(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, freq_h
             (calib.params_at(rh_pct + node * rh_sd_pct), calib.params_at(rh_pct - node * rh_sd_pct));
         axis(&wet, &dry);
     }
-    let unknown = calib.uncertainty_at(rh_pct);
-    for (j, (_, sd)) in unknown.relative_sds().into_iter().enumerate() {
-        if sd > 0.0 {
-            let at = |k: f64| {
-                let mut z = [0.0; 5];
-                z[j] = k * node;
-                unknown.scattered(p, &z)
-            };
-            axis(&at(1.0), &at(-1.0));
+    for j in 0..axes {
+        if let (Some(plus), Some(minus)) = (at(j, node), at(j, -node)) {
+            axis(&plus, &minus);
         }
     }
     (mean, power)

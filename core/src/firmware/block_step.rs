@@ -272,7 +272,7 @@ mod tests {
     fn a_block_comes_to_its_header_and_requests() {
         let calib = Calibration::default_preset();
         let cfg = DesignConfig::<f32>::firmware();
-        let errors = ErrorTable::new(&calib, 1.0, &DesignConfig::<f64>::firmware()).unwrap();
+        let errors = ErrorTable::new(&calib, None, 1.0, &DesignConfig::<f64>::firmware()).unwrap();
         let first = design_inverse::<f32>(&calib, 50.0, &cfg).unwrap();
         let mut filter = Compensator::passthrough(&first.band(), first.fs_hz());
         let mut hygrometer = BlockHygrometer::new(&calib, SAMPLE_RATE_HZ as f64);
@@ -330,7 +330,7 @@ mod tests {
     fn one_bad_sample_is_counted_flagged_and_leaves_the_estimate() {
         let calib = Calibration::default_preset();
         let cfg = DesignConfig::<f32>::firmware();
-        let errors = ErrorTable::new(&calib, 1.0, &DesignConfig::<f64>::firmware()).unwrap();
+        let errors = ErrorTable::new(&calib, None, 1.0, &DesignConfig::<f64>::firmware()).unwrap();
         let first = design_inverse::<f32>(&calib, 50.0, &cfg).unwrap();
         let blocks = 6 * SAMPLE_RATE_HZ as usize / BLOCK_LEN;
         let current = |i: usize| {

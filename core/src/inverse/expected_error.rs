@@ -42,8 +42,9 @@
 
 use crate::C;
 use crate::band::BandDesign;
+use crate::calibration::checked::Checked;
 use crate::calibration::laws::Calibration;
-use crate::calibration::moments::response_moments;
+use crate::calibration::moments::{response_moments, response_moments_checked};
 use crate::inverse::design::{DesignConfig, design_inverse};
 use crate::model::exact::{current_response, jw};
 use crate::model::params::Params;
@@ -85,8 +86,15 @@ pub struct ErrorTable {
 /// The two terms at one humidity, in f64, for the designs of `cfg` (None where the model or the
 /// design fails): v is the band's mean of E|H·G·e^{jωτ} − 1|² = E|r|²·|y|² − 2 Re(E[r]·y) + 1,
 /// y = H₀·G·e^{jωτ} ([`response_moments`]): the design's own error and the strip's departure
-/// from the nominal model, through the design.
-pub fn terms_at(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<(f64, f64)> {
+/// from the nominal model, through the design. With `checked`, what the checks in service left
+/// unknown of the strip in place of `[uncertainty]` ([`response_moments_checked`]).
+pub fn terms_at(
+    calib: &Calibration,
+    checked: Option<&Checked>,
+    rh_pct: f64,
+    rh_sd_pct: f64,
+    cfg: &DesignConfig<f64>,
+) -> Option<(f64, f64)> {
     let p: Params<f64> = calib.params_at(rh_pct);
     let inv = design_inverse(calib, rh_pct, cfg).ok()?;
     let density = calib.uncertainty.current_noise_a_per_rthz;
@@ -100,7 +108,10 @@ pub fn terms_at(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, cfg: &DesignCo
         let h0 = current_response(&p, jw(f));
         let w = 2.0 * core::f64::consts::PI * f * inv.delay_s();
         let y = h0 * inv.response(f) * C::new(Real::cos(w), Real::sin(w));
-        let (mean, power) = response_moments(calib, rh_pct, rh_sd_pct, f);
+        let (mean, power) = match checked {
+            Some(c) => response_moments_checked(calib, c, rh_pct, rh_sd_pct, f),
+            None => response_moments(calib, rh_pct, rh_sd_pct, f),
+        };
         var += power * y.norm_sqr() - 2.0 * (mean * y).re + 1.0;
     }
     let mut noise = 0.0;
@@ -142,8 +153,10 @@ fn simpson(g: &impl Fn(f64) -> f64, a: f64, b: f64, points: usize) -> f64 {
 
 impl ErrorTable {
     /// Tabulates over the calibration's declared range at (at most) 1 %RH steps, with the
-    /// humidity reading's standard uncertainty `rh_sd_pct`. None if the design fails anywhere.
-    pub fn new(calib: &Calibration, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<ErrorTable> {
+    /// humidity reading's standard uncertainty `rh_sd_pct`, and what checks in service left
+    /// unknown of the strip where the calibration holds them (`checked`, [`terms_at`]). None if
+    /// the design fails anywhere.
+    pub fn new(calib: &Calibration, checked: Option<&Checked>, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<ErrorTable> {
         let span = calib.rh_max - calib.rh_min;
         let n = ((Real::ceil(span) as usize) + 1).clamp(2, TABLE_LEN);
         let step = span / (n - 1) as f64;
@@ -157,20 +170,26 @@ impl ErrorTable {
         };
         for i in 0..n {
             let rh = if i == n - 1 { calib.rh_max } else { calib.rh_min + step * i as f64 };
-            let (v, noise) = terms_at(calib, rh, rh_sd_pct, cfg)?;
+            let (v, noise) = terms_at(calib, checked, rh, rh_sd_pct, cfg)?;
             t.model_var[i] = v as f32;
             t.noise_m2[i] = noise as f32;
         }
         // A distance δ beyond an edge is a humidity error of the design held there.
         for (k, (edge, i)) in [(calib.rh_min, 0), (calib.rh_max, n - 1)].into_iter().enumerate() {
-            t.beyond_var_per_pct2[k] = humidity_slope(calib, edge, rh_sd_pct, t.model_var[i] as f64, cfg)? as f32;
+            t.beyond_var_per_pct2[k] = humidity_slope(calib, checked, edge, rh_sd_pct, t.model_var[i] as f64, cfg)? as f32;
         }
         Some(t)
     }
 
     /// [`HumiditySlopes`] of this table, made from `calib` with the `rh_sd_pct` and `cfg` it was
-    /// made with. None if a design fails.
-    pub fn humidity_slopes(&self, calib: &Calibration, rh_sd_pct: f64, cfg: &DesignConfig<f64>) -> Option<HumiditySlopes> {
+    /// made with (and `checked`, as [`ErrorTable::new`]). None if a design fails.
+    pub fn humidity_slopes(
+        &self,
+        calib: &Calibration,
+        checked: Option<&Checked>,
+        rh_sd_pct: f64,
+        cfg: &DesignConfig<f64>,
+    ) -> Option<HumiditySlopes> {
         let mut per_pct2 = [0.0; TABLE_LEN];
         for (i, slope) in per_pct2.iter_mut().enumerate().take(self.n) {
             let rh = if i == self.n - 1 { calib.rh_max } else { calib.rh_min + self.step_pct as f64 * i as f64 };
@@ -178,10 +197,10 @@ impl ErrorTable {
             // lies between them, and v bends (a design's error grows faster than second order
             // near the wet end's steep laws).
             *slope = if rh_sd_pct > 0.0 {
-                let (exact, _) = terms_at(calib, rh, 0.0, cfg)?;
+                let (exact, _) = terms_at(calib, checked, rh, 0.0, cfg)?;
                 ((self.model_var[i] as f64 - exact) / (rh_sd_pct * rh_sd_pct)).max(0.0) as f32
             } else {
-                humidity_slope(calib, rh, rh_sd_pct, self.model_var[i] as f64, cfg)? as f32
+                humidity_slope(calib, checked, rh, rh_sd_pct, self.model_var[i] as f64, cfg)? as f32
             };
         }
         Some(HumiditySlopes { table_sd_pct: rh_sd_pct as f32, per_pct2 })
@@ -228,8 +247,15 @@ impl ErrorTable {
 /// What one more %RH² of the design humidity's error variance adds to v at `rh_pct`, about the
 /// `rh_sd_pct` that gave `v`: v is E|r·y − 1|², second order in the humidity error, so it grows
 /// by this times the variance added.
-fn humidity_slope(calib: &Calibration, rh_pct: f64, rh_sd_pct: f64, v: f64, cfg: &DesignConfig<f64>) -> Option<f64> {
-    let (wider, _) = terms_at(calib, rh_pct, Real::sqrt(rh_sd_pct * rh_sd_pct + 1.0), cfg)?;
+fn humidity_slope(
+    calib: &Calibration,
+    checked: Option<&Checked>,
+    rh_pct: f64,
+    rh_sd_pct: f64,
+    v: f64,
+    cfg: &DesignConfig<f64>,
+) -> Option<f64> {
+    let (wider, _) = terms_at(calib, checked, rh_pct, Real::sqrt(rh_sd_pct * rh_sd_pct + 1.0), cfg)?;
     Some((wider - v).max(0.0))
 }
 
@@ -426,8 +452,8 @@ mod tests {
                     ms_robust += e(&robust).powi(2) / draws as f64;
                 }
             }
-            let (v_exact, _) = terms_at(&calib, rh, rh_sd, &exact_cfg).unwrap();
-            let (v_robust, _) = terms_at(&calib, rh, rh_sd, &robust_cfg).unwrap();
+            let (v_exact, _) = terms_at(&calib, None, rh, rh_sd, &exact_cfg).unwrap();
+            let (v_robust, _) = terms_at(&calib, None, rh, rh_sd, &robust_cfg).unwrap();
             std::println!(
                 "RH {rh}: Monte Carlo rms exact {:.4} robust {:.4}; stated {:.4} {:.4}",
                 ms_exact.sqrt(),
@@ -465,8 +491,8 @@ mod tests {
         let cfg = DesignConfig::<f64>::firmware();
         let c = quiet();
         for rh in [40.0, 60.0, 80.0] {
-            let (v0, _) = terms_at(&c, rh, 0.0, &cfg).unwrap();
-            let (v1, _) = terms_at(&c, rh, 0.2, &cfg).unwrap();
+            let (v0, _) = terms_at(&c, None, rh, 0.0, &cfg).unwrap();
+            let (v1, _) = terms_at(&c, None, rh, 0.2, &cfg).unwrap();
             let per_pct = ((v1 - v0) / 0.04).sqrt();
             // Both ways round: the design's own error is not orthogonal to a mismatch's first
             // order, which a reading's symmetric scatter cancels and a one-sided δ would not.
@@ -481,19 +507,19 @@ mod tests {
     fn parameter_and_noise_terms_add_and_scale() {
         let cfg = DesignConfig::<f64>::firmware();
         let c = quiet();
-        let (v0, n0) = terms_at(&c, 50.0, 0.0, &cfg).unwrap();
+        let (v0, n0) = terms_at(&c, None, 50.0, 0.0, &cfg).unwrap();
         assert_eq!(n0, 0.0);
         let y = Calibration { uncertainty: Uncertainty { y: 0.002, ..c.uncertainty }, ..c };
         let y2 = Calibration { uncertainty: Uncertainty { y: 0.004, ..c.uncertainty }, ..c };
-        let (vy, _) = terms_at(&y, 50.0, 0.0, &cfg).unwrap();
-        let (vy2, _) = terms_at(&y2, 50.0, 0.0, &cfg).unwrap();
+        let (vy, _) = terms_at(&y, None, 50.0, 0.0, &cfg).unwrap();
+        let (vy2, _) = terms_at(&y2, None, 50.0, 0.0, &cfg).unwrap();
         assert!(vy > v0);
         // Quadratic for small σ (larger ones reach the resonance's curvature: 3.1 from 2 % to 4 %).
         assert!(((vy2 - v0) / (vy - v0) - 4.0).abs() < 0.1, "quadratic in the standard deviation: {}", (vy2 - v0) / (vy - v0));
         let noisy = Calibration { uncertainty: Uncertainty { current_noise_a_per_rthz: 1e-11, ..c.uncertainty }, ..c };
         let noisier = Calibration { uncertainty: Uncertainty { current_noise_a_per_rthz: 2e-11, ..c.uncertainty }, ..c };
-        let (_, n1) = terms_at(&noisy, 50.0, 0.0, &cfg).unwrap();
-        let (_, n2) = terms_at(&noisier, 50.0, 0.0, &cfg).unwrap();
+        let (_, n1) = terms_at(&noisy, None, 50.0, 0.0, &cfg).unwrap();
+        let (_, n2) = terms_at(&noisier, None, 50.0, 0.0, &cfg).unwrap();
         assert!(n1 > 0.0 && ((n2 / n1) - 4.0).abs() < 1e-9);
     }
 
@@ -501,7 +527,7 @@ mod tests {
     fn table_interpolates_its_entries_and_holds_its_ends() {
         let c = Calibration::default_preset();
         let cfg = DesignConfig::<f64>::firmware();
-        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        let t = ErrorTable::new(&c, None, 1.0, &cfg).unwrap();
         assert_eq!((t.n, t.rh0_pct, t.step_pct), (71, 20.0, 1.0));
         let (v, _) = t.at(47.0f32);
         assert_eq!(v, t.model_var[27]);
@@ -510,7 +536,7 @@ mod tests {
         assert_eq!(t.at(5.0f32), t.at(20.0f32));
         assert_eq!(t.at(f32::NAN), t.at(20.0f32));
         assert_eq!(t.at(99.0f32).0, t.model_var[70]);
-        let (v, _) = terms_at(&c, 90.0, 1.0, &cfg).unwrap();
+        let (v, _) = terms_at(&c, None, 90.0, 1.0, &cfg).unwrap();
         assert_eq!(t.model_var[70], v as f32);
     }
 
@@ -520,7 +546,7 @@ mod tests {
     fn beyond_the_range_the_distance_is_stated_as_a_humidity_error() {
         let c = Calibration::default_preset();
         let cfg = DesignConfig::<f64>::firmware();
-        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        let t = ErrorTable::new(&c, None, 1.0, &cfg).unwrap();
         let edge = c.rh_max;
         let inv = crate::inverse::design::design_inverse(&c, edge, &cfg).unwrap();
         let ms = |rh: f64| mismatch_ms(&c, &inv, &cfg, rh);
@@ -545,15 +571,15 @@ mod tests {
     fn a_block_states_its_own_humidity_uncertainty() {
         let c = Calibration::default_preset();
         let cfg = DesignConfig::<f64>::firmware();
-        let t = ErrorTable::new(&c, 2.0, &cfg).unwrap();
-        let slopes = t.humidity_slopes(&c, 2.0, &cfg).unwrap();
+        let t = ErrorTable::new(&c, None, 2.0, &cfg).unwrap();
+        let slopes = t.humidity_slopes(&c, None, 2.0, &cfg).unwrap();
         let mut b = BlockError::<f64>::new(&t, &cfg);
         for rh in [45.0, 62.5, 78.0] {
             b.humidity_sd(&slopes, rh, 2.0);
             assert_eq!(b.parts(rh).0, t.calibration_part(rh), "the table's own uncertainty changes nothing");
             for sd in [0.0, 0.3, 1.0] {
                 b.humidity_sd(&slopes, rh, sd);
-                let want = ErrorTable::new(&c, sd, &cfg).unwrap().calibration_part(rh);
+                let want = ErrorTable::new(&c, None, sd, &cfg).unwrap().calibration_part(rh);
                 let got = b.parts(rh).0;
                 assert!((got / want - 1.0).abs() < 0.05, "{sd} %RH at {rh} %RH: {got} stated, {want} by its own table");
             }
@@ -569,7 +595,7 @@ mod tests {
     fn block_error_follows_the_in_band_power() {
         let c = Calibration::default_preset();
         let cfg = DesignConfig::firmware();
-        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        let t = ErrorTable::new(&c, None, 1.0, &cfg).unwrap();
         let (v, n) = t.at(50.0f64);
         let tone = |a: f64, f: f64, k: usize| a * (2.0 * core::f64::consts::PI * f * k as f64 / 2000.0).sin();
         let run = |a: f64, f: f64, offset: f64| {
@@ -613,7 +639,7 @@ mod tests {
             ..Calibration::default_preset()
         };
         let cfg = DesignConfig::firmware();
-        let t = ErrorTable::new(&c, 1.0, &cfg).unwrap();
+        let t = ErrorTable::new(&c, None, 1.0, &cfg).unwrap();
         let (v, n) = t.at(60.0f64);
         assert_eq!(t.calibration_part(60.0f64), v.sqrt());
         assert_eq!(t.noise_equivalent_m(60.0f64), n.sqrt());

@@ -56,6 +56,9 @@ pub const AMPLIFIER_NOISE_A_PER_RTHZ: f64 = 3.162_277_660_168_379_5e-10;
 pub struct Field {
     pub ts: TimeSeries,
     pub strip_pct: Vec<f64>,
+    /// The strip's departure from the calibration's laws, in standard deviations of its
+    /// `[uncertainty]` (`Uncertainty::scattered`): the truth a test compares a calibration with.
+    pub scatter: [f64; 5],
 }
 
 /// A strip off its laws as `[uncertainty]` allows: the laws' parameters, each scaled log-normally.
@@ -242,7 +245,7 @@ fn simulate_field_or_check(calib: &Calibration, plan: &FieldPlan, physics: &dyn 
         ts.base_m = None;
         ts.metadata.set("accel", "the board's accelerometer on the strip's base, resampled onto the ADC's clock [m/s^2] (simulated)");
     }
-    Field { ts, strip_pct }
+    Field { ts, strip_pct, scatter: z }
 }
 
 #[cfg(test)]

@@ -98,6 +98,7 @@ enum HumidityChoice {
 
 pub fn run(a: Args) -> Result<()> {
     let mut calib = ipmc_tool::support::calibration_source::load(a.calib.as_deref())?;
+    let checked = ipmc_tool::support::calibration_source::checked(a.calib.as_deref())?;
     if let Some(said) = a.calib.as_deref().and_then(|p| std::fs::read_to_string(p).ok()).and_then(|text| {
         let today = ipmc_tool::recalibrate::update::iso_date(std::time::SystemTime::now());
         ipmc_tool::recalibrate::update::provenance_said(&text, &today)
@@ -171,9 +172,9 @@ pub fn run(a: Args) -> Result<()> {
         (calib, ts, None, None)
     };
     let rh_sd = humidity_uncertainty(a.rh_uncertainty, own_rms_sd, chamber.is_some(), read_sd, &reading_said);
-    let errors = error_table(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
+    let errors = error_table(&calib, checked.as_ref(), ts.fs_hz, rh_sd, a.inverse.kind(rh_sd))?;
     let slopes = match (&own_sd, own_rms_sd, a.rh_uncertainty) {
-        (Some(_), Some(_), None) => Some(humidity_slopes(&calib, ts.fs_hz, rh_sd, a.inverse.kind(rh_sd), &errors)?),
+        (Some(_), Some(_), None) => Some(humidity_slopes(&calib, checked.as_ref(), ts.fs_hz, rh_sd, a.inverse.kind(rh_sd), &errors)?),
         _ => None,
     };
     let own = slopes.as_ref().zip(own_sd.as_deref()).map(|(slopes, sd_pct)| OwnUncertainty { slopes, sd_pct });
@@ -200,7 +201,7 @@ pub fn run(a: Args) -> Result<()> {
         (None, None) => format!("compensated, {} retunes", est.retunes),
     };
     println!("{} estimates ({mode}) -> {}", est.base_est_m.len(), a.out.display());
-    print_figures(&a.input, &calib, &ts, &est, &file.metadata, a.inverse.kind(rh_sd))?;
+    print_figures(&a.input, &calib, checked.as_ref(), &ts, &est, &file.metadata, a.inverse.kind(rh_sd))?;
     Ok(())
 }
 

@@ -146,7 +146,7 @@ pub fn run(a: Args) -> Result<()> {
         let perfect = truth.as_ref().map(|t| score(t.at(k), &rec, rh_sd, a.period_s).map(|s| s.0)).transpose()?;
         let tail = &est.rel_err[settle.min(est.rel_err.len())..(settle + scored).min(est.rel_err.len())];
         let stated = tail.iter().map(|&e| e as f64).sum::<f64>() / tail.len().max(1) as f64;
-        let errors = error_table(&own, rec.fs_hz, chamber.as_ref().map_or(rh_sd, |p| p.sd_pct[k]), InverseKind::Exact)?;
+        let errors = error_table(&own, None, rec.fs_hz, chamber.as_ref().map_or(rh_sd, |p| p.sd_pct[k]), InverseKind::Exact)?;
         let design_rh = est.rh_pct.last().copied().unwrap_or(f32::NAN) as f64;
         let stated_calibration = errors.calibration_part(design_rh);
         levels.push(Level {

@@ -7,21 +7,23 @@ use crate::scoring::Scoring;
 use anyhow::Result;
 use ipmc_core::Calibration;
 use ipmc_core::InverseKind;
+use ipmc_core::calibration::checked::Checked;
 use ipmc_recording::TimeSeries;
 use std::path::Path;
 
-/// Prints the figures of `est`, made from `ts` (read from `input`) with `calib` and the inverse
-/// `kind`; `file` is the estimate file's metadata.
+/// Prints the figures of `est`, made from `ts` (read from `input`) with `calib` (and its
+/// `[checked]` table, `checked`) and the inverse `kind`; `file` is the estimate file's metadata.
 pub fn print_figures(
     input: &Path,
     calib: &Calibration,
+    checked: Option<&Checked>,
     ts: &TimeSeries,
     est: &Estimates,
     file: &ipmc_recording::Metadata,
     kind: InverseKind<f64>,
 ) -> Result<()> {
     let band = (calib.band.low_hz, calib.band.high_hz);
-    let exact_humidity = error_table(calib, ts.fs_hz, 0.0, kind)?;
+    let exact_humidity = error_table(calib, checked, ts.fs_hz, 0.0, kind)?;
     print!(
         "{}",
         crate::error_budget::limits::table(

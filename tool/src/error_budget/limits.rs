@@ -119,8 +119,8 @@ mod tests {
     #[test]
     fn the_parts_add_up_to_the_stated_error_and_rows_follow_the_humidity() {
         let calib = Calibration::default_preset();
-        let errors = crate::chain::error_table(&calib, 2000.0, 1.0, InverseKind::Exact).expect("table");
-        let exact = crate::chain::error_table(&calib, 2000.0, 0.0, InverseKind::Exact).expect("table");
+        let errors = crate::chain::error_table(&calib, None, 2000.0, 1.0, InverseKind::Exact).expect("table");
+        let exact = crate::chain::error_table(&calib, None, 2000.0, 0.0, InverseKind::Exact).expect("table");
         let (block, n) = (32, 32 * 200);
         // Two humidities, a stated error larger than the calibration's part at each.
         let rh: Vec<f32> = (0..n).map(|i| if i < n / 2 { 42.0 } else { 71.0 }).collect();

@@ -64,9 +64,9 @@ pub fn levels(calib: &ipmc_core::Calibration, ts: &TimeSeries, period_s: f64, se
         bail!("{SETTLE_S} s of settling + {seconds} s scored must be a whole number of {period_s} s periods");
     }
     let band = (calib.band.low_hz, calib.band.high_hz);
-    let errors = error_table(calib, ts.fs_hz, rh_sd_pct, InverseKind::Exact)?;
+    let errors = error_table(calib, None, ts.fs_hz, rh_sd_pct, InverseKind::Exact)?;
     let robust_kind = InverseChoice::Robust.kind(rh_sd_pct);
-    let robust_errors = error_table(calib, ts.fs_hz, rh_sd_pct, robust_kind)?;
+    let robust_errors = error_table(calib, None, ts.fs_hz, rh_sd_pct, robust_kind)?;
     let looped = loop_bursts(ts, period_s, SETTLE_S + seconds)?;
     let settle = (SETTLE_S * ts.fs_hz).round() as usize;
     let mut out = vec![];

@@ -167,6 +167,35 @@ mod tests {
     use ipmc_sim::field::{AMPLIFIER_NOISE_A_PER_RTHZ, Accelerometer, FieldPlan, simulate_check};
     use ipmc_sim::physics::ExactModel;
 
+    /// What the new calibration states of the strip's response at the check's humidity (its
+    /// `[checked]` table's causes with the offset's 1σ, as the expected error reads them) against
+    /// the strip's true response there, in band: the truth within 3σ, and the check's statement
+    /// narrower than the file's `[uncertainty]` would make it (it measured the response).
+    fn stated_response_covers_the_strip(
+        calib: &Calibration,
+        o: &Outcome,
+        physics: &Aged,
+        (strip_pct, scatter): (f64, &[f64; 5]),
+        seed: u64,
+    ) {
+        use ipmc_core::calibration::moments::{response_moments, response_moments_checked};
+        use ipmc_core::model::exact::{current_response, jw};
+        use ipmc_sim::physics::Physics;
+        let new = update::updated(calib, o);
+        let checked = update::checked(o).expect("a [checked] table");
+        let (h, rh_sd) = (checked.humidities()[0], new.humidity.uncertainty_pct.unwrap_or(0.0));
+        let (truth, file) = (calib.uncertainty.scattered(calib.params_at(strip_pct), scatter), new.params_at(h));
+        let band: Vec<f64> = (0..29).map(|i| calib.band.low_hz + (calib.band.high_hz - calib.band.low_hz) * i as f64 / 28.0).collect();
+        let mean = |g: &dyn Fn(f64) -> f64| band.iter().map(|&f| g(f)).sum::<f64>() / band.len() as f64;
+        let actual =
+            mean(&|f| (physics.response(&truth, strip_pct, 20.0, jw(f)).1 / current_response(&file, jw(f)) - 1.0).norm_sqr()).sqrt();
+        let spread = |m: (ipmc_core::C<f64>, f64)| m.1 - 2.0 * m.0.re + 1.0;
+        let stated = mean(&|f| spread(response_moments_checked(&new, &checked, h, rh_sd, f))).sqrt();
+        let bench = mean(&|f| spread(response_moments(&new, h, rh_sd, f))).sqrt();
+        assert!(actual < 3.0 * stated, "case {seed}: the response {:.2} % off, stated 1σ {:.2} %", 100.0 * actual, 100.0 * stated);
+        assert!(stated < bench, "case {seed}: stated {:.2} % after the check, {:.2} % by [uncertainty]", 100.0 * stated, 100.0 * bench);
+    }
+
     /// The simulator's aged strips, checked at two humidities: new and with Y 8 % up, Cs 5 %
     /// down and its electrodes cracked (τ 150 µs). The strip's humidity comes back within 2σ,
     /// and so does every drift the check decides, the electrode's τ where it decides it, and
@@ -196,6 +225,7 @@ mod tests {
             let accel = Accelerometer::drawn(&mut SplitMix64(seed + 100));
             let field = simulate_check(&calib, &plan, &physics, &accel);
             assert!(field.ts.base_m.is_none() && field.ts.is_check());
+            let scatter = field.scatter;
             let check = check_of(Path::new("own.csv"), field.ts, &calib).unwrap();
             let o = recalibrate_checks(&calib, vec![check], DRIFT_PRIOR_SD).unwrap();
             let f = o.chosen();
@@ -212,6 +242,7 @@ mod tests {
             // The aged strip's Y is what the check must decide (its first mode is the check's
             // clearest feature); the new one's is 1 within the calibration's uncertainty.
             assert!(!drifted || o.drifted.decides(0), "case {seed}: Y's drift not decided");
+            stated_response_covers_the_strip(&calib, &o, &physics, (strip, &scatter), seed);
             let (tau2, tau2_sd) = o.drifted.value(o.drifted.layout.tau2());
             let truth_us = if drifted { 150.0 } else { 0.0 };
             match update::electrode_tau_us(tau2, tau2_sd) {

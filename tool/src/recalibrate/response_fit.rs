@@ -25,8 +25,8 @@ use super::cross_spectrum::Measured;
 
 /// The strip's parameters a check may find drifted: those its current depends on and the
 /// calibration keeps per strip (geometry, mass and temperature are not the strip's to drift).
-pub const DRIFTING: [ParamName; 7] =
-    [ParamName::Y, ParamName::Cs, ParamName::Ca, ParamName::KappaE, ParamName::D, ParamName::Alpha0, ParamName::CMinus];
+/// (The core's order of a check's posterior, which the calibration file keeps.)
+pub const DRIFTING: [ParamName; 7] = ipmc_core::calibration::checked::PARAMS;
 
 /// The accelerometer's sensitivity (LSM6DSL-like part, 1σ, datasheet) [relative].
 pub const ACCEL_GAIN_SD: f64 = 0.01;
@@ -297,6 +297,34 @@ impl CheckFit {
         let cov = self.fit.covariance.select_rows(&idx).select_columns(&idx) / scale;
         let var = cov[(0, 0)];
         cov.try_inverse().map_or(var, |p| p[(0, 0)].recip()).max(0.0).sqrt()
+    }
+
+    /// What the checks leave unknown of the strip given the offset the new calibration holds:
+    /// the posterior of the freed factors' ln conditioned on the offset, as its principal axes
+    /// (each 1σ along a direction of ln [`DRIFTING`], the held factors none). One response fixes
+    /// the factors' joint effect, not each: the axes keep the correlations that per-factor 1σ
+    /// ([`Self::factor_sd_given_offset`]) leave out.
+    pub fn axes_given_offset(&self) -> Vec<[f64; 7]> {
+        let idx = self.frame();
+        let n = idx.len() - 1;
+        let scale = self.fit.reduced_chi2().max(f64::MIN_POSITIVE);
+        let cov = self.fit.covariance.select_rows(&idx).select_columns(&idx) / scale;
+        let c00 = cov[(0, 0)].max(f64::MIN_POSITIVE);
+        let given = cov.view((1, 1), (n, n)) - cov.view((1, 0), (n, 1)) * cov.view((0, 1), (1, n)) / c00;
+        let eig = given.symmetric_eigen();
+        let freed: Vec<usize> = (0..DRIFTING.len()).filter(|&k| self.layout.factor(k).is_some()).collect();
+        eig.eigenvalues
+            .iter()
+            .zip(eig.eigenvectors.column_iter())
+            .filter(|(l, _)| **l > 0.0)
+            .map(|(l, v)| {
+                let mut axis = [0.0; 7];
+                for (i, &k) in freed.iter().enumerate() {
+                    axis[k] = v[i] * l.sqrt();
+                }
+                axis
+            })
+            .collect()
     }
 
     /// Factor `k`'s ln 1σ given the offset the new calibration holds (0 where held): what the

@@ -4,6 +4,7 @@
 //! and its provenance (the bench calibration, the checks and their dates) in `# provenance:`
 //! lines that `ipmc compensate` prints.
 
+use ipmc_core::calibration::checked::Checked;
 use ipmc_core::{Calibration, LawKind, ParamName};
 use std::fmt::Write as _;
 
@@ -160,6 +161,25 @@ fn humidity_span(o: &Outcome) -> f64 {
     r.clone().fold(f64::NEG_INFINITY, f64::max) - r.fold(f64::INFINITY, f64::min)
 }
 
+/// What the checks left unknown of the strip, for the file's `[checked]` table: the chosen fit's
+/// posterior axes given the offset, each check's humidity, and what [`updated`] widened the
+/// file's 1σ by (the drift the checks leave, as the strip's own hygrometer weighs it).
+pub fn checked(o: &Outcome) -> Option<Checked> {
+    let f = o.chosen();
+    let rh: Vec<f64> = (0..o.checks.len()).map(|c| f.value(f.layout.check(c)[0]).0).collect();
+    let drift_sd = std::array::from_fn(|k| match f.hypothesis {
+        Hypothesis::Drifted if widened(DRIFTING[k]) => f.factor_sd_given_offset(k),
+        _ => 0.0,
+    });
+    Checked::new(&rh, &f.axes_given_offset(), drift_sd).ok()
+}
+
+/// Whether [`updated`] widens the file's 1σ of `name` under drift (the parameters `[uncertainty]`
+/// speaks of).
+fn widened(name: ParamName) -> bool {
+    matches!(name, ParamName::Y | ParamName::Cs | ParamName::Ca | ParamName::D | ParamName::KappaE)
+}
+
 /// `calib` with the chosen fit's factors on its laws, the sensor's correction and its 1σ given
 /// those laws, and under drift the factors' 1σ given that correction added to what the
 /// calibration does not know.
@@ -176,7 +196,7 @@ pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
             None if name == ParamName::Alpha0 => c.alpha0 *= ln.exp(),
             None => c.c_minus *= ln.exp(),
         }
-        if f.hypothesis == Hypothesis::Drifted {
+        if f.hypothesis == Hypothesis::Drifted && widened(name) {
             // The laws' uncertainty in the frame of the offset the file holds (the ridge between
             // a drift and a humidity offset at one humidity is the offset's, and stated there).
             let sd = f.factor_sd_given_offset(k);
@@ -237,6 +257,10 @@ pub fn file_text(bench_path: &str, bench_text: &str, new: &Calibration, o: &Outc
         let _ = writeln!(s, "{line}");
     }
     s.push_str(&ipmc_core::calibration_file::to_text(new));
+    if let Some(c) = checked(o) {
+        s.push('\n');
+        s.push_str(&ipmc_core::calibration_file::checked_text(&c));
+    }
     s
 }
 

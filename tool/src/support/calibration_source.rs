@@ -1,6 +1,7 @@
 //! Where a calibration comes from: a preset name or a TOML file written by the tool.
 
 use anyhow::{Context, Result, anyhow, bail};
+use ipmc_core::calibration::checked::Checked;
 use ipmc_core::{Calibration, calibration_file};
 use std::path::Path;
 
@@ -24,6 +25,18 @@ pub fn load(spec: Option<&str>) -> Result<Calibration> {
     };
     calibration_file::check(&calib).map_err(|e| anyhow!("calibration {}: {e}", spec.unwrap_or("default")))?;
     Ok(calib)
+}
+
+/// What checks in service left unknown of the strip: the `[checked]` table of the calibration
+/// file `spec` names (`ipmc recalibrate` writes it); None for a preset or a file without one.
+pub fn checked(spec: Option<&str>) -> Result<Option<Checked>> {
+    match spec {
+        None | Some("default" | "paper") => Ok(None),
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("cannot read calibration {path}"))?;
+            calibration_file::checked(&text).map_err(|e| anyhow!("{path}:{e}"))
+        }
+    }
 }
 
 /// `rh_pct` if it lies in the calibration's declared range; outside it the laws would be
