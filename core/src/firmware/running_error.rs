@@ -31,6 +31,7 @@
 
 use crate::band::BandLimit;
 use crate::firmware::calibration_stale::StaleTest;
+use crate::numeric::forgetting_line::ForgettingLine;
 use crate::numeric::real::Real;
 use crate::resample::interpolator::cubic;
 use crate::resample::track::LAG_BLOCKS;
@@ -155,7 +156,7 @@ pub struct RunningError<T> {
     back: i64,
     back_rate: i64,
     sums: Sums<T>,
-    line: Line<T>,
+    line: ForgettingLine<T>,
     window_pairs: usize,
     windows: u32,
     test: StaleTest<T>,
@@ -186,7 +187,7 @@ impl<T: Real> RunningError<T> {
             back: 0,
             back_rate: 0,
             sums: Sums::zero(),
-            line: Line::zero(),
+            line: ForgettingLine::empty(T::zero()),
             window_pairs: ((WINDOW_S * fs_hz) as usize) / EVERY,
             windows: 0,
             test: StaleTest::new(),
@@ -217,7 +218,7 @@ impl<T: Real> RunningError<T> {
         self.rate = zero;
         (self.back, self.back_rate) = Self::timed_of(self.delay, zero);
         self.sums = Sums::zero();
-        self.line = Line::zero();
+        self.line = ForgettingLine::empty(T::zero());
         self.test = StaleTest::new();
     }
 
@@ -329,11 +330,11 @@ impl<T: Real> RunningError<T> {
         let read = self.delay + self.rate * T::lit(middle as f64 - self.delay_at as f64);
         // The first window starts the reference's filters: what it leaves is their start.
         if self.windows > 1 {
-            self.line.push(T::lit(middle as f64 / span as f64), read - left);
+            self.line.push(T::lit(middle as f64 / span as f64), read - left, T::lit(LINE_FORGET));
         }
         // The line read at the window's end, and from the next block on.
         let next = self.references;
-        let (delay, rate) = self.line.at(T::lit(m as f64 / span as f64)).unwrap_or((self.delay, T::zero()));
+        let (delay, rate) = line_at(&self.line, T::lit(m as f64 / span as f64)).unwrap_or((self.delay, T::zero()));
         let window = Window {
             measured: ((s.dd - s.dv * left).max(T::zero()) / s.rr).sqrt(),
             stated: if s.blocks > 0 { (s.stated2 / T::lit(s.blocks as f64)).sqrt() } else { T::nan() },
@@ -344,7 +345,7 @@ impl<T: Real> RunningError<T> {
             end: m,
             stale: false,
         };
-        let (from_next, _) = self.line.at(T::lit(next as f64 / span as f64)).unwrap_or((self.delay, T::zero()));
+        let (from_next, _) = line_at(&self.line, T::lit(next as f64 / span as f64)).unwrap_or((self.delay, T::zero()));
         (self.delay, self.rate, self.delay_at) = (from_next, rate / T::lit(span as f64), next);
         let timed = Self::timed_of(self.delay, self.rate);
         (self.back, self.back_rate) = timed;
@@ -361,45 +362,21 @@ impl<T: Real> RunningError<T> {
     }
 }
 
-/// The least-squares line through the windows' delays against time [windows], each window's
-/// weight falling by [`LINE_FORGET`] a window.
-#[derive(Debug, Clone, Copy)]
-struct Line<T> {
-    w: T,
-    t: T,
-    d: T,
-    tt: T,
-    td: T,
-}
-
-/// The line's memory: 12 windows (a minute) to 1/e, over which the clocks' residual rate holds.
+/// The line through the windows' delays against time [windows] forgets [`LINE_FORGET`] a window:
+/// 12 windows (a minute) to 1/e, over which the clocks' residual rate holds.
 const LINE_FORGET: f64 = 0.920_044_4;
 
-impl<T: Real> Line<T> {
-    fn zero() -> Self {
-        let z = T::zero();
-        Line { w: z, t: z, d: z, tt: z, td: z }
+/// The line's value at `t` and its slope (no slope before two points, no line before one).
+fn line_at<T: Real>(line: &ForgettingLine<T>, t: T) -> Option<(T, T)> {
+    if line.weight() <= T::zero() {
+        return None;
     }
-
-    fn push(&mut self, t: T, d: T) {
-        let f = T::lit(LINE_FORGET);
-        self.w = f * self.w + T::one();
-        self.t = f * self.t + t;
-        self.d = f * self.d + d;
-        self.tt = f * self.tt + t * t;
-        self.td = f * self.td + t * d;
-    }
-
-    /// The line's value at `t` and its slope (no slope before two points, no line before one).
-    fn at(&self, t: T) -> Option<(T, T)> {
-        if self.w <= T::zero() {
-            return None;
-        }
-        let var = self.tt * self.w - self.t * self.t;
-        let slope = if self.w > T::lit(1.5) && var > T::zero() { (self.td * self.w - self.t * self.d) / var } else { T::zero() };
-        let (tm, dm) = (self.t / self.w, self.d / self.w);
-        Some((dm + slope * (t - tm), slope))
-    }
+    let slope = match line.slope() {
+        Some(slope) if line.weight() > T::lit(1.5) => slope,
+        _ => T::zero(),
+    };
+    let (tm, dm) = line.means();
+    Some((dm + slope * (t - tm), slope))
 }
 
 #[cfg(test)]

@@ -8,16 +8,14 @@
 //! Computed in f64 on both sides from counts relative to the first pair: a pair a second, for
 //! days, stays exact to far below a count.
 
-/// Least-squares sums of the pairs, relative to the first, with exponential forgetting.
+use crate::numeric::forgetting_line::ForgettingLine;
+
+/// The line through the pairs, relative to the first, with exponential forgetting.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ClockMap {
     origin: Option<(u64, u64)>,
     forget: f64,
-    w: f64,
-    sx: f64,
-    sy: f64,
-    sxx: f64,
-    sxy: f64,
+    line: ForgettingLine<f64>,
     nominal_rate: f64,
 }
 
@@ -25,7 +23,7 @@ impl ClockMap {
     /// `nominal_rate`: board counts per part count by the two datasheets, used until two pairs
     /// decide; `forget`: the weight kept per pair (e.g. 0.999: a memory of a thousand pairs).
     pub const fn new(nominal_rate: f64, forget: f64) -> Self {
-        Self { origin: None, forget, w: 0.0, sx: 0.0, sy: 0.0, sxx: 0.0, sxy: 0.0, nominal_rate }
+        Self { origin: None, forget, line: ForgettingLine::empty(0.0), nominal_rate }
     }
 
     pub fn forget(&self) -> f64 {
@@ -38,18 +36,13 @@ impl ClockMap {
         let (p0, b0) = *self.origin.get_or_insert((part, board));
         let x = part as f64 - p0 as f64;
         let y = board as f64 - b0 as f64;
-        let f = self.forget;
-        self.w = f * self.w + 1.0;
-        self.sx = f * self.sx + x;
-        self.sy = f * self.sy + y;
-        self.sxx = f * self.sxx + x * x;
-        self.sxy = f * self.sxy + x * y;
+        self.line.push(x, y, self.forget);
     }
 
     /// Board counts per part count: the fitted slope, or the nominal before the pairs span time.
     pub fn rate(&self) -> f64 {
-        let var = self.sxx * self.w - self.sx * self.sx;
-        if var > 0.0 && self.w >= 2.0 { (self.sxy * self.w - self.sx * self.sy) / var } else { self.nominal_rate }
+        let slope = if self.line.weight() >= 2.0 { self.line.slope() } else { None };
+        slope.unwrap_or(self.nominal_rate)
     }
 
     /// The board's timer at a part's timestamp (fractional counts allowed), relative to nothing:
@@ -57,7 +50,7 @@ impl ClockMap {
     pub fn board_of(&self, part: f64) -> Option<f64> {
         let (p0, b0) = self.origin?;
         let rate = self.rate();
-        let (mx, my) = (self.sx / self.w, self.sy / self.w);
+        let (mx, my) = self.line.means();
         Some(b0 as f64 + my + rate * (part - p0 as f64 - mx))
     }
 
@@ -65,7 +58,7 @@ impl ClockMap {
     pub fn part_of(&self, board: f64) -> Option<f64> {
         let (p0, b0) = self.origin?;
         let rate = self.rate();
-        let (mx, my) = (self.sx / self.w, self.sy / self.w);
+        let (mx, my) = self.line.means();
         Some(p0 as f64 + mx + (board - b0 as f64 - my) / rate)
     }
 }
