@@ -454,9 +454,10 @@ fn resampler(instr: &impl Fn(u32) -> f64) {
 #[inline(never)]
 fn running_error(band: &ipmc_core::band::Band, instr: &impl Fn(u32) -> f64) {
     use ipmc_core::firmware::running_error::RunningError;
-    let filter = ipmc_core::band::BandLimit::<f32>::new(band, SAMPLE_RATE_HZ as f64).expect("the design's band has a filter");
+    let design = ipmc_core::band::BandDesign::design(band, SAMPLE_RATE_HZ as f64).expect("the design's band has a filter");
+    let taps = ipmc_core::band::BandTaps::<f32>::from_design(&design);
     let mut m = RunningError::new(
-        filter,
+        &taps,
         SAMPLE_RATE_HZ as f64,
         (DesignConfig::<f64>::firmware().max_delay_s * SAMPLE_RATE_HZ as f64 + 0.5) as usize,
     );
@@ -469,7 +470,8 @@ fn running_error(band: &ipmc_core::band::Band, instr: &impl Fn(u32) -> f64) {
         for (x, y) in e.iter_mut().zip(a.iter_mut()) {
             (*x, *y) = (1e-5 * rng.next(), rng.next());
         }
-        windows += device_calls::running_error_block(black_box(&mut m), black_box(&e), 0.05, black_box(&a), &mut out).is_some() as u32;
+        windows +=
+            device_calls::running_error_block(black_box(&mut m), &taps, black_box(&e), 0.05, black_box(&a), &mut out).is_some() as u32;
     }
     let total = instr(since(t));
     let t = now();

@@ -8,22 +8,32 @@
 //! samples: run at an eighth of the band-pass's rate or less, and subtracted from the delayed
 //! input, it makes a high-pass whose transition is the low-pass's (its stop band the low-pass's
 //! ripple in its pass band, its ripple the low-pass's stop band). Every filter in it is
-//! linear-phase and the delay matches its centre, so the whole stays linear-phase.
+//! linear-phase and the delay matches its centre, so the whole stays linear-phase. Its
+//! coefficients ([`EdgeTaps`]) and its lines ([`EdgeLines`]) are held apart, as a half-band's.
 
 use super::design::BandCoefficients;
-use super::half_band::{HalfBand, Piece, down_all, up_all};
+use super::half_band::{Down, HalfBand, Piece, Up, down_all, up_all};
 use super::history::{Delay, Line, fir};
 use super::spec::{EDGE_GROUP, MAX_EDGE_DELAY, MAX_EDGE_STAGES, MAX_EDGE_TAPS, MAX_PIECE};
 use crate::numeric::real::Real;
 
-/// The complement that keeps the lower edge; none (the input as it is) for a plan without one.
+/// The complement's coefficients; none (the input as it is) for a plan without one.
 #[derive(Clone, Copy)]
-pub struct LowerEdge<T> {
+pub struct EdgeTaps<T> {
     stages: [HalfBand<T>; MAX_EDGE_STAGES],
     n_stages: usize,
     /// The low-pass's taps, `n_taps` of them.
     taps: [T; MAX_EDGE_TAPS],
     n_taps: usize,
+    /// The low-pass's path's delay, which the band-pass's output is held.
+    delay: usize,
+}
+
+/// The complement's lines, at rest or running, for the coefficients of an [`EdgeTaps`].
+#[derive(Clone, Copy)]
+pub struct EdgeLines<T> {
+    down: [Down<T>; MAX_EDGE_STAGES],
+    up: [Up<T>; MAX_EDGE_STAGES],
     /// The low-pass's inputs at its rate, with room for many groups.
     line: Line<[T; MAX_EDGE_TAPS + EDGE_GROUP]>,
     /// The low-pass's outputs back at the band-pass's rate, not yet subtracted.
@@ -36,31 +46,19 @@ pub struct LowerEdge<T> {
     done: usize,
     /// A group on its way down and up (kept here: made afresh it would be zeroed each time).
     scratch: [Piece<T>; 2],
-    plan_delay: usize,
 }
 
-impl<T: Real> LowerEdge<T> {
+impl<T: Real> EdgeTaps<T> {
+    #[inline(always)]
     pub fn none() -> Self {
-        LowerEdge {
-            stages: [HalfBand::none(); MAX_EDGE_STAGES],
-            n_stages: 0,
-            taps: [T::zero(); MAX_EDGE_TAPS],
-            n_taps: 0,
-            line: Line::zeros(0),
-            ready: Line::zeros(0),
-            held: Delay::zeros(0),
-            queue: Line::zeros(0),
-            done: 0,
-            scratch: [[T::zero(); MAX_PIECE]; 2],
-            plan_delay: 0,
-        }
+        EdgeTaps { stages: [HalfBand::none(); MAX_EDGE_STAGES], n_stages: 0, taps: [T::zero(); MAX_EDGE_TAPS], n_taps: 0, delay: 0 }
     }
 
-    /// Takes the edge's part of `d`, with no history.
+    /// Takes the edge's part of `d`.
     #[inline(never)]
     pub fn load<S: Real>(&mut self, d: &BandCoefficients<'_, S>) {
         let p = d.plan;
-        (self.n_stages, self.n_taps, self.plan_delay) = (p.edge_stages, p.edge_taps, p.edge_path_delay());
+        (self.n_stages, self.n_taps, self.delay) = (p.edge_stages, p.edge_taps, p.edge_path_delay());
         for s in 0..p.edge_stages {
             self.stages[s] = HalfBand::new(d.edge_pairs[s], p.edge_half_band_taps[s]);
         }
@@ -69,37 +67,56 @@ impl<T: Real> LowerEdge<T> {
         for (k, &v) in d.edge_half.iter().enumerate() {
             (self.taps[k], self.taps[n - 1 - k]) = (T::lit(v.to_f64()), T::lit(v.to_f64()));
         }
-        self.reset();
+    }
+}
+
+impl<T: Real> EdgeLines<T> {
+    #[inline(always)]
+    pub fn none() -> Self {
+        EdgeLines {
+            down: [Down::none(); MAX_EDGE_STAGES],
+            up: [Up::none(); MAX_EDGE_STAGES],
+            line: Line::zeros(0),
+            ready: Line::zeros(0),
+            held: Delay::zeros(0),
+            queue: Line::zeros(0),
+            done: 0,
+            scratch: [[T::zero(); MAX_PIECE]; 2],
+        }
     }
 
-    /// Forgets the history.
-    pub fn reset(&mut self) {
-        for s in self.stages[..self.n_stages].iter_mut() {
-            s.reset();
+    /// Forgets the history: lines at rest for the coefficients `taps`.
+    #[inline(never)]
+    pub fn reset(&mut self, taps: &EdgeTaps<T>) {
+        for (s, h) in taps.stages[..taps.n_stages].iter().enumerate() {
+            self.down[s].rest(h);
+            self.up[s].rest(h);
         }
-        self.line.rest(self.n_taps.max(1) - 1);
+        self.line.rest(taps.n_taps.max(1) - 1);
         // As the band-pass's chain: a group's outputs come on its last input.
-        self.ready.rest((1 << self.n_stages) - 1);
-        self.held.rest(self.plan_delay);
+        self.ready.rest((1 << taps.n_stages) - 1);
+        self.held.rest(taps.delay);
         // A group's wait, kept already: the zeros of a history at rest.
         self.done = EDGE_GROUP - 1;
         self.queue.rest(self.done);
     }
 
-    /// Keeps the lower edge of `buf` (at the band-pass's rate, at most [`MAX_PIECE`]), in place.
+    /// Keeps the lower edge of `buf` (at the band-pass's rate, at most [`MAX_PIECE`]) with the
+    /// coefficients `taps`, in place.
     #[inline(never)]
-    pub fn apply(&mut self, buf: &mut [T]) {
-        if self.n_taps == 0 {
+    pub fn apply(&mut self, taps: &EdgeTaps<T>, buf: &mut [T]) {
+        let (n_stages, n_taps) = (taps.n_stages, taps.n_taps);
+        if n_taps == 0 {
             return;
         }
         self.queue.extend(buf);
         while self.queue.len() - self.done >= EDGE_GROUP {
             let group = &mut self.queue.as_mut_slice()[self.done..self.done + EDGE_GROUP];
-            let stages = &mut self.stages[..self.n_stages];
+            let stages = &taps.stages[..n_stages];
             let [a, b] = &mut self.scratch;
-            let (x, y, n) = down_all(stages, group, a, b);
-            let n = fir(&self.taps[..self.n_taps], &mut self.line, &x[..n], y);
-            let (low, _, n) = up_all(stages, y, x, n);
+            let (x, y, n) = down_all(stages, &mut self.down[..n_stages], group, a, b);
+            let n = fir(&taps.taps[..n_taps], &mut self.line, &x[..n], y);
+            let (low, _, n) = up_all(stages, &mut self.up[..n_stages], y, x, n);
             self.ready.extend(&low[..n]);
             self.held.less(group, self.ready.as_slice());
             self.ready.drop_front(EDGE_GROUP);

@@ -31,7 +31,8 @@
 //! - `half_band`: a half-band stage as it runs, down and up;
 //! - `lower_edge`: the lower edge's complement as it runs;
 //! - `minimum_phase`: the low-latency option's edges ([`Shape::LowLatency`]);
-//! - `running`: the filter at the working precision.
+//! - `running`: the filter at the working precision, its coefficients and its lines apart (a second
+//!   signal through the same filter holds lines alone).
 
 mod design;
 mod half_band;
@@ -43,7 +44,7 @@ mod running;
 mod spec;
 
 pub use design::{BandCoefficients, BandDesign, MAX_EDGE_HALF, MAX_HALF, MAX_HALF_BAND_PAIRS};
-pub use running::BandLimit;
+pub use running::{BandLimit, BandLines, BandTaps};
 pub use spec::{
     ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_EDGE_DELAY, MAX_EDGE_STAGES, MAX_EDGE_TAPS, MAX_TAPS, Plan, Shape,
     check, lower_transition_hz, lowest_low_hz, transition_hz,

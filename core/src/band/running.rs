@@ -1,15 +1,19 @@
 //! The band filter as it runs, at the working precision: half-bands halve the rate down to the
-//! band-pass, the lower edge's complement follows it at its rate ([`LowerEdge`]), and the same
+//! band-pass, the lower edge's complement follows it at its rate (`lower_edge`), and the same
 //! half-bands double the rate back up, with the coefficients narrowed from [`BandDesign`].
 //!
 //! Each half-band's output is computed only at the rate it keeps ([`HalfBand`]), so the
 //! band-pass, which sets the cost, runs a quarter as often as the stream at 2 kHz, with a
 //! quarter of the taps. Each stage runs over a block of samples at once ([`Line`]).
+//!
+//! The coefficients ([`BandTaps`]) and the lines ([`BandLines`], of which [`BandDown`] is the
+//! way down) are held apart: the lines are handed the coefficients they run, so that a second
+//! signal can go through the same filter without a copy of them.
 
 use super::design::{BandCoefficients, BandDesign};
-use super::half_band::{HalfBand, Piece, down_all, up_all};
+use super::half_band::{Down, HalfBand, Piece, Up, down_all, up_all};
 use super::history::{Line, fir};
-use super::lower_edge::LowerEdge;
+use super::lower_edge::{EdgeLines, EdgeTaps};
 use super::minimum_phase::SECTIONS;
 use super::spec::{Band, BandLimitError, CHUNK, MAX_PIECE, MAX_STAGES, MAX_TAPS, Plan, Shape};
 use crate::numeric::real::Real;
@@ -18,24 +22,193 @@ use crate::numeric::section::{Sos, Stage};
 /// Most outputs a stage makes from one piece.
 const MOST: usize = MAX_PIECE;
 
-/// The running filter: [`BandDesign`] narrowed to `T`, with its lines.
+/// The filter's coefficients: [`BandDesign`] narrowed to `T`.
 #[derive(Clone, Copy)]
-pub struct BandLimit<T> {
+pub struct BandTaps<T> {
     plan: Plan,
     stages: [HalfBand<T>; MAX_STAGES],
     /// The band-pass's taps.
     taps: [T; MAX_TAPS],
+    edge: EdgeTaps<T>,
+    /// The low-latency band's sections (unused by a linear-phase band).
+    sections: [Sos<T>; SECTIONS],
+}
+
+/// The filter's way down to the band-pass's rate, its lines alone: the half-bands down, the
+/// band-pass and the lower edge, run with the coefficients of a [`BandTaps`] it is handed (the
+/// same each time). The running filter's lines ([`BandLines`]) are this and the way back up; a
+/// signal compared with the filter's output at the band-pass's rate needs only this.
+#[derive(Clone, Copy)]
+pub struct BandDown<T> {
+    down: [Down<T>; MAX_STAGES],
     /// The band-pass's inputs at the low rate, with room for several pieces: the hundreds it
     /// keeps move back to the front once in several.
     line: Line<[T; MAX_TAPS + 4 * MOST]>,
+    /// A piece on its way down (and up, in [`BandLines`]), kept here: made afresh it would be
+    /// zeroed each time.
+    scratch: [Piece<T>; 2],
+    edge: EdgeLines<T>,
+    /// The low-latency band's sections' states.
+    states: [[T; 2]; SECTIONS],
+}
+
+/// The running filter's lines, at rest or running, for the coefficients of a [`BandTaps`] it is
+/// handed (the same each time): the way down and the way back up. A second signal through the
+/// estimate's filter (the reference of the error measured against the accelerometer) holds
+/// these alone.
+#[derive(Clone, Copy)]
+pub struct BandLines<T> {
+    low: BandDown<T>,
+    up: [Up<T>; MAX_STAGES],
     /// Outputs made, not yet handed out: one goes out per input.
     ready: Line<[T; 2 * MOST]>,
-    /// A piece on its way down and up (kept here: made afresh it would be zeroed each time).
-    scratch: [Piece<T>; 2],
-    edge: LowerEdge<T>,
-    /// The low-latency band's sections and their states (unused by a linear-phase band).
-    sections: [Sos<T>; SECTIONS],
-    states: [[T; 2]; SECTIONS],
+}
+
+/// The running filter: [`BandDesign`] narrowed to `T`, with its lines.
+#[derive(Clone, Copy)]
+pub struct BandLimit<T> {
+    taps: BandTaps<T>,
+    lines: BandLines<T>,
+}
+
+impl<T: Real> BandTaps<T> {
+    /// One tap of 1: the input as it is. Always in line, as `BandLimit::identity`.
+    #[inline(always)]
+    fn identity() -> Self {
+        let mut taps = [T::zero(); MAX_TAPS];
+        taps[0] = T::one();
+        BandTaps {
+            plan: Plan::IDENTITY,
+            stages: [HalfBand::none(); MAX_STAGES],
+            taps,
+            edge: EdgeTaps::none(),
+            sections: [Sos::identity(); SECTIONS],
+        }
+    }
+
+    /// The coefficients of the design `d`, without lines: for [`BandLines`] run beside no filter
+    /// of their own (a replay of the device's measurement).
+    pub fn from_design(d: &BandDesign) -> Self {
+        let mut t = Self::identity();
+        t.load(&d.coefficients());
+        t
+    }
+
+    fn load<S: Real>(&mut self, d: &BandCoefficients<'_, S>) {
+        self.plan = d.plan;
+        for (s, f) in self.sections.iter_mut().zip(&d.sections) {
+            *s = f.narrow();
+        }
+        for s in 0..d.plan.stages {
+            self.stages[s] = HalfBand::new(d.pairs[s], d.plan.half_band_taps[s]);
+        }
+        self.taps = [T::zero(); MAX_TAPS];
+        let n = d.plan.taps.max(1);
+        for (k, &v) in d.half[..=(n - 1) / 2].iter().enumerate() {
+            (self.taps[k], self.taps[n - 1 - k]) = (T::lit(v.to_f64()), T::lit(v.to_f64()));
+        }
+        self.edge.load(d);
+    }
+
+    /// How the band is kept.
+    pub fn plan(&self) -> Plan {
+        self.plan
+    }
+}
+
+impl<T: Real> BandDown<T> {
+    /// Lines at rest for the plan of one tap (the input as it is): all zeros, which the
+    /// compiler lays down as such.
+    #[inline(always)]
+    fn none() -> Self {
+        BandDown {
+            down: [Down::none(); MAX_STAGES],
+            line: Line::zeros(0),
+            scratch: [[T::zero(); MOST]; 2],
+            edge: EdgeLines::none(),
+            states: [[T::zero(); 2]; SECTIONS],
+        }
+    }
+
+    /// Forgets the history (after a fault: as if the input had been zero).
+    pub fn reset(&mut self, taps: &BandTaps<T>) {
+        let p = &taps.plan;
+        for (d, h) in self.down.iter_mut().zip(&taps.stages[..p.stages]) {
+            d.rest(h);
+        }
+        self.line.rest(p.taps.max(1) - 1);
+        self.states = [[T::zero(); 2]; SECTIONS];
+        self.edge.reset(&taps.edge);
+    }
+
+    /// The low-latency band: section by section over the whole buffer, each one's state in
+    /// registers.
+    fn sections(&mut self, taps: &BandTaps<T>, buf: &mut [T]) {
+        for (sos, state) in taps.sections.iter().zip(self.states.iter_mut()) {
+            let mut stage = Stage::load(sos, *state);
+            for v in buf.iter_mut() {
+                *v = stage.step(*v);
+            }
+            *state = stage.state();
+        }
+    }
+
+    /// A piece (at most [`CHUNK`]) down through the half-bands, the band-pass and the lower
+    /// edge: the scratch that holds its outputs first, the other, and their number.
+    fn piece(&mut self, taps: &BandTaps<T>, piece: &[T]) -> (&mut Piece<T>, &mut Piece<T>, usize) {
+        let p = &taps.plan;
+        let stages = &taps.stages[..p.stages];
+        let [a, b] = &mut self.scratch;
+        let (x, y, n) = down_all(stages, &mut self.down[..p.stages], piece, a, b);
+        let n = fir(&taps.taps[..p.taps], &mut self.line, &x[..n], y);
+        self.edge.apply(&taps.edge, &mut y[..n]);
+        (y, x, n)
+    }
+}
+
+impl<T: Real> BandLines<T> {
+    /// Lines at rest for the plan of one tap.
+    #[inline(always)]
+    fn none() -> Self {
+        BandLines { low: BandDown::none(), up: [Up::none(); MAX_STAGES], ready: Line::zeros(0) }
+    }
+
+    /// Lines at rest for the coefficients `taps`; always in line, as `none`.
+    #[inline(always)]
+    pub fn at_rest(taps: &BandTaps<T>) -> Self {
+        let mut l = Self::none();
+        l.reset(taps);
+        l
+    }
+
+    /// Forgets the history (after a fault: as if the input had been zero). Out of line: the
+    /// sample path's block, which resets a filter a fault poisoned, would hold a copy of it.
+    #[inline(never)]
+    pub fn reset(&mut self, taps: &BandTaps<T>) {
+        let p = &taps.plan;
+        self.low.reset(taps);
+        for (u, h) in self.up.iter_mut().zip(&taps.stages[..p.stages]) {
+            u.rest(h);
+        }
+        // A group of `factor` inputs makes its outputs on its last input, the first of which
+        // goes out on that same input: until then, the zeros of a history at rest.
+        self.ready.rest(p.factor() - 1);
+    }
+
+    /// Filters `buf` in place with the coefficients `taps` (those the lines were set at rest
+    /// for).
+    pub fn process_block(&mut self, taps: &BandTaps<T>, buf: &mut [T]) {
+        if taps.plan.shape == Shape::LowLatency {
+            self.low.sections(taps, buf);
+            return;
+        }
+        let stages = &taps.stages[..taps.plan.stages];
+        for piece in buf.chunks_mut(CHUNK) {
+            let (y, x, n) = self.low.piece(taps, piece);
+            let (out, _, n) = up_all(stages, &mut self.up[..stages.len()], y, x, n);
+            self.ready.pass(&out[..n], piece);
+        }
+    }
 }
 
 impl<T: Real> BandLimit<T> {
@@ -50,92 +223,50 @@ impl<T: Real> BandLimit<T> {
         b
     }
 
-    /// One tap of 1: the input as it is, undelayed.
+    /// One tap of 1: the input as it is, undelayed. Always in line, and so is every maker of its
+    /// parts: the whole is then laid down in its caller's place (a compensator made where it
+    /// stays); made of calls, each part was made on the stack and copied, 3.3 KB more on the
+    /// boot stack.
+    #[inline(always)]
     pub fn identity() -> Self {
-        let mut taps = [T::zero(); MAX_TAPS];
-        taps[0] = T::one();
         // Its lines at rest already: no sample before the first.
-        BandLimit {
-            plan: Plan::IDENTITY,
-            stages: [HalfBand::none(); MAX_STAGES],
-            taps,
-            line: Line::zeros(0),
-            ready: Line::zeros(0),
-            scratch: [[T::zero(); MOST]; 2],
-            edge: LowerEdge::none(),
-            sections: [Sos::identity(); SECTIONS],
-            states: [[T::zero(); 2]; SECTIONS],
-        }
+        BandLimit { taps: BandTaps::identity(), lines: BandLines::none() }
     }
 
     /// Takes the coefficients `d`, in place (no copy of the filter on the stack), with no history.
     pub fn load<S: Real>(&mut self, d: &BandCoefficients<'_, S>) {
-        self.plan = d.plan;
-        for (s, f) in self.sections.iter_mut().zip(&d.sections) {
-            *s = f.narrow();
-        }
-        for s in 0..d.plan.stages {
-            self.stages[s] = HalfBand::new(d.pairs[s], d.plan.half_band_taps[s]);
-        }
-        self.taps = [T::zero(); MAX_TAPS];
-        let n = d.plan.taps.max(1);
-        for (k, &v) in d.half[..=(n - 1) / 2].iter().enumerate() {
-            (self.taps[k], self.taps[n - 1 - k]) = (T::lit(v.to_f64()), T::lit(v.to_f64()));
-        }
-        self.edge.load(d);
+        self.taps.load(d);
         self.reset();
+    }
+
+    /// The coefficients, for [`BandLines`] that run the same filter.
+    pub fn taps(&self) -> &BandTaps<T> {
+        &self.taps
     }
 
     /// How the band is kept.
     pub fn plan(&self) -> Plan {
-        self.plan
+        self.taps.plan
     }
 
     /// The filter's delay [samples]: its taps' centres, each at its own rate.
     pub fn delay_samples(&self) -> usize {
-        self.plan.delay_samples()
+        self.taps.plan.delay_samples()
     }
 
     /// Forgets the history (after a fault: as if the input had been zero).
     pub fn reset(&mut self) {
-        for s in self.stages[..self.plan.stages].iter_mut() {
-            s.reset();
-        }
-        self.line.rest(self.plan.taps.max(1) - 1);
-        self.states = [[T::zero(); 2]; SECTIONS];
-        self.edge.reset();
-        // A group of `factor` inputs makes its outputs on its last input, the first of which
-        // goes out on that same input: until then, the zeros of a history at rest.
-        self.ready.rest(self.plan.factor() - 1);
+        self.lines.reset(&self.taps);
     }
 
     /// Filters `buf` in place.
     pub fn process_block(&mut self, buf: &mut [T]) {
-        if self.plan.shape == Shape::LowLatency {
-            // Section by section over the whole buffer, each one's state in registers.
-            for (sos, state) in self.sections.iter().zip(self.states.iter_mut()) {
-                let mut stage = Stage::load(sos, *state);
-                for v in buf.iter_mut() {
-                    *v = stage.step(*v);
-                }
-                *state = stage.state();
-            }
-            return;
-        }
-        for piece in buf.chunks_mut(CHUNK) {
-            let stages = &mut self.stages[..self.plan.stages];
-            let [a, b] = &mut self.scratch;
-            let (x, y, n) = down_all(stages, piece, a, b);
-            let n = fir(&self.taps[..self.plan.taps], &mut self.line, &x[..n], y);
-            self.edge.apply(&mut y[..n]);
-            let (out, _, n) = up_all(stages, y, x, n);
-            self.ready.pass(&out[..n], piece);
-        }
+        self.lines.process_block(&self.taps, buf);
     }
 }
 
 impl<T> core::fmt::Debug for BandLimit<T> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "BandLimit {{ {:?} }}", self.plan)
+        write!(f, "BandLimit {{ {:?} }}", self.taps.plan)
     }
 }

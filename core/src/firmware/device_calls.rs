@@ -15,7 +15,7 @@
 
 use crate::{
     Calibration, Cascade, Compensator, DesignConfig, DesignError, Inverse,
-    band::BandLimit,
+    band::{BandLimit, BandLines, BandTaps},
     design_inverse,
     firmware::running_error::{RunningError, Window},
     firmware::stuck::StuckDetector,
@@ -92,6 +92,12 @@ pub fn band_block(b: &mut BandLimit<f32>, block: &mut [f32]) {
     b.process_block(block)
 }
 
+/// [`BandLines::process_block`]: the reference's band filter in [`running_error_block`].
+#[inline(never)]
+pub fn band_lines_block(b: &mut BandLines<f32>, taps: &BandTaps<f32>, block: &mut [f32]) {
+    b.process_block(taps, block)
+}
+
 /// [`Cascade::process_block`], the sections' part of [`process_block`].
 #[inline(never)]
 pub fn cascade_block(c: &mut Cascade<f32>, block: &mut [f32]) {
@@ -99,17 +105,19 @@ pub fn cascade_block(c: &mut Cascade<f32>, block: &mut [f32]) {
 }
 
 /// [`RunningError::estimate`] then [`RunningError::reference`]: a block's estimate and its
-/// stated error, and the accelerometer's block for the estimate's [`LAG_BLOCKS`] before.
+/// stated error, and the accelerometer's block for the estimate's [`LAG_BLOCKS`] before;
+/// `taps` the estimate's band filter's coefficients.
 ///
 /// [`LAG_BLOCKS`]: crate::resample::track::LAG_BLOCKS
 #[inline(never)]
 pub fn running_error_block(
     m: &mut RunningError<f32>,
+    taps: &BandTaps<f32>,
     estimate: &[f32],
     stated: f32,
     accel: &[f32],
     out: &mut [f32],
 ) -> Option<Window<f32>> {
     m.estimate(estimate, stated);
-    m.reference_through(accel, out, band_block)
+    m.reference_through(taps, accel, out, band_lines_block)
 }

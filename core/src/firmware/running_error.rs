@@ -4,7 +4,8 @@
 //! arithmetic (f32 on the device, the host's replay the same).
 //!
 //! The reference: the acceleration, its chain's delay taken out (below), integrated twice and put
-//! through the same band filter as the estimate, whose design it is given. The double integral
+//! through the same band filter as the estimate (its lines, run with the estimate's filter's
+//! coefficients, not a copy of them). The double integral
 //! is two leaky integrators behind a first-order high-pass, all three poles at [`LEAK_HZ`] (a
 //! gravity's offset and the part's noise below the band stay bounded); the estimate is put
 //! through three of the same high-pass, so that the two carry the same weight and the same phase
@@ -29,7 +30,7 @@
 //!
 //! [`LAG_BLOCKS`]: crate::resample::track::LAG_BLOCKS
 
-use crate::band::BandLimit;
+use crate::band::{BandLines, BandTaps};
 use crate::firmware::calibration_stale::StaleTest;
 use crate::numeric::forgetting_line::ForgettingLine;
 use crate::numeric::real::Real;
@@ -130,8 +131,11 @@ impl<T: Real> Sums<T> {
 /// The running measurement.
 #[derive(Clone)]
 pub struct RunningError<T> {
-    /// The reference's band filter: the estimate's design.
-    band: BandLimit<T>,
+    /// The reference's band filter's lines: the estimate's filter, whose coefficients each call
+    /// hands it (no copy of them).
+    band: BandLines<T>,
+    /// The band's lines to be set at rest on the next reference (which brings the coefficients).
+    band_restarts: bool,
     rho: T,
     dt: T,
     /// The estimate's preview [samples]: it leads the base by it less the band's delay.
@@ -163,14 +167,20 @@ pub struct RunningError<T> {
 }
 
 impl<T: Real> RunningError<T> {
-    /// For an estimate kept by `band` (its design, at rest) at `fs_hz`, made with a preview of
-    /// `preview_samples`.
-    pub fn new(band: BandLimit<T>, fs_hz: f64, preview_samples: usize) -> Self {
+    /// For an estimate kept by the band filter of coefficients `band` at `fs_hz`, made with a
+    /// preview of `preview_samples`.
+    /// Always in line, its value made in one piece where its caller puts it (the band's lines
+    /// are 10 KB: made apart and moved, they were on the stack twice).
+    #[inline(always)]
+    pub fn new(band: &BandTaps<T>, fs_hz: f64, preview_samples: usize) -> Self {
         let rho = libm::exp(-2.0 * core::f64::consts::PI * LEAK_HZ / fs_hz);
         let zero = T::zero();
         let preview = T::lit(preview_samples as f64);
+        let delay = preview - T::lit(START_DELAY_S * fs_hz);
+        let (back, back_rate) = Self::timed_of(delay, zero);
         RunningError {
-            band,
+            band: BandLines::at_rest(band),
+            band_restarts: false,
             rho: T::lit(rho),
             dt: T::lit(1.0 / fs_hz),
             preview,
@@ -181,26 +191,20 @@ impl<T: Real> RunningError<T> {
             held: [zero; HELD],
             estimates: 0,
             references: 0,
-            delay: preview - T::lit(START_DELAY_S * fs_hz),
+            delay,
             rate: zero,
             delay_at: 0,
-            back: 0,
-            back_rate: 0,
+            back,
+            back_rate,
             sums: Sums::zero(),
             line: ForgettingLine::empty(T::zero()),
             window_pairs: ((WINDOW_S * fs_hz) as usize) / EVERY,
             windows: 0,
             test: StaleTest::new(),
         }
-        .timed()
     }
 
     /// The fixed-point reading from the delay and its rate.
-    fn timed(mut self) -> Self {
-        (self.back, self.back_rate) = Self::timed_of(self.delay, self.rate);
-        self
-    }
-
     fn timed_of(delay: T, rate: T) -> (i64, i64) {
         let one = (1u64 << FX) as f64;
         (((READ_BEHIND as f64 + delay.to_f64()) * one) as i64, (rate.to_f64() * one) as i64)
@@ -209,7 +213,7 @@ impl<T: Real> RunningError<T> {
     /// Starts over: the accelerometer went away, or samples were lost.
     pub fn restart(&mut self) {
         let zero = T::zero();
-        self.band.reset();
+        self.band_restarts = true;
         self.estimate_poles = [Pole::rest(zero); 3];
         self.reference_poles = [Pole::rest(zero); 3];
         (self.last, self.history, self.held) = ([zero; 2], [zero; HISTORY], [zero; HELD]);
@@ -249,17 +253,27 @@ impl<T: Real> RunningError<T> {
     /// The accelerometer's block [m/s²] for the estimate's block [`LAG_BLOCKS`] before the
     /// latest, `out` a block's room; a window measured, where one ends in it. A block with any
     /// NaN starts over.
-    pub fn reference(&mut self, accel: &[T], out: &mut [T]) -> Option<Window<T>> {
-        self.reference_through(accel, out, BandLimit::process_block)
+    /// `taps` are the estimate's band filter's coefficients (those [`Self::new`] was given).
+    pub fn reference(&mut self, taps: &BandTaps<T>, accel: &[T], out: &mut [T]) -> Option<Window<T>> {
+        self.reference_through(taps, accel, out, BandLines::process_block)
     }
 
     /// [`Self::reference`] with the band filter's run `band`: the device's passes the core's
-    /// own call of it (`device_calls::band_block`), so that the filter's code stays as the
-    /// sample path has it.
-    pub fn reference_through(&mut self, accel: &[T], out: &mut [T], band: fn(&mut BandLimit<T>, &mut [T])) -> Option<Window<T>> {
+    /// own call of it (`device_calls::band_lines_block`), so that the filter's code is made at
+    /// the core's opt-level.
+    pub fn reference_through(
+        &mut self,
+        taps: &BandTaps<T>,
+        accel: &[T],
+        out: &mut [T],
+        band: fn(&mut BandLines<T>, &BandTaps<T>, &mut [T]),
+    ) -> Option<Window<T>> {
         if accel.iter().any(|a| a.is_nan()) || out.len() < accel.len() {
             self.restart();
             return None;
+        }
+        if core::mem::take(&mut self.band_restarts) {
+            self.band.reset(taps);
         }
         let (rho, dt) = (self.rho, self.dt);
         let twelfth = T::lit(1.0 / 12.0);
@@ -285,7 +299,7 @@ impl<T: Real> RunningError<T> {
             out[j] = r.integrate(q.integrate(p.high_pass(read, rho), rho, dt), rho, dt);
         }
         self.references += accel.len() as u64;
-        band(&mut self.band, &mut out[..accel.len()]);
+        band(&mut self.band, taps, &mut out[..accel.len()]);
         self.pair(first, &out[..accel.len()])
     }
 
@@ -382,7 +396,7 @@ fn line_at<T: Real>(line: &ForgettingLine<T>, t: T) -> Option<(T, T)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::band::Band;
+    use crate::band::{Band, BandLimit};
     use std::vec::Vec;
 
     const FS: f64 = 2000.0;
@@ -408,9 +422,8 @@ mod tests {
     /// times `gain`, `preview` samples ahead; the accelerometer delayed by `delay_s` growing at
     /// `rate`.
     fn run<T: Real>(gain: f64, delay_s: f64, rate: f64, seconds: usize) -> Vec<Window<T>> {
-        let band = BandLimit::<T>::new(&Band::DEFAULT, FS).unwrap();
         let mut truth = BandLimit::<T>::new(&Band::DEFAULT, FS).unwrap();
-        let mut m = RunningError::new(band, FS, PREVIEW);
+        let mut m = RunningError::new(truth.taps(), FS, PREVIEW);
         let blocks = seconds * FS as usize / BLOCK_LEN;
         let mut accel_blocks: Vec<[T; BLOCK_LEN]> = Vec::new();
         let mut out = [T::zero(); BLOCK_LEN];
@@ -427,7 +440,8 @@ mod tests {
                 T::lit(accel(t - delay_s - rate * t))
             }));
             if let Some(lagged) = b.checked_sub(LAG_BLOCKS) {
-                windows.extend(m.reference(&accel_blocks[lagged], &mut out));
+                let taps = *truth.taps();
+                windows.extend(m.reference(&taps, &accel_blocks[lagged], &mut out));
             }
         }
         windows

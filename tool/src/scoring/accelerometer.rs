@@ -9,7 +9,7 @@
 
 use super::Scoring;
 use ipmc_core::C;
-use ipmc_core::band::BandLimit;
+use ipmc_core::band::{BandDesign, BandTaps};
 use ipmc_core::calibration::instrument::{ACCELEROMETER_LOWPASS_HZ, accelerometer_chain};
 use ipmc_core::firmware::running_error::{RunningError, Window};
 use ipmc_core::resample::track::LAG_BLOCKS;
@@ -140,8 +140,8 @@ pub struct DeviceMeasure {
 impl DeviceMeasure {
     pub fn run(scoring: &Scoring, accel: &[f64], estimate: &[f32], rel_err: Option<&[f32]>, bursts: &[Range<usize>]) -> Option<Self> {
         let burst = bursts.first()?.clone();
-        let band = BandLimit::<f32>::new(&scoring.band, scoring.fs_hz).ok()?;
-        let mut measure = RunningError::new(band, scoring.fs_hz, scoring.preview);
+        let taps = &BandTaps::<f32>::from_design(&BandDesign::design(&scoring.band, scoring.fs_hz).ok()?);
+        let mut measure = RunningError::new(taps, scoring.fs_hz, scoring.preview);
         let end = burst.end.min(estimate.len()).min(accel.len());
         let blocks = (end.saturating_sub(burst.start)) / BLOCK_LEN;
         let at = |b: usize| burst.start + b * BLOCK_LEN..burst.start + (b + 1) * BLOCK_LEN;
@@ -152,7 +152,7 @@ impl DeviceMeasure {
             measure.estimate(&estimate[at(b)], stated);
             if let Some(lagged) = b.checked_sub(LAG_BLOCKS) {
                 let a: Vec<f32> = accel[at(lagged)].iter().map(|&x| x as f32).collect();
-                windows.extend(measure.reference(&a, &mut out));
+                windows.extend(measure.reference(taps, &a, &mut out));
             }
         }
         Some(DeviceMeasure { windows })
