@@ -115,6 +115,10 @@ pub(crate) fn paired_z(before: &[f64], after: &[f64], weights: &[f64]) -> f64 {
     mean / se2.sqrt()
 }
 
+pub(crate) fn weighted_mean(v: &[f64], w: &[f64]) -> f64 {
+    v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / w.iter().sum::<f64>()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -132,8 +136,4 @@ mod tests {
         assert!(z.abs() < 0.1, "{z}");
         assert_eq!(paired_z(&before, &before, &counts), 0.0);
     }
-}
-
-pub(crate) fn weighted_mean(v: &[f64], w: &[f64]) -> f64 {
-    v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / w.iter().sum::<f64>()
 }
