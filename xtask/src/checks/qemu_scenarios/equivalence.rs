@@ -27,7 +27,8 @@ const EQUIVALENCE_TOL: f64 = 1e-6;
 /// (so it retunes several times at moments its own tasks choose), then the host's f32 chain on
 /// the same input replaying the firmware's retune schedule (`ipmc compensate --schedule`). The
 /// tool is built with num-traits' `std` feature (tool/Cargo.toml), so this also fails if the
-/// core's f32 math stops going through libm (core/src/numeric/real.rs).
+/// core's f32 math stops going through its own choice of functions (libm, and f32's sine and
+/// cosine of core/src/numeric/sine_f32.rs: core/src/numeric/real.rs).
 pub fn qemu_host_equivalence() -> Result<()> {
     host_equivalence_on_ramp("equivalence", 10, 40, 50, &Variant::Qemu.elf(), None).map(|_| ())
 }
