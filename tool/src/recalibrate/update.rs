@@ -8,8 +8,9 @@ use ipmc_core::calibration::checked::Checked;
 use ipmc_core::{Calibration, LawKind, ParamName};
 use std::fmt::Write as _;
 
-use super::Outcome;
-use super::response_fit::{CheckFit, DRIFTING, Hypothesis};
+use super::response_fit::{CheckData, CheckFit, DRIFTING, Hypothesis};
+use super::{Check, Outcome, READING_RESOLUTION_PCT};
+use ipmc_core::calibration::lag_offsets::{LAGS, LagOffsets};
 
 /// The key that starts a provenance line.
 pub const PROVENANCE: &str = "# provenance:";
@@ -223,10 +224,27 @@ pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
     let (offset, _) = f.value(f.layout.offset());
     c.humidity.offset_pct += offset;
     c.humidity.uncertainty_pct = Some(f.offset_sd_given_factors().max(0.01));
+    c.humidity.lag_offsets = lag_offsets(o, offset);
     if let super::Named::Calibration(k) | super::Named::Recording(k) = o.named {
         c.humidity.sensor = Some(k);
     }
     c
+}
+
+/// The offset given each hydration lag of the hygrometer's grid, beyond the checks' `offset`
+/// over the lags as one, and its 1σ given the lag: each check's strip humidity less the reading
+/// through that lag ([`ipmc_core::calibration::lag_offsets`]). None where the calibration's path
+/// has its own lag, or where the fit's posterior is singular.
+pub fn lag_offsets(o: &Outcome, offset: f64) -> Option<LagOffsets> {
+    let f = o.chosen();
+    let data: Vec<CheckData> = o.checks.iter().map(Check::data).collect();
+    let mut t = LagOffsets { offset_pct: [0.0; LAGS], sd_pct: [0.0; LAGS] };
+    for k in 0..LAGS {
+        let through: Vec<f64> = o.checks.iter().map(|c| c.through_lags_pct.get(k).copied()).collect::<Option<_>>()?;
+        let (given, sd) = f.offset_given_lag(&data, &through, READING_RESOLUTION_PCT)?;
+        (t.offset_pct[k], t.sd_pct[k]) = (given - offset, sd.max(0.01));
+    }
+    Some(t)
 }
 
 /// The new calibration file's text: provenance lines, the bench calibration's own comments, the
