@@ -342,7 +342,7 @@ impl<T: Real> BlockHygrometer<T> {
         self.lags[..self.n_lags].iter().map(move |l| (l.tau_s, prior.unwrap_or(l.probability)))
     }
 
-    /// The mixture over the lags of the reading path through each less its bias. Not inlined,
+    /// The mixture over the lags of the reading path through each, with its offset, less its bias. Not inlined,
     /// as [`SensorBias::observe`].
     #[inline(never)]
     /// With the 1σ without the fits' calibration part beside it.

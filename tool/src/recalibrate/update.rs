@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 
 use super::response_fit::{CheckData, CheckFit, DRIFTING, Hypothesis};
 use super::{Check, Outcome, READING_RESOLUTION_PCT};
-use ipmc_core::calibration::lag_offsets::{LAGS, LagOffsets};
+use ipmc_core::calibration::lag_offsets::{HYDRATION_LAGS_S, LAGS, LagOffsets};
 
 /// The key that starts a provenance line.
 pub const PROVENANCE: &str = "# provenance:";
@@ -104,6 +104,15 @@ pub fn table(o: &Outcome) -> String {
             "sensor offset (strip − reading), {:?}: {v:+.2} ± {sd:.2} %RH (prior ± {:.2}, the sensor's)",
             f.hypothesis, o.sensor_sd_pct
         );
+    }
+    let (offset, _) = chosen.value(chosen.layout.offset());
+    if let Some(t) = lag_offsets(o, offset) {
+        let each: Vec<String> = HYDRATION_LAGS_S
+            .iter()
+            .enumerate()
+            .map(|(k, lag)| format!("{lag:.0} s {:+.2} ± {:.2}", offset + t.offset_pct[k], t.sd_pct[k]))
+            .collect();
+        let _ = writeln!(s, "sensor offset given the strip's hydration lag, {:?} (%RH): {}", chosen.hypothesis, each.join(", "));
     }
     if o.checks.len() == 1 || humidity_span(o) < 5.0 {
         let _ = writeln!(
