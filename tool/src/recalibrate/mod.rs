@@ -257,6 +257,11 @@ mod tests {
             // clearest feature); the new one's is 1 within the calibration's uncertainty.
             assert!(!drifted || o.drifted.decides(0), "case {seed}: Y's drift not decided");
             stated_response_covers_the_strip(&calib, &o, &physics, (strip, &scatter), seed);
+            // The preset's path has no lag: the hygrometer weighs its grid, and the new file
+            // holds the offset given each lag, each no less certain than the one over the lags.
+            let new = update::updated(&calib, &o);
+            let t = new.humidity.lag_offsets.expect("the offsets given each lag");
+            assert!(t.sd_pct.iter().all(|&sd| sd <= new.humidity.uncertainty_pct.unwrap() + 1e-9), "case {seed}: {t:?}");
             let (tau2, tau2_sd) = o.drifted.value(o.drifted.layout.tau2());
             let truth_us = if drifted { 150.0 } else { 0.0 };
             match update::electrode_tau_us(tau2, tau2_sd) {
