@@ -154,6 +154,19 @@ impl Default for HumidityPath {
     }
 }
 
+/// A reading's correction: RH the strip's air is at = `gain` · RH read + `offset_pct` [%RH].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Correction {
+    pub gain: f64,
+    pub offset_pct: f64,
+}
+
+impl Correction {
+    pub fn correct<T: Real>(&self, rh_read_pct: T) -> T {
+        T::lit(self.gain) * rh_read_pct + T::lit(self.offset_pct)
+    }
+}
+
 /// Why a `[humidity]` table cannot be used: the key and its value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathError {
@@ -199,7 +212,12 @@ impl HumidityPath {
 
     /// RH of the air at the strip for a reading [%RH].
     pub fn correct<T: Real>(&self, rh_read_pct: T) -> T {
-        T::lit(self.gain) * rh_read_pct + T::lit(self.offset_pct)
+        self.correction().correct(rh_read_pct)
+    }
+
+    /// The part of the path that corrects a reading, alone.
+    pub fn correction(&self) -> Correction {
+        Correction { gain: self.gain, offset_pct: self.offset_pct }
     }
 
     /// The reading that corresponds to an air RH (the inverse of [`HumidityPath::correct`]).
