@@ -95,7 +95,8 @@ pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
 }
 
 /// The equivalence with the strip's own hygrometer designing: a QEMU build with the humidity
-/// path's test calibration in `mode = "fused"`, on 30 s of the project's field mode at 75 %RH
+/// path's test calibration in `mode = "fused"`, without its lag (so that the hygrometer weighs
+/// its grid of hydration lags) and with a check's offset given each lag, on 30 s of the project's field mode at 75 %RH
 /// (unknown broadband base motion: what the strip's own estimate needs). The host replays the
 /// firmware's fits where they finished (`compensate --schedule` refuses any bit difference in
 /// the reading's 1σ, the strip's estimate, the fused humidity, or a retune to a humidity its own
@@ -107,6 +108,12 @@ pub fn qemu_host_equivalence_fused() -> Result<()> {
     std::fs::create_dir_all(&work)?;
     let mut c = calibration_with_humidity_path();
     c.humidity.mode = Some(HumidityMode::Fused);
+    (c.humidity.tau_wet_s, c.humidity.tau_dry_s) = (0.0, 0.0);
+    c.humidity.uncertainty_pct = Some(0.4);
+    c.humidity.lag_offsets = Some(ipmc_core::calibration::lag_offsets::LagOffsets {
+        offset_pct: [-0.5, -0.2, 0.0, 0.2, 0.5],
+        sd_pct: [0.1, 0.1, 0.12, 0.15, 0.2],
+    });
     let calib = work.join("CALIB-fused.toml");
     std::fs::write(&calib, ipmc_core::calibration_file::to_text(&c)).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
     let elf = firmware::build_with(Variant::Qemu, Some(&calib))?;
