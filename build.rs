@@ -266,16 +266,24 @@ fn uncertainty_expr(u: &Uncertainty) -> String {
 }
 
 fn humidity_path_expr(p: &HumidityPath) -> String {
-    let HumidityPath { sensor, offset_pct, gain, tau_wet_s, tau_dry_s, uncertainty_pct, sensor_lag_s, mode, supply_v } = p;
+    let HumidityPath { sensor, offset_pct, gain, tau_wet_s, tau_dry_s, uncertainty_pct, sensor_lag_s, mode, supply_v, lag_offsets } = p;
     let sensor = sensor.map_or("None".into(), |k| format!("Some(ipmc_core::calibration::humidity_path::SensorKind::{k:?})"));
     let uncertainty = uncertainty_pct.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
     let lag = sensor_lag_s.map_or("None".into(), |u| format!("Some({})", f64_expr(u)));
     let supply = supply_v.map_or("None".into(), |v| format!("Some({})", f64_expr(v)));
     let mode = mode.map_or("None".into(), |m| format!("Some(ipmc_core::calibration::humidity_path::HumidityMode::{m:?})"));
+    let array = |v: &[f64]| format!("[{}]", v.iter().map(|x| f64_expr(*x)).collect::<Vec<_>>().join(", "));
+    let lag_offsets = lag_offsets.map_or("None".into(), |t| {
+        format!(
+            "Some(ipmc_core::calibration::lag_offsets::LagOffsets {{ offset_pct: {}, sd_pct: {} }})",
+            array(&t.offset_pct),
+            array(&t.sd_pct)
+        )
+    });
     format!(
         "ipmc_core::calibration::humidity_path::HumidityPath {{ sensor: {sensor}, offset_pct: {}, gain: {}, tau_wet_s: {}, tau_dry_s: {}, \
          uncertainty_pct: {uncertainty}, sensor_lag_s: {lag}, mode: {mode}, \
-         supply_v: {supply} }}",
+         supply_v: {supply}, lag_offsets: {lag_offsets} }}",
         f64_expr(*offset_pct),
         f64_expr(*gain),
         f64_expr(*tau_wet_s),

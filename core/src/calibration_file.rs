@@ -221,6 +221,7 @@ mod tests {
             sensor_lag_s: Some(4.0),
             mode: Some(crate::calibration::humidity_path::HumidityMode::Fused),
             supply_v: Some(4.85),
+            lag_offsets: None,
         };
         let text = to_text(&c);
         assert!(text.contains("[humidity]") && text.contains("sensor = \"hts221\""), "{text}");
@@ -247,6 +248,33 @@ mod tests {
         }
         let e = parse(&format!("{old}\n[humidity]\nsensor = \"dht22\"\n")).unwrap_err();
         assert!(matches!(e, FileError::Syntax { .. }), "{e}");
+    }
+
+    /// The offsets a check found given each hydration lag: written as the grid's lags with one
+    /// offset and one 1σ each, read back the same; a table for other lags, of another length
+    /// or out of range is refused, naming the key.
+    #[test]
+    fn the_lag_offsets_are_kept_and_checked() {
+        use crate::calibration::lag_offsets::{HYDRATION_LAGS_S, LagOffsets};
+        let mut c = Calibration::default_preset();
+        c.humidity.offset_pct = 0.9;
+        c.humidity.uncertainty_pct = Some(0.3);
+        c.humidity.lag_offsets = Some(LagOffsets { offset_pct: [-0.46, -0.14, 0.12, 0.23, 0.28], sd_pct: [0.05, 0.05, 0.06, 0.07, 0.08] });
+        let text = to_text(&c);
+        assert!(text.contains("[humidity.lag_offsets]") && text.contains("lag_s = [10.0, 20.0, 40.0, 80.0, 160.0]"), "{text}");
+        assert_eq!(parse(&text), Ok(c));
+        let plain = to_text(&Calibration::default_preset());
+        assert!(!plain.contains("lag_offsets"), "written when set only");
+        let with = |table: &str| parse(&format!("{plain}\n[humidity.lag_offsets]\n{table}\n"));
+        let grid = format!("lag_s = {HYDRATION_LAGS_S:?}");
+        let other = with("lag_s = [10.0, 30.0, 90.0, 270.0, 810.0]\noffset_pct = [0, 0, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]");
+        assert!(other.unwrap_err().to_string().contains("recalibrate"));
+        let short = with(&format!("{grid}\noffset_pct = [0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]"));
+        assert!(short.unwrap_err().to_string().contains("one number per lag"));
+        let zero = with(&format!("{grid}\noffset_pct = [0, 0, 0, 0, 0]\nsd_pct = [1, 1, 0, 1, 1]"));
+        assert!(zero.unwrap_err().to_string().contains("humidity.lag_offsets.sd_pct = 0"));
+        let far = with(&format!("{grid}\noffset_pct = [0, 25, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]"));
+        assert!(far.unwrap_err().to_string().contains("humidity.lag_offsets.offset_pct = 25"));
     }
 
     #[test]

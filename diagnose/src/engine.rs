@@ -38,8 +38,15 @@ use anyhow::Result;
 use ipmc_core::Calibration;
 use ipmc_core::model::extension::Extension;
 
-/// Runs the whole diagnosis. `progress` is told each step's name.
+/// Runs the whole diagnosis, the candidates scored over the machine's cores. `progress` is told
+/// each step's name.
 pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + Sync)) -> Result<Diagnosis> {
+    diagnose_over(calib, data, progress, std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// [`diagnose`] with the candidates scored on `workers` threads (one: one after another, in the
+/// library's order). The result does not depend on `workers`.
+pub fn diagnose_over(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + Sync), workers: usize) -> Result<Diagnosis> {
     let levels = &data.levels;
     anyhow::ensure!(levels.len() >= 3, "a diagnosis needs at least three humidity levels, the recordings have {}", levels.len());
     for l in levels {
@@ -90,7 +97,7 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + 
     progress("locating the mismatch");
     let located = locate::locate(ctx.calib, data, &ctx.sig, &ctx.base, &cal_theta, &simulation)?;
 
-    let scored = score_library(&ctx, &base, progress, trace)?;
+    let scored = score_library(&ctx, &base, progress, trace, workers)?;
     let mut scores = Vec::with_capacity(scored.len());
     let mut fitted_of = Vec::with_capacity(scored.len());
     let mut heldout_of = Vec::with_capacity(scored.len());
@@ -214,14 +221,21 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + 
 }
 
 /// Every candidate of the library scored, in the library's order. The candidates are
-/// independent given the context, so they are shared out over the cores (a diagnosis of a strip
-/// with its follow-ups fits twice the levels, and one candidate's joint fit can take seconds).
-fn score_library(ctx: &Ctx, base: &Baseline, progress: &(dyn Fn(&str) + Sync), trace: bool) -> Result<Vec<scorers::Scored>> {
+/// independent given the context, so they are shared out over `workers` threads, each taking
+/// the next candidate not yet taken (a diagnosis of a strip with its follow-ups fits twice the
+/// levels, and one candidate's joint fit can take seconds).
+fn score_library(
+    ctx: &Ctx,
+    base: &Baseline,
+    progress: &(dyn Fn(&str) + Sync),
+    trace: bool,
+    workers: usize,
+) -> Result<Vec<scorers::Scored>> {
     use std::sync::Mutex;
     use std::sync::atomic::{AtomicUsize, Ordering};
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<Result<scorers::Scored>>>> = Mutex::new((0..LIBRARY.len()).map(|_| None).collect());
-    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(LIBRARY.len());
+    let workers = workers.clamp(1, LIBRARY.len());
     std::thread::scope(|scope| {
         for _ in 0..workers {
             scope.spawn(|| {

@@ -6,6 +6,7 @@
 //! It is part of the calibration (the `[humidity]` table of the file), so the firmware, the
 //! host's replica of it, `ipmc identify` and `ipmc diagnose` apply one and the same path.
 
+use crate::calibration::lag_offsets::LagOffsets;
 use crate::numeric::real::Real;
 
 /// The humidity sensors the firmware can be built for. A correction belongs to one sensor: an
@@ -141,11 +142,28 @@ pub struct HumidityPath {
     /// The HIH-4030's supply as measured on the board [V] (its output is ratiometric, and the
     /// board cannot measure its 5 V rail); none: [`HIH4030_NOMINAL_SUPPLY_V`].
     pub supply_v: Option<f64>,
+    /// The offset a check found given each hydration lag the strip's hygrometer weighs, beyond
+    /// `offset_pct`, with its 1σ given the lag (`ipmc recalibrate`); none: `offset_pct` and
+    /// `uncertainty_pct` for every lag. Used only where the path has no lag of its own.
+    pub lag_offsets: Option<LagOffsets>,
 }
 
 impl Default for HumidityPath {
     fn default() -> Self {
         HumidityPath::NONE
+    }
+}
+
+/// A reading's correction: RH the strip's air is at = `gain` · RH read + `offset_pct` [%RH].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Correction {
+    pub gain: f64,
+    pub offset_pct: f64,
+}
+
+impl Correction {
+    pub fn correct<T: Real>(&self, rh_read_pct: T) -> T {
+        T::lit(self.gain) * rh_read_pct + T::lit(self.offset_pct)
     }
 }
 
@@ -175,6 +193,7 @@ impl HumidityPath {
         sensor_lag_s: None,
         mode: None,
         supply_v: None,
+        lag_offsets: None,
     };
 
     /// The path of a humidity that is the strip's already (the fused one): no correction and no
@@ -193,7 +212,12 @@ impl HumidityPath {
 
     /// RH of the air at the strip for a reading [%RH].
     pub fn correct<T: Real>(&self, rh_read_pct: T) -> T {
-        T::lit(self.gain) * rh_read_pct + T::lit(self.offset_pct)
+        self.correction().correct(rh_read_pct)
+    }
+
+    /// The part of the path that corrects a reading, alone.
+    pub fn correction(&self) -> Correction {
+        Correction { gain: self.gain, offset_pct: self.offset_pct }
     }
 
     /// The reading that corresponds to an air RH (the inverse of [`HumidityPath::correct`]).
@@ -241,6 +265,16 @@ impl HumidityPath {
         {
             return bad("supply_v", v, "the HIH-4030's supply must be within 4–5.8 V");
         }
+        if let Some(t) = &self.lag_offsets {
+            for (&o, &sd) in t.offset_pct.iter().zip(&t.sd_pct) {
+                if !(o.is_finite() && Real::abs(self.offset_pct + o) <= MAX_OFFSET_PCT) {
+                    return bad("lag_offsets.offset_pct", o, "with offset_pct, a sensor offset must be within ±20 %RH");
+                }
+                if !(sd.is_finite() && sd > 0.0 && sd <= MAX_UNCERTAINTY_PCT) {
+                    return bad("lag_offsets.sd_pct", sd, "an offset's 1σ must be within 0–20 %RH");
+                }
+            }
+        }
         Ok(())
     }
 
@@ -254,7 +288,7 @@ impl HumidityPath {
     /// under QEMU the readings are a recording's, and the table stays as it is).
     pub const fn for_named_reading(&self) -> HumidityPath {
         match self.sensor {
-            None => HumidityPath { uncertainty_pct: None, ..*self },
+            None => HumidityPath { uncertainty_pct: None, lag_offsets: None, ..*self },
             Some(_) => *self,
         }
     }

@@ -3,12 +3,14 @@
 //! departures from its laws ([`departures`]), what checks in service left unknown of it ([`checked`]), what the calibration does not know
 //! ([`uncertainty`]) and the response spread that follows from it ([`moments`]), the instrument
 //! it was measured with ([`instrument`]) and the humidity sensor's path to the strip
-//! ([`humidity_path`]). Above the model and the band, below everything that designs with it.
+//! ([`humidity_path`]), with the offset a check found given each hydration lag ([`lag_offsets`]).
+//! Above the model and the band, below everything that designs with it.
 
 pub mod checked;
 pub mod departures;
 pub mod humidity_path;
 pub mod instrument;
+pub mod lag_offsets;
 pub mod laws;
 pub mod moments;
 pub mod uncertainty;

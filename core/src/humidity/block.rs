@@ -10,7 +10,7 @@
 //! steps from the same readings, so the two agree bit for bit, and the QEMU run can be checked
 //! against the host block by block.
 
-use crate::calibration::humidity_path::{HumidityPath, Hydration};
+use crate::calibration::humidity_path::{Correction, Hydration};
 use crate::calibration::laws::Calibration;
 use crate::humidity::trend::Trend;
 use crate::inverse::filter::{FADE_S, WARMUP_S};
@@ -43,7 +43,8 @@ pub struct BlockRh<T> {
 /// The strip's humidity, run block by block from the readings.
 #[derive(Clone, Copy, Debug)]
 pub struct BlockHumidity<T> {
-    path: HumidityPath,
+    /// All of the path a block uses: kept alone, the path's tables stay in the calibration.
+    correction: Correction,
     strip: Hydration<T>,
     trend: Trend<T>,
     lead_s: T,
@@ -57,7 +58,7 @@ impl<T: Real> BlockHumidity<T> {
     /// sensor's polling period when one reading is held between polls).
     pub fn new(calibration: &Calibration, reading_age_s: f64) -> Self {
         BlockHumidity {
-            path: calibration.humidity,
+            correction: calibration.humidity.correction(),
             strip: Hydration::new(&calibration.humidity),
             trend: Trend::new(2.0 * reading_age_s),
             lead_s: T::lit(design_lead_s(reading_age_s)),
@@ -73,7 +74,7 @@ impl<T: Real> BlockHumidity<T> {
         if rh_read_pct.is_nan() {
             return None;
         }
-        let strip = self.strip.update(self.path.correct(rh_read_pct), dt_s);
+        let strip = self.strip.update(self.correction.correct(rh_read_pct), dt_s);
         self.trend.observe(strip, dt_s);
         let ahead = self.trend.predict(self.lead_s).unwrap_or(strip);
         let (lo, hi) = (T::lit(self.rh_min), T::lit(self.rh_max));
@@ -112,6 +113,7 @@ pub fn span_s<T: Real>(samples: u32, fs_hz: u32) -> T {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibration::humidity_path::HumidityPath;
 
     fn calib(path: HumidityPath) -> Calibration {
         Calibration { humidity: path, ..Calibration::default_preset() }

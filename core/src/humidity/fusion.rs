@@ -188,6 +188,24 @@ impl<T: Real> SensorBias<T> {
         }
         (self.s2 - self.s1 * self.s1 / self.s0).max(T::zero())
     }
+
+    /// −2 ln of the fits' likelihood with the bias's prior N(0, `prior_sd`²) (the path already
+    /// carries the prior's mean), up to a constant: [`Self::scatter_chi2`], and the fits' mean
+    /// difference d̄ against the prior, d̄²/(prior² + v) + ln(prior² + v), v the mean's own
+    /// variance ([`Self::correction`]'s). Paths whose bias a check pinned down (a tight prior at
+    /// each lag) are told apart by their level as well as by their shape: a lag whose offset the
+    /// fits contradict is not kept in the mixture by a prior that will not let its bias move.
+    /// Under the sensor's accuracy alone the level hardly counts.
+    #[inline(never)]
+    pub fn lag_chi2(&self, prior_sd: T) -> T {
+        if self.weight <= T::zero() {
+            return T::zero();
+        }
+        let mean = self.difference / self.weight;
+        let v = self.stat_var / (self.weight * self.weight) + self.cal_var / self.weight;
+        let total = prior_sd * prior_sd + v;
+        self.scatter_chi2() + mean * mean / total + total.ln()
+    }
 }
 
 impl<T: Real> Default for SensorBias<T> {

@@ -9,6 +9,7 @@
 //! completion points bit for bit, as it replays its retunes.
 
 use crate::calibration::humidity_path::{SensorKind, relax};
+use crate::calibration::lag_offsets::{HYDRATION_LAGS_S, LAGS};
 use crate::calibration::laws::Calibration;
 #[cfg(test)]
 use crate::humidity::fusion::BIAS_MEMORY_S;
@@ -82,23 +83,16 @@ impl Humidities<f32> {
     }
 }
 
-/// The strip's hydration lags the fusion weighs when the calibration's humidity path has none
-/// [s]. The strip's humidity follows the air through its water uptake, the reading follows it
-/// at once: while the air moves, reading − strip is the sensor's bias plus the rate times the
-/// lag, and a bias learned without the lag follows the last ramp. A thin strip in air takes
-/// tens of seconds to minutes (a Nafion film's uptake; lags of 1–2.5 min measured on the lab's bench); equal
-/// weights on a doubling grid are a log-uniform prior over 7–230 s, and the fits' agreement with
-/// each decides among them as far as the data can. These are the strip's lags behind the air;
-/// the reading trails the air by its sensor's own lag already, so the path is lagged by the
-/// difference ([`BlockHygrometer::new`]).
-pub const HYDRATION_LAGS_S: [f64; 5] = [10.0, 20.0, 40.0, 80.0, 160.0];
-const LAGS: usize = HYDRATION_LAGS_S.len();
-
 /// One hydration lag the strip may have: the reading path through it, that averaged as the
 /// spectrum is, and the path's bias the strip's fits show at it.
 #[derive(Clone, Copy, Debug)]
 struct Lag<T> {
     tau_s: T,
+    /// What a check found the sensor's offset to be given this lag, beyond the path's, and its
+    /// 1σ: the bias's prior ([`crate::calibration::lag_offsets`]); without a check, none and
+    /// the reading's accuracy.
+    offset: T,
+    prior_sd: T,
     /// At the last snapshot.
     lagged: Option<T>,
     trend: Option<T>,
@@ -116,15 +110,17 @@ impl<T: Real> Lag<T> {
     /// spectrum is.
     #[inline(never)]
     fn advance(&mut self, path: T, dt_s: T) {
-        let lagged = self.lagged_after(path, dt_s);
+        let lagged = self.lagged_after(path + self.offset, dt_s);
         self.lagged = Some(lagged);
         self.trend = Some(averaged(self.trend, lagged, dt_s));
     }
 
-    fn new(tau_s: f64) -> Self {
+    fn new(tau_s: f64, (offset, prior_sd): (f64, f64)) -> Self {
         let z = T::zero();
         Lag {
             tau_s: T::lit(tau_s),
+            offset: T::lit(offset),
+            prior_sd: T::lit(prior_sd),
             lagged: None,
             trend: None,
             bias: SensorBias::new(),
@@ -136,8 +132,8 @@ impl<T: Real> Lag<T> {
     }
 
     /// The path through this lag `dt_s` after the last snapshot: the strip's hydration as the
-    /// humidity path runs it, the path held over the interval. Not inlined, as
-    /// [`SensorBias::observe`].
+    /// humidity path runs it, the path (with the lag's offset) held over the interval. Not
+    /// inlined, as [`SensorBias::observe`].
     #[inline(never)]
     fn lagged_after(&self, path: T, dt_s: T) -> T {
         match self.lagged {
@@ -199,10 +195,12 @@ impl<T: Real> BlockHygrometer<T> {
         // The reading already trails the air by the sensor's own lag, and on a ramp two lags in a
         // row trail by their sum: the strip's lag τ is the reading's path lagged by τ less the
         // sensor's (none where the strip is the quicker, which a lag cannot undo).
+        let accuracy_pct = calib.humidity.reading_uncertainty_pct(calib.humidity.sensor);
         let (lags, n_lags) = if calib.humidity.has_lag() {
-            ([Lag::new(0.0); LAGS], 1)
+            ([Lag::new(0.0, (0.0, accuracy_pct)); LAGS], 1)
         } else {
-            (HYDRATION_LAGS_S.map(|tau| Lag::new((tau - sensor_lag_s).max(0.0))), LAGS)
+            let given = |k: usize| calib.humidity.lag_offsets.map_or((0.0, accuracy_pct), |t| t.at(k));
+            (core::array::from_fn(|k| Lag::new((HYDRATION_LAGS_S[k] - sensor_lag_s).max(0.0), given(k))), LAGS)
         };
         BlockHygrometer {
             spectrum: RunningSpectrum::new(fs_hz, &calib.band),
@@ -218,7 +216,7 @@ impl<T: Real> BlockHygrometer<T> {
             lags,
             n_lags,
             strip: None,
-            accuracy_pct: T::lit(calib.humidity.reading_uncertainty_pct(calib.humidity.sensor)),
+            accuracy_pct: T::lit(accuracy_pct),
             fit_gate_pct: T::lit(match calib.humidity.sensor {
                 Some(named) => calib.humidity.reading_uncertainty_pct(Some(named)).max(named.datasheet_accuracy_pct()),
                 None => calib.humidity.reading_uncertainty_pct(None),
@@ -271,8 +269,8 @@ impl<T: Real> BlockHygrometer<T> {
             let lags = &mut self.lags[..self.n_lags];
             let mut best = T::infinity();
             for l in lags.iter_mut() {
-                (l.correction, l.var, l.var_design) = l.bias.correction(self.accuracy_pct);
-                l.probability = l.bias.scatter_chi2();
+                (l.correction, l.var, l.var_design) = l.bias.correction(l.prior_sd);
+                l.probability = l.bias.lag_chi2(l.prior_sd);
                 best = best.min(l.probability);
             }
             let mut total = T::zero();
@@ -344,14 +342,14 @@ impl<T: Real> BlockHygrometer<T> {
         self.lags[..self.n_lags].iter().map(move |l| (l.tau_s, prior.unwrap_or(l.probability)))
     }
 
-    /// The mixture over the lags of the reading path through each less its bias. Not inlined,
+    /// The mixture over the lags of the reading path through each, with its offset, less its bias. Not inlined,
     /// as [`SensorBias::observe`].
     #[inline(never)]
     /// With the 1σ without the fits' calibration part beside it.
     fn fused(&self, reading: Estimate<T>) -> (Estimate<T>, T) {
         let dt = T::lit((self.clock - self.snapshot_at) as f64) / self.fs_hz;
         let lags = &self.lags[..self.n_lags];
-        let value = |l: &Lag<T>| l.lagged_after(reading.rh_pct, dt) - l.correction;
+        let value = |l: &Lag<T>| l.lagged_after(reading.rh_pct + l.offset, dt) - l.correction;
         let mean = lags.iter().fold(T::zero(), |a, l| a + l.probability * value(l));
         let (var, var_design) = lags.iter().fold((T::zero(), T::zero()), |(a, b), l| {
             let d = value(l) - mean;
@@ -425,7 +423,7 @@ mod tests {
         let c = Calibration::default_preset();
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         if !weigh_lags {
-            h.lags = [Lag::new(0.0); LAGS];
+            h.lags = [Lag::new(0.0, (0.0, 3.5)); LAGS];
             h.n_lags = 1;
         }
         let (dt, mut strip, mut seen) = (32.0 / 2000.0, 78.0, 78.0);
@@ -464,6 +462,51 @@ mod tests {
         assert!(weighed.abs() < 0.2, "{weighed}");
         let unlagged = after_a_ramp(false);
         assert!(unlagged.abs() > 0.3, "a bias without the lag follows the ramp: {unlagged}");
+    }
+
+    /// The air ramping as in [`ramped`], the reading path corrected by a check made during the
+    /// ramp: its offset given each lag (the strip less the path through that lag, exact on the
+    /// steady ramp), or, as one offset, their mean with their spread as its 1σ. Returns the
+    /// fused value less the strip's humidity and its 1σ at the end.
+    fn checked_ramp(per_lag: bool) -> (f64, f64) {
+        use crate::calibration::lag_offsets::LagOffsets;
+        let (rate, strip_lag, dt) = (0.03, 40.0, 32.0 / 2000.0);
+        // On the ramp a path lagged by τ trails it by rate·τ; the strip trails the air by
+        // rate·40 (a lag of the grid) and the reading (the air + 1 %RH, as corrected before the
+        // check) has no lag of its own.
+        let given = HYDRATION_LAGS_S.map(|t| -1.0 - rate * (strip_lag - t));
+        let mean = given.iter().sum::<f64>() / given.len() as f64;
+        let spread = (given.iter().map(|g| (g - mean).powi(2)).sum::<f64>() / given.len() as f64).sqrt();
+        let mut c = Calibration::default_preset();
+        c.humidity.sensor_lag_s = Some(0.0);
+        c.humidity.uncertainty_pct = Some(spread.hypot(0.05));
+        if per_lag {
+            c.humidity.lag_offsets = Some(LagOffsets { offset_pct: given.map(|g| g - mean), sd_pct: [0.05; LAGS] });
+        }
+        let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
+        let (mut strip, mut seen, mut path) = (78.0, 78.0, 79.0 + mean);
+        for k in 0..120 * 2000 / 32 {
+            let air = 78.0 + rate * (k as f64 * dt - 30.0).max(0.0);
+            strip += dt / strip_lag * (air - strip);
+            seen += dt / AVERAGING_S * (strip - seen);
+            path = air + 1.0 + mean;
+            if h.push(&[1e-7; 32], Some(path)).is_some() {
+                h.complete(Ok(StripRh { rh_pct: seen, sd_stat_pct: 0.3, sd_cal_pct: 0.2, sd_pct: 0.36, misfit: 1.0, bins_used: 140 }));
+            }
+        }
+        let fused = h.humidities(path).fused;
+        (fused.rh_pct - strip, fused.sd_pct)
+    }
+
+    /// A check's offset given each lag corrects each lag's path by its own, its 1σ the prior at
+    /// that lag: the spread over the lags is counted once, in the mixture, not again in a prior
+    /// that holds it (the one offset's).
+    #[test]
+    fn a_checks_offset_per_lag_counts_the_lags_spread_once() {
+        let (one, one_sd) = checked_ramp(false);
+        let (each, each_sd) = checked_ramp(true);
+        assert!(each.abs() < 0.1 && each.abs() < 2.0 * each_sd, "per lag: {each} ± {each_sd}");
+        assert!(each_sd < 0.6 * one_sd, "per lag ± {each_sd}, one offset ± {one_sd} (off by {one})");
     }
 
     #[test]

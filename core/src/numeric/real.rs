@@ -1,7 +1,9 @@
 //! The scalar type the whole core is generic over (f32 on the device, f64 on the host), and the
 //! one place that defines the core's math on it and on [`C`].
 //!
-//! Every transcendental function goes through the `libm` crate explicitly. `num_traits::Float`
+//! Every transcendental function goes through the `libm` crate explicitly, but f32's sine and
+//! cosine, which are the core's own ([`super::sine_f32`]: f32 arithmetic only, where libm's
+//! reduce any argument and evaluate in f64, which the device does in software). `num_traits::Float`
 //! would pick its implementation from Cargo features: with `num-traits/std` enabled anywhere in
 //! the same build (plotters does it), f32 `sin`/`exp`/`atan2`… come from the host's C library
 //! instead of `libm`, the f32 design coefficients change in their last bits on the host, and the
@@ -15,6 +17,8 @@
 use core::fmt::Debug;
 use core::ops::Neg;
 use num_traits::{FloatConst, Num, NumAssign};
+
+use super::sine_f32;
 
 /// Complex numbers over the crate's real type.
 pub type C<T> = num_complex::Complex<T>;
@@ -58,9 +62,10 @@ pub trait Real: Num + NumAssign + Copy + PartialOrd + Neg<Output = Self> + Float
     fn hypot(self, other: Self) -> Self;
 }
 
-/// `$t` with its `libm` functions (`$sqrt` …: the f32 or the f64 names).
+/// `$t` with its `libm` functions (`$sqrt` …: the f32 or the f64 names), and its sine and cosine
+/// (`$sin` …: paths).
 macro_rules! real_via_libm {
-    ($t:ty, $sqrt:ident, $exp:ident, $ln:ident, $pow:ident, $sin:ident, $cos:ident, $sin_cos:ident, $sinh:ident, $cosh:ident, $atan2:ident, $hypot:ident, $floor:ident, $ceil:ident, $round:ident) => {
+    ($t:ty, $sqrt:ident, $exp:ident, $ln:ident, $pow:ident, $sin:path, $cos:path, $sin_cos:path, $sinh:ident, $cosh:ident, $atan2:ident, $hypot:ident, $floor:ident, $ceil:ident, $round:ident) => {
         impl Real for $t {
             #[inline(always)]
             fn lit(x: f64) -> Self {
@@ -148,15 +153,15 @@ macro_rules! real_via_libm {
             }
             #[inline(always)]
             fn sin(self) -> Self {
-                libm::$sin(self)
+                $sin(self)
             }
             #[inline(always)]
             fn cos(self) -> Self {
-                libm::$cos(self)
+                $cos(self)
             }
             #[inline(always)]
             fn sin_cos(self) -> (Self, Self) {
-                libm::$sin_cos(self)
+                $sin_cos(self)
             }
             #[inline(always)]
             fn sinh(self) -> Self {
@@ -178,8 +183,24 @@ macro_rules! real_via_libm {
     };
 }
 
-real_via_libm!(f32, sqrtf, expf, logf, powf, sinf, cosf, sincosf, sinhf, coshf, atan2f, hypotf, floorf, ceilf, roundf);
-real_via_libm!(f64, sqrt, exp, log, pow, sin, cos, sincos, sinh, cosh, atan2, hypot, floor, ceil, round);
+real_via_libm!(
+    f32,
+    sqrtf,
+    expf,
+    logf,
+    powf,
+    sine_f32::sin,
+    sine_f32::cos,
+    sine_f32::sin_cos,
+    sinhf,
+    coshf,
+    atan2f,
+    hypotf,
+    floorf,
+    ceilf,
+    roundf
+);
+real_via_libm!(f64, sqrt, exp, log, pow, libm::sin, libm::cos, libm::sincos, sinh, cosh, atan2, hypot, floor, ceil, round);
 
 /// e^(iθ) = cos θ + i sin θ.
 #[inline]

@@ -89,18 +89,51 @@ impl Ctx<'_> {
     }
 }
 
-/// Paired z of the held-out improvement over levels.
+/// The relative precision of a held-out χ²: the fits that give one stop at a step gaining less
+/// than this share of their χ² (the least squares' reporting tolerance, the tightest any of
+/// them uses), so two fits of one model to one level agree only to about this much of it.
+pub(crate) const CHI2_RESOLUTION: f64 = ipmc_fit::lsq::Tolerance::REPORT.ftol;
+
+/// Paired z of the held-out improvement over levels: the mean of the levels' χ² differences
+/// (`before` − `after`, per residual, times the level's `weights`) over its standard error. Each
+/// difference is known only to the resolution of the two χ² it subtracts
+/// ([`CHI2_RESOLUTION`] of each), and that uncertainty joins the levels' scatter: a candidate
+/// whose fit came back to its null (an extension fitted to zero) differs from it by a few parts
+/// in 10¹³ at every level, all of one sign, which is the fits' arithmetic, not an improvement
+/// however consistent its sign.
 pub(crate) fn paired_z(before: &[f64], after: &[f64], weights: &[f64]) -> f64 {
     let d: Vec<f64> = before.iter().zip(after).zip(weights).map(|((b, a), w)| (b - a) * w).collect();
+    let resolution: f64 =
+        before.iter().zip(after).zip(weights).map(|((b, a), w)| (CHI2_RESOLUTION * w * (b.abs() + a.abs())).powi(2)).sum();
     let n = d.len() as f64;
     let mean = d.iter().sum::<f64>() / n;
     let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-    if var <= 0.0 {
+    let se2 = var / n + resolution / (n * n);
+    if se2 <= 0.0 {
         return if mean > 0.0 { f64::INFINITY } else { 0.0 };
     }
-    mean / (var / n).sqrt()
+    mean / se2.sqrt()
 }
 
 pub(crate) fn weighted_mean(v: &[f64], w: &[f64]) -> f64 {
     v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / w.iter().sum::<f64>()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A consistent improvement the levels' scatter leaves significant keeps its z; differences
+    /// at the fits' resolution, of one sign at every level, are no evidence.
+    #[test]
+    fn differences_at_the_fits_resolution_are_no_improvement() {
+        let before = [0.40, 0.35, 0.38, 0.36, 0.41, 0.37];
+        let counts = [600.0; 6];
+        let improved: Vec<f64> = before.iter().enumerate().map(|(i, b)| b - 0.004 - 0.001 * (i % 2) as f64).collect();
+        assert!(paired_z(&before, &improved, &counts) > 5.0);
+        let returned: Vec<f64> = before.iter().enumerate().map(|(i, b)| b * (1.0 - 3e-13 * (1.0 + 0.1 * i as f64))).collect();
+        let z = paired_z(&before, &returned, &counts);
+        assert!(z.abs() < 0.1, "{z}");
+        assert_eq!(paired_z(&before, &before, &counts), 0.0);
+    }
 }

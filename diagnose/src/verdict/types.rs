@@ -264,6 +264,9 @@ impl Diagnosis {
             tau_wet_s: old.tau_wet_s + found.tau_wet_s,
             tau_dry_s: old.tau_dry_s + found.tau_dry_s,
             uncertainty_pct: found.uncertainty_pct.or(kept.uncertainty_pct),
+            // A check's offsets given each lag were found with the correction and uncertainty
+            // the calibration had: a new correction of the sensor replaces them with its own.
+            lag_offsets: if names_sensor { None } else { old.lag_offsets },
             ..found.after(&old)
         };
         if names_sensor {

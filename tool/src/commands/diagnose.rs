@@ -288,4 +288,28 @@ mod tests {
     fn figures_of_a_clean_case() {
         figures_of(None, 4);
     }
+
+    /// The candidates are scored over threads: the report is the same, to the last digit, as
+    /// with them scored one after another, on a case with an effect named (its fits, held-out
+    /// models and parameters are then the winner's, so a result kept in another candidate's
+    /// place would show).
+    #[test]
+    fn candidates_over_threads_report_as_one_after_another() {
+        let calib = ipmc_core::Calibration::default_preset();
+        let case = make_case(&calib, Some(Effect::TipMass), 11, Strength::At(0.5), Format::Fr).unwrap();
+        let file = std::env::temp_dir().join(format!("ipmc-diagnose-threads-{}.csv", std::process::id()));
+        std::fs::write(&file, case.recording.to_csv().unwrap()).unwrap();
+        let data =
+            ipmc_diagnose::data::Dataset::read(std::slice::from_ref(&file), &ipmc_core::calibration::humidity_path::HumidityPath::NONE)
+                .unwrap();
+        std::fs::remove_file(&file).ok();
+        let report = |workers: usize| {
+            let d = ipmc_diagnose::engine::diagnose_over(&calib, &data, &|_| {}, workers).unwrap();
+            let rerun = ipmc_diagnose::report::Rerun { inputs: &[], options: &[] };
+            ipmc_diagnose::report::json(&d, &rerun, "default", &[]).to_string()
+        };
+        let one = report(1);
+        assert!(one.contains("\"verdict\":\"tip_mass\""), "the premise: the effect is named; {one}");
+        assert_eq!(report(3), one);
+    }
 }

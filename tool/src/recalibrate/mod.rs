@@ -42,8 +42,18 @@ pub struct Check {
     /// its spread over the hydration lags it may have.
     pub reading_pct: f64,
     pub spread_pct: f64,
+    /// That path through each lag of the hygrometer's grid, `HYDRATION_LAGS_S` (empty where the
+    /// calibration's path has its own lag) [%RH].
+    pub through_lags_pct: Vec<f64>,
     /// When it was made: its `# date=` metadata, else the file's modification time.
     pub date: String,
+}
+
+impl Check {
+    /// As the fit reads it.
+    pub fn data(&self) -> CheckData<'_> {
+        CheckData { measured: &self.measured, reading_pct: self.reading_pct, spread_pct: self.spread_pct }
+    }
 }
 
 /// Reads and measures one check.
@@ -58,7 +68,7 @@ pub fn check_of(path: &Path, series: TimeSeries, calib: &Calibration) -> Result<
     })?;
     let measured = measure(&series.current_a, accel, series.fs_hz, check_band_hz(calib, series.fs_hz))
         .with_context(|| format!("{}: the check's response", path.display()))?;
-    let (reading_pct, spread_pct) = reading_through_lags(calib, &series);
+    let (through_lags_pct, reading_pct, spread_pct) = reading_through_lags(calib, &series);
     let date = match series.metadata.get("date") {
         Some(d) => d.to_string(),
         None => {
@@ -66,17 +76,22 @@ pub fn check_of(path: &Path, series: TimeSeries, calib: &Calibration) -> Result<
             modified.map_or("unknown".into(), |t| format!("{} (file time)", update::iso_date(t)))
         }
     };
-    Ok(Check { path: path.to_path_buf(), series, measured, reading_pct, spread_pct, date })
+    Ok(Check { path: path.to_path_buf(), series, measured, reading_pct, spread_pct, through_lags_pct, date })
 }
+
+/// A reading's own resolution [%RH]: a sensor's 0.01 %RH steps and its noise averaged over a
+/// check.
+pub const READING_RESOLUTION_PCT: f64 = 0.05;
 
 /// The reading as the strip's own hygrometer compares it with the strip: corrected, through the
 /// strip's hydration lag beyond the sensor's own (the calibration's, else each of the lags the
 /// hygrometer weighs, `HYDRATION_LAGS_S`, equally likely), averaged over the check as its
-/// spectra are. Its mean over the lags and their spread with the reading's resolution [%RH]:
-/// on a ramp the lags part, and that is what one check cannot tell.
-pub fn reading_through_lags(calib: &Calibration, series: &TimeSeries) -> (f64, f64) {
+/// spectra are. Through each lag of the grid (none where the calibration has its own), their
+/// mean, and their spread with the reading's resolution [%RH]: on a ramp the lags part, and that
+/// is what one check cannot tell.
+pub fn reading_through_lags(calib: &Calibration, series: &TimeSeries) -> (Vec<f64>, f64, f64) {
+    use ipmc_core::calibration::lag_offsets::HYDRATION_LAGS_S;
     use ipmc_core::humidity::block::BlockHumidity;
-    use ipmc_core::humidity::hygrometer::HYDRATION_LAGS_S;
     let kind = named_kind(calib, series);
     let sensor_lag = kind.map_or(0.0, |k| calib.humidity.sensor_lag_s_for(k));
     let lags: Vec<f64> =
@@ -103,8 +118,8 @@ pub fn reading_through_lags(calib: &Calibration, series: &TimeSeries) -> (f64, f
         .collect();
     let mean = means.iter().sum::<f64>() / means.len() as f64;
     let spread = (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / means.len() as f64).sqrt();
-    // The reading's own resolution: a sensor's 0.01 %RH steps and its noise averaged over the check.
-    (mean, spread.hypot(0.05))
+    let per_lag = if calib.humidity.has_lag() { vec![] } else { means };
+    (per_lag, mean, spread.hypot(READING_RESOLUTION_PCT))
 }
 
 fn named_kind(calib: &Calibration, series: &TimeSeries) -> Option<ipmc_core::calibration::humidity_path::SensorKind> {
@@ -149,8 +164,7 @@ pub fn recalibrate_checks(calib: &Calibration, checks: Vec<Check>, drift_sd: f64
         Named::Calibration(k) | Named::Recording(k) => named_calib.humidity.uncertainty_pct_for(k),
         Named::Nobody => named_calib.humidity.reading_uncertainty_pct(None),
     };
-    let data: Vec<CheckData> =
-        checks.iter().map(|c| CheckData { measured: &c.measured, reading_pct: c.reading_pct, spread_pct: c.spread_pct }).collect();
+    let data: Vec<CheckData> = checks.iter().map(Check::data).collect();
     let fit = |h| fit_checks(calib, &data, h, sensor_sd_pct, drift_sd).with_context(|| format!("the checks' fit ({h:?}) found no optimum"));
     let as_calibrated = fit(Hypothesis::AsCalibrated)?;
     let drifted = fit(Hypothesis::Drifted)?;
@@ -243,6 +257,11 @@ mod tests {
             // clearest feature); the new one's is 1 within the calibration's uncertainty.
             assert!(!drifted || o.drifted.decides(0), "case {seed}: Y's drift not decided");
             stated_response_covers_the_strip(&calib, &o, &physics, (strip, &scatter), seed);
+            // The preset's path has no lag: the hygrometer weighs its grid, and the new file
+            // holds the offset given each lag, each no less certain than the one over the lags.
+            let new = update::updated(&calib, &o);
+            let t = new.humidity.lag_offsets.expect("the offsets given each lag");
+            assert!(t.sd_pct.iter().all(|&sd| sd <= new.humidity.uncertainty_pct.unwrap() + 1e-9), "case {seed}: {t:?}");
             let (tau2, tau2_sd) = o.drifted.value(o.drifted.layout.tau2());
             let truth_us = if drifted { 150.0 } else { 0.0 };
             match update::electrode_tau_us(tau2, tau2_sd) {

@@ -299,6 +299,39 @@ impl CheckFit {
         cov.try_inverse().map_or(var, |p| p[(0, 0)].recip()).max(0.0).sqrt()
     }
 
+    /// The sensor's offset and its 1σ given the factors the new calibration holds and one
+    /// hydration lag of the strip: each check's prior on its humidity taken as the reading
+    /// through that lag (`through_pct`, per check) within `resolution_pct`, in place of the
+    /// readings' mean over the lags within their spread. The fit's posterior is Gaussian about
+    /// its optimum and that prior is a quadratic term of its own, so the exchange is exact in
+    /// the linearized posterior: its precision, the factors held, gains the difference of the
+    /// two terms, and its optimum moves by their pull. None where the posterior is singular.
+    pub fn offset_given_lag(&self, checks: &[CheckData], through_pct: &[f64], resolution_pct: f64) -> Option<(f64, f64)> {
+        let scale = self.fit.reduced_chi2().max(f64::MIN_POSITIVE);
+        let precision = (&self.fit.covariance / scale).try_inverse()?;
+        let factors: Vec<usize> = (0..DRIFTING.len()).filter_map(|k| self.layout.factor(k)).collect();
+        let rest: Vec<usize> = (0..self.fit.estimates.len()).filter(|i| !factors.contains(i)).collect();
+        let at = |i: usize| rest.iter().position(|&r| r == i);
+        let mut p = precision.select_rows(&rest).select_columns(&rest);
+        let n = rest.len();
+        let mut pull: Vec<f64> = (0..n).map(|a| (0..n).map(|b| p[(a, b)] * self.fit.estimates[rest[b]]).sum()).collect();
+        let o = at(self.layout.offset())?;
+        for (c, (check, &reading)) in checks.iter().zip(through_pct).enumerate() {
+            // The term (h − o − reading)²/sd²: its direction a = e_h − e_o.
+            let h = at(self.layout.check(c)[0])?;
+            let (new, old) = (resolution_pct.powi(2).recip(), check.spread_pct.powi(2).recip());
+            for (i, si) in [(h, 1.0), (o, -1.0)] {
+                for (j, sj) in [(h, 1.0), (o, -1.0)] {
+                    p[(i, j)] += si * sj * (new - old);
+                }
+                pull[i] += si * (new * reading - old * check.reading_pct);
+            }
+        }
+        let cov = p.try_inverse()?;
+        let offset = (0..n).map(|b| cov[(o, b)] * pull[b]).sum();
+        Some((offset, cov[(o, o)].max(0.0).sqrt()))
+    }
+
     /// What the checks leave unknown of the strip given the offset the new calibration holds:
     /// the posterior of the freed factors' ln conditioned on the offset, as its principal axes
     /// (each 1σ along a direction of ln [`DRIFTING`], the held factors none). One response fixes
@@ -370,6 +403,25 @@ mod tests {
             rate_ppm: 0.0,
             segments_eff: 100.0,
         }
+    }
+
+    /// The offset given a lag exchanges the check's prior on its humidity, the factors held:
+    /// the same prior again gives the fit's own offset and its 1σ given the factors; a reading
+    /// through the lag δ higher, known to the reading's resolution, an offset δ lower and
+    /// narrower than that 1σ, which carries the lags' spread.
+    #[test]
+    fn the_offset_given_a_lag_moves_with_the_reading_through_it() {
+        let calib = Calibration::default_preset();
+        let m = measured(&calib, 1.0, &mut SplitMix64(11));
+        let data = [CheckData { measured: &m, reading_pct: 70.0, spread_pct: 0.4 }];
+        let f = fit_checks(&calib, &data, Hypothesis::AsCalibrated, 1.8, 0.2).unwrap();
+        let (o, _) = f.value(f.layout.offset());
+        let (same, same_sd) = f.offset_given_lag(&data, &[70.0], 0.4).unwrap();
+        assert!((same - o).abs() < 1e-6 && (same_sd - f.offset_sd_given_factors()).abs() < 1e-6, "{same} ± {same_sd} vs {o}");
+        let (up, up_sd) = f.offset_given_lag(&data, &[70.3], 0.05).unwrap();
+        let (down, _) = f.offset_given_lag(&data, &[69.7], 0.05).unwrap();
+        assert!(((down - up) / 0.6 - 1.0).abs() < 0.05, "{down} − {up} for readings 0.6 %RH apart");
+        assert!(up_sd < 0.5 * same_sd && up_sd >= 0.05 * 0.9, "{up_sd} vs {same_sd}");
     }
 
     #[test]

@@ -8,8 +8,9 @@ use ipmc_core::calibration::checked::Checked;
 use ipmc_core::{Calibration, LawKind, ParamName};
 use std::fmt::Write as _;
 
-use super::Outcome;
-use super::response_fit::{CheckFit, DRIFTING, Hypothesis};
+use super::response_fit::{CheckData, CheckFit, DRIFTING, Hypothesis};
+use super::{Check, Outcome, READING_RESOLUTION_PCT};
+use ipmc_core::calibration::lag_offsets::{HYDRATION_LAGS_S, LAGS, LagOffsets};
 
 /// The key that starts a provenance line.
 pub const PROVENANCE: &str = "# provenance:";
@@ -103,6 +104,15 @@ pub fn table(o: &Outcome) -> String {
             "sensor offset (strip − reading), {:?}: {v:+.2} ± {sd:.2} %RH (prior ± {:.2}, the sensor's)",
             f.hypothesis, o.sensor_sd_pct
         );
+    }
+    let (offset, _) = chosen.value(chosen.layout.offset());
+    if let Some(t) = lag_offsets(o, offset) {
+        let each: Vec<String> = HYDRATION_LAGS_S
+            .iter()
+            .enumerate()
+            .map(|(k, lag)| format!("{lag:.0} s {:+.2} ± {:.2}", offset + t.offset_pct[k], t.sd_pct[k]))
+            .collect();
+        let _ = writeln!(s, "sensor offset given the strip's hydration lag, {:?} (%RH): {}", chosen.hypothesis, each.join(", "));
     }
     if o.checks.len() == 1 || humidity_span(o) < 5.0 {
         let _ = writeln!(
@@ -223,10 +233,27 @@ pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
     let (offset, _) = f.value(f.layout.offset());
     c.humidity.offset_pct += offset;
     c.humidity.uncertainty_pct = Some(f.offset_sd_given_factors().max(0.01));
+    c.humidity.lag_offsets = lag_offsets(o, offset);
     if let super::Named::Calibration(k) | super::Named::Recording(k) = o.named {
         c.humidity.sensor = Some(k);
     }
     c
+}
+
+/// The offset given each hydration lag of the hygrometer's grid, beyond the checks' `offset`
+/// over the lags as one, and its 1σ given the lag: each check's strip humidity less the reading
+/// through that lag ([`ipmc_core::calibration::lag_offsets`]). None where the calibration's path
+/// has its own lag, or where the fit's posterior is singular.
+pub fn lag_offsets(o: &Outcome, offset: f64) -> Option<LagOffsets> {
+    let f = o.chosen();
+    let data: Vec<CheckData> = o.checks.iter().map(Check::data).collect();
+    let mut t = LagOffsets { offset_pct: [0.0; LAGS], sd_pct: [0.0; LAGS] };
+    for k in 0..LAGS {
+        let through: Vec<f64> = o.checks.iter().map(|c| c.through_lags_pct.get(k).copied()).collect::<Option<_>>()?;
+        let (given, sd) = f.offset_given_lag(&data, &through, READING_RESOLUTION_PCT)?;
+        (t.offset_pct[k], t.sd_pct[k]) = (given - offset, sd.max(0.01));
+    }
+    Some(t)
 }
 
 /// The new calibration file's text: provenance lines, the bench calibration's own comments, the

@@ -72,7 +72,7 @@ pub fn measure() -> Result<BTreeMap<String, f64>> {
 
 /// The accelerometer's resampler: its instructions per ADC sample on the M4, and what it leaves of
 /// a signal in the calibration's band, computed on the host in f32 with the device's code (the
-/// same bits: every function of a float through libm), over the rate errors and chain delays the
+/// same bits: every function of a float through the core's `Real`), over the rate errors and chain delays the
 /// LSM6DSL leaves.
 fn resampler_lines(per_sample: f64) {
     use ipmc_core::resample::accuracy::{Case, relative_error};

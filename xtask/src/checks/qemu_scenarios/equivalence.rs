@@ -27,7 +27,8 @@ const EQUIVALENCE_TOL: f64 = 1e-6;
 /// (so it retunes several times at moments its own tasks choose), then the host's f32 chain on
 /// the same input replaying the firmware's retune schedule (`ipmc compensate --schedule`). The
 /// tool is built with num-traits' `std` feature (tool/Cargo.toml), so this also fails if the
-/// core's f32 math stops going through libm (core/src/numeric/real.rs).
+/// core's f32 math stops going through its own choice of functions (libm, and f32's sine and
+/// cosine of core/src/numeric/sine_f32.rs: core/src/numeric/real.rs).
 pub fn qemu_host_equivalence() -> Result<()> {
     host_equivalence_on_ramp("equivalence", 10, 40, 50, &Variant::Qemu.elf(), None).map(|_| ())
 }
@@ -94,7 +95,8 @@ pub fn qemu_host_equivalence_with_humidity_path() -> Result<()> {
 }
 
 /// The equivalence with the strip's own hygrometer designing: a QEMU build with the humidity
-/// path's test calibration in `mode = "fused"`, on 30 s of the project's field mode at 75 %RH
+/// path's test calibration in `mode = "fused"`, without its lag (so that the hygrometer weighs
+/// its grid of hydration lags) and with a check's offset given each lag, on 30 s of the project's field mode at 75 %RH
 /// (unknown broadband base motion: what the strip's own estimate needs). The host replays the
 /// firmware's fits where they finished (`compensate --schedule` refuses any bit difference in
 /// the reading's 1σ, the strip's estimate, the fused humidity, or a retune to a humidity its own
@@ -106,6 +108,12 @@ pub fn qemu_host_equivalence_fused() -> Result<()> {
     std::fs::create_dir_all(&work)?;
     let mut c = calibration_with_humidity_path();
     c.humidity.mode = Some(HumidityMode::Fused);
+    (c.humidity.tau_wet_s, c.humidity.tau_dry_s) = (0.0, 0.0);
+    c.humidity.uncertainty_pct = Some(0.4);
+    c.humidity.lag_offsets = Some(ipmc_core::calibration::lag_offsets::LagOffsets {
+        offset_pct: [-0.5, -0.2, 0.0, 0.2, 0.5],
+        sd_pct: [0.1, 0.1, 0.12, 0.15, 0.2],
+    });
     let calib = work.join("CALIB-fused.toml");
     std::fs::write(&calib, ipmc_core::calibration_file::to_text(&c)).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
     let elf = firmware::build_with(Variant::Qemu, Some(&calib))?;
