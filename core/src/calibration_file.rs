@@ -259,7 +259,11 @@ mod tests {
         let mut c = Calibration::default_preset();
         c.humidity.offset_pct = 0.9;
         c.humidity.uncertainty_pct = Some(0.3);
-        c.humidity.lag_offsets = Some(LagOffsets { offset_pct: [-0.46, -0.14, 0.12, 0.23, 0.28], sd_pct: [0.05, 0.05, 0.06, 0.07, 0.08] });
+        c.humidity.lag_offsets = Some(LagOffsets {
+            offset_pct: [-0.46, -0.14, 0.12, 0.23, 0.28],
+            sd_pct: [0.05, 0.05, 0.06, 0.07, 0.08],
+            weight: [0.1, 0.5, 0.25, 0.1, 0.05],
+        });
         let text = to_text(&c);
         assert!(text.contains("[humidity.lag_offsets]") && text.contains("lag_s = [10.0, 20.0, 40.0, 80.0, 160.0]"), "{text}");
         assert_eq!(parse(&text), Ok(c));
@@ -275,6 +279,11 @@ mod tests {
         assert!(zero.unwrap_err().to_string().contains("humidity.lag_offsets.sd_pct = 0"));
         let far = with(&format!("{grid}\noffset_pct = [0, 25, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]"));
         assert!(far.unwrap_err().to_string().contains("humidity.lag_offsets.offset_pct = 25"));
+        // Without weights (a table whose checks did not weigh the lags), equal ones.
+        let equal = with(&format!("{grid}\noffset_pct = [0, 0, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]")).unwrap();
+        assert_eq!(equal.humidity.lag_offsets.unwrap().weight, crate::calibration::lag_offsets::EQUAL_WEIGHTS);
+        let unnormed = with(&format!("{grid}\noffset_pct = [0, 0, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]\nweight = [1, 1, 1, 1, 1]"));
+        assert!(unnormed.unwrap_err().to_string().contains("humidity.lag_offsets.weight"));
     }
 
     #[test]

@@ -5,13 +5,16 @@
 //! A check measures the strip's humidity; the sensor's offset is that less the reading as the
 //! strip followed it, through the strip's hydration lag. Where the calibration's path gives no
 //! lag, the hygrometer weighs the lags of a grid ([`HYDRATION_LAGS_S`]), and while the air moves
-//! the reading through each differs: one check cannot tell them apart, so it does not give one
-//! offset but one per lag. Each is the check's strip humidity less the reading through that lag,
+//! the reading through each differs: one check's mean cannot tell them apart, so it does not
+//! give one offset but one per lag. Each is the check's strip humidity less the reading through that lag,
 //! with its 1σ given that lag (the check's own, without the spread over lags). The hygrometer
 //! corrects each lag's path by its own offset, with its own 1σ as the prior on the sensor's bias
 //! there: the spread over the lags is then counted once, in the mixture over them, not again in
-//! a prior that holds it too. `[humidity] offset_pct` and `uncertainty_pct` stay the offset over
-//! the lags as one (their mean and, spread included, 1σ), for a path read without the lags.
+//! a prior that holds it too. The check's course tells the lags apart as far as it can (the
+//! strip's humidity over parts of the check against the reading through each lag): `weight`,
+//! each lag's probability, the hygrometer's prior over them. `[humidity] offset_pct` and
+//! `uncertainty_pct` stay the offset over the lags as one (their mean and, spread included, 1σ,
+//! by those weights), for a path read without the lags.
 
 /// The strip's hydration lags the fusion weighs when the calibration's humidity path has none
 /// [s]. The strip's humidity follows the air through its water uptake, the reading follows it
@@ -35,19 +38,29 @@ pub struct LagOffsets {
     pub offset_pct: [f64; LAGS],
     /// Its 1σ given the lag [%RH].
     pub sd_pct: [f64; LAGS],
+    /// The lag's probability from the checks (summing to 1; without a course, equal).
+    pub weight: [f64; LAGS],
 }
+
+/// The grid's prior: every lag alike.
+pub const EQUAL_WEIGHTS: [f64; LAGS] = [1.0 / LAGS as f64; LAGS];
 
 impl LagOffsets {
     /// The lag `k` of the grid's offset beyond `offset_pct` and its 1σ.
     pub fn at(&self, k: usize) -> (f64, f64) {
         (self.offset_pct[k], self.sd_pct[k])
     }
+
+    /// The weights checked: each finite and within 0–1, their sum 1 within rounding.
+    pub fn weights_valid(&self) -> bool {
+        self.weight.iter().all(|w| w.is_finite() && (0.0..=1.0).contains(w)) && (self.weight.iter().sum::<f64>() - 1.0).abs() < 1e-6
+    }
 }
 
 #[cfg(feature = "serde")]
 mod file {
     extern crate std;
-    use super::{HYDRATION_LAGS_S, LAGS, LagOffsets};
+    use super::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS, LagOffsets};
     use std::string::String;
     use std::vec::Vec;
 
@@ -59,6 +72,9 @@ mod file {
         lag_s: Vec<f64>,
         offset_pct: Vec<f64>,
         sd_pct: Vec<f64>,
+        /// Absent in a file whose checks did not weigh the lags: equal.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        weight: Option<Vec<f64>>,
     }
 
     impl TryFrom<LagOffsetsFile> for LagOffsets {
@@ -73,14 +89,28 @@ mod file {
             let (Ok(offset), Ok(sd)) = (<[f64; LAGS]>::try_from(f.offset_pct), <[f64; LAGS]>::try_from(f.sd_pct)) else {
                 return Err(std::format!("humidity.lag_offsets: offset_pct and sd_pct have one number per lag ({LAGS})"));
             };
+            let weight = match f.weight {
+                None => EQUAL_WEIGHTS,
+                Some(w) => <[f64; LAGS]>::try_from(w)
+                    .map_err(|_| std::format!("humidity.lag_offsets.weight: one number per lag ({LAGS})"))?,
+            };
+            let t = LagOffsets { offset_pct: offset, sd_pct: sd, weight };
+            if !t.weights_valid() {
+                return Err(std::format!("humidity.lag_offsets.weight = {weight:?}: probabilities within 0–1 that sum to 1"));
+            }
             // Their ranges are the path's to check, with its offset's (`HumidityPath::validate`).
-            Ok(LagOffsets { offset_pct: offset, sd_pct: sd })
+            Ok(t)
         }
     }
 
     impl From<LagOffsets> for LagOffsetsFile {
         fn from(t: LagOffsets) -> Self {
-            LagOffsetsFile { lag_s: HYDRATION_LAGS_S.to_vec(), offset_pct: t.offset_pct.to_vec(), sd_pct: t.sd_pct.to_vec() }
+            LagOffsetsFile {
+                lag_s: HYDRATION_LAGS_S.to_vec(),
+                offset_pct: t.offset_pct.to_vec(),
+                sd_pct: t.sd_pct.to_vec(),
+                weight: Some(t.weight.to_vec()),
+            }
         }
     }
 }

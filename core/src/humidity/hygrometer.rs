@@ -9,7 +9,7 @@
 //! completion points bit for bit, as it replays its retunes.
 
 use crate::calibration::humidity_path::{SensorKind, relax};
-use crate::calibration::lag_offsets::{HYDRATION_LAGS_S, LAGS};
+use crate::calibration::lag_offsets::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS};
 use crate::calibration::laws::Calibration;
 #[cfg(test)]
 use crate::humidity::fusion::BIAS_MEMORY_S;
@@ -93,6 +93,9 @@ struct Lag<T> {
     /// the reading's accuracy.
     offset: T,
     prior_sd: T,
+    /// Its probability before the fits: the check's, where it weighed the lags by its course
+    /// ([`crate::calibration::lag_offsets`]); else the grid's equal one.
+    prior_weight: T,
     /// At the last snapshot.
     lagged: Option<T>,
     trend: Option<T>,
@@ -115,12 +118,13 @@ impl<T: Real> Lag<T> {
         self.trend = Some(averaged(self.trend, lagged, dt_s));
     }
 
-    fn new(tau_s: f64, (offset, prior_sd): (f64, f64)) -> Self {
+    fn new(tau_s: f64, (offset, prior_sd): (f64, f64), prior_weight: f64) -> Self {
         let z = T::zero();
         Lag {
             tau_s: T::lit(tau_s),
             offset: T::lit(offset),
             prior_sd: T::lit(prior_sd),
+            prior_weight: T::lit(prior_weight),
             lagged: None,
             trend: None,
             bias: SensorBias::new(),
@@ -197,10 +201,11 @@ impl<T: Real> BlockHygrometer<T> {
         // sensor's (none where the strip is the quicker, which a lag cannot undo).
         let accuracy_pct = calib.humidity.reading_uncertainty_pct(calib.humidity.sensor);
         let (lags, n_lags) = if calib.humidity.has_lag() {
-            ([Lag::new(0.0, (0.0, accuracy_pct)); LAGS], 1)
+            ([Lag::new(0.0, (0.0, accuracy_pct), 1.0); LAGS], 1)
         } else {
             let given = |k: usize| calib.humidity.lag_offsets.map_or((0.0, accuracy_pct), |t| t.at(k));
-            (core::array::from_fn(|k| Lag::new((HYDRATION_LAGS_S[k] - sensor_lag_s).max(0.0), given(k))), LAGS)
+            let weight = calib.humidity.lag_offsets.map_or(EQUAL_WEIGHTS, |t| t.weight);
+            (core::array::from_fn(|k| Lag::new((HYDRATION_LAGS_S[k] - sensor_lag_s).max(0.0), given(k), weight[k])), LAGS)
         };
         BlockHygrometer {
             spectrum: RunningSpectrum::new(fs_hz, &calib.band),
@@ -245,7 +250,7 @@ impl<T: Real> BlockHygrometer<T> {
         let prior = self.used_at.is_none() || self.n_lags == 1;
         for l in self.lags[..self.n_lags].iter() {
             if let Some(trend) = l.trend {
-                let p = if prior { T::one() } else { l.probability };
+                let p = if prior { l.prior_weight } else { l.probability };
                 path_avg += p * trend;
                 total += p;
             }
@@ -275,7 +280,7 @@ impl<T: Real> BlockHygrometer<T> {
             }
             let mut total = T::zero();
             for l in lags.iter_mut() {
-                l.probability = (-(l.probability - best) / T::lit(2.0)).exp();
+                l.probability = l.prior_weight * (-(l.probability - best) / T::lit(2.0)).exp();
                 total += l.probability;
             }
             for l in lags.iter_mut() {
@@ -335,11 +340,11 @@ impl<T: Real> BlockHygrometer<T> {
     }
 
     /// The hydration lags the reading path is put through, each with its probability after the
-    /// last fit used [s]: before any, the prior's equal weights; one, of probability 1, where the
-    /// calibration's path has its own lag.
+    /// last fit used [s]: before any, the prior's (a check's, else equal); one, of probability 1,
+    /// where the calibration's path has its own lag.
     pub fn lag_weights(&self) -> impl Iterator<Item = (T, T)> + '_ {
-        let prior = if self.used_at.is_none() || self.n_lags == 1 { Some(T::one() / T::lit(self.n_lags as f64)) } else { None };
-        self.lags[..self.n_lags].iter().map(move |l| (l.tau_s, prior.unwrap_or(l.probability)))
+        let prior = self.used_at.is_none() || self.n_lags == 1;
+        self.lags[..self.n_lags].iter().map(move |l| (l.tau_s, if prior { l.prior_weight } else { l.probability }))
     }
 
     /// The mixture over the lags of the reading path through each, with its offset, less its bias. Not inlined,
@@ -423,7 +428,7 @@ mod tests {
         let c = Calibration::default_preset();
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         if !weigh_lags {
-            h.lags = [Lag::new(0.0, (0.0, 3.5)); LAGS];
+            h.lags = [Lag::new(0.0, (0.0, 3.5), 1.0); LAGS];
             h.n_lags = 1;
         }
         let (dt, mut strip, mut seen) = (32.0 / 2000.0, 78.0, 78.0);
@@ -481,7 +486,7 @@ mod tests {
         c.humidity.sensor_lag_s = Some(0.0);
         c.humidity.uncertainty_pct = Some(spread.hypot(0.05));
         if per_lag {
-            c.humidity.lag_offsets = Some(LagOffsets { offset_pct: given.map(|g| g - mean), sd_pct: [0.05; LAGS] });
+            c.humidity.lag_offsets = Some(LagOffsets { offset_pct: given.map(|g| g - mean), sd_pct: [0.05; LAGS], weight: EQUAL_WEIGHTS });
         }
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         let (mut strip, mut seen, mut path) = (78.0, 78.0, 79.0 + mean);

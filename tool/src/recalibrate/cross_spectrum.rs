@@ -44,7 +44,7 @@ struct Segments {
     freq_hz: Vec<f64>,
 }
 
-fn segments(current: &[f64], accel: &[f64], fs_hz: f64, band_hz: (f64, f64)) -> Segments {
+fn segments(current: &[f64], accel: &[f64], fs_hz: f64, band_hz: (f64, f64), t0_s: f64) -> Segments {
     let n = (SEGMENT_S * fs_hz).round() as usize;
     let hop = n / 2;
     let window: Vec<f64> = (0..n).map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos()).collect();
@@ -61,7 +61,7 @@ fn segments(current: &[f64], accel: &[f64], fs_hz: f64, band_hz: (f64, f64)) -> 
     };
     let mut start = 0;
     while start + n <= current.len().min(accel.len()) {
-        out.t_s.push((start + n / 2) as f64 / fs_hz);
+        out.t_s.push(t0_s + (start + n / 2) as f64 / fs_hz);
         out.current.push(spectrum(&current[start..start + n]));
         out.accel.push(spectrum(&accel[start..start + n]));
         start += hop;
@@ -94,10 +94,8 @@ fn total_coherence(s: &Segments, rate: f64) -> f64 {
 /// The check's response between `band_hz`, its rate difference found on a grid of 1 ppm and
 /// refined to 0.05 ppm.
 pub fn measure(current: &[f64], accel: &[f64], fs_hz: f64, band_hz: (f64, f64)) -> Result<Measured> {
-    let s = segments(current, accel, fs_hz, band_hz);
-    if s.t_s.len() < 8 {
-        bail!("{} s of check: at least 4.5 s are needed for 8 half-overlapping segments of {SEGMENT_S} s", current.len() as f64 / fs_hz);
-    }
+    let s = segments(current, accel, fs_hz, band_hz, 0.0);
+    enough(&s, current.len() as f64 / fs_hz)?;
     let mut best = (0.0, f64::NEG_INFINITY);
     let steps = RATE_SEARCH_PPM as i64;
     for k in -steps..=steps {
@@ -113,8 +111,27 @@ pub fn measure(current: &[f64], accel: &[f64], fs_hz: f64, band_hz: (f64, f64)) 
             best = (ppm, c);
         }
     }
-    let rate_ppm = best.0;
-    let (cross, saa, sii) = sums(&s, rate_ppm * 1e-6);
+    Ok(estimate(&s, best.0))
+}
+
+/// The response of a part of a check that starts `t0_s` into it, with the check's rate
+/// difference `rate_ppm`: its phase in the check's time, as the whole check's fit reads it.
+pub fn measure_part(current: &[f64], accel: &[f64], fs_hz: f64, band_hz: (f64, f64), t0_s: f64, rate_ppm: f64) -> Result<Measured> {
+    let s = segments(current, accel, fs_hz, band_hz, t0_s);
+    enough(&s, current.len() as f64 / fs_hz)?;
+    Ok(estimate(&s, rate_ppm))
+}
+
+fn enough(s: &Segments, seconds: f64) -> Result<()> {
+    if s.t_s.len() < 8 {
+        bail!("{seconds} s of check: at least 4.5 s are needed for 8 half-overlapping segments of {SEGMENT_S} s");
+    }
+    Ok(())
+}
+
+/// H₁ per bin with the segments turned back by the rate difference, and its 1σ.
+fn estimate(s: &Segments, rate_ppm: f64) -> Measured {
+    let (cross, saa, sii) = sums(s, rate_ppm * 1e-6);
     let n_eff = s.t_s.len() as f64 / (1.0 + 2.0 * OVERLAP_CORRELATION * OVERLAP_CORRELATION);
     let mut m = Measured { freq_hz: vec![], ratio: vec![], sd_ln: vec![], coherence: vec![], rate_ppm, segments_eff: n_eff };
     for b in 0..s.freq_hz.len() {
@@ -127,7 +144,7 @@ pub fn measure(current: &[f64], accel: &[f64], fs_hz: f64, band_hz: (f64, f64)) 
         m.sd_ln.push(((1.0 - g2) / (2.0 * n_eff * g2)).sqrt());
         m.coherence.push(g2);
     }
-    Ok(m)
+    m
 }
 
 #[cfg(test)]

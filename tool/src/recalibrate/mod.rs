@@ -6,6 +6,7 @@
 //! offset, the drift factors, the electrode's RC line) and the new calibration with its
 //! provenance ([`update`]). The physics is the core's, the least squares the fit crate's.
 
+pub mod course;
 pub mod cross_spectrum;
 pub mod response_fit;
 pub mod update;
@@ -87,39 +88,47 @@ pub const READING_RESOLUTION_PCT: f64 = 0.05;
 /// strip's hydration lag beyond the sensor's own (the calibration's, else each of the lags the
 /// hygrometer weighs, `HYDRATION_LAGS_S`, equally likely), averaged over the check as its
 /// spectra are. Through each lag of the grid (none where the calibration has its own), their
-/// mean, and their spread with the reading's resolution [%RH]: on a ramp the lags part, and that
-/// is what one check cannot tell.
+/// mean, and their spread with the reading's resolution [%RH]: on a ramp the lags part, and
+/// that is what one check's mean cannot tell.
 pub fn reading_through_lags(calib: &Calibration, series: &TimeSeries) -> (Vec<f64>, f64, f64) {
     use ipmc_core::calibration::lag_offsets::HYDRATION_LAGS_S;
-    use ipmc_core::humidity::block::BlockHumidity;
-    let kind = named_kind(calib, series);
-    let sensor_lag = kind.map_or(0.0, |k| calib.humidity.sensor_lag_s_for(k));
-    let lags: Vec<f64> =
-        if calib.humidity.has_lag() { vec![f64::NAN] } else { HYDRATION_LAGS_S.iter().map(|t| (t - sensor_lag).max(0.0)).collect() };
-    let block = (series.fs_hz / 10.0).round().max(1.0) as usize;
-    let means: Vec<f64> = lags
-        .iter()
-        .map(|&tau| {
-            let mut c = *calib;
-            if !tau.is_nan() {
-                (c.humidity.tau_wet_s, c.humidity.tau_dry_s) = (tau, tau);
-            }
-            let mut path = BlockHumidity::<f64>::new(&c, 0.0);
-            let mut sum = 0.0;
-            let mut n = 0.0;
-            for (k, chunk) in series.rh_pct.chunks(block).enumerate() {
-                let read = chunk.iter().sum::<f64>() / chunk.len() as f64;
-                path.advance(read, if k == 0 { 0.0 } else { block as f64 / series.fs_hz });
-                sum += path.strip_pct().unwrap_or(read);
-                n += 1.0;
-            }
-            sum / n
-        })
-        .collect();
+    let paths: Vec<Vec<f64>> = if calib.humidity.has_lag() {
+        vec![path_through(calib, series, None)]
+    } else {
+        HYDRATION_LAGS_S.iter().map(|&t| path_through(calib, series, Some(t))).collect()
+    };
+    let means: Vec<f64> = paths.iter().map(|p| p.iter().sum::<f64>() / p.len() as f64).collect();
     let mean = means.iter().sum::<f64>() / means.len() as f64;
     let spread = (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / means.len() as f64).sqrt();
-    let per_lag = if calib.humidity.has_lag() { vec![] } else { means };
+    let per_lag = if calib.humidity.has_lag() { vec![] } else { means.clone() };
     (per_lag, mean, spread.hypot(READING_RESOLUTION_PCT))
+}
+
+/// Samples of a check per value of [`path_through`]: a tenth of a second.
+pub fn path_block(series: &TimeSeries) -> usize {
+    (series.fs_hz / 10.0).round().max(1.0) as usize
+}
+
+/// The reading over a check, corrected, through the strip's hydration lag `strip_lag_s` behind
+/// the air (the path is lagged by it less the sensor's own; None: the calibration's path as it
+/// is), per [`path_block`] [%RH].
+pub fn path_through(calib: &Calibration, series: &TimeSeries, strip_lag_s: Option<f64>) -> Vec<f64> {
+    use ipmc_core::humidity::block::BlockHumidity;
+    let mut c = *calib;
+    if let Some(t) = strip_lag_s {
+        let sensor_lag = named_kind(calib, series).map_or(0.0, |k| calib.humidity.sensor_lag_s_for(k));
+        let tau = (t - sensor_lag).max(0.0);
+        (c.humidity.tau_wet_s, c.humidity.tau_dry_s) = (tau, tau);
+    }
+    let block = path_block(series);
+    let mut path = BlockHumidity::<f64>::new(&c, 0.0);
+    let mut out = vec![];
+    for (k, chunk) in series.rh_pct.chunks(block).enumerate() {
+        let read = chunk.iter().sum::<f64>() / chunk.len() as f64;
+        path.advance(read, if k == 0 { 0.0 } else { block as f64 / series.fs_hz });
+        out.push(path.strip_pct().unwrap_or(read));
+    }
+    out
 }
 
 fn named_kind(calib: &Calibration, series: &TimeSeries) -> Option<ipmc_core::calibration::humidity_path::SensorKind> {
@@ -138,6 +147,10 @@ pub struct Outcome {
     /// The reading's accuracy the offset's prior was [%RH], and who named the sensor.
     pub sensor_sd_pct: f64,
     pub named: Named,
+    /// Per check its parts' humidities under the chosen fit ([`course`]), and the hydration
+    /// lags' probabilities they give (None without parts, or where the path has its own lag).
+    pub parts: Vec<Vec<course::Part>>,
+    pub lag_weights: Option<Vec<f64>>,
 }
 
 impl Outcome {
@@ -168,7 +181,14 @@ pub fn recalibrate_checks(calib: &Calibration, checks: Vec<Check>, drift_sd: f64
     let fit = |h| fit_checks(calib, &data, h, sensor_sd_pct, drift_sd).with_context(|| format!("the checks' fit ({h:?}) found no optimum"));
     let as_calibrated = fit(Hypothesis::AsCalibrated)?;
     let drifted = fit(Hypothesis::Drifted)?;
-    Ok(Outcome { checks, as_calibrated, drifted, sensor_sd_pct, named })
+    let mut o = Outcome { checks, as_calibrated, drifted, sensor_sd_pct, named, parts: vec![], lag_weights: None };
+    let chosen = o.chosen();
+    let parts = o.checks.iter().enumerate().map(|(c, check)| course::parts(calib, chosen, c, check)).collect::<Result<Vec<_>>>()?;
+    if !calib.humidity.has_lag() {
+        o.lag_weights = course::lag_weights(calib, &o.checks, &parts);
+    }
+    o.parts = parts;
+    Ok(o)
 }
 
 #[cfg(test)]

@@ -370,6 +370,22 @@ impl CheckFit {
         (c(i, i) - c(i, o) * c(i, o) / c(o, o).max(f64::MIN_POSITIVE)).max(0.0).sqrt()
     }
 
+    /// A response measured over part of check `c` against this fit's model of that check with
+    /// its humidity at `rh_pct` and everything else where the fit put it: each bin's ln misfit,
+    /// real and imaginary parts, over its 1σ. The strip's parameters, the electrode and the
+    /// accelerometer are one through a check; its humidity is what may move within it.
+    pub fn part_residuals(&self, calib: &Calibration, c: usize, rh_pct: f64, part: &Measured) -> Vec<f64> {
+        let mut theta = self.fit.estimates.clone();
+        theta[self.layout.check(c)[0]] = rh_pct;
+        let p = strip_params(calib, &self.layout, &theta, c);
+        let mut out = Vec::with_capacity(2 * part.freq_hz.len());
+        for (b, &f) in part.freq_hz.iter().enumerate() {
+            let misfit = (part.ratio[b] / model(&p, &self.layout, &theta, c, f)).ln();
+            out.extend([misfit.re / part.sd_ln[b], misfit.im / part.sd_ln[b]]);
+        }
+        out
+    }
+
     /// Whether the checks, not the prior, decide the drift of parameter `k`: its 1σ under half
     /// the drift's prior.
     pub fn decides(&self, k: usize) -> bool {

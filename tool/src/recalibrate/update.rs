@@ -4,13 +4,13 @@
 //! and its provenance (the bench calibration, the checks and their dates) in `# provenance:`
 //! lines that `ipmc compensate` prints.
 
-use ipmc_core::calibration::checked::Checked;
+use ipmc_core::calibration::checked::{Checked, MAX_CHECKS};
 use ipmc_core::{Calibration, LawKind, ParamName};
 use std::fmt::Write as _;
 
 use super::response_fit::{CheckData, CheckFit, DRIFTING, Hypothesis};
 use super::{Check, Outcome, READING_RESOLUTION_PCT};
-use ipmc_core::calibration::lag_offsets::{HYDRATION_LAGS_S, LAGS, LagOffsets};
+use ipmc_core::calibration::lag_offsets::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS, LagOffsets};
 
 /// The key that starts a provenance line.
 pub const PROVENANCE: &str = "# provenance:";
@@ -113,6 +113,27 @@ pub fn table(o: &Outcome) -> String {
             .map(|(k, lag)| format!("{lag:.0} s {:+.2} ± {:.2}", offset + t.offset_pct[k], t.sd_pct[k]))
             .collect();
         let _ = writeln!(s, "sensor offset given the strip's hydration lag, {:?} (%RH): {}", chosen.hypothesis, each.join(", "));
+        for (check, parts) in o.checks.iter().zip(&o.parts).filter(|(_, p)| !p.is_empty()) {
+            let each: Vec<String> = parts.iter().map(|p| format!("{:.2} ± {:.2}", p.rh_pct, p.sd_pct)).collect();
+            let name = check.path.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+            let _ = writeln!(s, "the strip's humidity over {name} in parts of {:.0} s (%RH): {}", super::course::PART_S, each.join(", "));
+        }
+        match &o.lag_weights {
+            Some(_) => {
+                let each: Vec<String> = HYDRATION_LAGS_S.iter().zip(t.weight).map(|(lag, w)| format!("{lag:.0} s {w:.2}")).collect();
+                let (mean, sd) = over_the_lags(&t);
+                let _ = writeln!(
+                    s,
+                    "the strip's hydration lag, from the checks' course against the reading through each: {}; the offset over them {:+.2} ± {:.2} %RH",
+                    each.join(", "),
+                    offset + mean,
+                    sd
+                );
+            }
+            None => {
+                let _ = writeln!(s, "the strip's hydration lag: the checks are too short for a course (two parts of {:.0} s), every lag alike", super::course::PART_S);
+            }
+        }
     }
     if o.checks.len() == 1 || humidity_span(o) < 5.0 {
         let _ = writeln!(
@@ -172,17 +193,41 @@ fn humidity_span(o: &Outcome) -> f64 {
 }
 
 /// What the checks left unknown of the strip, for the file's `[checked]` table: the chosen fit's
-/// posterior axes given the offset, each check's humidity, and what [`updated`] widened the
-/// file's 1σ by (the drift the checks leave, as the strip's own hygrometer weighs it).
+/// posterior axes given the offset, the humidities the checks measured the strip's response at,
+/// and what [`updated`] widened the file's 1σ by (the drift the checks leave, as the strip's own
+/// hygrometer weighs it).
 pub fn checked(o: &Outcome) -> Option<Checked> {
     let f = o.chosen();
-    let rh: Vec<f64> = (0..o.checks.len()).map(|c| f.value(f.layout.check(c)[0]).0).collect();
     let drift_sd = std::array::from_fn(|k| match f.hypothesis {
         Hypothesis::Drifted if widened(DRIFTING[k]) => f.factor_sd_given_offset(k),
         _ => 0.0,
     });
-    Checked::new(&rh, &f.axes_given_offset(), drift_sd).ok()
+    Checked::new(&measured_at(o), &f.axes_given_offset(), drift_sd).ok()
 }
+
+/// The humidities the checks measured the strip's response at, in the file's frame: each part's
+/// where a check has parts (the strip's humidity moved during it, and the response of each part
+/// is measured at its own, [`super::course`]), else the check's. Past the table's room, each
+/// check's driest and wettest part, then each check's own.
+fn measured_at(o: &Outcome) -> Vec<f64> {
+    let f = o.chosen();
+    let whole = |c: usize| f.value(f.layout.check(c)[0]).0;
+    let per_check = |c: usize, ends: bool| -> Vec<f64> {
+        let parts: Vec<f64> = o.parts.get(c).map_or(vec![], |p| p.iter().map(|p| p.rh_pct).collect());
+        match (parts.is_empty(), ends) {
+            (true, _) => vec![whole(c)],
+            (false, false) => parts,
+            (false, true) => vec![parts.iter().copied().fold(f64::INFINITY, f64::min), parts.iter().copied().fold(f64::NEG_INFINITY, f64::max)],
+        }
+    };
+    let every: Vec<f64> = (0..o.checks.len()).flat_map(|c| per_check(c, false)).collect();
+    if every.len() <= MAX_CHECKS {
+        return every;
+    }
+    let ends: Vec<f64> = (0..o.checks.len()).flat_map(|c| per_check(c, true)).collect();
+    if ends.len() <= MAX_CHECKS { ends } else { (0..o.checks.len()).map(whole).collect() }
+}
+
 
 /// Whether [`updated`] widens the file's 1σ of `name` under drift (the parameters `[uncertainty]`
 /// speaks of).
@@ -231,9 +276,11 @@ pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
         }
     }
     let (offset, _) = f.value(f.layout.offset());
-    c.humidity.offset_pct += offset;
-    c.humidity.uncertainty_pct = Some(f.offset_sd_given_factors().max(0.01));
-    c.humidity.lag_offsets = lag_offsets(o, offset);
+    let table = lag_offsets(o, offset);
+    let (over_lags, sd) = table.map_or((0.0, f.offset_sd_given_factors()), |t| over_the_lags(&t));
+    c.humidity.offset_pct += offset + over_lags;
+    c.humidity.uncertainty_pct = Some(sd.max(0.01));
+    c.humidity.lag_offsets = table.map(|t| LagOffsets { offset_pct: t.offset_pct.map(|x| x - over_lags), ..t });
     if let super::Named::Calibration(k) | super::Named::Recording(k) = o.named {
         c.humidity.sensor = Some(k);
     }
@@ -242,18 +289,28 @@ pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
 
 /// The offset given each hydration lag of the hygrometer's grid, beyond the checks' `offset`
 /// over the lags as one, and its 1σ given the lag: each check's strip humidity less the reading
-/// through that lag ([`ipmc_core::calibration::lag_offsets`]). None where the calibration's path
-/// has its own lag, or where the fit's posterior is singular.
+/// through that lag ([`ipmc_core::calibration::lag_offsets`]); each lag's probability from the
+/// checks' course ([`super::course`]; equal without one). None where the calibration's path has
+/// its own lag, or where the fit's posterior is singular.
 pub fn lag_offsets(o: &Outcome, offset: f64) -> Option<LagOffsets> {
     let f = o.chosen();
     let data: Vec<CheckData> = o.checks.iter().map(Check::data).collect();
-    let mut t = LagOffsets { offset_pct: [0.0; LAGS], sd_pct: [0.0; LAGS] };
+    let weight = o.lag_weights.as_ref().and_then(|w| <[f64; LAGS]>::try_from(w.as_slice()).ok()).unwrap_or(EQUAL_WEIGHTS);
+    let mut t = LagOffsets { offset_pct: [0.0; LAGS], sd_pct: [0.0; LAGS], weight };
     for k in 0..LAGS {
         let through: Vec<f64> = o.checks.iter().map(|c| c.through_lags_pct.get(k).copied()).collect::<Option<_>>()?;
         let (given, sd) = f.offset_given_lag(&data, &through, READING_RESOLUTION_PCT)?;
         (t.offset_pct[k], t.sd_pct[k]) = (given - offset, sd.max(0.01));
     }
     Some(t)
+}
+
+/// The offset over the lags as one, by their weights, beyond the table's reference, and its 1σ
+/// with the spread over the lags: what a path read without the lags is corrected by.
+pub fn over_the_lags(t: &LagOffsets) -> (f64, f64) {
+    let mean: f64 = (0..LAGS).map(|k| t.weight[k] * t.offset_pct[k]).sum();
+    let var: f64 = (0..LAGS).map(|k| t.weight[k] * (t.sd_pct[k].powi(2) + (t.offset_pct[k] - mean).powi(2))).sum();
+    (mean, var.sqrt())
 }
 
 /// The new calibration file's text: provenance lines, the bench calibration's own comments, the

@@ -113,6 +113,7 @@ pub fn qemu_host_equivalence_fused() -> Result<()> {
     c.humidity.lag_offsets = Some(ipmc_core::calibration::lag_offsets::LagOffsets {
         offset_pct: [-0.5, -0.2, 0.0, 0.2, 0.5],
         sd_pct: [0.1, 0.1, 0.12, 0.15, 0.2],
+        weight: [0.1, 0.4, 0.3, 0.15, 0.05],
     });
     let calib = work.join("CALIB-fused.toml");
     std::fs::write(&calib, ipmc_core::calibration_file::to_text(&c)).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
