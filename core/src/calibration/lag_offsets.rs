@@ -91,8 +91,9 @@ mod file {
             };
             let weight = match f.weight {
                 None => EQUAL_WEIGHTS,
-                Some(w) => <[f64; LAGS]>::try_from(w)
-                    .map_err(|_| std::format!("humidity.lag_offsets.weight: one number per lag ({LAGS})"))?,
+                Some(w) => {
+                    <[f64; LAGS]>::try_from(w).map_err(|_| std::format!("humidity.lag_offsets.weight: one number per lag ({LAGS})"))?
+                }
             };
             let t = LagOffsets { offset_pct: offset, sd_pct: sd, weight };
             if !t.weights_valid() {

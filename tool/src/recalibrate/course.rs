@@ -62,11 +62,12 @@ pub fn parts(calib: &Calibration, f: &CheckFit, c: usize, check: &Check) -> Resu
     for p in 0..count {
         let (a, b) = (p * n / count, (p + 1) * n / count);
         let measured = measure_part(&s.current_a[a..b], &accel[a..b], s.fs_hz, band, a as f64 / s.fs_hz, check.measured.rate_ppm)?;
-        let chi2 = |h: f64| f.part_residuals(calib, c, h, &measured).iter().map(|r| r * r).sum::<f64>();
+        let chi2 = |h: f64| f.part_residuals(calib, c, h, &measured, &check.measured, count).iter().map(|r| r * r).sum::<f64>();
         let Some((h, curvature)) = newton(&chi2, h0) else { return Ok(vec![]) };
-        // The bins' 1σ widened as the whole check's fit widens them: by the misfit beyond them
-        // and by the bins' correlation along frequency.
-        let res = f.part_residuals(calib, c, h, &measured);
+        // Against the whole check's response, what the model leaves of the strip is common and
+        // drops out; the bins' 1σ are still widened as the whole check's fit widens them, by
+        // any misfit beyond them and by the bins' correlation along frequency.
+        let res = f.part_residuals(calib, c, h, &measured, &check.measured, count);
         let every = |k: usize| res.iter().skip(k).step_by(2).copied().collect::<Vec<f64>>();
         let tau = 0.5 * (autocorrelation_time(&every(0)) + autocorrelation_time(&every(1)));
         let scale2 = (chi2(h) / (res.len() as f64 - 1.0)).max(1.0) * tau.max(1.0);
@@ -183,11 +184,10 @@ mod tests {
         let slow = course_chi2(&parts, &[vec![71.0, 71.1, 71.2]]);
         assert!(quick < 1e-9 && slow > 10.0, "{quick} {slow}");
         // Two checks add their evidence; a check of one part adds none.
-        let two = course_chi2(&[parts[0].clone(), parts[0].clone(), vec![part(70.0, 0.01)]], &[
-            vec![71.0, 71.1, 71.2],
-            vec![71.0, 71.1, 71.2],
-            vec![60.0],
-        ]);
+        let two = course_chi2(
+            &[parts[0].clone(), parts[0].clone(), vec![part(70.0, 0.01)]],
+            &[vec![71.0, 71.1, 71.2], vec![71.0, 71.1, 71.2], vec![60.0]],
+        );
         assert!((two - 2.0 * slow).abs() < 1e-9);
     }
 

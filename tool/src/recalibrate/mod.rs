@@ -230,6 +230,40 @@ mod tests {
         assert!(stated < bench, "case {seed}: stated {:.2} % after the check, {:.2} % by [uncertainty]", 100.0 * stated, 100.0 * bench);
     }
 
+    /// A minute's check while the air wanders: the parts' course weighs the lags, and the grid's
+    /// mixture lies about the strip's true lag (25 s), the grid's 20 and 40 s around it the
+    /// likeliest; the offset over the lags moves to the weighted one.
+    #[test]
+    fn a_checks_course_tells_the_strips_lag() {
+        use ipmc_core::calibration::lag_offsets::HYDRATION_LAGS_S;
+        let calib = Calibration::default_preset();
+        for seed in [7u64, 8] {
+            let plan = FieldPlan {
+                seed,
+                seconds: 60.0,
+                fs_hz: 2000.0,
+                rh_level_pct: 72.0,
+                wander_pct: 1.0,
+                tau_strip_s: 25.0,
+                sensor: SensorKind::Sht4x,
+                a_rms: 12.0,
+                tones: 0,
+                current_noise_a_per_rthz: AMPLIFIER_NOISE_A_PER_RTHZ,
+            };
+            let accel = Accelerometer::drawn(&mut SplitMix64(seed + 100));
+            let field = simulate_check(&calib, &plan, &ExactModel, &accel);
+            let check = check_of(Path::new("own.csv"), field.ts, &calib).unwrap();
+            let o = recalibrate_checks(&calib, vec![check], DRIFT_PRIOR_SD).unwrap();
+            assert_eq!(o.parts[0].len(), 3, "case {seed}");
+            let w = o.lag_weights.clone().expect("a course");
+            let lag: f64 = w.iter().zip(HYDRATION_LAGS_S).map(|(w, l)| w * l).sum();
+            assert!((12.0..50.0).contains(&lag) && w[1] + w[2] > 0.6, "case {seed}: weights {w:?}, mean lag {lag:.1} s");
+            let t = update::updated(&calib, &o).humidity.lag_offsets.unwrap();
+            assert_eq!(t.weight.to_vec(), w, "case {seed}");
+            assert!(update::over_the_lags(&t).0.abs() < 1e-9, "case {seed}: the table's offsets about their weighted mean");
+        }
+    }
+
     /// The simulator's aged strips, checked at two humidities: new and with Y 8 % up, Cs 5 %
     /// down and its electrodes cracked (τ 150 µs). The strip's humidity comes back within 2σ,
     /// and so does every drift the check decides, the electrode's τ where it decides it, and

@@ -370,18 +370,26 @@ impl CheckFit {
         (c(i, i) - c(i, o) * c(i, o) / c(o, o).max(f64::MIN_POSITIVE)).max(0.0).sqrt()
     }
 
-    /// A response measured over part of check `c` against this fit's model of that check with
-    /// its humidity at `rh_pct` and everything else where the fit put it: each bin's ln misfit,
-    /// real and imaginary parts, over its 1σ. The strip's parameters, the electrode and the
-    /// accelerometer are one through a check; its humidity is what may move within it.
-    pub fn part_residuals(&self, calib: &Calibration, c: usize, rh_pct: f64, part: &Measured) -> Vec<f64> {
-        let mut theta = self.fit.estimates.clone();
-        theta[self.layout.check(c)[0]] = rh_pct;
-        let p = strip_params(calib, &self.layout, &theta, c);
+    /// A response measured over part of check `c` (`part`, one of `count` equal parts of it)
+    /// against the whole check's (`whole`), as this fit's model of that check says they differ
+    /// when the strip's humidity is `rh_pct` in the part and where the fit put it over the whole:
+    /// each bin's ln misfit, real and imaginary parts, over its 1σ. The strip's parameters, its
+    /// electrode and the accelerometer are one through a check and what the model leaves of them
+    /// is common to the part and the whole: only the humidity moves within a check. The part's
+    /// noise is in the whole's too: their difference scatters by √(1 − 1/count) of the part's.
+    pub fn part_residuals(&self, calib: &Calibration, c: usize, rh_pct: f64, part: &Measured, whole: &Measured, count: usize) -> Vec<f64> {
+        let theta = &self.fit.estimates;
+        let mut moved = theta.clone();
+        moved[self.layout.check(c)[0]] = rh_pct;
+        let (p_whole, p_part) = (strip_params(calib, &self.layout, theta, c), strip_params(calib, &self.layout, &moved, c));
+        let share = (1.0 - 1.0 / count as f64).max(0.0).sqrt();
         let mut out = Vec::with_capacity(2 * part.freq_hz.len());
         for (b, &f) in part.freq_hz.iter().enumerate() {
-            let misfit = (part.ratio[b] / model(&p, &self.layout, &theta, c, f)).ln();
-            out.extend([misfit.re / part.sd_ln[b], misfit.im / part.sd_ln[b]]);
+            let Some(w) = whole.freq_hz.iter().position(|&g| (g - f).abs() < 1e-9) else { continue };
+            let model = model(&p_part, &self.layout, &moved, c, f) / model(&p_whole, &self.layout, theta, c, f);
+            let misfit = (part.ratio[b] / whole.ratio[w] / model).ln();
+            let sd = share * part.sd_ln[b];
+            out.extend([misfit.re / sd, misfit.im / sd]);
         }
         out
     }

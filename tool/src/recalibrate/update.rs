@@ -131,7 +131,11 @@ pub fn table(o: &Outcome) -> String {
                 );
             }
             None => {
-                let _ = writeln!(s, "the strip's hydration lag: the checks are too short for a course (two parts of {:.0} s), every lag alike", super::course::PART_S);
+                let _ = writeln!(
+                    s,
+                    "the strip's hydration lag: the checks are too short for a course (two parts of {:.0} s), every lag alike",
+                    super::course::PART_S
+                );
             }
         }
     }
@@ -217,7 +221,9 @@ fn measured_at(o: &Outcome) -> Vec<f64> {
         match (parts.is_empty(), ends) {
             (true, _) => vec![whole(c)],
             (false, false) => parts,
-            (false, true) => vec![parts.iter().copied().fold(f64::INFINITY, f64::min), parts.iter().copied().fold(f64::NEG_INFINITY, f64::max)],
+            (false, true) => {
+                vec![parts.iter().copied().fold(f64::INFINITY, f64::min), parts.iter().copied().fold(f64::NEG_INFINITY, f64::max)]
+            }
         }
     };
     let every: Vec<f64> = (0..o.checks.len()).flat_map(|c| per_check(c, false)).collect();
@@ -227,7 +233,6 @@ fn measured_at(o: &Outcome) -> Vec<f64> {
     let ends: Vec<f64> = (0..o.checks.len()).flat_map(|c| per_check(c, true)).collect();
     if ends.len() <= MAX_CHECKS { ends } else { (0..o.checks.len()).map(whole).collect() }
 }
-
 
 /// Whether [`updated`] widens the file's 1σ of `name` under drift (the parameters `[uncertainty]`
 /// speaks of).
