@@ -23,10 +23,10 @@ use anyhow::Result;
 use ipmc_core::Calibration;
 use ipmc_core::calibration::lag_offsets::HYDRATION_LAGS_S;
 use ipmc_fit::stats::autocorrelation_time;
+use ipmc_recording::TimeSeries;
 
-use super::cross_spectrum::measure_part;
+use super::cross_spectrum::{Measured, measure_part};
 use super::response_fit::CheckFit;
-use super::{Check, check_band_hz, path_block, path_through};
 
 /// A part's length [s]: long enough that its response (Welch segments of a second) fixes its
 /// humidity to a few hundredths of a %RH, short enough that a minute's check has three.
@@ -46,10 +46,10 @@ pub struct Part {
     pub samples: (usize, usize),
 }
 
-/// The parts of check `c` (of the fit `f`), in time order; empty where the check is too short
-/// for two parts or a part's response cannot be fitted.
-pub fn parts(calib: &Calibration, f: &CheckFit, c: usize, check: &Check) -> Result<Vec<Part>> {
-    let s = &check.series;
+/// The parts of check `c` of the fit `f` (its recording `s`, its whole response `whole`, read
+/// over `band`), in time order; empty where the check is too short for two parts or a part's
+/// response cannot be fitted.
+pub fn parts(calib: &Calibration, f: &CheckFit, c: usize, s: &TimeSeries, whole: &Measured, band: (f64, f64)) -> Result<Vec<Part>> {
     let Some(accel) = s.accel_mps2.as_ref() else { return Ok(vec![]) };
     let n = s.current_a.len();
     let count = (n as f64 / s.fs_hz / PART_S).floor() as usize;
@@ -57,17 +57,16 @@ pub fn parts(calib: &Calibration, f: &CheckFit, c: usize, check: &Check) -> Resu
         return Ok(vec![]);
     }
     let (h0, _) = f.value(f.layout.check(c)[0]);
-    let band = check_band_hz(calib, s.fs_hz);
     let mut out = vec![];
     for p in 0..count {
         let (a, b) = (p * n / count, (p + 1) * n / count);
-        let measured = measure_part(&s.current_a[a..b], &accel[a..b], s.fs_hz, band, a as f64 / s.fs_hz, check.measured.rate_ppm)?;
-        let chi2 = |h: f64| f.part_residuals(calib, c, h, &measured, &check.measured, count).iter().map(|r| r * r).sum::<f64>();
+        let measured = measure_part(&s.current_a[a..b], &accel[a..b], s.fs_hz, band, a as f64 / s.fs_hz, whole.rate_ppm)?;
+        let chi2 = |h: f64| f.part_residuals(calib, c, h, &measured, whole, count).iter().map(|r| r * r).sum::<f64>();
         let Some((h, curvature)) = newton(&chi2, h0) else { return Ok(vec![]) };
         // Against the whole check's response, what the model leaves of the strip is common and
         // drops out; the bins' 1σ are still widened as the whole check's fit widens them, by
         // any misfit beyond them and by the bins' correlation along frequency.
-        let res = f.part_residuals(calib, c, h, &measured, &check.measured, count);
+        let res = f.part_residuals(calib, c, h, &measured, whole, count);
         let every = |k: usize| res.iter().skip(k).step_by(2).copied().collect::<Vec<f64>>();
         let tau = 0.5 * (autocorrelation_time(&every(0)) + autocorrelation_time(&every(1)));
         let scale2 = (chi2(h) / (res.len() as f64 - 1.0)).max(1.0) * tau.max(1.0);
@@ -119,9 +118,10 @@ pub fn course_chi2(parts: &[Vec<Part>], through: &[Vec<f64>]) -> f64 {
     chi2
 }
 
-/// The grid lags' probabilities from the checks' courses (module doc); None where no check has
-/// two parts.
-pub fn lag_weights(calib: &Calibration, checks: &[Check], parts: &[Vec<Part>]) -> Option<Vec<f64>> {
+/// The grid lags' probabilities from the checks' courses (module doc), `through(c, lag)` the
+/// reading through the strip's `lag` averaged over each part of check `c`; None where no check
+/// has two parts.
+pub fn lag_weights(parts: &[Vec<Part>], through: impl Fn(usize, f64) -> Vec<f64>) -> Option<Vec<f64>> {
     let dof: usize = parts.iter().filter(|p| p.len() >= 2).map(|p| p.len() - 1).sum();
     if dof == 0 {
         return None;
@@ -130,24 +130,23 @@ pub fn lag_weights(calib: &Calibration, checks: &[Check], parts: &[Vec<Part>]) -
     let chi2: Vec<f64> = fine
         .iter()
         .map(|&lag| {
-            let through: Vec<Vec<f64>> = checks
-                .iter()
-                .zip(parts)
-                .map(|(check, ps)| {
-                    let path = path_through(calib, &check.series, Some(lag));
-                    let block = path_block(&check.series);
-                    ps.iter()
-                        .map(|p| {
-                            let (a, b) = (p.samples.0 / block, (p.samples.1 / block).clamp(p.samples.0 / block + 1, path.len()));
-                            path[a..b].iter().sum::<f64>() / (b - a) as f64
-                        })
-                        .collect()
-                })
-                .collect();
-            course_chi2(parts, &through)
+            let paths: Vec<Vec<f64>> = (0..parts.len()).map(|c| if parts[c].len() >= 2 { through(c, lag) } else { vec![] }).collect();
+            course_chi2(parts, &paths)
         })
         .collect();
     Some(grid_weights(&fine, &chi2, dof))
+}
+
+/// A path per tenth of a second (`block` samples each) averaged over each part's samples.
+pub fn over_parts(path: &[f64], block: usize, parts: &[Part]) -> Vec<f64> {
+    parts
+        .iter()
+        .map(|p| {
+            let a = (p.samples.0 / block).min(path.len().saturating_sub(1));
+            let b = (p.samples.1 / block).clamp(a + 1, path.len());
+            path[a..b].iter().sum::<f64>() / (b - a) as f64
+        })
+        .collect()
 }
 
 /// The fine lags' posterior (χ² in units of the best one's reduced value where that exceeds 1;

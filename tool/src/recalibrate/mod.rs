@@ -183,9 +183,18 @@ pub fn recalibrate_checks(calib: &Calibration, checks: Vec<Check>, drift_sd: f64
     let drifted = fit(Hypothesis::Drifted)?;
     let mut o = Outcome { checks, as_calibrated, drifted, sensor_sd_pct, named, parts: vec![], lag_weights: None };
     let chosen = o.chosen();
-    let parts = o.checks.iter().enumerate().map(|(c, check)| course::parts(calib, chosen, c, check)).collect::<Result<Vec<_>>>()?;
+    let parts = o
+        .checks
+        .iter()
+        .enumerate()
+        .map(|(c, check)| course::parts(calib, chosen, c, &check.series, &check.measured, check_band_hz(calib, check.series.fs_hz)))
+        .collect::<Result<Vec<_>>>()?;
     if !calib.humidity.has_lag() {
-        o.lag_weights = course::lag_weights(calib, &o.checks, &parts);
+        let through = |c: usize, lag: f64| {
+            let s = &o.checks[c].series;
+            course::over_parts(&path_through(calib, s, Some(lag)), path_block(s), &parts[c])
+        };
+        o.lag_weights = course::lag_weights(&parts, through);
     }
     o.parts = parts;
     Ok(o)
