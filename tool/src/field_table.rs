@@ -83,7 +83,7 @@ pub fn one(truths_path: &Path, print_seconds: bool, input: &Path, calib: &str, n
     let seconds = hygrometer::run(&calib, &ts);
     if print_seconds {
         println!(
-            "t_s,truth,truth_avg,reading_path,reading_avg,strip,strip_sd,strip_sd_stat,strip_sd_cal,misfit,fused,fused_sd,fused_design_sd,path_lag_s"
+            "t_s,truth,truth_avg,reading_path,reading_avg,strip,strip_sd,strip_sd_stat,strip_sd_cal,misfit,fused,fused_sd,fused_design_sd,path_lag_s,bias_taken_off"
         );
     }
     // The fused and the perfect designs take the strip's humidity as it is: no second correction.
@@ -127,7 +127,7 @@ pub fn one(truths_path: &Path, print_seconds: bool, input: &Path, calib: &str, n
                 Err(r) => format!("{},,,,", r.as_str()),
             };
             println!(
-                "{:.0},{truth:.2},{:.2},{:.2},{:.2},{strip},{:.2},{:.2},{:.2},{:.1}",
+                "{:.0},{truth:.2},{:.2},{:.2},{:.2},{strip},{:.2},{:.2},{:.2},{:.1},{:.2}",
                 s.t_s,
                 truth_avg.unwrap(),
                 s.reading.rh_pct,
@@ -135,7 +135,8 @@ pub fn one(truths_path: &Path, print_seconds: bool, input: &Path, calib: &str, n
                 s.fused.rh_pct,
                 s.fused.sd_pct,
                 s.fused_design_sd_pct,
-                s.path_lag_s
+                s.path_lag_s,
+                s.bias_taken_off_pct
             );
         }
         if s.t_s < SKIP_S {

@@ -347,6 +347,16 @@ impl<T: Real> BlockHygrometer<T> {
         self.lags[..self.n_lags].iter().map(move |l| (l.tau_s, if prior { l.prior_weight } else { l.probability }))
     }
 
+    /// The bias the fused value takes off the reading path through the lags, their mixture
+    /// (Σ p·correction; 0 where fused is the reading): fused less the path through the lags is
+    /// this, and what is left of fused − reading is the lags'. Not on the device's path.
+    pub fn bias_taken_off(&self) -> T {
+        if self.used_at.is_none() || self.disagreeing {
+            return T::zero();
+        }
+        self.lags[..self.n_lags].iter().fold(T::zero(), |a, l| a + l.probability * l.correction)
+    }
+
     /// The mixture over the lags of the reading path through each, with its offset, less its bias. Not inlined,
     /// as [`SensorBias::observe`].
     #[inline(never)]
@@ -520,11 +530,14 @@ mod tests {
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         let r = h.humidities(70.0);
         assert_eq!(r.fused, r.reading);
+        assert_eq!(h.bias_taken_off(), 0.0, "nothing learned");
         while h.push(&[1e-7; 32], Some(70.0)).is_none() {}
         let e = StripRh { rh_pct: 68.0, sd_stat_pct: 0.1, sd_cal_pct: 0.1, sd_pct: 0.14, misfit: 1.0, bins_used: 140 };
         h.complete(Ok(e));
         let f = h.humidities(70.0).fused;
         assert!((f.rh_pct - 68.0).abs() < 0.1 && f.sd_pct < r.reading.sd_pct, "{f:?}");
+        // The path has stood at 70 through every lag: all of fused − reading is the bias.
+        assert!((h.bias_taken_off() - (70.0 - f.rh_pct)).abs() < 1e-9, "{} vs {f:?}", h.bias_taken_off());
         h.complete(Err(Refusal::Misfit));
         assert_eq!(h.humidities(70.0).fused, f, "a refusal keeps the sensor's bias as learned");
     }

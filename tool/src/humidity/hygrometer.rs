@@ -30,6 +30,10 @@ pub struct Second {
     /// weighted mean over the lags weighed [s]: while the fits cannot tell the lags apart, the
     /// prior's.
     pub path_lag_s: f64,
+    /// The sensor's bias the fits have shown, as the fused value takes it off the reading path
+    /// through the lags ([`BlockHygrometer::bias_taken_off`]): fused − reading is this one's
+    /// negative plus the lags' part.
+    pub bias_taken_off_pct: f64,
     /// The fit and the reading disagreed beyond both their uncertainties: fused is the reading.
     pub disagrees: bool,
 }
@@ -71,6 +75,7 @@ pub fn run(calib: &Calibration, ts: &TimeSeries) -> Vec<Second> {
                     fused: h.fused,
                     fused_design_sd_pct: h.fused_design_sd_pct,
                     path_lag_s: hygrometer.lag_weights().map(|(tau, p)| tau * p).sum(),
+                    bias_taken_off_pct: hygrometer.bias_taken_off(),
                     disagrees: h.disagrees,
                 });
             }
@@ -135,6 +140,7 @@ mod tests {
             fused: e,
             fused_design_sd_pct: 1.0,
             path_lag_s: 0.0,
+            bias_taken_off_pct: 0.0,
             disagrees: false,
         }
     }
