@@ -79,8 +79,8 @@ const HALF: usize = SEGMENT / 2;
 type Fft<T> = RealFft<T, { SEGMENT / 2 }>;
 
 pub struct RunningSpectrum<T> {
-    /// The transform, whose roots give the Hann window's cosines too ([`hann`]).
     fft: Fft<T>,
+    window: [T; SEGMENT],
     /// The last SEGMENT decimated samples in two halves, `pos` the next one written: when a half
     /// is full, the other one is the older half of the segment it completes.
     ring: [T; SEGMENT],
@@ -101,14 +101,6 @@ pub struct RunningSpectrum<T> {
     /// From |X|² of the boxcar's sums to one-sided PSD of their mean: 2/(fs_dec·Σw²·decimation²).
     scale: T,
     df_hz: T,
-}
-
-/// The Hann window of a segment at `n`, ½ − ½·cos(2πn/[`SEGMENT`]), in the working precision (in
-/// f64 the device would link a cosine for these values alone), its cosine the transform's own:
-/// a table of the window beside the transform's roots would be 2 KB more of the device's RAM.
-#[inline(always)]
-fn hann<T: Real>(fft: &Fft<T>, n: usize) -> T {
-    T::lit(0.5) - T::lit(0.5) * fft.cos(n)
 }
 
 /// Where a boxcar's sum starts: −0 + x is x for every x, so a sum begun in one block and one
@@ -141,12 +133,18 @@ impl<T: Real> RunningSpectrum<T> {
     pub fn new(fs_hz: f64, band: &Band) -> Self {
         let BinGeometry { decimation, first_bin, bins, df_hz: df } = BinGeometry::new(fs_hz, band);
         let fs_dec = fs_hz / decimation as f64;
-        let fft = Fft::<T>::new();
-        let power = (0..SEGMENT).map(|n| hann(&fft, n).to_f64()).fold(0.0, |sum, w| sum + w * w);
+        let mut window = [T::zero(); SEGMENT];
+        let mut power = 0.0;
+        // In the working precision: in f64 the device would link a cosine for these values alone.
+        for (n, w) in window.iter_mut().enumerate() {
+            *w = T::lit(0.5) - T::lit(0.5) * T::lit(2.0 * core::f64::consts::PI * n as f64 / SEGMENT as f64).cos();
+            power += w.to_f64() * w.to_f64();
+        }
         let hop_s = HALF as f64 / fs_dec;
         let d = decimation as f64;
         RunningSpectrum {
-            fft,
+            fft: RealFft::new(),
+            window,
             ring: [T::zero(); SEGMENT],
             pos: 0,
             half_sums: [T::zero(); 2],
@@ -228,15 +226,14 @@ impl<T: Real> RunningSpectrum<T> {
         let (first, second) = self.ring.split_at(HALF);
         // The half about to be overwritten is the older.
         let (older, newer) = if self.pos == 0 { (first, second) } else { (second, first) };
+        let (w_older, w_newer) = self.window.split_at(HALF);
         // The segment packed for the FFT and transformed there: on the stack for the segment's
         // work alone (every slot is written before the transform reads it), not 2 KB of RAM for
         // good.
         let mut packed = [C::new(T::zero(), T::zero()); SEGMENT / 2];
         let z = &mut packed;
-        for (offset, x) in [(0, older), (HALF / 2, newer)] {
-            for (n, x) in x.chunks_exact(2).enumerate() {
-                let at = 2 * (offset + n);
-                let w = [hann(&self.fft, at), hann(&self.fft, at + 1)];
+        for (offset, x, w) in [(0, older, w_older), (HALF / 2, newer, w_newer)] {
+            for (n, (x, w)) in x.chunks_exact(2).zip(w.chunks_exact(2)).enumerate() {
                 z[Fft::<T>::slot(offset + n)] = C::new((x[0] - mean) * w[0], (x[1] - mean) * w[1]);
             }
         }

@@ -14,14 +14,11 @@ use crate::{C, Real};
 
 /// A real FFT of 2H points, `H` a power of two.
 pub struct RealFft<T, const H: usize> {
-    /// e^(−2πik/2H), k < 2H, in two halves (one run of 2H in memory: [`Self::roots`]): every
-    /// twiddle the transform takes is one of them. A radix-4 pass of length 4M takes W^k, W^2k and
-    /// W^3k, W = e^(−2πi/4M), k < M: the roots every 2H/4M-th; the split takes −j·e^(−2πik/2H),
-    /// k < H; and a Hann window of 2H points their cosines ([`Self::cos`]). Each computed from its
-    /// own angle, and a root of 4M at qk from the same angle as the root of 2H at qk·2H/4M (a
-    /// scaling by a power of two, exact), so the one table has the bits that tables of their own
-    /// had: half of them was the room they took.
-    roots: [[C<T>; H]; 2],
+    /// Per radix-4 pass of length 4M, for k < M: W^k, W^2k, W^3k with W = e^(−2πi/4M), the passes
+    /// one after another (3·M entries each, fewer than H in all).
+    passes: [C<T>; H],
+    /// −j·e^(−2πik/2H), k < H: the split's twiddles, with the split's −j taken in.
+    split: [C<T>; H],
 }
 
 /// e^(−2πi·k/n) in `T`, from its own angle: a recurrence would build up rounding in f32.
@@ -37,23 +34,24 @@ impl<T: Real, const H: usize> RealFft<T, H> {
 
     pub fn new() -> Self {
         assert!(H.is_power_of_two() && H >= 2, "the FFT's half length must be a power of two");
-        let mut roots = [[C::new(T::zero(), T::zero()); H]; 2];
-        for (k, w) in roots.as_flattened_mut().iter_mut().enumerate() {
-            *w = root(k, 2 * H);
+        let mut passes = [C::new(T::zero(), T::zero()); H];
+        let mut at = 0;
+        let mut m = Self::FIRST;
+        while m < H {
+            for k in 0..m {
+                for (q, w) in passes[at..at + 3].iter_mut().enumerate() {
+                    *w = root((q + 1) * k, 4 * m);
+                }
+                at += 3;
+            }
+            m *= 4;
         }
-        RealFft { roots }
-    }
-
-    /// e^(−2πik/2H) for k < 2H.
-    #[inline(always)]
-    fn roots(&self) -> &[C<T>] {
-        self.roots.as_flattened()
-    }
-
-    /// cos(2πn/2H), n < 2H, as `T::cos` gives it (the cosine is even, bit for bit).
-    #[inline(always)]
-    pub fn cos(&self, n: usize) -> T {
-        self.roots()[n].re
+        let mut split = [C::new(T::zero(), T::zero()); H];
+        for (k, w) in split.iter_mut().enumerate() {
+            let r = root::<T>(k, 2 * H);
+            *w = C::new(r.im, -r.re);
+        }
+        RealFft { passes, split }
     }
 
     /// Where the packed sample n (x_{2n} + j·x_{2n+1}) goes before [`Self::transform`].
@@ -78,22 +76,21 @@ impl<T: Real, const H: usize> RealFft<T, H> {
             }
         }
         let mut m = Self::FIRST;
-        let roots = self.roots();
+        let mut twiddles: &[C<T>] = &self.passes;
         while m < H {
-            // W = e^(−2πi/4M) is every `step`-th root of 2H.
-            let step = 2 * H / (4 * m);
+            let (these, rest) = twiddles.split_at(3 * m);
             for block in z.chunks_exact_mut(4 * m) {
                 let (q0, rest) = block.split_at_mut(m);
                 let (q1, rest) = rest.split_at_mut(m);
                 let (q2, q3) = rest.split_at_mut(m);
                 let quarters = q0.iter_mut().zip(q1.iter_mut()).zip(q2.iter_mut()).zip(q3.iter_mut());
-                for (k, (((a, b), c), d)) in quarters.enumerate() {
-                    let w = [roots[k * step], roots[2 * k * step], roots[3 * k * step]];
+                for ((((a, b), c), d), w) in quarters.zip(these.chunks_exact(3)) {
                     // Residue 1 is in the third quarter, residue 2 in the second.
                     let [x0, x1, x2, x3] = butterfly(*a, *c * w[0], *b * w[1], *d * w[2]);
                     (*a, *b, *c, *d) = (x0, x1, x2, x3);
                 }
             }
+            twiddles = rest;
             m *= 4;
         }
     }
@@ -104,15 +101,14 @@ impl<T: Real, const H: usize> RealFft<T, H> {
     #[inline(always)]
     pub fn powers(&self, z: &[C<T>; H], first: usize, out: &mut [T], mut each: impl FnMut(&mut T, T)) {
         let n = out.len();
-        let (lo, w) = (&z[first..first + n], &self.roots()[first..first + n]);
+        let (lo, w) = (&z[first..first + n], &self.split[first..first + n]);
         // Z_{H−k} for k = first + n − 1 down to first.
         let mirrored = &z[H + 1 - first - n..=H - first];
         let quarter = T::lit(0.25);
         for i in 0..n {
             let (zk, zc) = (lo[i], mirrored[n - 1 - i].conj());
             // 2X_k = (Z_k + Z*_{H−k}) − j·e^(−2πik/2H)·(Z_k − Z*_{H−k})
-            let split = C::new(w[i].im, -w[i].re);
-            let x2 = (zk + zc) + split * (zk - zc);
+            let x2 = (zk + zc) + w[i] * (zk - zc);
             each(&mut out[i], x2.norm_sqr() * quarter);
         }
     }
@@ -159,35 +155,6 @@ mod tests {
             let scale = direct.norm_sqr().max(1.0);
             assert!((p - direct.norm_sqr()).abs() < 1e-11 * scale, "H {H}, bin {k}: {p} vs {}", direct.norm_sqr());
         }
-    }
-
-    /// The one table has the bits each use computed from its own angle: a pass's root of 4M at
-    /// qk, and a window's cosine of the positive angle.
-    fn the_roots_are_each_uses_own<T: Real, const H: usize>() {
-        let fft = RealFft::<T, H>::new();
-        let mut m = RealFft::<T, H>::FIRST;
-        while m < H {
-            for k in 0..m {
-                for q in 1..=3 {
-                    let (own, shared) = (root::<T>(q * k, 4 * m), fft.roots()[q * k * (2 * H / (4 * m))]);
-                    // Through f64, which holds an f32 exactly: the same bits there are the same bits.
-                    let bits = |c: C<T>| (c.re.to_f64().to_bits(), c.im.to_f64().to_bits());
-                    assert_eq!(bits(own), bits(shared), "H {H}, M {m}, {q}·{k}");
-                }
-            }
-            m *= 4;
-        }
-        for n in 0..2 * H {
-            let own = T::lit(2.0 * core::f64::consts::PI * n as f64 / (2 * H) as f64).cos();
-            assert_eq!(own.to_f64().to_bits(), fft.cos(n).to_f64().to_bits(), "H {H}, cosine {n}");
-        }
-    }
-
-    #[test]
-    fn one_table_of_roots_serves_every_use() {
-        the_roots_are_each_uses_own::<f32, 256>();
-        the_roots_are_each_uses_own::<f64, 256>();
-        the_roots_are_each_uses_own::<f32, 128>();
     }
 
     #[test]
