@@ -22,9 +22,11 @@ pub fn calibration() -> &'static Calibration {
     &CALIBRATION
 }
 
-/// The expected error of the calibration's designs over humidity, tabulated at build time.
-pub fn error_table() -> ErrorTable {
-    crate::contract::calibration::ERROR_TABLE
+/// The expected error of the calibration's designs over humidity, tabulated at build time. By
+/// reference, as the calibration: its one copy in flash.
+pub fn error_table() -> &'static ErrorTable {
+    static ERROR_TABLE: ErrorTable = crate::contract::calibration::ERROR_TABLE;
+    &ERROR_TABLE
 }
 
 /// The strip's humidity from a snapshot of its current's spectrum, with the model table baked
@@ -79,5 +81,5 @@ fn make_step(filter: &'static mut Compensator<f32>) -> &'static mut BlockStep<'s
         delay_samples: crate::contract::calibration::DELAY_SAMPLES,
         humidity_mode: calibration.humidity.mode().code(),
     };
-    STEP.init_with(|| BlockStep::new(calibration, &error_table(), SAMPLE_RATE_HZ, filter, hygrometer, Some(setup)))
+    STEP.init_with(|| BlockStep::new(calibration, error_table(), SAMPLE_RATE_HZ, filter, hygrometer, Some(setup)))
 }

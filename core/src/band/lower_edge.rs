@@ -44,8 +44,9 @@ pub struct EdgeLines<T> {
     /// them), the others waiting for their group.
     queue: Line<[T; 2 * EDGE_GROUP + MAX_PIECE]>,
     done: usize,
-    /// A group on its way down and up (kept here: made afresh it would be zeroed each time).
-    scratch: [Piece<T>; 2],
+    /// A group on its way down and up, with the piece the band-pass's chain lends (kept here:
+    /// made afresh it would be zeroed each time).
+    scratch: Piece<T>,
 }
 
 impl<T: Real> EdgeTaps<T> {
@@ -81,7 +82,7 @@ impl<T: Real> EdgeLines<T> {
             held: Delay::zeros(0),
             queue: Line::zeros(0),
             done: 0,
-            scratch: [[T::zero(); MAX_PIECE]; 2],
+            scratch: [T::zero(); MAX_PIECE],
         }
     }
 
@@ -102,9 +103,9 @@ impl<T: Real> EdgeLines<T> {
     }
 
     /// Keeps the lower edge of `buf` (at the band-pass's rate, at most [`MAX_PIECE`]) with the
-    /// coefficients `taps`, in place.
+    /// coefficients `taps`, in place; `spare` is scratch, which it leaves changed.
     #[inline(never)]
-    pub fn apply(&mut self, taps: &EdgeTaps<T>, buf: &mut [T]) {
+    pub fn apply(&mut self, taps: &EdgeTaps<T>, buf: &mut [T], spare: &mut Piece<T>) {
         let (n_stages, n_taps) = (taps.n_stages, taps.n_taps);
         if n_taps == 0 {
             return;
@@ -113,8 +114,7 @@ impl<T: Real> EdgeLines<T> {
         while self.queue.len() - self.done >= EDGE_GROUP {
             let group = &mut self.queue.as_mut_slice()[self.done..self.done + EDGE_GROUP];
             let stages = &taps.stages[..n_stages];
-            let [a, b] = &mut self.scratch;
-            let (x, y, n) = down_all(stages, &mut self.down[..n_stages], group, a, b);
+            let (x, y, n) = down_all(stages, &mut self.down[..n_stages], group, &mut self.scratch, spare);
             let n = fir(&taps.taps[..n_taps], &mut self.line, &x[..n], y);
             let (low, _, n) = up_all(stages, &mut self.up[..n_stages], y, x, n);
             self.ready.extend(&low[..n]);

@@ -154,14 +154,15 @@ impl<T: Real> BandDown<T> {
     }
 
     /// A piece (at most [`CHUNK`]) down through the half-bands, the band-pass and the lower
-    /// edge: the scratch that holds its outputs first, the other, and their number.
+    /// edge: the scratch that holds its outputs first, the other (spent), and their number.
     fn piece(&mut self, taps: &BandTaps<T>, piece: &[T]) -> (&mut Piece<T>, &mut Piece<T>, usize) {
         let p = &taps.plan;
         let stages = &taps.stages[..p.stages];
         let [a, b] = &mut self.scratch;
         let (x, y, n) = down_all(stages, &mut self.down[..p.stages], piece, a, b);
         let n = fir(&taps.taps[..p.taps], &mut self.line, &x[..n], y);
-        self.edge.apply(&taps.edge, &mut y[..n]);
+        // `x` is spent: the lower edge's second scratch piece (each piece is written before it is read).
+        self.edge.apply(&taps.edge, &mut y[..n], x);
         (y, x, n)
     }
 }

@@ -83,7 +83,7 @@ pub struct Filtered {
 /// The filter's part of a block: `samples` compensated in place, then their stated error. The
 /// host's own chain (designs made at once, a fresh filter per burst) runs this too.
 #[inline]
-pub fn filter_block(filter: &mut Compensator<f32>, error_bar: &mut BlockError<f32>, samples: &mut [f32]) -> Filtered {
+pub fn filter_block(filter: &mut Compensator<f32>, error_bar: &mut BlockError<'_, f32>, samples: &mut [f32]) -> Filtered {
     filtered(filter, error_bar, samples, device_calls::process_block)
 }
 
@@ -92,7 +92,7 @@ pub fn filter_block(filter: &mut Compensator<f32>, error_bar: &mut BlockError<f3
 #[inline]
 fn filtered(
     filter: &mut Compensator<f32>,
-    error_bar: &mut BlockError<f32>,
+    error_bar: &mut BlockError<'_, f32>,
     samples: &mut [f32],
     process: fn(&mut Compensator<f32>, &mut [f32]),
 ) -> Filtered {
@@ -123,7 +123,7 @@ pub struct BlockStep<'a, const PARTS: bool = false> {
     /// The fused humidity through the strip's part of the path, where the designs follow it
     /// (the strip's humidity already: no second correction); None where they follow the reading.
     fused: Option<BlockHumidity<f32>>,
-    error_bar: BlockError<f32>,
+    error_bar: BlockError<'a, f32>,
     /// RH of the active or already requested design.
     design_rh: f32,
     /// Whether the active design is the start-up's fallback: the first reading replaces it even
@@ -144,7 +144,7 @@ impl<'a, const PARTS: bool> BlockStep<'a, PARTS> {
     #[inline]
     pub fn new(
         calibration: &Calibration,
-        errors: &ErrorTable,
+        errors: &'a ErrorTable,
         fs_hz: u32,
         filter: &'a mut Compensator<f32>,
         hygrometer: &'a mut BlockHygrometer<f32>,

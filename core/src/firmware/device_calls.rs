@@ -56,7 +56,7 @@ pub fn switch_to(c: &mut Compensator<f32>, design: &Inverse<f32>) {
 
 /// [`BlockError::block`].
 #[inline(never)]
-pub fn block_error(e: &mut BlockError<f32>, design_rh_pct: f32, estimates: &[f32]) -> f32 {
+pub fn block_error(e: &mut BlockError<'_, f32>, design_rh_pct: f32, estimates: &[f32]) -> f32 {
     e.block(design_rh_pct, estimates)
 }
 

@@ -80,8 +80,6 @@ type Fft<T> = RealFft<T, { SEGMENT / 2 }>;
 
 pub struct RunningSpectrum<T> {
     fft: Fft<T>,
-    /// The segment packed for the FFT and transformed there: kept, not cleared, between segments.
-    packed: [C<T>; SEGMENT / 2],
     window: [T; SEGMENT],
     /// The last SEGMENT decimated samples in two halves, `pos` the next one written: when a half
     /// is full, the other one is the older half of the segment it completes.
@@ -149,7 +147,6 @@ impl<T: Real> RunningSpectrum<T> {
         let d = decimation as f64;
         RunningSpectrum {
             fft: RealFft::new(),
-            packed: [C::new(T::zero(), T::zero()); SEGMENT / 2],
             window,
             ring: [T::zero(); SEGMENT],
             pos: 0,
@@ -234,7 +231,11 @@ impl<T: Real> RunningSpectrum<T> {
         // The half about to be overwritten is the older.
         let (older, newer) = if self.pos == 0 { (first, second) } else { (second, first) };
         let (w_older, w_newer) = self.window.split_at(HALF);
-        let z = &mut self.packed;
+        // The segment packed for the FFT and transformed there: on the stack for the segment's
+        // work alone (every slot is written before the transform reads it), not 2 KB of RAM for
+        // good.
+        let mut packed = [C::new(T::zero(), T::zero()); SEGMENT / 2];
+        let z = &mut packed;
         for (offset, x, w) in [(0, older, w_older), (HALF / 2, newer, w_newer)] {
             for (n, (x, w)) in x.chunks_exact(2).zip(w.chunks_exact(2)).enumerate() {
                 z[Fft::<T>::slot(offset + n)] = C::new((x[0] - mean) * w[0], (x[1] - mean) * w[1]);

@@ -38,6 +38,11 @@ use crate::{C, Calibration, ComplexMath, Params, Real};
 /// Most second-order sections an inverse can have (10 at fs ≤ 2 kHz; pure-delay sections are
 /// added at higher rates).
 pub const MAX_SECTIONS: usize = 20;
+/// Sections of the configuration-only tail (see [`Inverse::tail`]): the regularizing high-pass's
+/// five poles paired into three sections, its three zeros each beside one of them.
+pub const FIXED_SECTIONS: usize = 3;
+/// Most sections of the humidity-dependent head: what the tail leaves.
+pub const MAX_HEAD_SECTIONS: usize = MAX_SECTIONS - FIXED_SECTIONS;
 /// FIR taps of the preview/all-pass correction P(z).
 pub const FIR_TAPS: usize = 5;
 /// Frequencies of the least-squares grid.
@@ -403,6 +408,11 @@ pub fn design_inverse_with<T: Real>(
     hz.copy_from_slice(hzd.as_slice());
     pair_into_sections(&mut inv, &mut hz, hpd.as_slice())?;
     inv.n_fixed = inv.sections.len() - n_head;
+    // Five poles are three quadratics however they pair, and their three zeros fewer, each
+    // matched to one: the compensator holds the tail in room for these alone.
+    if inv.n_fixed != FIXED_SECTIONS {
+        return Err(DesignError::Numerics);
+    }
     // Unit gain per section at mid-band keeps every intermediate signal at the scale of the input.
     let f_mid = (cfg.band_lo_hz * cfg.band_hi_hz).sqrt();
     let w = two_pi * f_mid * t;

@@ -282,9 +282,10 @@ impl HumiditySlopes {
 
 /// The 1σ of each block: the table at the active design's humidity and the estimate's smoothed
 /// mean square. One per compensator; the device and the host's replica run it on the same blocks.
+/// The table by reference: the firmware's is baked in flash, and a copy took 0.8 KB of its RAM.
 #[derive(Clone, Copy, Debug)]
-pub struct BlockError<T> {
-    table: ErrorTable,
+pub struct BlockError<'a, T> {
+    table: &'a ErrorTable,
     power_m2: Option<T>,
     /// The high-pass in front of the mean square: [`HP_SECTIONS`] biquads (b0, b1, b2, a1, a2)
     /// in transposed direct form II, and each one's two states.
@@ -298,9 +299,9 @@ pub struct BlockError<T> {
     humidity_var: T,
 }
 
-impl<T: Real> BlockError<T> {
+impl<'a, T: Real> BlockError<'a, T> {
     /// For the estimates of designs made with `cfg`.
-    pub fn new(table: &ErrorTable, cfg: &DesignConfig<T>) -> Self {
+    pub fn new(table: &'a ErrorTable, cfg: &DesignConfig<T>) -> Self {
         // Butterworth, fourth order: the two sections' quality factors 1/(2 cos(π/8)), 1/(2 cos(3π/8)).
         const Q: [f64; HP_SECTIONS] = [0.541_196_100_146_197, 1.306_562_964_876_376_7];
         let w0 = T::lit(2.0) * T::PI() * cfg.band_lo_hz * T::lit(HP_CORNER_OF_BAND) / cfg.fs_hz;
@@ -325,7 +326,7 @@ impl<T: Real> BlockError<T> {
         }
         band_gain /= T::lit(BAND_POINTS as f64);
         BlockError {
-            table: *table,
+            table,
             power_m2: None,
             hp,
             state: [[T::zero(); 2]; HP_SECTIONS],
@@ -355,7 +356,7 @@ impl<T: Real> BlockError<T> {
     /// The design humidity is `sd_pct` uncertain (1σ, %RH) from this block on, not what the table
     /// was made with ([`HumiditySlopes`]).
     pub fn humidity_sd(&mut self, slopes: &HumiditySlopes, design_rh_pct: T, sd_pct: T) {
-        self.humidity_var = slopes.var_change(&self.table, design_rh_pct, sd_pct);
+        self.humidity_var = slopes.var_change(self.table, design_rh_pct, sd_pct);
     }
 
     /// The strip's humidity is `beyond_pct` outside the calibrated range (signed: below < 0;

@@ -14,7 +14,7 @@
 use crate::Real;
 use crate::band::Band;
 use crate::band::{BandCoefficients, BandDesign, BandLimit};
-use crate::inverse::design::{Inverse, MAX_SECTIONS};
+use crate::inverse::design::{FIXED_SECTIONS, Inverse, MAX_HEAD_SECTIONS, MAX_SECTIONS};
 use crate::numeric::section::{Sos, Stage};
 
 /// Duration of a retune's crossfade [s]. Measured on a 0.25 % step during a steady 40 Hz sine
@@ -31,23 +31,32 @@ pub const INPUT_LIMIT_A: f64 = 1e-3;
 /// Longest run processed at once during a crossfade (stack scratch).
 const CHUNK: usize = 64;
 
+/// Room for `N` sections: a whole inverse's by default; the compensator holds its heads and its
+/// tail each in room for what they can have ([`MAX_HEAD_SECTIONS`], [`FIXED_SECTIONS`]).
 #[derive(Clone, Debug)]
-pub struct Cascade<T> {
+pub struct Cascade<T, const N: usize = MAX_SECTIONS> {
     /// At least one (an identity for an empty source).
-    sections: heapless::Vec<Sos<T>, MAX_SECTIONS>,
+    sections: heapless::Vec<Sos<T>, N>,
     /// s1, s2 per section (delta-operator TDF2 accumulators)
-    state: [[T; 2]; MAX_SECTIONS],
+    state: [[T; 2]; N],
 }
+
+/// A design's humidity-dependent head, as the compensator runs it.
+type Head<T> = Cascade<T, MAX_HEAD_SECTIONS>;
+/// A design's configuration-only tail, as the compensator runs it.
+type Tail<T> = Cascade<T, FIXED_SECTIONS>;
 
 impl<T: Real> Cascade<T> {
     /// The whole inverse; its gain is folded into the first section (one multiply fewer per sample).
     pub fn new(inv: &Inverse<T>) -> Self {
         Self::from_sections(inv.sections(), inv.gain())
     }
+}
 
+impl<T: Real, const N: usize> Cascade<T, N> {
     /// A cascade of `sections` times `gain`.
     pub fn from_sections(src: &[Sos<T>], gain: T) -> Self {
-        let mut sections: heapless::Vec<Sos<T>, MAX_SECTIONS> = src.iter().take(MAX_SECTIONS).copied().collect();
+        let mut sections: heapless::Vec<Sos<T>, N> = src.iter().take(N).copied().collect();
         if sections.is_empty() {
             sections.push(Sos::identity()).ok();
         }
@@ -56,7 +65,7 @@ impl<T: Real> Cascade<T> {
                 *v *= gain;
             }
         }
-        Cascade { sections, state: [[T::zero(); 2]; MAX_SECTIONS] }
+        Cascade { sections, state: [[T::zero(); 2]; N] }
     }
 
     pub fn sections(&self) -> &[Sos<T>] {
@@ -64,12 +73,12 @@ impl<T: Real> Cascade<T> {
     }
 
     pub fn reset(&mut self) {
-        self.state = [[T::zero(); 2]; MAX_SECTIONS];
+        self.state = [[T::zero(); 2]; N];
     }
 
     /// Takes over another cascade's state. With equal section counts the sections correspond
     /// (the design orders them by frequency scale), so each keeps the history it would have had.
-    pub fn take_state_from(&mut self, other: &Cascade<T>) {
+    pub fn take_state_from(&mut self, other: &Cascade<T, N>) {
         if other.sections.len() == self.sections.len() {
             self.state = other.state;
         } else {
@@ -77,44 +86,57 @@ impl<T: Real> Cascade<T> {
         }
     }
 
-    /// Filters in place, two sections per pass over the block: the first one's output goes to
-    /// the second in registers, and each pass loads and stores every sample once.
-    #[inline]
+    /// Filters in place, two sections per pass over the block ([`run_sections`]).
+    #[inline(always)]
     pub fn process_block(&mut self, buf: &mut [T]) {
-        let n = self.sections.len();
-        let mut k = 0;
-        while k + 1 < n {
-            let mut a = Stage::load(&self.sections[k], self.state[k]);
-            let mut b = Stage::load(&self.sections[k + 1], self.state[k + 1]);
-            for v in buf.iter_mut() {
-                *v = b.step(a.step(*v));
-            }
-            self.state[k] = a.state();
-            self.state[k + 1] = b.state();
-            k += 2;
-        }
-        if k < n {
-            let mut a = Stage::load(&self.sections[k], self.state[k]);
-            for v in buf.iter_mut() {
-                *v = a.step(*v);
-            }
-            self.state[k] = a.state();
-        }
+        run_sections(&self.sections, &mut self.state, buf);
     }
 
     /// Largest |state value| (NaN if any is NaN).
     pub fn state_max_abs(&self) -> T {
-        self.state[..self.sections.len()]
-            .iter()
-            .flatten()
-            .fold(T::zero(), |m, v| if v.is_nan() || m.is_nan() { T::nan() } else { m.max(v.abs()) })
+        state_max_abs(&self.state[..self.sections.len()])
     }
 
     /// Whether any state value is non-finite (or they are so large that their sum overflows).
-    /// One add per value: a non-finite term makes the sum non-finite (inf − inf is NaN).
     pub fn is_poisoned(&self) -> bool {
-        !self.state[..self.sections.len()].iter().flatten().fold(T::zero(), |sum, &v| sum + v).is_finite()
+        is_poisoned(&self.state[..self.sections.len()])
     }
+}
+
+/// `sections` over `buf` in place from their states `state`, two sections per pass over the
+/// block: the first one's output goes to the second in registers, and each pass loads and
+/// stores every sample once. Over slices, so that cascades of every room share one copy.
+#[inline(never)]
+fn run_sections<T: Real>(sections: &[Sos<T>], state: &mut [[T; 2]], buf: &mut [T]) {
+    let n = sections.len();
+    let mut k = 0;
+    while k + 1 < n {
+        let mut a = Stage::load(&sections[k], state[k]);
+        let mut b = Stage::load(&sections[k + 1], state[k + 1]);
+        for v in buf.iter_mut() {
+            *v = b.step(a.step(*v));
+        }
+        state[k] = a.state();
+        state[k + 1] = b.state();
+        k += 2;
+    }
+    if k < n {
+        let mut a = Stage::load(&sections[k], state[k]);
+        for v in buf.iter_mut() {
+            *v = a.step(*v);
+        }
+        state[k] = a.state();
+    }
+}
+
+/// Largest |state value| (NaN if any is NaN).
+fn state_max_abs<T: Real>(state: &[[T; 2]]) -> T {
+    state.iter().flatten().fold(T::zero(), |m, v| if v.is_nan() || m.is_nan() { T::nan() } else { m.max(v.abs()) })
+}
+
+/// One add per value: a non-finite term makes the sum non-finite (inf − inf is NaN).
+fn is_poisoned<T: Real>(state: &[[T; 2]]) -> bool {
+    !state.iter().flatten().fold(T::zero(), |sum, &v| sum + v).is_finite()
 }
 
 /// Where a retune stands.
@@ -141,11 +163,11 @@ enum Transition {
 /// keeps running untouched, so nothing slow is ever disturbed.
 #[derive(Clone, Debug)]
 pub struct Compensator<T = f32> {
-    active: Cascade<T>,
-    tail: Cascade<T>,
-    next: Option<Cascade<T>>,
+    active: Head<T>,
+    tail: Tail<T>,
+    next: Option<Head<T>>,
     /// The newest design requested while a transition was running; it starts when that ends.
-    pending: Option<Cascade<T>>,
+    pending: Option<Head<T>>,
     transition: Transition,
     warmup_len: u32,
     fade_len: u32,
@@ -201,8 +223,8 @@ impl<T: Real> Compensator<T> {
     /// or [`restart`](Self::restart).
     pub fn unbanded(band: &Band, fs_hz: T) -> Self {
         Compensator {
-            active: Cascade::from_sections(&[], T::one()),
-            tail: Cascade::from_sections(&[], T::one()),
+            active: Head::from_sections(&[], T::one()),
+            tail: Tail::from_sections(&[], T::one()),
             next: None,
             pending: None,
             transition: Transition::Idle,
@@ -266,8 +288,8 @@ impl<T: Real> Compensator<T> {
     }
 
     fn start_on(&mut self, inv: &Inverse<T>) {
-        self.active = Cascade::from_sections(inv.head(), inv.gain());
-        self.tail = Cascade::from_sections(inv.tail(), T::one());
+        self.active = Head::from_sections(inv.head(), inv.gain());
+        self.tail = Tail::from_sections(inv.tail(), T::one());
         self.next = None;
         self.pending = None;
         self.transition = Transition::Idle;
@@ -294,7 +316,7 @@ impl<T: Real> Compensator<T> {
     /// Largest |state value| of the running sections (active head, incoming head, tail): what
     /// long runs and fault tests watch for growth and poisoning.
     pub fn state_max_abs(&self) -> T {
-        let next = self.next.as_ref().map_or(T::zero(), Cascade::state_max_abs);
+        let next = self.next.as_ref().map_or(T::zero(), Head::state_max_abs);
         let (a, t) = (self.active.state_max_abs(), self.tail.state_max_abs());
         if a.is_nan() || t.is_nan() || next.is_nan() { T::nan() } else { a.max(t).max(next) }
     }
@@ -307,9 +329,9 @@ impl<T: Real> Compensator<T> {
     /// already running, this design waits (replacing any older waiting one) and starts when the
     /// running one completes, so at most two heads ever run.
     pub fn switch_to(&mut self, inv: &Inverse<T>) {
-        let mut head = Cascade::from_sections(inv.head(), inv.gain());
+        let mut head = Head::from_sections(inv.head(), inv.gain());
         head.take_state_from(&self.active);
-        let tail = Cascade::from_sections(inv.tail(), T::one());
+        let tail = Tail::from_sections(inv.tail(), T::one());
         if tail.sections() != self.tail.sections() {
             // A different configuration (sample rate, high-pass corner): no continuity to keep.
             let mut t = tail;
