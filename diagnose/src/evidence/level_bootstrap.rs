@@ -20,18 +20,24 @@ use ipmc_fit::random::SplitMix64;
 pub const REPLICATES: usize = 4000;
 
 /// One hypothesis's evidence: the point ΔBIC and its Δχ² per level on the ΔBIC's scale
-/// (divided by the overdispersion), empty when it does not decompose by level.
+/// (divided by the overdispersion), empty when it does not decompose by level; `on_data` when
+/// it is a likelihood of the measured values (the tempering between candidates is of their
+/// residuals' correlation, [`crate::verdict::misfit`]), not of the levels' parameters.
 pub struct Evidence<'a> {
     pub ln_prior: f64,
     pub delta_bic: f64,
     pub per_level: &'a [f64],
+    pub on_data: bool,
 }
 
 /// The posterior probability of each hypothesis, `hypotheses[0]` being the null (no effect,
 /// ΔBIC 0) that every other one nests and the next `group − 1` the candidates counted with it
 /// (below their floor: nothing worth naming); `scale` divides every ΔBIC (the evidence's
 /// temperature), and `between` ≥ 1 divides it again where the other candidates are weighed
-/// against each other (the misfit they leave: [`crate::verdict::misfit`]). In the order given.
+/// against each other (the misfit they leave: [`crate::verdict::misfit`]), for the evidence
+/// `on_data` only: `between` counts how many independent data a level's correlated residuals
+/// carry, and a likelihood of the levels' parameters already counts a level as one datum per
+/// parameter, with the scatter between levels in its variance. In the order given.
 ///
 /// The null's group keeps BIC's own probabilities, from the point evidence: the null's Δχ²
 /// against a candidate is ≥ 0 at every level by construction, so re-weighting the levels can only
@@ -42,7 +48,7 @@ pub struct Evidence<'a> {
 /// leaves: the rest of the probability is split among them by their posterior averaged over
 /// [`REPLICATES`] Bayesian-bootstrap weightings of the `n_levels` levels.
 pub fn averaged_posterior(hypotheses: &[Evidence], group: usize, n_levels: usize, scale: f64, between: f64) -> Vec<f64> {
-    let ln = |h: &Evidence, shift: f64, t: f64| h.ln_prior + (h.delta_bic + shift) / (2.0 * scale * t);
+    let ln = |h: &Evidence, shift: f64, t: f64| h.ln_prior + (h.delta_bic + shift) / (2.0 * scale * if h.on_data { t } else { 1.0 });
     let mut point = vec![0.0; hypotheses.len()];
     accumulate(&mut point, hypotheses.iter().map(|h| ln(h, 0.0, 1.0)), 1.0);
     let group = group.clamp(1, hypotheses.len().max(1));
@@ -91,7 +97,7 @@ mod tests {
     use super::*;
 
     fn h<'a>(delta_bic: f64, per_level: &'a [f64]) -> Evidence<'a> {
-        Evidence { ln_prior: 0.0, delta_bic, per_level }
+        Evidence { ln_prior: 0.0, delta_bic, per_level, on_data: true }
     }
 
     /// Among candidates, a lead every level shares stays certain and the same lead carried by
@@ -146,5 +152,20 @@ mod tests {
         let (sharp, tempered) = (averaged_posterior(&floor, 2, 10, 1.0, 1.0), averaged_posterior(&floor, 2, 10, 1.0, 9.0));
         assert!((sharp[0] + sharp[1] - tempered[0] - tempered[1]).abs() < 1e-15, "{sharp:?} {tempered:?}");
         assert!(tempered[3] > sharp[3], "{sharp:?} {tempered:?}");
+    }
+
+    /// The tempering is of the residuals' correlation within a level: a candidate scored on the
+    /// levels' parameters keeps its evidence against one fitted to the data, which a smooth
+    /// misfit tempers (its negative ΔBIC drawn toward none's, its lead split).
+    #[test]
+    fn only_the_evidence_on_the_data_is_tempered() {
+        let levels = |d: f64| Evidence { ln_prior: 0.0, delta_bic: d, per_level: &[], on_data: false };
+        let hyps = || [h(0.0, &[]), levels(12.0), h(-2.0, &[])];
+        let (sharp, tempered) = (averaged_posterior(&hyps(), 1, 10, 1.0, 1.0), averaged_posterior(&hyps(), 1, 10, 1.0, 4.0));
+        let odds = |p: &[f64]| (p[1] / p[2]).ln();
+        assert!((odds(&tempered) - (12.0 - -2.0 / 4.0) / 2.0).abs() < 1e-9, "{tempered:?}");
+        assert!(odds(&tempered) < odds(&sharp));
+        let both = [levels(0.0), levels(12.0), levels(-2.0)];
+        assert_eq!(averaged_posterior(&both, 1, 10, 1.0, 4.0), averaged_posterior(&both, 1, 10, 1.0, 1.0));
     }
 }

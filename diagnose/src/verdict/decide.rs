@@ -82,7 +82,7 @@ pub(crate) struct Decision {
 /// exp(ΔBIC / 2·[`EVIDENCE_SCALE`]) (BIC's approximation of the marginal likelihood, Kass &
 /// Raftery 1995; on the data ΔBIC is divided by the overdispersion `c_hat`), averaged over the
 /// levels' bootstrap ([`crate::evidence::level_bootstrap`]: how much of a lead the `n_levels` levels
-/// share), the split among the candidates above their floor tempered by `between`
+/// share), the split among the candidates above their floor fitted to the data tempered by `between`
 /// ([`crate::verdict::misfit`]); the null and the candidates below their floor keep BIC's point
 /// odds. Most probable first.
 pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64, between: f64) -> Vec<Probability> {
@@ -101,11 +101,12 @@ pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64
         .chain((0..supported.len()).filter(|&i| !supported[i].below_floor))
         .collect();
     let group = 1 + supported.iter().filter(|s| s.below_floor).count();
-    let mut hypotheses = vec![Evidence { ln_prior: PRIOR_NONE.ln(), delta_bic: 0.0, per_level: &[] }];
+    let mut hypotheses = vec![Evidence { ln_prior: PRIOR_NONE.ln(), delta_bic: 0.0, per_level: &[], on_data: true }];
     hypotheses.extend(order.iter().map(|&i| Evidence {
         ln_prior: ln_prior_effect - (forms(scores, &supported[i].name) as f64).ln(),
         delta_bic: supported[i].delta_bic,
         per_level: &per_level[i],
+        on_data: supported[i].space == Space::Data,
     }));
     let p = averaged_posterior(&hypotheses, group, n_levels, EVIDENCE_SCALE, between);
     let names = std::iter::once(NONE.to_string()).chain(order.iter().map(|&i| supported[i].name.clone()));
@@ -117,6 +118,17 @@ pub fn posterior(scores: &[Score], n_effects: usize, n_levels: usize, c_hat: f64
 /// A candidate the probabilities weigh: applicable, through its gates, with a finite ΔBIC.
 fn supported(s: &Score) -> bool {
     s.applicable && s.other_gates && s.delta_bic.is_finite()
+}
+
+/// The candidate whose residuals temper the evidence between candidates on the data: the best
+/// supported one fitted to the data (`fitted` says which were fitted). A candidate acting on the
+/// levels' parameters (a humidity remap, a temperature dependence) is not fitted within a
+/// level: its residuals there carry the levels' scatter, which its own likelihood weighs
+/// already, not the misfit of a shape.
+fn tempering_source(scores: &[Score], fitted: &[bool]) -> Option<usize> {
+    (0..scores.len())
+        .filter(|&i| supported(&scores[i]) && fitted[i] && scores[i].space == Space::Data)
+        .max_by(|&a, &b| scores[a].delta_bic.total_cmp(&scores[b].delta_bic))
 }
 
 /// How many forms of the effect `name` were scored.
@@ -171,10 +183,7 @@ pub(crate) fn decide(
     let structure_before =
         fits::structure_z(ctx.calib, &ctx.data.levels, &ctx.sig, &ctx.all, &ctx.base.theta, &vec![Extension::default(); n_levels]);
     let structured = structure_before > STRUCTURED_Z;
-    // The misfit the best candidate leaves tempers the evidence between candidates.
-    let best = (0..scores.len())
-        .filter(|&i| supported(&scores[i]) && fitted[i].is_some())
-        .max_by(|&a, &b| scores[a].delta_bic.total_cmp(&scores[b].delta_bic));
+    let best = tempering_source(scores, &fitted.iter().map(Option::is_some).collect::<Vec<_>>());
     let tempering = best.and_then(|i| fitted[i].as_ref()).map_or(1.0, |f| {
         crate::verdict::misfit::between_candidates(fits::residual_correlation(
             ctx.calib,
@@ -436,6 +445,18 @@ mod tests {
         let alone = |d: f64| posterior(&[gated("a", d)], 14, 1, 1.0, 1.0)[0].clone();
         assert!(alone(9.0).probability < CONFIDENCE || alone(9.0).name == NONE);
         assert!(alone(10.5).name == "a" && alone(10.5).probability >= CONFIDENCE);
+    }
+
+    /// The residuals that temper are the best data-space candidate's, not a better candidate's
+    /// acting on the levels' parameters, nor an unfitted or unsupported one's.
+    #[test]
+    fn the_tempering_comes_from_the_best_fit_to_the_data() {
+        let mut levels = gated("temperature", 12.0);
+        levels.space = Space::LevelParameters;
+        let scores = [gated("tip_timing", -2.0), levels, gated("amplifier_bandwidth", 3.0), score("tip_mass", 0.0, 9.0, false)];
+        assert_eq!(tempering_source(&scores, &[true; 4]), Some(2));
+        assert_eq!(tempering_source(&scores, &[true, true, false, true]), Some(0));
+        assert_eq!(tempering_source(&scores[1..2], &[true]), None);
     }
 
     /// ĉ is the best-fitting model's χ²/dof, never below 1.
