@@ -239,6 +239,23 @@ mod tests {
         assert!(stated < bench, "case {seed}: stated {:.2} % after the check, {:.2} % by [uncertainty]", 100.0 * stated, 100.0 * bench);
     }
 
+    /// A check of `seconds` at `rh_pct`, the air wandering by `wander_pct`, the strip 25 s behind
+    /// it, an SHT4x beside it and the lab's amplifier noise.
+    fn check_plan(seed: u64, seconds: f64, rh_pct: f64, wander_pct: f64) -> FieldPlan {
+        FieldPlan {
+            seed,
+            seconds,
+            fs_hz: 2000.0,
+            rh_level_pct: rh_pct,
+            wander_pct,
+            tau_strip_s: 25.0,
+            sensor: SensorKind::Sht4x,
+            a_rms: 12.0,
+            tones: 0,
+            current_noise_a_per_rthz: AMPLIFIER_NOISE_A_PER_RTHZ,
+        }
+    }
+
     /// A minute's check while the air wanders: the parts' course weighs the lags, and the grid's
     /// mixture lies about the strip's true lag (25 s), the grid's 20 and 40 s around it the
     /// likeliest; the offset over the lags moves to the weighted one.
@@ -247,18 +264,7 @@ mod tests {
         use ipmc_core::calibration::lag_offsets::HYDRATION_LAGS_S;
         let calib = Calibration::default_preset();
         for seed in [7u64, 8] {
-            let plan = FieldPlan {
-                seed,
-                seconds: 60.0,
-                fs_hz: 2000.0,
-                rh_level_pct: 72.0,
-                wander_pct: 1.0,
-                tau_strip_s: 25.0,
-                sensor: SensorKind::Sht4x,
-                a_rms: 12.0,
-                tones: 0,
-                current_noise_a_per_rthz: AMPLIFIER_NOISE_A_PER_RTHZ,
-            };
+            let plan = check_plan(seed, 60.0, 72.0, 1.0);
             let accel = Accelerometer::drawn(&mut SplitMix64(seed + 100));
             let field = simulate_check(&calib, &plan, &ExactModel, &accel);
             let check = check_of(Path::new("own.csv"), field.ts, &calib).unwrap();
@@ -287,18 +293,7 @@ mod tests {
                 factors: if drifted { aged.to_vec() } else { vec![] },
                 electrode_tau_s: if drifted { 150e-6 } else { 0.0 },
             };
-            let plan = FieldPlan {
-                seed,
-                seconds: 30.0,
-                fs_hz: 2000.0,
-                rh_level_pct: rh,
-                wander_pct: 0.5,
-                tau_strip_s: 25.0,
-                sensor: SensorKind::Sht4x,
-                a_rms: 12.0,
-                tones: 0,
-                current_noise_a_per_rthz: AMPLIFIER_NOISE_A_PER_RTHZ,
-            };
+            let plan = check_plan(seed, 30.0, rh, 0.5);
             let accel = Accelerometer::drawn(&mut SplitMix64(seed + 100));
             let field = simulate_check(&calib, &plan, &physics, &accel);
             assert!(field.ts.base_m.is_none() && field.ts.is_check());
