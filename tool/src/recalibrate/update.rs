@@ -133,7 +133,7 @@ pub fn table(o: &Outcome) -> String {
             None => {
                 let _ = writeln!(
                     s,
-                    "the strip's hydration lag: the checks are too short for a course (two parts of {:.0} s), every lag alike",
+                    "the strip's hydration lag: no check gave a course (it takes two parts of {:.0} s whose humidity the response fixes), every lag alike",
                     super::course::PART_S
                 );
             }
