@@ -186,7 +186,10 @@ pub fn fit_checks(
     }
     let n_data: usize = checks.iter().map(|c| 2 * c.measured.freq_hz.len()).sum();
     let n_prior = 1 + layout.free.len() + 3 * checks.len();
-    let gain_sd = ACCEL_GAIN_SD.hypot(calib.instrument.current_gain_tolerance_pct / 100.0);
+    // The reference's own error only: the current channel is the one the strip is used through
+    // in service, so its gain is part of the response the new calibration keeps (as the bench's
+    // is in the laws `identify` writes), not an error of the reference to be left out of it.
+    let gain_sd = ACCEL_GAIN_SD;
     let residuals = |scale: &[f64]| {
         let scale = scale.to_vec();
         let layout = &layout;
@@ -332,19 +335,26 @@ impl CheckFit {
         Some((offset, cov[(o, o)].max(0.0).sqrt()))
     }
 
-    /// What the checks leave unknown of the strip given the offset the new calibration holds:
-    /// the posterior of the freed factors' ln conditioned on the offset, as its principal axes
-    /// (each 1σ along a direction of ln [`DRIFTING`], the held factors none). One response fixes
-    /// the factors' joint effect, not each: the axes keep the correlations that per-factor 1σ
-    /// ([`Self::factor_sd_given_offset`]) leave out.
-    pub fn axes_given_offset(&self) -> Vec<[f64; 7]> {
-        let idx = self.frame();
-        let n = idx.len() - 1;
+    /// What the checks leave unknown of the strip at the humidities they measured it at: the
+    /// posterior of the freed factors' ln conditioned on the offset the new calibration holds and
+    /// on each check's humidity, as its principal axes (each 1σ along a direction of ln
+    /// [`DRIFTING`], the held factors none). One response fixes the factors' joint effect, not
+    /// each: the axes keep the correlations that per-factor 1σ
+    /// ([`Self::factor_sd_given_offset`]) leave out. Conditioned on the humidity too, because at
+    /// one humidity a factor and the humidity trade along a ridge that leaves the response as
+    /// measured; the compensation's humidity carries its own 1σ (the fused humidity's, in the
+    /// frame the check calibrated), so that ridge is stated there and would be counted twice here.
+    pub fn axes_given_humidities(&self) -> Vec<[f64; 7]> {
+        let factors: Vec<usize> = (0..DRIFTING.len()).filter_map(|k| self.layout.factor(k)).collect();
+        let mut given = vec![self.layout.offset()];
+        given.extend((0..self.n_checks).map(|c| self.layout.check(c)[0]));
         let scale = self.fit.reduced_chi2().max(f64::MIN_POSITIVE);
-        let cov = self.fit.covariance.select_rows(&idx).select_columns(&idx) / scale;
-        let c00 = cov[(0, 0)].max(f64::MIN_POSITIVE);
-        let given = cov.view((1, 1), (n, n)) - cov.view((1, 0), (n, 1)) * cov.view((0, 1), (1, n)) / c00;
-        let eig = given.symmetric_eigen();
+        let cov = |a: &[usize], b: &[usize]| self.fit.covariance.select_rows(a).select_columns(b) / scale;
+        let (cff, cfg, cgg) = (cov(&factors, &factors), cov(&factors, &given), cov(&given, &given));
+        let Some(inv) = cgg.clone().try_inverse() else { return vec![] };
+        let conditioned = &cff - &cfg * inv * cfg.transpose();
+        let conditioned = (&conditioned + conditioned.transpose()) * 0.5;
+        let eig = conditioned.symmetric_eigen();
         let freed: Vec<usize> = (0..DRIFTING.len()).filter(|&k| self.layout.factor(k).is_some()).collect();
         eig.eigenvalues
             .iter()
@@ -446,6 +456,33 @@ mod tests {
         let (down, _) = f.offset_given_lag(&data, &[69.7], 0.05).unwrap();
         assert!(((down - up) / 0.6 - 1.0).abs() < 0.05, "{down} − {up} for readings 0.6 %RH apart");
         assert!(up_sd < 0.5 * same_sd && up_sd >= 0.05 * 0.9, "{up_sd} vs {same_sd}");
+    }
+
+    /// What a check leaves unknown of the strip's response where it measured it is the
+    /// reference's own error: along the `[checked]` axes the response at the check's humidity
+    /// moves in band by about the accelerometer's 1 % sensitivity, not by the trade of a factor
+    /// against the humidity (the humidity's 1σ is the fused humidity's) nor by the current
+    /// channel's tolerance (the check measured through the channel the strip is used with).
+    #[test]
+    fn the_axes_leave_the_response_where_measured_uncertain_by_the_references_gain() {
+        let calib = Calibration::default_preset();
+        let m = measured(&calib, 1.0, &mut SplitMix64(5));
+        let data = [CheckData { measured: &m, reading_pct: 70.0, spread_pct: 0.4 }];
+        let f = fit_checks(&calib, &data, Hypothesis::AsCalibrated, 1.8, 0.2).unwrap();
+        let h = f.value(f.layout.check(0)[0]).0;
+        let p = calib.params_at(h);
+        let band: Vec<f64> = (10..=150).map(f64::from).collect();
+        let moved = |axis: &[f64; 7]| {
+            let mut q = p;
+            for (name, ln) in DRIFTING.into_iter().zip(axis) {
+                q.set(name, q.get(name) * ln.exp());
+            }
+            let sq: f64 = band.iter().map(|&x| (current_response(&q, jw(x)) / current_response(&p, jw(x))).ln().norm_sqr()).sum();
+            sq / band.len() as f64
+        };
+        let axes = f.axes_given_humidities();
+        let spread = axes.iter().map(moved).sum::<f64>().sqrt();
+        assert!(spread > 0.5 * ACCEL_GAIN_SD && spread < 1.5 * ACCEL_GAIN_SD, "the response along the axes: {spread}");
     }
 
     #[test]

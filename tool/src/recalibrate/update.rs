@@ -197,7 +197,7 @@ fn humidity_span(o: &Outcome) -> f64 {
 }
 
 /// What the checks left unknown of the strip, for the file's `[checked]` table: the chosen fit's
-/// posterior axes given the offset, the humidities the checks measured the strip's response at,
+/// posterior axes given the offset and the checks' humidities, the humidities the checks measured the strip's response at,
 /// and what [`updated`] widened the file's 1σ by (the drift the checks leave, as the strip's own
 /// hygrometer weighs it).
 pub fn checked(o: &Outcome) -> Option<Checked> {
@@ -206,7 +206,7 @@ pub fn checked(o: &Outcome) -> Option<Checked> {
         Hypothesis::Drifted if widened(DRIFTING[k]) => f.factor_sd_given_offset(k),
         _ => 0.0,
     });
-    Checked::new(&measured_at(o), &f.axes_given_offset(), drift_sd).ok()
+    Checked::new(&measured_at(o), &f.axes_given_humidities(), drift_sd).ok()
 }
 
 /// The humidities the checks measured the strip's response at, in the file's frame: each part's
