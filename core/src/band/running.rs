@@ -161,8 +161,8 @@ impl<T: Real> BandDown<T> {
         let [a, b] = &mut self.scratch;
         let (x, y, n) = down_all(stages, &mut self.down[..p.stages], piece, a, b);
         let n = fir(&taps.taps[..p.taps], &mut self.line, &x[..n], y);
-        // `x` is spent: the lower edge's second scratch piece (each piece is written before it is read).
-        self.edge.apply(&taps.edge, &mut y[..n], x);
+        // `x` is spent: with `y` once its outputs are queued, the lower edge's scratch.
+        self.edge.apply(&taps.edge, y, n, x);
         (y, x, n)
     }
 }
