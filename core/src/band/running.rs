@@ -41,9 +41,9 @@ pub struct BandTaps<T> {
 #[derive(Clone, Copy)]
 pub struct BandDown<T> {
     down: [Down<T>; MAX_STAGES],
-    /// The band-pass's inputs at the low rate, with room for several pieces: the hundreds it
-    /// keeps move back to the front once in several.
-    line: Line<[T; MAX_TAPS + 4 * MOST]>,
+    /// The band-pass's inputs at the low rate, with room for two pieces: the hundreds it keeps
+    /// move back to the front once in several.
+    line: Line<[T; MAX_TAPS + 2 * MOST]>,
     /// A piece on its way down (and up, in [`BandLines`]), kept here: made afresh it would be
     /// zeroed each time.
     scratch: [Piece<T>; 2],
