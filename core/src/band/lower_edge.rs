@@ -36,13 +36,15 @@ pub struct EdgeLines<T> {
     up: [Up<T>; MAX_EDGE_STAGES],
     /// The low-pass's inputs at its rate, with room for many groups.
     line: Line<[T; MAX_EDGE_TAPS + EDGE_GROUP]>,
-    /// The low-pass's outputs back at the band-pass's rate, not yet subtracted.
-    ready: Line<[T; 2 * EDGE_GROUP]>,
+    /// The low-pass's outputs back at the band-pass's rate, not yet subtracted: fewer than
+    /// `edge_factor` between groups, and a group's.
+    ready: Line<[T; EDGE_GROUP + (1 << MAX_EDGE_STAGES)]>,
     /// The band-pass's output, held as long as the low-pass's path takes.
     held: Delay<[T; MAX_EDGE_DELAY]>,
     /// The band-pass's output in order: the first `done` kept already (a group's wait ahead of
-    /// them), the others waiting for their group.
-    queue: Line<[T; 2 * EDGE_GROUP + MAX_PIECE]>,
+    /// them), the others waiting for their group; a group's wait between pieces (as many go out
+    /// as came in), and a piece.
+    queue: Line<[T; EDGE_GROUP + MAX_PIECE]>,
     done: usize,
 }
 

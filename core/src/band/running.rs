@@ -57,8 +57,9 @@ pub struct BandDown<T> {
 pub struct BandLines<T> {
     low: BandDown<T>,
     up: [Up<T>; MAX_STAGES],
-    /// Outputs made, not yet handed out: one goes out per input.
-    ready: Line<[T; 2 * MOST]>,
+    /// Outputs made, not yet handed out: one goes out per input. A group of `factor` inputs
+    /// makes `factor` outputs on its last, so that after each piece fewer than `factor` wait.
+    ready: Line<[T; 1 << MAX_STAGES]>,
 }
 
 /// A piece on its way down and up through the lines, in two pieces of scratch: each is written
