@@ -7,13 +7,16 @@
 
 use super::design::MAX_HALF_BAND_PAIRS;
 use super::history::{Line, each_window};
-use super::spec::MAX_PIECE;
+use super::spec::{CHUNK, EDGE_GROUP, MAX_PIECE};
 use crate::numeric::real::Real;
 
 /// Lines of a half-band: its pairs' span (2K + 2 ≤ 2·MAX_HALF_BAND_PAIRS) and the most inputs a
 /// call brings one line (half of [`MAX_PIECE`]); the few samples it keeps move back to the front
 /// when the next call's no longer fit behind them ([`Line`]).
 const LINE: usize = 2 * MAX_HALF_BAND_PAIRS + MAX_PIECE / 2;
+/// Lines of a half-band going down: the 2K + 1 samples it keeps and half of the most a call
+/// brings, a piece of the stream ([`CHUNK`]) or a group of the lower edge's ([`EDGE_GROUP`]).
+const DOWN_LINE: usize = 2 * MAX_HALF_BAND_PAIRS - 1 + (if CHUNK > EDGE_GROUP { CHUNK } else { EDGE_GROUP }).div_ceil(2);
 /// Scratch for a piece on its way down and up: at no rate more than [`MAX_PIECE`].
 pub type Piece<T> = [T; MAX_PIECE];
 
@@ -32,9 +35,9 @@ pub struct HalfBand<T> {
 #[derive(Clone, Copy)]
 pub struct Down<T> {
     /// The second input of each pair: the samples the pairs' taps meet.
-    seconds: Line<[T; LINE]>,
+    seconds: Line<[T; DOWN_LINE]>,
     /// The first input of each pair: the centre tap meets the one K pairs back.
-    firsts: Line<[T; LINE]>,
+    firsts: Line<[T; DOWN_LINE]>,
     /// Whether the next input is the second of its pair (completes an output).
     second_next: bool,
 }

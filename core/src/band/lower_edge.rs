@@ -36,17 +36,16 @@ pub struct EdgeLines<T> {
     up: [Up<T>; MAX_EDGE_STAGES],
     /// The low-pass's inputs at its rate, with room for many groups.
     line: Line<[T; MAX_EDGE_TAPS + EDGE_GROUP]>,
-    /// The low-pass's outputs back at the band-pass's rate, not yet subtracted.
-    ready: Line<[T; 2 * EDGE_GROUP]>,
+    /// The low-pass's outputs back at the band-pass's rate, not yet subtracted: fewer than
+    /// `edge_factor` between groups, and a group's.
+    ready: Line<[T; EDGE_GROUP + (1 << MAX_EDGE_STAGES)]>,
     /// The band-pass's output, held as long as the low-pass's path takes.
     held: Delay<[T; MAX_EDGE_DELAY]>,
     /// The band-pass's output in order: the first `done` kept already (a group's wait ahead of
-    /// them), the others waiting for their group.
-    queue: Line<[T; 2 * EDGE_GROUP + MAX_PIECE]>,
+    /// them), the others waiting for their group; a group's wait between pieces (as many go out
+    /// as came in), and a piece.
+    queue: Line<[T; EDGE_GROUP + MAX_PIECE]>,
     done: usize,
-    /// A group on its way down and up, with the piece the band-pass's chain lends (kept here:
-    /// made afresh it would be zeroed each time).
-    scratch: Piece<T>,
 }
 
 impl<T: Real> EdgeTaps<T> {
@@ -82,7 +81,6 @@ impl<T: Real> EdgeLines<T> {
             held: Delay::zeros(0),
             queue: Line::zeros(0),
             done: 0,
-            scratch: [T::zero(); MAX_PIECE],
         }
     }
 
@@ -102,28 +100,30 @@ impl<T: Real> EdgeLines<T> {
         self.queue.rest(self.done);
     }
 
-    /// Keeps the lower edge of `buf` (at the band-pass's rate, at most [`MAX_PIECE`]) with the
-    /// coefficients `taps`, in place; `spare` is scratch, which it leaves changed.
+    /// Keeps the lower edge of the band-pass's `n` outputs at the front of `buf` (at its rate)
+    /// with the coefficients `taps`, in place. Once they are queued, `buf` and `spare` are a
+    /// group's scratch on its way down and up (the band-pass's chain lends both: each piece is
+    /// written before it is read), and `buf` takes the outputs back.
     #[inline(never)]
-    pub fn apply(&mut self, taps: &EdgeTaps<T>, buf: &mut [T], spare: &mut Piece<T>) {
+    pub fn apply(&mut self, taps: &EdgeTaps<T>, buf: &mut Piece<T>, n: usize, spare: &mut Piece<T>) {
         let (n_stages, n_taps) = (taps.n_stages, taps.n_taps);
         if n_taps == 0 {
             return;
         }
-        self.queue.extend(buf);
+        self.queue.extend(&buf[..n]);
         while self.queue.len() - self.done >= EDGE_GROUP {
             let group = &mut self.queue.as_mut_slice()[self.done..self.done + EDGE_GROUP];
             let stages = &taps.stages[..n_stages];
-            let (x, y, n) = down_all(stages, &mut self.down[..n_stages], group, &mut self.scratch, spare);
-            let n = fir(&taps.taps[..n_taps], &mut self.line, &x[..n], y);
-            let (low, _, n) = up_all(stages, &mut self.up[..n_stages], y, x, n);
-            self.ready.extend(&low[..n]);
+            let (x, y, m) = down_all(stages, &mut self.down[..n_stages], group, buf, spare);
+            let m = fir(&taps.taps[..n_taps], &mut self.line, &x[..m], y);
+            let (low, _, m) = up_all(stages, &mut self.up[..n_stages], y, x, m);
+            self.ready.extend(&low[..m]);
             self.held.less(group, self.ready.as_slice());
             self.ready.drop_front(EDGE_GROUP);
             self.done += EDGE_GROUP;
         }
-        buf.copy_from_slice(&self.queue.as_slice()[..buf.len()]);
-        self.queue.drop_front(buf.len());
-        self.done -= buf.len();
+        buf[..n].copy_from_slice(&self.queue.as_slice()[..n]);
+        self.queue.drop_front(n);
+        self.done -= n;
     }
 }

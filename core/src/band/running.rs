@@ -41,12 +41,9 @@ pub struct BandTaps<T> {
 #[derive(Clone, Copy)]
 pub struct BandDown<T> {
     down: [Down<T>; MAX_STAGES],
-    /// The band-pass's inputs at the low rate, with room for several pieces: the hundreds it
-    /// keeps move back to the front once in several.
-    line: Line<[T; MAX_TAPS + 4 * MOST]>,
-    /// A piece on its way down (and up, in [`BandLines`]), kept here: made afresh it would be
-    /// zeroed each time.
-    scratch: [Piece<T>; 2],
+    /// The band-pass's inputs at the low rate, with room for two pieces: the hundreds it keeps
+    /// move back to the front once in several.
+    line: Line<[T; MAX_TAPS + 2 * MOST]>,
     edge: EdgeLines<T>,
     /// The low-latency band's sections' states.
     states: [[T; 2]; SECTIONS],
@@ -60,15 +57,23 @@ pub struct BandDown<T> {
 pub struct BandLines<T> {
     low: BandDown<T>,
     up: [Up<T>; MAX_STAGES],
-    /// Outputs made, not yet handed out: one goes out per input.
-    ready: Line<[T; 2 * MOST]>,
+    /// Outputs made, not yet handed out: one goes out per input. A group of `factor` inputs
+    /// makes `factor` outputs on its last, so that after each piece fewer than `factor` wait.
+    ready: Line<[T; 1 << MAX_STAGES]>,
 }
+
+/// A piece on its way down and up through the lines, in two pieces of scratch: each is written
+/// before it is read, so that lines run alone ([`BandLines::process_block`]) take them on the
+/// stack.
+type Scratch<T> = [Piece<T>; 2];
 
 /// The running filter: [`BandDesign`] narrowed to `T`, with its lines.
 #[derive(Clone, Copy)]
 pub struct BandLimit<T> {
     taps: BandTaps<T>,
     lines: BandLines<T>,
+    /// Kept here: made afresh for each block it would be zeroed each time.
+    scratch: Scratch<T>,
 }
 
 impl<T: Real> BandTaps<T> {
@@ -121,13 +126,7 @@ impl<T: Real> BandDown<T> {
     /// compiler lays down as such.
     #[inline(always)]
     fn none() -> Self {
-        BandDown {
-            down: [Down::none(); MAX_STAGES],
-            line: Line::zeros(0),
-            scratch: [[T::zero(); MOST]; 2],
-            edge: EdgeLines::none(),
-            states: [[T::zero(); 2]; SECTIONS],
-        }
+        BandDown { down: [Down::none(); MAX_STAGES], line: Line::zeros(0), edge: EdgeLines::none(), states: [[T::zero(); 2]; SECTIONS] }
     }
 
     /// Forgets the history (after a fault: as if the input had been zero).
@@ -154,15 +153,16 @@ impl<T: Real> BandDown<T> {
     }
 
     /// A piece (at most [`CHUNK`]) down through the half-bands, the band-pass and the lower
-    /// edge: the scratch that holds its outputs first, the other (spent), and their number.
-    fn piece(&mut self, taps: &BandTaps<T>, piece: &[T]) -> (&mut Piece<T>, &mut Piece<T>, usize) {
+    /// edge, in `scratch`: the piece that holds its outputs first, the other (spent), and their
+    /// number.
+    fn piece<'s>(&mut self, taps: &BandTaps<T>, scratch: &'s mut Scratch<T>, piece: &[T]) -> (&'s mut Piece<T>, &'s mut Piece<T>, usize) {
         let p = &taps.plan;
         let stages = &taps.stages[..p.stages];
-        let [a, b] = &mut self.scratch;
+        let [a, b] = scratch;
         let (x, y, n) = down_all(stages, &mut self.down[..p.stages], piece, a, b);
         let n = fir(&taps.taps[..p.taps], &mut self.line, &x[..n], y);
-        // `x` is spent: the lower edge's second scratch piece (each piece is written before it is read).
-        self.edge.apply(&taps.edge, &mut y[..n], x);
+        // `x` is spent: with `y` once its outputs are queued, the lower edge's scratch.
+        self.edge.apply(&taps.edge, y, n, x);
         (y, x, n)
     }
 }
@@ -197,15 +197,24 @@ impl<T: Real> BandLines<T> {
     }
 
     /// Filters `buf` in place with the coefficients `taps` (those the lines were set at rest
-    /// for).
+    /// for), its scratch on the stack.
     pub fn process_block(&mut self, taps: &BandTaps<T>, buf: &mut [T]) {
+        if taps.plan.shape == Shape::LowLatency {
+            self.low.sections(taps, buf);
+            return;
+        }
+        self.run(taps, &mut [[T::zero(); MOST]; 2], buf);
+    }
+
+    /// [`Self::process_block`] with the scratch `scratch`.
+    fn run(&mut self, taps: &BandTaps<T>, scratch: &mut Scratch<T>, buf: &mut [T]) {
         if taps.plan.shape == Shape::LowLatency {
             self.low.sections(taps, buf);
             return;
         }
         let stages = &taps.stages[..taps.plan.stages];
         for piece in buf.chunks_mut(CHUNK) {
-            let (y, x, n) = self.low.piece(taps, piece);
+            let (y, x, n) = self.low.piece(taps, scratch, piece);
             let (out, _, n) = up_all(stages, &mut self.up[..stages.len()], y, x, n);
             self.ready.pass(&out[..n], piece);
         }
@@ -231,7 +240,7 @@ impl<T: Real> BandLimit<T> {
     #[inline(always)]
     pub fn identity() -> Self {
         // Its lines at rest already: no sample before the first.
-        BandLimit { taps: BandTaps::identity(), lines: BandLines::none() }
+        BandLimit { taps: BandTaps::identity(), lines: BandLines::none(), scratch: [[T::zero(); MOST]; 2] }
     }
 
     /// Takes the coefficients `d`, in place (no copy of the filter on the stack), with no history.
@@ -262,7 +271,7 @@ impl<T: Real> BandLimit<T> {
 
     /// Filters `buf` in place.
     pub fn process_block(&mut self, buf: &mut [T]) {
-        self.lines.process_block(&self.taps, buf);
+        self.lines.run(&self.taps, &mut self.scratch, buf);
     }
 }
 
