@@ -178,7 +178,7 @@ pub fn diagnose_over(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&st
         .effect()
         .filter(|e| matches!(e, crate::Effect::HydrationLag | crate::Effect::HumiditySensorError))
         .map(|_| crate::humidity::path::fit(&ctx, decision.overdispersion));
-    let humidity_reach = crate::humidity::reach::reach(&ctx);
+    let humidity_reach = crate::humidity::reach::reach(&ctx, base.law0, base.n_theta);
     let layout = layout(data);
     let within_none = crate::verdict::followup_request::within_none(
         &decision.probabilities,

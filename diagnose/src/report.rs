@@ -212,10 +212,10 @@ pub fn markdown(d: &Diagnosis, rerun: &Rerun, calib: &str, figures: &[Figure]) -
     let r = &d.humidity_reach;
     let _ = writeln!(
         s,
-        "**What this recording can carry of the humidity path:** a hydration lag from {} ({}), a sensor offset from {:.1} %RH.{}\n",
+        "**What this recording can carry of the humidity path:** a hydration lag from {} ({}), {}.{}\n",
         r.shortest_lag_s.map_or("none (no lag up to an hour moves a level by the floor)".into(), |t| format!("{t:.0} s")),
         if r.both_directions { "levels revisited in the other direction" } else { "one sweep direction" },
-        r.smallest_offset_pct,
+        crate::humidity::reach::offset_phrase(r.smallest_offset_pct),
         r.measurement.as_ref().map_or(String::new(), |m| format!(
             " Lab-sized ones ({:.0} s, {:.1} %RH) would need: {} ({}).",
             crate::humidity::reach::LAB_LAG_S,
@@ -404,9 +404,9 @@ fn none_reach(d: &Diagnosis) -> String {
     });
     let r = &d.humidity_reach;
     format!(
-        "{departure} `none` rules out only what this recording could name: a hydration lag {}, a sensor offset from {:.1} %RH, and each other effect at the size its candidate would have shown with ΔBIC ≥ {} (the candidates' table gives what each found).",
+        "{departure} `none` rules out only what this recording could name: a hydration lag {}, {}, and each other effect at the size its candidate would have shown with ΔBIC ≥ {} (the candidates' table gives what each found).",
         r.shortest_lag_s.map_or("of any length (no lag up to an hour moves a level by the floor)".into(), |t| format!("from {t:.0} s")),
-        r.smallest_offset_pct,
+        crate::humidity::reach::offset_phrase(r.smallest_offset_pct),
         crate::candidates::score::MIN_DELTA_BIC
     )
 }

@@ -25,9 +25,11 @@ pub(crate) struct Candidacy {
     /// between a time series' lines, held out burst by burst): its paired z replaces the
     /// levels' and the held-out χ² need not fall.
     pub own_heldout_z: Option<f64>,
-    /// −2 ln of the Occam factor of a candidate whose parameters have an informative prior
-    /// from the literature (the Laplace approximation of its evidence): it replaces BIC's price
-    /// k·ln N, which stands for a prior as wide as one datum's worth of information.
+    /// The price of its parameters where it is not BIC's k·ln N on its space: −2 ln of the
+    /// Occam factor of parameters with an informative prior from the literature (the Laplace
+    /// approximation of its evidence; k·ln N stands for a prior as wide as one datum's worth of
+    /// information), BIC's on other data where those alone carry the evidence, 0 where no datum
+    /// tests the candidate.
     pub occam: Option<f64>,
     /// `delta_chi2` level by level, where the candidate's fit decomposes so (a model candidate's
     /// joint fit against the per-level refit); what is not in it (the channels' prior terms) is

@@ -10,7 +10,8 @@
 use crate::candidates::separation::Separation;
 use crate::evidence::context::Ctx;
 use crate::evidence::laws;
-use crate::humidity::remap::{MIN_RH_SHIFT_PCT, SHIFT_FLOOR_SE, fit_sensor};
+use crate::humidity::remap::{MIN_RH_SHIFT_PCT, SHIFT_FLOOR_SE, fit_sensor, sensor_untestable};
+use crate::humidity::sensor_reference::SensorReference;
 
 /// The longest lag searched [s].
 pub const LONGEST_LAG_S: f64 = 3600.0;
@@ -29,20 +30,30 @@ pub struct HumidityReach {
     /// Whether a level is revisited in the other sweep direction (a lag's hysteresis).
     pub both_directions: bool,
     /// The smallest sensor offset [%RH] the levels could name: the floor plus
-    /// [`crate::humidity::remap::SHIFT_FLOOR_SE`] standard errors of the offset fitted to every level.
+    /// [`crate::humidity::remap::SHIFT_FLOOR_SE`] standard errors of the offset fitted to every
+    /// level; where the levels follow laws of their own, of the references' offset (infinite
+    /// without references).
     pub smallest_offset_pct: f64,
     /// What would carry the lab-sized effects this recording cannot (None when it carries both).
     pub measurement: Option<Separation>,
 }
 
-pub(crate) fn reach(ctx: &Ctx) -> HumidityReach {
+/// `law0` and `n_theta` as [`crate::evidence::context::Baseline`]'s: free laws that beat every
+/// sensor remap leave the levels no hold on an offset, and the reach is then the references'
+/// (none without them).
+pub(crate) fn reach(ctx: &Ctx, law0: (f64, usize), n_theta: f64) -> HumidityReach {
     let levels = &ctx.data.levels;
     let read = ctx.read_rh();
     let largest_shift =
         |tau: f64| laws::lagged_rh(levels, &ctx.data.histories, tau).iter().zip(&read).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     let shortest_lag_s = ctx.data.has_times().then(|| shortest(&largest_shift)).flatten();
     let everyone: Vec<usize> = (0..levels.len()).collect();
-    let se = fit_sensor(ctx, &everyone).se[0];
+    let own = fit_sensor(ctx, &everyone);
+    let se = if sensor_untestable(&own, law0, n_theta) {
+        SensorReference::of(&ctx.data.references).map_or(f64::INFINITY, |r| r.fit().se[0])
+    } else {
+        own.se[0]
+    };
     let smallest_offset_pct = MIN_RH_SHIFT_PCT + SHIFT_FLOOR_SE * if se.is_finite() { se } else { f64::INFINITY };
     let both_directions = levels.iter().any(|l| l.revisit_of.is_some());
     let lag_blind = shortest_lag_s.is_none_or(|t| t > LAB_LAG_S);
@@ -63,7 +74,7 @@ pub(crate) fn reach(ctx: &Ctx) -> HumidityReach {
     let offset = || Separation {
         between: ["humidity_sensor_error".into(), "none".into()],
         record: "the sensor at a saturated-salt reference (e.g. NaCl, 75.3 %RH) or beside a reference hygrometer".into(),
-        band: format!("one or two humidities; this recording names an offset only from {smallest_offset_pct:.1} %RH"),
+        band: format!("one or two humidities; this recording names {}", offset_phrase(smallest_offset_pct)),
         because: "the strip's laws alone fix an offset only to the levels' scatter".into(),
     };
     let measurement = match (lag_blind, offset_blind) {
@@ -81,6 +92,17 @@ pub(crate) fn reach(ctx: &Ctx) -> HumidityReach {
         (false, false) => None,
     };
     HumidityReach { shortest_lag_s, both_directions, smallest_offset_pct, measurement }
+}
+
+/// The sensor offsets a recording whose smallest nameable one is `pct` [%RH] names: "a sensor
+/// offset from 2.1 %RH", or none where its levels follow laws of their own and no reference was
+/// read.
+pub fn offset_phrase(pct: f64) -> String {
+    if pct.is_finite() {
+        format!("a sensor offset from {pct:.1} %RH")
+    } else {
+        "no sensor offset (its levels follow laws of their own, which absorb one)".into()
+    }
 }
 
 /// The smallest τ in [1 s, [`LONGEST_LAG_S`]] whose largest shift reaches the floor, by

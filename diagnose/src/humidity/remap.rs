@@ -45,6 +45,15 @@ pub(crate) fn fit_sensor(ctx: &Ctx, train: &[usize]) -> SensorFit {
     fit_sensor_parsimonious(ctx, train, &ctx.read_rh(), true, price, Uncertainty::Curvature)
 }
 
+/// Whether the levels cannot test a sensor error at all: its best offset and gain (`own`,
+/// fitted with the drift) lose to free humidity laws by BIC ([`laws_of_their_own`]). An offset
+/// and gain remap the humidity linearly, which free laws absorb whole; the levels show a sensor
+/// only through the calibration's laws, and a strip that follows laws of its own (or levels past
+/// the calibrated range, where its laws are not known) leaves them no hold on one.
+pub(crate) fn sensor_untestable(own: &SensorFit, law0: (f64, usize), n_theta: f64) -> bool {
+    laws_of_their_own(own.nll, 1 + usize::from(own.free_gain), law0, n_theta)
+}
+
 /// Whether a sensor fit states its uncertainty. The curvature costs up to eight more
 /// evaluations of the −2 ln L per fit: the humidity path, which profiles the fit over a lag
 /// and uses its point alone, asks for none.
@@ -191,6 +200,16 @@ fn shift_floor(rh: &[f64], near: &[f64], read: &[f64]) -> Option<String> {
     })
 }
 
+/// Whether the levels' parameters follow laws of their own rather than the calibration's at the
+/// remapped humidity: free humidity laws (`law0`, −2 ln L and parameter count) beat the remap
+/// (−2 ln L `nll_alt` with its `k` parameters and the four drifts) by BIC on the `n_theta` level
+/// parameters.
+pub(crate) fn laws_of_their_own(nll_alt: f64, k: usize, law0: (f64, usize), n_theta: f64) -> bool {
+    let bic_alt = nll_alt + (k + 4) as f64 * n_theta.ln();
+    let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
+    bic_alt > bic_laws
+}
+
 /// What a humidity remap scores, against the calibration as read with its drift.
 pub(crate) struct RemapScore {
     pub fitted: Fitted,
@@ -225,11 +244,9 @@ pub(crate) fn score_remap(ctx: &Ctx, remap: &Remap, law0: (f64, usize), n_theta:
     let null_per_level = anchored_nll_per_level(ctx, &ctx.read_rh(), &everyone);
     let alt_per_level = anchored_nll_per_level(ctx, &remap.rh, &everyone);
     let (nll_null, nll_alt): (f64, f64) = (null_per_level.iter().sum(), alt_per_level.iter().sum());
-    let bic_alt = nll_alt + (remap.k + 4) as f64 * n_theta.ln();
-    let bic_laws = law0.0 + law0.1 as f64 * n_theta.ln();
     let fitted = Fitted { theta: anchored(ctx, &remap.rh, &everyone), ..ctx.plain() };
     let (null, candidate) = heldout_anchored(ctx, &fitted, remap.remap_of);
-    let explains = bic_alt <= bic_laws;
+    let explains = !laws_of_their_own(nll_alt, remap.k, law0, n_theta);
     RemapScore {
         delta_chi2: if explains { nll_null - nll_alt } else { 0.0 },
         per_level: if explains { null_per_level.iter().zip(&alt_per_level).map(|(n, a)| n - a).collect() } else { vec![] },

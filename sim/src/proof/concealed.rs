@@ -326,6 +326,87 @@ mod tests {
         assert!(wrong.is_empty(), "named wrong: {wrong:?}");
     }
 
+    /// A diagnosis of the recordings `files` (written to a temporary directory under `tag`),
+    /// the primary first.
+    fn diagnose_files(calib: &Calibration, tag: &str, files: &[(String, String)]) -> ipmc_diagnose::Diagnosis {
+        let dir = std::env::temp_dir().join(format!("ipmc-concealed-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let paths: Vec<std::path::PathBuf> = files
+            .iter()
+            .map(|(name, text)| {
+                let path = dir.join(name);
+                std::fs::write(&path, text).unwrap();
+                path
+            })
+            .collect();
+        let data = Dataset::read(&paths, &ipmc_core::calibration::humidity_path::HumidityPath::NONE);
+        std::fs::remove_dir_all(&dir).ok();
+        engine::diagnose(calib, &data.unwrap(), &|_| {}).unwrap()
+    }
+
+    /// A case through up to two follow-ups in the order its reports ask for them: each
+    /// diagnosis, the primary's first.
+    fn with_followups(calib: &Calibration, case: &Case, tag: &str) -> Vec<ipmc_diagnose::Diagnosis> {
+        let mut files = vec![("primary.csv".to_string(), case.recording.to_csv().unwrap())];
+        let mut out = vec![diagnose_files(calib, tag, &files)];
+        while let Some(r) = out.last().unwrap().request.as_ref().filter(|_| out.len() <= 2) {
+            let up = crate::followup::make_followup(calib, case, r.protocol, "primary.csv", 11).unwrap();
+            files.push((format!("primary-{}.csv", r.protocol), up.to_csv().unwrap()));
+            out.push(diagnose_files(calib, tag, &files));
+        }
+        out
+    }
+
+    fn sensor_score(d: &ipmc_diagnose::Diagnosis) -> &ipmc_diagnose::candidates::score::Score {
+        d.candidates.iter().find(|s| s.name == Effect::HumiditySensorError.name()).unwrap()
+    }
+
+    /// `prove`'s own time-series case of a sensor reading 0.923·true − 6.1 %RH, whose true
+    /// humidities reach past the calibration's range (90 %RH): free laws fit the levels better
+    /// than the calibration's at any remapped humidity, so the levels test no sensor (its
+    /// evidence neither counted nor priced, an offset outside the recording's reach) and the
+    /// reports ask for the reference within two follow-ups, which names it with the offset and
+    /// gain it was given. A clean strip swept to 95 %RH, whose levels test no sensor either,
+    /// stays unnamed with its reference, its offset the references' (within three standard
+    /// errors of none), not one its own laws would lend it.
+    #[test]
+    fn a_sensor_past_the_calibrated_range_is_named_from_its_reference() {
+        let calib = Calibration::default_preset();
+        let case = make_case(&calib, Some(Effect::HumiditySensorError), 10_033, Strength::Random, Format::Ts).unwrap();
+        let (gain, offset) = (case.strip.bench.sensor_gain, case.strip.bench.sensor_offset_pct);
+        assert!((gain - 0.923).abs() < 0.001 && (offset + 6.1).abs() < 0.05, "the premise: this case's sensor ({gain}, {offset})");
+        let off = with_followups(&calib, &case, "past-range");
+        let primary = sensor_score(&off[0]);
+        assert!(primary.note.contains("laws of their own") && primary.delta_bic == 0.0, "{}: ΔBIC {}", primary.note, primary.delta_bic);
+        assert!(off[0].humidity_reach.smallest_offset_pct.is_infinite());
+        let last = off.last().unwrap();
+        let taken: Vec<String> = off[..off.len() - 1].iter().filter_map(|d| d.request.as_ref().map(|r| r.protocol.to_string())).collect();
+        assert_eq!(
+            last.verdict,
+            Effect::HumiditySensorError.name(),
+            "after {} follow-up(s) ({taken:?}): {:?}",
+            off.len() - 1,
+            last.probabilities
+        );
+        // RH_true = RH_read + o + (g − 1)(RH_read − 60): g = 1/0.923, o = (6.1 + 60)/0.923 − 60.
+        let (o, g) = (last.params[0].value, last.params[1].value);
+        assert!((g - 1.0 / gain).abs() < 0.02 && (o - ((60.0 - offset) / gain - 60.0)).abs() < 0.6, "offset {o}, gain {g}");
+
+        let mut clean = make_case(&calib, None, 3, Strength::At(0.5), Format::Fr).unwrap();
+        clean.strip.levels_pct = (0..9).map(|k| 55.0 + 5.0 * k as f64).collect();
+        clean.recording = simulate(&calib, &clean.strip.session(&calib, Format::Fr, 5), &clean.strip.physics, Default::default()).unwrap();
+        let reference = crate::followup::make_followup(&calib, &clean, ipmc_recording::Protocol::Reference, "clean.csv", 11).unwrap();
+        let files = [
+            ("clean.csv".to_string(), clean.recording.to_csv().unwrap()),
+            ("clean-reference.csv".to_string(), reference.to_csv().unwrap()),
+        ];
+        let d = diagnose_files(&calib, "clean-past-range", &files);
+        let s = sensor_score(&d);
+        assert!(s.note.contains("laws of their own"), "the premise: its levels test no sensor ({})", s.note);
+        assert_ne!(d.verdict, Effect::HumiditySensorError.name());
+        assert!(s.params[0].value.abs() < 3.0 * s.params[0].std_error, "a clean strip's offset {:?}: {}", s.params[0], s.note);
+    }
+
     #[test]
     fn clean_sessions_give_none() {
         for seed in [1, 2] {
