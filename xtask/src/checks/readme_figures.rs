@@ -25,6 +25,11 @@ pub fn save(id: &str, output: &str) -> Result<()> {
     std::fs::write(&p, output).with_context(|| format!("cannot write {}", p.display()))
 }
 
+/// Drops what an earlier run saved for figure `id`, where this run's step could not print it.
+pub fn forget(id: &str) {
+    let _ = std::fs::remove_file(saved(id));
+}
+
 /// What prints figure `id`: run here, or saved by an earlier step (None: that step did not run,
 /// e.g. the independent recordings are not beside the repository).
 fn output_of(id: &str) -> Result<Option<String>> {
