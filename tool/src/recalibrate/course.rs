@@ -10,6 +10,14 @@
 //! parts a χ². What the calibration does not know of the strip's parameters moves every part's
 //! humidity alike and leaves with the offset.
 //!
+//! The parts are read in the calibration's band ([`band_hz`]), not over the whole check's: the
+//! course is what the strip's hygrometer follows between checks, the humidity the compensation
+//! is designed at, and the compensation uses the response in the band only. Below and above it
+//! the bench's laws are not what the compensation relies on, and where they follow the humidity
+//! otherwise than the strip does there, those bins pull each part's humidity toward the whole
+//! check's: on a shared strip the course over the whole check band came out 0.7 of the strip's
+//! (in band 1.0), and the lags it favoured were twice the strip's.
+//!
 //! The lag is continuous; the hygrometer weighs the lags of its grid (`HYDRATION_LAGS_S`). The
 //! course is read on a grid [`FINE_STEPS`] times finer, log-uniform as the hygrometer's prior,
 //! and each fine lag's probability is shared between the two grid lags around it in proportion
@@ -37,6 +45,11 @@ pub const FINE_STEPS: usize = 8;
 const NEWTON_STEPS: usize = 8;
 const STEP_PCT: f64 = 0.05;
 
+/// The band the parts are read in [Hz]: the calibration's (module doc).
+fn band_hz(calib: &Calibration) -> (f64, f64) {
+    (calib.band.low_hz, calib.band.high_hz)
+}
+
 /// One part of a check: the strip's humidity over it with its 1σ [%RH], and its span in the
 /// check's samples.
 #[derive(Clone, Debug)]
@@ -46,10 +59,11 @@ pub struct Part {
     pub samples: (usize, usize),
 }
 
-/// The parts of check `c` of the fit `f` (its recording `s`, its whole response `whole`, read
-/// over `band`), in time order; empty where the check is too short for two parts or a part's
+/// The parts of check `c` of the fit `f` (its recording `s`, its whole response `whole`), read
+/// in [`band_hz`], in time order; empty where the check is too short for two parts or a part's
 /// response cannot be fitted.
-pub fn parts(calib: &Calibration, f: &CheckFit, c: usize, s: &TimeSeries, whole: &Measured, band: (f64, f64)) -> Result<Vec<Part>> {
+pub fn parts(calib: &Calibration, f: &CheckFit, c: usize, s: &TimeSeries, whole: &Measured) -> Result<Vec<Part>> {
+    let band = band_hz(calib);
     let Some(accel) = s.accel_mps2.as_ref() else { return Ok(vec![]) };
     let n = s.current_a.len();
     let count = (n as f64 / s.fs_hz / PART_S).floor() as usize;

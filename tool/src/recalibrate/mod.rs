@@ -187,7 +187,7 @@ pub fn recalibrate_checks(calib: &Calibration, checks: Vec<Check>, drift_sd: f64
         .checks
         .iter()
         .enumerate()
-        .map(|(c, check)| course::parts(calib, chosen, c, &check.series, &check.measured, check_band_hz(calib, check.series.fs_hz)))
+        .map(|(c, check)| course::parts(calib, chosen, c, &check.series, &check.measured))
         .collect::<Result<Vec<_>>>()?;
     if !calib.humidity.has_lag() {
         let through = |c: usize, lag: f64| {
@@ -276,6 +276,63 @@ mod tests {
             let t = update::updated(&calib, &o).humidity.lag_offsets.unwrap();
             assert_eq!(t.weight.to_vec(), w, "case {seed}");
             assert!(update::over_the_lags(&t).0.abs() < 1e-9, "case {seed}: the table's offsets about their weighted mean");
+        }
+    }
+
+    /// The strip's response outside the calibration's band moving with the humidity otherwise
+    /// than the calibration's laws say: the check's course is still the strip's, read where the
+    /// compensation uses the response. Read over the whole check band, the bins below and above
+    /// the band pull each part's humidity toward the whole check's (here a course 0.6 of the
+    /// strip's).
+    #[test]
+    fn a_checks_course_is_read_in_the_calibrations_band() {
+        use ipmc_core::C;
+        use ipmc_sim::physics::Physics;
+        struct OutsideTheBand<'a> {
+            inner: &'a dyn Physics,
+            band_hz: (f64, f64),
+            per_pct: f64,
+            at_pct: f64,
+        }
+        impl Physics for OutsideTheBand<'_> {
+            fn response(&self, params: &ipmc_core::model::params::Params<f64>, rh_pct: f64, temp_c: f64, s: C<f64>) -> (C<f64>, C<f64>) {
+                let (tip, current) = self.inner.response(params, rh_pct, temp_c, s);
+                let f = s.im / std::f64::consts::TAU;
+                let outside = if (self.band_hz.0..=self.band_hz.1).contains(&f) { 0.0 } else { 1.0 };
+                (tip, current * (self.per_pct * (rh_pct - self.at_pct) * outside).exp())
+            }
+        }
+        let calib = Calibration::default_preset();
+        let physics = OutsideTheBand { inner: &ExactModel, band_hz: (calib.band.low_hz, calib.band.high_hz), per_pct: -0.2, at_pct: 72.0 };
+        for seed in [7u64, 8] {
+            let plan = check_plan(seed, 60.0, 72.0, 3.0);
+            let accel = Accelerometer::drawn(&mut SplitMix64(seed + 100));
+            let field = simulate_check(&calib, &plan, &physics, &accel);
+            let strip = field.strip_pct.clone();
+            let check = check_of(Path::new("own.csv"), field.ts, &calib).unwrap();
+            let o = recalibrate_checks(&calib, vec![check], DRIFT_PRIOR_SD).unwrap();
+            let parts = &o.parts[0];
+            assert_eq!(parts.len(), 3, "case {seed}");
+            let truth: Vec<f64> = parts
+                .iter()
+                .map(|p| {
+                    let (a, b) = ((p.samples.0 as f64 / 2000.0) as usize, ((p.samples.1 as f64 / 2000.0) as usize).min(strip.len()));
+                    strip[a..b].iter().sum::<f64>() / (b - a) as f64
+                })
+                .collect();
+            // The parts' humidities against the strip's over the same spans: a slope of 1 (the
+            // course followed), within the parts' own scatter and a tenth.
+            let w: Vec<f64> = parts.iter().map(|p| p.sd_pct.powi(-2)).collect();
+            let mean = |v: &[f64]| v.iter().zip(&w).map(|(v, w)| v * w).sum::<f64>() / w.iter().sum::<f64>();
+            let fitted: Vec<f64> = parts.iter().map(|p| p.rh_pct).collect();
+            let (xm, ym) = (mean(&truth), mean(&fitted));
+            let sxx: f64 = truth.iter().zip(&w).map(|(x, w)| w * (x - xm).powi(2)).sum();
+            let slope = truth.iter().zip(&fitted).zip(&w).map(|((x, y), w)| w * (x - xm) * (y - ym)).sum::<f64>() / sxx;
+            let slope_sd = sxx.powf(-0.5);
+            assert!(
+                (slope - 1.0).abs() < 0.1 + 3.0 * slope_sd,
+                "case {seed}: the parts {fitted:.2?} against the strip's {truth:.2?}: slope {slope:.3} ± {slope_sd:.3}"
+            );
         }
     }
 
