@@ -275,10 +275,11 @@ fn humidity_path_expr(p: &HumidityPath) -> String {
     let array = |v: &[f64]| format!("[{}]", v.iter().map(|x| f64_expr(*x)).collect::<Vec<_>>().join(", "));
     let lag_offsets = lag_offsets.map_or("None".into(), |t| {
         format!(
-            "Some(ipmc_core::calibration::lag_offsets::LagOffsets {{ offset_pct: {}, sd_pct: {}, weight: {} }})",
+            "Some(ipmc_core::calibration::lag_offsets::LagOffsets {{ offset_pct: {}, sd_pct: {}, weight: {}, between: {} }})",
             array(&t.offset_pct),
             array(&t.sd_pct),
-            array(&t.weight)
+            array(&t.weight),
+            array(&t.between)
         )
     });
     format!(

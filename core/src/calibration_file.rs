@@ -263,6 +263,7 @@ mod tests {
             offset_pct: [-0.46, -0.14, 0.12, 0.23, 0.28],
             sd_pct: [0.05, 0.05, 0.06, 0.07, 0.08],
             weight: [0.1, 0.5, 0.25, 0.1, 0.05],
+            between: [0.0, 0.8, 0.2, 0.0],
         });
         let text = to_text(&c);
         assert!(text.contains("[humidity.lag_offsets]") && text.contains("lag_s = [10.0, 20.0, 40.0, 80.0, 160.0]"), "{text}");
@@ -284,6 +285,10 @@ mod tests {
         assert_eq!(equal.humidity.lag_offsets.unwrap().weight, crate::calibration::lag_offsets::EQUAL_WEIGHTS);
         let unnormed = with(&format!("{grid}\noffset_pct = [0, 0, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]\nweight = [1, 1, 1, 1, 1]"));
         assert!(unnormed.unwrap_err().to_string().contains("humidity.lag_offsets.weight"));
+        // Without `between` (a table whose course did not read the lag finer), none.
+        assert_eq!(equal.humidity.lag_offsets.unwrap().between, crate::calibration::lag_offsets::NONE_BETWEEN);
+        let beyond = with(&format!("{grid}\noffset_pct = [0, 0, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]\nbetween = [0, 1.5, 0, 0]"));
+        assert!(beyond.unwrap_err().to_string().contains("between"));
     }
 
     #[test]

@@ -40,10 +40,20 @@ pub struct LagOffsets {
     pub sd_pct: [f64; LAGS],
     /// The lag's probability from the checks (summing to 1; without a course, equal).
     pub weight: [f64; LAGS],
+    /// Per two neighbouring lags of the grid, how much of the spread between their paths is one
+    /// lag between them rather than either (0–1; without a course, 0). The course reads the lag
+    /// on a finer grid and shares each fine lag between its two neighbours, so that their
+    /// mixture trails as the fine lag does: a lag the course decides between two grid lags is
+    /// their mixture for sure, and the spread of their two paths no uncertainty of it. Of the
+    /// pair's spread p_k·p_{k+1}·(h_k − h_{k+1})², this is the part that is the mixture's own:
+    /// E[x(1−x)] over the fine lags between them (x their place between the two) over w_k·w_{k+1}.
+    pub between: [f64; LAGS - 1],
 }
 
 /// The grid's prior: every lag alike.
 pub const EQUAL_WEIGHTS: [f64; LAGS] = [1.0 / LAGS as f64; LAGS];
+/// Without a course: no pair of lags known to hold one lag between them.
+pub const NONE_BETWEEN: [f64; LAGS - 1] = [0.0; LAGS - 1];
 
 impl LagOffsets {
     /// The lag `k` of the grid's offset beyond `offset_pct` and its 1σ.
@@ -51,16 +61,18 @@ impl LagOffsets {
         (self.offset_pct[k], self.sd_pct[k])
     }
 
-    /// The weights checked: each finite and within 0–1, their sum 1 within rounding.
+    /// The weights checked: each finite and within 0–1, their sum 1 within rounding; each
+    /// `between` within 0–1.
     pub fn weights_valid(&self) -> bool {
-        self.weight.iter().all(|w| w.is_finite() && (0.0..=1.0).contains(w)) && (self.weight.iter().sum::<f64>() - 1.0).abs() < 1e-6
+        let unit = |w: &f64| w.is_finite() && (0.0..=1.0).contains(w);
+        self.weight.iter().all(unit) && (self.weight.iter().sum::<f64>() - 1.0).abs() < 1e-6 && self.between.iter().all(unit)
     }
 }
 
 #[cfg(feature = "serde")]
 mod file {
     extern crate std;
-    use super::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS, LagOffsets};
+    use super::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS, LagOffsets, NONE_BETWEEN};
     use std::string::String;
     use std::vec::Vec;
 
@@ -75,6 +87,9 @@ mod file {
         /// Absent in a file whose checks did not weigh the lags: equal.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         weight: Option<Vec<f64>>,
+        /// Absent in a file whose checks did not read the lag finer than the grid: none.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        between: Option<Vec<f64>>,
     }
 
     impl TryFrom<LagOffsetsFile> for LagOffsets {
@@ -95,9 +110,16 @@ mod file {
                     <[f64; LAGS]>::try_from(w).map_err(|_| std::format!("humidity.lag_offsets.weight: one number per lag ({LAGS})"))?
                 }
             };
-            let t = LagOffsets { offset_pct: offset, sd_pct: sd, weight };
+            let between = match f.between {
+                None => NONE_BETWEEN,
+                Some(b) => <[f64; LAGS - 1]>::try_from(b)
+                    .map_err(|_| std::format!("humidity.lag_offsets.between: one number per two neighbouring lags ({})", LAGS - 1))?,
+            };
+            let t = LagOffsets { offset_pct: offset, sd_pct: sd, weight, between };
             if !t.weights_valid() {
-                return Err(std::format!("humidity.lag_offsets.weight = {weight:?}: probabilities within 0–1 that sum to 1"));
+                return Err(std::format!(
+                    "humidity.lag_offsets.weight = {weight:?}, between = {between:?}: probabilities within 0–1 (the weights summing to 1)"
+                ));
             }
             // Their ranges are the path's to check, with its offset's (`HumidityPath::validate`).
             Ok(t)
@@ -111,6 +133,7 @@ mod file {
                 offset_pct: t.offset_pct.to_vec(),
                 sd_pct: t.sd_pct.to_vec(),
                 weight: Some(t.weight.to_vec()),
+                between: Some(t.between.to_vec()),
             }
         }
     }

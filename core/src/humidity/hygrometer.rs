@@ -9,7 +9,7 @@
 //! completion points bit for bit, as it replays its retunes.
 
 use crate::calibration::humidity_path::{SensorKind, relax};
-use crate::calibration::lag_offsets::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS};
+use crate::calibration::lag_offsets::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS, NONE_BETWEEN};
 use crate::calibration::laws::Calibration;
 #[cfg(test)]
 use crate::humidity::fusion::BIAS_MEMORY_S;
@@ -178,6 +178,9 @@ pub struct BlockHygrometer<T> {
     /// one, else [`HYDRATION_LAGS_S`].
     lags: [Lag<T>; LAGS],
     n_lags: usize,
+    /// Per two neighbouring lags, how much of their paths' spread is one lag between them
+    /// ([`crate::calibration::lag_offsets::LagOffsets::between`]): no uncertainty of the mixture.
+    between: [T; LAGS - 1],
     strip: Option<Result<StripRh<T>, Refusal>>,
     accuracy_pct: T,
     /// The fits' gate: a fit less certain than this is left out. For a named sensor its
@@ -220,6 +223,10 @@ impl<T: Real> BlockHygrometer<T> {
             used_at: None,
             lags,
             n_lags,
+            between: match calib.humidity.lag_offsets {
+                Some(t) if n_lags > 1 => t.between.map(T::lit),
+                _ => NONE_BETWEEN.map(T::lit),
+            },
             strip: None,
             accuracy_pct: T::lit(accuracy_pct),
             fit_gate_pct: T::lit(match calib.humidity.sensor {
@@ -364,12 +371,23 @@ impl<T: Real> BlockHygrometer<T> {
     fn fused(&self, reading: Estimate<T>) -> (Estimate<T>, T) {
         let dt = T::lit((self.clock - self.snapshot_at) as f64) / self.fs_hz;
         let lags = &self.lags[..self.n_lags];
-        let value = |l: &Lag<T>| l.lagged_after(reading.rh_pct + l.offset, dt) - l.correction;
-        let mean = lags.iter().fold(T::zero(), |a, l| a + l.probability * value(l));
-        let (var, var_design) = lags.iter().fold((T::zero(), T::zero()), |(a, b), l| {
-            let d = value(l) - mean;
+        let mut value = [T::zero(); LAGS];
+        for (v, l) in value.iter_mut().zip(lags) {
+            *v = l.lagged_after(reading.rh_pct + l.offset, dt) - l.correction;
+        }
+        let value = &value[..lags.len()];
+        let mean = lags.iter().zip(value).fold(T::zero(), |a, (l, &v)| a + l.probability * v);
+        let (var, var_design) = lags.iter().zip(value).fold((T::zero(), T::zero()), |(a, b), (l, &v)| {
+            let d = v - mean;
             (a + l.probability * (l.var + d * d), b + l.probability * (l.var_design + d * d))
         });
+        // The spread over the lags is Σ over pairs p_j·p_k·(h_j − h_k)²; of each neighbouring
+        // pair's, the part that is one lag between them is the mixture's own, not its error.
+        let between = lags.windows(2).zip(value.windows(2)).zip(&self.between).fold(T::zero(), |a, ((l, v), &b)| {
+            let d = v[0] - v[1];
+            a + b * l[0].probability * l[1].probability * d * d
+        });
+        let (var, var_design) = ((var - between).max(T::zero()), (var_design - between).max(T::zero()));
         let lag = lag_var(reading, self.accuracy_pct);
         (Estimate { rh_pct: mean, sd_pct: (var + lag).sqrt() }, (var_design + lag).sqrt())
     }
@@ -496,7 +514,12 @@ mod tests {
         c.humidity.sensor_lag_s = Some(0.0);
         c.humidity.uncertainty_pct = Some(spread.hypot(0.05));
         if per_lag {
-            c.humidity.lag_offsets = Some(LagOffsets { offset_pct: given.map(|g| g - mean), sd_pct: [0.05; LAGS], weight: EQUAL_WEIGHTS });
+            c.humidity.lag_offsets = Some(LagOffsets {
+                offset_pct: given.map(|g| g - mean),
+                sd_pct: [0.05; LAGS],
+                weight: EQUAL_WEIGHTS,
+                between: NONE_BETWEEN,
+            });
         }
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         let (mut strip, mut seen, mut path) = (78.0, 78.0, 79.0 + mean);

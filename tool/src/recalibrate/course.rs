@@ -135,7 +135,7 @@ pub fn course_chi2(parts: &[Vec<Part>], through: &[Vec<f64>]) -> f64 {
 /// The grid lags' probabilities from the checks' courses (module doc), `through(c, lag)` the
 /// reading through the strip's `lag` averaged over each part of check `c`; None where no check
 /// has two parts.
-pub fn lag_weights(parts: &[Vec<Part>], through: impl Fn(usize, f64) -> Vec<f64>) -> Option<Vec<f64>> {
+pub fn lag_weights(parts: &[Vec<Part>], through: impl Fn(usize, f64) -> Vec<f64>) -> Option<GridLags> {
     let dof: usize = parts.iter().filter(|p| p.len() >= 2).map(|p| p.len() - 1).sum();
     if dof == 0 {
         return None;
@@ -163,22 +163,42 @@ pub fn over_parts(path: &[f64], block: usize, parts: &[Part]) -> Vec<f64> {
         .collect()
 }
 
+/// The course's lag on the hygrometer's grid: each grid lag's probability, and per two
+/// neighbouring lags how much of their paths' spread is one lag between them
+/// ([`ipmc_core::calibration::lag_offsets::LagOffsets::between`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridLags {
+    pub weight: Vec<f64>,
+    pub between: Vec<f64>,
+}
+
 /// The fine lags' posterior (χ² in units of the best one's reduced value where that exceeds 1;
-/// one degree of freedom goes to the lag) shared onto the grid.
-pub fn grid_weights(fine: &[f64], chi2: &[f64], dof: usize) -> Vec<f64> {
+/// one degree of freedom goes to the lag) shared onto the grid: a fine lag at x of the way from
+/// one grid lag to the next gives (1 − x) of its probability to the one and x to the other, and
+/// x·(1 − x) of it is the pair's mixture's own (a lag between them, no spread of the two).
+pub fn grid_weights(fine: &[f64], chi2: &[f64], dof: usize) -> GridLags {
     let best = chi2.iter().copied().fold(f64::INFINITY, f64::min);
     let scale = if dof > 1 { (best / (dof - 1) as f64).max(1.0) } else { 1.0 };
-    let mut grid = vec![0.0; HYDRATION_LAGS_S.len()];
+    let n = HYDRATION_LAGS_S.len();
+    let (mut grid, mut pair) = (vec![0.0; n], vec![0.0; n - 1]);
     for (&lag, &c) in fine.iter().zip(chi2) {
         let p = (-(c - best) / (2.0 * scale)).exp();
-        let k = HYDRATION_LAGS_S.windows(2).position(|w| lag <= w[1]).unwrap_or(HYDRATION_LAGS_S.len() - 2);
+        let k = HYDRATION_LAGS_S.windows(2).position(|w| lag <= w[1]).unwrap_or(n - 2);
         let (lo, hi) = (HYDRATION_LAGS_S[k], HYDRATION_LAGS_S[k + 1]);
         let frac = ((lag - lo) / (hi - lo)).clamp(0.0, 1.0);
         grid[k] += p * (1.0 - frac);
         grid[k + 1] += p * frac;
+        pair[k] += p * frac * (1.0 - frac);
     }
     let total: f64 = grid.iter().sum();
-    grid.iter().map(|w| w / total).collect()
+    let weight: Vec<f64> = grid.iter().map(|w| w / total).collect();
+    let between = (0..n - 1)
+        .map(|k| {
+            let both = weight[k] * weight[k + 1];
+            if both > 1e-12 { (pair[k] / total / both).clamp(0.0, 1.0) } else { 0.0 }
+        })
+        .collect();
+    GridLags { weight, between }
 }
 
 #[cfg(test)]
@@ -212,16 +232,21 @@ mod tests {
         // The course decides a lag of 30 s sharply: the grid's 20 and 40 s share it equally,
         // and the mixture's lag is 30 s.
         let chi2: Vec<f64> = fine.iter().map(|l| 1e4 * (l / 30.0).ln().powi(2)).collect();
-        let w = grid_weights(&fine, &chi2, 2);
+        let lags = grid_weights(&fine, &chi2, 2);
+        let w = &lags.weight;
         let mean: f64 = w.iter().zip(HYDRATION_LAGS_S).map(|(w, l)| w * l).sum();
         assert!((mean - 30.0).abs() < 1.0 && w[0] < 1e-6 && w[3] < 1e-6, "{w:?}");
+        // Decided between 20 and 40 s, their mixture is the lag: their spread is its own.
+        assert!(lags.between[1] > 0.9 && lags.between[0] == 0.0, "{:?}", lags.between);
         // A χ² that cannot tell the lags leaves the grid near its prior.
         let flat = grid_weights(&fine, &vec![1.0; fine.len()], 2);
-        assert!(flat.iter().all(|&x| x > 0.1) && (flat.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{flat:?}");
+        assert!(flat.weight.iter().all(|&x| x > 0.1) && (flat.weight.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{flat:?}");
+        // … and its pairs' spread mostly uncertainty: a lag anywhere is no lag between two.
+        assert!(flat.between.iter().all(|&b| b < 0.5), "{flat:?}");
         // A best lag whose χ² is far above its degrees of freedom is read in its units: the
         // same differences decide less.
         let misfit: Vec<f64> = chi2.iter().map(|c| c + 100.0).collect();
-        let soft = grid_weights(&fine, &misfit, 2);
+        let soft = grid_weights(&fine, &misfit, 2).weight;
         assert!(soft[3] > 10.0 * w[3] && soft[0] > 10.0 * w[0], "{soft:?} against {w:?}");
     }
 

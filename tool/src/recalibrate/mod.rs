@@ -150,7 +150,7 @@ pub struct Outcome {
     /// Per check its parts' humidities under the chosen fit ([`course`]), and the hydration
     /// lags' probabilities they give (None without parts, or where the path has its own lag).
     pub parts: Vec<Vec<course::Part>>,
-    pub lag_weights: Option<Vec<f64>>,
+    pub lag_weights: Option<course::GridLags>,
 }
 
 impl Outcome {
@@ -270,7 +270,7 @@ mod tests {
             let check = check_of(Path::new("own.csv"), field.ts, &calib).unwrap();
             let o = recalibrate_checks(&calib, vec![check], DRIFT_PRIOR_SD).unwrap();
             assert_eq!(o.parts[0].len(), 3, "case {seed}");
-            let w = o.lag_weights.clone().expect("a course");
+            let w = o.lag_weights.clone().expect("a course").weight;
             let lag: f64 = w.iter().zip(HYDRATION_LAGS_S).map(|(w, l)| w * l).sum();
             assert!((12.0..50.0).contains(&lag) && w[1] + w[2] > 0.6, "case {seed}: weights {w:?}, mean lag {lag:.1} s");
             let t = update::updated(&calib, &o).humidity.lag_offsets.unwrap();

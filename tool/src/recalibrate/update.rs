@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 
 use super::response_fit::{CheckData, CheckFit, DRIFTING, Hypothesis};
 use super::{Check, Outcome, READING_RESOLUTION_PCT};
-use ipmc_core::calibration::lag_offsets::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS, LagOffsets};
+use ipmc_core::calibration::lag_offsets::{EQUAL_WEIGHTS, HYDRATION_LAGS_S, LAGS, LagOffsets, NONE_BETWEEN};
 
 /// The key that starts a provenance line.
 pub const PROVENANCE: &str = "# provenance:";
@@ -300,8 +300,9 @@ pub fn updated(calib: &Calibration, o: &Outcome) -> Calibration {
 pub fn lag_offsets(o: &Outcome, offset: f64) -> Option<LagOffsets> {
     let f = o.chosen();
     let data: Vec<CheckData> = o.checks.iter().map(Check::data).collect();
-    let weight = o.lag_weights.as_ref().and_then(|w| <[f64; LAGS]>::try_from(w.as_slice()).ok()).unwrap_or(EQUAL_WEIGHTS);
-    let mut t = LagOffsets { offset_pct: [0.0; LAGS], sd_pct: [0.0; LAGS], weight };
+    let weight = o.lag_weights.as_ref().and_then(|w| <[f64; LAGS]>::try_from(w.weight.as_slice()).ok()).unwrap_or(EQUAL_WEIGHTS);
+    let between = o.lag_weights.as_ref().and_then(|w| <[f64; LAGS - 1]>::try_from(w.between.as_slice()).ok()).unwrap_or(NONE_BETWEEN);
+    let mut t = LagOffsets { offset_pct: [0.0; LAGS], sd_pct: [0.0; LAGS], weight, between };
     for k in 0..LAGS {
         let through: Vec<f64> = o.checks.iter().map(|c| c.through_lags_pct.get(k).copied()).collect::<Option<_>>()?;
         let (given, sd) = f.offset_given_lag(&data, &through, READING_RESOLUTION_PCT)?;

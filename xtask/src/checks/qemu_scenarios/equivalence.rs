@@ -114,6 +114,7 @@ pub fn qemu_host_equivalence_fused() -> Result<()> {
         offset_pct: [-0.5, -0.2, 0.0, 0.2, 0.5],
         sd_pct: [0.1, 0.1, 0.12, 0.15, 0.2],
         weight: [0.1, 0.4, 0.3, 0.15, 0.05],
+        between: [0.0, 0.5, 0.3, 0.0],
     });
     let calib = work.join("CALIB-fused.toml");
     std::fs::write(&calib, ipmc_core::calibration_file::to_text(&c)).map_err(|e| anyhow!("{}: {e}", calib.display()))?;
