@@ -502,8 +502,14 @@ mod tests {
     /// steady ramp), or, as one offset, their mean with their spread as its 1σ. Returns the
     /// fused value less the strip's humidity and its 1σ at the end.
     fn checked_ramp(per_lag: bool) -> (f64, f64) {
+        ramp_after_check(40.0, per_lag.then_some((EQUAL_WEIGHTS, NONE_BETWEEN)))
+    }
+
+    /// [`checked_ramp`] with the strip `strip_lag` s behind the air and, per lag, the table's
+    /// weights and `between` (None: one offset).
+    fn ramp_after_check(strip_lag: f64, per_lag: Option<([f64; LAGS], [f64; LAGS - 1])>) -> (f64, f64) {
         use crate::calibration::lag_offsets::LagOffsets;
-        let (rate, strip_lag, dt) = (0.03, 40.0, 32.0 / 2000.0);
+        let (rate, dt) = (0.03, 32.0 / 2000.0);
         // On the ramp a path lagged by τ trails it by rate·τ; the strip trails the air by
         // rate·40 (a lag of the grid) and the reading (the air + 1 %RH, as corrected before the
         // check) has no lag of its own.
@@ -513,13 +519,8 @@ mod tests {
         let mut c = Calibration::default_preset();
         c.humidity.sensor_lag_s = Some(0.0);
         c.humidity.uncertainty_pct = Some(spread.hypot(0.05));
-        if per_lag {
-            c.humidity.lag_offsets = Some(LagOffsets {
-                offset_pct: given.map(|g| g - mean),
-                sd_pct: [0.05; LAGS],
-                weight: EQUAL_WEIGHTS,
-                between: NONE_BETWEEN,
-            });
+        if let Some((weight, between)) = per_lag {
+            c.humidity.lag_offsets = Some(LagOffsets { offset_pct: given.map(|g| g - mean), sd_pct: [0.05; LAGS], weight, between });
         }
         let mut h = BlockHygrometer::<f64>::new(&c, 2000.0);
         let (mut strip, mut seen, mut path) = (78.0, 78.0, 79.0 + mean);
@@ -545,6 +546,23 @@ mod tests {
         let (each, each_sd) = checked_ramp(true);
         assert!(each.abs() < 0.1 && each.abs() < 2.0 * each_sd, "per lag: {each} ± {each_sd}");
         assert!(each_sd < 0.6 * one_sd, "per lag ± {each_sd}, one offset ± {one_sd} (off by {one})");
+    }
+
+    /// A strip 28 s behind the air, between the grid's 20 and 40 s, which the check's course
+    /// shared between them: their mixture trails as the strip does, and the spread of their
+    /// two paths is no uncertainty of it. Told so (`between`), the fused humidity states a 1σ
+    /// that still covers it, narrower than the two paths' spread.
+    #[test]
+    fn a_lag_between_two_of_the_grid_is_their_mixture_not_their_spread() {
+        let mut weight = [0.0; LAGS];
+        (weight[1], weight[2]) = (0.6, 0.4);
+        let (either, either_sd) = ramp_after_check(28.0, Some((weight, NONE_BETWEEN)));
+        let mut between = NONE_BETWEEN;
+        between[1] = 1.0;
+        let (mixture, mixture_sd) = ramp_after_check(28.0, Some((weight, between)));
+        assert_eq!(either, mixture, "the estimate is the mixture's either way");
+        assert!(mixture.abs() < 0.1 && mixture.abs() < 2.0 * mixture_sd, "{mixture} ± {mixture_sd}");
+        assert!(mixture_sd < 0.8 * either_sd, "between: ± {mixture_sd}, either: ± {either_sd}");
     }
 
     #[test]
