@@ -287,7 +287,7 @@ mod tests {
         assert!(unnormed.unwrap_err().to_string().contains("humidity.lag_offsets.weight"));
         // Without `between` (a table whose course did not read the lag finer), none.
         assert_eq!(equal.humidity.lag_offsets.unwrap().between, crate::calibration::lag_offsets::NONE_BETWEEN);
-        let beyond = with(&format!("{grid}\noffset_pct = [0, 0, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]\nbetween = [0, 1.5, 0, 0]"));
+        let beyond = with(&format!("{grid}\noffset_pct = [0, 0, 0, 0, 0]\nsd_pct = [1, 1, 1, 1, 1]\nbetween = [0, -0.5, 0, 0]"));
         assert!(beyond.unwrap_err().to_string().contains("between"));
     }
 

@@ -41,12 +41,15 @@ pub struct LagOffsets {
     /// The lag's probability from the checks (summing to 1; without a course, equal).
     pub weight: [f64; LAGS],
     /// Per two neighbouring lags of the grid, how much of the spread between their paths is one
-    /// lag between them rather than either (0–1; without a course, 0). The course reads the lag
-    /// on a finer grid and shares each fine lag between its two neighbours, so that their
-    /// mixture trails as the fine lag does: a lag the course decides between two grid lags is
-    /// their mixture for sure, and the spread of their two paths no uncertainty of it. Of the
-    /// pair's spread p_k·p_{k+1}·(h_k − h_{k+1})², this is the part that is the mixture's own:
-    /// E[x(1−x)] over the fine lags between them (x their place between the two) over w_k·w_{k+1}.
+    /// lag between them rather than either (without a course, 0). The course reads the lag on a
+    /// finer grid and shares each fine lag between its two neighbours, so that their mixture
+    /// trails as the fine lag does: a lag the course decides between two grid lags is their
+    /// mixture for sure, and the spread of their two paths no uncertainty of it. Of the pair's
+    /// spread p_k·p_{k+1}·(h_k − h_{k+1})², the part that is the mixture's own, relative to it:
+    /// Σ p·x(1−x) over the fine lags between them (x their place from the one to the other) over
+    /// w_k·w_{k+1}. 1 for a lag decided between the two; above 1 where the pair holds a small
+    /// part of the probability, spread over it; the spread less these is then exactly the fine
+    /// lags' own for a path linear in the lag.
     pub between: [f64; LAGS - 1],
 }
 
@@ -62,10 +65,11 @@ impl LagOffsets {
     }
 
     /// The weights checked: each finite and within 0–1, their sum 1 within rounding; each
-    /// `between` within 0–1.
+    /// `between` finite and not negative.
     pub fn weights_valid(&self) -> bool {
         let unit = |w: &f64| w.is_finite() && (0.0..=1.0).contains(w);
-        self.weight.iter().all(unit) && (self.weight.iter().sum::<f64>() - 1.0).abs() < 1e-6 && self.between.iter().all(unit)
+        let share = |b: &f64| b.is_finite() && *b >= 0.0;
+        self.weight.iter().all(unit) && (self.weight.iter().sum::<f64>() - 1.0).abs() < 1e-6 && self.between.iter().all(share)
     }
 }
 
@@ -118,7 +122,7 @@ mod file {
             let t = LagOffsets { offset_pct: offset, sd_pct: sd, weight, between };
             if !t.weights_valid() {
                 return Err(std::format!(
-                    "humidity.lag_offsets.weight = {weight:?}, between = {between:?}: probabilities within 0–1 (the weights summing to 1)"
+                    "humidity.lag_offsets.weight = {weight:?}, between = {between:?}: weights within 0–1 summing to 1, between none negative"
                 ));
             }
             // Their ranges are the path's to check, with its offset's (`HumidityPath::validate`).

@@ -195,7 +195,7 @@ pub fn grid_weights(fine: &[f64], chi2: &[f64], dof: usize) -> GridLags {
     let between = (0..n - 1)
         .map(|k| {
             let both = weight[k] * weight[k + 1];
-            if both > 1e-12 { (pair[k] / total / both).clamp(0.0, 1.0) } else { 0.0 }
+            if both > 1e-12 { pair[k] / total / both } else { 0.0 }
         })
         .collect();
     GridLags { weight, between }
@@ -241,8 +241,22 @@ mod tests {
         // A χ² that cannot tell the lags leaves the grid near its prior.
         let flat = grid_weights(&fine, &vec![1.0; fine.len()], 2);
         assert!(flat.weight.iter().all(|&x| x > 0.1) && (flat.weight.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{flat:?}");
-        // … and its pairs' spread mostly uncertainty: a lag anywhere is no lag between two.
-        assert!(flat.between.iter().all(|&b| b < 0.5), "{flat:?}");
+        // Either way, for a path linear in the lag between the grid's (on a ramp a path trails
+        // by rate·τ), the grid's spread less the neighbours' `between` is the fine posterior's.
+        for (c2, g) in [(&chi2, &lags), (&vec![1.0; fine.len()], &flat)] {
+            let at = |lag: f64| lag;
+            // The posterior `grid_weights` reads (two degrees of freedom: χ² in units of the best's).
+            let best = c2.iter().copied().fold(f64::INFINITY, f64::min);
+            let p: Vec<f64> = c2.iter().map(|c| (-(c - best) / (2.0 * best.max(1.0))).exp()).collect();
+            let total: f64 = p.iter().sum();
+            let fine_mean = fine.iter().zip(&p).map(|(&l, p)| p * at(l)).sum::<f64>() / total;
+            let fine_var = fine.iter().zip(&p).map(|(&l, p)| p * (at(l) - fine_mean).powi(2)).sum::<f64>() / total;
+            let h: Vec<f64> = HYDRATION_LAGS_S.iter().map(|&l| at(l)).collect();
+            let mean: f64 = g.weight.iter().zip(&h).map(|(w, h)| w * h).sum();
+            let spread: f64 = g.weight.iter().zip(&h).map(|(w, h)| w * (h - mean).powi(2)).sum();
+            let own: f64 = (0..h.len() - 1).map(|k| g.between[k] * g.weight[k] * g.weight[k + 1] * (h[k] - h[k + 1]).powi(2)).sum();
+            assert!((spread - own - fine_var).abs() < 1e-9 * (1.0 + fine_var), "{spread} − {own} against {fine_var}");
+        }
         // A best lag whose χ² is far above its degrees of freedom is read in its units: the
         // same differences decide less.
         let misfit: Vec<f64> = chi2.iter().map(|c| c + 100.0).collect();
