@@ -36,6 +36,16 @@ pub(crate) struct Fitted {
     pub ext: Vec<Extension<f64>>,
     pub masks: Vec<Mask>,
     pub regressors: Regressors,
+    /// The instrument's channels as the fit moved them from where the plain model put them
+    /// (a model candidate's joint fit; none for the others).
+    pub channels: fits::Channels,
+}
+
+impl Fitted {
+    /// The levels of `data` as this fit's channels leave them: what its residuals are of.
+    pub fn levels(&self, data: &Dataset) -> Vec<ipmc_fit::level::LevelData> {
+        data.levels.iter().map(|l| self.channels.corrected(l)).collect()
+    }
 }
 
 /// What every candidate is scored against: the plain model's fits and the counts the
@@ -99,6 +109,7 @@ impl<'a> Ctx<'a> {
             ext: vec![Extension::default(); n],
             masks: self.all.clone(),
             regressors: self.read.clone(),
+            channels: fits::Channels::default(),
         }
     }
 

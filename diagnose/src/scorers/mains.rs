@@ -237,7 +237,14 @@ fn fit_without_lines(ctx: &Ctx, line: f64, chi2_0: f64) -> Result<Option<LineFit
     neighbours.dedup_by_key(|(key, _)| *key);
     let beside: Vec<f64> = neighbours.iter().map(|(_, c)| *c).collect();
     let delta_chi2 = if beside.is_empty() { chi2_0 - nll } else { (chi2_0 - nll).min(line_specific_gain(&at_lines, &beside)) };
-    let fitted = Fitted { theta: b.theta, se: b.se, ext: vec![Extension::default(); n], masks, regressors: ctx.read.clone() };
+    let fitted = Fitted {
+        theta: b.theta,
+        se: b.se,
+        ext: vec![Extension::default(); n],
+        masks,
+        regressors: ctx.read.clone(),
+        channels: Default::default(),
+    };
     Ok(Some(LineFit { delta_chi2, fitted, excluded, line_hz: line, power, specific }))
 }
 

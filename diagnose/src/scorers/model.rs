@@ -44,11 +44,12 @@ impl Scorer for ModelScorer {
             (0..levels.len()).map(|l| ext(&j.phi, &fits::level_params(ctx.calib, &levels[l], &j.theta[l]))).collect();
         let chi2: f64 = j.chi2.iter().sum();
         let per_level: Vec<f64> = ctx.base.chi2.iter().zip(&j.chi2).map(|(b, a)| b - a).collect();
-        let fitted = Fitted { theta: j.theta, se: j.se, ext: exts, masks: ctx.all.clone(), regressors: ctx.read.clone() };
+        let fitted =
+            Fitted { theta: j.theta, se: j.se, ext: exts, masks: ctx.all.clone(), regressors: ctx.read.clone(), channels: j.channels };
         let held = HeldOut {
             null: ctx.refit_null(),
             null_is: REFIT_NULL_IS.into(),
-            candidate: refit_heldout(ctx, levels, &specs, &ext, (&j.phi, &j.chi2), &fitted, j.channels),
+            candidate: refit_heldout(ctx, levels, &specs, &ext, (&j.phi, &j.chi2), &fitted),
             candidate_is: format!("the level's base parameters refitted with {}'s parameters fitted on the other levels", cand.name()),
         };
         Ok(Trial::Fitted(Box::new(Candidacy {
@@ -86,9 +87,8 @@ fn refit_heldout(
     ext: &fits::Extend,
     (phi, joint_chi2): (&[f64], &[f64]),
     f: &Fitted,
-    moved: fits::Channels,
 ) -> Vec<HeldOutModel> {
-    let channels = (moved != fits::Channels::default()).then_some(moved);
+    let channels = (f.channels != fits::Channels::default()).then_some(f.channels);
     let n = levels.len();
     let params = specs;
     let start = vec![specs.iter().zip(phi).map(|(s, &v)| fits::inside_tight(s.bound, v)).collect::<Vec<f64>>()];

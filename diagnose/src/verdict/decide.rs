@@ -121,7 +121,11 @@ fn supported(s: &Score) -> bool {
 }
 
 /// The candidate whose residuals temper the evidence between candidates on the data: the best
-/// supported one fitted to the data (`fitted` says which were fitted). A candidate acting on the
+/// supported one fitted to the data (`fitted` says which were fitted), its residuals as its fit
+/// left them, the instrument's channels where it moved them ([`Fitted::levels`]): the plain
+/// model's channels take part of a concealed effect (a shared delay, part of a pole's lag), and
+/// the residuals of the levels as those channels leave them would show, at every candidate, the
+/// misfit the candidate's own fit removed. A candidate acting on the
 /// levels' parameters (a humidity remap, a temperature dependence) is not fitted within a
 /// level: its residuals there carry the levels' scatter, which its own likelihood weighs
 /// already, not the misfit of a shape.
@@ -187,7 +191,7 @@ pub(crate) fn decide(
     let tempering = best.and_then(|i| fitted[i].as_ref()).map_or(1.0, |f| {
         crate::verdict::misfit::between_candidates(fits::residual_correlation(
             ctx.calib,
-            &ctx.data.levels,
+            &f.levels(ctx.data),
             &ctx.sig,
             &f.masks,
             &f.theta,
@@ -332,7 +336,7 @@ pub(crate) fn decide(
         })
         .collect();
     let f = fitted[w].as_ref().expect("a passing candidate was fitted");
-    let after = fits::structure_z(ctx.calib, &ctx.data.levels, &ctx.sig, &f.masks, &f.theta, &f.ext);
+    let after = fits::structure_z(ctx.calib, &f.levels(ctx.data), &ctx.sig, &f.masks, &f.theta, &f.ext);
     // The share of the neighbour correlation the winner removes. Candidates acting through
     // humidity explain the levels' parameters, not the shape within a level: the structure
     // test is for candidates fitted to the data.
