@@ -49,8 +49,8 @@ pub enum ReportItem {
     },
 }
 
-/// Sample path → report task. Eight blocks (128 ms) absorb a slow stream write.
-pub static REPORT_QUEUE: Channel<CriticalSectionRawMutex, ReportItem, 8> = Channel::new();
+/// Sample path → report task. Four blocks (64 ms) absorb a slow stream write.
+pub static REPORT_QUEUE: Channel<CriticalSectionRawMutex, ReportItem, 4> = Channel::new();
 
 /// The checks of the blocks that carry one, in the order of their blocks in [`REPORT_QUEUE`]:
 /// two, not eight (264 bytes each, and only where the board has the accelerometer); a block whose

@@ -63,17 +63,16 @@ pub struct BandLines<T> {
 }
 
 /// A piece on its way down and up through the lines, in two pieces of scratch: each is written
-/// before it is read, so that lines run alone ([`BandLines::process_block`]) take them on the
-/// stack.
+/// before it is read, so that they are taken on the stack of each block
+/// ([`BandLines::process_block`]).
 type Scratch<T> = [Piece<T>; 2];
 
-/// The running filter: [`BandDesign`] narrowed to `T`, with its lines.
+/// The running filter: [`BandDesign`] narrowed to `T`, with its lines. Its scratch is on the
+/// stack of each block (static RAM is the scarcer).
 #[derive(Clone, Copy)]
 pub struct BandLimit<T> {
     taps: BandTaps<T>,
     lines: BandLines<T>,
-    /// Kept here: made afresh for each block it would be zeroed each time.
-    scratch: Scratch<T>,
 }
 
 impl<T: Real> BandTaps<T> {
@@ -203,15 +202,7 @@ impl<T: Real> BandLines<T> {
             self.low.sections(taps, buf);
             return;
         }
-        self.run(taps, &mut [[T::zero(); MOST]; 2], buf);
-    }
-
-    /// [`Self::process_block`] with the scratch `scratch`.
-    fn run(&mut self, taps: &BandTaps<T>, scratch: &mut Scratch<T>, buf: &mut [T]) {
-        if taps.plan.shape == Shape::LowLatency {
-            self.low.sections(taps, buf);
-            return;
-        }
+        let scratch: &mut Scratch<T> = &mut [[T::zero(); MOST]; 2];
         let stages = &taps.stages[..taps.plan.stages];
         for piece in buf.chunks_mut(CHUNK) {
             let (y, x, n) = self.low.piece(taps, scratch, piece);
@@ -240,7 +231,7 @@ impl<T: Real> BandLimit<T> {
     #[inline(always)]
     pub fn identity() -> Self {
         // Its lines at rest already: no sample before the first.
-        BandLimit { taps: BandTaps::identity(), lines: BandLines::none(), scratch: [[T::zero(); MOST]; 2] }
+        BandLimit { taps: BandTaps::identity(), lines: BandLines::none() }
     }
 
     /// Takes the coefficients `d`, in place (no copy of the filter on the stack), with no history.
@@ -271,7 +262,7 @@ impl<T: Real> BandLimit<T> {
 
     /// Filters `buf` in place.
     pub fn process_block(&mut self, buf: &mut [T]) {
-        self.lines.run(&self.taps, &mut self.scratch, buf);
+        self.lines.process_block(&self.taps, buf);
     }
 }
 
