@@ -511,7 +511,7 @@ mod tests {
         use crate::calibration::lag_offsets::LagOffsets;
         let (rate, dt) = (0.03, 32.0 / 2000.0);
         // On the ramp a path lagged by τ trails it by rate·τ; the strip trails the air by
-        // rate·40 (a lag of the grid) and the reading (the air + 1 %RH, as corrected before the
+        // rate·strip_lag and the reading (the air + 1 %RH, as corrected before the
         // check) has no lag of its own.
         let given = HYDRATION_LAGS_S.map(|t| -1.0 - rate * (strip_lag - t));
         let mean = given.iter().sum::<f64>() / given.len() as f64;
