@@ -244,14 +244,13 @@ mod tests {
         // Either way, for a path linear in the lag between the grid's (on a ramp a path trails
         // by rate·τ), the grid's spread less the neighbours' `between` is the fine posterior's.
         for (c2, g) in [(&chi2, &lags), (&vec![1.0; fine.len()], &flat)] {
-            let at = |lag: f64| lag;
             // The posterior `grid_weights` reads (two degrees of freedom: χ² in units of the best's).
             let best = c2.iter().copied().fold(f64::INFINITY, f64::min);
             let p: Vec<f64> = c2.iter().map(|c| (-(c - best) / (2.0 * best.max(1.0))).exp()).collect();
             let total: f64 = p.iter().sum();
-            let fine_mean = fine.iter().zip(&p).map(|(&l, p)| p * at(l)).sum::<f64>() / total;
-            let fine_var = fine.iter().zip(&p).map(|(&l, p)| p * (at(l) - fine_mean).powi(2)).sum::<f64>() / total;
-            let h: Vec<f64> = HYDRATION_LAGS_S.iter().map(|&l| at(l)).collect();
+            let fine_mean = fine.iter().zip(&p).map(|(&l, p)| p * l).sum::<f64>() / total;
+            let fine_var = fine.iter().zip(&p).map(|(&l, p)| p * (l - fine_mean).powi(2)).sum::<f64>() / total;
+            let h = HYDRATION_LAGS_S;
             let mean: f64 = g.weight.iter().zip(&h).map(|(w, h)| w * h).sum();
             let spread: f64 = g.weight.iter().zip(&h).map(|(w, h)| w * (h - mean).powi(2)).sum();
             let own: f64 = (0..h.len() - 1).map(|k| g.between[k] * g.weight[k] * g.weight[k + 1] * (h[k] - h[k + 1]).powi(2)).sum();
