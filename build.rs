@@ -63,15 +63,30 @@ fn main() -> ExitCode {
          /// Samples the estimate lags the base motion by (`ipmc_core::firmware::operating_point::delay_samples`),\n\
          /// counted here: on the device the band's plan takes f64 arithmetic in software.\n\
          pub const DELAY_SAMPLES: u16 = {};\n\
+         {}\n\
          {}",
         calibration_expr(&calibration),
         error_table_expr(&calibration, checked.as_ref()),
         band_filter_expr(&calibration),
         u16::try_from(ipmc_core::firmware::operating_point::delay_samples(&calibration.band)).expect("a delay of fewer than 65536 samples"),
         model_table_items(&calibration),
+        reference_lines_item(&calibration),
     );
     fs::write(out.join("calibration.rs"), generated).expect("OUT_DIR is writable");
     ExitCode::SUCCESS
+}
+
+/// The band filter's lines of the error measured against the accelerometer, sized to the one
+/// plan the firmware runs (`ipmc_core::band::LineSizes`): the general sizes hold any plan, KBs more.
+fn reference_lines_item(c: &Calibration) -> String {
+    let band = ipmc_core::inverse::design::design_band::<f32>(c);
+    let plan = ipmc_core::band::check(&band, SAMPLE_RATE_HZ as f64).expect("a validated calibration's band is kept at the firmware's rate");
+    let s = ipmc_core::band::LineSizes::of(&plan);
+    format!(
+        "/// The band filter's lines sized to this band's plan, for a second signal through it.\n\
+         pub type BandLinesOfPlan = ipmc_core::band::BandLines<f32, {}, {}, {}, {}>;\n",
+        s.stages, s.line, s.edge_line, s.held
+    )
 }
 
 /// The repository's root: this script builds the `ipmc-firmware` library there, and the

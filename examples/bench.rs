@@ -470,8 +470,9 @@ fn running_error(band: &ipmc_core::band::Band, instr: &impl Fn(u32) -> f64) {
         for (x, y) in e.iter_mut().zip(a.iter_mut()) {
             (*x, *y) = (1e-5 * rng.next(), rng.next());
         }
-        windows +=
-            device_calls::running_error_block(black_box(&mut m), &taps, black_box(&e), 0.05, black_box(&a), &mut out).is_some() as u32;
+        let (measure, lines) = m.parts();
+        windows += device_calls::running_error_block(black_box(measure), lines, &taps, black_box(&e), 0.05, black_box(&a), &mut out)
+            .is_some() as u32;
     }
     let total = instr(since(t));
     let t = now();

@@ -29,23 +29,43 @@ pub struct EdgeTaps<T> {
     delay: usize,
 }
 
-/// The complement's lines, at rest or running, for the coefficients of an [`EdgeTaps`].
+/// The most the low-pass's line holds: its taps less one and a group's inputs, with room to
+/// spare (a line moves its samples to the front once in several groups).
+pub const EDGE_LINE: usize = MAX_EDGE_TAPS + EDGE_GROUP;
+
+/// The complement's lines, at rest or running, for the coefficients of an [`EdgeTaps`]: the
+/// low-pass's line holds up to `LINE` and the band-pass's output is held up to `HELD` samples
+/// ([`EDGE_LINE`] and [`MAX_EDGE_DELAY`], any plan's; a filter that runs one plan alone can
+/// hold its own, `super::running::LineSizes`). They run as [`EdgeMut`], whatever their sizes.
 #[derive(Clone, Copy)]
-pub struct EdgeLines<T> {
+pub struct EdgeLines<T, const LINE: usize = EDGE_LINE, const HELD: usize = MAX_EDGE_DELAY> {
+    fixed: EdgeFixed<T>,
+    /// The low-pass's inputs at its rate, with room for many groups.
+    line: Line<[T; LINE]>,
+    /// The band-pass's output, held as long as the low-pass's path takes.
+    held: Delay<[T; HELD]>,
+}
+
+/// The lines whose sizes no plan sets.
+#[derive(Clone, Copy)]
+pub struct EdgeFixed<T> {
     down: [Down<T>; MAX_EDGE_STAGES],
     up: [Up<T>; MAX_EDGE_STAGES],
-    /// The low-pass's inputs at its rate, with room for many groups.
-    line: Line<[T; MAX_EDGE_TAPS + EDGE_GROUP]>,
     /// The low-pass's outputs back at the band-pass's rate, not yet subtracted: fewer than
     /// `edge_factor` between groups, and a group's.
     ready: Line<[T; EDGE_GROUP + (1 << MAX_EDGE_STAGES)]>,
-    /// The band-pass's output, held as long as the low-pass's path takes.
-    held: Delay<[T; MAX_EDGE_DELAY]>,
     /// The band-pass's output in order: the first `done` kept already (a group's wait ahead of
     /// them), the others waiting for their group; a group's wait between pieces (as many go out
     /// as came in), and a piece.
     queue: Line<[T; EDGE_GROUP + MAX_PIECE]>,
     done: usize,
+}
+
+/// [`EdgeLines`] as they run, their sizes left behind.
+pub struct EdgeMut<'a, T> {
+    fixed: &'a mut EdgeFixed<T>,
+    line: &'a mut Line<[T]>,
+    held: &'a mut Delay<[T]>,
 }
 
 impl<T: Real> EdgeTaps<T> {
@@ -70,34 +90,45 @@ impl<T: Real> EdgeTaps<T> {
     }
 }
 
-impl<T: Real> EdgeLines<T> {
+impl<T: Real, const LINE: usize, const HELD: usize> EdgeLines<T, LINE, HELD> {
     #[inline(always)]
     pub fn none() -> Self {
         EdgeLines {
-            down: [Down::none(); MAX_EDGE_STAGES],
-            up: [Up::none(); MAX_EDGE_STAGES],
+            fixed: EdgeFixed {
+                down: [Down::none(); MAX_EDGE_STAGES],
+                up: [Up::none(); MAX_EDGE_STAGES],
+                ready: Line::zeros(0),
+                queue: Line::zeros(0),
+                done: 0,
+            },
             line: Line::zeros(0),
-            ready: Line::zeros(0),
             held: Delay::zeros(0),
-            queue: Line::zeros(0),
-            done: 0,
         }
     }
 
+    /// The lines to run.
+    #[inline(always)]
+    pub fn as_mut(&mut self) -> EdgeMut<'_, T> {
+        EdgeMut { fixed: &mut self.fixed, line: &mut self.line, held: &mut self.held }
+    }
+}
+
+impl<T: Real> EdgeMut<'_, T> {
     /// Forgets the history: lines at rest for the coefficients `taps`.
     #[inline(never)]
     pub fn reset(&mut self, taps: &EdgeTaps<T>) {
+        let f = &mut *self.fixed;
         for (s, h) in taps.stages[..taps.n_stages].iter().enumerate() {
-            self.down[s].rest(h);
-            self.up[s].rest(h);
+            f.down[s].rest(h);
+            f.up[s].rest(h);
         }
         self.line.rest(taps.n_taps.max(1) - 1);
         // As the band-pass's chain: a group's outputs come on its last input.
-        self.ready.rest((1 << taps.n_stages) - 1);
+        f.ready.rest((1 << taps.n_stages) - 1);
         self.held.rest(taps.delay);
         // A group's wait, kept already: the zeros of a history at rest.
-        self.done = EDGE_GROUP - 1;
-        self.queue.rest(self.done);
+        f.done = EDGE_GROUP - 1;
+        f.queue.rest(f.done);
     }
 
     /// Keeps the lower edge of the band-pass's `n` outputs at the front of `buf` (at its rate)
@@ -110,20 +141,21 @@ impl<T: Real> EdgeLines<T> {
         if n_taps == 0 {
             return;
         }
-        self.queue.extend(&buf[..n]);
-        while self.queue.len() - self.done >= EDGE_GROUP {
-            let group = &mut self.queue.as_mut_slice()[self.done..self.done + EDGE_GROUP];
+        let f = &mut *self.fixed;
+        f.queue.extend(&buf[..n]);
+        while f.queue.len() - f.done >= EDGE_GROUP {
+            let group = &mut f.queue.as_mut_slice()[f.done..f.done + EDGE_GROUP];
             let stages = &taps.stages[..n_stages];
-            let (x, y, m) = down_all(stages, &mut self.down[..n_stages], group, buf, spare);
-            let m = fir(&taps.taps[..n_taps], &mut self.line, &x[..m], y);
-            let (low, _, m) = up_all(stages, &mut self.up[..n_stages], y, x, m);
-            self.ready.extend(&low[..m]);
-            self.held.less(group, self.ready.as_slice());
-            self.ready.drop_front(EDGE_GROUP);
-            self.done += EDGE_GROUP;
+            let (x, y, m) = down_all(stages, &mut f.down[..n_stages], group, buf, spare);
+            let m = fir(&taps.taps[..n_taps], self.line, &x[..m], y);
+            let (low, _, m) = up_all(stages, &mut f.up[..n_stages], y, x, m);
+            f.ready.extend(&low[..m]);
+            self.held.less(group, f.ready.as_slice());
+            f.ready.drop_front(EDGE_GROUP);
+            f.done += EDGE_GROUP;
         }
-        buf[..n].copy_from_slice(&self.queue.as_slice()[..n]);
-        self.queue.drop_front(n);
-        self.done -= n;
+        buf[..n].copy_from_slice(&f.queue.as_slice()[..n]);
+        f.queue.drop_front(n);
+        f.done -= n;
     }
 }

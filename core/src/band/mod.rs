@@ -44,7 +44,7 @@ mod running;
 mod spec;
 
 pub use design::{BandCoefficients, BandDesign, MAX_EDGE_HALF, MAX_HALF, MAX_HALF_BAND_PAIRS};
-pub use running::{BandLimit, BandLines, BandTaps};
+pub use running::{BandLimit, BandLines, BandTaps, LineSizes, LinesMut, RunLines};
 pub use spec::{
     ATTENUATION_DB, Band, BandLimitError, HALF_BAND_ATTENUATION_DB, MAX_EDGE_DELAY, MAX_EDGE_STAGES, MAX_EDGE_TAPS, MAX_TAPS, Plan, Shape,
     check, lower_transition_hz, lowest_low_hz, transition_hz,
@@ -291,5 +291,27 @@ mod tests {
             let r = (0..=140).map(|i| (d.response(10.0 + i as f64).re - 1.0).abs()).fold(0.0, f64::max);
             assert!(r <= 0.01, "{fs} Hz: {:?} ripple {r}", d.plan());
         }
+    }
+
+    /// Lines sized to the default band's plan at 2 kHz (the device's, baked by build.rs) run its
+    /// filter bit for bit as the general ones do, in less room; lines too small for a plan are
+    /// refused before they run.
+    #[test]
+    fn lines_sized_to_one_plan_run_it_as_the_general_ones() {
+        type OfPlan = BandLines<f32, 2, 301, 111, 406>;
+        let d = BandDesign::design(&Band::DEFAULT, FS).unwrap();
+        assert_eq!(LineSizes::of(&d.plan()), OfPlan::SIZES);
+        let f = BandLimit::<f32>::from_design(&d);
+        let x: std::vec::Vec<f32> = (0..6000).map(|i| libm::sinf(0.029 * i as f32) + if i % 71 == 0 { 0.5 } else { 0.0 }).collect();
+        let (mut general, mut sized) = (x.clone(), x);
+        let mut lines = BandLines::<f32>::at_rest(f.taps());
+        general.chunks_mut(32).for_each(|c| lines.process_block(f.taps(), c));
+        let mut lines = OfPlan::at_rest(f.taps());
+        sized.chunks_mut(32).for_each(|c| lines.process_block(f.taps(), c));
+        assert!(general.iter().zip(&sized).all(|(a, b)| a.to_bits() == b.to_bits()));
+        let saved = core::mem::size_of::<BandLines<f32>>() - core::mem::size_of::<OfPlan>();
+        assert!(saved >= 1600, "{saved} B");
+        let too_small = std::panic::catch_unwind(|| BandLines::<f32, 2, 301, 111, 405>::at_rest(f.taps()));
+        assert!(too_small.is_err());
     }
 }

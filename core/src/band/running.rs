@@ -13,9 +13,9 @@
 use super::design::{BandCoefficients, BandDesign};
 use super::half_band::{Down, HalfBand, Piece, Up, down_all, up_all};
 use super::history::{Line, fir};
-use super::lower_edge::{EdgeLines, EdgeTaps};
+use super::lower_edge::{EdgeLines, EdgeMut, EdgeTaps};
 use super::minimum_phase::SECTIONS;
-use super::spec::{Band, BandLimitError, CHUNK, MAX_PIECE, MAX_STAGES, MAX_TAPS, Plan, Shape};
+use super::spec::{Band, BandLimitError, CHUNK, EDGE_GROUP, MAX_EDGE_DELAY, MAX_PIECE, MAX_STAGES, MAX_TAPS, Plan, Shape};
 use crate::numeric::real::Real;
 use crate::numeric::section::{Sos, Stage};
 
@@ -34,32 +34,74 @@ pub struct BandTaps<T> {
     sections: [Sos<T>; SECTIONS],
 }
 
-/// The filter's way down to the band-pass's rate, its lines alone: the half-bands down, the
-/// band-pass and the lower edge, run with the coefficients of a [`BandTaps`] it is handed (the
-/// same each time). The running filter's lines ([`BandLines`]) are this and the way back up; a
-/// signal compared with the filter's output at the band-pass's rate needs only this.
-#[derive(Clone, Copy)]
-pub struct BandDown<T> {
-    down: [Down<T>; MAX_STAGES],
-    /// The band-pass's inputs at the low rate, with room for two pieces: the hundreds it keeps
-    /// move back to the front once in several.
-    line: Line<[T; MAX_TAPS + 2 * MOST]>,
-    edge: EdgeLines<T>,
-    /// The low-latency band's sections' states.
-    states: [[T; 2]; SECTIONS],
-}
+/// The most the band-pass's line holds: its taps less one and a piece, with room for two
+/// pieces (the hundreds it keeps move back to the front once in several).
+pub const BAND_LINE: usize = MAX_TAPS + 2 * MOST;
 
 /// The running filter's lines, at rest or running, for the coefficients of a [`BandTaps`] it is
-/// handed (the same each time): the way down and the way back up. A second signal through the
-/// estimate's filter (the reference of the error measured against the accelerometer) holds
-/// these alone.
+/// handed (the same each time): the way down (half-bands, band-pass, lower edge) and the way back
+/// up. A second signal through the estimate's filter (the reference of the error measured
+/// against the accelerometer) holds these alone. Sized for any plan by default; a filter that
+/// runs one plan alone (the device's, whose band is baked) can hold lines of that plan's sizes,
+/// [`LineSizes`]: `STAGES` half-bands, the band-pass's line `LINE`, the lower edge's
+/// `EDGE_LINE` and `HELD`. They run as [`LinesMut`], whatever their sizes.
 #[derive(Clone, Copy)]
-pub struct BandLines<T> {
-    low: BandDown<T>,
-    up: [Up<T>; MAX_STAGES],
+pub struct BandLines<
+    T,
+    const STAGES: usize = MAX_STAGES,
+    const LINE: usize = BAND_LINE,
+    const EDGE_LINE: usize = { super::lower_edge::EDGE_LINE },
+    const HELD: usize = MAX_EDGE_DELAY,
+> {
+    down: [Down<T>; STAGES],
+    /// The band-pass's inputs at the low rate.
+    line: Line<[T; LINE]>,
+    edge: EdgeLines<T, EDGE_LINE, HELD>,
+    /// The low-latency band's sections' states.
+    states: [[T; 2]; SECTIONS],
+    up: [Up<T>; STAGES],
     /// Outputs made, not yet handed out: one goes out per input. A group of `factor` inputs
     /// makes `factor` outputs on its last, so that after each piece fewer than `factor` wait.
     ready: Line<[T; 1 << MAX_STAGES]>,
+}
+
+/// [`BandLines`] as they run, their sizes left behind: one copy of the filter's code for lines
+/// of any sizes, made where a call names `T` alone (the device's, in the core).
+pub struct LinesMut<'a, T> {
+    down: &'a mut [Down<T>],
+    line: &'a mut Line<[T]>,
+    edge: EdgeMut<'a, T>,
+    states: &'a mut [[T; 2]; SECTIONS],
+    up: &'a mut [Up<T>],
+    ready: &'a mut Line<[T]>,
+}
+
+/// The sizes of the lines a plan runs with: half-bands, the band-pass's line, the lower edge's
+/// line and the band-pass's output it holds (the `BandLines` parameters of those names).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineSizes {
+    pub stages: usize,
+    pub line: usize,
+    pub edge_line: usize,
+    pub held: usize,
+}
+
+impl LineSizes {
+    /// What `plan` needs, each with the room the general sizes leave any plan.
+    pub fn of(plan: &Plan) -> Self {
+        LineSizes {
+            stages: plan.stages,
+            line: plan.taps.max(1) + 2 * MOST,
+            edge_line: plan.edge_taps.max(1) + EDGE_GROUP,
+            held: if plan.edge_taps == 0 { 0 } else { plan.edge_path_delay() },
+        }
+    }
+
+    /// Whether lines of these sizes can run `plan`.
+    pub fn fit(&self, plan: &Plan) -> bool {
+        let need = Self::of(plan);
+        need.stages <= self.stages && need.line <= self.line && need.edge_line <= self.edge_line && need.held <= self.held
+    }
 }
 
 /// A piece on its way down and up through the lines, in two pieces of scratch: each is written
@@ -120,23 +162,102 @@ impl<T: Real> BandTaps<T> {
     }
 }
 
-impl<T: Real> BandDown<T> {
+impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, const HELD: usize>
+    BandLines<T, STAGES, LINE, EDGE_LINE, HELD>
+{
+    /// The sizes these lines have.
+    pub const SIZES: LineSizes = LineSizes { stages: STAGES, line: LINE, edge_line: EDGE_LINE, held: HELD };
+
     /// Lines at rest for the plan of one tap (the input as it is): all zeros, which the
     /// compiler lays down as such.
     #[inline(always)]
     fn none() -> Self {
-        BandDown { down: [Down::none(); MAX_STAGES], line: Line::zeros(0), edge: EdgeLines::none(), states: [[T::zero(); 2]; SECTIONS] }
+        BandLines {
+            down: [Down::none(); STAGES],
+            line: Line::zeros(0),
+            edge: EdgeLines::none(),
+            states: [[T::zero(); 2]; SECTIONS],
+            up: [Up::none(); STAGES],
+            ready: Line::zeros(0),
+        }
     }
 
-    /// Forgets the history (after a fault: as if the input had been zero).
+    /// Lines at rest for the coefficients `taps` (whose plan they must fit, [`LineSizes::fit`]);
+    /// always in line, as `none`.
+    #[inline(always)]
+    pub fn at_rest(taps: &BandTaps<T>) -> Self {
+        let mut l = Self::none();
+        l.reset(taps);
+        l
+    }
+
+    /// The lines to run.
+    #[inline(always)]
+    pub fn as_mut(&mut self) -> LinesMut<'_, T> {
+        LinesMut {
+            down: &mut self.down,
+            line: &mut self.line,
+            edge: self.edge.as_mut(),
+            states: &mut self.states,
+            up: &mut self.up,
+            ready: &mut self.ready,
+        }
+    }
+
+    /// [`LinesMut::reset`]. Lines sized to one plan and too small for that of `taps` panic
+    /// here, before they run (the general sizes fit every plan `spec::check` passes).
+    #[inline(always)]
+    pub fn reset(&mut self, taps: &BandTaps<T>) {
+        if Self::SIZES != BandLines::<T>::SIZES {
+            assert!(Self::SIZES.fit(&taps.plan), "band lines too small for the plan");
+        }
+        self.as_mut().reset(taps)
+    }
+
+    /// [`LinesMut::process_block`].
+    #[inline(always)]
+    pub fn process_block(&mut self, taps: &BandTaps<T>, buf: &mut [T]) {
+        self.as_mut().process_block(taps, buf)
+    }
+}
+
+/// Lines of any sizes, for a holder of them that runs one plan ([`BandLines`] of its sizes).
+pub trait RunLines<T>: Clone {
+    /// Lines at rest for the coefficients `taps`.
+    fn at_rest(taps: &BandTaps<T>) -> Self;
+    /// The lines to run.
+    fn as_mut(&mut self) -> LinesMut<'_, T>;
+}
+
+impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, const HELD: usize> RunLines<T>
+    for BandLines<T, STAGES, LINE, EDGE_LINE, HELD>
+{
+    #[inline(always)]
+    fn at_rest(taps: &BandTaps<T>) -> Self {
+        Self::at_rest(taps)
+    }
+    #[inline(always)]
+    fn as_mut(&mut self) -> LinesMut<'_, T> {
+        self.as_mut()
+    }
+}
+
+impl<T: Real> LinesMut<'_, T> {
+    /// Forgets the history (after a fault: as if the input had been zero). Out of line: the
+    /// sample path's block, which resets a filter a fault poisoned, would hold a copy of it.
+    #[inline(never)]
     pub fn reset(&mut self, taps: &BandTaps<T>) {
         let p = &taps.plan;
-        for (d, h) in self.down.iter_mut().zip(&taps.stages[..p.stages]) {
+        for ((d, u), h) in self.down.iter_mut().zip(self.up.iter_mut()).zip(&taps.stages[..p.stages]) {
             d.rest(h);
+            u.rest(h);
         }
         self.line.rest(p.taps.max(1) - 1);
-        self.states = [[T::zero(); 2]; SECTIONS];
+        *self.states = [[T::zero(); 2]; SECTIONS];
         self.edge.reset(&taps.edge);
+        // A group of `factor` inputs makes its outputs on its last input, the first of which
+        // goes out on that same input: until then, the zeros of a history at rest.
+        self.ready.rest(p.factor() - 1);
     }
 
     /// The low-latency band: section by section over the whole buffer, each one's state in
@@ -159,53 +280,23 @@ impl<T: Real> BandDown<T> {
         let stages = &taps.stages[..p.stages];
         let [a, b] = scratch;
         let (x, y, n) = down_all(stages, &mut self.down[..p.stages], piece, a, b);
-        let n = fir(&taps.taps[..p.taps], &mut self.line, &x[..n], y);
+        let n = fir(&taps.taps[..p.taps], self.line, &x[..n], y);
         // `x` is spent: with `y` once its outputs are queued, the lower edge's scratch.
         self.edge.apply(&taps.edge, y, n, x);
         (y, x, n)
     }
-}
-
-impl<T: Real> BandLines<T> {
-    /// Lines at rest for the plan of one tap.
-    #[inline(always)]
-    fn none() -> Self {
-        BandLines { low: BandDown::none(), up: [Up::none(); MAX_STAGES], ready: Line::zeros(0) }
-    }
-
-    /// Lines at rest for the coefficients `taps`; always in line, as `none`.
-    #[inline(always)]
-    pub fn at_rest(taps: &BandTaps<T>) -> Self {
-        let mut l = Self::none();
-        l.reset(taps);
-        l
-    }
-
-    /// Forgets the history (after a fault: as if the input had been zero). Out of line: the
-    /// sample path's block, which resets a filter a fault poisoned, would hold a copy of it.
-    #[inline(never)]
-    pub fn reset(&mut self, taps: &BandTaps<T>) {
-        let p = &taps.plan;
-        self.low.reset(taps);
-        for (u, h) in self.up.iter_mut().zip(&taps.stages[..p.stages]) {
-            u.rest(h);
-        }
-        // A group of `factor` inputs makes its outputs on its last input, the first of which
-        // goes out on that same input: until then, the zeros of a history at rest.
-        self.ready.rest(p.factor() - 1);
-    }
 
     /// Filters `buf` in place with the coefficients `taps` (those the lines were set at rest
     /// for), its scratch on the stack.
-    pub fn process_block(&mut self, taps: &BandTaps<T>, buf: &mut [T]) {
+    pub fn process_block(mut self, taps: &BandTaps<T>, buf: &mut [T]) {
         if taps.plan.shape == Shape::LowLatency {
-            self.low.sections(taps, buf);
+            self.sections(taps, buf);
             return;
         }
         let scratch: &mut Scratch<T> = &mut [[T::zero(); MOST]; 2];
         let stages = &taps.stages[..taps.plan.stages];
         for piece in buf.chunks_mut(CHUNK) {
-            let (y, x, n) = self.low.piece(taps, scratch, piece);
+            let (y, x, n) = self.piece(taps, scratch, piece);
             let (out, _, n) = up_all(stages, &mut self.up[..stages.len()], y, x, n);
             self.ready.pass(&out[..n], piece);
         }

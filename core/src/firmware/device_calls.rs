@@ -15,9 +15,9 @@
 
 use crate::{
     Calibration, Cascade, Compensator, DesignConfig, DesignError, Inverse,
-    band::{BandLimit, BandLines, BandTaps},
+    band::{BandLimit, BandTaps, LinesMut},
     design_inverse,
-    firmware::running_error::{RunningError, Window},
+    firmware::running_error::{Measure, Window},
     firmware::stuck::StuckDetector,
     humidity::hygrometer::{BlockHygrometer, Snapshot},
     humidity::spectrum::RunningSpectrum,
@@ -92,9 +92,9 @@ pub fn band_block(b: &mut BandLimit<f32>, block: &mut [f32]) {
     b.process_block(block)
 }
 
-/// [`BandLines::process_block`]: the reference's band filter in [`running_error_block`].
+/// [`LinesMut::process_block`]: the reference's band filter in [`running_error_block`].
 #[inline(never)]
-pub fn band_lines_block(b: &mut BandLines<f32>, taps: &BandTaps<f32>, block: &mut [f32]) {
+pub fn band_lines_block(b: LinesMut<'_, f32>, taps: &BandTaps<f32>, block: &mut [f32]) {
     b.process_block(taps, block)
 }
 
@@ -104,14 +104,16 @@ pub fn cascade_block(c: &mut Cascade<f32>, block: &mut [f32]) {
     c.process_block(block)
 }
 
-/// [`RunningError::estimate`] then [`RunningError::reference`]: a block's estimate and its
-/// stated error, and the accelerometer's block for the estimate's [`LAG_BLOCKS`] before;
-/// `taps` the estimate's band filter's coefficients.
+/// [`Measure::estimate`] then [`Measure::reference_through`] with the lines `lines` (a
+/// `RunningError`'s parts, of whatever sizes): a block's estimate and its stated error, and the
+/// accelerometer's block for the estimate's [`LAG_BLOCKS`] before; `taps` the estimate's band
+/// filter's coefficients.
 ///
 /// [`LAG_BLOCKS`]: crate::resample::track::LAG_BLOCKS
 #[inline(never)]
 pub fn running_error_block(
-    m: &mut RunningError<f32>,
+    m: &mut Measure<f32>,
+    lines: LinesMut<'_, f32>,
     taps: &BandTaps<f32>,
     estimate: &[f32],
     stated: f32,
@@ -119,5 +121,5 @@ pub fn running_error_block(
     out: &mut [f32],
 ) -> Option<Window<f32>> {
     m.estimate(estimate, stated);
-    m.reference_through(taps, accel, out, band_lines_block)
+    m.reference_through(lines, taps, accel, out, band_lines_block)
 }

@@ -30,7 +30,7 @@
 //!
 //! [`LAG_BLOCKS`]: crate::resample::track::LAG_BLOCKS
 
-use crate::band::{BandLines, BandTaps};
+use crate::band::{BandLines, BandTaps, LinesMut, RunLines};
 use crate::firmware::calibration_stale::StaleTest;
 use crate::numeric::forgetting_line::ForgettingLine;
 use crate::numeric::real::Real;
@@ -128,12 +128,19 @@ impl<T: Real> Sums<T> {
     }
 }
 
-/// The running measurement.
+/// The running measurement: the reference's band filter's lines `L` (the estimate's filter,
+/// whose coefficients each call hands them: no copy of them; the device's sized to its one
+/// plan, `band::LineSizes`) and the rest, [`Measure`].
 #[derive(Clone)]
-pub struct RunningError<T> {
-    /// The reference's band filter's lines: the estimate's filter, whose coefficients each call
-    /// hands it (no copy of them).
-    band: BandLines<T>,
+pub struct RunningError<T, L = BandLines<T>> {
+    band: L,
+    measure: Measure<T>,
+}
+
+/// The running measurement but the band filter's lines, which each call hands it: one copy of
+/// its code for lines of any sizes.
+#[derive(Clone)]
+pub struct Measure<T> {
     /// The band's lines to be set at rest on the next reference (which brings the coefficients).
     band_restarts: bool,
     rho: T,
@@ -168,18 +175,63 @@ pub struct RunningError<T> {
 
 impl<T: Real> RunningError<T> {
     /// For an estimate kept by the band filter of coefficients `band` at `fs_hz`, made with a
-    /// preview of `preview_samples`.
-    /// Always in line, its value made in one piece where its caller puts it (the band's lines
-    /// are 10 KB: made apart and moved, they were on the stack twice).
+    /// preview of `preview_samples`; its lines of the general sizes.
     #[inline(always)]
     pub fn new(band: &BandTaps<T>, fs_hz: f64, preview_samples: usize) -> Self {
+        Self::with_lines(band, fs_hz, preview_samples)
+    }
+}
+
+impl<T: Real, L: RunLines<T>> RunningError<T, L> {
+    /// [`RunningError::new`] with lines of the type `L`.
+    /// Always in line, its value made in one piece where its caller puts it (the band's lines
+    /// are KBs: made apart and moved, they were on the stack twice).
+    #[inline(always)]
+    pub fn with_lines(band: &BandTaps<T>, fs_hz: f64, preview_samples: usize) -> Self {
+        RunningError { band: L::at_rest(band), measure: Measure::new(fs_hz, preview_samples) }
+    }
+
+    /// The measurement and its lines, to run apart ([`Measure::reference_through`]).
+    #[inline(always)]
+    pub fn parts(&mut self) -> (&mut Measure<T>, LinesMut<'_, T>) {
+        (&mut self.measure, self.band.as_mut())
+    }
+
+    /// [`Measure::restart`].
+    pub fn restart(&mut self) {
+        self.measure.restart()
+    }
+
+    /// [`Measure::estimate`].
+    pub fn estimate(&mut self, e: &[T], stated: T) {
+        self.measure.estimate(e, stated)
+    }
+
+    /// The accelerometer's block [m/s²] for the estimate's block [`LAG_BLOCKS`] before the
+    /// latest, `out` a block's room; a window measured, where one ends in it. A block with any
+    /// NaN starts over.
+    /// `taps` are the estimate's band filter's coefficients (those [`Self::new`] was given).
+    pub fn reference(&mut self, taps: &BandTaps<T>, accel: &[T], out: &mut [T]) -> Option<Window<T>> {
+        let (measure, lines) = self.parts();
+        measure.reference_through(lines, taps, accel, out, |l, taps, buf| l.process_block(taps, buf))
+    }
+
+    /// Windows measured since the start (settling ones too).
+    pub fn windows(&self) -> u32 {
+        self.measure.windows
+    }
+}
+
+impl<T: Real> Measure<T> {
+    /// At `fs_hz`, for an estimate made with a preview of `preview_samples`; its lines at rest.
+    #[inline(always)]
+    pub fn new(fs_hz: f64, preview_samples: usize) -> Self {
         let rho = libm::exp(-2.0 * core::f64::consts::PI * LEAK_HZ / fs_hz);
         let zero = T::zero();
         let preview = T::lit(preview_samples as f64);
         let delay = preview - T::lit(START_DELAY_S * fs_hz);
         let (back, back_rate) = Self::timed_of(delay, zero);
-        RunningError {
-            band: BandLines::at_rest(band),
+        Measure {
             band_restarts: false,
             rho: T::lit(rho),
             dt: T::lit(1.0 / fs_hz),
@@ -250,30 +302,23 @@ impl<T: Real> RunningError<T> {
         }
     }
 
-    /// The accelerometer's block [m/s²] for the estimate's block [`LAG_BLOCKS`] before the
-    /// latest, `out` a block's room; a window measured, where one ends in it. A block with any
-    /// NaN starts over.
-    /// `taps` are the estimate's band filter's coefficients (those [`Self::new`] was given).
-    pub fn reference(&mut self, taps: &BandTaps<T>, accel: &[T], out: &mut [T]) -> Option<Window<T>> {
-        self.reference_through(taps, accel, out, BandLines::process_block)
-    }
-
-    /// [`Self::reference`] with the band filter's run `band`: the device's passes the core's
-    /// own call of it (`device_calls::band_lines_block`), so that the filter's code is made at
-    /// the core's opt-level.
+    /// [`RunningError::reference`] with its lines `lines` and the band filter's run `band`:
+    /// the device's passes the core's own call of it (`device_calls::band_lines_block`), so
+    /// that the filter's code is made at the core's opt-level.
     pub fn reference_through(
         &mut self,
+        mut lines: LinesMut<'_, T>,
         taps: &BandTaps<T>,
         accel: &[T],
         out: &mut [T],
-        band: fn(&mut BandLines<T>, &BandTaps<T>, &mut [T]),
+        band: fn(LinesMut<'_, T>, &BandTaps<T>, &mut [T]),
     ) -> Option<Window<T>> {
         if accel.iter().any(|a| a.is_nan()) || out.len() < accel.len() {
             self.restart();
             return None;
         }
         if core::mem::take(&mut self.band_restarts) {
-            self.band.reset(taps);
+            lines.reset(taps);
         }
         let (rho, dt) = (self.rho, self.dt);
         let twelfth = T::lit(1.0 / 12.0);
@@ -299,7 +344,7 @@ impl<T: Real> RunningError<T> {
             out[j] = r.integrate(q.integrate(p.high_pass(read, rho), rho, dt), rho, dt);
         }
         self.references += accel.len() as u64;
-        band(&mut self.band, taps, &mut out[..accel.len()]);
+        band(lines, taps, &mut out[..accel.len()]);
         self.pair(first, &out[..accel.len()])
     }
 
@@ -368,11 +413,6 @@ impl<T: Real> RunningError<T> {
         }
         let stale = self.test.push(window.measured, window.stated);
         Some(Window { stale, ..window })
-    }
-
-    /// Windows measured since the start (settling ones too).
-    pub fn windows(&self) -> u32 {
-        self.windows
     }
 }
 
