@@ -104,14 +104,22 @@ impl<T: Real> HalfBand<T> {
     }
 }
 
-impl<T: Real> Down<T> {
-    /// Lines for a stage that is not run. Always in line, as every maker of lines at rest (see
-    /// `BandLimit::identity`).
-    #[inline(always)]
-    pub fn none() -> Self {
-        Down { seconds: Line::zeros(0), firsts: Line::zeros(0), second_next: false }
+impl<T: Copy> Down<T> {
+    /// Lines for a stage that is not run, their room filled with `zero`: in a const, a static
+    /// of them takes no flash.
+    pub const fn empty(zero: T) -> Self {
+        Down { seconds: Line::empty(zero), firsts: Line::empty(zero), second_next: false }
     }
+}
 
+impl<T: Copy> Up<T> {
+    /// A line for a stage that is not run, in a const ([`Down::empty`]).
+    pub const fn empty(zero: T) -> Self {
+        Up { up: Line::empty(zero) }
+    }
+}
+
+impl<T: Real> Down<T> {
     /// A history at rest for the stage `h`, in place: the samples before the first output's
     /// window, all zero.
     #[inline(never)]
@@ -124,12 +132,6 @@ impl<T: Real> Down<T> {
 }
 
 impl<T: Real> Up<T> {
-    /// A line for a stage that is not run; always in line, as [`Down::none`].
-    #[inline(always)]
-    pub fn none() -> Self {
-        Up { up: Line::zeros(0) }
-    }
-
     /// A history at rest for the stage `h`, in place.
     #[inline(never)]
     pub fn rest(&mut self, h: &HalfBand<T>) {

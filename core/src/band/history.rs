@@ -25,11 +25,11 @@ pub struct Line<S: ?Sized> {
     samples: S,
 }
 
-impl<T: Real, const CAP: usize> Line<[T; CAP]> {
-    /// `len` zeros: a history at rest.
-    pub fn zeros(len: usize) -> Self {
-        assert!(len <= CAP, "a line of {len} in {CAP}");
-        Line { start: 0, end: len, samples: [T::zero(); CAP] }
+impl<T: Copy, const CAP: usize> Line<[T; CAP]> {
+    /// Empty, its room filled with `zero`: in a const, a static of lines lies in the zeroed
+    /// RAM and takes no flash.
+    pub const fn empty(zero: T) -> Self {
+        Line { start: 0, end: 0, samples: [zero; CAP] }
     }
 }
 
@@ -137,11 +137,10 @@ pub struct Delay<S: ?Sized> {
     samples: S,
 }
 
-impl<T: Real, const CAP: usize> Delay<[T; CAP]> {
-    /// `len` zeros: a delay at rest.
-    pub fn zeros(len: usize) -> Self {
-        assert!(len <= CAP, "a delay of {len} in {CAP}");
-        Delay { at: 0, len, samples: [T::zero(); CAP] }
+impl<T: Copy, const CAP: usize> Delay<[T; CAP]> {
+    /// No delay, its room filled with `zero`, in a const ([`Line::empty`]).
+    pub const fn empty(zero: T) -> Self {
+        Delay { at: 0, len: 0, samples: [zero; CAP] }
     }
 }
 
@@ -281,7 +280,8 @@ mod tests {
 
     #[test]
     fn delays_by_its_length() {
-        let mut d = super::Delay::<[f64; 8]>::zeros(3);
+        let mut d = super::Delay::<[f64; 8]>::empty(0.0);
+        d.rest(3);
         let mut out: std::vec::Vec<f64> = (1..=7).map(|i| i as f64).collect();
         let (first, rest) = out.split_at_mut(2);
         d.less(first, &[0.5, 0.5]);
@@ -291,7 +291,8 @@ mod tests {
 
     #[test]
     fn keeps_what_is_left() {
-        let mut l = Line::<[f64; 8]>::zeros(2);
+        let mut l = Line::<[f64; 8]>::empty(0.0);
+        l.rest(2);
         l.extend(&[1.0, 2.0, 3.0]);
         l.extend_every_second(&[4.0, 0.0, 5.0]);
         l.drop_front(3);

@@ -90,19 +90,20 @@ impl<T: Real> EdgeTaps<T> {
     }
 }
 
-impl<T: Real, const LINE: usize, const HELD: usize> EdgeLines<T, LINE, HELD> {
-    #[inline(always)]
-    pub fn none() -> Self {
+impl<T: Copy, const LINE: usize, const HELD: usize> EdgeLines<T, LINE, HELD> {
+    /// Lines for no complement, their room filled with `zero`: in a const, a static of them
+    /// takes no flash.
+    pub const fn empty(zero: T) -> Self {
         EdgeLines {
             fixed: EdgeFixed {
-                down: [Down::none(); MAX_EDGE_STAGES],
-                up: [Up::none(); MAX_EDGE_STAGES],
-                ready: Line::zeros(0),
-                queue: Line::zeros(0),
+                down: [Down::empty(zero); MAX_EDGE_STAGES],
+                up: [Up::empty(zero); MAX_EDGE_STAGES],
+                ready: Line::empty(zero),
+                queue: Line::empty(zero),
                 done: 0,
             },
-            line: Line::zeros(0),
-            held: Delay::zeros(0),
+            line: Line::empty(zero),
+            held: Delay::empty(zero),
         }
     }
 

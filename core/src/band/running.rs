@@ -162,6 +162,24 @@ impl<T: Real> BandTaps<T> {
     }
 }
 
+impl<T: Copy, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, const HELD: usize>
+    BandLines<T, STAGES, LINE, EDGE_LINE, HELD>
+{
+    /// Lines at rest for the plan of one tap (the input as it is), their room filled with
+    /// `zero`: in a const, a static of them lies in the zeroed RAM and takes no flash (made at
+    /// run time, the device's took 1 KB of code).
+    pub const fn empty(zero: T) -> Self {
+        BandLines {
+            down: [Down::empty(zero); STAGES],
+            line: Line::empty(zero),
+            edge: EdgeLines::empty(zero),
+            states: [[zero; 2]; SECTIONS],
+            up: [Up::empty(zero); STAGES],
+            ready: Line::empty(zero),
+        }
+    }
+}
+
 impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, const HELD: usize>
     BandLines<T, STAGES, LINE, EDGE_LINE, HELD>
 {
@@ -172,14 +190,7 @@ impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, co
     /// compiler lays down as such.
     #[inline(always)]
     fn none() -> Self {
-        BandLines {
-            down: [Down::none(); STAGES],
-            line: Line::zeros(0),
-            edge: EdgeLines::none(),
-            states: [[T::zero(); 2]; SECTIONS],
-            up: [Up::none(); STAGES],
-            ready: Line::zeros(0),
-        }
+        Self::empty(T::zero())
     }
 
     /// Lines at rest for the coefficients `taps` (whose plan they must fit, [`LineSizes::fit`]);
@@ -204,12 +215,14 @@ impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, co
         }
     }
 
-    /// [`LinesMut::reset`]. Lines sized to one plan and too small for that of `taps` panic
-    /// here, before they run (the general sizes fit every plan `spec::check` passes).
+    /// [`LinesMut::reset`]. Lines sized to one plan and too small for that of `taps` are told
+    /// here in a debug build (the general sizes fit every plan `spec::check` passes; the
+    /// firmware's are made from its one plan by build.rs, which checks them); in any build a
+    /// line they overflow panics as they run.
     #[inline(always)]
     pub fn reset(&mut self, taps: &BandTaps<T>) {
         if Self::SIZES != BandLines::<T>::SIZES {
-            assert!(Self::SIZES.fit(&taps.plan), "band lines too small for the plan");
+            debug_assert!(Self::SIZES.fit(&taps.plan), "band lines too small for the plan");
         }
         self.as_mut().reset(taps)
     }
@@ -221,10 +234,10 @@ impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, co
     }
 }
 
-/// Lines of any sizes, for a holder of them that runs one plan ([`BandLines`] of its sizes).
-pub trait RunLines<T>: Clone {
-    /// Lines at rest for the coefficients `taps`.
-    fn at_rest(taps: &BandTaps<T>) -> Self;
+/// Lines of any sizes held by value or borrowed (a static of them, [`BandLines::empty`]).
+pub trait RunLines<T> {
+    /// [`BandLines::reset`]: checked against the plan of `taps`.
+    fn reset(&mut self, taps: &BandTaps<T>);
     /// The lines to run.
     fn as_mut(&mut self) -> LinesMut<'_, T>;
 }
@@ -233,12 +246,25 @@ impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, co
     for BandLines<T, STAGES, LINE, EDGE_LINE, HELD>
 {
     #[inline(always)]
-    fn at_rest(taps: &BandTaps<T>) -> Self {
-        Self::at_rest(taps)
+    fn reset(&mut self, taps: &BandTaps<T>) {
+        self.reset(taps)
     }
     #[inline(always)]
     fn as_mut(&mut self) -> LinesMut<'_, T> {
         self.as_mut()
+    }
+}
+
+impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, const HELD: usize> RunLines<T>
+    for &mut BandLines<T, STAGES, LINE, EDGE_LINE, HELD>
+{
+    #[inline(always)]
+    fn reset(&mut self, taps: &BandTaps<T>) {
+        BandLines::reset(self, taps)
+    }
+    #[inline(always)]
+    fn as_mut(&mut self) -> LinesMut<'_, T> {
+        BandLines::as_mut(self)
     }
 }
 

@@ -20,6 +20,7 @@
 //! opt-level (the firmware's is built for size), while the per-sample work they call is the
 //! core's, at its own ([`device_calls`]).
 
+use crate::band::BandTaps;
 use crate::calibration::humidity_path::HumidityMode;
 use crate::calibration::laws::Calibration;
 use crate::firmware::device_calls;
@@ -254,6 +255,12 @@ impl<'a, const PARTS: bool> BlockStep<'a, PARTS> {
     /// The estimates' delay behind the base motion [s].
     pub fn delay_s(&self) -> f32 {
         self.filter.delay_s()
+    }
+
+    /// The coefficients of the estimate's band filter where it runs (the running error's
+    /// reference runs them).
+    pub fn band_taps(&self) -> Option<&BandTaps<f32>> {
+        self.filter.band_taps()
     }
 }
 

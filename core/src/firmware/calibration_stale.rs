@@ -40,7 +40,12 @@ impl<T: Real> Default for StaleTest<T> {
 
 impl<T: Real> StaleTest<T> {
     pub fn new() -> Self {
-        StaleTest { z: [T::zero(); K], seen: 0 }
+        Self::empty(T::zero())
+    }
+
+    /// No windows yet (`zero` is the scalar's zero: the constructor stays `const`).
+    pub const fn empty(zero: T) -> Self {
+        StaleTest { z: [zero; K], seen: 0 }
     }
 
     /// A window's measured and stated error (fractions): whether the mean z over the last

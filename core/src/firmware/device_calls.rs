@@ -104,10 +104,11 @@ pub fn cascade_block(c: &mut Cascade<f32>, block: &mut [f32]) {
     c.process_block(block)
 }
 
-/// [`Measure::estimate`] then [`Measure::reference_through`] with the lines `lines` (a
-/// `RunningError`'s parts, of whatever sizes): a block's estimate and its stated error, and the
-/// accelerometer's block for the estimate's [`LAG_BLOCKS`] before; `taps` the estimate's band
-/// filter's coefficients.
+/// [`Measure::estimate`] then, where the accelerometer's block `accel` came (none before
+/// [`LAG_BLOCKS`] blocks, nor on a board without the part), [`Measure::reference_through`] with
+/// the lines `lines` (a `RunningError`'s parts, of whatever sizes): a block's estimate and its
+/// stated error, and the accelerometer's block for the estimate's [`LAG_BLOCKS`] before; `taps`
+/// the estimate's band filter's coefficients.
 ///
 /// [`LAG_BLOCKS`]: crate::resample::track::LAG_BLOCKS
 #[inline(never)]
@@ -117,9 +118,9 @@ pub fn running_error_block(
     taps: &BandTaps<f32>,
     estimate: &[f32],
     stated: f32,
-    accel: &[f32],
+    accel: Option<&[f32]>,
     out: &mut [f32],
 ) -> Option<Window<f32>> {
     m.estimate(estimate, stated);
-    m.reference_through(lines, taps, accel, out, band_lines_block)
+    m.reference_through(lines, taps, accel?, out, band_lines_block)
 }

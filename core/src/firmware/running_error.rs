@@ -124,7 +124,11 @@ struct Sums<T> {
 
 impl<T: Real> Sums<T> {
     fn zero() -> Self {
-        Sums { dd: T::zero(), dv: T::zero(), vv: T::zero(), rr: T::zero(), pairs: 0, stated2: T::zero(), blocks: 0 }
+        Self::empty(T::zero())
+    }
+
+    const fn empty(zero: T) -> Self {
+        Sums { dd: zero, dv: zero, vv: zero, rr: zero, pairs: 0, stated2: zero, blocks: 0 }
     }
 }
 
@@ -158,8 +162,10 @@ pub struct Measure<T> {
     /// The next estimate's sample number, and the next reference's (both from the start).
     estimates: u64,
     references: u64,
-    /// The delay the reference is read at [samples], its change a sample, and where it was set.
+    /// The delay the reference is read at [samples], its change a sample, and where it was set;
+    /// the delay it starts from.
     delay: T,
+    start_delay: T,
     rate: T,
     delay_at: u64,
     /// The same as read: [`READ_BEHIND`] and the delay, and its change a sample, in samples ×
@@ -178,17 +184,38 @@ impl<T: Real> RunningError<T> {
     /// preview of `preview_samples`; its lines of the general sizes.
     #[inline(always)]
     pub fn new(band: &BandTaps<T>, fs_hz: f64, preview_samples: usize) -> Self {
-        Self::with_lines(band, fs_hz, preview_samples)
+        Self::with_lines(BandLines::at_rest(band), band, fs_hz, preview_samples)
+    }
+}
+
+impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, const HELD: usize>
+    RunningError<T, BandLines<T, STAGES, LINE, EDGE_LINE, HELD>>
+{
+    /// Nothing set up (`zero` is the scalar's zero): in a const, a static of it lies in the
+    /// zeroed RAM, and [`Self::start`] sets it up where it is (made at run time, the device's
+    /// took half a KB of code).
+    pub const fn empty(zero: T) -> Self {
+        RunningError { band: BandLines::empty(zero), measure: Measure::empty(zero) }
+    }
+
+    /// As [`RunningError::new`] made it, in place: its lines are set at rest by the first
+    /// reference, which brings the coefficients. In line, so that a rate known where it is
+    /// called leaves no arithmetic in f64 to run (or link) here.
+    #[inline(always)]
+    pub fn start(&mut self, fs_hz: f64, preview_samples: usize) {
+        self.measure.start(fs_hz, preview_samples);
     }
 }
 
 impl<T: Real, L: RunLines<T>> RunningError<T, L> {
-    /// [`RunningError::new`] with lines of the type `L`.
-    /// Always in line, its value made in one piece where its caller puts it (the band's lines
-    /// are KBs: made apart and moved, they were on the stack twice).
+    /// [`RunningError::new`] with the lines `lines` (set at rest here, for `band`'s plan,
+    /// which they must fit: `band::LineSizes`). Always in line, its value made in one piece
+    /// where its caller puts it (lines held by value are KBs: made apart and moved, they were
+    /// on the stack twice).
     #[inline(always)]
-    pub fn with_lines(band: &BandTaps<T>, fs_hz: f64, preview_samples: usize) -> Self {
-        RunningError { band: L::at_rest(band), measure: Measure::new(fs_hz, preview_samples) }
+    pub fn with_lines(mut lines: L, band: &BandTaps<T>, fs_hz: f64, preview_samples: usize) -> Self {
+        lines.reset(band);
+        RunningError { band: lines, measure: Measure::new(fs_hz, preview_samples) }
     }
 
     /// The measurement and its lines, to run apart ([`Measure::reference_through`]).
@@ -226,16 +253,20 @@ impl<T: Real> Measure<T> {
     /// At `fs_hz`, for an estimate made with a preview of `preview_samples`; its lines at rest.
     #[inline(always)]
     pub fn new(fs_hz: f64, preview_samples: usize) -> Self {
-        let rho = libm::exp(-2.0 * core::f64::consts::PI * LEAK_HZ / fs_hz);
-        let zero = T::zero();
-        let preview = T::lit(preview_samples as f64);
-        let delay = preview - T::lit(START_DELAY_S * fs_hz);
-        let (back, back_rate) = Self::timed_of(delay, zero);
+        let mut m = Self::empty(T::zero());
+        m.start(fs_hz, preview_samples);
+        // The lines it is handed are at rest already.
+        m.band_restarts = false;
+        m
+    }
+
+    /// Nothing set up, in a const ([`RunningError::empty`]).
+    const fn empty(zero: T) -> Self {
         Measure {
             band_restarts: false,
-            rho: T::lit(rho),
-            dt: T::lit(1.0 / fs_hz),
-            preview,
+            rho: zero,
+            dt: zero,
+            preview: zero,
             estimate_poles: [Pole::rest(zero); 3],
             reference_poles: [Pole::rest(zero); 3],
             last: [zero; 2],
@@ -243,34 +274,58 @@ impl<T: Real> Measure<T> {
             held: [zero; HELD],
             estimates: 0,
             references: 0,
-            delay,
+            delay: zero,
+            start_delay: zero,
             rate: zero,
             delay_at: 0,
-            back,
-            back_rate,
-            sums: Sums::zero(),
-            line: ForgettingLine::empty(T::zero()),
-            window_pairs: ((WINDOW_S * fs_hz) as usize) / EVERY,
+            back: 0,
+            back_rate: 0,
+            sums: Sums::empty(zero),
+            line: ForgettingLine::empty(zero),
+            window_pairs: 0,
             windows: 0,
-            test: StaleTest::new(),
+            test: StaleTest::empty(zero),
         }
+    }
+
+    /// Set up at `fs_hz` for an estimate made with a preview of `preview_samples`, from the
+    /// start: its lines set at rest by the next reference. Its arithmetic in f64 in line, so
+    /// that a rate known where it is called leaves none to run (or link) there.
+    #[inline(always)]
+    fn start(&mut self, fs_hz: f64, preview_samples: usize) {
+        let rho = T::lit(libm::exp(-2.0 * core::f64::consts::PI * LEAK_HZ / fs_hz));
+        let preview = T::lit(preview_samples as f64);
+        // The datasheet's middle, as counted at the rate.
+        let delay = preview - T::lit(START_DELAY_S * fs_hz);
+        self.set_up(rho, T::lit(1.0 / fs_hz), preview, ((WINDOW_S * fs_hz) as usize) / EVERY, delay);
+    }
+
+    /// [`Self::start`] with its figures made.
+    #[inline(never)]
+    fn set_up(&mut self, rho: T, dt: T, preview: T, window_pairs: usize, delay: T) {
+        (self.rho, self.dt, self.preview, self.window_pairs, self.start_delay) = (rho, dt, preview, window_pairs, delay);
+        (self.estimates, self.references) = (0, 0);
+        self.restart();
     }
 
     /// The fixed-point reading from the delay and its rate.
     fn timed_of(delay: T, rate: T) -> (i64, i64) {
-        let one = (1u64 << FX) as f64;
-        (((READ_BEHIND as f64 + delay.to_f64()) * one) as i64, (rate.to_f64() * one) as i64)
+        (fixed(READ_BEHIND as f64 + delay.to_f64()), fixed(rate.to_f64()))
     }
 
-    /// Starts over: the accelerometer went away, or samples were lost.
+    /// Starts over: the accelerometer went away, or samples were lost. The samples' numbering
+    /// goes on: the next reference is still that of the estimate [`LAG_BLOCKS`] blocks before
+    /// the next, whose held estimates, gone, the settling windows cover. Out of line: one copy
+    /// for the set-up and the blocks.
+    #[inline(never)]
     pub fn restart(&mut self) {
         let zero = T::zero();
         self.band_restarts = true;
         self.estimate_poles = [Pole::rest(zero); 3];
         self.reference_poles = [Pole::rest(zero); 3];
         (self.last, self.history, self.held) = ([zero; 2], [zero; HISTORY], [zero; HELD]);
-        (self.estimates, self.references, self.delay_at, self.windows) = (0, 0, 0, 0);
-        self.delay = self.preview - T::lit(START_DELAY_S) / self.dt;
+        (self.delay_at, self.windows) = (self.references, 0);
+        self.delay = self.start_delay;
         self.rate = zero;
         (self.back, self.back_rate) = Self::timed_of(self.delay, zero);
         self.sums = Sums::zero();
@@ -374,7 +429,9 @@ impl<T: Real> Measure<T> {
         ended
     }
 
-    /// A window's end at reference sample `m`: the delay loop's step, and the figure.
+    /// A window's end at reference sample `m`: the delay loop's step, and the figure. Out of
+    /// line: once a window, not a sample.
+    #[inline(never)]
     fn close(&mut self, m: u64) -> Option<Window<T>> {
         let s = core::mem::replace(&mut self.sums, Sums::zero());
         self.windows += 1;
@@ -414,6 +471,13 @@ impl<T: Real> Measure<T> {
         let stale = self.test.push(window.measured, window.stated);
         Some(Window { stale, ..window })
     }
+}
+
+/// `x` × 2^[`FX`] to the integer toward zero, as `as i64` has it, by way of its magnitude (the
+/// device links the unsigned conversion already).
+fn fixed(x: f64) -> i64 {
+    let magnitude = (libm::fabs(x) * (1u64 << FX) as f64) as u64 as i64;
+    if x < 0.0 { -magnitude } else { magnitude }
 }
 
 /// The line through the windows' delays against time [windows] forgets [`LINE_FORGET`] a window:

@@ -13,7 +13,7 @@
 
 use crate::Real;
 use crate::band::Band;
-use crate::band::{BandCoefficients, BandDesign, BandLimit};
+use crate::band::{BandCoefficients, BandDesign, BandLimit, BandTaps};
 use crate::inverse::design::{FIXED_SECTIONS, Inverse, MAX_HEAD_SECTIONS, MAX_SECTIONS};
 use crate::numeric::section::{Sos, Stage};
 
@@ -280,6 +280,12 @@ impl<T: Real> Compensator<T> {
         self.fs_hz = fs_hz;
         self.warmup_len = (Real::round(WARMUP_S * fs) as u32).max(1);
         self.fade_len = (Real::round(FADE_S * fs) as u32).max(1);
+    }
+
+    /// The coefficients of the estimate's band filter where it runs: a second signal through
+    /// the same filter (the running error's reference) runs them with lines of its own.
+    pub fn band_taps(&self) -> Option<&BandTaps<T>> {
+        self.keeps_band.then_some(self.band.taps())
     }
 
     /// The band's FIR where it runs.
