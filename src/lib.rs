@@ -41,7 +41,8 @@ pub fn run() -> ! {
     let sample_spawner = board::start_sample_executor();
     // In a static of its own: as the task's argument its state was held twice in the task.
     let accel = ACCELEROMETER.init(board.accel);
-    sample_spawner.spawn(app::sample_path::sample_task(board.samples, accel, sample_path).expect("sample task spawns once"));
+    let running_error = app::compensation::running_error(sample_path);
+    sample_spawner.spawn(app::sample_path::sample_task(board.samples, accel, sample_path, running_error).expect("sample task spawns once"));
 
     let io_spawner = board::start_io_executor();
     io_spawner.spawn(app::humidity::humidity_task(board.humidity).expect("humidity task spawns once"));

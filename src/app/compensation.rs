@@ -5,14 +5,17 @@ use ipmc_core::{
     Calibration, Compensator, DesignConfig, DesignError, Inverse,
     firmware::block_step::{self, BlockStep},
     firmware::device_calls,
+    firmware::running_error::Window,
     humidity::hygrometer::{BlockHygrometer, Snapshot, noise_psd},
     humidity::strip::{Refusal, StripRh},
     inverse::expected_error::ErrorTable,
     wire::stream::Setup,
 };
-use static_cell::StaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
-use crate::contract::config::SAMPLE_RATE_HZ;
+use crate::contract::calibration::BandLinesOfPlan;
+
+use crate::contract::config::{BLOCK_LEN, SAMPLE_RATE_HZ};
 
 /// The calibration compiled into this firmware (see `contract::calibration`: chosen at build time).
 /// By reference: its one copy in flash; taken by value, each caller copied its 3 KB (most of it
@@ -82,4 +85,37 @@ fn make_step(filter: &'static mut Compensator<f32>) -> &'static mut BlockStep<'s
         humidity_mode: calibration.humidity.mode().code(),
     };
     STEP.init_with(|| BlockStep::new(calibration, error_table(), SAMPLE_RATE_HZ, filter, hygrometer, Some(setup)))
+}
+
+/// The estimate's error measured against the board's accelerometer, its band filter's lines
+/// sized to the one plan baked (`contract::calibration::BandLinesOfPlan`).
+pub type RunningError = ipmc_core::firmware::running_error::RunningError<f32, BandLinesOfPlan>;
+
+/// In a const: in the zeroed RAM, no code made to lay it down; set up where it is.
+static RUNNING_ERROR: ConstStaticCell<RunningError> = ConstStaticCell::new(RunningError::empty(0.0));
+
+/// The running error, set up in its static at boot, where the step's band filter runs (none
+/// where the filter keeps no band: nothing to measure in).
+#[inline(never)]
+pub fn running_error(step: &BlockStep<'static>) -> Option<&'static mut RunningError> {
+    step.band_taps()?;
+    let m = RUNNING_ERROR.take();
+    m.start(SAMPLE_RATE_HZ as f64, crate::contract::calibration::PREVIEW_SAMPLES);
+    Some(m)
+}
+
+/// A block's estimates [m] and their stated error into the running error, with the check's
+/// accelerometer [m/s²] where one came (an earlier block's): a window, where one ends.
+#[inline(never)]
+pub fn measure_error(
+    m: &mut RunningError,
+    step: &BlockStep<'static>,
+    estimate: &[f32; BLOCK_LEN],
+    stated: f32,
+    accel: Option<&[f32; BLOCK_LEN]>,
+) -> Option<Window<f32>> {
+    let taps = step.band_taps()?;
+    let (measure, lines) = m.parts();
+    let mut reference = [0.0; BLOCK_LEN];
+    device_calls::running_error_block(measure, lines, taps, estimate, stated, accel.map(|a| &a[..]), &mut reference)
 }

@@ -7,6 +7,8 @@
 
 use ipmc_core::firmware::block_step::{BlockInputs, BlockStep};
 
+use super::compensation::{RunningError, measure_error};
+
 use super::handoff::{
     self, CHECKS, DESIGN_READY, EstimateBlock, FIT_REQUEST, FIT_RESULT, LATEST_READ_RH_PCT, REPORT_QUEUE, RETUNE_REQUEST, ReportItem,
 };
@@ -18,7 +20,12 @@ use crate::contract::{
 };
 
 #[embassy_executor::task]
-pub async fn sample_task(mut samples: Samples, accel: &'static mut Accelerometer, step: &'static mut BlockStep<'static>) {
+pub async fn sample_task(
+    mut samples: Samples,
+    accel: &'static mut Accelerometer,
+    step: &'static mut BlockStep<'static>,
+    mut error: Option<&'static mut RunningError>,
+) {
     // Start-up only: sampling begins once the first design exists, so every reported
     // estimate comes from a real filter. The first design is the start-up's fallback when
     // the humidity task says so.
@@ -33,6 +40,9 @@ pub async fn sample_task(mut samples: Samples, accel: &'static mut Accelerometer
     samples.start();
     let mut blocks: u32 = 0;
     let mut dropped_since_last = false;
+    // The last window's test of the calibration, raised on every block until the next window
+    // and while checks come.
+    let mut stale = false;
     loop {
         let mut base_est_m = [0.0; BLOCK_LEN];
         let (source_flags, lost_samples) = match samples.read_block(&mut base_est_m).await {
@@ -43,6 +53,16 @@ pub async fn sample_task(mut samples: Samples, accel: &'static mut Accelerometer
         let current_a = base_est_m;
         let mut header = run_step(step, &mut base_est_m, source_flags, lost_samples);
         let check = accel.check(header.first_sample, lost_samples > 0, &current_a);
+        if let Some(m) = error.as_deref_mut() {
+            let accel_mps2 = check.as_ref().map(|c| &c.accel_mps2);
+            if let Some(w) = measure_error(m, step, &base_est_m, header.rel_err, accel_mps2) {
+                stale = w.stale;
+            }
+        }
+        stale &= check.is_some();
+        if stale {
+            header.flags |= flags::CALIBRATION_STALE;
+        }
         if dropped_since_last {
             header.flags |= flags::REPORT_DROPPED;
         }
