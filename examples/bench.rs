@@ -471,7 +471,7 @@ fn running_error(band: &ipmc_core::band::Band, instr: &impl Fn(u32) -> f64) {
             (*x, *y) = (1e-5 * rng.next(), rng.next());
         }
         let (measure, lines) = m.parts();
-        windows += device_calls::running_error_block(black_box(measure), lines, &taps, black_box(&e), 0.05, black_box(&a), &mut out)
+        windows += device_calls::running_error_block(black_box(measure), lines, &taps, black_box(&e), 0.05, Some(black_box(&a)), &mut out)
             .is_some() as u32;
     }
     let total = instr(since(t));

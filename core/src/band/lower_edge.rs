@@ -109,7 +109,7 @@ impl<T: Copy, const LINE: usize, const HELD: usize> EdgeLines<T, LINE, HELD> {
 
     /// The lines to run.
     #[inline(always)]
-    pub fn as_mut(&mut self) -> EdgeMut<'_, T> {
+    pub fn view(&mut self) -> EdgeMut<'_, T> {
         EdgeMut { fixed: &mut self.fixed, line: &mut self.line, held: &mut self.held }
     }
 }

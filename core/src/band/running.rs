@@ -204,11 +204,11 @@ impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, co
 
     /// The lines to run.
     #[inline(always)]
-    pub fn as_mut(&mut self) -> LinesMut<'_, T> {
+    pub fn view(&mut self) -> LinesMut<'_, T> {
         LinesMut {
             down: &mut self.down,
             line: &mut self.line,
-            edge: self.edge.as_mut(),
+            edge: self.edge.view(),
             states: &mut self.states,
             up: &mut self.up,
             ready: &mut self.ready,
@@ -224,13 +224,13 @@ impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, co
         if Self::SIZES != BandLines::<T>::SIZES {
             debug_assert!(Self::SIZES.fit(&taps.plan), "band lines too small for the plan");
         }
-        self.as_mut().reset(taps)
+        self.view().reset(taps)
     }
 
     /// [`LinesMut::process_block`].
     #[inline(always)]
     pub fn process_block(&mut self, taps: &BandTaps<T>, buf: &mut [T]) {
-        self.as_mut().process_block(taps, buf)
+        self.view().process_block(taps, buf)
     }
 }
 
@@ -239,7 +239,7 @@ pub trait RunLines<T> {
     /// [`BandLines::reset`]: checked against the plan of `taps`.
     fn reset(&mut self, taps: &BandTaps<T>);
     /// The lines to run.
-    fn as_mut(&mut self) -> LinesMut<'_, T>;
+    fn view(&mut self) -> LinesMut<'_, T>;
 }
 
 impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, const HELD: usize> RunLines<T>
@@ -250,8 +250,8 @@ impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, co
         self.reset(taps)
     }
     #[inline(always)]
-    fn as_mut(&mut self) -> LinesMut<'_, T> {
-        self.as_mut()
+    fn view(&mut self) -> LinesMut<'_, T> {
+        self.view()
     }
 }
 
@@ -263,8 +263,8 @@ impl<T: Real, const STAGES: usize, const LINE: usize, const EDGE_LINE: usize, co
         BandLines::reset(self, taps)
     }
     #[inline(always)]
-    fn as_mut(&mut self) -> LinesMut<'_, T> {
-        BandLines::as_mut(self)
+    fn view(&mut self) -> LinesMut<'_, T> {
+        BandLines::view(self)
     }
 }
 

@@ -221,7 +221,7 @@ impl<T: Real, L: RunLines<T>> RunningError<T, L> {
     /// The measurement and its lines, to run apart ([`Measure::reference_through`]).
     #[inline(always)]
     pub fn parts(&mut self) -> (&mut Measure<T>, LinesMut<'_, T>) {
-        (&mut self.measure, self.band.as_mut())
+        (&mut self.measure, self.band.view())
     }
 
     /// [`Measure::restart`].
