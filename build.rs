@@ -82,9 +82,7 @@ fn reference_lines_item(c: &Calibration) -> String {
     let band = ipmc_core::inverse::design::design_band::<f32>(c);
     let plan = ipmc_core::band::check(&band, SAMPLE_RATE_HZ as f64).expect("a validated calibration's band is kept at the firmware's rate");
     let s = ipmc_core::band::LineSizes::of(&plan);
-    // The design's preview as it rounds it (`ipmc score` counts it the same).
-    let fs = SAMPLE_RATE_HZ as f64;
-    let preview = (DesignConfig::<f64>::at_rate(fs).max_delay_s * fs + 1e-6).floor() as usize;
+    let preview = ipmc_core::firmware::operating_point::preview_samples();
     format!(
         "/// The band filter's lines sized to this band's plan, for a second signal through it.\n\
          pub type BandLinesOfPlan = ipmc_core::band::BandLines<f32, {}, {}, {}, {}>;\n\

@@ -50,7 +50,14 @@ pub const SETTLE_S: f64 = 5.0;
 pub fn delay_samples(band: &Band) -> usize {
     let c = DesignConfig::<f64>::firmware();
     let fir = check(band, c.fs_hz).map_or(0, |p| p.delay_samples());
-    (c.max_delay_s * c.fs_hz).round() as usize + fir
+    preview_samples() + fir
+}
+
+/// The firmware's designs' preview (`max_delay_s`) [samples at its rate]: the estimate leads
+/// the base motion by it before the band's filter (the running error reads its reference so).
+pub fn preview_samples() -> usize {
+    let c = DesignConfig::<f64>::firmware();
+    (c.max_delay_s * c.fs_hz).round() as usize
 }
 
 #[cfg(test)]

@@ -339,6 +339,8 @@ impl<T: Real> Measure<T> {
     pub fn estimate(&mut self, e: &[T], stated: T) {
         if !e.iter().all(|x| x.is_finite()) {
             self.restart();
+            // Its samples are counted all the same: the numbering pairs the two.
+            self.estimates += e.len() as u64;
             return;
         }
         let rho = self.rho;
@@ -370,6 +372,8 @@ impl<T: Real> Measure<T> {
     ) -> Option<Window<T>> {
         if accel.iter().any(|a| a.is_nan()) || out.len() < accel.len() {
             self.restart();
+            // Its samples are counted all the same: the numbering pairs the two.
+            self.references += accel.len() as u64;
             return None;
         }
         if core::mem::take(&mut self.band_restarts) {
@@ -526,6 +530,12 @@ mod tests {
     /// times `gain`, `preview` samples ahead; the accelerometer delayed by `delay_s` growing at
     /// `rate`.
     fn run<T: Real>(gain: f64, delay_s: f64, rate: f64, seconds: usize) -> Vec<Window<T>> {
+        run_from::<T>(gain, delay_s, rate, seconds, 0)
+    }
+
+    /// [`run`] with the accelerometer's first `missing` blocks NaN (the resampler without a
+    /// whole block yet, as on the device).
+    fn run_from<T: Real>(gain: f64, delay_s: f64, rate: f64, seconds: usize, missing: usize) -> Vec<Window<T>> {
         let mut truth = BandLimit::<T>::new(&Band::DEFAULT, FS).unwrap();
         let mut m = RunningError::new(truth.taps(), FS, PREVIEW);
         let blocks = seconds * FS as usize / BLOCK_LEN;
@@ -541,7 +551,7 @@ mod tests {
             m.estimate(&e, T::lit(0.05));
             accel_blocks.push(core::array::from_fn(|i| {
                 let t = (b * BLOCK_LEN + i) as f64 / FS;
-                T::lit(accel(t - delay_s - rate * t))
+                if b < missing { T::nan() } else { T::lit(accel(t - delay_s - rate * t)) }
             }));
             if let Some(lagged) = b.checked_sub(LAG_BLOCKS) {
                 let taps = *truth.taps();
@@ -569,6 +579,9 @@ mod tests {
                 assert!((w.delay_s - (delay_s + rate * t)).abs() < d_tol && (w.rate - rate).abs() < r_tol, "window {k}: {w:?}");
             }
         }
+        // The accelerometer's first blocks missing: the measurement starts over, in step.
+        let late = run_from::<f32>(1.0, delay_s, rate, 40, 3);
+        assert!(late.len() >= 4 && late.iter().all(|w| w.measured < 0.02 && !w.stale), "{late:?}");
         let wrong = run::<f32>(1.2, delay_s, -rate, 40);
         for w in &wrong[3..] {
             assert!((w.measured - 0.2).abs() < 0.005, "{w:?}");
