@@ -10,6 +10,7 @@ pub mod humidity_loop;
 mod qemu_scenarios;
 mod readme_figures;
 mod running_error;
+mod running_error_device;
 mod strip_workflow;
 mod suite;
 mod tool;

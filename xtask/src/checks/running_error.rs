@@ -4,7 +4,8 @@
 //! response), compensated, then scored; `score` prints the device's figure (the core's running
 //! error, f32, a block at a time) beside its own. Held: within a tenth of score's figure, the
 //! calibration called stale on a month-6 check 3.5× its stated error and never on a month-0
-//! check whose measured error is under its stated one.
+//! check whose measured error is under its stated one; and the same of the device itself, the
+//! firmware with the strip's calibration under QEMU (`running_error_device`).
 
 use crate::{Result, ipmc, repo_root};
 use anyhow::{Context, bail};
@@ -29,6 +30,8 @@ pub fn test_step() -> Result<()> {
     }
     let work = repo_root().join("target/running-error");
     std::fs::create_dir_all(&work)?;
+    // The device's figures under QEMU are held after every check has run, so that all are seen.
+    let mut device_failures = vec![];
     for (check, strip, stale) in CHECKS {
         let calib = work.join(format!("{strip}.toml"));
         let fr = dir.join(format!("strips/{strip}-fr.csv"));
@@ -57,6 +60,26 @@ pub fn test_step() -> Result<()> {
         if line.contains("CALIBRATION_STALE never") == stale {
             bail!("{check}: CALIBRATION_STALE expected {}: `{line}`", if stale { "raised" } else { "never" });
         }
+        // The device itself: the firmware with the strip's calibration, under QEMU.
+        let run = super::running_error_device::replay(&rec, &calib, &work.join(format!("qemu-{check}")))?;
+        let pooled = 100.0 * run.pooled();
+        println!(
+            "{check}: under QEMU, {} windows: {pooled:.2} % pooled (score: {score} %), CALIBRATION_STALE on {} of {} blocks, as the host's replay of its running error",
+            run.windows.len(),
+            run.stale_blocks,
+            run.blocks
+        );
+        if (pooled / score - 1.0).abs() > AGREEMENT {
+            device_failures
+                .push(format!("{check}: the device under QEMU measured {pooled:.2} %, score {score} %: more than {AGREEMENT} of it apart"));
+        }
+        if (run.stale_blocks > 0) != stale {
+            let expected = if stale { "some" } else { "none" };
+            device_failures.push(format!("{check}: under QEMU CALIBRATION_STALE on {} blocks, expected {expected}", run.stale_blocks));
+        }
+    }
+    if !device_failures.is_empty() {
+        bail!("{}", device_failures.join("; "));
     }
     Ok(())
 }

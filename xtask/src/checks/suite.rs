@@ -43,7 +43,7 @@ pub fn command(filter: &[String]) -> Result<()> {
         ),
         ("vs-exact: f32 chain within 1.1× the exact inverse in band (external recordings)", vs_exact_external),
         (
-            "running error: the device's figure within a tenth of ipmc score's, CALIBRATION_STALE as the test says (external checks)",
+            "running error: the device's figure within a tenth of ipmc score's, CALIBRATION_STALE as the test says, on the host and under QEMU (external checks)",
             super::running_error::test_step,
         ),
         ("humidity path: diagnose → --write-calib → compensate", humidity_loop::test_step),
