@@ -16,6 +16,9 @@ use ipmc_core::wire::stream::flags::CALIBRATION_STALE;
 
 use crate::{Result, qemu};
 
+/// The device's estimate as the replay writes it, in the replay's folder.
+pub const ESTIMATE: &str = "EST.csv";
+
 /// What the device measured on a check.
 pub struct DeviceRun {
     pub windows: Vec<Window<f32>>,
@@ -36,7 +39,7 @@ impl DeviceRun {
 /// CALIBRATION_STALE held to the host's replay of its running error, block for block.
 pub fn replay(check: &Path, calib: &Path, work: &Path) -> Result<DeviceRun> {
     std::fs::create_dir_all(work)?;
-    let replayed = qemu::replay_recording(check, &work.join("EST.csv"), Some(calib), work)?;
+    let replayed = qemu::replay_recording(check, &work.join(ESTIMATE), Some(calib), work)?;
     let calibration = ipmc_core::calibration_file::parse(&std::fs::read_to_string(calib)?)?;
     let fs = f64::from(qemu::FIRMWARE_FS_HZ);
     let band = ipmc_core::inverse::design::design_band::<f32>(&calibration);
