@@ -310,7 +310,7 @@ impl<T: Real> Measure<T> {
 
     /// The fixed-point reading from the delay and its rate.
     fn timed_of(delay: T, rate: T) -> (i64, i64) {
-        (fixed(READ_BEHIND as f64 + delay.to_f64()), fixed(rate.to_f64()))
+        (fixed(T::from_u16(READ_BEHIND as u16) + delay), fixed(rate))
     }
 
     /// Starts over: the accelerometer went away, or samples were lost. The samples' numbering
@@ -447,26 +447,26 @@ impl<T: Real> Measure<T> {
         // chain's delay there; the line through the recent ones reads the next window.
         let span = (self.window_pairs * EVERY) as u64;
         let middle = m.saturating_sub(span / 2);
-        let read = self.delay + self.rate * T::lit(middle as f64 - self.delay_at as f64);
+        let read = self.delay + self.rate * T::from_i32((middle as i64 - self.delay_at as i64) as i32);
         // The first window starts the reference's filters: what it leaves is their start.
         if self.windows > 1 {
-            self.line.push(T::lit(middle as f64 / span as f64), read - left, T::lit(LINE_FORGET));
+            self.line.push(in_windows(middle, span), read - left, T::lit(LINE_FORGET));
         }
         // The line read at the window's end, and from the next block on.
         let next = self.references;
-        let (delay, rate) = line_at(&self.line, T::lit(m as f64 / span as f64)).unwrap_or((self.delay, T::zero()));
+        let (delay, rate) = line_at(&self.line, in_windows(m, span)).unwrap_or((self.delay, T::zero()));
         let window = Window {
             measured: ((s.dd - s.dv * left).max(T::zero()) / s.rr).sqrt(),
-            stated: if s.blocks > 0 { (s.stated2 / T::lit(s.blocks as f64)).sqrt() } else { T::nan() },
+            stated: if s.blocks > 0 { (s.stated2 / T::from_i32(s.blocks as i32)).sqrt() } else { T::nan() },
             delay_s: (self.preview - delay) * self.dt,
-            rate: -rate / T::lit(span as f64),
+            rate: -rate / T::from_i32(span as i32),
             error_sum: (s.dd - s.dv * left).max(T::zero()),
             reference_sum: s.rr,
             end: m,
             stale: false,
         };
-        let (from_next, _) = line_at(&self.line, T::lit(next as f64 / span as f64)).unwrap_or((self.delay, T::zero()));
-        (self.delay, self.rate, self.delay_at) = (from_next, rate / T::lit(span as f64), next);
+        let (from_next, _) = line_at(&self.line, in_windows(next, span)).unwrap_or((self.delay, T::zero()));
+        (self.delay, self.rate, self.delay_at) = (from_next, rate / T::from_i32(span as i32), next);
         let timed = Self::timed_of(self.delay, self.rate);
         (self.back, self.back_rate) = timed;
         if self.windows <= SETTLING_WINDOWS {
@@ -477,11 +477,21 @@ impl<T: Real> Measure<T> {
     }
 }
 
-/// `x` × 2^[`FX`] to the integer toward zero, as `as i64` has it, by way of its magnitude (the
-/// device links the unsigned conversion already).
-fn fixed(x: f64) -> i64 {
-    let magnitude = (libm::fabs(x) * (1u64 << FX) as f64) as u64 as i64;
-    if x < 0.0 { -magnitude } else { magnitude }
+/// The sample `n` in windows of `span` samples: its whole windows and the fraction apart, so
+/// that hours of samples keep the fraction's precision in f32.
+fn in_windows<T: Real>(n: u64, span: u64) -> T {
+    T::from_i32((n / span) as i32) + T::from_i32((n % span) as i32) / T::from_i32(span as i32)
+}
+
+/// `x` × 2^[`FX`] to the integer toward zero, as `as i64` has it: its whole part and its fraction
+/// apart, each in 32 bits (no conversion of the float to 64 bits to link on the device).
+fn fixed<T: Real>(x: T) -> i64 {
+    let a = x.abs();
+    let whole = a.floor();
+    // The fraction's top 31 bits, then one more: 2³² of a fraction near 1 does not fit in 32.
+    let fraction = ((a - whole) * T::lit((1u64 << (FX - 1)) as f64)).to_u32() as i64;
+    let magnitude = ((whole.to_u32() as i64) << FX) + (fraction << 1);
+    if x.is_sign_negative() { -magnitude } else { magnitude }
 }
 
 /// The line through the windows' delays against time [windows] forgets [`LINE_FORGET`] a window:

@@ -30,6 +30,10 @@ pub trait Real: Num + NumAssign + Copy + PartialOrd + Neg<Output = Self> + Float
     /// A table's 16-bit code, converted in the type itself (no detour through f64, which the
     /// device does in software).
     fn from_u16(x: u16) -> Self;
+    /// The integer's value (to the nearest the type holds; one instruction on the device).
+    fn from_i32(x: i32) -> Self;
+    /// Toward zero, saturating at the type's ends (NaN: 0), as `as u32` has it.
+    fn to_u32(self) -> u32;
     /// Widens for reporting.
     fn to_f64(self) -> f64;
 
@@ -74,6 +78,14 @@ macro_rules! real_via_libm {
             #[inline(always)]
             fn from_u16(x: u16) -> Self {
                 x as $t
+            }
+            #[inline(always)]
+            fn from_i32(x: i32) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn to_u32(self) -> u32 {
+                self as u32
             }
             #[inline(always)]
             fn to_f64(self) -> f64 {

@@ -261,6 +261,17 @@ fn dynamic_allocation_is_an_error() {
     ",
     );
     assert_eq!(depth_of(&g, "f").unwrap(), 8 + 0x18 + 0x8);
+    // Loads of several registers from sp read it; with write-back they release.
+    let g = graph(
+        "
+        08000100 <f>:
+        8000100: push {r7, lr}
+        8000102: sub sp, #0x10
+        8000104: ldm.w sp, {r0, r1, r2, r3}
+        8000108: ldm sp!, {r0, r1}
+    ",
+    );
+    assert_eq!(depth_of(&g, "f").unwrap(), 8 + 0x10);
 }
 
 /// Two executors, a waker call in a task: each context counts only its own tasks.

@@ -96,8 +96,16 @@ impl Function {
             if !(m == "ldr" && ops.contains("[sp]")) {
                 self.indirect.push((0, source.cloned()));
             }
-        } else if first == "sp" && !(m.starts_with("st") || m.starts_with("vst") || matches!(m, "cmp" | "cmn" | "tst" | "teq")) {
-            // Stores and compares read sp; everything else named sp first writes it.
+        } else if first == "sp"
+            && !(m.starts_with("st")
+                || m.starts_with("vst")
+                || m.starts_with("ldm")
+                || m.starts_with("vldm")
+                || matches!(m, "cmp" | "cmn" | "tst" | "teq"))
+        {
+            // Stores and compares read sp, and so does a load of several registers from it
+            // (`ldm.w sp, {r0, r1}`; with `sp!` it releases, as a pop); everything else named sp
+            // first writes it.
             let rest: Vec<&str> = ops.split(',').map(str::trim).collect();
             // In an IT block an instruction carries its condition (`addlo`): on the path that
             // skips it sp is as before, so counting it as if it always ran (an allocation) or
