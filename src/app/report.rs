@@ -73,6 +73,7 @@ pub async fn report_task(mut stream: Stream) {
 #[inline(never)]
 fn encode(header: &Header, base_est_m: &[f32; BLOCK_LEN], has_check: bool, frame: &mut [u8]) -> Result<usize, stream::EncodeError> {
     let held = if has_check { CHECKS.try_receive().ok() } else { None };
-    let check = held.as_ref().map(|c| Check { first_sample: c.first_sample, current_a: &c.current_a, accel_mps2: &c.accel_mps2 });
+    let check =
+        held.as_ref().map(|c| Check { first_sample: c.first_sample, current_a: &c.current_a, accel_mps2: &c.accel_mps2, window: c.window });
     stream::encode(header, base_est_m, check, frame)
 }

@@ -6,6 +6,7 @@
 //! board's accelerometer answers, the check's samples beside them (`check`).
 
 use ipmc_core::firmware::block_step::{BlockInputs, BlockStep};
+use ipmc_core::wire::stream::ErrorWindow;
 
 use super::compensation::{RunningError, measure_error};
 
@@ -41,8 +42,9 @@ pub async fn sample_task(
     let mut blocks: u32 = 0;
     let mut dropped_since_last = false;
     // The last window's test of the calibration, raised on every block until the next window
-    // and while checks come.
+    // and while checks come; the window itself streamed beside the checks the same way.
     let mut stale = false;
+    let mut window = None;
     loop {
         let mut base_est_m = [0.0; BLOCK_LEN];
         let (source_flags, lost_samples) = match samples.read_block(&mut base_est_m).await {
@@ -52,14 +54,20 @@ pub async fn sample_task(
         // The current as the ADC gave it, before the step makes estimates of it in place.
         let current_a = base_est_m;
         let mut header = run_step(step, &mut base_est_m, source_flags, lost_samples);
-        let check = accel.check(header.first_sample, lost_samples > 0, &current_a);
+        let mut check = accel.check(header.first_sample, lost_samples > 0, &current_a);
         if let Some(m) = error.as_deref_mut() {
             let accel_mps2 = check.as_ref().map(|c| &c.accel_mps2);
             if let Some(w) = measure_error(m, step, &base_est_m, header.rel_err, accel_mps2) {
                 stale = w.stale;
+                window = Some(ErrorWindow { end_sample: w.end as u32, measured: w.measured, stated: w.stated });
             }
         }
         stale &= check.is_some();
+        if let Some(c) = check.as_mut() {
+            c.window = window;
+        } else {
+            window = None;
+        }
         if stale {
             header.flags |= flags::CALIBRATION_STALE;
         }

@@ -7,15 +7,19 @@
 // part follows too.
 use ipmc_core::resample::track::{AccelTrack, CHAIN_DELAY_S, LAG_BLOCKS};
 
+use ipmc_core::wire::stream::ErrorWindow;
+
 use super::config::BLOCK_LEN;
 
 /// A block's check: its first sample, current [A] and the accelerometer [m/s²] (NaN where the
-/// resampler had no whole block).
+/// resampler had no whole block), and the estimate's error measured against the accelerometer
+/// so far, its latest window (set by the sample path, which measures it).
 #[derive(Clone, Copy)]
 pub struct CheckBlock {
     pub first_sample: u32,
     pub current_a: [f32; BLOCK_LEN],
     pub accel_mps2: [f32; BLOCK_LEN],
+    pub window: Option<ErrorWindow>,
 }
 
 /// One block's current waiting for the part's samples.
@@ -54,6 +58,6 @@ impl Checks {
         let held = oldest?;
         let mut accel_mps2 = [f32::NAN; BLOCK_LEN];
         self.track.block(u64::from(held.first_sample), board_origin, held.lost, &mut accel_mps2);
-        Some(CheckBlock { first_sample: held.first_sample, current_a: held.current_a, accel_mps2 })
+        Some(CheckBlock { first_sample: held.first_sample, current_a: held.current_a, accel_mps2, window: None })
     }
 }

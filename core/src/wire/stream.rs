@@ -36,6 +36,11 @@
 //!   f32  × n  the strip's current [A], as the ADC gave it
 //!   f32  × n  the accelerometer at the same instants [m/s²], along the strip's bending axis,
 //!             resampled onto the ADC's clock (NaN where the resampler had no whole block)
+//!   u32  the estimate's error measured against the accelerometer: its latest window's end, } version 7
+//!        in the running error's count of samples (u32::MAX: no window measured yet),       } on
+//!   f32  the error measured in it, a fraction of the reference's rms in band, and          }
+//!   f32  the error the blocks stated for it (1σ, a fraction)                              }
+//!        (`ipmc_core::firmware::running_error`)
 //!   u16  CRC-16/IBM-3740 (poly 0x1021, init 0xFFFF) of all bytes above
 //! frame = COBS(payload) followed by one 0x00 delimiter
 //! ```
@@ -125,8 +130,11 @@ pub mod flags {
 /// fused humidity with theirs). 5: what the firmware runs ([`Setup`]): the band's shape, the
 /// estimates' delay, the humidity mode. 6: a check (`Check`) beside the estimates when the
 /// board's accelerometer answers: the current and the accelerometer resampled onto the ADC's
-/// clock, what a check recording holds (`current_a`, `accel_mps2`).
-pub const FRAME_VERSION: u8 = 6;
+/// clock, what a check recording holds (`current_a`, `accel_mps2`). 7: beside a check, the
+/// estimate's error the device measured against it ([`ErrorWindow`]).
+pub const FRAME_VERSION: u8 = 7;
+/// The version before the running error: its checks have no window.
+const VERSION_BEFORE_WINDOW: u8 = 6;
 /// The version before the accelerometer: the decoder reads it as a frame without one.
 const VERSION_BEFORE_ACCEL: u8 = 5;
 /// The oldest version the decoder still reads (its frames have no [`Setup`]).
@@ -145,8 +153,11 @@ const CRC16: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
 
 /// Payload bytes of a frame carrying `n` estimates, and a check's `n` samples when `check`.
 pub const fn payload_len(n: usize, check: bool) -> usize {
-    HEADER_LEN + 4 * n + if check { 4 + 8 * n } else { 0 } + CRC_LEN
+    HEADER_LEN + 4 * n + if check { 4 + 8 * n + WINDOW_LEN } else { 0 } + CRC_LEN
 }
+
+/// A check's window: its end, the error measured and the error stated.
+const WINDOW_LEN: usize = 3 * 4;
 
 /// Encoded frame length for `n` estimates in the worst case (a check's frame),
 /// delimiter included: the size of an encoder's output buffer.
@@ -238,6 +249,26 @@ pub struct Check<'a> {
     pub current_a: &'a [f32],
     /// The board's accelerometer at the same instants [m/s²].
     pub accel_mps2: &'a [f32],
+    /// The estimate's error the device measured against the accelerometer, its latest window
+    /// (None: none measured yet).
+    pub window: Option<ErrorWindow>,
+}
+
+/// A window of the estimate's error measured against the board's accelerometer
+/// (`ipmc_core::firmware::running_error::Window`), as the stream carries it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorWindow {
+    /// The window's end, in the running error's count of samples (wraps at 2³²).
+    pub end_sample: u32,
+    /// The error measured in it, a fraction of the reference's rms in band.
+    pub measured: f32,
+    /// The error the blocks stated for it (their rms, 1σ, a fraction).
+    pub stated: f32,
+}
+
+impl ErrorWindow {
+    /// The end that says no window has been measured yet.
+    pub const NONE_END: u32 = u32::MAX;
 }
 
 /// Encodes one frame into `out`: the header, the estimates and, where the board's accelerometer
@@ -259,28 +290,39 @@ pub fn encode(header: &Header, estimates: &[f32], check: Option<Check<'_>>, out:
         digest.update(bytes);
         encoder.push(bytes).map_err(|_| EncodeError::BufferTooSmall)
     };
-    // Without a setup, the version 4 layout: what a firmware of that release sent.
-    put(&[if header.setup.is_some() { FRAME_VERSION } else { OLDEST_VERSION }])?;
-    put(&header.first_sample.to_le_bytes())?;
-    put(&header.rh_pct.to_le_bytes())?;
-    put(&header.rh_strip_pct.to_le_bytes())?;
-    put(&header.rh_read_pct.to_le_bytes())?;
-    put(&header.rel_err.to_le_bytes())?;
+    // The header laid out first and put at once (a put is the CRC's and COBS's code, in line
+    // once per call on the device). Without a setup, the version 4 layout: what a firmware of
+    // that release sent.
+    let mut head = [0u8; HEADER_LEN];
+    let mut at = 0;
+    let mut field = |bytes: &[u8]| {
+        if let Some(to) = head.get_mut(at..at + bytes.len()) {
+            to.copy_from_slice(bytes);
+        }
+        at += bytes.len();
+    };
+    field(&[if header.setup.is_some() { FRAME_VERSION } else { OLDEST_VERSION }]);
+    field(&header.first_sample.to_le_bytes());
+    field(&header.rh_pct.to_le_bytes());
+    field(&header.rh_strip_pct.to_le_bytes());
+    field(&header.rh_read_pct.to_le_bytes());
+    field(&header.rel_err.to_le_bytes());
     let h = &header.hygrometer;
-    put(&h.read_sd_pct.to_le_bytes())?;
-    put(&h.own_pct.to_le_bytes())?;
-    put(&h.own_sd_pct.to_le_bytes())?;
-    put(&[h.own_refusal])?;
-    put(&h.fused_pct.to_le_bytes())?;
-    put(&h.fused_sd_pct.to_le_bytes())?;
-    put(&header.flags.to_le_bytes())?;
+    field(&h.read_sd_pct.to_le_bytes());
+    field(&h.own_pct.to_le_bytes());
+    field(&h.own_sd_pct.to_le_bytes());
+    field(&[h.own_refusal]);
+    field(&h.fused_pct.to_le_bytes());
+    field(&h.fused_sd_pct.to_le_bytes());
+    field(&header.flags.to_le_bytes());
     if let Some(setup) = header.setup {
-        put(&[setup.band_shape])?;
-        put(&setup.delay_samples.to_le_bytes())?;
-        put(&[setup.humidity_mode])?;
-        put(&[u8::from(check.is_some())])?;
+        field(&[setup.band_shape]);
+        field(&setup.delay_samples.to_le_bytes());
+        field(&[setup.humidity_mode]);
+        field(&[u8::from(check.is_some())]);
     }
-    put(&[count])?;
+    field(&[count]);
+    put(head.get(..at).unwrap_or(&head))?;
     for v in estimates {
         put(&v.to_le_bytes())?;
     }
@@ -289,6 +331,12 @@ pub fn encode(header: &Header, estimates: &[f32], check: Option<Check<'_>>, out:
         for v in c.current_a.iter().chain(c.accel_mps2) {
             put(&v.to_le_bytes())?;
         }
+        let w = c.window.unwrap_or(ErrorWindow { end_sample: ErrorWindow::NONE_END, measured: f32::NAN, stated: f32::NAN });
+        let mut window = [0u8; WINDOW_LEN];
+        for (to, word) in window.chunks_exact_mut(4).zip([w.end_sample.to_le_bytes(), w.measured.to_le_bytes(), w.stated.to_le_bytes()]) {
+            to.copy_from_slice(&word);
+        }
+        put(&window)?;
     }
     let crc = digest.finalize();
     encoder.push(&crc.to_le_bytes()).map_err(|_| EncodeError::BufferTooSmall)?;
@@ -357,6 +405,7 @@ struct CheckBytes<'a> {
     first_sample: u32,
     current: &'a [[u8; 4]],
     accel: &'a [[u8; 4]],
+    window: Option<ErrorWindow>,
 }
 
 impl<'a> Frame<'a> {
@@ -376,6 +425,11 @@ impl<'a> Frame<'a> {
     /// Index of a check's first sample (the samples of [`Frame::currents`]).
     pub fn check_first_sample(&self) -> Option<u32> {
         self.check_bytes.map(|c| c.first_sample)
+    }
+    /// The error the device measured against a check, its latest window; None without a check,
+    /// before the first window, or in a frame of a version before it.
+    pub fn error_window(&self) -> Option<ErrorWindow> {
+        self.check_bytes.and_then(|c| c.window)
     }
     pub fn len(&self) -> usize {
         self.estimate_bytes.len()
@@ -442,15 +496,25 @@ pub fn decode(encoded: &mut [u8]) -> Result<Frame<'_>, DecodeError> {
     };
     let (&[count], rest) = rest.split_first_chunk::<1>().ok_or(DecodeError::TooShort(n))?;
     let (values, tail) = rest.as_chunks::<4>();
-    // A check's first sample is one word more.
-    let words = count as usize + if check { 1 + 2 * count as usize } else { 0 };
+    // A check's first sample is one word more, and from version 7 its window three.
+    let window_words = if version > VERSION_BEFORE_WINDOW { WINDOW_LEN / 4 } else { 0 };
+    let words = count as usize + if check { 1 + 2 * count as usize + window_words } else { 0 };
     if values.len() != words || !tail.is_empty() {
         return Err(DecodeError::Length { count, payload_len: n });
     }
     let (estimate_bytes, check_bytes) = values.split_at(count as usize);
     let check_bytes = check_bytes.split_first().map(|(first, samples)| {
-        let (current, accel) = samples.split_at(count as usize);
-        CheckBytes { first_sample: u32::from_le_bytes(*first), current, accel }
+        let (current, rest) = samples.split_at(count as usize);
+        let (accel, window) = rest.split_at(count as usize);
+        let window = match window {
+            [end, measured, stated] if u32::from_le_bytes(*end) != ErrorWindow::NONE_END => Some(ErrorWindow {
+                end_sample: u32::from_le_bytes(*end),
+                measured: f32::from_le_bytes(*measured),
+                stated: f32::from_le_bytes(*stated),
+            }),
+            _ => None,
+        };
+        CheckBytes { first_sample: u32::from_le_bytes(*first), current, accel, window }
     });
     Ok(Frame {
         header: Header {

@@ -3,7 +3,7 @@
 //! writes the estimates as a recording-format CSV, and a check's samples as a check recording.
 
 use anyhow::{Context, Result};
-use ipmc_tool::monitor::csv::{create, create_check, write_check_sample, write_sample};
+use ipmc_tool::monitor::csv::{create, create_check, create_windows, write_check_sample, write_sample, write_window};
 use ipmc_tool::monitor::source::open;
 use ipmc_tool::monitor::{Event, Monitor};
 use std::io::{ErrorKind, Write};
@@ -31,6 +31,11 @@ pub struct Args {
     /// reading): what `ipmc recalibrate` reads. Samples without the accelerometer's value are left out.
     #[arg(long)]
     check: Option<PathBuf>,
+    /// Write the estimate's error the device measured against its accelerometer while checks
+    /// come, a row per window of 5 s (`t_end_s,measured_pct,stated_pct,calibration_stale`):
+    /// the figure `ipmc score` gives the check recording.
+    #[arg(long)]
+    windows: Option<PathBuf>,
     /// Serial baud rate (ignored for files and stdin).
     #[arg(long, default_value_t = DEFAULT_BAUD)]
     baud: u32,
@@ -47,6 +52,10 @@ pub fn run(a: Args) -> Result<()> {
     };
     let mut check = match &a.check {
         Some(path) => Some(create_check(path, a.fs_hz)?),
+        None => None,
+    };
+    let mut windows = match &a.windows {
+        Some(path) => Some(create_windows(path)?),
         None => None,
     };
     let mut check_rows = 0u64;
@@ -72,17 +81,18 @@ pub fn run(a: Args) -> Result<()> {
                     Some(w) => write_check_sample(w, &c).map(|kept| check_rows += u64::from(kept)),
                     None => Ok(()),
                 },
+                Event::Window(s) => windows.as_mut().map_or(Ok(()), |w| write_window(w, &s)),
                 Event::Status(line) => writeln!(stdout, "{line}"),
             };
         });
         io_result.context("writing output")?;
         // A live session ends with Ctrl-C, which runs no destructor: keep the CSV on disk
         // up to the last chunk read.
-        for w in csv.iter_mut().chain(check.iter_mut()) {
+        for w in csv.iter_mut().chain(check.iter_mut()).chain(windows.iter_mut()) {
             w.flush().context("writing the CSV")?;
         }
     }
-    for w in csv.iter_mut().chain(check.iter_mut()) {
+    for w in csv.iter_mut().chain(check.iter_mut()).chain(windows.iter_mut()) {
         w.flush().context("writing the CSV")?;
     }
     eprintln!("{}", monitor.summary());
@@ -95,6 +105,9 @@ pub fn run(a: Args) -> Result<()> {
             );
         }
         eprintln!("{check_rows} samples of a check ({} frames) -> {}", monitor.check_frames, path.display());
+    }
+    if let Some(path) = &a.windows {
+        eprintln!("{} windows of the running error -> {}", monitor.windows, path.display());
     }
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! strip's own hygrometer's columns), and a check's samples as a check recording (recording
 //! format §5: the current, the humidity as read and the board's accelerometer).
 
-use super::decode::{CheckSample, Sample};
+use super::decode::{CheckSample, Sample, WindowSample};
 use anyhow::{Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -58,6 +58,24 @@ pub fn write_check_sample(w: &mut impl Write, c: &CheckSample) -> std::io::Resul
     }
     writeln!(w, "{},{:e},{},{:e}", c.t_s, c.current_a, c.rh_read_pct, c.accel_mps2)?;
     Ok(true)
+}
+
+/// Creates the table of the running error's windows `path`: per window its end, the error the
+/// device measured against the accelerometer and the error stated, both in percent, and the flag.
+pub fn create_windows(path: &Path) -> Result<BufWriter<File>> {
+    let f = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    let mut w = BufWriter::new(f);
+    writeln!(
+        w,
+        "# the estimate's error in band measured on the device against its accelerometer, per window (ipmc_core::firmware::running_error)"
+    )?;
+    writeln!(w, "t_end_s,measured_pct,stated_pct,calibration_stale")?;
+    Ok(w)
+}
+
+/// One window as a row.
+pub fn write_window(w: &mut impl Write, s: &WindowSample) -> std::io::Result<()> {
+    writeln!(w, "{},{},{},{}", s.t_end_s, 100.0 * s.measured, 100.0 * s.stated, u8::from(s.stale))
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@
 
 use ipmc_core::band::Shape;
 use ipmc_core::humidity::strip::Refusal;
-use ipmc_core::wire::stream::{DecodeError, Deframer, Frame, Header, Hygrometer, MAX_FRAME_LEN, Setup, flags};
+use ipmc_core::wire::stream::{DecodeError, Deframer, ErrorWindow, Frame, Header, Hygrometer, MAX_FRAME_LEN, Setup, flags};
 
 /// One estimate, as a CSV row.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,8 +39,24 @@ pub enum Event {
     Sample(Sample),
     /// A check's sample, where the frame carries a check (the board's accelerometer answered).
     Check(CheckSample),
+    /// A window of the estimate's error the device measured against the check, when a frame
+    /// first carries it.
+    Window(WindowSample),
     /// The once-a-second display line.
     Status(String),
+}
+
+/// A window of the estimate's error measured on the device against its accelerometer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowSample {
+    /// The window's end [s], in the running error's count of samples from its start.
+    pub t_end_s: f64,
+    /// The error measured, a fraction of the reference's rms in band.
+    pub measured: f32,
+    /// The error the blocks stated for it (1σ, a fraction).
+    pub stated: f32,
+    /// Whether the frame that carried it says the calibration is stale.
+    pub stale: bool,
 }
 
 /// Stream bytes → samples and status lines; independent of where the bytes come from.
@@ -62,6 +78,9 @@ pub struct Monitor {
     check: Option<bool>,
     /// Frames that carried a check.
     pub check_frames: u64,
+    /// The end of the last window of the running error said, and the windows said.
+    last_window_end: Option<u32>,
+    pub windows: u64,
 }
 
 impl Monitor {
@@ -78,6 +97,8 @@ impl Monitor {
             setup: None,
             check: None,
             check_frames: 0,
+            last_window_end: None,
+            windows: 0,
         }
     }
 
@@ -117,6 +138,21 @@ impl Monitor {
         }
         self.last_first_sample = Some(first);
         let base_index = self.index_offset + first as u64;
+        if let Some(w) = f.window
+            && self.last_window_end != Some(w.end_sample)
+        {
+            self.last_window_end = Some(w.end_sample);
+            self.windows += 1;
+            let stale = h.flags & flags::CALIBRATION_STALE != 0;
+            let t_end_s = w.end_sample as f64 / self.fs_hz;
+            emit(Event::Window(WindowSample { t_end_s, measured: w.measured, stated: w.stated, stale }));
+            emit(Event::Status(format!(
+                "running error: the window ending at {t_end_s:.1} s measured {:.2} % against the accelerometer, stated {:.2} % (1σ){}",
+                100.0 * w.measured,
+                100.0 * w.stated,
+                if stale { "; CALIBRATION_STALE: the error exceeds the stated beyond chance" } else { "" }
+            )));
+        }
         if let Some((check_first, current, accel)) = &f.check {
             // The check's block is older than the frame's: before a wrap of the index, if it is
             // the larger.
@@ -178,13 +214,14 @@ struct OwnedFrame {
     estimates: Vec<f32>,
     /// A check's first sample, current and accelerations.
     check: Option<(u32, Vec<f32>, Vec<f32>)>,
+    window: Option<ErrorWindow>,
 }
 
 impl From<&Frame<'_>> for OwnedFrame {
     fn from(f: &Frame<'_>) -> Self {
         let check =
             f.check_first_sample().zip(f.currents().zip(f.accelerations())).map(|(first, (c, a))| (first, c.collect(), a.collect()));
-        Self { header: f.header, estimates: f.estimates().collect(), check }
+        Self { header: f.header, estimates: f.estimates().collect(), check, window: f.error_window() }
     }
 }
 
@@ -280,7 +317,7 @@ mod tests {
         for c in bytes.chunks(chunk) {
             m.feed(c, |e| match e {
                 Event::Sample(s) => samples.push(s),
-                Event::Check(_) => {}
+                Event::Check(_) | Event::Window(_) => {}
                 Event::Status(l) => lines.push(l),
             });
         }
@@ -359,19 +396,24 @@ mod tests {
         let est = [1e-6f32; 32];
         let current: Vec<f32> = (0..32).map(|k| k as f32 * 1e-7).collect();
         let accel: Vec<f32> = (0..32).map(|k| k as f32 * 0.5 - 3.0).collect();
-        let check = |first_sample| Check { first_sample, current_a: &current, accel_mps2: &accel };
+        let window = ErrorWindow { end_sample: 20_000, measured: 0.25, stated: 0.0625 };
+        let check = |first_sample| Check { first_sample, current_a: &current, accel_mps2: &accel, window: Some(window) };
         let mut bytes = frame_with(0, 45.0, 0, &est, None);
         bytes.extend(frame_of_check(160, 45.0, 0, &est, Some(SETUP), Some(check(32))));
         bytes.extend(frame_of_check(192, 45.0, 0, &est, Some(SETUP), Some(check(64))));
         bytes.extend(frame(224, 45.0, 0, &est));
         let mut m = Monitor::new(2_000);
-        let (mut samples, mut checks, mut lines) = (vec![], vec![], vec![]);
+        let (mut samples, mut checks, mut windows, mut lines) = (vec![], vec![], vec![], vec![]);
         m.feed(&bytes, |e| match e {
             Event::Sample(s) => samples.push(s),
             Event::Check(c) => checks.push(c),
+            Event::Window(w) => windows.push(w),
             Event::Status(l) => lines.push(l),
         });
         assert_eq!((m.frames, m.check_frames, samples.len(), checks.len()), (4, 2, 128, 64));
+        // The window two frames carry is said once.
+        assert_eq!(windows, [WindowSample { t_end_s: 10.0, measured: 0.25, stated: 0.0625, stale: false }]);
+        assert!(lines.iter().any(|l| l.starts_with("running error: the window ending at 10.0 s measured 25.00 %")), "{lines:?}");
         for (k, c) in checks.iter().enumerate() {
             let expected =
                 CheckSample { t_s: (32 + k) as f64 / 2000.0, current_a: current[k % 32], rh_read_pct: 47.0, accel_mps2: accel[k % 32] };

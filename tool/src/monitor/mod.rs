@@ -6,4 +6,4 @@ pub mod csv;
 pub mod decode;
 pub mod source;
 
-pub use decode::{CheckSample, Event, Monitor, Sample};
+pub use decode::{CheckSample, Event, Monitor, Sample, WindowSample};

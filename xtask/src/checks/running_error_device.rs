@@ -2,8 +2,8 @@
 //! calibration, replays the check (its acceleration through the emulated part, on the part's own
 //! clock, and the firmware's resampler), and the host runs the core's running error on what the
 //! stream carries (each block's estimates and stated error, and the check's acceleration, an
-//! earlier block's): CALIBRATION_STALE block for block as the device raised it, and the figures
-//! of the windows the device measured.
+//! earlier block's): CALIBRATION_STALE block for block as the device raised it, and each window
+//! the device streamed beside its checks, bit for bit.
 
 use std::path::Path;
 
@@ -12,6 +12,7 @@ use ipmc_core::band::{BandDesign, BandTaps};
 use ipmc_core::firmware::operating_point::preview_samples;
 use ipmc_core::firmware::running_error::{RunningError, Window};
 use ipmc_core::timing::BLOCK_LEN;
+use ipmc_core::wire::stream::ErrorWindow;
 use ipmc_core::wire::stream::flags::CALIBRATION_STALE;
 
 use crate::{Result, qemu};
@@ -48,6 +49,7 @@ pub fn replay(check: &Path, calib: &Path, work: &Path) -> Result<DeviceRun> {
     let mut m = RunningError::new(&taps, fs, preview_samples());
     let mut reference = [0.0f32; BLOCK_LEN];
     let (mut stale, mut stale_blocks, mut windows) = (false, 0, vec![]);
+    let mut streamed: Vec<ErrorWindow> = vec![];
     for (b, block) in replayed.blocks.iter().enumerate() {
         // As the sample path: the block's estimates, then the check it carries.
         m.estimate(&block.base_est_m, block.header.rel_err);
@@ -63,6 +65,22 @@ pub fn replay(check: &Path, calib: &Path, work: &Path) -> Result<DeviceRun> {
             bail!("block {b}: the device's CALIBRATION_STALE {device}, the host's replay of its running error {stale}");
         }
         stale_blocks += usize::from(device);
+        if let Some(w) = block.check.as_ref().and_then(|c| c.window)
+            && streamed.last().is_none_or(|last| last.end_sample != w.end_sample)
+        {
+            streamed.push(w);
+        }
+    }
+    let on_host: Vec<ErrorWindow> =
+        windows.iter().map(|w| ErrorWindow { end_sample: w.end as u32, measured: w.measured, stated: w.stated }).collect();
+    if streamed != on_host {
+        bail!(
+            "the windows the device streamed ({}: {:?}) are not the host's replay of its running error ({}: {:?})",
+            streamed.len(),
+            streamed.first(),
+            on_host.len(),
+            on_host.first()
+        );
     }
     Ok(DeviceRun { windows, stale_blocks, blocks: replayed.blocks.len() })
 }

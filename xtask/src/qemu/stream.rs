@@ -2,7 +2,7 @@
 //! the firmware encodes with) into owned blocks for scoring and CSV output.
 
 use anyhow::bail;
-use ipmc_core::wire::stream::{Deframer, Header, MAX_FRAME_LEN};
+use ipmc_core::wire::stream::{Deframer, ErrorWindow, Header, MAX_FRAME_LEN};
 
 use crate::Result;
 
@@ -20,6 +20,8 @@ pub struct CheckBlock {
     pub first_sample: u32,
     pub current_a: Vec<f32>,
     pub accel_mps2: Vec<f32>,
+    /// The estimate's error the device measured against the checks, its latest window.
+    pub window: Option<ErrorWindow>,
 }
 
 /// All frames of a captured stream, in order. A capture from QEMU is lossless, so any frame
@@ -36,6 +38,7 @@ pub fn decode_all(bytes: &[u8]) -> Result<Vec<Block>> {
                     first_sample,
                     current_a: c.collect(),
                     accel_mps2: a.collect(),
+                    window: f.error_window(),
                 }),
             }),
             Some(Err(e)) => bail!("stream frame {}: {e}", blocks.len()),
@@ -79,6 +82,8 @@ mod tests {
         out
     }
 
+    const WINDOW: ErrorWindow = ErrorWindow { end_sample: 30_000, measured: 0.25, stated: 0.125 };
+
     #[test]
     fn round_trip_and_corruption() {
         let mut bytes = frame(0, 45.0, 0, &[0.0, 1e-3], None);
@@ -87,7 +92,7 @@ mod tests {
             46.0,
             8,
             &[2e-3, -1e-3],
-            Some(Check { first_sample: 0, current_a: &[1e-6, 2e-6], accel_mps2: &[9.75, -3.5] }),
+            Some(Check { first_sample: 0, current_a: &[1e-6, 2e-6], accel_mps2: &[9.75, -3.5], window: Some(WINDOW) }),
         ));
         let blocks = decode_all(&bytes).unwrap();
         assert_eq!(blocks.len(), 2);
@@ -105,7 +110,12 @@ mod tests {
                     setup: Some(SETUP)
                 },
                 base_est_m: vec![2e-3, -1e-3],
-                check: Some(CheckBlock { first_sample: 0, current_a: vec![1e-6, 2e-6], accel_mps2: vec![9.75, -3.5] })
+                check: Some(CheckBlock {
+                    first_sample: 0,
+                    current_a: vec![1e-6, 2e-6],
+                    accel_mps2: vec![9.75, -3.5],
+                    window: Some(WINDOW)
+                })
             }
         );
         assert_eq!(blocks[0].check, None);

@@ -29,7 +29,8 @@ fn round_trip_of_every_length() {
         let est: [f32; MAX_ESTIMATES] = core::array::from_fn(|k| (k as f32 - 100.0) * 1e-4);
         let cur: [f32; MAX_ESTIMATES] = core::array::from_fn(|k| (k as f32 * 0.11).cos() * 3e-6);
         let acc: [f32; MAX_ESTIMATES] = core::array::from_fn(|k| (k as f32 * 0.37).sin() * 150.0);
-        for check in [None, Some(Check { first_sample: 7, current_a: &cur[..n], accel_mps2: &acc[..n] })] {
+        let window = (n % 2 == 1).then_some(ErrorWindow { end_sample: 10_000 + n as u32, measured: 0.1875, stated: 0.125 });
+        for check in [None, Some(Check { first_sample: 7, current_a: &cur[..n], accel_mps2: &acc[..n], window })] {
             let (mut out, len) = frame_with(&H, &est[..n], check);
             assert!(len <= max_frame_len(n));
             assert_eq!(out[len - 1], 0);
@@ -51,8 +52,11 @@ fn round_trip_of_every_length() {
                     assert_eq!(f.check_first_sample(), Some(7));
                     assert!(f.currents().expect("the check's current").eq(c.current_a.iter().copied()));
                     assert!(f.accelerations().expect("the check's accelerations").eq(c.accel_mps2.iter().copied()));
+                    assert_eq!(f.error_window(), window);
                 }
-                None => assert!(f.currents().is_none() && f.accelerations().is_none() && f.check_first_sample().is_none()),
+                None => assert!(
+                    f.currents().is_none() && f.accelerations().is_none() && f.check_first_sample().is_none() && f.error_window().is_none()
+                ),
             }
         }
     }
@@ -61,7 +65,8 @@ fn round_trip_of_every_length() {
 /// The layout documented above, byte for byte, before COBS.
 #[test]
 fn payload_layout() {
-    let check = Check { first_sample: 0, current_a: &[3e-6, -4e-6], accel_mps2: &[9.5, -0.25] };
+    let window = Some(ErrorWindow { end_sample: 30_000, measured: 0.25, stated: 0.0625 });
+    let check = Check { first_sample: 0, current_a: &[3e-6, -4e-6], accel_mps2: &[9.5, -0.25], window };
     let (mut out, len) = frame_with(&H, &[1.0, -2.0], Some(check));
     let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
     let p = &out[..n];
@@ -89,7 +94,18 @@ fn payload_layout() {
     assert_eq!(p[66..70], (-4e-6f32).to_le_bytes());
     assert_eq!(p[70..74], 9.5f32.to_le_bytes());
     assert_eq!(p[74..78], (-0.25f32).to_le_bytes());
-    assert_eq!(p[78..80], CRC16.checksum(&p[..78]).to_le_bytes());
+    assert_eq!(p[78..82], 30_000u32.to_le_bytes(), "the window's end");
+    assert_eq!(p[82..86], 0.25f32.to_le_bytes(), "the error measured");
+    assert_eq!(p[86..90], 0.0625f32.to_le_bytes(), "the error stated");
+    assert_eq!(p[90..92], CRC16.checksum(&p[..90]).to_le_bytes());
+    // No window yet: its end says so, and the decoder gives none.
+    let (mut out, len) = frame_with(&H, &[1.0, -2.0], Some(Check { window: None, ..check }));
+    let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+    assert_eq!(out[78..82], u32::MAX.to_le_bytes());
+    assert!(out[82..90].chunks(4).all(|w| f32::from_le_bytes(w.try_into().unwrap()).is_nan()));
+    let mut encoded = [0u8; MAX_FRAME_LEN];
+    let m = cobs::encode(&out[..n], &mut encoded);
+    assert_eq!(decode(&mut encoded[..m]).unwrap().error_window(), None);
     // Without the part: the byte says so and the estimates end the frame.
     let (mut out, len) = frame(&H, &[1.0, -2.0]);
     let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
@@ -101,9 +117,9 @@ fn payload_layout() {
 #[test]
 fn refuses_a_check_that_does_not_fit() {
     let mut out = [0u8; MAX_FRAME_LEN];
-    let short = Check { first_sample: 0, current_a: &[1e-6, 2e-6], accel_mps2: &[3.0] };
+    let short = Check { first_sample: 0, current_a: &[1e-6, 2e-6], accel_mps2: &[3.0], window: None };
     assert_eq!(encode(&H, &[1.0, 2.0], Some(short), &mut out), Err(EncodeError::Check));
-    let one = Check { first_sample: 0, current_a: &[1e-6], accel_mps2: &[3.0] };
+    let one = Check { first_sample: 0, current_a: &[1e-6], accel_mps2: &[3.0], window: None };
     assert_eq!(encode(&Header { setup: None, ..H }, &[1.0], Some(one), &mut out), Err(EncodeError::Check));
     let (mut out, len) = frame(&H, &[1.0]);
     let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
@@ -128,6 +144,27 @@ fn reads_the_version_before_the_setup() {
     let f = decode(&mut again[..len - 1]).unwrap();
     assert_eq!((f.header, f.len()), (old, 2));
     assert!(f.accelerations().is_none());
+}
+
+/// A version 6 frame (the release before the running error): a check without its window,
+/// read with its samples and no window.
+#[test]
+fn reads_the_version_before_the_window() {
+    let window = Some(ErrorWindow { end_sample: 30_000, measured: 0.25, stated: 0.0625 });
+    let check = Check { first_sample: 5, current_a: &[3e-6, -4e-6], accel_mps2: &[9.5, -0.25], window };
+    let (mut out, len) = frame_with(&H, &[1.0, -2.0], Some(check));
+    let n = cobs::decode_in_place(&mut out[..len - 1]).unwrap();
+    // The payload less the window's three words, version 6.
+    let body = n - 2 - 12;
+    out[0] = VERSION_BEFORE_WINDOW;
+    let crc = CRC16.checksum(&out[..body]);
+    out[body..body + 2].copy_from_slice(&crc.to_le_bytes());
+    let mut encoded = [0u8; MAX_FRAME_LEN];
+    let m = cobs::encode(&out[..body + 2], &mut encoded);
+    let f = decode(&mut encoded[..m]).unwrap();
+    assert_eq!((f.header, f.len(), f.check_first_sample()), (H, 2, Some(5)));
+    assert!(f.accelerations().expect("the check's accelerations").eq([9.5, -0.25]));
+    assert_eq!(f.error_window(), None);
 }
 
 /// A version 5 frame (the release before the accelerometer): this layout without the
@@ -184,7 +221,7 @@ fn refuses_the_previous_versions() {
         let e = decode(&mut encoded[..n]).unwrap_err();
         assert_eq!(e, DecodeError::Version(version));
         let shown = std::string::ToString::to_string(&e);
-        assert!(shown.contains("different releases") && shown.contains("reads versions 4–6"), "{shown}");
+        assert!(shown.contains("different releases") && shown.contains("reads versions 4–7"), "{shown}");
     }
 }
 
