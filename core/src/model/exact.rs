@@ -7,6 +7,7 @@
 //! ([`crate::inverse::rational`]). Evaluation is overflow-free: small |z| uses the power series in q,
 //! large |z| uses exponentials scaled by e^-(|Re z| + |Im z|).
 
+use crate::numeric::real::cis;
 use crate::{C, ComplexMath, Params, Real};
 
 /// q = (pL)⁴ at complex frequency s.
@@ -46,8 +47,8 @@ struct Scaled<T> {
 fn scaled<T: Real>(z: C<T>) -> Scaled<T> {
     let (x, y) = (z.re, z.im);
     let two = T::lit(2.0);
-    let e_iy = C::new(y.cos(), y.sin());
-    let e_ix = C::new(x.cos(), x.sin());
+    let e_iy = cis(y);
+    let e_ix = cis(x);
     let e2x = (-two * x).exp();
     let e2y = (-two * y).exp();
     let ch = (e_iy + e_iy.conj() * e2x) / two;
@@ -116,6 +117,12 @@ impl<T: Real> Mechanics<T> {
             Mechanics::Scaled { z, s } => *z * (s.c * s.sh - s.ch * s.sn) * s.e_xy / s.d1,
         }
     }
+}
+
+/// [`tip_of_q`] and [`slope_of_q`] together: the mechanics evaluated once.
+pub(crate) fn tip_and_slope_of_q<T: Real>(q: C<T>) -> (C<T>, C<T>) {
+    let m = Mechanics::of(q);
+    (m.tip(), m.slope())
 }
 
 /// Tip response W(L,s)/U(s) as a function of q: 2 cos z cosh z / D1.
