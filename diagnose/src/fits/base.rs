@@ -95,9 +95,21 @@ pub fn log_ratios(level: &LevelData, p: &Params<f64>, x: &Extension<f64>) -> (Pe
 
 /// Writes the weighted residuals of the masked values (log gain, phase per value).
 pub fn write_residuals(level: &LevelData, sig: &LevelSigmas, mask: &Mask, p: &Params<f64>, x: &Extension<f64>, out: &mut [f64]) {
+    write_weighted(level, sig, mask, |_, s| responses(p, x, s), out);
+}
+
+/// [`write_residuals`] with the model's (tip, current) at each frequency from `model` (given the
+/// frequency's index and s = jω).
+pub(super) fn write_weighted(
+    level: &LevelData,
+    sig: &LevelSigmas,
+    mask: &Mask,
+    model: impl Fn(usize, C<f64>) -> (C<f64>, C<f64>),
+    out: &mut [f64],
+) {
     let mut k = 0;
     for (i, &f) in level.freqs.iter().enumerate() {
-        let (t, c) = responses(p, x, jw(f));
+        let (t, c) = model(i, jw(f));
         for (value, model, s, on) in [(level.tip[i], t, sig.tip[i], mask.tip[i]), (level.current[i], c, sig.current[i], mask.current[i])] {
             if let (Some(m), true) = (value, on) {
                 out[k..k + 2].copy_from_slice(&s.weigh(Misfit::LogRatio.of(m, model)));

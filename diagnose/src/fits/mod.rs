@@ -8,6 +8,7 @@ pub mod base;
 pub mod instrument;
 pub mod joint;
 pub mod noise;
+pub mod strip_cache;
 #[cfg(test)]
 mod test_levels;
 
@@ -18,3 +19,4 @@ pub use base::{
 pub use instrument::{ChannelPrior, Channels, InstrumentFit, fit_instrument, shift_residuals};
 pub use joint::{ChannelStart, Extend, JointFit, fit_joint, inside_tight};
 pub use noise::{Noise, ResidualCorrelation, estimate_noise, residual_correlation, sigmas, structure_z};
+pub use strip_cache::StripCache;

@@ -93,6 +93,8 @@ fn refit_heldout(
     let params = specs;
     let start = vec![specs.iter().zip(phi).map(|(s, &v)| fits::inside_tight(s.bound, v)).collect::<Vec<f64>>()];
     let p_joint: Vec<ipmc_core::Params<f64>> = (0..n).map(|l| fits::level_params(ctx.calib, &levels[l], &f.theta[l])).collect();
+    // Every refit holds the training levels at the joint fit's parameters.
+    let kept = fits::StripCache::per_level(n);
     (0..n)
         .map(|held| {
             let train: Vec<usize> = (0..n).filter(|&l| l != held).collect();
@@ -104,7 +106,8 @@ fn refit_heldout(
             let phi_train = lsq::minimize(tol, params, &start, counts.iter().sum(), |v, out| {
                 let mut at = 0;
                 for (&l, &c) in train.iter().zip(&counts) {
-                    fits::write_residuals(&levels[l], &ctx.sig[l], &ctx.all[l], &p_joint[l], &ext(v, &p_joint[l]), &mut out[at..at + c]);
+                    let out = &mut out[at..at + c];
+                    kept[l].write_residuals(&levels[l], &ctx.sig[l], &ctx.all[l], &p_joint[l], &ext(v, &p_joint[l]), out);
                     at += c;
                 }
             })
