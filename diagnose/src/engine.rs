@@ -234,14 +234,21 @@ fn score_library(
     use std::sync::Mutex;
     use std::sync::atomic::{AtomicUsize, Ordering};
     let next = AtomicUsize::new(0);
+    // The hydration lag first: its nested fits over the lag are the longest scoring, and begun
+    // last they would leave the other workers idle at the end.
+    let lag_first = |c: &crate::candidates::Candidate| {
+        !matches!(c.kind, crate::candidates::Kind::Humidity(crate::candidates::HumidityMap::HydrationLag))
+    };
+    let mut order: Vec<usize> = (0..LIBRARY.len()).collect();
+    order.sort_by_key(|&i| lag_first(&LIBRARY[i]));
     let results: Mutex<Vec<Option<Result<scorers::Scored>>>> = Mutex::new((0..LIBRARY.len()).map(|_| None).collect());
     let workers = workers.clamp(1, LIBRARY.len());
     std::thread::scope(|scope| {
         for _ in 0..workers {
             scope.spawn(|| {
                 loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(cand) = LIBRARY.get(i) else { break };
+                    let Some(&i) = order.get(next.fetch_add(1, Ordering::Relaxed)) else { break };
+                    let cand = &LIBRARY[i];
                     progress(cand.name());
                     let t0 = std::time::Instant::now();
                     let s = scorers::score(ctx, cand, base);

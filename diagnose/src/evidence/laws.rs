@@ -161,14 +161,18 @@ pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> V
             // The strip's model of the calibration's humidity path, settled at the first reading.
             let mut strip = Hydration::<f64>::new(&HumidityPath { tau_wet_s: tau_s, tau_dry_s: tau_s, ..HumidityPath::NONE });
             let mut last: Option<f64> = None;
+            // A level is one chamber humidity: its mean reading, not the first noisy one, stands
+            // for the whole wait before it (the wait is most of the lag's drive). The session's
+            // levels' spans, in the levels' order (the first level whose span holds a reading
+            // is its level).
+            let spans: Vec<(f64, (f64, f64))> =
+                levels.iter().filter(|l| l.session == session).filter_map(|l| l.time_span.map(|s| (l.rh_pct, s))).collect();
             h.t_s
                 .iter()
                 .zip(&h.rh_pct)
                 .map(|(&t, &rh)| {
-                    // A level is one chamber humidity: its mean reading, not the first noisy one,
-                    // stands for the whole wait before it (the wait is most of the lag's drive).
-                    let in_level = levels.iter().find(|l| l.session == session && l.time_span.is_some_and(|(t0, t1)| t >= t0 && t <= t1));
-                    let rh = in_level.map_or(rh, |l| l.rh_pct);
+                    let in_level = spans.iter().find(|(_, (t0, t1))| t >= *t0 && t <= *t1);
+                    let rh = in_level.map_or(rh, |(level_rh, _)| *level_rh);
                     let dt = last.map_or(0.0, |l| t - l);
                     last = Some(t);
                     strip.update(rh, dt)
