@@ -25,7 +25,7 @@
 //!   each channel's timing relative to the base channel (e^(−sΔt)) and capacitive feedthrough of
 //!   the drive into the current channel (+g·s).
 
-use crate::model::exact::{self, current_of_slope, tip_and_slope_of_q};
+use crate::model::exact::{self, current_of_slope_with, tip_and_slope_of_q};
 use crate::{C, ComplexMath, Params, Real};
 
 /// Physics beyond eqs. 1–6. SI units; every field zero means "absent".
@@ -261,11 +261,16 @@ pub fn responses<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> (C<T>, C<
 /// The tip response and current of the strip itself, before the channels' measurement chains
 /// and the feedthrough: they depend on `x` only through [`Extension::strip_terms`].
 pub fn strip_responses<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> (C<T>, C<T>) {
+    strip_responses_with(p, x, s, exact::ionic_drive(p, s))
+}
+
+/// [`strip_responses`] with the current's electrical part at s given ([`exact::ionic_drive`]).
+pub fn strip_responses_with<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>, drive: C<T>) -> (C<T>, C<T>) {
     if x.has_end_terms() || x.has_distributed_terms() {
         let beam = beam_solve(p, x, s);
-        (beam.tip, current_of_slope(p, s, (beam.tip_slope - beam.root_slope) * (p.l / T::lit(2.0))))
+        (beam.tip, current_of_slope_with(p, drive, (beam.tip_slope - beam.root_slope) * (p.l / T::lit(2.0))))
     } else {
-        exact::responses(p, s)
+        exact::responses_with(p, s, drive)
     }
 }
 

@@ -2,7 +2,9 @@
 //! the instrument's channels, by their prior): alternating sweeps into every level's valley, then
 //! one simultaneous fit by blocks.
 
-use super::base::{BASE, LevelSigmas, Mask, RefitError, Result, Theta, base_bound, fit_level_from, fitted_base, inside, level_params};
+use super::base::{
+    BASE, LevelSigmas, Mask, RefitError, Result, Theta, base_bound, fit_level_from, fitted_base, inside, level_params, write_residuals_kept,
+};
 use super::instrument::{ChannelPrior, Channels, shift_residuals};
 use super::strip_cache::StripCache;
 use ipmc_core::model::extension::Extension;
@@ -121,7 +123,7 @@ fn sweep_joint(joint: Joint, levels: &[LevelData], channels_start: Option<&[f64]
                 let mut th = theta[l];
                 th[0] += v[k];
                 let p = level_params(calib, level, &th);
-                kept[l].write_residuals(level, &sig[l], &masks[l], &p, &ext(&v[..k], &p), &mut out[at..at + counts[l]]);
+                write_residuals_kept(&kept[l], level, &sig[l], &masks[l], &p, &ext(&v[..k], &p), &mut out[at..at + counts[l]]);
                 at += counts[l];
             }
         })
@@ -237,7 +239,7 @@ fn polish_joint(
     let residuals = |v: &[f64], l: usize, out: &mut [f64]| {
         let Some(c) = instrument else {
             let p = level_params(calib, &levels[l], &level_theta(v, l));
-            kept[l].write_residuals(&levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
+            write_residuals_kept(&kept[l], &levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
             return;
         };
         if l == n {
@@ -245,7 +247,7 @@ fn polish_joint(
             return;
         }
         let p = level_params(calib, &levels[l], &level_theta(v, l));
-        kept[l].write_residuals(&levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
+        write_residuals_kept(&kept[l], &levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
         shift_residuals(&levels[l], &sig[l], &masks[l], &c.channels(&v[kc..k]), out);
     };
     // Each run restarts from where the last stopped; only the kept optimum's statistics are

@@ -145,7 +145,7 @@ fn leave_one_out(
         .map(|l| {
             let c = ctx.all[l].count();
             let residuals = |v: &[f64], out: &mut [f64]| {
-                kept[l].write_residuals(&levels[l], &ctx.sig[l], &ctx.all[l], &p_joint[l], &ext(v, &p_joint[l]), out)
+                fits::write_residuals_kept(&kept[l], &levels[l], &ctx.sig[l], &ctx.all[l], &p_joint[l], &ext(v, &p_joint[l]), out)
             };
             let mut r0 = vec![0.0; c];
             residuals(phi, &mut r0);
