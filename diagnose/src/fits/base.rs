@@ -190,9 +190,10 @@ pub fn fit_level(
     fit_level_from(calib, level, sig, mask, x, &scan_modulus(calib, level, sig, mask, x, start))
 }
 
-/// One LM run can stop short in the resonance's curved valley (its trust region collapses);
-/// restarting from where it stopped continues, so runs repeat while χ² falls by more than 0.1.
-pub(super) fn fit_level_from(
+/// [`fit_level`] from a start already in the right valley (no scan). One LM run can stop short
+/// in the resonance's curved valley (its trust region collapses); restarting from where it
+/// stopped continues, so runs repeat while χ² falls by more than 0.1.
+pub fn fit_level_from(
     calib: &Calibration,
     level: &LevelData,
     sig: &LevelSigmas,

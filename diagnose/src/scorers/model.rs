@@ -94,7 +94,8 @@ fn refit_heldout(
     (0..n)
         .map(|held| {
             let x = ext(&phi_held[held], &p_joint[held]);
-            let (params, chi2) = match fits::fit_level(ctx.calib, &levels[held], &ctx.sig[held], &ctx.all[held], &x, &f.theta[held]) {
+            // From the joint fit's parameters, in the level's valley: no scan for it.
+            let (params, chi2) = match fits::fit_level_from(ctx.calib, &levels[held], &ctx.sig[held], &ctx.all[held], &x, &f.theta[held]) {
                 Ok((theta, fit)) => (fits::level_params(ctx.calib, &levels[held], &theta), fit.chi2),
                 Err(_) => (p_joint[held], fits::chi2(&levels[held], &ctx.sig[held], &ctx.all[held], &p_joint[held], &x)),
             };
