@@ -1,7 +1,7 @@
 //! Candidates of the extended model (global parameters, the same at every level): fitted
 //! jointly with every level's base parameters; held out by refitting their parameters on the
-//! other levels and the held-out level's base parameters with them, against the plain model's
-//! per-level refit.
+//! other levels (one Gauss–Newton step from the joint optimum) and the held-out level's base
+//! parameters with them, against the plain model's per-level refit.
 
 use crate::candidates::score::Space;
 use crate::candidates::trial::{Candidacy, Scorer, Trial, estimates};
