@@ -166,10 +166,8 @@ fn leave_one_out(
             (jtj, jtr)
         })
         .collect();
-    let total = |pick: usize, len: usize| -> Vec<f64> {
-        (0..len).map(|i| normal.iter().map(|m| if pick == 0 { m.0[i] } else { m.1[i] }).sum()).collect()
-    };
-    let (jtj_all, jtr_all) = (total(0, k * k), total(1, k));
+    let jtj_all: Vec<f64> = (0..k * k).map(|i| normal.iter().map(|(jtj, _)| jtj[i]).sum()).collect();
+    let jtr_all: Vec<f64> = (0..k).map(|i| normal.iter().map(|(_, jtr)| jtr[i]).sum()).collect();
     (0..n)
         .map(|held| {
             let (jtj_h, jtr_h) = &normal[held];
