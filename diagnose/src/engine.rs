@@ -247,8 +247,7 @@ fn score_library(
     std::thread::scope(|scope| {
         for _ in 0..workers {
             scope.spawn(|| {
-                loop {
-                    let Some(&i) = order.get(next.fetch_add(1, Ordering::Relaxed)) else { break };
+                while let Some(&i) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
                     let cand = &LIBRARY[i];
                     progress(cand.name());
                     let t0 = std::time::Instant::now();

@@ -132,7 +132,7 @@ fn leave_one_out(
                 let inside = v - lo > AT_BOUND * span && hi - v > AT_BOUND * span;
                 inside.then(|| (j, if v + DIFF_STEP * span < hi { DIFF_STEP * span } else { -DIFF_STEP * span }))
             }
-            Bound::Positive => (v > 0.0).then(|| (j, DIFF_STEP * v)),
+            Bound::Positive => (v > 0.0).then_some((j, DIFF_STEP * v)),
             Bound::Free => Some((j, DIFF_STEP * v.abs().max(1.0))),
         })
         .collect();
