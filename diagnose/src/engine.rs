@@ -5,7 +5,8 @@
 //! **Held out.** Each level in turn is left out, and the score is its χ² per residual (1 = at
 //! the noise), each candidate against its own null (its kind's scorer, [`crate::scorers`]):
 //! - a model candidate's global parameters are fitted on the other levels (their base
-//!   parameters held where the joint fit put them) and the held-out level's own four base
+//!   parameters held where the joint fit put them; one Gauss–Newton step from the joint
+//!   optimum, [`crate::scorers`]' model scorer) and the held-out level's own four base
 //!   parameters are refitted with them, as the plain model's are: the level's drift from the
 //!   calibration is not the candidate's business, and judging the candidate by humidity laws
 //!   would bury a small effect under the scatter of the parameters between levels;
@@ -44,8 +45,8 @@ pub fn diagnose(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + 
     diagnose_over(calib, data, progress, std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
-/// [`diagnose`] with the candidates scored on `workers` threads (one: one after another, in the
-/// library's order). The result does not depend on `workers`.
+/// [`diagnose`] with the candidates scored on `workers` threads (one: one after another). The
+/// result does not depend on `workers`.
 pub fn diagnose_over(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&str) + Sync), workers: usize) -> Result<Diagnosis> {
     let levels = &data.levels;
     anyhow::ensure!(levels.len() >= 3, "a diagnosis needs at least three humidity levels, the recordings have {}", levels.len());
@@ -220,9 +221,9 @@ pub fn diagnose_over(calib: &Calibration, data: &Dataset, progress: &(dyn Fn(&st
     })
 }
 
-/// Every candidate of the library scored, in the library's order. The candidates are
+/// Every candidate of the library scored, returned in the library's order. The candidates are
 /// independent given the context, so they are shared out over `workers` threads, each taking
-/// the next candidate not yet taken (a diagnosis of a strip with its follow-ups fits twice the
+/// the next candidate not yet taken, the hydration lag first (a diagnosis of a strip with its follow-ups fits twice the
 /// levels, and one candidate's joint fit can take seconds).
 fn score_library(
     ctx: &Ctx,
@@ -234,14 +235,20 @@ fn score_library(
     use std::sync::Mutex;
     use std::sync::atomic::{AtomicUsize, Ordering};
     let next = AtomicUsize::new(0);
+    // The hydration lag first: its nested fits over the lag are the longest scoring, and begun
+    // last they would leave the other workers idle at the end.
+    let after_the_lag = |c: &crate::candidates::Candidate| {
+        !matches!(c.kind, crate::candidates::Kind::Humidity(crate::candidates::HumidityMap::HydrationLag))
+    };
+    let mut order: Vec<usize> = (0..LIBRARY.len()).collect();
+    order.sort_by_key(|&i| after_the_lag(&LIBRARY[i]));
     let results: Mutex<Vec<Option<Result<scorers::Scored>>>> = Mutex::new((0..LIBRARY.len()).map(|_| None).collect());
     let workers = workers.clamp(1, LIBRARY.len());
     std::thread::scope(|scope| {
         for _ in 0..workers {
             scope.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(cand) = LIBRARY.get(i) else { break };
+                while let Some(&i) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    let cand = &LIBRARY[i];
                     progress(cand.name());
                     let t0 = std::time::Instant::now();
                     let s = scorers::score(ctx, cand, base);

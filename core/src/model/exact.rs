@@ -7,6 +7,7 @@
 //! ([`crate::inverse::rational`]). Evaluation is overflow-free: small |z| uses the power series in q,
 //! large |z| uses exponentials scaled by e^-(|Re z| + |Im z|).
 
+use crate::numeric::real::cis;
 use crate::{C, ComplexMath, Params, Real};
 
 /// q = (pL)⁴ at complex frequency s.
@@ -46,8 +47,8 @@ struct Scaled<T> {
 fn scaled<T: Real>(z: C<T>) -> Scaled<T> {
     let (x, y) = (z.re, z.im);
     let two = T::lit(2.0);
-    let e_iy = C::new(y.cos(), y.sin());
-    let e_ix = C::new(x.cos(), x.sin());
+    let e_iy = cis(y);
+    let e_ix = cis(x);
     let e2x = (-two * x).exp();
     let e2y = (-two * y).exp();
     let ch = (e_iy + e_iy.conj() * e2x) / two;
@@ -118,6 +119,12 @@ impl<T: Real> Mechanics<T> {
     }
 }
 
+/// [`tip_of_q`] and [`slope_of_q`] together: the mechanics evaluated once.
+pub(crate) fn tip_and_slope_of_q<T: Real>(q: C<T>) -> (C<T>, C<T>) {
+    let m = Mechanics::of(q);
+    (m.tip(), m.slope())
+}
+
 /// Tip response W(L,s)/U(s) as a function of q: 2 cos z cosh z / D1.
 pub fn tip_of_q<T: Real>(q: C<T>) -> C<T> {
     Mechanics::of(q).tip()
@@ -163,15 +170,32 @@ pub fn current_response<T: Real>(p: &Params<T>, s: C<T>) -> C<T> {
 /// Tip response and current together at one s: the mechanics (most of the cost of either) is
 /// evaluated once. What a fit to both channels needs.
 pub fn responses<T: Real>(p: &Params<T>, s: C<T>) -> (C<T>, C<T>) {
+    responses_with(p, s, ionic_drive(p, s))
+}
+
+/// [`responses`] with the current's electrical part at s given ([`ionic_drive`]).
+pub fn responses_with<T: Real>(p: &Params<T>, s: C<T>, drive: C<T>) -> (C<T>, C<T>) {
     let m = Mechanics::of(q_of(p, s));
-    (m.tip(), current_of_slope(p, s, m.slope()))
+    (m.tip(), current_of_slope_with(p, drive, m.slope()))
+}
+
+/// s times the ionic factor: the current's electrical part at s, which depends on the strip
+/// only through its ionic rate K, diffusivity d and half thickness h. A caller that moves
+/// none of them can keep it.
+pub fn ionic_drive<T: Real>(p: &Params<T>, s: C<T>) -> C<T> {
+    s * ionic_factor(p, s)
 }
 
 /// Eq. 5 from S(q) (= L/2 times the curvature integrated over the length, which is what
 /// [`crate::model::extension`] passes for a beam whose root also turns).
 pub(crate) fn current_of_slope<T: Real>(p: &Params<T>, s: C<T>, slope: C<T>) -> C<T> {
+    current_of_slope_with(p, ionic_drive(p, s), slope)
+}
+
+/// [`current_of_slope`] with the electrical part given ([`ionic_drive`]).
+pub(crate) fn current_of_slope_with<T: Real>(p: &Params<T>, drive: C<T>, slope: C<T>) -> C<T> {
     let mech = slope * (T::lit(2.0) / p.l);
-    s * ionic_factor(p, s) * mech * (p.b * p.y / p.alpha0)
+    drive * mech * (p.b * p.y / p.alpha0)
 }
 
 /// Evaluates at s = j·2πf.

@@ -25,7 +25,7 @@
 //!   each channel's timing relative to the base channel (e^(−sΔt)) and capacitive feedthrough of
 //!   the drive into the current channel (+g·s).
 
-use crate::model::exact::{self, current_of_slope, slope_of_q, tip_of_q};
+use crate::model::exact::{self, current_of_slope_with, tip_and_slope_of_q};
 use crate::{C, ComplexMath, Params, Real};
 
 /// Physics beyond eqs. 1–6. SI units; every field zero means "absent".
@@ -68,6 +68,20 @@ pub struct Extension<T> {
 }
 
 impl<T: Real> Extension<T> {
+    /// The terms of the strip itself: the extension without the channels' measurement chains
+    /// and the feedthrough (what [`strip_responses`] depends on).
+    pub fn strip_terms(&self) -> Self {
+        let zero = T::zero();
+        Extension {
+            amp_tau: [zero; 2],
+            electrode_tau_lumped: zero,
+            electrode_tau_distributed: zero,
+            skew_tip: zero,
+            skew_current: zero,
+            feedthrough: zero,
+            ..*self
+        }
+    }
     fn has_end_terms(&self) -> bool {
         self.clamp_compliance != T::zero() || self.tip_mass != T::zero() || self.tip_inertia != T::zero()
     }
@@ -172,11 +186,12 @@ pub fn beam_solve<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> BeamResp
     let q = s * mu * (l * l * l * l) / (ei * T::lit(4.0));
     if !x.has_end_terms() {
         let zero = C::new(T::zero(), T::zero());
-        return BeamResponse { tip: tip_of_q(q), tip_slope: slope_of_q(q) * (T::lit(2.0) / l), root_slope: zero };
+        let (tip, slope) = tip_and_slope_of_q(q);
+        return BeamResponse { tip, tip_slope: slope * (T::lit(2.0) / l), root_slope: zero };
     }
     // Λ = λL with λ⁴ = −s·μ/(E*·I) = −4p⁴: Λ⁴ = −4q. Any fourth root spans the same solutions.
     let lam = (-q * T::lit(4.0)).csqrt().csqrt();
-    let (c, sn, ch, sh) = (lam.ccos(), lam.csin(), lam.ccosh(), lam.csinh());
+    let [c, sn, ch, sh] = lam.ccos_csin_ccosh_csinh();
     let one = C::new(T::one(), T::zero());
     let zero = C::new(T::zero(), T::zero());
     let (l1, l2, l3) = (lam, lam * lam, lam * lam * lam);
@@ -240,12 +255,28 @@ fn solve4<T: Real>(mut a: [[C<T>; 4]; 4], mut b: [C<T>; 4]) -> [C<T>; 4] {
 /// Tip response W(L,s)/U(s) [m/m] and current H(s) [A/m] of the extended model, each through its
 /// channel's measurement chain. With a zero extension they are [`exact::responses`].
 pub fn responses<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> (C<T>, C<T>) {
-    let (tip, current) = if x.has_end_terms() || x.has_distributed_terms() {
+    through_chains(x, s, strip_responses(p, x, s))
+}
+
+/// The tip response and current of the strip itself, before the channels' measurement chains
+/// and the feedthrough: they depend on `x` only through [`Extension::strip_terms`].
+pub fn strip_responses<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> (C<T>, C<T>) {
+    strip_responses_with(p, x, s, exact::ionic_drive(p, s))
+}
+
+/// [`strip_responses`] with the current's electrical part at s given ([`exact::ionic_drive`]).
+pub fn strip_responses_with<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>, drive: C<T>) -> (C<T>, C<T>) {
+    if x.has_end_terms() || x.has_distributed_terms() {
         let beam = beam_solve(p, x, s);
-        (beam.tip, current_of_slope(p, s, (beam.tip_slope - beam.root_slope) * (p.l / T::lit(2.0))))
+        (beam.tip, current_of_slope_with(p, drive, (beam.tip_slope - beam.root_slope) * (p.l / T::lit(2.0))))
     } else {
-        exact::responses(p, s)
-    };
+        exact::responses_with(p, s, drive)
+    }
+}
+
+/// The strip's responses at s ([`strip_responses`]) through each channel's measurement chain,
+/// the feedthrough added to the current.
+pub fn through_chains<T: Real>(x: &Extension<T>, s: C<T>, (tip, current): (C<T>, C<T>)) -> (C<T>, C<T>) {
     let current = current + s * x.feedthrough;
     (tip * x.tip_chain(s), current * x.current_chain(s))
 }
@@ -254,7 +285,7 @@ pub fn responses<T: Real>(p: &Params<T>, x: &Extension<T>, s: C<T>) -> (C<T>, C<
 mod tests {
     use super::*;
     use crate::Calibration;
-    use crate::model::exact::{current_response, jw, q_of, tip_response};
+    use crate::model::exact::{current_response, jw, q_of, slope_of_q, tip_of_q, tip_response};
 
     fn params(rh: f64) -> Params<f64> {
         Calibration::default_preset().params_at(rh)
@@ -323,6 +354,33 @@ mod tests {
         let x = Extension { added_mass: 0.05 * p.m, ..Default::default() };
         for f in [10.0, 33.0, 90.0] {
             assert!(rel(responses(&p, &x, jw(f)).0, tip_response(&heavy, jw(f))) < 1e-9);
+        }
+    }
+
+    /// The strip's own responses ignore the measurement chains, and the chains are all the
+    /// strip's terms leave out.
+    #[test]
+    fn strip_terms_are_all_the_strip_responses_see() {
+        let p = params(55.0);
+        let x = Extension {
+            added_mass: 0.02 * p.m,
+            stokes: 1e-3,
+            loss_factor: 0.01,
+            tip_mass: 0.05 * p.m * p.l,
+            amp_tau: [1e-4, 2e-5],
+            electrode_tau_lumped: 3e-5,
+            electrode_tau_distributed: 1e-4,
+            skew_tip: 1e-5,
+            skew_current: -2e-5,
+            feedthrough: 1e-9,
+            ..Default::default()
+        };
+        let strip = x.strip_terms();
+        for f in [5.0, 33.0, 400.0] {
+            let s = jw(f);
+            assert_eq!(strip_responses(&p, &x, s), strip_responses(&p, &strip, s));
+            assert_eq!(responses(&p, &strip, s), strip_responses(&p, &x, s));
+            assert_ne!(responses(&p, &x, s), strip_responses(&p, &x, s));
         }
     }
 

@@ -224,7 +224,7 @@ pub fn cis<T: Real>(theta: T) -> C<T> {
 /// The complex functions the core uses, on [`Real`], named as in C99's `<complex.h>`. num-complex's
 /// own (`norm`, `arg`, `exp`, `sqrt`) go through `Float`; the formulas here are theirs, so results
 /// match them wherever their `Float` is `libm`.
-pub trait ComplexMath<T> {
+pub trait ComplexMath<T>: Sized {
     /// |z|
     fn cabs(self) -> T;
     /// The principal argument, in (−π, π].
@@ -232,10 +232,9 @@ pub trait ComplexMath<T> {
     fn cexp(self) -> Self;
     /// The principal square root (Re ≥ 0).
     fn csqrt(self) -> Self;
-    fn ccos(self) -> Self;
-    fn csin(self) -> Self;
-    fn ccosh(self) -> Self;
-    fn csinh(self) -> Self;
+    /// (cos, sin, cosh, sinh) of one argument: each part's sine, cosine and hyperbolic functions
+    /// evaluated once for all four.
+    fn ccos_csin_ccosh_csinh(self) -> [Self; 4];
 }
 
 impl<T: Real> ComplexMath<T> for C<T> {
@@ -271,26 +270,22 @@ impl<T: Real> ComplexMath<T> for C<T> {
         }
         // √(r·e^(iθ)) = √r·e^(iθ/2)
         let (r, half_theta) = (self.cabs().sqrt(), self.carg() * half);
-        C::new(r * half_theta.cos(), r * half_theta.sin())
+        let (sin, cos) = half_theta.sin_cos();
+        C::new(r * cos, r * sin)
     }
-    #[inline]
-    fn ccos(self) -> Self {
-        // cos(a+ib) = cos a·cosh b − i·sin a·sinh b
-        C::new(self.re.cos() * self.im.cosh(), -self.re.sin() * self.im.sinh())
-    }
-    #[inline]
-    fn csin(self) -> Self {
-        // sin(a+ib) = sin a·cosh b + i·cos a·sinh b
-        C::new(self.re.sin() * self.im.cosh(), self.re.cos() * self.im.sinh())
-    }
-    #[inline]
-    fn ccosh(self) -> Self {
-        // cosh(a+ib) = cosh a·cos b + i·sinh a·sin b
-        C::new(self.re.cosh() * self.im.cos(), self.re.sinh() * self.im.sin())
-    }
-    #[inline]
-    fn csinh(self) -> Self {
-        // sinh(a+ib) = sinh a·cos b + i·cosh a·sin b
-        C::new(self.re.sinh() * self.im.cos(), self.re.cosh() * self.im.sin())
+    fn ccos_csin_ccosh_csinh(self) -> [Self; 4] {
+        let (a, b) = (self.re, self.im);
+        let ((sin_a, cos_a), (sin_b, cos_b)) = (a.sin_cos(), b.sin_cos());
+        let (cosh_a, sinh_a, cosh_b, sinh_b) = (a.cosh(), a.sinh(), b.cosh(), b.sinh());
+        [
+            // cos(a+ib) = cos a·cosh b − i·sin a·sinh b
+            C::new(cos_a * cosh_b, -sin_a * sinh_b),
+            // sin(a+ib) = sin a·cosh b + i·cos a·sinh b
+            C::new(sin_a * cosh_b, cos_a * sinh_b),
+            // cosh(a+ib) = cosh a·cos b + i·sinh a·sin b
+            C::new(cosh_a * cos_b, sinh_a * sin_b),
+            // sinh(a+ib) = sinh a·cos b + i·cosh a·sin b
+            C::new(sinh_a * cos_b, cosh_a * sin_b),
+        ]
     }
 }

@@ -161,14 +161,18 @@ pub fn lagged_rh(levels: &[LevelData], histories: &[RhHistory], tau_s: f64) -> V
             // The strip's model of the calibration's humidity path, settled at the first reading.
             let mut strip = Hydration::<f64>::new(&HumidityPath { tau_wet_s: tau_s, tau_dry_s: tau_s, ..HumidityPath::NONE });
             let mut last: Option<f64> = None;
+            // A level is one chamber humidity: its mean reading, not the first noisy one, stands
+            // for the whole wait before it (the wait is most of the lag's drive). The session's
+            // levels' spans, in the levels' order (the first level whose span holds a reading
+            // is its level).
+            let spans: Vec<(f64, (f64, f64))> =
+                levels.iter().filter(|l| l.session == session).filter_map(|l| l.time_span.map(|s| (l.rh_pct, s))).collect();
             h.t_s
                 .iter()
                 .zip(&h.rh_pct)
                 .map(|(&t, &rh)| {
-                    // A level is one chamber humidity: its mean reading, not the first noisy one,
-                    // stands for the whole wait before it (the wait is most of the lag's drive).
-                    let in_level = levels.iter().find(|l| l.session == session && l.time_span.is_some_and(|(t0, t1)| t >= t0 && t <= t1));
-                    let rh = in_level.map_or(rh, |l| l.rh_pct);
+                    let in_level = spans.iter().find(|(_, (t0, t1))| t >= *t0 && t <= *t1);
+                    let rh = in_level.map_or(rh, |(level_rh, _)| *level_rh);
                     let dt = last.map_or(0.0, |l| t - l);
                     last = Some(t);
                     strip.update(rh, dt)
@@ -211,49 +215,74 @@ pub fn nll(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta]) -> f64
 /// [`nll`] level by level (its terms at the profiled read variance): a level's Σ_l is its own,
 /// so the likelihood is a sum over levels.
 pub fn nll_per_level(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta]) -> Vec<f64> {
-    let at = |s2: f64| nll_at(pred, theta, se, grad, s2).iter().sum::<f64>();
+    let terms = Terms::of(pred, theta, se, grad);
+    let at = |s2: f64| terms.nll_at(s2).iter().sum::<f64>();
     let (s2, best) = minimize_log(at, READ_VARIANCE_RANGE.0, READ_VARIANCE_RANGE.1);
-    nll_at(pred, theta, se, grad, if at(0.0) <= best { 0.0 } else { s2 })
+    terms.nll_at(if at(0.0) <= best { 0.0 } else { s2 })
 }
 
 /// Where the per-level humidity read variance is profiled [%RH²]: 0.03–5 %RH standard
 /// deviation, from a sensor's repeatability to the ±3.5 %RH an HTS221 is specified to.
 const READ_VARIANCE_RANGE: (f64, f64) = (1e-3, 25.0);
 
-/// [`nll`] at a read variance `s2` [%RH²], level by level.
-fn nll_at(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &[Theta], s2: f64) -> Vec<f64> {
-    let valid = |l: usize, j: usize| !se[l][j].is_nan() && pred[l][j].is_finite();
-    let own = |l: usize, j: usize| se[l][j].min(1.0).powi(2);
-    let mut tau2 = [0.0; 4];
-    for (j, t) in tau2.iter_mut().enumerate() {
-        // Mean square misfit, own variance and read gradient² over the levels that hold θ_j.
-        let (mut n, mut ms, mut own_mean, mut g2) = (0usize, 0.0, 0.0, 0.0);
-        for l in (0..theta.len()).filter(|&l| valid(l, j)) {
-            n += 1;
-            ms += (theta[l][j] - pred[l][j]).powi(2);
-            own_mean += own(l, j);
-            g2 += grad[l][j].powi(2);
-        }
-        if n > 0 {
-            *t = ((ms - own_mean - s2 * g2) / n as f64).max(1e-8);
-        }
+/// What [`nll`] needs of the levels that does not depend on the read variance, computed once
+/// for its profile over it.
+struct Terms<'a> {
+    grad: &'a [Theta],
+    /// Per level and component: whether θ_j takes part, its misfit and its own variance.
+    valid: Vec<[bool; 4]>,
+    misfit: Vec<Theta>,
+    own: Vec<Theta>,
+    /// Per component: the levels that hold θ_j, their mean square misfit's sum, own variances'
+    /// sum and read gradients² sum.
+    sums: [(usize, f64, f64, f64); 4],
+}
+
+impl<'a> Terms<'a> {
+    fn of(pred: &[Theta], theta: &[Theta], se: &[Theta], grad: &'a [Theta]) -> Self {
+        let valid: Vec<[bool; 4]> =
+            (0..theta.len()).map(|l| std::array::from_fn(|j| !se[l][j].is_nan() && pred[l][j].is_finite())).collect();
+        let misfit: Vec<Theta> = (0..theta.len()).map(|l| std::array::from_fn(|j| theta[l][j] - pred[l][j])).collect();
+        let own: Vec<Theta> = se.iter().map(|s| s.map(|v| v.min(1.0).powi(2))).collect();
+        let sums = std::array::from_fn(|j| {
+            // Mean square misfit, own variance and read gradient² over the levels that hold θ_j.
+            let (mut n, mut ms, mut own_mean, mut g2) = (0usize, 0.0, 0.0, 0.0);
+            for l in (0..theta.len()).filter(|&l| valid[l][j]) {
+                n += 1;
+                ms += misfit[l][j].powi(2);
+                own_mean += own[l][j];
+                g2 += grad[l][j].powi(2);
+            }
+            (n, ms, own_mean, g2)
+        });
+        Terms { grad, valid, misfit, own, sums }
     }
-    let mut total = Vec::with_capacity(theta.len());
-    for l in 0..theta.len() {
-        // Σ = D + s2·g·gᵀ: Sherman–Morrison for the quadratic form and the determinant (one
-        // logarithm of the product: this runs inside every profiled and nested fit).
-        let (mut q, mut det, mut rg, mut gg) = (0.0, 1.0, 0.0, 0.0);
-        for j in (0..4).filter(|&j| valid(l, j)) {
-            let d = own(l, j) + tau2[j];
-            let r = theta[l][j] - pred[l][j];
-            q += r * r / d;
-            det *= d;
-            rg += r * grad[l][j] / d;
-            gg += grad[l][j].powi(2) / d;
+
+    /// [`nll`] at a read variance `s2` [%RH²], level by level.
+    fn nll_at(&self, s2: f64) -> Vec<f64> {
+        let mut tau2 = [0.0; 4];
+        for (t, &(n, ms, own_mean, g2)) in tau2.iter_mut().zip(&self.sums) {
+            if n > 0 {
+                *t = ((ms - own_mean - s2 * g2) / n as f64).max(1e-8);
+            }
         }
-        total.push(q - s2 * rg * rg / (1.0 + s2 * gg) + (det * (1.0 + s2 * gg)).ln());
+        let mut total = Vec::with_capacity(self.misfit.len());
+        for l in 0..self.misfit.len() {
+            // Σ = D + s2·g·gᵀ: Sherman–Morrison for the quadratic form and the determinant (one
+            // logarithm of the product: this runs inside every profiled and nested fit).
+            let (mut q, mut det, mut rg, mut gg) = (0.0, 1.0, 0.0, 0.0);
+            for j in (0..4).filter(|&j| self.valid[l][j]) {
+                let d = self.own[l][j] + tau2[j];
+                let r = self.misfit[l][j];
+                q += r * r / d;
+                det *= d;
+                rg += r * self.grad[l][j] / d;
+                gg += self.grad[l][j].powi(2) / d;
+            }
+            total.push(q - s2 * rg * rg / (1.0 + s2 * gg) + (det * (1.0 + s2 * gg)).ln());
+        }
+        total
     }
-    total
 }
 
 /// ∂θ/∂RH of the calibration at each humidity [per %RH]: the direction a level's parameters

@@ -2,8 +2,9 @@
 //! and a mask of the values that take part: Y, Cs, Ca and d free at every level (in ln), so that
 //! calibration drift and scatter between levels are absorbed; the values' σ, residuals and χ².
 
+use super::strip_cache::StripCache;
 use ipmc_core::model::exact::jw;
-use ipmc_core::model::extension::{Extension, responses};
+use ipmc_core::model::extension::{Extension, responses, through_chains};
 use ipmc_core::{C, Calibration, ParamName, Params};
 use ipmc_fit::level::LevelData;
 use ipmc_fit::lsq::{self, Bound, Fit, FitError, Param};
@@ -95,9 +96,29 @@ pub fn log_ratios(level: &LevelData, p: &Params<f64>, x: &Extension<f64>) -> (Pe
 
 /// Writes the weighted residuals of the masked values (log gain, phase per value).
 pub fn write_residuals(level: &LevelData, sig: &LevelSigmas, mask: &Mask, p: &Params<f64>, x: &Extension<f64>, out: &mut [f64]) {
+    write_weighted(level, sig, mask, |_, s| responses(p, x, s), out);
+}
+
+/// [`write_residuals`] with the strip's responses kept in `kept` between calls that share them
+/// (the same residuals, bit for bit).
+pub fn write_residuals_kept(
+    kept: &StripCache,
+    level: &LevelData,
+    sig: &LevelSigmas,
+    mask: &Mask,
+    p: &Params<f64>,
+    x: &Extension<f64>,
+    out: &mut [f64],
+) {
+    kept.with(&level.freqs, p, x, |strip| write_weighted(level, sig, mask, |i, s| through_chains(x, s, strip[i]), out));
+}
+
+/// [`write_residuals`] with the model's (tip, current) at each frequency from `model` (given the
+/// frequency's index and s = jω).
+fn write_weighted(level: &LevelData, sig: &LevelSigmas, mask: &Mask, model: impl Fn(usize, C<f64>) -> (C<f64>, C<f64>), out: &mut [f64]) {
     let mut k = 0;
     for (i, &f) in level.freqs.iter().enumerate() {
-        let (t, c) = responses(p, x, jw(f));
+        let (t, c) = model(i, jw(f));
         for (value, model, s, on) in [(level.tip[i], t, sig.tip[i], mask.tip[i]), (level.current[i], c, sig.current[i], mask.current[i])] {
             if let (Some(m), true) = (value, on) {
                 out[k..k + 2].copy_from_slice(&s.weigh(Misfit::LogRatio.of(m, model)));
@@ -143,10 +164,11 @@ pub(super) fn inside(b: Bound, v: f64) -> f64 {
 fn scan_modulus(calib: &Calibration, level: &LevelData, sig: &LevelSigmas, mask: &Mask, x: &Extension<f64>, start: &Theta) -> Theta {
     let mut r = vec![0.0; mask.count()];
     let mut best = (f64::INFINITY, *start);
+    let kept = StripCache::default();
     for k in -60..=60 {
         let mut th = *start;
         th[0] += 0.005 * k as f64;
-        write_residuals(level, sig, mask, &level_params(calib, level, &th), x, &mut r);
+        write_residuals_kept(&kept, level, sig, mask, &level_params(calib, level, &th), x, &mut r);
         let c: f64 = r.iter().map(|v| v * v).sum();
         if c < best.0 {
             best = (c, th);
@@ -168,9 +190,10 @@ pub fn fit_level(
     fit_level_from(calib, level, sig, mask, x, &scan_modulus(calib, level, sig, mask, x, start))
 }
 
-/// One LM run can stop short in the resonance's curved valley (its trust region collapses);
-/// restarting from where it stopped continues, so runs repeat while χ² falls by more than 0.1.
-pub(super) fn fit_level_from(
+/// [`fit_level`] from a start already in the right valley (no scan). One LM run can stop short
+/// in the resonance's curved valley (its trust region collapses); restarting from where it
+/// stopped continues, so runs repeat while χ² falls by more than 0.1.
+pub fn fit_level_from(
     calib: &Calibration,
     level: &LevelData,
     sig: &LevelSigmas,
@@ -178,9 +201,10 @@ pub(super) fn fit_level_from(
     x: &Extension<f64>,
     start: &Theta,
 ) -> Result<(Theta, Fit)> {
-    let (mut theta, mut fit) = fit_level_once(calib, level, sig, mask, x, start)?;
+    let kept = StripCache::default();
+    let (mut theta, mut fit) = fit_level_once(calib, level, sig, mask, x, start, &kept)?;
     for _ in 0..4 {
-        let (t2, f2) = fit_level_once(calib, level, sig, mask, x, &theta)?;
+        let (t2, f2) = fit_level_once(calib, level, sig, mask, x, &theta, &kept)?;
         let gain = fit.chi2 - f2.chi2;
         if f2.chi2 < fit.chi2 {
             (theta, fit) = (t2, f2);
@@ -200,6 +224,7 @@ fn fit_level_once(
     mask: &Mask,
     x: &Extension<f64>,
     start: &Theta,
+    kept: &StripCache,
 ) -> Result<(Theta, Fit)> {
     let free = fitted_base(level);
     let params: Vec<Param> = free.iter().map(|&k| Param::new(BASE[k].as_str(), base_bound(calib, level, k))).collect();
@@ -213,7 +238,7 @@ fn fit_level_once(
     };
     let fit = lsq::fit(&params, &starts, mask.count(), |v, out| {
         let p = level_params(calib, level, &theta_of(v));
-        write_residuals(level, sig, mask, &p, x, out);
+        write_residuals_kept(kept, level, sig, mask, &p, x, out);
     })
     .map_err(|error| RefitError::Level { rh_pct: level.rh_pct, error })?;
     Ok((theta_of(&fit.estimates), fit))

@@ -3,9 +3,10 @@
 //! one simultaneous fit by blocks.
 
 use super::base::{
-    BASE, LevelSigmas, Mask, RefitError, Result, Theta, base_bound, fit_level_from, fitted_base, inside, level_params, write_residuals,
+    BASE, LevelSigmas, Mask, RefitError, Result, Theta, base_bound, fit_level_from, fitted_base, inside, level_params, write_residuals_kept,
 };
 use super::instrument::{ChannelPrior, Channels, shift_residuals};
+use super::strip_cache::StripCache;
 use ipmc_core::model::extension::Extension;
 use ipmc_core::{Calibration, Params};
 use ipmc_fit::block_qr::Reach;
@@ -111,6 +112,7 @@ fn sweep_joint(joint: Joint, levels: &[LevelData], channels_start: Option<&[f64]
     let mut phi = phi_start.to_vec();
     let mut phi_se = vec![f64::NAN; phi.len()];
     let mut last = f64::INFINITY;
+    let kept = StripCache::per_level(levels.len());
     for _sweep in 0..6 {
         // A parameter that reached its bound stays just inside it: the fit starts inside its bounds.
         let mut start: Vec<f64> = phi.iter().zip(&params).map(|(&v, p)| inside_tight(p.bound, v)).collect();
@@ -121,7 +123,7 @@ fn sweep_joint(joint: Joint, levels: &[LevelData], channels_start: Option<&[f64]
                 let mut th = theta[l];
                 th[0] += v[k];
                 let p = level_params(calib, level, &th);
-                write_residuals(level, &sig[l], &masks[l], &p, &ext(&v[..k], &p), &mut out[at..at + counts[l]]);
+                write_residuals_kept(&kept[l], level, &sig[l], &masks[l], &p, &ext(&v[..k], &p), &mut out[at..at + counts[l]]);
                 at += counts[l];
             }
         })
@@ -233,10 +235,11 @@ fn polish_joint(
         reach.extend(std::iter::repeat_n(Reach::Block(l), f.len()));
     }
     let blocks = Blocks { sizes: &counts, reach: &reach };
+    let kept = StripCache::per_level(n);
     let residuals = |v: &[f64], l: usize, out: &mut [f64]| {
         let Some(c) = instrument else {
             let p = level_params(calib, &levels[l], &level_theta(v, l));
-            write_residuals(&levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
+            write_residuals_kept(&kept[l], &levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
             return;
         };
         if l == n {
@@ -244,7 +247,7 @@ fn polish_joint(
             return;
         }
         let p = level_params(calib, &levels[l], &level_theta(v, l));
-        write_residuals(&levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
+        write_residuals_kept(&kept[l], &levels[l], &sig[l], &masks[l], &p, &ext(&v[..kc], &p), out);
         shift_residuals(&levels[l], &sig[l], &masks[l], &c.channels(&v[kc..k]), out);
     };
     // Each run restarts from where the last stopped; only the kept optimum's statistics are

@@ -8,13 +8,15 @@ pub mod base;
 pub mod instrument;
 pub mod joint;
 pub mod noise;
+pub mod strip_cache;
 #[cfg(test)]
 mod test_levels;
 
 pub use base::{
-    BASE, BaseFits, LevelSigmas, Mask, PerPoint, RefitError, Theta, calibration_theta, chi2, fit_level, fit_levels, level_params,
-    log_ratios, unit_sigmas, write_residuals,
+    BASE, BaseFits, LevelSigmas, Mask, PerPoint, RefitError, Theta, calibration_theta, chi2, fit_level, fit_level_from, fit_levels,
+    level_params, log_ratios, unit_sigmas, write_residuals, write_residuals_kept,
 };
 pub use instrument::{ChannelPrior, Channels, InstrumentFit, fit_instrument, shift_residuals};
 pub use joint::{ChannelStart, Extend, JointFit, fit_joint, inside_tight};
 pub use noise::{Noise, ResidualCorrelation, estimate_noise, residual_correlation, sigmas, structure_z};
+pub use strip_cache::StripCache;

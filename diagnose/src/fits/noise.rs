@@ -60,6 +60,10 @@ pub fn estimate_noise(calib: &Calibration, levels: &[LevelData], thetas: &[Theta
                 e.iter().zip(&g).zip(&pts).map(|((e, &g), p)| e.re.abs().max(e.im.abs()) <= 4.0 * n.sigma(g, p.freq_hz)).collect();
             let kept = |i: &usize| keep[*i];
             let idx: Vec<usize> = (0..keep.len()).filter(kept).collect();
+            if idx.len() == keep.len() {
+                // Nothing left out: the estimate again would be this one.
+                break;
+            }
             pts = idx.iter().map(|&i| pts[i]).collect();
             e = idx.iter().map(|&i| e[i]).collect();
             g = idx.iter().map(|&i| g[i]).collect();

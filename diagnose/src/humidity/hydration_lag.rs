@@ -23,7 +23,8 @@ impl Scorer for HydrationLagScorer {
         // session (the lagged humidity a scaled integral of the readings) would pass as a
         // change of the laws' shape.
         let everyone: Vec<usize> = (0..levels.len()).collect();
-        let (tau, _) = fit_lag(ctx, &everyone);
+        let lagged = remap::LaggedRh::default();
+        let (tau, _) = fit_lag(ctx, &everyone, &lagged);
         let score_tau = |tau: f64| anchored_nll(ctx, &laws::lagged_rh(levels, histories, tau), &everyone);
         // In ln τ, where −2 ln L is nearly quadratic; the same curvature the sensor's floor uses.
         let se = tau * remap::curvature_se(&|v: &[f64]| score_tau(v[0].exp()), &[tau.ln()], &[0.1])[0];
@@ -36,7 +37,7 @@ impl Scorer for HydrationLagScorer {
                 k: 1,
                 mapped: "at the lagged humidity",
                 candidate_is: "the calibration at the humidity lagged by the τ fitted on the other levels, plus their mean drift from it",
-                remap_of: &|train| laws::lagged_rh(levels, histories, fit_lag(ctx, train).0),
+                remap_of: &|train| laws::lagged_rh(levels, histories, fit_lag(ctx, train, &lagged).0),
             },
             base.law0,
             base.n_theta,

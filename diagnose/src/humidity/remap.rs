@@ -21,9 +21,24 @@ pub const MIN_RH_SHIFT_PCT: f64 = 1.0;
 /// shown a sensor or a lag that matters, only a reading's scatter that happens to lean.
 pub const SHIFT_FLOOR_SE: f64 = 2.0;
 
-/// The hydration lag τ [s] that best maps the levels `train` onto the calibration, and its −2 ln L.
-pub(crate) fn fit_lag(ctx: &Ctx, train: &[usize]) -> (f64, f64) {
-    minimize_log(|tau| anchored_nll(ctx, &laws::lagged_rh(&ctx.data.levels, &ctx.data.histories, tau), train), 1.0, 1e5)
+/// The hydration lag τ [s] that best maps the levels `train` onto the calibration, and its
+/// −2 ln L; `lagged` keeps the lagged humidities of every τ tried (the fits on different
+/// training levels try the same grid of τ).
+pub(crate) fn fit_lag(ctx: &Ctx, train: &[usize], lagged: &LaggedRh) -> (f64, f64) {
+    minimize_log(|tau| lagged.at(ctx, tau, |rh| anchored_nll(ctx, rh, train)), 1.0, 1e5)
+}
+
+/// The levels' lagged humidities ([`laws::lagged_rh`]) per τ, kept.
+#[derive(Default)]
+pub(crate) struct LaggedRh(std::cell::RefCell<std::collections::HashMap<u64, Vec<f64>>>);
+
+impl LaggedRh {
+    /// `use_them` given the levels' humidities lagged by `tau` [s].
+    fn at<R>(&self, ctx: &Ctx, tau: f64, use_them: impl FnOnce(&[f64]) -> R) -> R {
+        let mut kept = self.0.borrow_mut();
+        let rh = kept.entry(tau.to_bits()).or_insert_with(|| laws::lagged_rh(&ctx.data.levels, &ctx.data.histories, tau));
+        use_them(rh)
+    }
 }
 
 /// A sensor's offset and gain fitted to levels.
