@@ -69,13 +69,15 @@ fn valid_stream(blocks: usize, n: usize) -> Vec<u8> {
             rel_err: 0.01 * k as f32,
             hygrometer: stream::Hygrometer { own_pct: 39.0 + k as f32, own_refusal: (k % 7) as u8, ..stream::Hygrometer::NONE },
             flags: (k % 256) as u16,
-            // Every layout: version 4 frames (no setup) among version 6 ones, with a check's
+            // Every layout: version 4 frames (no setup) among version 7 ones, with a check's
             // samples and without.
             setup: (k % 3 != 0).then_some(stream::Setup { band_shape: (k % 2) as u8, delay_samples: k as u16, humidity_mode: 1 }),
         };
         let current: Vec<f32> = est.iter().map(|e| e * 0.03).collect();
         let accel: Vec<f32> = est.iter().map(|e| e * 3e5).collect();
-        let check = (k % 3 == 1).then_some(stream::Check { first_sample: (k * n) as u32, current_a: &current, accel_mps2: &accel });
+        // A check with its running error's window and one before the first window.
+        let window = (k % 2 == 0).then_some(stream::ErrorWindow { end_sample: (k * n) as u32, measured: 0.01 * k as f32, stated: 0.1 });
+        let check = (k % 3 == 1).then_some(stream::Check { first_sample: (k * n) as u32, current_a: &current, accel_mps2: &accel, window });
         let len = stream::encode(&h, &est, check, &mut buf).expect("valid frame encodes");
         out.extend_from_slice(&buf[..len]);
     }

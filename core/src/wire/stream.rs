@@ -100,7 +100,8 @@ pub mod flags {
     pub const ADC_OVERRUN: u16 = 1 << 14;
     /// The estimate's error measured against the board's accelerometer exceeds the stated one
     /// beyond chance (`ipmc_core::firmware::calibration_stale`, p < 0.01 over the recent windows).
-    /// Reserved: the firmware does not measure it yet.
+    /// Raised on every block from the window whose test called it until the next window, while
+    /// checks come (the window's figures ride in the check's part of the frame, version 7).
     pub const CALIBRATION_STALE: u16 = 1 << 15;
 
     /// Every bit with its name, lowest first (for host displays).
