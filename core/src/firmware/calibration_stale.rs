@@ -57,13 +57,33 @@ impl<T: Real> StaleTest<T> {
             self.z[self.seen % K] = measured * measured / variance;
             self.seen += 1;
         }
-        let n = self.seen.min(K);
-        if n == 0 {
-            return false;
-        }
-        let sum = self.z[..n].iter().fold(T::zero(), |a, &z| a + z);
-        sum > T::lit(CHI2_1_099) * T::lit(n as f64)
+        let (sum, n) = self.sum();
+        n > 0 && sum > T::lit(CHI2_1_099) * T::lit(n as f64)
     }
+
+    /// The sum of z over the last windows, up to [`K`], and their number.
+    fn sum(&self) -> (T, usize) {
+        let n = self.seen.min(K);
+        (self.z[..n].iter().fold(T::zero(), |a, &z| a + z), n)
+    }
+
+    /// The test's statistic: the mean z over the last windows, up to [`K`] (None before the
+    /// first window with a statement).
+    pub fn mean_z(&self) -> Option<T> {
+        let (sum, n) = self.sum();
+        (n > 0).then(|| sum / T::lit(n as f64))
+    }
+}
+
+/// Where the bound holds ([`chance_at_most`]): at and above this mean z.
+pub const BOUND_FROM_Z: f64 = 1.54;
+
+/// The most often a calibration that holds shows a mean z of at least `mean_z`, whatever its
+/// windows share: χ²₁'s upper tail, erfc(√(z/2)), where the bound holds (`mean_z` ≥
+/// [`BOUND_FROM_Z`]); None below, where the test can say no more than that it is not rare
+/// (more than one in five).
+pub fn chance_at_most(mean_z: f64) -> Option<f64> {
+    (mean_z >= BOUND_FROM_Z).then(|| libm::erfc(libm::sqrt(0.5 * mean_z)))
 }
 
 #[cfg(test)]
@@ -88,5 +108,26 @@ mod tests {
         let called = (1..=K).find(|_| t.push(0.30, 0.05)).expect("called");
         assert!(called <= 2, "called after {called} windows");
         assert!(!StaleTest::<f64>::new().push(f64::NAN, 0.05));
+    }
+
+    /// The statistic is the mean over the last windows, and the chance at the test's quantile
+    /// is its level: 0.01 at 6.635, 0.05 at 3.841 (χ²₁'s tables), none where no bound holds.
+    #[test]
+    fn the_chance_is_chi2_1s_tail_of_the_mean() {
+        let mut t = StaleTest::<f64>::new();
+        assert_eq!(t.mean_z(), None);
+        let g = ACCELEROMETER_SENSITIVITY_1SIGMA;
+        let stated = 0.05;
+        let measured = |z: f64| (z * (stated * stated + g * g)).sqrt();
+        t.push(measured(1.0), stated);
+        t.push(measured(3.0), stated);
+        assert!((t.mean_z().unwrap() - 2.0).abs() < 1e-12);
+        for _ in 0..K {
+            t.push(measured(4.0), stated);
+        }
+        assert!((t.mean_z().unwrap() - 4.0).abs() < 1e-12, "the last K windows only");
+        assert!((chance_at_most(CHI2_1_099).unwrap() - 0.01).abs() < 1e-6);
+        assert!((chance_at_most(3.841_458_820_694_124).unwrap() - 0.05).abs() < 1e-9);
+        assert_eq!(chance_at_most(1.0), None);
     }
 }

@@ -5,6 +5,7 @@
 use anyhow::{Result, bail};
 use ipmc_tool::scoring::accelerometer::DeviceMeasure;
 use ipmc_tool::scoring::estimate_file::{Options, Scored, score, share};
+use ipmc_tool::scoring::stale_chance::undecided;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -111,6 +112,9 @@ pub fn run(a: Args) -> Result<()> {
                     1e3 * last.delay_s,
                     1e6 * last.rate
                 );
+                if let Some(line) = undecided(&d.stale_test(), last.stale) {
+                    println!("  {line}");
+                }
             }
             _ => println!("on the device: no window measured (a check shorter than the device's settling)"),
         }

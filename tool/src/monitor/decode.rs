@@ -3,7 +3,9 @@
 //! from. A frame that does not decode (garbage, joined mid-frame, flipped bits) is skipped and
 //! counted; the stream goes on at the next delimiter.
 
+use crate::scoring::stale_chance::undecided;
 use ipmc_core::band::Shape;
+use ipmc_core::firmware::calibration_stale::StaleTest;
 use ipmc_core::humidity::strip::Refusal;
 use ipmc_core::wire::stream::{DecodeError, Deframer, ErrorWindow, Frame, Header, Hygrometer, MAX_FRAME_LEN, Setup, flags};
 
@@ -81,6 +83,9 @@ pub struct Monitor {
     /// The end of the last window of the running error said, and the windows said.
     last_window_end: Option<u32>,
     pub windows: u64,
+    /// The device's stale test run again on the windows it streamed (the same f32 figures):
+    /// where it does not call the calibration, how rare the error is for one that holds.
+    stale_replay: StaleTest<f32>,
 }
 
 impl Monitor {
@@ -99,6 +104,7 @@ impl Monitor {
             check_frames: 0,
             last_window_end: None,
             windows: 0,
+            stale_replay: StaleTest::new(),
         }
     }
 
@@ -152,6 +158,10 @@ impl Monitor {
                 100.0 * w.stated,
                 if stale { "; CALIBRATION_STALE: the error exceeds the stated beyond chance" } else { "" }
             )));
+            self.stale_replay.push(w.measured, w.stated);
+            if let Some(line) = undecided(&self.stale_replay, stale) {
+                emit(Event::Status(format!("running error: {line}")));
+            }
         }
         if let Some((check_first, current, accel)) = &f.check {
             // The check's block is older than the frame's: before a wrap of the index, if it is
@@ -388,6 +398,36 @@ mod tests {
         }
     }
 
+    /// Windows at twice the stated error, which the device's test does not call: after each the
+    /// monitor says how rarely a calibration that holds shows as much, and what decides.
+    #[test]
+    fn an_error_the_test_does_not_call_is_said_with_its_chance() {
+        let est = [1e-6f32; 32];
+        let (current, accel) = ([0.0f32; 32], [0.0f32; 32]);
+        let stated = 0.1f32;
+        let measured = 2.0 * stated.hypot(0.01);
+        let mut bytes = vec![];
+        for k in 0..6u32 {
+            let window = ErrorWindow { end_sample: 10_000 * (k + 1), measured, stated };
+            let check = Check { first_sample: 32 * k, current_a: &current, accel_mps2: &accel, window: Some(window) };
+            bytes.extend(frame_of_check(32 * (k + 1), 45.0, 0, &est, Some(SETUP), Some(check)));
+        }
+        let mut m = Monitor::new(2_000);
+        let mut lines = vec![];
+        m.feed(&bytes, |e| {
+            if let Event::Status(l) = e {
+                lines.push(l)
+            }
+        });
+        let said: Vec<_> = lines.iter().filter(|l| l.starts_with("running error: not decided")).collect();
+        assert_eq!((m.windows, said.len()), (6, 6), "{lines:?}");
+        assert!(
+            said[5].contains("2.0× the stated") && said[5].contains("at most 4.6 %") && said[5].contains("ipmc recalibrate"),
+            "{}",
+            said[5]
+        );
+    }
+
     /// A check's frames give its samples (an earlier block's) their current and acceleration at
     /// their own times, and the monitor says when the stream starts and stops carrying them;
     /// frames of version 4 say they cannot.
@@ -414,6 +454,7 @@ mod tests {
         // The window two frames carry is said once.
         assert_eq!(windows, [WindowSample { t_end_s: 10.0, measured: 0.25, stated: 0.0625, stale: false }]);
         assert!(lines.iter().any(|l| l.starts_with("running error: the window ending at 10.0 s measured 25.00 %")), "{lines:?}");
+        assert!(!lines.iter().any(|l| l.contains("not decided")), "four times the stated is beyond the test's quantile: {lines:?}");
         for (k, c) in checks.iter().enumerate() {
             let expected =
                 CheckSample { t_s: (32 + k) as f64 / 2000.0, current_a: current[k % 32], rh_read_pct: 47.0, accel_mps2: accel[k % 32] };

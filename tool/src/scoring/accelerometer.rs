@@ -11,6 +11,7 @@ use super::Scoring;
 use ipmc_core::C;
 use ipmc_core::band::{BandDesign, BandTaps};
 use ipmc_core::calibration::instrument::{ACCELEROMETER_LOWPASS_HZ, accelerometer_chain};
+use ipmc_core::firmware::calibration_stale::StaleTest;
 use ipmc_core::firmware::running_error::{RunningError, Window};
 use ipmc_core::resample::track::LAG_BLOCKS;
 use ipmc_core::timing::BLOCK_LEN;
@@ -173,6 +174,16 @@ impl DeviceMeasure {
     /// The first window the device called the calibration stale in.
     pub fn first_stale(&self) -> Option<usize> {
         self.windows.iter().position(|w| w.stale)
+    }
+
+    /// The device's stale test as it stands after the last window (its windows' errors again,
+    /// in the same order and precision): what [`super::stale_chance::undecided`] reads.
+    pub fn stale_test(&self) -> StaleTest<f32> {
+        let mut t = StaleTest::new();
+        for w in &self.windows {
+            t.push(w.measured, w.stated);
+        }
+        t
     }
 }
 

@@ -13,6 +13,8 @@
 //! - `spectral`: where in frequency an error lies (a diagnostic, not the score);
 //! - `wording`: the one line every command prints of a score, and why nothing was scored;
 //! - `accelerometer`: a check's reference, its accelerometer's displacement;
+//! - `stale_chance`: where the device's stale test does not call a check's error, how rare it is
+//!   for a calibration that holds, and the measurement that decides;
 //! - `estimate_file`: an estimate file scored against its recording, with the figures `ipmc
 //!   score` prints (and `cargo xtask` checks) as a struct.
 
@@ -22,6 +24,7 @@ mod definition;
 pub mod estimate_file;
 mod figures;
 pub mod spectral;
+pub mod stale_chance;
 mod wording;
 
 pub use definition::{Reference, Scoring, stated_period_s};
